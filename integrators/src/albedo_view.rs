@@ -1,0 +1,27 @@
+//! `albedo`: debug view of the material's base colour at the first hit (emitters show their
+//! radiance). Not radiance: for checking materials and the build step.
+
+use crate::integrator::{emitted_at, Integrator, Tracer};
+use crate::registry::{IntegratorEntry, Params};
+use crate::{Ray, Rgb, Sampler};
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "albedo",
+    summary: "debug view: material base colour at the first hit, emitters in their radiance",
+    params: &[],
+    build: |_: &Params| Box::new(AlbedoView),
+};
+
+struct AlbedoView;
+
+impl Integrator for AlbedoView {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+        let Some(hit) = tracer.camera(ray) else {
+            return Rgb::ZERO;
+        };
+        if hit.light.is_some() {
+            return emitted_at(tracer.scene, &hit, ray);
+        }
+        tracer.scene.material(hit.material).albedo()
+    }
+}

@@ -1,0 +1,150 @@
+//! Materials (BSDFs): evaluation, importance sampling and densities.
+//!
+//! All functions work in the local shading frame (`z` = shading normal); see the crate docs for
+//! the direction conventions. Opaque materials are two-sided: [`Material`] mirrors both
+//! directions into the upper hemisphere before calling them, so each model only sees
+//! `wo.z >= 0`. Glass sees the true side: `wo.z > 0` means the ray arrives from outside.
+
+mod glass;
+mod lambert;
+mod mirror;
+mod oren_nayar;
+mod phong;
+
+pub use glass::{fresnel_dielectric, Glass};
+pub use lambert::Lambert;
+pub use mirror::Mirror;
+pub use oren_nayar::OrenNayar;
+pub use phong::Phong;
+
+use crate::Rgb;
+use glam::{Vec2, Vec3A};
+
+/// The result of sampling a BSDF.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    /// Sampled incident direction, local frame.
+    pub wi: Vec3A,
+    /// BSDF value for `(wo, wi)`. For specular lobes this holds the delta's weight, so that
+    /// `f * |cos(wi)| / pdf` is always the sample's throughput weight.
+    pub f: Rgb,
+    /// Density per unit solid angle; for specular lobes, the discrete probability of the lobe.
+    pub pdf: f32,
+    /// True when the sampled lobe is a Dirac delta (mirror reflection or refraction).
+    pub specular: bool,
+}
+
+impl BsdfSample {
+    /// Throughput weight `f * |cos(wi)| / pdf`.
+    #[inline]
+    pub fn weight(&self) -> Rgb {
+        self.f * (self.wi.z.abs() / self.pdf)
+    }
+}
+
+/// One reflectance model. Implementations may assume `wo.z >= 0` unless they are transmissive.
+pub trait Bxdf {
+    /// `f(wo, wi)`, without the cosine factor. Zero for specular models.
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb;
+    /// Density with which [`Bxdf::sample`] returns `wi`, per unit solid angle. Zero for
+    /// specular models.
+    fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32;
+    /// Samples `wi` given `wo`; `u_lobe` picks between lobes, `u` places the direction.
+    fn sample(&self, wo: Vec3A, u_lobe: f32, u: Vec2) -> Option<BsdfSample>;
+    /// Directional-hemispherical reflectance at normal incidence, or the base colour: what the
+    /// `albedo` debug view shows.
+    fn albedo(&self) -> Rgb;
+}
+
+/// A surface material. The closed set of models raylab supports.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material {
+    Lambert(Lambert),
+    OrenNayar(OrenNayar),
+    Phong(Phong),
+    Mirror(Mirror),
+    Glass(Glass),
+}
+
+macro_rules! dispatch {
+    ($self:expr, $m:ident => $e:expr) => {
+        match $self {
+            Material::Lambert($m) => $e,
+            Material::OrenNayar($m) => $e,
+            Material::Phong($m) => $e,
+            Material::Mirror($m) => $e,
+            Material::Glass($m) => $e,
+        }
+    };
+}
+
+/// Flips `v` into the upper hemisphere when `flip` is set.
+#[inline]
+fn mirror_z(v: Vec3A, flip: bool) -> Vec3A {
+    if flip {
+        Vec3A::new(v.x, v.y, -v.z)
+    } else {
+        v
+    }
+}
+
+impl Material {
+    /// True for the transmissive models, which see both sides of the surface.
+    #[inline]
+    fn two_sided_opaque(&self) -> bool {
+        !matches!(self, Material::Glass(_))
+    }
+
+    /// True when every lobe is a Dirac delta (no direct lighting possible).
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        matches!(self, Material::Mirror(_) | Material::Glass(_))
+    }
+
+    /// `f(wo, wi)` in the local frame, without the cosine.
+    #[inline]
+    pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+        if self.two_sided_opaque() {
+            if wo.z * wi.z <= 0.0 {
+                return Rgb::ZERO;
+            }
+            let flip = wo.z < 0.0;
+            dispatch!(self, m => m.eval(mirror_z(wo, flip), mirror_z(wi, flip)))
+        } else {
+            dispatch!(self, m => m.eval(wo, wi))
+        }
+    }
+
+    /// Density of [`Material::sample`] returning `wi`, per unit solid angle.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
+        if self.two_sided_opaque() {
+            if wo.z * wi.z <= 0.0 {
+                return 0.0;
+            }
+            let flip = wo.z < 0.0;
+            dispatch!(self, m => m.pdf(mirror_z(wo, flip), mirror_z(wi, flip)))
+        } else {
+            dispatch!(self, m => m.pdf(wo, wi))
+        }
+    }
+
+    /// Importance-samples an incident direction.
+    #[inline]
+    pub fn sample(&self, wo: Vec3A, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if self.two_sided_opaque() {
+            let flip = wo.z < 0.0;
+            let mut s = dispatch!(self, m => m.sample(mirror_z(wo, flip), u_lobe, u))?;
+            s.wi = mirror_z(s.wi, flip);
+            Some(s)
+        } else {
+            dispatch!(self, m => m.sample(wo, u_lobe, u))
+        }
+    }
+
+    /// Base colour, for the `albedo` debug view.
+    #[inline]
+    pub fn albedo(&self) -> Rgb {
+        dispatch!(self, m => m.albedo())
+    }
+}

@@ -1,0 +1,26 @@
+//! `depth`: debug view of the distance to the first hit divided by the diagonal of the scene
+//! bounds (so 1 is the scene's size), grey. Misses are black. Not radiance.
+
+use crate::integrator::{Integrator, Tracer};
+use crate::registry::{IntegratorEntry, Params};
+use crate::{Ray, Rgb, Sampler};
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "depth",
+    summary: "debug view: distance to the first hit / scene bounds diagonal, as grey",
+    params: &[],
+    build: |_: &Params| Box::new(DepthView),
+};
+
+struct DepthView;
+
+impl Integrator for DepthView {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+        let Some(hit) = tracer.camera(ray) else {
+            return Rgb::ZERO;
+        };
+        let (lo, hi) = tracer.scene.bounds();
+        let diagonal = (hi - lo).length().max(f32::MIN_POSITIVE);
+        Rgb::splat(hit.t / diagonal)
+    }
+}

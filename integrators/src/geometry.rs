@@ -1,0 +1,148 @@
+//! Rays, hit records and orthonormal frames.
+
+use glam::Vec3A;
+
+/// A ray `origin + t * dir` for `t` in `[0, tmax)`. `dir` is unit length.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: Vec3A,
+    pub dir: Vec3A,
+    pub tmax: f32,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3A, dir: Vec3A) -> Self {
+        Ray { origin, dir, tmax: f32::INFINITY }
+    }
+
+    pub fn at(&self, t: f32) -> Vec3A {
+        self.origin + self.dir * t
+    }
+}
+
+/// Everything an integrator needs to know about the closest intersection of a ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// Distance along the ray.
+    pub t: f32,
+    /// World-space position.
+    pub p: Vec3A,
+    /// Unit geometric normal as the shape defines it (outward for closed shapes, right-handed
+    /// winding for triangles). Not flipped towards the ray.
+    pub ng: Vec3A,
+    /// Unit shading normal, in the same hemisphere as `ng`.
+    pub ns: Vec3A,
+    /// Index of the surface's material in the scene's material table.
+    pub material: u32,
+    /// Index of the surface's emitter in the scene's light table, if it emits.
+    pub light: Option<u32>,
+}
+
+/// Distance by which spawned rays are pushed off a surface, relative to the magnitude of the
+/// hit position (to stay above float rounding at any scene scale).
+const RELATIVE_OFFSET: f32 = 2e-5;
+const ABSOLUTE_OFFSET: f32 = 1e-5;
+
+impl Hit {
+    /// The hit position pushed off the surface along the geometric normal, on the side of `dir`.
+    /// This is the cure for the report's "shadow acne" (section 2.7), scaled to the scene.
+    #[inline]
+    pub fn offset_origin(&self, dir: Vec3A) -> Vec3A {
+        let eps = ABSOLUTE_OFFSET + RELATIVE_OFFSET * self.p.abs().max_element();
+        let side = if self.ng.dot(dir) >= 0.0 { 1.0 } else { -1.0 };
+        self.p + self.ng * (eps * side)
+    }
+
+    /// A ray leaving the surface in direction `dir` (unit length).
+    #[inline]
+    pub fn spawn_ray(&self, dir: Vec3A) -> Ray {
+        Ray::new(self.offset_origin(dir), dir)
+    }
+
+    /// A shadow ray from this surface towards `target`, stopping just short of it.
+    /// Returns the ray and the distance to `target`.
+    #[inline]
+    pub fn spawn_ray_to(&self, target: Vec3A) -> Ray {
+        let d = target - self.p;
+        let origin = self.offset_origin(d);
+        let to = target - origin;
+        let dist = to.length();
+        Ray { origin, dir: to / dist, tmax: dist * (1.0 - 1e-4) }
+    }
+
+    /// The shading frame at the hit.
+    #[inline]
+    pub fn frame(&self) -> Frame {
+        Frame::from_normal(self.ns)
+    }
+}
+
+/// An orthonormal basis with `n` as its `z` axis.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub s: Vec3A,
+    pub t: Vec3A,
+    pub n: Vec3A,
+}
+
+impl Frame {
+    /// Builds a frame around a unit normal (Duff et al. 2017, branchless).
+    #[inline]
+    pub fn from_normal(n: Vec3A) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3A::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3A::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { s, t, n }
+    }
+
+    #[inline]
+    pub fn to_local(&self, v: Vec3A) -> Vec3A {
+        Vec3A::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3A) -> Vec3A {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal_and_round_trips() {
+        for n in [
+            Vec3A::Z,
+            -Vec3A::Z,
+            Vec3A::X,
+            Vec3A::new(0.3, -0.5, 0.8).normalize(),
+            Vec3A::new(-0.01, 0.0, -1.0).normalize(),
+        ] {
+            let f = Frame::from_normal(n);
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(f.n).abs() < 1e-5);
+            assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
+            assert!(f.s.cross(f.t).dot(n) > 0.999, "frame must be right-handed");
+            let v = Vec3A::new(0.2, 0.7, -0.4);
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn shadow_rays_stop_short_of_the_target() {
+        let hit = Hit {
+            t: 1.0,
+            p: Vec3A::ZERO,
+            ng: Vec3A::Z,
+            ns: Vec3A::Z,
+            material: 0,
+            light: None,
+        };
+        let r = hit.spawn_ray_to(Vec3A::new(0.0, 0.0, 2.0));
+        assert!(r.origin.z > 0.0 && r.tmax < 2.0 && r.tmax > 1.99);
+        let below = hit.spawn_ray(-Vec3A::Z);
+        assert!(below.origin.z < 0.0, "transmitted rays leave from the far side");
+    }
+}

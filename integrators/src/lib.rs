@@ -1,0 +1,56 @@
+//! Light transport for raylab.
+//!
+//! This crate knows nothing of RON, hecs, obvhs or the command line. It defines what it needs
+//! from a scene as the narrow [`Scene`] trait, and provides the BSDFs, light sampling, the
+//! [`Integrator`] trait, the registry of integrators, and the integrators themselves.
+//!
+//! # Conventions
+//!
+//! * Radiance is linear RGB in W·sr⁻¹·m⁻² per channel ([`Rgb`]); it is never rescaled.
+//! * Directions in BSDF code are in the local shading frame, where `z` is the shading normal.
+//!   Both `wo` (towards the viewer) and `wi` (towards the light) point away from the surface.
+//! * **Depth convention** (used by every integrator and parameter in raylab): the depth of a
+//!   light path is the number of surface scattering events between the emitter and the camera.
+//!   Depth 0 is an emitter seen directly, depth 1 is direct illumination, depth 2 adds one
+//!   indirect bounce, and so on. A `max-depth` of `D` keeps every path of depth `<= D`. This is
+//!   pbrt-v4's `maxdepth`; Mitsuba 3's `max_depth` counts path segments, so Mitsuba's
+//!   `max_depth = D + 1` equals raylab's `max-depth = D`.
+
+pub mod bsdf;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod registry;
+pub mod sampler;
+pub mod sampling;
+pub mod scene;
+
+mod albedo_view;
+mod depth_view;
+mod fixed_depth;
+mod normals_view;
+mod path;
+mod russian_roulette;
+mod whitted;
+
+#[cfg(test)]
+mod chi2;
+#[cfg(test)]
+mod testing;
+
+pub use bsdf::{BsdfSample, Material};
+pub use geometry::{Frame, Hit, Ray};
+pub use integrator::{Integrator, RayCounters, Tracer};
+pub use light::{Light, LightSample, LightTable};
+pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};
+pub use sampler::Sampler;
+pub use scene::Scene;
+
+/// Linear RGB radiance or reflectance.
+pub type Rgb = glam::Vec3A;
+
+/// Relative luminance of a linear sRGB/Rec.709 colour.
+#[inline]
+pub fn luminance(c: Rgb) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}

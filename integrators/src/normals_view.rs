@@ -1,0 +1,24 @@
+//! `normals`: debug view of the shading normal at the first hit, mapped from [-1, 1] to
+//! [0, 1] per axis. Not radiance: for checking geometry and the build step.
+
+use crate::integrator::{Integrator, Tracer};
+use crate::registry::{IntegratorEntry, Params};
+use crate::{Ray, Rgb, Sampler};
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "normals",
+    summary: "debug view: shading normal at the first hit as colour (n * 0.5 + 0.5)",
+    params: &[],
+    build: |_: &Params| Box::new(NormalsView),
+};
+
+struct NormalsView;
+
+impl Integrator for NormalsView {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+        match tracer.camera(ray) {
+            Some(hit) => hit.ns * 0.5 + 0.5,
+            None => Rgb::ZERO,
+        }
+    }
+}

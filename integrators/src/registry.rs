@@ -1,0 +1,246 @@
+//! The registry of integrators: a static list of entries (name, summary, parameters with
+//! defaults, constructor). Adding an integrator is one file and one line in [`REGISTRY`].
+
+use crate::Integrator;
+use std::fmt;
+
+/// How a parameter's value is read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    /// A whole number.
+    Int,
+    /// A real number.
+    Float,
+    /// A path depth: a whole number, or `unlimited` (also `inf`).
+    Depth,
+}
+
+/// One parameter of an integrator.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub kind: ParamKind,
+    /// Default value; `f64::INFINITY` means unlimited for [`ParamKind::Depth`].
+    pub default: f64,
+    pub min: f64,
+    pub max: f64,
+    pub doc: &'static str,
+}
+
+impl ParamSpec {
+    /// The default as a user would type it.
+    pub fn default_text(&self) -> String {
+        format_value(self.kind, self.default)
+    }
+
+    fn parse(&self, text: &str) -> Result<f64, String> {
+        let t = text.trim();
+        let value = if self.kind == ParamKind::Depth
+            && matches!(t.to_ascii_lowercase().as_str(), "unlimited" | "inf" | "infinite")
+        {
+            f64::INFINITY
+        } else {
+            t.parse::<f64>().map_err(|_| format!("`{t}` is not a number"))?
+        };
+        if value.is_nan() || (value.is_infinite() && self.kind != ParamKind::Depth) {
+            return Err(format!("`{t}` is not a finite number"));
+        }
+        if self.kind != ParamKind::Float && value.is_finite() && value.fract() != 0.0 {
+            return Err(format!("`{t}` is not a whole number"));
+        }
+        if value < self.min || value > self.max {
+            return Err(format!(
+                "{} is out of range [{}, {}]",
+                t,
+                format_value(self.kind, self.min),
+                format_value(self.kind, self.max)
+            ));
+        }
+        Ok(value)
+    }
+}
+
+fn format_value(kind: ParamKind, v: f64) -> String {
+    if v.is_infinite() && kind == ParamKind::Depth {
+        "unlimited".to_string()
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Resolved parameter values (every parameter of the entry, defaults filled in).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    values: Vec<(&'static str, f64)>,
+}
+
+impl Params {
+    /// The value of `name`. Panics on a name the entry does not declare: that is a bug in the
+    /// integrator, not bad input (input is checked by [`IntegratorEntry::resolve`]).
+    pub fn get(&self, name: &str) -> f64 {
+        self.values
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| *v)
+            .unwrap_or_else(|| panic!("integrator reads undeclared parameter `{name}`"))
+    }
+
+    /// A whole-number parameter.
+    pub fn get_u32(&self, name: &str) -> u32 {
+        self.get(name) as u32
+    }
+
+    /// A depth parameter; `u32::MAX` stands for unlimited.
+    pub fn get_depth(&self, name: &str) -> u32 {
+        let v = self.get(name);
+        if v.is_infinite() {
+            u32::MAX
+        } else {
+            v as u32
+        }
+    }
+
+    /// `name=value` pairs, for reports.
+    pub fn describe(&self, specs: &[ParamSpec]) -> String {
+        specs
+            .iter()
+            .map(|s| format!("{}={}", s.name, format_value(s.kind, self.get(s.name))))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// One integrator in the registry.
+pub struct IntegratorEntry {
+    pub name: &'static str,
+    pub summary: &'static str,
+    pub params: &'static [ParamSpec],
+    pub build: fn(&Params) -> Box<dyn Integrator>,
+}
+
+/// What is wrong with an integrator name or parameter.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ParamError {
+    UnknownIntegrator { name: String },
+    UnknownParam { integrator: &'static str, name: String, valid: Vec<&'static str> },
+    BadValue { integrator: &'static str, name: String, reason: String },
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ParamError::UnknownIntegrator { name } => write!(
+                f,
+                "unknown integrator `{name}`; valid integrators: {}",
+                REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")
+            ),
+            ParamError::UnknownParam { integrator, name, valid } => {
+                if valid.is_empty() {
+                    write!(f, "integrator `{integrator}` takes no parameters, got `{name}`")
+                } else {
+                    write!(
+                        f,
+                        "integrator `{integrator}` has no parameter `{name}`; valid parameters: {}",
+                        valid.join(", ")
+                    )
+                }
+            }
+            ParamError::BadValue { integrator, name, reason } => {
+                write!(f, "parameter `{name}` of integrator `{integrator}`: {reason}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for ParamError {}
+
+impl IntegratorEntry {
+    /// Checks `given` (name, value text) against the declared parameters and fills defaults.
+    /// Later values override earlier ones, so scene defaults can precede command-line values.
+    pub fn resolve(&self, given: &[(String, String)]) -> Result<Params, ParamError> {
+        let mut values: Vec<(&'static str, f64)> =
+            self.params.iter().map(|p| (p.name, p.default)).collect();
+        for (name, text) in given {
+            let idx = self.params.iter().position(|p| p.name == name).ok_or_else(|| {
+                ParamError::UnknownParam {
+                    integrator: self.name,
+                    name: name.clone(),
+                    valid: self.params.iter().map(|p| p.name).collect(),
+                }
+            })?;
+            values[idx].1 = self.params[idx].parse(text).map_err(|reason| ParamError::BadValue {
+                integrator: self.name,
+                name: name.clone(),
+                reason,
+            })?;
+        }
+        Ok(Params { values })
+    }
+
+    /// Resolves the parameters and builds the integrator.
+    pub fn instantiate(&self, given: &[(String, String)]) -> Result<Box<dyn Integrator>, ParamError> {
+        Ok((self.build)(&self.resolve(given)?))
+    }
+}
+
+/// Every integrator raylab offers, in the order `raylab integrators` lists them.
+pub static REGISTRY: &[IntegratorEntry] = &[
+    crate::whitted::ENTRY,
+    crate::fixed_depth::ENTRY,
+    crate::russian_roulette::ENTRY,
+    crate::path::ENTRY,
+    crate::normals_view::ENTRY,
+    crate::albedo_view::ENTRY,
+    crate::depth_view::ENTRY,
+];
+
+/// Looks an integrator up by name.
+pub fn find(name: &str) -> Result<&'static IntegratorEntry, ParamError> {
+    REGISTRY
+        .iter()
+        .find(|e| e.name == name)
+        .ok_or_else(|| ParamError::UnknownIntegrator { name: name.to_string() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn given(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
+        pairs.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect()
+    }
+
+    #[test]
+    fn names_are_unique_and_every_entry_builds_with_defaults() {
+        for (i, e) in REGISTRY.iter().enumerate() {
+            assert!(REGISTRY[i + 1..].iter().all(|o| o.name != e.name), "duplicate {}", e.name);
+            assert!(!e.summary.is_empty());
+            e.instantiate(&[]).unwrap();
+            for p in e.params {
+                assert!(p.default >= p.min && p.default <= p.max, "{}.{}", e.name, p.name);
+            }
+        }
+    }
+
+    #[test]
+    fn unknown_names_list_the_valid_ones() {
+        let err = find("pathh").err().unwrap().to_string();
+        assert!(err.contains("unknown integrator `pathh`") && err.contains("path"), "{err}");
+        let path = find("path").unwrap();
+        let err = path.resolve(&given(&[("maxdepth", "3")])).unwrap_err().to_string();
+        assert!(err.contains("max-depth"), "{err}");
+    }
+
+    #[test]
+    fn values_are_checked_and_later_values_win() {
+        let path = find("path").unwrap();
+        let p = path.resolve(&given(&[("max-depth", "3"), ("max-depth", "5")])).unwrap();
+        assert_eq!(p.get_depth("max-depth"), 5);
+        let p = path.resolve(&given(&[("max-depth", "unlimited")])).unwrap();
+        assert_eq!(p.get_depth("max-depth"), u32::MAX);
+        assert!(path.resolve(&given(&[("max-depth", "2.5")])).is_err());
+        assert!(path.resolve(&given(&[("max-depth", "-1")])).is_err());
+        assert!(path.resolve(&given(&[("max-depth", "NaN")])).is_err());
+        assert!(path.resolve(&given(&[("rr-depth", "x")])).is_err());
+    }
+}

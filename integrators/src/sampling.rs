@@ -1,0 +1,93 @@
+//! Warping functions from the unit square to directions and points, with their densities.
+//! Every warp here is checked by a chi-square test (see `chi2.rs`).
+
+use glam::{Vec2, Vec3A};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// Cosine-weighted direction on the upper (`z > 0`) hemisphere, by Malley's method.
+#[inline]
+pub fn cosine_hemisphere(u: Vec2) -> Vec3A {
+    let d = concentric_disk(u);
+    let z = (1.0 - d.x * d.x - d.y * d.y).max(0.0).sqrt();
+    Vec3A::new(d.x, d.y, z)
+}
+
+/// Density of [`cosine_hemisphere`] per unit solid angle.
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// Uniform direction on the upper hemisphere.
+#[inline]
+pub fn uniform_hemisphere(u: Vec2) -> Vec3A {
+    let z = u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3A::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub const UNIFORM_HEMISPHERE_PDF: f32 = 0.5 * FRAC_1_PI;
+
+/// Uniform direction on the unit sphere.
+#[inline]
+pub fn uniform_sphere(u: Vec2) -> Vec3A {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3A::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
+
+/// Uniform direction inside the cone of half-angle `acos(cos_max)` around `+z`.
+#[inline]
+pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3A {
+    let z = 1.0 - u.x * (1.0 - cos_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3A::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Density of [`uniform_cone`] per unit solid angle.
+#[inline]
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}
+
+/// Shirley–Chiu concentric map from the square to the unit disk.
+#[inline]
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, 0.25 * PI * (o.y / o.x))
+    } else {
+        (o.y, 0.5 * PI - 0.25 * PI * (o.x / o.y))
+    };
+    Vec2::new(r * theta.cos(), r * theta.sin())
+}
+
+/// Uniform barycentric coordinates `(b1, b2)` on a triangle (the point is
+/// `p0 + b1 * e1 + b2 * e2`). Preserves stratification of `u`.
+#[inline]
+pub fn uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(1.0 - su, u.y * su)
+}
+
+/// Power heuristic with beta = 2 (Veach 1997) for two strategies taking one sample each.
+#[inline]
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a = pdf_a * pdf_a;
+    let b = pdf_b * pdf_b;
+    if a == 0.0 && b == 0.0 {
+        0.0
+    } else if a.is_infinite() {
+        1.0
+    } else {
+        a / (a + b)
+    }
+}

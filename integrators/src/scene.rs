@@ -1,0 +1,19 @@
+//! What an integrator needs from a scene, and nothing more.
+
+use crate::{Hit, LightTable, Material, Ray};
+use glam::Vec3A;
+
+/// A renderable scene as light transport sees it. The engine implements this for its
+/// flattened, BVH-backed scene; tests implement it for tiny analytic scenes.
+pub trait Scene: Sync {
+    /// The closest surface hit by `ray` with `t < ray.tmax`.
+    fn intersect(&self, ray: &Ray) -> Option<Hit>;
+    /// True if any surface lies on `ray` with `t < ray.tmax`.
+    fn occluded(&self, ray: &Ray) -> bool;
+    /// Material `id` of the scene's material table.
+    fn material(&self, id: u32) -> &Material;
+    /// Every emitter, with the distribution used to pick one.
+    fn lights(&self) -> &LightTable;
+    /// Axis-aligned bounds of the geometry (min, max).
+    fn bounds(&self) -> (Vec3A, Vec3A);
+}
