@@ -89,3 +89,88 @@ pub fn escaped(scene: &dyn Scene, ray: &Ray) -> Rgb {
         None => Rgb::ZERO,
     }
 }
+
+/// The deterministic lobes of a specular material, each with its weight `f * |cos|`: for a
+/// mirror its one reflection, for glass the Fresnel-weighted reflection and refraction (either
+/// may be missing: no refraction under total internal reflection). Whitted-style tracers
+/// follow every lobe instead of choosing one at random.
+pub fn specular_lobes(material: &crate::Material, wo: glam::Vec3A) -> [Option<(glam::Vec3A, Rgb)>; 2] {
+    let lobe = |u: f32| {
+        material
+            .sample(wo, u, glam::Vec2::ZERO)
+            .filter(|s| s.specular)
+            .map(|s| (s.wi, s.f * s.wi.z.abs()))
+    };
+    let first = lobe(0.0);
+    let second = lobe(1.0 - f32::EPSILON).filter(|(wi, _)| first.is_none_or(|(w, _)| (w - *wi).length_squared() > 1e-12));
+    [first, second]
+}
+
+/// Next-event estimation with one light chosen in proportion to power: the radiance
+/// reflected at `hit` towards `wo` from one sample on that light, divided by both
+/// probabilities. With `mis`, the sample is weighted by the power heuristic against BSDF
+/// sampling (the caller must then weight emitters hit by BSDF samples with
+/// [`mis_weight_for_hit`]).
+pub fn sample_one_light(
+    hit: &Hit,
+    frame: &crate::Frame,
+    wo: glam::Vec3A,
+    material: &crate::Material,
+    mis: bool,
+    tracer: &mut Tracer,
+    sampler: &mut Sampler,
+) -> Rgb {
+    let lights = tracer.scene.lights();
+    let u_light = sampler.next_1d();
+    let u = sampler.next_2d();
+    let Some((index, pmf)) = lights.sample(u_light) else {
+        return Rgb::ZERO;
+    };
+    let Some(ls) = lights.get(index).sample_li(hit.p, u) else {
+        return Rgb::ZERO;
+    };
+    if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let wi = frame.to_local(ls.wi);
+    let f = material.eval(wo, wi);
+    if f == Rgb::ZERO || !tracer.unoccluded(hit, &ls) {
+        return Rgb::ZERO;
+    }
+    let light_pdf = pmf * ls.pdf;
+    let weight = if mis && !ls.delta {
+        crate::sampling::power_heuristic(light_pdf, material.pdf(wo, wi))
+    } else {
+        1.0
+    };
+    f * ls.radiance * (wi.z.abs() * weight / light_pdf)
+}
+
+/// MIS weight of emission found by a BSDF-sampled ray (density `bsdf_pdf`) leaving `from`
+/// and arriving at `hit` (or escaping, when `hit` is `None`), against [`sample_one_light`].
+pub fn mis_weight_for_hit(scene: &dyn Scene, from: glam::Vec3A, ray: &Ray, hit: Option<&Hit>, bsdf_pdf: f32) -> f32 {
+    let lights = scene.lights();
+    let light_pdf = match hit {
+        Some(h) => match h.light {
+            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, h.p, h.ng),
+            None => return 1.0,
+        },
+        None => match lights.environment() {
+            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, from, glam::Vec3A::ZERO),
+            None => return 1.0,
+        },
+    };
+    crate::sampling::power_heuristic(bsdf_pdf, light_pdf)
+}
+
+/// Russian roulette on the path throughput `beta`: survives with probability
+/// `min(1, max component of beta)`; returns the factor to divide `beta` by, or `None` when
+/// the path ends. Unbiased: E[beta'] = beta.
+#[inline]
+pub fn russian_roulette(beta: Rgb, sampler: &mut Sampler) -> Option<f32> {
+    let survive = beta.max_element().min(1.0);
+    if survive >= 1.0 {
+        return Some(1.0);
+    }
+    (sampler.next_1d() < survive).then_some(survive)
+}

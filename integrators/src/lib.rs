@@ -54,3 +54,6 @@ pub type Rgb = glam::Vec3A;
 pub fn luminance(c: Rgb) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
+
+/// The depth convention in one sentence, for listings.
+pub const DEPTH_CONVENTION: &str = "depth = scattering events on a path: 0 emitters seen directly, 1 direct light, 2 one indirect bounce (pbrt-v4's maxdepth; Mitsuba 3 max_depth = raylab max-depth + 1)";

@@ -1,0 +1,197 @@
+//! Tiny analytic scenes for integrator tests (no BVH: brute-force intersection), and a
+//! t-test helper that compares an integrator's mean radiance with an analytic answer.
+
+use crate::bsdf::Lambert;
+use crate::integrator::Tracer;
+use crate::sampling::uniform_sphere;
+use crate::{find, Hit, Light, LightTable, Material, Ray, Rgb, Sampler, Scene};
+use glam::Vec3A;
+
+/// One surface: a triangle or a sphere, with a material and maybe a light.
+enum Surface {
+    Triangle { v: [Vec3A; 3], light: Option<u32> },
+    Sphere { center: Vec3A, radius: f32 },
+}
+
+/// Where camera rays start and where they go.
+pub enum Camera {
+    /// From a point in uniformly random directions.
+    Omni(Vec3A),
+    /// From `eye` towards random points of a sphere's silhouette (every ray hits it).
+    AtSphere { eye: Vec3A, center: Vec3A, radius: f32 },
+}
+
+pub struct TestScene {
+    surfaces: Vec<Surface>,
+    material: Material,
+    lights: LightTable,
+    pub camera: Camera,
+}
+
+fn intersect_triangle(v: &[Vec3A; 3], ray: &Ray) -> Option<f32> {
+    let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+    let p = ray.dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let s = ray.origin - v[0];
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let w = ray.dir.dot(q) / det;
+    let t = e2.dot(q) / det;
+    (u >= 0.0 && w >= 0.0 && u + w <= 1.0 && t > 0.0 && t < ray.tmax).then_some(t)
+}
+
+fn intersect_sphere(c: Vec3A, r: f32, ray: &Ray) -> Option<f32> {
+    let oc = ray.origin - c;
+    let b = oc.dot(ray.dir);
+    let h = r * r - (oc - ray.dir * b).length_squared();
+    if h < 0.0 {
+        return None;
+    }
+    let h = h.sqrt();
+    [-b - h, -b + h].into_iter().find(|t| *t > 0.0 && *t < ray.tmax)
+}
+
+impl Scene for TestScene {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        for s in &self.surfaces {
+            let tmax = best.map_or(ray.tmax, |h| h.t);
+            let r = Ray { tmax, ..*ray };
+            match s {
+                Surface::Triangle { v, light } => {
+                    if let Some(t) = intersect_triangle(v, &r) {
+                        let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+                        best = Some(Hit { t, p: ray.at(t), ng: n, ns: n, material: 0, light: *light });
+                    }
+                }
+                Surface::Sphere { center, radius } => {
+                    if let Some(t) = intersect_sphere(*center, *radius, &r) {
+                        let n = (ray.at(t) - *center).normalize();
+                        best = Some(Hit { t, p: *center + n * *radius, ng: n, ns: n, material: 0, light: None });
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.intersect(ray).is_some()
+    }
+
+    fn material(&self, _id: u32) -> &Material {
+        &self.material
+    }
+
+    fn lights(&self) -> &LightTable {
+        &self.lights
+    }
+
+    fn bounds(&self) -> (Vec3A, Vec3A) {
+        (Vec3A::splat(-1.0), Vec3A::splat(1.0))
+    }
+}
+
+fn lambert(a: f32) -> Material {
+    Material::Lambert(Lambert { albedo: Rgb::splat(a) })
+}
+
+/// The cube [-1, 1]^3 seen from inside: every face diffuse with albedo `a` and emitting `le`
+/// on both sides. Radiance everywhere is `le / (1 - a)`.
+pub fn furnace_box(a: f32, le: f32) -> TestScene {
+    let c = |x: f32, y: f32, z: f32| Vec3A::new(x, y, z);
+    let quads = [
+        [c(-1., -1., -1.), c(-1., -1., 1.), c(-1., 1., 1.), c(-1., 1., -1.)],
+        [c(1., -1., -1.), c(1., 1., -1.), c(1., 1., 1.), c(1., -1., 1.)],
+        [c(-1., -1., -1.), c(1., -1., -1.), c(1., -1., 1.), c(-1., -1., 1.)],
+        [c(-1., 1., -1.), c(-1., 1., 1.), c(1., 1., 1.), c(1., 1., -1.)],
+        [c(-1., -1., -1.), c(-1., 1., -1.), c(1., 1., -1.), c(1., -1., -1.)],
+        [c(-1., -1., 1.), c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.)],
+    ];
+    let mut surfaces = Vec::new();
+    let mut lights = Vec::new();
+    for q in quads {
+        for v in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            surfaces.push(Surface::Triangle { v, light: Some(lights.len() as u32) });
+            lights.push(Light::triangle(v[0], v[1], v[2], Rgb::splat(le), true));
+        }
+    }
+    TestScene {
+        surfaces,
+        material: lambert(a),
+        lights: LightTable::new(lights, 3f32.sqrt()),
+        camera: Camera::Omni(Vec3A::new(0.1, -0.2, 0.3)),
+    }
+}
+
+/// A point light of intensity pi at the centre of the unit sphere, seen from inside; the
+/// sphere is diffuse with albedo `a`. Radiance on the sphere: `a / (1 - a)` (1 for a = 0.5).
+pub fn point_in_sphere(a: f32) -> TestScene {
+    TestScene {
+        surfaces: vec![Surface::Sphere { center: Vec3A::ZERO, radius: 1.0 }],
+        material: lambert(a),
+        lights: LightTable::new(
+            vec![Light::Point { position: Vec3A::ZERO, intensity: Rgb::splat(std::f32::consts::PI) }],
+            1.0,
+        ),
+        camera: Camera::Omni(Vec3A::ZERO),
+    }
+}
+
+/// A convex diffuse unit sphere of albedo `a` under constant environment radiance `sky`:
+/// its radiance is `a * sky`.
+pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
+    TestScene {
+        surfaces: vec![Surface::Sphere { center: Vec3A::ZERO, radius: 1.0 }],
+        material: lambert(a),
+        lights: LightTable::new(vec![Light::Environment { radiance: Rgb::splat(sky) }], 1.0),
+        camera: Camera::AtSphere { eye: Vec3A::new(0.0, 0.0, 5.0), center: Vec3A::ZERO, radius: 1.0 },
+    }
+}
+
+fn camera_ray(camera: &Camera, sampler: &mut Sampler) -> Ray {
+    match camera {
+        Camera::Omni(o) => Ray::new(*o, uniform_sphere(sampler.next_2d())),
+        Camera::AtSphere { eye, center, radius } => {
+            // A point on the silhouette disk (shrunk slightly so every ray hits).
+            let to = (*center - *eye).normalize();
+            let frame = crate::Frame::from_normal(to);
+            let d = crate::sampling::concentric_disk(sampler.next_2d()) * (0.95 * radius);
+            let target = *center + frame.s * d.x + frame.t * d.y;
+            Ray::new(*eye, (target - *eye).normalize())
+        }
+    }
+}
+
+/// Mean and standard error of the green channel over `n` camera samples.
+pub fn estimate(name: &str, params: &[(&str, &str)], scene: &TestScene, n: u32) -> (f64, f64) {
+    let given: Vec<(String, String)> = params.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    let integrator = find(name).unwrap().instantiate(&given).unwrap();
+    let mut tracer = Tracer::new(scene);
+    let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
+    for i in 0..n {
+        let mut sampler = Sampler::new(12345, i as u64, 0);
+        let ray = camera_ray(&scene.camera, &mut sampler);
+        let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
+        assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
+        let v = l.y as f64;
+        sum += v;
+        sum_sq += v * v;
+    }
+    let mean = sum / n as f64;
+    let var = (sum_sq / n as f64 - mean * mean).max(0.0) * n as f64 / (n as f64 - 1.0);
+    (mean, (var / n as f64).sqrt())
+}
+
+/// Asserts that the integrator's mean radiance matches `expected` by a t-test (|t| < 4, a
+/// false alarm rate of 6e-5 per test), and that the test had the power to see a 3% error.
+pub fn expect_mean(name: &str, params: &[(&str, &str)], scene: &TestScene, expected: f32, n: u32) {
+    let (mean, se) = estimate(name, params, scene, n);
+    let expected = expected as f64;
+    let t = if se > 0.0 { (mean - expected) / se } else if (mean - expected).abs() < 1e-5 * expected { 0.0 } else { f64::INFINITY };
+    assert!(t.abs() < 4.0, "{name} {params:?}: mean {mean:.5} +- {se:.5}, expected {expected:.5} (t = {t:.2})");
+    assert!(se < 0.0075 * expected, "{name}: standard error {se:.5} too large to detect a 3% bias; use more samples");
+}

@@ -1,0 +1,316 @@
+//! The build step: flattens the ECS world into structure-of-arrays primitive data, builds the
+//! BVH over triangles and spheres together, reorders the arrays by the BVH's primitive order,
+//! and collects emitters into the light table. The result implements the integrators'
+//! [`Scene`] trait and is immutable and `Sync`.
+
+mod primitives;
+
+use crate::scene::components::{MaterialRef, Name, WorldShape};
+use crate::scene::{systems, LoadedScene};
+use glam::Vec3A;
+use hecs::Entity;
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
+use obvhs::ray::RayHit;
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use primitives::intersect_sphere;
+use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
+use std::time::{Duration, Instant};
+
+/// Marks a primitive as a sphere in [`RenderScene::prims`]; otherwise it is a triangle.
+const SPHERE_BIT: u32 = 1 << 31;
+/// "No light" / "no smooth normals" in the per-primitive index arrays.
+const NONE: u32 = u32::MAX;
+
+/// Counts and timings of a build, for `raylab validate` and reports.
+#[derive(Clone, Debug, Default)]
+pub struct BuildStats {
+    pub entities: usize,
+    pub triangles: usize,
+    pub spheres: usize,
+    /// Entries in the light table (a quad light is one, a mesh light one per triangle).
+    pub lights: usize,
+    /// Entities that emit.
+    pub emitters: usize,
+    pub bvh_nodes: usize,
+    pub build_time: Duration,
+}
+
+/// The flattened, BVH-backed scene that rendering reads.
+pub struct RenderScene {
+    bvh: CwBvh,
+    /// Per BVH primitive slot: `SPHERE_BIT | sphere index` or a triangle index.
+    prims: Vec<u32>,
+    // Triangles, stored in the order the BVH visits them.
+    tri: Vec<Triangle>,
+    tri_normal: Vec<Vec3A>,
+    tri_material: Vec<u32>,
+    tri_light: Vec<u32>,
+    /// Index into `smooth_normals` or `NONE` for flat shading.
+    tri_smooth: Vec<u32>,
+    smooth_normals: Vec<[Vec3A; 3]>,
+    // Spheres, likewise in BVH order.
+    sph_center: Vec<Vec3A>,
+    sph_radius: Vec<f32>,
+    sph_material: Vec<u32>,
+    sph_light: Vec<u32>,
+
+    materials: Vec<Material>,
+    lights: LightTable,
+    bounds: (Vec3A, Vec3A),
+    pub stats: BuildStats,
+}
+
+/// One primitive before reordering.
+enum Prim {
+    Tri { v: [Vec3A; 3], normals: Option<[Vec3A; 3]>, material: u32, light: u32 },
+    Sphere { center: Vec3A, radius: f32, material: u32, light: u32 },
+}
+
+impl Prim {
+    fn aabb(&self) -> Aabb {
+        match self {
+            Prim::Tri { v, .. } => Aabb::from_points(v),
+            Prim::Sphere { center, radius, .. } => {
+                Aabb::new(*center - Vec3A::splat(*radius), *center + Vec3A::splat(*radius))
+            }
+        }
+    }
+}
+
+impl RenderScene {
+    /// Builds the render scene from a loaded world. The world must have been validated and
+    /// baked (as [`crate::scene::load_scene`] does) and hold at least one shape.
+    pub fn build(scene: &LoadedScene) -> RenderScene {
+        let start = Instant::now();
+        let world = &scene.world;
+
+        // Lights: one table entry per emitting primitive (or quad), in entity order.
+        let emitters = systems::collect_emitters(world);
+        let mut lights: Vec<Light> = Vec::new();
+        let mut light_of: Vec<(Entity, u32, usize)> = Vec::new(); // entity, first light, count
+        for (entity, ls) in &emitters {
+            light_of.push((*entity, lights.len() as u32, ls.len()));
+            lights.extend(ls.iter().cloned());
+        }
+
+        // Primitives in entity order.
+        let mut shaped: Vec<(Entity, &WorldShape, &MaterialRef)> = Vec::new();
+        let mut query = world.query::<(Entity, &WorldShape, &MaterialRef)>();
+        for (e, s, m) in query.iter() {
+            shaped.push((e, s, m));
+        }
+        shaped.sort_by_key(|(e, ..)| e.id());
+        let mut prims: Vec<Prim> = Vec::new();
+        for (entity, shape, material) in &shaped {
+            let light = light_of.iter().find(|(e, ..)| e == entity);
+            let light_for = |i: usize| match light {
+                Some(&(_, first, 1)) => first,
+                Some(&(_, first, _)) => first + i as u32,
+                None => NONE,
+            };
+            match shape {
+                WorldShape::Sphere { center, radius } => prims.push(Prim::Sphere {
+                    center: *center,
+                    radius: *radius,
+                    material: material.0,
+                    light: light_for(0),
+                }),
+                WorldShape::Triangles { triangles, normals, .. } => {
+                    for (i, v) in triangles.iter().enumerate() {
+                        prims.push(Prim::Tri {
+                            v: *v,
+                            normals: normals.as_ref().map(|n| n[i]),
+                            material: material.0,
+                            light: light_for(i),
+                        });
+                    }
+                }
+            }
+        }
+
+        let mut bounds = Aabb::empty();
+        for p in &prims {
+            bounds = bounds.union(&p.aabb());
+        }
+        let radius = 0.5 * bounds.diagonal().length();
+        if let Some(env) = scene.environment {
+            lights.push(Light::Environment { radiance: env });
+        }
+        let lights = LightTable::new(lights, radius);
+
+        // BVH over every primitive's box; then lay the arrays out in the BVH's order.
+        let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
+        let bvh = build_cwbvh(&aabbs, BvhBuildParams::medium_build(), &mut Duration::default());
+        let mut out = RenderScene {
+            prims: Vec::with_capacity(prims.len()),
+            tri: Vec::new(),
+            tri_normal: Vec::new(),
+            tri_material: Vec::new(),
+            tri_light: Vec::new(),
+            tri_smooth: Vec::new(),
+            smooth_normals: Vec::new(),
+            sph_center: Vec::new(),
+            sph_radius: Vec::new(),
+            sph_material: Vec::new(),
+            sph_light: Vec::new(),
+            materials: scene.materials.clone(),
+            bounds: (bounds.min, bounds.max),
+            stats: BuildStats {
+                entities: world.len() as usize,
+                lights: lights.len(),
+                emitters: emitters.len() + usize::from(scene.environment.is_some()),
+                bvh_nodes: bvh.nodes.len(),
+                ..Default::default()
+            },
+            lights,
+            bvh,
+        };
+        for &original in &out.bvh.primitive_indices {
+            match &prims[original as usize] {
+                Prim::Tri { v, normals, material, light } => {
+                    out.prims.push(out.tri.len() as u32);
+                    let t = Triangle { v0: v[0], v1: v[1], v2: v[2] };
+                    out.tri_normal.push(t.compute_normal());
+                    out.tri.push(t);
+                    out.tri_material.push(*material);
+                    out.tri_light.push(*light);
+                    match normals {
+                        Some(n) => {
+                            out.tri_smooth.push(out.smooth_normals.len() as u32);
+                            out.smooth_normals.push(*n);
+                        }
+                        None => out.tri_smooth.push(NONE),
+                    }
+                }
+                Prim::Sphere { center, radius, material, light } => {
+                    out.prims.push(SPHERE_BIT | out.sph_center.len() as u32);
+                    out.sph_center.push(*center);
+                    out.sph_radius.push(*radius);
+                    out.sph_material.push(*material);
+                    out.sph_light.push(*light);
+                }
+            }
+        }
+        out.stats.triangles = out.tri.len();
+        out.stats.spheres = out.sph_center.len();
+        out.stats.build_time = start.elapsed();
+        out
+    }
+
+    /// Distance to primitive slot `slot` along `ray`, or infinity.
+    #[inline(always)]
+    fn intersect_slot(&self, ray: &obvhs::ray::Ray, slot: usize) -> f32 {
+        let p = self.prims[slot];
+        if p & SPHERE_BIT != 0 {
+            let i = (p & !SPHERE_BIT) as usize;
+            intersect_sphere(self.sph_center[i], self.sph_radius[i], ray)
+        } else {
+            self.tri[p as usize].intersect(ray)
+        }
+    }
+
+    fn to_bvh_ray(ray: &Ray) -> Option<obvhs::ray::Ray> {
+        (ray.origin.is_finite() && ray.dir.is_finite() && !ray.tmax.is_nan())
+            .then(|| obvhs::ray::Ray::new(ray.origin, ray.dir, 0.0, ray.tmax))
+    }
+
+    /// The surface record for slot `slot` hit at distance `t`.
+    fn hit_record(&self, ray: &Ray, slot: usize, t: f32) -> Hit {
+        let p = self.prims[slot];
+        if p & SPHERE_BIT != 0 {
+            let i = (p & !SPHERE_BIT) as usize;
+            let (c, r) = (self.sph_center[i], self.sph_radius[i]);
+            let n = (ray.at(t) - c).normalize();
+            Hit {
+                t,
+                // Re-project onto the surface: the ray's point carries the rounding of t.
+                p: c + n * r,
+                ng: n,
+                ns: n,
+                material: self.sph_material[i],
+                light: (self.sph_light[i] != NONE).then_some(self.sph_light[i]),
+            }
+        } else {
+            let i = p as usize;
+            let tri = &self.tri[i];
+            let ng = self.tri_normal[i];
+            let ns = match self.tri_smooth[i] {
+                NONE => ng,
+                k => {
+                    let b = barycentrics(tri, ray.at(t));
+                    let n = self.smooth_normals[k as usize];
+                    let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
+                    if s == Vec3A::ZERO {
+                        ng
+                    } else if s.dot(ng) < 0.0 {
+                        -s
+                    } else {
+                        s
+                    }
+                }
+            };
+            Hit {
+                t,
+                p: ray.at(t),
+                ng,
+                ns,
+                material: self.tri_material[i],
+                light: (self.tri_light[i] != NONE).then_some(self.tri_light[i]),
+            }
+        }
+    }
+}
+
+/// Barycentric weights of `p` (on the triangle's plane) for v0, v1, v2.
+fn barycentrics(t: &Triangle, p: Vec3A) -> Vec3A {
+    let (e1, e2, d) = (t.v1 - t.v0, t.v2 - t.v0, p - t.v0);
+    let n = e1.cross(e2);
+    let inv = 1.0 / n.length_squared();
+    let b1 = d.cross(e2).dot(n) * inv;
+    let b2 = e1.cross(d).dot(n) * inv;
+    Vec3A::new(1.0 - b1 - b2, b1, b2)
+}
+
+impl Scene for RenderScene {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let bvh_ray = Self::to_bvh_ray(ray)?;
+        let mut hit = RayHit::none();
+        if self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| self.intersect_slot(r, slot)) {
+            Some(self.hit_record(ray, hit.primitive_id as usize, hit.t))
+        } else {
+            None
+        }
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        match Self::to_bvh_ray(ray) {
+            Some(r) => !self.bvh.ray_traverse_miss(r, |r, slot| self.intersect_slot(r, slot)),
+            None => false,
+        }
+    }
+
+    fn material(&self, id: u32) -> &Material {
+        &self.materials[id as usize]
+    }
+
+    fn lights(&self) -> &LightTable {
+        &self.lights
+    }
+
+    fn bounds(&self) -> (Vec3A, Vec3A) {
+        self.bounds
+    }
+}
+
+/// Names of the entities that emit, for reports.
+pub fn emitter_names(scene: &LoadedScene) -> Vec<String> {
+    let mut q = scene.world.query::<(Entity, &Name, &crate::scene::components::Emitter)>();
+    let mut v: Vec<_> = q.iter().map(|(e, n, _)| (e.id(), n.0.clone())).collect();
+    v.sort();
+    v.into_iter().map(|(_, n)| n).collect()
+}
+
+#[cfg(test)]
+mod tests;

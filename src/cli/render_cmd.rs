@@ -1,0 +1,165 @@
+//! `raylab render`, `raylab validate` and `raylab integrators`.
+
+use super::RenderArgs;
+use crate::build::RenderScene;
+use crate::output::{self, DisplaySettings};
+use crate::render::{self, RenderSettings};
+use crate::scene::{self, load::check_size};
+use anyhow::{anyhow, bail, Result};
+use raylab_integrators::{registry, ParamKind};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Parses `WxH`.
+fn parse_size(text: &str) -> Result<(u32, u32)> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| anyhow!("--size `{text}`: expected WIDTHxHEIGHT, e.g. 400x400"))?;
+    let parse = |s: &str| {
+        s.trim().parse::<u32>().map_err(|_| anyhow!("--size `{text}`: `{s}` is not a whole number"))
+    };
+    let (w, h) = (parse(w)?, parse(h)?);
+    check_size(w, h).map_err(|e| anyhow!("--size: {e}"))?;
+    Ok((w, h))
+}
+
+/// Parses `NAME=VALUE`.
+fn parse_param(text: &str) -> Result<(String, String)> {
+    let (k, v) = text
+        .split_once('=')
+        .ok_or_else(|| anyhow!("-p `{text}`: expected NAME=VALUE, e.g. -p max-depth=8"))?;
+    Ok((k.trim().to_string(), v.trim().to_string()))
+}
+
+fn default_output(scene: &Path) -> PathBuf {
+    let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "render".into());
+    PathBuf::from(format!("{stem}.png"))
+}
+
+pub fn render(args: &RenderArgs) -> Result<ExitCode> {
+    // Check everything cheap before loading and rendering.
+    let output_path = args.output.clone().unwrap_or_else(|| default_output(&args.scene));
+    output::check_output_path(&output_path)?;
+    if args.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    if args.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be finite");
+    }
+    let size = args.size.as_deref().map(parse_size).transpose()?;
+    let cli_params = args.params.iter().map(|p| parse_param(p)).collect::<Result<Vec<_>>>()?;
+
+    let loaded = scene::load_scene(&args.scene)?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {}: {w}", args.scene.display());
+    }
+    let integrator_name = args.integrator.clone().unwrap_or_else(|| loaded.render.integrator.clone());
+    let entry = registry::find(&integrator_name)?;
+    // Scene parameters apply only to the scene's own integrator; the command line wins.
+    let mut given: Vec<(String, String)> = Vec::new();
+    if integrator_name == loaded.render.integrator {
+        given.extend(loaded.render.params.iter().map(|(k, v)| (k.clone(), format!("{v}"))));
+    }
+    given.extend(cli_params);
+    let params = entry.resolve(&given).map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
+    let integrator = (entry.build)(&params);
+    let spp = args.spp.unwrap_or(loaded.render.spp);
+    if spp == 0 {
+        bail!("{}: render.spp must be at least 1", args.scene.display());
+    }
+    let camera = match size {
+        Some((w, h)) => loaded.camera.with_resolution(w, h),
+        None => loaded.camera.clone(),
+    };
+
+    let built = RenderScene::build(&loaded);
+    let settings = RenderSettings {
+        spp,
+        seed: args.seed.unwrap_or(loaded.render.seed),
+        threads: args.threads,
+        progress: !args.quiet,
+    };
+    let (film, stats) = render::render(&built, &camera, integrator.as_ref(), &settings)?;
+    output::write_image(&output_path, &film, DisplaySettings { exposure: args.exposure, tonemap: args.tonemap })?;
+
+    if stats.dropped > 0 {
+        let first = stats.first_dropped.expect("a dropped sample was recorded");
+        eprintln!(
+            "warning: dropped {} non-finite sample(s); first at pixel ({}, {}) sample {}",
+            stats.dropped, first.x, first.y, first.sample
+        );
+    }
+    if !args.quiet {
+        let secs = stats.elapsed.as_secs_f64();
+        let mean = film.mean();
+        eprintln!(
+            "{}: {} {} | {}x{} {} spp | {:.2} s, {} threads | {:.3} M samples/s | {:.2} M rays/s (camera {}, extension {}, shadow {}) | mean radiance ({:.4}, {:.4}, {:.4}) | wrote {}",
+            args.scene.display(),
+            entry.name,
+            params.describe(entry.params),
+            camera.width,
+            camera.height,
+            spp,
+            secs,
+            stats.threads,
+            stats.samples_per_second() / 1e6,
+            stats.rays_per_second() / 1e6,
+            stats.rays.camera,
+            stats.rays.extension,
+            stats.rays.shadow,
+            mean.x,
+            mean.y,
+            mean.z,
+            output_path.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn validate(path: &Path) -> Result<ExitCode> {
+    let loaded = scene::load_scene(path)?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    let built = RenderScene::build(&loaded);
+    let s = &built.stats;
+    let (lo, hi) = raylab_integrators::Scene::bounds(&built);
+    println!("{}: ok", path.display());
+    println!("  entities   {}", s.entities);
+    println!("  materials  {}", loaded.material_names.len());
+    println!("  triangles  {}", s.triangles);
+    println!("  spheres    {}", s.spheres);
+    println!("  emitters   {} ({} light table entries)", s.emitters, s.lights);
+    println!("  camera     {}x{}", loaded.camera.width, loaded.camera.height);
+    println!(
+        "  bounds     ({:.3}, {:.3}, {:.3}) .. ({:.3}, {:.3}, {:.3})",
+        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+    );
+    println!("  bvh        {} nodes, built in {:.2} ms", s.bvh_nodes, s.build_time.as_secs_f64() * 1e3);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The text of `raylab integrators`.
+pub fn integrators_listing() -> String {
+    let mut out = String::new();
+    for e in registry::REGISTRY {
+        let _ = writeln!(out, "{}\n    {}", e.name, e.summary);
+        for p in e.params {
+            let kind = match p.kind {
+                ParamKind::Int => "int",
+                ParamKind::Float => "float",
+                ParamKind::Depth => "depth",
+            };
+            let _ = writeln!(out, "    -p {}=<{}>  (default {})  {}", p.name, kind, p.default_text(), p.doc);
+        }
+        out.push('\n');
+    }
+    out.push_str(raylab_integrators::DEPTH_CONVENTION);
+    out.push('\n');
+    out
+}
+

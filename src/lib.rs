@@ -1,0 +1,13 @@
+//! raylab: a physically based renderer for comparing light-transport algorithms.
+//!
+//! Data flows one way: `scene` (RON -> hecs world) -> `build` (SoA + BVH, implements the
+//! integrators' `Scene` trait) -> `render` (tile loop, film) -> `output` (EXR, PNG). The
+//! integrators live in the `raylab-integrators` crate and know none of these modules.
+
+pub mod build;
+pub mod cli;
+pub mod output;
+pub mod render;
+pub mod scene;
+
+pub use raylab_integrators as integrators;

@@ -1,0 +1,99 @@
+//! Writing images: EXR holds raw linear radiance, PNG exposure + tone curve + sRGB. Every
+//! file is written to a temporary file in the target folder and renamed into place, so a
+//! failure never leaves a partial file and an old file survives intact.
+
+pub mod tonemap;
+
+use crate::render::Film;
+use anyhow::{bail, Context, Result};
+use image::{ImageFormat, Rgb32FImage, RgbImage};
+use std::io::{BufWriter, Write};
+use std::path::Path;
+pub use tonemap::Tonemap;
+
+/// The image formats raylab writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    Png,
+    Exr,
+}
+
+/// How PNGs are made from radiance.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DisplaySettings {
+    /// Exposure in stops.
+    pub exposure: f32,
+    pub tonemap: Tonemap,
+}
+
+/// Checks an output path before rendering: a known extension and an existing, writable folder.
+pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
+    let format = match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) {
+        Some(e) if e == "png" => OutputFormat::Png,
+        Some(e) if e == "exr" => OutputFormat::Exr,
+        _ => bail!(
+            "{}: unknown output extension; use .png (tonemapped) or .exr (linear radiance)",
+            path.display()
+        ),
+    };
+    let dir = parent_dir(path);
+    if !dir.is_dir() {
+        bail!("{}: the output folder `{}` does not exist", path.display(), dir.display());
+    }
+    // Probe that we can create files there, without touching the target.
+    tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("{}: cannot write in the output folder `{}`", path.display(), dir.display()))?;
+    Ok(format)
+}
+
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<()>) -> Result<()> {
+    let mut tmp = tempfile::NamedTempFile::new_in(parent_dir(path))
+        .with_context(|| format!("{}: cannot create a temporary file beside it", path.display()))?;
+    {
+        let mut w = BufWriter::new(tmp.as_file_mut());
+        write(&mut w).with_context(|| format!("{}: cannot encode the image", path.display()))?;
+        w.flush().with_context(|| format!("{}: cannot write", path.display()))?;
+    }
+    tmp.as_file().sync_all().ok();
+    tmp.persist(path).map_err(|e| e.error).with_context(|| format!("{}: cannot move the image into place", path.display()))?;
+    Ok(())
+}
+
+/// The film as 8-bit sRGB after exposure and tone curve.
+pub fn to_srgb_image(film: &Film, display: DisplaySettings) -> RgbImage {
+    let mut data = Vec::with_capacity(film.pixels.len() * 3);
+    for p in &film.pixels {
+        data.extend_from_slice(&tonemap::to_srgb8(*p, display.exposure, display.tonemap));
+    }
+    RgbImage::from_raw(film.width, film.height, data).expect("buffer matches the film size")
+}
+
+/// Writes the film to `path` in the format its extension names.
+pub fn write_image(path: &Path, film: &Film, display: DisplaySettings) -> Result<()> {
+    let format = check_output_path(path)?;
+    match format {
+        OutputFormat::Exr => {
+            let data: Vec<f32> = film.pixels.iter().flat_map(|p| p.to_array()).collect();
+            let img = Rgb32FImage::from_raw(film.width, film.height, data).expect("buffer matches the film size");
+            write_atomic(path, |w| {
+                img.write_to(w, ImageFormat::OpenExr)?;
+                Ok(())
+            })
+        }
+        OutputFormat::Png => {
+            let img = to_srgb_image(film, display);
+            write_atomic(path, |w| {
+                img.write_to(w, ImageFormat::Png)?;
+                Ok(())
+            })
+        }
+    }
+}

@@ -1,0 +1,67 @@
+//! The film: per-pixel mean linear radiance (f32 RGB) and the variance of that mean.
+
+use glam::Vec3;
+
+/// An image of linear radiance with per-pixel variance estimates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    /// Mean radiance per pixel, row-major from the top-left corner.
+    pub pixels: Vec<Vec3>,
+    /// Variance of each pixel's mean (sample variance / sample count), per channel.
+    pub variance: Vec<Vec3>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Film {
+        let n = width as usize * height as usize;
+        Film { width, height, pixels: vec![Vec3::ZERO; n], variance: vec![Vec3::ZERO; n] }
+    }
+
+    /// Mean radiance over the whole image, per channel.
+    pub fn mean(&self) -> Vec3 {
+        let sum = self.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3());
+        (sum / self.pixels.len() as f64).as_vec3()
+    }
+
+    /// Standard error of [`Film::mean`], from the per-pixel variances.
+    pub fn mean_standard_error(&self) -> Vec3 {
+        let sum = self.variance.iter().fold(glam::DVec3::ZERO, |a, v| a + v.as_dvec3());
+        let n = self.pixels.len() as f64;
+        (sum / (n * n)).as_vec3().map(f32::sqrt)
+    }
+}
+
+/// Running sums for one pixel, in f64 so that thousands of samples add up exactly enough.
+#[derive(Clone, Copy, Default)]
+pub struct PixelAccumulator {
+    sum: glam::DVec3,
+    sum_sq: glam::DVec3,
+    count: u32,
+}
+
+impl PixelAccumulator {
+    #[inline]
+    pub fn add(&mut self, v: glam::Vec3A) {
+        let d = glam::DVec3::new(v.x as f64, v.y as f64, v.z as f64);
+        self.sum += d;
+        self.sum_sq += d * d;
+        self.count += 1;
+    }
+
+    /// Mean and variance of the mean over `n` samples (dropped samples count as zero).
+    pub fn finish(&self, n: u32) -> (Vec3, Vec3) {
+        if n == 0 {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let n = n as f64;
+        let mean = self.sum / n;
+        let var = if n > 1.0 {
+            ((self.sum_sq / n - mean * mean) * (n / (n - 1.0))).max(glam::DVec3::ZERO) / n
+        } else {
+            glam::DVec3::ZERO
+        };
+        (mean.as_vec3(), var.as_vec3())
+    }
+}

@@ -1,0 +1,83 @@
+//! ECS components of scene entities, and the resources that live beside the world.
+
+use glam::{Affine3A, EulerRot, Quat, Vec3, Vec3A};
+use raylab_integrators::Rgb;
+
+/// Display name of an entity (from the file, or `entity #N`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Name(pub String);
+
+/// Placement of an entity: scale, then rotation (degrees about x, then y, then z, fixed
+/// axes), then translation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub translate: Vec3,
+    pub rotate_degrees: Vec3,
+    pub scale: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform { translate: Vec3::ZERO, rotate_degrees: Vec3::ZERO, scale: Vec3::ONE }
+    }
+}
+
+impl Transform {
+    /// The local-to-world matrix.
+    pub fn matrix(&self) -> Affine3A {
+        let r = self.rotate_degrees;
+        // Extrinsic x, then y, then z  ==  R = Rz * Ry * Rx.
+        let rotation =
+            Quat::from_euler(EulerRot::ZYX, r.z.to_radians(), r.y.to_radians(), r.x.to_radians());
+        Affine3A::from_scale_rotation_translation(self.scale, rotation, self.translate)
+    }
+}
+
+/// Geometry in the entity's local space.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    Sphere { center: Vec3A, radius: f32 },
+    Triangle([Vec3A; 3]),
+    Quad([Vec3A; 4]),
+    Tetrahedron([Vec3A; 4]),
+    Box { min: Vec3A, max: Vec3A },
+    Mesh { positions: Vec<Vec3A>, indices: Vec<[u32; 3]>, normals: Option<Vec<Vec3A>> },
+}
+
+/// Index of the entity's material in the scene's material table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MaterialRef(pub u32);
+
+/// Light emission of an entity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Emitter {
+    /// Emits `radiance` from the front of the shape (both sides if `two_sided`).
+    Area { radiance: Rgb, two_sided: bool },
+    /// Isotropic point light at the entity's translation.
+    Point { intensity: Rgb },
+}
+
+/// World-space geometry, produced from `Shape` and `Transform` by the bake system.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WorldShape {
+    /// Triangles with optional per-vertex shading normals. `parallelogram` is set for quads
+    /// (corner, edge, edge), so an emitting quad is sampled as one light.
+    Triangles {
+        triangles: Vec<[Vec3A; 3]>,
+        normals: Option<Vec<[Vec3A; 3]>>,
+        parallelogram: Option<[Vec3A; 3]>,
+    },
+    Sphere { center: Vec3A, radius: f32 },
+}
+
+impl WorldShape {
+    /// Total surface area.
+    pub fn area(&self) -> f32 {
+        match self {
+            WorldShape::Triangles { triangles, .. } => {
+                triangles.iter().map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length()).sum()
+            }
+            WorldShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
+        }
+    }
+}

@@ -1,0 +1,295 @@
+//! Parsing a RON scene file and spawning its entities into a hecs world.
+
+use super::camera::Camera;
+use super::components::{Emitter, MaterialRef, Name, Shape, Transform};
+use super::error::{finite, SceneError};
+use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, SceneFile, ShapeDesc};
+use super::{systems, LoadedScene};
+use glam::{Vec3, Vec3A};
+use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
+use raylab_integrators::{Material, Rgb};
+use ron::extensions::Extensions;
+use std::path::Path;
+
+/// Largest image side accepted, and largest pixel count (the film alone would need 24 bytes
+/// per pixel more than this allows).
+pub const MAX_SIDE: u32 = 1 << 16;
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Reads, parses, spawns, validates and bakes a scene file.
+pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| SceneError::Read { path: path.to_path_buf(), source })?;
+    parse_scene(&text, path)
+}
+
+/// Parses scene text; `path` is used in messages and to resolve relative files.
+pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
+    let options = ron::Options::default().with_default_extension(Extensions::IMPLICIT_SOME);
+    let file: SceneFile = options.from_str(text).map_err(|e| SceneError::Parse {
+        path: path.to_path_buf(),
+        line: e.span.start.line,
+        col: e.span.start.col,
+        message: e.code.to_string(),
+    })?;
+    build_world(file, path)
+}
+
+fn v3(a: [f32; 3]) -> Vec3A {
+    Vec3A::from_array(a)
+}
+
+fn rgb(what: &str, a: [f32; 3]) -> Result<Rgb, String> {
+    finite(what, &a)?;
+    if a.iter().any(|c| *c < 0.0) {
+        return Err(format!("{what} must not be negative, got {a:?}"));
+    }
+    Ok(v3(a))
+}
+
+fn reflectance(what: &str, a: [f32; 3]) -> Result<Rgb, String> {
+    let c = rgb(what, a)?;
+    if c.max_element() > 1.0 {
+        return Err(format!("{what} must be in [0, 1] (a reflectance), got {a:?}"));
+    }
+    Ok(c)
+}
+
+/// Turns a material description into a material, checking its parameters.
+pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
+    Ok(match desc {
+        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert { albedo: reflectance("albedo", *albedo)? }),
+        MaterialDesc::OrenNayar { albedo, sigma } => {
+            finite("sigma", &[*sigma])?;
+            if !(0.0..=90.0).contains(sigma) {
+                return Err(format!("sigma is in degrees and must be in [0, 90], got {sigma}"));
+            }
+            Material::OrenNayar(OrenNayar::new(reflectance("albedo", *albedo)?, *sigma))
+        }
+        MaterialDesc::Phong { kd, ks, exponent } => {
+            let (kd, ks) = (reflectance("kd", *kd)?, reflectance("ks", *ks)?);
+            if (kd + ks).max_element() > 1.0 + 1e-6 {
+                return Err(format!(
+                    "kd + ks must be <= 1 per channel to conserve energy, got {:?}",
+                    (kd + ks).to_array()
+                ));
+            }
+            finite("exponent", &[*exponent])?;
+            if *exponent < 0.0 {
+                return Err(format!("exponent must be >= 0, got {exponent}"));
+            }
+            Material::Phong(Phong { kd, ks, exponent: *exponent })
+        }
+        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror { tint: reflectance("tint", *tint)? }),
+        MaterialDesc::Glass { ior, tint } => {
+            finite("ior", &[*ior])?;
+            if *ior < 1.0 || *ior > 4.0 {
+                return Err(format!("ior must be in [1, 4], got {ior}"));
+            }
+            Material::Glass(Glass { ior: *ior, tint: reflectance("tint", *tint)? })
+        }
+    })
+}
+
+fn check_resolution((w, h): (u32, u32)) -> Result<(), String> {
+    check_size(w, h)
+}
+
+/// Refuses image sizes that are zero or too large to allocate.
+pub fn check_size(w: u32, h: u32) -> Result<(), String> {
+    if w == 0 || h == 0 {
+        return Err(format!("resolution must be at least 1x1, got {w}x{h}"));
+    }
+    if w > MAX_SIDE || h > MAX_SIDE || (w as u64) * (h as u64) > MAX_PIXELS {
+        return Err(format!(
+            "resolution {w}x{h} is too large (at most {MAX_SIDE} pixels a side and {MAX_PIXELS} pixels)"
+        ));
+    }
+    Ok(())
+}
+
+fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
+    match desc {
+        CameraDesc::LookAt { eye, look_at, up, fov, resolution } => {
+            for (what, v) in [("eye", eye), ("look_at", look_at), ("up", up)] {
+                finite(what, v)?;
+            }
+            finite("fov", &[*fov])?;
+            check_resolution(*resolution)?;
+            if !(*fov > 0.0 && *fov < 180.0) {
+                return Err(format!("fov is the vertical field of view in degrees, in (0, 180); got {fov}"));
+            }
+            let forward = v3(*look_at) - v3(*eye);
+            if forward.length() < 1e-6 {
+                return Err("eye and look_at must differ".into());
+            }
+            if forward.normalize().cross(v3(*up).normalize_or_zero()).length() < 1e-4 {
+                return Err("up must not be zero or parallel to the view direction".into());
+            }
+            Ok(Camera::look_at(v3(*eye), v3(*look_at), v3(*up), *fov, *resolution))
+        }
+        CameraDesc::ImagePlane { eye, top_left, top_right, bottom_left, bottom_right, resolution } => {
+            for (what, v) in [
+                ("eye", eye),
+                ("top_left", top_left),
+                ("top_right", top_right),
+                ("bottom_left", bottom_left),
+                ("bottom_right", bottom_right),
+            ] {
+                finite(what, v)?;
+            }
+            check_resolution(*resolution)?;
+            let (tl, tr, bl, br) = (v3(*top_left), v3(*top_right), v3(*bottom_left), v3(*bottom_right));
+            let scale = (tr - tl).length().max((bl - tl).length());
+            if (tr - tl).cross(bl - tl).length() < 1e-8 * scale * scale || scale == 0.0 {
+                return Err("the image plane corners are degenerate".into());
+            }
+            if ((tr + bl) - (tl + br)).length() > 1e-4 * scale {
+                return Err("the four image plane corners must form a parallelogram".into());
+            }
+            let n = (tr - tl).cross(bl - tl);
+            if n.dot(tl - v3(*eye)).abs() < 1e-6 * scale * scale {
+                return Err("the eye must not lie in the image plane".into());
+            }
+            Ok(Camera::image_plane(v3(*eye), tl, tr, bl, *resolution))
+        }
+    }
+}
+
+/// Exactly `N` points, or an error naming the shape.
+fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A; N], String> {
+    let points: Vec<Vec3A> = vertices.iter().copied().map(v3).collect();
+    points
+        .try_into()
+        .map_err(|_| format!("a {shape} needs exactly {N} vertices, got {}", vertices.len()))
+}
+
+fn shape_from_desc(desc: ShapeDesc) -> Result<Shape, String> {
+    Ok(match desc {
+        ShapeDesc::Sphere { center, radius } => Shape::Sphere { center: v3(center), radius },
+        ShapeDesc::Triangle { vertices } => Shape::Triangle(corners("Triangle", &vertices)?),
+        ShapeDesc::Quad { vertices } => Shape::Quad(corners("Quad", &vertices)?),
+        ShapeDesc::Tetrahedron { vertices } => Shape::Tetrahedron(corners("Tetrahedron", &vertices)?),
+        ShapeDesc::Box { min, max } => Shape::Box { min: v3(min), max: v3(max) },
+        ShapeDesc::Mesh { positions, indices, normals } => Shape::Mesh {
+            positions: positions.into_iter().map(v3).collect(),
+            indices,
+            normals: normals.map(|n| n.into_iter().map(v3).collect()),
+        },
+    })
+}
+
+fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> {
+    let path_buf = path.to_path_buf();
+
+    // Materials: the table entities refer to by name.
+    let mut materials = Vec::with_capacity(file.materials.0.len() + 1);
+    let mut material_names = Vec::with_capacity(file.materials.0.len());
+    for (name, desc) in &file.materials.0 {
+        let m = material_from_desc(desc).map_err(|message| SceneError::Material {
+            path: path_buf.clone(),
+            material: name.clone(),
+            message,
+        })?;
+        materials.push(m);
+        material_names.push(name.clone());
+    }
+
+    let camera = camera_from_desc(&file.camera)
+        .map_err(|message| SceneError::Camera { path: path_buf.clone(), message })?;
+
+    let environment = match file.environment {
+        Some(e) => Some(rgb("environment", e).map_err(|message| SceneError::Scene { path: path_buf.clone(), message })?),
+        None => None,
+    };
+
+    if file.entities.is_empty() {
+        return Err(SceneError::Scene { path: path_buf, message: "the scene has no entities".into() });
+    }
+
+    // Spawn: one entity per object, with the components it has.
+    let mut world = hecs::World::new();
+    let mut black: Option<u32> = None;
+    for (index, e) in file.entities.into_iter().enumerate() {
+        let name = e.name.unwrap_or_else(|| format!("entity #{index}"));
+        let entity_error = |message: String| SceneError::Entity {
+            path: path_buf.clone(),
+            entity: name.clone(),
+            message,
+        };
+        let t = &e.transform;
+        let transform = Transform {
+            translate: Vec3::from_array(t.translate),
+            rotate_degrees: Vec3::from_array(t.rotate),
+            scale: Vec3::from_array(t.scale),
+        };
+        let material = match (&e.material, &e.shape, &e.emitter) {
+            (Some(m), _, _) => match material_names.iter().position(|n| n == m) {
+                Some(i) => Some(MaterialRef(i as u32)),
+                None => {
+                    let known = if material_names.is_empty() {
+                        "the scene defines no materials".to_string()
+                    } else {
+                        format!("defined materials: {}", material_names.join(", "))
+                    };
+                    return Err(entity_error(format!("unknown material `{m}`; {known}")));
+                }
+            },
+            (None, Some(_), Some(EmitterDesc::Area { .. })) => {
+                // A pure emitter reflects nothing.
+                let id = *black.get_or_insert_with(|| {
+                    materials.push(Material::Lambert(Lambert { albedo: Rgb::ZERO }));
+                    (materials.len() - 1) as u32
+                });
+                Some(MaterialRef(id))
+            }
+            (None, Some(_), _) => {
+                return Err(entity_error("has a shape but no material".into()));
+            }
+            (None, None, _) => None,
+        };
+        let emitter = e.emitter.map(|d| match d {
+            EmitterDesc::Area { radiance, two_sided } => {
+                Emitter::Area { radiance: v3(radiance), two_sided }
+            }
+            EmitterDesc::Point { intensity } => Emitter::Point { intensity: v3(intensity) },
+        });
+        let shape = e.shape.map(shape_from_desc).transpose().map_err(&entity_error)?;
+        let entity = world.spawn((Name(name), transform));
+        if let Some(shape) = shape {
+            world.insert_one(entity, shape).expect("entity was just spawned");
+        }
+        if let Some(m) = material {
+            world.insert_one(entity, m).expect("entity was just spawned");
+        }
+        if let Some(em) = emitter {
+            world.insert_one(entity, em).expect("entity was just spawned");
+        }
+    }
+
+    // Systems: validate, then bake transforms into world-space geometry.
+    systems::validate(&world).map_err(|(entity, message)| SceneError::Entity {
+        path: path_buf.clone(),
+        entity,
+        message,
+    })?;
+    let warnings = systems::bake_transforms(&mut world).map_err(|(entity, message)| SceneError::Entity {
+        path: path_buf.clone(),
+        entity,
+        message,
+    })?;
+    if !world.query::<&super::components::WorldShape>().iter().any(|_| true) {
+        return Err(SceneError::Scene { path: path_buf, message: "the scene has no geometry (no entity with a shape)".into() });
+    }
+
+    Ok(LoadedScene {
+        path: path_buf,
+        world,
+        camera,
+        render: file.render,
+        materials,
+        material_names,
+        environment,
+        warnings,
+    })
+}

@@ -1,0 +1,33 @@
+//! Scenes: the RON schema, loading into a hecs world, and the ECS systems.
+
+pub mod camera;
+pub mod components;
+pub mod error;
+pub mod load;
+pub mod schema;
+pub mod systems;
+
+pub use camera::Camera;
+pub use error::SceneError;
+pub use load::{load_scene, parse_scene};
+
+use raylab_integrators::{Material, Rgb};
+use std::path::PathBuf;
+
+/// A loaded scene: the ECS world of entities and the resources beside it.
+pub struct LoadedScene {
+    /// The file it came from (for messages and relative paths).
+    pub path: PathBuf,
+    /// One entity per object, with `Name`, `Transform` and optionally `Shape`, `MaterialRef`,
+    /// `Emitter`; after loading, shaped entities also carry their baked `WorldShape`.
+    pub world: hecs::World,
+    pub camera: Camera,
+    pub render: schema::RenderDesc,
+    /// The material table (file order; a black material may be appended for pure emitters).
+    pub materials: Vec<Material>,
+    pub material_names: Vec<String>,
+    /// Constant environment radiance, if any.
+    pub environment: Option<Rgb>,
+    /// Non-fatal problems found while loading (e.g. dropped degenerate triangles).
+    pub warnings: Vec<String>,
+}

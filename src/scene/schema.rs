@@ -1,0 +1,256 @@
+//! The RON scene format: what a scene file may say, with defaults for everything optional.
+//!
+//! Every struct rejects unknown fields. `Option` fields may be written bare (the
+//! `implicit_some` extension is on), so `emitter: Area(radiance: (1, 1, 1))` works.
+//! See `scenes/README.md` for a guide with examples.
+
+use serde::de::{self, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer};
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// A 3-vector as written in RON: `(x, y, z)`.
+pub type V3 = [f32; 3];
+
+/// A whole scene file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// The camera (required).
+    pub camera: CameraDesc,
+    /// Defaults for `raylab render`; command-line flags override them.
+    #[serde(default)]
+    pub render: RenderDesc,
+    /// Named materials that entities refer to. Default: none.
+    #[serde(default)]
+    pub materials: MaterialTable,
+    /// Constant radiance arriving from every direction that escapes the scene (an environment
+    /// emitter). Default: none (black).
+    #[serde(default)]
+    pub environment: Option<V3>,
+    /// The objects of the scene (required, may not be empty).
+    pub entities: Vec<EntityDesc>,
+}
+
+/// A pinhole camera.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum CameraDesc {
+    /// Looks from `eye` towards `look_at`; `fov` is the vertical field of view in degrees.
+    LookAt {
+        eye: V3,
+        look_at: V3,
+        /// Up direction. Default: `(0, 0, 1)` (z up, as in the report's room).
+        #[serde(default = "z_up")]
+        up: V3,
+        fov: f32,
+        /// Image size in pixels. Default: `(400, 400)`.
+        #[serde(default = "default_resolution")]
+        resolution: (u32, u32),
+    },
+    /// The report's camera: an eye point and the four corners of the image plane, which must
+    /// form a parallelogram.
+    ImagePlane {
+        eye: V3,
+        top_left: V3,
+        top_right: V3,
+        bottom_left: V3,
+        bottom_right: V3,
+        /// Image size in pixels. Default: `(400, 400)`.
+        #[serde(default = "default_resolution")]
+        resolution: (u32, u32),
+    },
+}
+
+fn z_up() -> V3 {
+    [0.0, 0.0, 1.0]
+}
+
+fn default_resolution() -> (u32, u32) {
+    (400, 400)
+}
+
+/// Render defaults.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderDesc {
+    /// Integrator name. Default: `"path"`.
+    #[serde(default = "default_integrator")]
+    pub integrator: String,
+    /// Samples per pixel. Default: 16.
+    #[serde(default = "default_spp")]
+    pub spp: u32,
+    /// Random seed. Default: 0.
+    #[serde(default)]
+    pub seed: u64,
+    /// Integrator parameters, e.g. `{"max-depth": 8}` (`inf` for unlimited). Default: none.
+    #[serde(default)]
+    pub params: BTreeMap<String, f64>,
+}
+
+impl Default for RenderDesc {
+    fn default() -> Self {
+        RenderDesc {
+            integrator: default_integrator(),
+            spp: default_spp(),
+            seed: 0,
+            params: BTreeMap::new(),
+        }
+    }
+}
+
+fn default_integrator() -> String {
+    "path".to_string()
+}
+
+fn default_spp() -> u32 {
+    16
+}
+
+/// A material model with its parameters. Colours are linear RGB reflectances in `[0, 1]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum MaterialDesc {
+    /// Ideal diffuse reflector.
+    Lambert { albedo: V3 },
+    /// Rough diffuse reflector; `sigma` is the facet slope deviation in DEGREES (0 = Lambert).
+    OrenNayar { albedo: V3, sigma: f32 },
+    /// Energy-conserving Phong: diffuse `kd` plus a glossy lobe `ks` of `exponent`;
+    /// `kd + ks <= 1` per channel.
+    Phong { kd: V3, ks: V3, exponent: f32 },
+    /// Perfect mirror. Default tint: `(1, 1, 1)`.
+    Mirror {
+        #[serde(default = "white")]
+        tint: V3,
+    },
+    /// Smooth dielectric. Defaults: `ior: 1.5`, `tint: (1, 1, 1)`.
+    Glass {
+        #[serde(default = "glass_ior")]
+        ior: f32,
+        #[serde(default = "white")]
+        tint: V3,
+    },
+}
+
+fn white() -> V3 {
+    [1.0; 3]
+}
+
+fn glass_ior() -> f32 {
+    1.5
+}
+
+/// The named materials, in file order. Rejects a name given twice.
+#[derive(Debug, Default)]
+pub struct MaterialTable(pub Vec<(String, MaterialDesc)>);
+
+impl<'de> Deserialize<'de> for MaterialTable {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct TableVisitor;
+        impl<'de> Visitor<'de> for TableVisitor {
+            type Value = MaterialTable;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a map from material names to materials")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+                let mut out: Vec<(String, MaterialDesc)> = Vec::new();
+                while let Some(name) = map.next_key::<String>()? {
+                    if out.iter().any(|(n, _)| *n == name) {
+                        return Err(de::Error::custom(format!("duplicate material name `{name}`")));
+                    }
+                    let material = map.next_value::<MaterialDesc>()?;
+                    out.push((name, material));
+                }
+                Ok(MaterialTable(out))
+            }
+        }
+        deserializer.deserialize_map(TableVisitor)
+    }
+}
+
+/// One object of the scene.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EntityDesc {
+    /// Name used in messages. Default: `entity #N` (N counts from 0 in file order).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Placement. Default: identity.
+    #[serde(default)]
+    pub transform: TransformDesc,
+    /// Geometry in the entity's local space. Default: none (only a point light may lack it).
+    #[serde(default)]
+    pub shape: Option<ShapeDesc>,
+    /// Name of a material in `materials`. Required for shapes, except pure area emitters,
+    /// which default to black.
+    #[serde(default)]
+    pub material: Option<String>,
+    /// Light emission. Default: none.
+    #[serde(default)]
+    pub emitter: Option<EmitterDesc>,
+}
+
+/// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDesc {
+    /// Default: `(0, 0, 0)`.
+    #[serde(default)]
+    pub translate: V3,
+    /// Degrees. Default: `(0, 0, 0)`.
+    #[serde(default)]
+    pub rotate: V3,
+    /// Default: `(1, 1, 1)`. Every component must be positive.
+    #[serde(default = "white")]
+    pub scale: V3,
+}
+
+impl Default for TransformDesc {
+    fn default() -> Self {
+        TransformDesc { translate: [0.0; 3], rotate: [0.0; 3], scale: [1.0; 3] }
+    }
+}
+
+/// Geometry in local space.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ShapeDesc {
+    /// Sphere (analytic). Default centre: origin. Needs a uniform scale.
+    Sphere {
+        #[serde(default)]
+        center: V3,
+        radius: f32,
+    },
+    /// One triangle, `vertices: [a, b, c]`; its front (for one-sided emitters) is where the vertices run
+    /// counter-clockwise.
+    Triangle { vertices: Vec<V3> },
+    /// A parallelogram given by its 4 corners in order (counter-clockwise seen from the front).
+    Quad { vertices: Vec<V3> },
+    /// Four corners; faces are oriented outwards automatically.
+    Tetrahedron { vertices: Vec<V3> },
+    /// Axis-aligned box in local space, faces oriented outwards.
+    Box { min: V3, max: V3 },
+    /// Triangle mesh: vertex positions, triangles as index triples, optional per-vertex normals
+    /// for smooth shading.
+    Mesh {
+        positions: Vec<V3>,
+        indices: Vec<[u32; 3]>,
+        #[serde(default)]
+        normals: Option<Vec<V3>>,
+    },
+}
+
+/// Light emission attached to an entity.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum EmitterDesc {
+    /// Emits `radiance` (W sr^-1 m^-2 per channel) from the shape's front side, or both sides.
+    Area {
+        radiance: V3,
+        /// Default: false.
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Isotropic point light of `intensity` (W/sr per channel) at the entity's translation.
+    Point { intensity: V3 },
+}

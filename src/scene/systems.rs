@@ -1,0 +1,313 @@
+//! ECS systems: plain functions over queries of the scene world.
+//!
+//! * [`validate`] checks every component and names the entity at fault;
+//! * [`bake_transforms`] turns `Shape` + `Transform` into world-space `WorldShape`;
+//! * [`collect_emitters`] gathers the lights the emitting entities define.
+//!
+//! Queries visit entities in archetype order; every system sorts by entity id so that results
+//! (and therefore images) never depend on it.
+
+use super::components::{Emitter, Name, Shape, Transform, WorldShape};
+use super::error::finite;
+use glam::{Affine3A, Mat3A, Vec3A};
+use hecs::{Entity, World};
+use raylab_integrators::Light;
+
+/// An error message with the name of the entity it is about.
+pub type EntityError = (String, String);
+
+/// Checks every entity's components: finite numbers, positive sizes and scales, shapes that
+/// make sense, emitters with non-negative radiance on the right kind of entity.
+pub fn validate(world: &World) -> Result<(), EntityError> {
+    let mut entities: Vec<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)> = Vec::new();
+    let mut query = world.query::<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)>();
+    for (e, name, t, shape, emitter) in query.iter() {
+        entities.push((e, name, t, shape, emitter));
+    }
+    entities.sort_by_key(|(e, ..)| e.id());
+    for (_, name, transform, shape, emitter) in entities {
+        let fail = |m: String| (name.0.clone(), m);
+        validate_transform(transform).map_err(fail)?;
+        if let Some(shape) = shape {
+            validate_shape(shape, transform).map_err(fail)?;
+        }
+        match (emitter, shape) {
+            (Some(Emitter::Area { radiance, .. }), s) => {
+                check_radiance("radiance", *radiance).map_err(fail)?;
+                if s.is_none() {
+                    return Err(fail("an area emitter needs a shape (use `Point` for a point light)".into()));
+                }
+            }
+            (Some(Emitter::Point { intensity }), s) => {
+                check_radiance("intensity", *intensity).map_err(fail)?;
+                if s.is_some() {
+                    return Err(fail(
+                        "a point light has no shape: put it on an entity of its own without `shape`".into(),
+                    ));
+                }
+            }
+            (None, None) => {
+                return Err(fail("has neither a shape nor an emitter".into()));
+            }
+            (None, Some(_)) => {}
+        }
+    }
+    Ok(())
+}
+
+fn check_radiance(what: &str, c: Vec3A) -> Result<(), String> {
+    finite(what, &c.to_array())?;
+    if c.min_element() < 0.0 {
+        return Err(format!("{what} must not be negative, got {:?}", c.to_array()));
+    }
+    Ok(())
+}
+
+fn validate_transform(t: &Transform) -> Result<(), String> {
+    finite("transform.translate", &t.translate.to_array())?;
+    finite("transform.rotate", &t.rotate_degrees.to_array())?;
+    finite("transform.scale", &t.scale.to_array())?;
+    if t.scale.min_element() <= 0.0 {
+        return Err(format!("transform.scale must be positive, got {:?}", t.scale.to_array()));
+    }
+    Ok(())
+}
+
+fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
+    let all = |what: &str, pts: &[Vec3A]| -> Result<(), String> {
+        if pts.iter().all(|p| p.is_finite()) {
+            Ok(())
+        } else {
+            Err(format!("{what} must be finite"))
+        }
+    };
+    match shape {
+        Shape::Sphere { center, radius } => {
+            all("sphere center", &[*center])?;
+            finite("sphere radius", &[*radius])?;
+            if *radius <= 0.0 {
+                return Err(format!("sphere radius must be positive, got {radius}"));
+            }
+            let s = t.scale;
+            if (s.x - s.y).abs() > 1e-6 * s.x || (s.x - s.z).abs() > 1e-6 * s.x {
+                return Err(format!("a sphere needs a uniform scale, got {:?}", s.to_array()));
+            }
+        }
+        Shape::Triangle(v) => all("triangle vertices", v)?,
+        Shape::Tetrahedron(v) => all("tetrahedron vertices", v)?,
+        Shape::Quad(v) => {
+            all("quad vertices", v)?;
+            let size = (v[1] - v[0]).length().max((v[3] - v[0]).length());
+            if ((v[0] + v[2]) - (v[1] + v[3])).length() > 1e-4 * size {
+                return Err("quad vertices must form a parallelogram, in order around it \
+                            (use `Mesh` for other polygons)"
+                    .into());
+            }
+        }
+        Shape::Box { min, max } => {
+            all("box corners", &[*min, *max])?;
+            if (*max - *min).min_element() <= 0.0 {
+                return Err(format!(
+                    "box max must exceed min on every axis, got min {:?} max {:?}",
+                    min.to_array(),
+                    max.to_array()
+                ));
+            }
+        }
+        Shape::Mesh { positions, indices, normals } => {
+            all("mesh positions", positions)?;
+            if indices.is_empty() {
+                return Err("mesh has no triangles".into());
+            }
+            if let Some((i, tri)) = indices.iter().enumerate().find(|(_, t)| t.iter().any(|&k| k as usize >= positions.len())) {
+                return Err(format!(
+                    "mesh triangle {i} has index {:?} out of range (the mesh has {} positions)",
+                    tri,
+                    positions.len()
+                ));
+            }
+            if let Some(n) = normals {
+                all("mesh normals", n)?;
+                if n.len() != positions.len() {
+                    return Err(format!("mesh has {} normals for {} positions", n.len(), positions.len()));
+                }
+                if n.iter().any(|v| v.length_squared() == 0.0) {
+                    return Err("mesh normals must not be zero".into());
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Local-space triangles of a shape, with outward (or right-handed) winding.
+fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
+    match shape {
+        Shape::Sphere { .. } => Vec::new(),
+        Shape::Triangle(v) => vec![*v],
+        Shape::Quad(v) => vec![[v[0], v[1], v[2]], [v[0], v[2], v[3]]],
+        Shape::Tetrahedron(v) => {
+            let faces = [[0, 1, 2, 3], [0, 1, 3, 2], [0, 2, 3, 1], [1, 2, 3, 0]];
+            faces
+                .iter()
+                .map(|&[a, b, c, opposite]| {
+                    let (a, b, c, d) = (v[a], v[b], v[c], v[opposite]);
+                    // Orient so the normal points away from the opposite vertex.
+                    if (b - a).cross(c - a).dot(d - a) > 0.0 {
+                        [a, c, b]
+                    } else {
+                        [a, b, c]
+                    }
+                })
+                .collect()
+        }
+        Shape::Box { min, max } => {
+            let c = |x: usize, y: usize, z: usize| {
+                Vec3A::new(
+                    if x == 0 { min.x } else { max.x },
+                    if y == 0 { min.y } else { max.y },
+                    if z == 0 { min.z } else { max.z },
+                )
+            };
+            // Each face as a counter-clockwise quad seen from outside.
+            let faces = [
+                [c(0, 0, 0), c(0, 0, 1), c(0, 1, 1), c(0, 1, 0)], // -x
+                [c(1, 0, 0), c(1, 1, 0), c(1, 1, 1), c(1, 0, 1)], // +x
+                [c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)], // -y
+                [c(0, 1, 0), c(0, 1, 1), c(1, 1, 1), c(1, 1, 0)], // +y
+                [c(0, 0, 0), c(0, 1, 0), c(1, 1, 0), c(1, 0, 0)], // -z
+                [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)], // +z
+            ];
+            faces.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect()
+        }
+        Shape::Mesh { positions, indices, .. } => indices
+            .iter()
+            .map(|t| [positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]])
+            .collect(),
+    }
+}
+
+/// True if a world-space triangle has (numerically) no area and could never be hit reliably.
+pub fn is_degenerate(t: &[Vec3A; 3]) -> bool {
+    let e1 = t[1] - t[0];
+    let e2 = t[2] - t[0];
+    let scale = e1.length_squared().max(e2.length_squared());
+    let cross = e1.cross(e2).length_squared();
+    !(cross > 1e-12 * scale * scale) || !cross.is_finite()
+}
+
+/// Computes every shaped entity's world-space geometry and inserts it as a [`WorldShape`].
+/// Degenerate triangles are dropped with a warning (returned); an emitter left without
+/// area is an error.
+pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
+    let mut warnings = Vec::new();
+    let mut baked: Vec<(Entity, WorldShape)> = Vec::new();
+    {
+        let mut query = world.query::<(Entity, &Name, &Transform, &Shape, Option<&Emitter>)>();
+        let mut items: Vec<_> = query.iter().collect();
+        items.sort_by_key(|(e, ..)| e.id());
+        for (entity, name, transform, shape, emitter) in items {
+            let m = transform.matrix();
+            let world_shape = bake_shape(shape, &m);
+            if let WorldShape::Triangles { triangles, normals, parallelogram } = world_shape {
+                let before = triangles.len();
+                let keep: Vec<bool> = triangles.iter().map(|t| !is_degenerate(t)).collect();
+                let normals = normals.map(|n| {
+                    n.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(n, _)| n).collect::<Vec<_>>()
+                });
+                let triangles: Vec<_> =
+                    triangles.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(t, _)| t).collect();
+                if triangles.len() < before {
+                    warnings.push(format!(
+                        "entity `{}`: dropped {} degenerate triangle(s) of {before}",
+                        name.0,
+                        before - triangles.len()
+                    ));
+                }
+                if triangles.is_empty() {
+                    if matches!(emitter, Some(Emitter::Area { .. })) {
+                        return Err((name.0.clone(), "emitter has zero area".into()));
+                    }
+                    warnings.push(format!("entity `{}`: no triangles left; ignored", name.0));
+                    continue;
+                }
+                let parallelogram = if triangles.len() == before { parallelogram } else { None };
+                baked.push((entity, WorldShape::Triangles { triangles, normals, parallelogram }));
+            } else {
+                baked.push((entity, world_shape));
+            }
+        }
+    }
+    for (entity, shape) in baked {
+        world.insert_one(entity, shape).expect("baked entity exists");
+    }
+    Ok(warnings)
+}
+
+/// The world-space geometry of one shape under matrix `m`.
+pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
+    match shape {
+        Shape::Sphere { center, radius } => WorldShape::Sphere {
+            center: m.transform_point3a(*center),
+            radius: radius * m.matrix3.x_axis.length(),
+        },
+        _ => {
+            let triangles: Vec<[Vec3A; 3]> =
+                local_triangles(shape).iter().map(|t| t.map(|p| m.transform_point3a(p))).collect();
+            let normals = match shape {
+                Shape::Mesh { normals: Some(n), indices, .. } => {
+                    let nm: Mat3A = m.matrix3.inverse().transpose();
+                    Some(
+                        indices
+                            .iter()
+                            .map(|t| t.map(|k| (nm * n[k as usize]).normalize_or_zero()))
+                            .collect(),
+                    )
+                }
+                _ => None,
+            };
+            let parallelogram = match shape {
+                Shape::Quad(v) => {
+                    let w = v.map(|p| m.transform_point3a(p));
+                    Some([w[0], w[1] - w[0], w[3] - w[0]])
+                }
+                _ => None,
+            };
+            WorldShape::Triangles { triangles, normals, parallelogram }
+        }
+    }
+}
+
+/// The lights of every emitting entity, in entity order: one per sphere, one per emitting quad
+/// (a parallelogram), one per triangle otherwise, one per point light.
+pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
+    let mut query = world.query::<(Entity, &Emitter, &Transform, Option<&WorldShape>)>();
+    let mut out: Vec<(Entity, Vec<Light>)> = query
+        .iter()
+        .filter_map(|(entity, emitter, transform, shape)| {
+            let lights = match (*emitter, shape) {
+                (Emitter::Point { intensity }, _) => {
+                    vec![Light::Point { position: transform.translate.into(), intensity }]
+                }
+                (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
+                    vec![Light::Sphere { center: *center, radius: *radius, radiance }]
+                }
+                (Emitter::Area { radiance, two_sided }, Some(WorldShape::Triangles { triangles, parallelogram, .. })) => {
+                    match parallelogram {
+                        Some([p0, e1, e2]) => vec![Light::parallelogram(*p0, *e1, *e2, radiance, two_sided)],
+                        None => triangles
+                            .iter()
+                            .map(|t| Light::triangle(t[0], t[1], t[2], radiance, two_sided))
+                            .collect(),
+                    }
+                }
+                // Validation guarantees area emitters have shapes; a shape dropped by the bake
+                // step (all triangles degenerate) was already reported.
+                (Emitter::Area { .. }, None) => return None,
+            };
+            Some((entity, lights))
+        })
+        .collect();
+    out.sort_by_key(|(e, _)| e.id());
+    out
+}
