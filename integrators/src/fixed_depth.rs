@@ -22,7 +22,8 @@ use glam::{Vec2, Vec3A};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "fixed-depth",
-    summary: "the report's tracer: branching hemisphere rays, fixed depth, NxN shadow rays per light",
+    summary:
+        "the report's tracer: branching hemisphere rays, fixed depth, NxN shadow rays per light",
     params: &[
         ParamSpec {
             name: "depth",
@@ -66,16 +67,30 @@ struct FixedDepth {
 
 impl FixedDepth {
     /// Direct light at `hit` from every light, `shadow_grid^2` stratified samples each.
-    fn direct(&self, hit: &Hit, frame: &Frame, wo: Vec3A, material: &Material, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn direct(
+        &self,
+        hit: &Hit,
+        frame: &Frame,
+        wo: Vec3A,
+        material: &Material,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+    ) -> Rgb {
         let mut l = Rgb::ZERO;
         let lights = tracer.scene.lights();
         for light in lights.lights() {
-            let n = if matches!(light, Light::Point { .. }) { 1 } else { self.shadow_grid };
+            let n = if matches!(light, Light::Point { .. }) {
+                1
+            } else {
+                self.shadow_grid
+            };
             let mut sum = Rgb::ZERO;
             for j in 0..n {
                 for i in 0..n {
                     let u = (Vec2::new(i as f32, j as f32) + sampler.next_2d()) / n as f32;
-                    let Some(ls) = light.sample_li(hit.p, u) else { continue };
+                    let Some(ls) = light.sample_li(hit.p, u) else {
+                        continue;
+                    };
                     let wi = frame.to_local(ls.wi);
                     let f = material.eval(wo, wi);
                     if f == Rgb::ZERO || ls.pdf <= 0.0 {
@@ -93,9 +108,21 @@ impl FixedDepth {
 
     /// Radiance along `ray` arriving from `hit`, after `bounces` scattering events.
     /// `count_emission` is false when direct-light sampling already counted this emitter.
-    fn shade(&self, ray: &Ray, hit: &Hit, bounces: u32, count_emission: bool, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn shade(
+        &self,
+        ray: &Ray,
+        hit: &Hit,
+        bounces: u32,
+        count_emission: bool,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+    ) -> Rgb {
         // Emission seen directly or through specular surfaces.
-        let mut l = if count_emission { emitted_at(tracer.scene, hit, ray) } else { Rgb::ZERO };
+        let mut l = if count_emission {
+            emitted_at(tracer.scene, hit, ray)
+        } else {
+            Rgb::ZERO
+        };
         if bounces >= self.depth {
             return l;
         }
@@ -124,11 +151,14 @@ impl FixedDepth {
         if bounces + 2 <= self.depth && self.branching > 0 {
             let mut sum = Rgb::ZERO;
             for _ in 0..self.branching {
-                let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else { continue };
+                let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
+                    continue;
+                };
                 let next = hit.spawn_ray(frame.to_world(bs.wi));
                 // Misses carry no light here: the environment was sampled as direct light.
                 if let Some(h) = tracer.extend(&next) {
-                    sum += bs.weight() * self.shade(&next, &h, bounces + 1, bs.specular, tracer, sampler);
+                    sum += bs.weight()
+                        * self.shade(&next, &h, bounces + 1, bs.specular, tracer, sampler);
                 }
             }
             l += sum / self.branching as f32;
@@ -158,11 +188,29 @@ mod tests {
     #[test]
     fn furnace_gives_the_truncated_series() {
         for (a, depth) in [(0.5, 1), (0.5, 2), (0.8, 3)] {
-            let scene = furnace_box(a, 1.0);
+            let scene = furnace_sphere(a, 1.0);
             let d = depth.to_string();
-            let params = [("depth", d.as_str()), ("branching", "4"), ("shadow-grid", "2")];
-            expect_mean("fixed-depth", &params, &scene, truncated(a, 1.0, depth), 1500);
+            // Every one of the furnace's 320 triangles is a light: keep the grid at 1x1.
+            let params = [
+                ("depth", d.as_str()),
+                ("branching", "2"),
+                ("shadow-grid", "1"),
+            ];
+            expect_mean(
+                "fixed-depth",
+                &params,
+                &scene,
+                truncated(a, 1.0, depth),
+                600,
+            );
         }
+    }
+
+    #[test]
+    fn stratified_shadow_grid_is_unbiased() {
+        // Direct light only, 3x3 strata per light: Le (1 + a).
+        let params = [("depth", "1"), ("shadow-grid", "3")];
+        expect_mean("fixed-depth", &params, &furnace_sphere(0.5, 1.0), 1.5, 100);
     }
 
     #[test]

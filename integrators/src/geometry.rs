@@ -12,7 +12,11 @@ pub struct Ray {
 
 impl Ray {
     pub fn new(origin: Vec3A, dir: Vec3A) -> Self {
-        Ray { origin, dir, tmax: f32::INFINITY }
+        Ray {
+            origin,
+            dir,
+            tmax: f32::INFINITY,
+        }
     }
 
     pub fn at(&self, t: f32) -> Vec3A {
@@ -67,7 +71,11 @@ impl Hit {
         let origin = self.offset_origin(d);
         let to = target - origin;
         let dist = to.length();
-        Ray { origin, dir: to / dist, tmax: dist * (1.0 - 1e-4) }
+        Ray {
+            origin,
+            dir: to / dist,
+            tmax: dist * (1.0 - 1e-4),
+        }
     }
 
     /// The shading frame at the hit.
@@ -143,6 +151,9 @@ mod tests {
         let r = hit.spawn_ray_to(Vec3A::new(0.0, 0.0, 2.0));
         assert!(r.origin.z > 0.0 && r.tmax < 2.0 && r.tmax > 1.99);
         let below = hit.spawn_ray(-Vec3A::Z);
-        assert!(below.origin.z < 0.0, "transmitted rays leave from the far side");
+        assert!(
+            below.origin.z < 0.0,
+            "transmitted rays leave from the far side"
+        );
     }
 }

@@ -32,7 +32,10 @@ pub struct Tracer<'a> {
 
 impl<'a> Tracer<'a> {
     pub fn new(scene: &'a dyn Scene) -> Self {
-        Tracer { scene, counters: RayCounters::default() }
+        Tracer {
+            scene,
+            counters: RayCounters::default(),
+        }
     }
 
     /// Traces a primary ray from the camera.
@@ -94,7 +97,10 @@ pub fn escaped(scene: &dyn Scene, ray: &Ray) -> Rgb {
 /// mirror its one reflection, for glass the Fresnel-weighted reflection and refraction (either
 /// may be missing: no refraction under total internal reflection). Whitted-style tracers
 /// follow every lobe instead of choosing one at random.
-pub fn specular_lobes(material: &crate::Material, wo: glam::Vec3A) -> [Option<(glam::Vec3A, Rgb)>; 2] {
+pub fn specular_lobes(
+    material: &crate::Material,
+    wo: glam::Vec3A,
+) -> [Option<(glam::Vec3A, Rgb)>; 2] {
     let lobe = |u: f32| {
         material
             .sample(wo, u, glam::Vec2::ZERO)
@@ -102,7 +108,8 @@ pub fn specular_lobes(material: &crate::Material, wo: glam::Vec3A) -> [Option<(g
             .map(|s| (s.wi, s.f * s.wi.z.abs()))
     };
     let first = lobe(0.0);
-    let second = lobe(1.0 - f32::EPSILON).filter(|(wi, _)| first.is_none_or(|(w, _)| (w - *wi).length_squared() > 1e-12));
+    let second = lobe(1.0 - f32::EPSILON)
+        .filter(|(wi, _)| first.is_none_or(|(w, _)| (w - *wi).length_squared() > 1e-12));
     [first, second]
 }
 
@@ -148,7 +155,13 @@ pub fn sample_one_light(
 
 /// MIS weight of emission found by a BSDF-sampled ray (density `bsdf_pdf`) leaving `from`
 /// and arriving at `hit` (or escaping, when `hit` is `None`), against [`sample_one_light`].
-pub fn mis_weight_for_hit(scene: &dyn Scene, from: glam::Vec3A, ray: &Ray, hit: Option<&Hit>, bsdf_pdf: f32) -> f32 {
+pub fn mis_weight_for_hit(
+    scene: &dyn Scene,
+    from: glam::Vec3A,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    bsdf_pdf: f32,
+) -> f32 {
     let lights = scene.lights();
     let light_pdf = match hit {
         Some(h) => match h.light {

@@ -11,7 +11,9 @@
 //! **Parameters**: `max-depth` (default unlimited), `rr-depth` (default 3).
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
-use crate::integrator::{emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light, Integrator, Tracer};
+use crate::integrator::{
+    emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light, Integrator, Tracer,
+};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
 use glam::Vec3A;
@@ -57,12 +59,20 @@ impl Integrator for PathTracer {
         let mut bounces = 0u32;
         loop {
             // Trace the next segment.
-            let hit = if bounces == 0 { tracer.camera(&ray) } else { tracer.extend(&ray) };
+            let hit = if bounces == 0 {
+                tracer.camera(&ray)
+            } else {
+                tracer.extend(&ray)
+            };
             let Some(hit) = hit else {
                 // Escaped: environment light, MIS-weighted unless seen through specular.
                 let le = escaped(tracer.scene, &ray);
                 if le != Rgb::ZERO {
-                    let w = if specular { 1.0 } else { mis_weight_for_hit(tracer.scene, prev_p, &ray, None, prev_pdf) };
+                    let w = if specular {
+                        1.0
+                    } else {
+                        mis_weight_for_hit(tracer.scene, prev_p, &ray, None, prev_pdf)
+                    };
                     l += beta * le * w;
                 }
                 break;
@@ -71,7 +81,11 @@ impl Integrator for PathTracer {
             if hit.light.is_some() {
                 let le = emitted_at(tracer.scene, &hit, &ray);
                 if le != Rgb::ZERO {
-                    let w = if specular { 1.0 } else { mis_weight_for_hit(tracer.scene, prev_p, &ray, Some(&hit), prev_pdf) };
+                    let w = if specular {
+                        1.0
+                    } else {
+                        mis_weight_for_hit(tracer.scene, prev_p, &ray, Some(&hit), prev_pdf)
+                    };
                     l += beta * le * w;
                 }
             }
@@ -86,7 +100,9 @@ impl Integrator for PathTracer {
                 l += beta * sample_one_light(&hit, &frame, wo, material, true, tracer, sampler);
             }
             // BSDF sampling for the next segment.
-            let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else { break };
+            let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
+                break;
+            };
             beta *= bs.weight();
             specular = bs.specular;
             prev_pdf = bs.pdf;
@@ -112,14 +128,20 @@ mod tests {
     #[test]
     fn furnace_converges_to_le_over_one_minus_albedo() {
         for (a, expected) in [(0.5, 2.0), (0.8, 5.0)] {
-            expect_mean("path", &[], &furnace_box(a, 1.0), expected, 20000);
+            expect_mean("path", &[], &furnace_sphere(a, 1.0), expected, 20000);
         }
     }
 
     #[test]
     fn furnace_truncated_by_max_depth() {
         // Depth 2: Le (1 + a + a^2).
-        expect_mean("path", &[("max-depth", "2")], &furnace_box(0.5, 1.0), 1.75, 8000);
+        expect_mean(
+            "path",
+            &[("max-depth", "2")],
+            &furnace_sphere(0.5, 1.0),
+            1.75,
+            8000,
+        );
     }
 
     #[test]

@@ -36,11 +36,14 @@ impl ParamSpec {
     fn parse(&self, text: &str) -> Result<f64, String> {
         let t = text.trim();
         let value = if self.kind == ParamKind::Depth
-            && matches!(t.to_ascii_lowercase().as_str(), "unlimited" | "inf" | "infinite")
-        {
+            && matches!(
+                t.to_ascii_lowercase().as_str(),
+                "unlimited" | "inf" | "infinite"
+            ) {
             f64::INFINITY
         } else {
-            t.parse::<f64>().map_err(|_| format!("`{t}` is not a number"))?
+            t.parse::<f64>()
+                .map_err(|_| format!("`{t}` is not a number"))?
         };
         if value.is_nan() || (value.is_infinite() && self.kind != ParamKind::Depth) {
             return Err(format!("`{t}` is not a finite number"));
@@ -121,9 +124,19 @@ pub struct IntegratorEntry {
 /// What is wrong with an integrator name or parameter.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ParamError {
-    UnknownIntegrator { name: String },
-    UnknownParam { integrator: &'static str, name: String, valid: Vec<&'static str> },
-    BadValue { integrator: &'static str, name: String, reason: String },
+    UnknownIntegrator {
+        name: String,
+    },
+    UnknownParam {
+        integrator: &'static str,
+        name: String,
+        valid: Vec<&'static str>,
+    },
+    BadValue {
+        integrator: &'static str,
+        name: String,
+        reason: String,
+    },
 }
 
 impl fmt::Display for ParamError {
@@ -132,11 +145,22 @@ impl fmt::Display for ParamError {
             ParamError::UnknownIntegrator { name } => write!(
                 f,
                 "unknown integrator `{name}`; valid integrators: {}",
-                REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")
+                REGISTRY
+                    .iter()
+                    .map(|e| e.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
-            ParamError::UnknownParam { integrator, name, valid } => {
+            ParamError::UnknownParam {
+                integrator,
+                name,
+                valid,
+            } => {
                 if valid.is_empty() {
-                    write!(f, "integrator `{integrator}` takes no parameters, got `{name}`")
+                    write!(
+                        f,
+                        "integrator `{integrator}` takes no parameters, got `{name}`"
+                    )
                 } else {
                     write!(
                         f,
@@ -145,8 +169,15 @@ impl fmt::Display for ParamError {
                     )
                 }
             }
-            ParamError::BadValue { integrator, name, reason } => {
-                write!(f, "parameter `{name}` of integrator `{integrator}`: {reason}")
+            ParamError::BadValue {
+                integrator,
+                name,
+                reason,
+            } => {
+                write!(
+                    f,
+                    "parameter `{name}` of integrator `{integrator}`: {reason}"
+                )
             }
         }
     }
@@ -161,24 +192,32 @@ impl IntegratorEntry {
         let mut values: Vec<(&'static str, f64)> =
             self.params.iter().map(|p| (p.name, p.default)).collect();
         for (name, text) in given {
-            let idx = self.params.iter().position(|p| p.name == name).ok_or_else(|| {
-                ParamError::UnknownParam {
+            let idx = self
+                .params
+                .iter()
+                .position(|p| p.name == name)
+                .ok_or_else(|| ParamError::UnknownParam {
                     integrator: self.name,
                     name: name.clone(),
                     valid: self.params.iter().map(|p| p.name).collect(),
-                }
-            })?;
-            values[idx].1 = self.params[idx].parse(text).map_err(|reason| ParamError::BadValue {
-                integrator: self.name,
-                name: name.clone(),
-                reason,
-            })?;
+                })?;
+            values[idx].1 =
+                self.params[idx]
+                    .parse(text)
+                    .map_err(|reason| ParamError::BadValue {
+                        integrator: self.name,
+                        name: name.clone(),
+                        reason,
+                    })?;
         }
         Ok(Params { values })
     }
 
     /// Resolves the parameters and builds the integrator.
-    pub fn instantiate(&self, given: &[(String, String)]) -> Result<Box<dyn Integrator>, ParamError> {
+    pub fn instantiate(
+        &self,
+        given: &[(String, String)],
+    ) -> Result<Box<dyn Integrator>, ParamError> {
         Ok((self.build)(&self.resolve(given)?))
     }
 }
@@ -199,7 +238,9 @@ pub fn find(name: &str) -> Result<&'static IntegratorEntry, ParamError> {
     REGISTRY
         .iter()
         .find(|e| e.name == name)
-        .ok_or_else(|| ParamError::UnknownIntegrator { name: name.to_string() })
+        .ok_or_else(|| ParamError::UnknownIntegrator {
+            name: name.to_string(),
+        })
 }
 
 #[cfg(test)]
@@ -207,17 +248,29 @@ mod tests {
     use super::*;
 
     fn given(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
-        pairs.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect()
+        pairs
+            .iter()
+            .map(|(a, b)| (a.to_string(), b.to_string()))
+            .collect()
     }
 
     #[test]
     fn names_are_unique_and_every_entry_builds_with_defaults() {
         for (i, e) in REGISTRY.iter().enumerate() {
-            assert!(REGISTRY[i + 1..].iter().all(|o| o.name != e.name), "duplicate {}", e.name);
+            assert!(
+                REGISTRY[i + 1..].iter().all(|o| o.name != e.name),
+                "duplicate {}",
+                e.name
+            );
             assert!(!e.summary.is_empty());
             e.instantiate(&[]).unwrap();
             for p in e.params {
-                assert!(p.default >= p.min && p.default <= p.max, "{}.{}", e.name, p.name);
+                assert!(
+                    p.default >= p.min && p.default <= p.max,
+                    "{}.{}",
+                    e.name,
+                    p.name
+                );
             }
         }
     }
@@ -225,16 +278,24 @@ mod tests {
     #[test]
     fn unknown_names_list_the_valid_ones() {
         let err = find("pathh").err().unwrap().to_string();
-        assert!(err.contains("unknown integrator `pathh`") && err.contains("path"), "{err}");
+        assert!(
+            err.contains("unknown integrator `pathh`") && err.contains("path"),
+            "{err}"
+        );
         let path = find("path").unwrap();
-        let err = path.resolve(&given(&[("maxdepth", "3")])).unwrap_err().to_string();
+        let err = path
+            .resolve(&given(&[("maxdepth", "3")]))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("max-depth"), "{err}");
     }
 
     #[test]
     fn values_are_checked_and_later_values_win() {
         let path = find("path").unwrap();
-        let p = path.resolve(&given(&[("max-depth", "3"), ("max-depth", "5")])).unwrap();
+        let p = path
+            .resolve(&given(&[("max-depth", "3"), ("max-depth", "5")]))
+            .unwrap();
         assert_eq!(p.get_depth("max-depth"), 5);
         let p = path.resolve(&given(&[("max-depth", "unlimited")])).unwrap();
         assert_eq!(p.get_depth("max-depth"), u32::MAX);

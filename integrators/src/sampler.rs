@@ -24,7 +24,9 @@ impl Sampler {
     /// The generator for sample `sample` of pixel `pixel` under `seed`.
     pub fn new(seed: u64, pixel: u64, sample: u64) -> Self {
         let key = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15) ^ mix64(sample)));
-        Sampler { rng: SmallRng::seed_from_u64(key) }
+        Sampler {
+            rng: SmallRng::seed_from_u64(key),
+        }
     }
 
     /// A uniform number in `[0, 1)`.
@@ -47,14 +49,18 @@ mod tests {
 
     #[test]
     fn same_key_same_stream_and_different_keys_differ() {
-        let a: Vec<f32> = (0..8).map({
-            let mut s = Sampler::new(1, 2, 3);
-            move |_| s.next_1d()
-        }).collect();
-        let b: Vec<f32> = (0..8).map({
-            let mut s = Sampler::new(1, 2, 3);
-            move |_| s.next_1d()
-        }).collect();
+        let a: Vec<f32> = (0..8)
+            .map({
+                let mut s = Sampler::new(1, 2, 3);
+                move |_| s.next_1d()
+            })
+            .collect();
+        let b: Vec<f32> = (0..8)
+            .map({
+                let mut s = Sampler::new(1, 2, 3);
+                move |_| s.next_1d()
+            })
+            .collect();
         assert_eq!(a, b);
         let mut other = Sampler::new(1, 3, 2);
         assert_ne!(a[0], other.next_1d());

@@ -64,17 +64,28 @@ pub struct RenderScene {
 
 /// One primitive before reordering.
 enum Prim {
-    Tri { v: [Vec3A; 3], normals: Option<[Vec3A; 3]>, material: u32, light: u32 },
-    Sphere { center: Vec3A, radius: f32, material: u32, light: u32 },
+    Tri {
+        v: [Vec3A; 3],
+        normals: Option<[Vec3A; 3]>,
+        material: u32,
+        light: u32,
+    },
+    Sphere {
+        center: Vec3A,
+        radius: f32,
+        material: u32,
+        light: u32,
+    },
 }
 
 impl Prim {
     fn aabb(&self) -> Aabb {
         match self {
             Prim::Tri { v, .. } => Aabb::from_points(v),
-            Prim::Sphere { center, radius, .. } => {
-                Aabb::new(*center - Vec3A::splat(*radius), *center + Vec3A::splat(*radius))
-            }
+            Prim::Sphere { center, radius, .. } => Aabb::new(
+                *center - Vec3A::splat(*radius),
+                *center + Vec3A::splat(*radius),
+            ),
         }
     }
 }
@@ -117,7 +128,9 @@ impl RenderScene {
                     material: material.0,
                     light: light_for(0),
                 }),
-                WorldShape::Triangles { triangles, normals, .. } => {
+                WorldShape::Triangles {
+                    triangles, normals, ..
+                } => {
                     for (i, v) in triangles.iter().enumerate() {
                         prims.push(Prim::Tri {
                             v: *v,
@@ -142,7 +155,11 @@ impl RenderScene {
 
         // BVH over every primitive's box; then lay the arrays out in the BVH's order.
         let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
-        let bvh = build_cwbvh(&aabbs, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh = build_cwbvh(
+            &aabbs,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
         let mut out = RenderScene {
             prims: Vec::with_capacity(prims.len()),
             tri: Vec::new(),
@@ -169,9 +186,18 @@ impl RenderScene {
         };
         for &original in &out.bvh.primitive_indices {
             match &prims[original as usize] {
-                Prim::Tri { v, normals, material, light } => {
+                Prim::Tri {
+                    v,
+                    normals,
+                    material,
+                    light,
+                } => {
                     out.prims.push(out.tri.len() as u32);
-                    let t = Triangle { v0: v[0], v1: v[1], v2: v[2] };
+                    let t = Triangle {
+                        v0: v[0],
+                        v1: v[1],
+                        v2: v[2],
+                    };
                     out.tri_normal.push(t.compute_normal());
                     out.tri.push(t);
                     out.tri_material.push(*material);
@@ -184,7 +210,12 @@ impl RenderScene {
                         None => out.tri_smooth.push(NONE),
                     }
                 }
-                Prim::Sphere { center, radius, material, light } => {
+                Prim::Sphere {
+                    center,
+                    radius,
+                    material,
+                    light,
+                } => {
                     out.prims.push(SPHERE_BIT | out.sph_center.len() as u32);
                     out.sph_center.push(*center);
                     out.sph_radius.push(*radius);
@@ -277,7 +308,10 @@ impl Scene for RenderScene {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
         let mut hit = RayHit::none();
-        if self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| self.intersect_slot(r, slot)) {
+        if self
+            .bvh
+            .ray_traverse(bvh_ray, &mut hit, |r, slot| self.intersect_slot(r, slot))
+        {
             Some(self.hit_record(ray, hit.primitive_id as usize, hit.t))
         } else {
             None
@@ -286,7 +320,9 @@ impl Scene for RenderScene {
 
     fn occluded(&self, ray: &Ray) -> bool {
         match Self::to_bvh_ray(ray) {
-            Some(r) => !self.bvh.ray_traverse_miss(r, |r, slot| self.intersect_slot(r, slot)),
+            Some(r) => !self
+                .bvh
+                .ray_traverse_miss(r, |r, slot| self.intersect_slot(r, slot)),
             None => false,
         }
     }
@@ -306,7 +342,9 @@ impl Scene for RenderScene {
 
 /// Names of the entities that emit, for reports.
 pub fn emitter_names(scene: &LoadedScene) -> Vec<String> {
-    let mut q = scene.world.query::<(Entity, &Name, &crate::scene::components::Emitter)>();
+    let mut q = scene
+        .world
+        .query::<(Entity, &Name, &crate::scene::components::Emitter)>();
     let mut v: Vec<_> = q.iter().map(|(e, n, _)| (e.id(), n.0.clone())).collect();
     v.sort();
     v.into_iter().map(|(_, n)| n).collect()

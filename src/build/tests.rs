@@ -1,0 +1,148 @@
+//! The build step against brute force: thousands of random rays, closest hit and occlusion.
+
+use super::*;
+use crate::scene::parse_scene;
+use glam::Vec3A;
+use raylab_integrators::{Ray, Sampler, Scene};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// A scene of random triangles (one mesh) and spheres, as RON text.
+fn random_scene(triangles: usize, spheres: usize, seed: u64) -> String {
+    let mut s = Sampler::new(seed, 0, 0);
+    let mut r = |scale: f32| (s.next_1d() * 2.0 - 1.0) * scale;
+    let mut positions = String::new();
+    let mut indices = String::new();
+    for i in 0..triangles {
+        let c = Vec3A::new(r(4.0), r(4.0), r(4.0));
+        for _ in 0..3 {
+            let p = c + Vec3A::new(r(0.6), r(0.6), r(0.6));
+            let _ = write!(positions, "({}, {}, {}),", p.x, p.y, p.z);
+        }
+        let _ = write!(indices, "({}, {}, {}),", 3 * i, 3 * i + 1, 3 * i + 2);
+    }
+    let mut entities = format!(
+        r#"(name: "soup", shape: Mesh(positions: [{positions}], indices: [{indices}]), material: "m"),"#
+    );
+    for i in 0..spheres {
+        let _ = write!(
+            entities,
+            r#"(name: "s{i}", transform: (translate: ({}, {}, {})), shape: Sphere(radius: {}), material: "m", emitter: Area(radiance: (1, 1, 1))),"#,
+            r(4.0),
+            r(4.0),
+            r(4.0),
+            0.1 + r(0.4).abs()
+        );
+    }
+    format!(
+        "(camera: LookAt(eye: (0, 0, 10), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40),
+          materials: {{\"m\": Lambert(albedo: (0.5, 0.5, 0.5))}}, entities: [{entities}])"
+    )
+}
+
+/// Brute-force closest hit over the baked world geometry: distance and position.
+fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec3A)> {
+    let mut best: Option<(f32, Vec3A)> = None;
+    let obvhs_ray = obvhs::ray::Ray::new(ray.origin, ray.dir, 0.0, ray.tmax);
+    for shape in scene.world.query::<&WorldShape>().iter() {
+        let ts: Vec<f32> = match shape {
+            WorldShape::Sphere { center, radius } => {
+                vec![primitives::intersect_sphere(*center, *radius, &obvhs_ray)]
+            }
+            WorldShape::Triangles { triangles, .. } => triangles
+                .iter()
+                .map(|t| {
+                    Triangle {
+                        v0: t[0],
+                        v1: t[1],
+                        v2: t[2],
+                    }
+                    .intersect(&obvhs_ray)
+                })
+                .collect(),
+        };
+        for t in ts {
+            if t.is_finite() && best.is_none_or(|(b, _)| t < b) {
+                best = Some((t, ray.at(t)));
+            }
+        }
+    }
+    best
+}
+
+#[test]
+fn bvh_closest_hit_and_occlusion_match_brute_force() {
+    let loaded = parse_scene(&random_scene(3000, 40, 7), Path::new("random.ron")).unwrap();
+    let scene = RenderScene::build(&loaded);
+    let baked_triangles: usize = loaded
+        .world
+        .query::<&WorldShape>()
+        .iter()
+        .map(|s| match s {
+            WorldShape::Triangles { triangles, .. } => triangles.len(),
+            WorldShape::Sphere { .. } => 0,
+        })
+        .sum();
+    assert_eq!(
+        (scene.stats.triangles, scene.stats.spheres),
+        (baked_triangles, 40)
+    );
+    let mut sampler = Sampler::new(99, 0, 0);
+    let (mut hits, mut occluded) = (0, 0);
+    for i in 0..5000 {
+        let origin =
+            Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 12.0 - 6.0;
+        let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
+        let tmax = if i % 2 == 0 {
+            f32::INFINITY
+        } else {
+            sampler.next_1d() * 6.0
+        };
+        let ray = Ray { origin, dir, tmax };
+        let expected = brute_force(&loaded, &ray);
+        let got = scene.intersect(&ray);
+        match (expected, got) {
+            (None, None) => {}
+            (Some((t, p)), Some(h)) => {
+                hits += 1;
+                assert!(
+                    (t - h.t).abs() <= 1e-4 * t.max(1.0),
+                    "ray {i}: t {t} vs {}",
+                    h.t
+                );
+                assert!((p - h.p).length() <= 1e-3, "ray {i}: point {p} vs {}", h.p);
+                assert!((h.ng.length() - 1.0).abs() < 1e-4);
+            }
+            (e, g) => panic!("ray {i}: brute force {e:?}, bvh {:?}", g.map(|h| h.t)),
+        }
+        let blocked = scene.occluded(&ray);
+        assert_eq!(blocked, expected.is_some(), "ray {i}: occlusion disagrees");
+        occluded += blocked as u32;
+    }
+    // The test must exercise both outcomes a fair number of times.
+    assert!(hits > 1000 && hits < 4500, "hits {hits}");
+    assert!(occluded > 1000);
+}
+
+#[test]
+fn every_primitive_keeps_its_material_and_light_after_reordering() {
+    let loaded = parse_scene(&random_scene(200, 10, 3), Path::new("random.ron")).unwrap();
+    let scene = RenderScene::build(&loaded);
+    // Triangles are not emitters, spheres are, each its own light.
+    assert!(scene.tri_light.iter().all(|l| *l == NONE));
+    let mut sphere_lights: Vec<u32> = scene.sph_light.clone();
+    sphere_lights.sort();
+    assert_eq!(sphere_lights, (0..10).collect::<Vec<u32>>());
+    for (i, light) in scene.sph_light.iter().enumerate() {
+        match scene.lights.get(*light) {
+            Light::Sphere { center, radius, .. } => {
+                assert_eq!(
+                    (*center, *radius),
+                    (scene.sph_center[i], scene.sph_radius[i])
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    assert_eq!(scene.prims.len(), 210);
+}

@@ -10,7 +10,11 @@ use std::process::ExitCode;
 use crate::output::Tonemap;
 
 #[derive(Parser, Debug)]
-#[command(name = "raylab", version, about = "A physically based renderer for comparing light-transport algorithms")]
+#[command(
+    name = "raylab",
+    version,
+    about = "A physically based renderer for comparing light-transport algorithms"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -71,7 +75,11 @@ pub fn main() -> ExitCode {
         Ok(c) => c,
         Err(e) => {
             let _ = e.print();
-            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
         }
     };
     match run(cli) {

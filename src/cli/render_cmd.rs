@@ -17,7 +17,9 @@ fn parse_size(text: &str) -> Result<(u32, u32)> {
         .split_once(['x', 'X'])
         .ok_or_else(|| anyhow!("--size `{text}`: expected WIDTHxHEIGHT, e.g. 400x400"))?;
     let parse = |s: &str| {
-        s.trim().parse::<u32>().map_err(|_| anyhow!("--size `{text}`: `{s}` is not a whole number"))
+        s.trim()
+            .parse::<u32>()
+            .map_err(|_| anyhow!("--size `{text}`: `{s}` is not a whole number"))
     };
     let (w, h) = (parse(w)?, parse(h)?);
     check_size(w, h).map_err(|e| anyhow!("--size: {e}"))?;
@@ -33,13 +35,19 @@ fn parse_param(text: &str) -> Result<(String, String)> {
 }
 
 fn default_output(scene: &Path) -> PathBuf {
-    let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "render".into());
+    let stem = scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
     PathBuf::from(format!("{stem}.png"))
 }
 
 pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     // Check everything cheap before loading and rendering.
-    let output_path = args.output.clone().unwrap_or_else(|| default_output(&args.scene));
+    let output_path = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.scene));
     output::check_output_path(&output_path)?;
     if args.spp == Some(0) {
         bail!("--spp must be at least 1");
@@ -51,21 +59,36 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         bail!("--exposure must be finite");
     }
     let size = args.size.as_deref().map(parse_size).transpose()?;
-    let cli_params = args.params.iter().map(|p| parse_param(p)).collect::<Result<Vec<_>>>()?;
+    let cli_params = args
+        .params
+        .iter()
+        .map(|p| parse_param(p))
+        .collect::<Result<Vec<_>>>()?;
 
     let loaded = scene::load_scene(&args.scene)?;
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    let integrator_name = args.integrator.clone().unwrap_or_else(|| loaded.render.integrator.clone());
+    let integrator_name = args
+        .integrator
+        .clone()
+        .unwrap_or_else(|| loaded.render.integrator.clone());
     let entry = registry::find(&integrator_name)?;
     // Scene parameters apply only to the scene's own integrator; the command line wins.
     let mut given: Vec<(String, String)> = Vec::new();
     if integrator_name == loaded.render.integrator {
-        given.extend(loaded.render.params.iter().map(|(k, v)| (k.clone(), format!("{v}"))));
+        given.extend(
+            loaded
+                .render
+                .params
+                .iter()
+                .map(|(k, v)| (k.clone(), format!("{v}"))),
+        );
     }
     given.extend(cli_params);
-    let params = entry.resolve(&given).map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
+    let params = entry
+        .resolve(&given)
+        .map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
     let integrator = (entry.build)(&params);
     let spp = args.spp.unwrap_or(loaded.render.spp);
     if spp == 0 {
@@ -84,7 +107,14 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         progress: !args.quiet,
     };
     let (film, stats) = render::render(&built, &camera, integrator.as_ref(), &settings)?;
-    output::write_image(&output_path, &film, DisplaySettings { exposure: args.exposure, tonemap: args.tonemap })?;
+    output::write_image(
+        &output_path,
+        &film,
+        DisplaySettings {
+            exposure: args.exposure,
+            tonemap: args.tonemap,
+        },
+    )?;
 
     if stats.dropped > 0 {
         let first = stats.first_dropped.expect("a dropped sample was recorded");
@@ -133,13 +163,23 @@ pub fn validate(path: &Path) -> Result<ExitCode> {
     println!("  materials  {}", loaded.material_names.len());
     println!("  triangles  {}", s.triangles);
     println!("  spheres    {}", s.spheres);
-    println!("  emitters   {} ({} light table entries)", s.emitters, s.lights);
-    println!("  camera     {}x{}", loaded.camera.width, loaded.camera.height);
+    println!(
+        "  emitters   {} ({} light table entries)",
+        s.emitters, s.lights
+    );
+    println!(
+        "  camera     {}x{}",
+        loaded.camera.width, loaded.camera.height
+    );
     println!(
         "  bounds     ({:.3}, {:.3}, {:.3}) .. ({:.3}, {:.3}, {:.3})",
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
     );
-    println!("  bvh        {} nodes, built in {:.2} ms", s.bvh_nodes, s.build_time.as_secs_f64() * 1e3);
+    println!(
+        "  bvh        {} nodes, built in {:.2} ms",
+        s.bvh_nodes,
+        s.build_time.as_secs_f64() * 1e3
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -154,7 +194,14 @@ pub fn integrators_listing() -> String {
                 ParamKind::Float => "float",
                 ParamKind::Depth => "depth",
             };
-            let _ = writeln!(out, "    -p {}=<{}>  (default {})  {}", p.name, kind, p.default_text(), p.doc);
+            let _ = writeln!(
+                out,
+                "    -p {}=<{}>  (default {})  {}",
+                p.name,
+                kind,
+                p.default_text(),
+                p.doc
+            );
         }
         out.push('\n');
     }
@@ -162,4 +209,3 @@ pub fn integrators_listing() -> String {
     out.push('\n');
     out
 }
-

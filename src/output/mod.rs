@@ -28,7 +28,11 @@ pub struct DisplaySettings {
 
 /// Checks an output path before rendering: a known extension and an existing, writable folder.
 pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
-    let format = match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) {
+    let format = match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+    {
         Some(e) if e == "png" => OutputFormat::Png,
         Some(e) if e == "exr" => OutputFormat::Exr,
         _ => bail!(
@@ -38,11 +42,20 @@ pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
     };
     let dir = parent_dir(path);
     if !dir.is_dir() {
-        bail!("{}: the output folder `{}` does not exist", path.display(), dir.display());
+        bail!(
+            "{}: the output folder `{}` does not exist",
+            path.display(),
+            dir.display()
+        );
     }
     // Probe that we can create files there, without touching the target.
-    tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("{}: cannot write in the output folder `{}`", path.display(), dir.display()))?;
+    tempfile::NamedTempFile::new_in(dir).with_context(|| {
+        format!(
+            "{}: cannot write in the output folder `{}`",
+            path.display(),
+            dir.display()
+        )
+    })?;
     Ok(format)
 }
 
@@ -54,16 +67,26 @@ fn parent_dir(path: &Path) -> &Path {
 }
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
-fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<()>) -> Result<()> {
-    let mut tmp = tempfile::NamedTempFile::new_in(parent_dir(path))
-        .with_context(|| format!("{}: cannot create a temporary file beside it", path.display()))?;
+fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<()>,
+) -> Result<()> {
+    let mut tmp = tempfile::NamedTempFile::new_in(parent_dir(path)).with_context(|| {
+        format!(
+            "{}: cannot create a temporary file beside it",
+            path.display()
+        )
+    })?;
     {
         let mut w = BufWriter::new(tmp.as_file_mut());
         write(&mut w).with_context(|| format!("{}: cannot encode the image", path.display()))?;
-        w.flush().with_context(|| format!("{}: cannot write", path.display()))?;
+        w.flush()
+            .with_context(|| format!("{}: cannot write", path.display()))?;
     }
     tmp.as_file().sync_all().ok();
-    tmp.persist(path).map_err(|e| e.error).with_context(|| format!("{}: cannot move the image into place", path.display()))?;
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("{}: cannot move the image into place", path.display()))?;
     Ok(())
 }
 
@@ -82,7 +105,8 @@ pub fn write_image(path: &Path, film: &Film, display: DisplaySettings) -> Result
     match format {
         OutputFormat::Exr => {
             let data: Vec<f32> = film.pixels.iter().flat_map(|p| p.to_array()).collect();
-            let img = Rgb32FImage::from_raw(film.width, film.height, data).expect("buffer matches the film size");
+            let img = Rgb32FImage::from_raw(film.width, film.height, data)
+                .expect("buffer matches the film size");
             write_atomic(path, |w| {
                 img.write_to(w, ImageFormat::OpenExr)?;
                 Ok(())

@@ -73,12 +73,18 @@ mod tests {
     fn srgb_known_values_and_exposure() {
         assert_eq!(to_srgb8(Vec3::ZERO, 0.0, Tonemap::Clamp), [0, 0, 0]);
         assert_eq!(to_srgb8(Vec3::ONE, 0.0, Tonemap::Clamp), [255, 255, 255]);
-        // Linear 0.214 is sRGB ~0.5 (128).
-        assert_eq!(to_srgb8(Vec3::splat(0.214), 0.0, Tonemap::Clamp)[0], 128);
-        // +1 EV doubles: 0.107 * 2 = 0.214.
-        assert_eq!(to_srgb8(Vec3::splat(0.107), 1.0, Tonemap::Clamp)[0], 128);
+        // Linear 0.5 is sRGB 0.7354 (188).
+        assert_eq!(to_srgb8(Vec3::splat(0.5), 0.0, Tonemap::Clamp)[0], 188);
+        // +1 EV doubles: 0.25 * 2 = 0.5.
+        assert_eq!(to_srgb8(Vec3::splat(0.25), 1.0, Tonemap::Clamp)[0], 188);
         // A lamp far above 1 stays white, never black.
-        assert_eq!(to_srgb8(Vec3::splat(1e4), 0.0, Tonemap::Aces), [255, 255, 255]);
-        assert_eq!(to_srgb8(Vec3::splat(f32::NAN), 0.0, Tonemap::Clamp), [0, 0, 0]);
+        assert_eq!(
+            to_srgb8(Vec3::splat(1e4), 0.0, Tonemap::Aces),
+            [255, 255, 255]
+        );
+        assert_eq!(
+            to_srgb8(Vec3::splat(f32::NAN), 0.0, Tonemap::Clamp),
+            [0, 0, 0]
+        );
     }
 }

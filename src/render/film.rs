@@ -16,18 +16,29 @@ pub struct Film {
 impl Film {
     pub fn new(width: u32, height: u32) -> Film {
         let n = width as usize * height as usize;
-        Film { width, height, pixels: vec![Vec3::ZERO; n], variance: vec![Vec3::ZERO; n] }
+        Film {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; n],
+            variance: vec![Vec3::ZERO; n],
+        }
     }
 
     /// Mean radiance over the whole image, per channel.
     pub fn mean(&self) -> Vec3 {
-        let sum = self.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3());
+        let sum = self
+            .pixels
+            .iter()
+            .fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3());
         (sum / self.pixels.len() as f64).as_vec3()
     }
 
     /// Standard error of [`Film::mean`], from the per-pixel variances.
     pub fn mean_standard_error(&self) -> Vec3 {
-        let sum = self.variance.iter().fold(glam::DVec3::ZERO, |a, v| a + v.as_dvec3());
+        let sum = self
+            .variance
+            .iter()
+            .fold(glam::DVec3::ZERO, |a, v| a + v.as_dvec3());
         let n = self.pixels.len() as f64;
         (sum / (n * n)).as_vec3().map(f32::sqrt)
     }

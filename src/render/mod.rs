@@ -13,8 +13,8 @@ use crate::scene::Camera;
 use film::PixelAccumulator;
 use glam::Vec2;
 use indicatif::{ProgressBar, ProgressStyle};
-use rayon::prelude::*;
 use raylab_integrators::{Integrator, RayCounters, Sampler, Scene, Tracer};
+use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 /// Tile side in pixels.
@@ -117,7 +117,16 @@ fn render_tile(
             pixels.push(acc.finish(settings.spp));
         }
     }
-    TileResult { x0, y0, w, h, pixels, rays: tracer.counters, dropped, first_dropped }
+    TileResult {
+        x0,
+        y0,
+        w,
+        h,
+        pixels,
+        rays: tracer.counters,
+        dropped,
+        first_dropped,
+    }
 }
 
 /// Renders `scene` through `camera` with `integrator`.
@@ -133,9 +142,11 @@ pub fn render(
     let progress = if settings.progress {
         let bar = ProgressBar::new(tiles.len() as u64);
         bar.set_style(
-            ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
-                .expect("valid template")
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
         );
         bar
     } else {
@@ -184,7 +195,11 @@ pub fn render(
         stats.dropped += t.dropped;
         // The first in raster order, whatever the tile order.
         stats.first_dropped = match (stats.first_dropped, t.first_dropped) {
-            (Some(a), Some(b)) => Some(if (b.y, b.x, b.sample) < (a.y, a.x, a.sample) { b } else { a }),
+            (Some(a), Some(b)) => Some(if (b.y, b.x, b.sample) < (a.y, a.x, a.sample) {
+                b
+            } else {
+                a
+            }),
             (a, b) => a.or(b),
         };
     }

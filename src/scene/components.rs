@@ -18,7 +18,11 @@ pub struct Transform {
 
 impl Default for Transform {
     fn default() -> Self {
-        Transform { translate: Vec3::ZERO, rotate_degrees: Vec3::ZERO, scale: Vec3::ONE }
+        Transform {
+            translate: Vec3::ZERO,
+            rotate_degrees: Vec3::ZERO,
+            scale: Vec3::ONE,
+        }
     }
 }
 
@@ -27,8 +31,12 @@ impl Transform {
     pub fn matrix(&self) -> Affine3A {
         let r = self.rotate_degrees;
         // Extrinsic x, then y, then z  ==  R = Rz * Ry * Rx.
-        let rotation =
-            Quat::from_euler(EulerRot::ZYX, r.z.to_radians(), r.y.to_radians(), r.x.to_radians());
+        let rotation = Quat::from_euler(
+            EulerRot::ZYX,
+            r.z.to_radians(),
+            r.y.to_radians(),
+            r.x.to_radians(),
+        );
         Affine3A::from_scale_rotation_translation(self.scale, rotation, self.translate)
     }
 }
@@ -36,12 +44,22 @@ impl Transform {
 /// Geometry in the entity's local space.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
-    Sphere { center: Vec3A, radius: f32 },
+    Sphere {
+        center: Vec3A,
+        radius: f32,
+    },
     Triangle([Vec3A; 3]),
     Quad([Vec3A; 4]),
     Tetrahedron([Vec3A; 4]),
-    Box { min: Vec3A, max: Vec3A },
-    Mesh { positions: Vec<Vec3A>, indices: Vec<[u32; 3]>, normals: Option<Vec<Vec3A>> },
+    Box {
+        min: Vec3A,
+        max: Vec3A,
+    },
+    Mesh {
+        positions: Vec<Vec3A>,
+        indices: Vec<[u32; 3]>,
+        normals: Option<Vec<Vec3A>>,
+    },
 }
 
 /// Index of the entity's material in the scene's material table.
@@ -67,16 +85,20 @@ pub enum WorldShape {
         normals: Option<Vec<[Vec3A; 3]>>,
         parallelogram: Option<[Vec3A; 3]>,
     },
-    Sphere { center: Vec3A, radius: f32 },
+    Sphere {
+        center: Vec3A,
+        radius: f32,
+    },
 }
 
 impl WorldShape {
     /// Total surface area.
     pub fn area(&self) -> f32 {
         match self {
-            WorldShape::Triangles { triangles, .. } => {
-                triangles.iter().map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length()).sum()
-            }
+            WorldShape::Triangles { triangles, .. } => triangles
+                .iter()
+                .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
+                .sum(),
             WorldShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
         }
     }

@@ -6,13 +6,29 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error("{}: cannot read scene file: {source}", path.display())]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{}:{line}:{col}: {message}", path.display())]
-    Parse { path: PathBuf, line: usize, col: usize, message: String },
+    Parse {
+        path: PathBuf,
+        line: usize,
+        col: usize,
+        message: String,
+    },
     #[error("{}: entity `{entity}`: {message}", path.display())]
-    Entity { path: PathBuf, entity: String, message: String },
+    Entity {
+        path: PathBuf,
+        entity: String,
+        message: String,
+    },
     #[error("{}: material `{material}`: {message}", path.display())]
-    Material { path: PathBuf, material: String, message: String },
+    Material {
+        path: PathBuf,
+        material: String,
+        message: String,
+    },
     #[error("{}: camera: {message}", path.display())]
     Camera { path: PathBuf, message: String },
     #[error("{}: {message}", path.display())]

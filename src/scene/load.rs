@@ -18,8 +18,10 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// Reads, parses, spawns, validates and bakes a scene file.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|source| SceneError::Read { path: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     parse_scene(&text, path)
 }
 
@@ -50,7 +52,9 @@ fn rgb(what: &str, a: [f32; 3]) -> Result<Rgb, String> {
 fn reflectance(what: &str, a: [f32; 3]) -> Result<Rgb, String> {
     let c = rgb(what, a)?;
     if c.max_element() > 1.0 {
-        return Err(format!("{what} must be in [0, 1] (a reflectance), got {a:?}"));
+        return Err(format!(
+            "{what} must be in [0, 1] (a reflectance), got {a:?}"
+        ));
     }
     Ok(c)
 }
@@ -58,11 +62,15 @@ fn reflectance(what: &str, a: [f32; 3]) -> Result<Rgb, String> {
 /// Turns a material description into a material, checking its parameters.
 pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
     Ok(match desc {
-        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert { albedo: reflectance("albedo", *albedo)? }),
+        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert {
+            albedo: reflectance("albedo", *albedo)?,
+        }),
         MaterialDesc::OrenNayar { albedo, sigma } => {
             finite("sigma", &[*sigma])?;
             if !(0.0..=90.0).contains(sigma) {
-                return Err(format!("sigma is in degrees and must be in [0, 90], got {sigma}"));
+                return Err(format!(
+                    "sigma is in degrees and must be in [0, 90], got {sigma}"
+                ));
             }
             Material::OrenNayar(OrenNayar::new(reflectance("albedo", *albedo)?, *sigma))
         }
@@ -78,15 +86,24 @@ pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
             if *exponent < 0.0 {
                 return Err(format!("exponent must be >= 0, got {exponent}"));
             }
-            Material::Phong(Phong { kd, ks, exponent: *exponent })
+            Material::Phong(Phong {
+                kd,
+                ks,
+                exponent: *exponent,
+            })
         }
-        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror { tint: reflectance("tint", *tint)? }),
+        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror {
+            tint: reflectance("tint", *tint)?,
+        }),
         MaterialDesc::Glass { ior, tint } => {
             finite("ior", &[*ior])?;
             if *ior < 1.0 || *ior > 4.0 {
                 return Err(format!("ior must be in [1, 4], got {ior}"));
             }
-            Material::Glass(Glass { ior: *ior, tint: reflectance("tint", *tint)? })
+            Material::Glass(Glass {
+                ior: *ior,
+                tint: reflectance("tint", *tint)?,
+            })
         }
     })
 }
@@ -110,25 +127,51 @@ pub fn check_size(w: u32, h: u32) -> Result<(), String> {
 
 fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
     match desc {
-        CameraDesc::LookAt { eye, look_at, up, fov, resolution } => {
+        CameraDesc::LookAt {
+            eye,
+            look_at,
+            up,
+            fov,
+            resolution,
+        } => {
             for (what, v) in [("eye", eye), ("look_at", look_at), ("up", up)] {
                 finite(what, v)?;
             }
             finite("fov", &[*fov])?;
             check_resolution(*resolution)?;
             if !(*fov > 0.0 && *fov < 180.0) {
-                return Err(format!("fov is the vertical field of view in degrees, in (0, 180); got {fov}"));
+                return Err(format!(
+                    "fov is the vertical field of view in degrees, in (0, 180); got {fov}"
+                ));
             }
             let forward = v3(*look_at) - v3(*eye);
             if forward.length() < 1e-6 {
                 return Err("eye and look_at must differ".into());
             }
-            if forward.normalize().cross(v3(*up).normalize_or_zero()).length() < 1e-4 {
+            if forward
+                .normalize()
+                .cross(v3(*up).normalize_or_zero())
+                .length()
+                < 1e-4
+            {
                 return Err("up must not be zero or parallel to the view direction".into());
             }
-            Ok(Camera::look_at(v3(*eye), v3(*look_at), v3(*up), *fov, *resolution))
+            Ok(Camera::look_at(
+                v3(*eye),
+                v3(*look_at),
+                v3(*up),
+                *fov,
+                *resolution,
+            ))
         }
-        CameraDesc::ImagePlane { eye, top_left, top_right, bottom_left, bottom_right, resolution } => {
+        CameraDesc::ImagePlane {
+            eye,
+            top_left,
+            top_right,
+            bottom_left,
+            bottom_right,
+            resolution,
+        } => {
             for (what, v) in [
                 ("eye", eye),
                 ("top_left", top_left),
@@ -139,7 +182,12 @@ fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
                 finite(what, v)?;
             }
             check_resolution(*resolution)?;
-            let (tl, tr, bl, br) = (v3(*top_left), v3(*top_right), v3(*bottom_left), v3(*bottom_right));
+            let (tl, tr, bl, br) = (
+                v3(*top_left),
+                v3(*top_right),
+                v3(*bottom_left),
+                v3(*bottom_right),
+            );
             let scale = (tr - tl).length().max((bl - tl).length());
             if (tr - tl).cross(bl - tl).length() < 1e-8 * scale * scale || scale == 0.0 {
                 return Err("the image plane corners are degenerate".into());
@@ -159,19 +207,34 @@ fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
 /// Exactly `N` points, or an error naming the shape.
 fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A; N], String> {
     let points: Vec<Vec3A> = vertices.iter().copied().map(v3).collect();
-    points
-        .try_into()
-        .map_err(|_| format!("a {shape} needs exactly {N} vertices, got {}", vertices.len()))
+    points.try_into().map_err(|_| {
+        format!(
+            "a {shape} needs exactly {N} vertices, got {}",
+            vertices.len()
+        )
+    })
 }
 
 fn shape_from_desc(desc: ShapeDesc) -> Result<Shape, String> {
     Ok(match desc {
-        ShapeDesc::Sphere { center, radius } => Shape::Sphere { center: v3(center), radius },
+        ShapeDesc::Sphere { center, radius } => Shape::Sphere {
+            center: v3(center),
+            radius,
+        },
         ShapeDesc::Triangle { vertices } => Shape::Triangle(corners("Triangle", &vertices)?),
         ShapeDesc::Quad { vertices } => Shape::Quad(corners("Quad", &vertices)?),
-        ShapeDesc::Tetrahedron { vertices } => Shape::Tetrahedron(corners("Tetrahedron", &vertices)?),
-        ShapeDesc::Box { min, max } => Shape::Box { min: v3(min), max: v3(max) },
-        ShapeDesc::Mesh { positions, indices, normals } => Shape::Mesh {
+        ShapeDesc::Tetrahedron { vertices } => {
+            Shape::Tetrahedron(corners("Tetrahedron", &vertices)?)
+        }
+        ShapeDesc::Box { min, max } => Shape::Box {
+            min: v3(min),
+            max: v3(max),
+        },
+        ShapeDesc::Mesh {
+            positions,
+            indices,
+            normals,
+        } => Shape::Mesh {
             positions: positions.into_iter().map(v3).collect(),
             indices,
             normals: normals.map(|n| n.into_iter().map(v3).collect()),
@@ -195,16 +258,24 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
         material_names.push(name.clone());
     }
 
-    let camera = camera_from_desc(&file.camera)
-        .map_err(|message| SceneError::Camera { path: path_buf.clone(), message })?;
+    let camera = camera_from_desc(&file.camera).map_err(|message| SceneError::Camera {
+        path: path_buf.clone(),
+        message,
+    })?;
 
     let environment = match file.environment {
-        Some(e) => Some(rgb("environment", e).map_err(|message| SceneError::Scene { path: path_buf.clone(), message })?),
+        Some(e) => Some(rgb("environment", e).map_err(|message| SceneError::Scene {
+            path: path_buf.clone(),
+            message,
+        })?),
         None => None,
     };
 
     if file.entities.is_empty() {
-        return Err(SceneError::Scene { path: path_buf, message: "the scene has no entities".into() });
+        return Err(SceneError::Scene {
+            path: path_buf,
+            message: "the scene has no entities".into(),
+        });
     }
 
     // Spawn: one entity per object, with the components it has.
@@ -249,21 +320,37 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
             (None, None, _) => None,
         };
         let emitter = e.emitter.map(|d| match d {
-            EmitterDesc::Area { radiance, two_sided } => {
-                Emitter::Area { radiance: v3(radiance), two_sided }
-            }
-            EmitterDesc::Point { intensity } => Emitter::Point { intensity: v3(intensity) },
+            EmitterDesc::Area {
+                radiance,
+                two_sided,
+            } => Emitter::Area {
+                radiance: v3(radiance),
+                two_sided,
+            },
+            EmitterDesc::Point { intensity } => Emitter::Point {
+                intensity: v3(intensity),
+            },
         });
-        let shape = e.shape.map(shape_from_desc).transpose().map_err(&entity_error)?;
+        let shape = e
+            .shape
+            .map(shape_from_desc)
+            .transpose()
+            .map_err(&entity_error)?;
         let entity = world.spawn((Name(name), transform));
         if let Some(shape) = shape {
-            world.insert_one(entity, shape).expect("entity was just spawned");
+            world
+                .insert_one(entity, shape)
+                .expect("entity was just spawned");
         }
         if let Some(m) = material {
-            world.insert_one(entity, m).expect("entity was just spawned");
+            world
+                .insert_one(entity, m)
+                .expect("entity was just spawned");
         }
         if let Some(em) = emitter {
-            world.insert_one(entity, em).expect("entity was just spawned");
+            world
+                .insert_one(entity, em)
+                .expect("entity was just spawned");
         }
     }
 
@@ -273,13 +360,21 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
         entity,
         message,
     })?;
-    let warnings = systems::bake_transforms(&mut world).map_err(|(entity, message)| SceneError::Entity {
-        path: path_buf.clone(),
-        entity,
-        message,
-    })?;
-    if !world.query::<&super::components::WorldShape>().iter().any(|_| true) {
-        return Err(SceneError::Scene { path: path_buf, message: "the scene has no geometry (no entity with a shape)".into() });
+    let warnings =
+        systems::bake_transforms(&mut world).map_err(|(entity, message)| SceneError::Entity {
+            path: path_buf.clone(),
+            entity,
+            message,
+        })?;
+    if !world
+        .query::<&super::components::WorldShape>()
+        .iter()
+        .any(|_| true)
+    {
+        return Err(SceneError::Scene {
+            path: path_buf,
+            message: "the scene has no geometry (no entity with a shape)".into(),
+        });
     }
 
     Ok(LoadedScene {

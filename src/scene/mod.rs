@@ -31,3 +31,6 @@ pub struct LoadedScene {
     /// Non-fatal problems found while loading (e.g. dropped degenerate triangles).
     pub warnings: Vec<String>,
 }
+
+#[cfg(test)]
+mod tests;

@@ -156,7 +156,9 @@ impl<'de> Deserialize<'de> for MaterialTable {
                 let mut out: Vec<(String, MaterialDesc)> = Vec::new();
                 while let Some(name) = map.next_key::<String>()? {
                     if out.iter().any(|(n, _)| *n == name) {
-                        return Err(de::Error::custom(format!("duplicate material name `{name}`")));
+                        return Err(de::Error::custom(format!(
+                            "duplicate material name `{name}`"
+                        )));
                     }
                     let material = map.next_value::<MaterialDesc>()?;
                     out.push((name, material));
@@ -207,7 +209,11 @@ pub struct TransformDesc {
 
 impl Default for TransformDesc {
     fn default() -> Self {
-        TransformDesc { translate: [0.0; 3], rotate: [0.0; 3], scale: [1.0; 3] }
+        TransformDesc {
+            translate: [0.0; 3],
+            rotate: [0.0; 3],
+            scale: [1.0; 3],
+        }
     }
 }
 

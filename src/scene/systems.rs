@@ -19,7 +19,8 @@ pub type EntityError = (String, String);
 /// Checks every entity's components: finite numbers, positive sizes and scales, shapes that
 /// make sense, emitters with non-negative radiance on the right kind of entity.
 pub fn validate(world: &World) -> Result<(), EntityError> {
-    let mut entities: Vec<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)> = Vec::new();
+    let mut entities: Vec<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)> =
+        Vec::new();
     let mut query = world.query::<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)>();
     for (e, name, t, shape, emitter) in query.iter() {
         entities.push((e, name, t, shape, emitter));
@@ -35,7 +36,9 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
             (Some(Emitter::Area { radiance, .. }), s) => {
                 check_radiance("radiance", *radiance).map_err(fail)?;
                 if s.is_none() {
-                    return Err(fail("an area emitter needs a shape (use `Point` for a point light)".into()));
+                    return Err(fail(
+                        "an area emitter needs a shape (use `Point` for a point light)".into(),
+                    ));
                 }
             }
             (Some(Emitter::Point { intensity }), s) => {
@@ -58,7 +61,10 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
 fn check_radiance(what: &str, c: Vec3A) -> Result<(), String> {
     finite(what, &c.to_array())?;
     if c.min_element() < 0.0 {
-        return Err(format!("{what} must not be negative, got {:?}", c.to_array()));
+        return Err(format!(
+            "{what} must not be negative, got {:?}",
+            c.to_array()
+        ));
     }
     Ok(())
 }
@@ -68,7 +74,10 @@ fn validate_transform(t: &Transform) -> Result<(), String> {
     finite("transform.rotate", &t.rotate_degrees.to_array())?;
     finite("transform.scale", &t.scale.to_array())?;
     if t.scale.min_element() <= 0.0 {
-        return Err(format!("transform.scale must be positive, got {:?}", t.scale.to_array()));
+        return Err(format!(
+            "transform.scale must be positive, got {:?}",
+            t.scale.to_array()
+        ));
     }
     Ok(())
 }
@@ -90,7 +99,10 @@ fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             }
             let s = t.scale;
             if (s.x - s.y).abs() > 1e-6 * s.x || (s.x - s.z).abs() > 1e-6 * s.x {
-                return Err(format!("a sphere needs a uniform scale, got {:?}", s.to_array()));
+                return Err(format!(
+                    "a sphere needs a uniform scale, got {:?}",
+                    s.to_array()
+                ));
             }
         }
         Shape::Triangle(v) => all("triangle vertices", v)?,
@@ -99,9 +111,11 @@ fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             all("quad vertices", v)?;
             let size = (v[1] - v[0]).length().max((v[3] - v[0]).length());
             if ((v[0] + v[2]) - (v[1] + v[3])).length() > 1e-4 * size {
-                return Err("quad vertices must form a parallelogram, in order around it \
+                return Err(
+                    "quad vertices must form a parallelogram, in order around it \
                             (use `Mesh` for other polygons)"
-                    .into());
+                        .into(),
+                );
             }
         }
         Shape::Box { min, max } => {
@@ -114,12 +128,20 @@ fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
                 ));
             }
         }
-        Shape::Mesh { positions, indices, normals } => {
+        Shape::Mesh {
+            positions,
+            indices,
+            normals,
+        } => {
             all("mesh positions", positions)?;
             if indices.is_empty() {
                 return Err("mesh has no triangles".into());
             }
-            if let Some((i, tri)) = indices.iter().enumerate().find(|(_, t)| t.iter().any(|&k| k as usize >= positions.len())) {
+            if let Some((i, tri)) = indices
+                .iter()
+                .enumerate()
+                .find(|(_, t)| t.iter().any(|&k| k as usize >= positions.len()))
+            {
                 return Err(format!(
                     "mesh triangle {i} has index {:?} out of range (the mesh has {} positions)",
                     tri,
@@ -129,7 +151,11 @@ fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             if let Some(n) = normals {
                 all("mesh normals", n)?;
                 if n.len() != positions.len() {
-                    return Err(format!("mesh has {} normals for {} positions", n.len(), positions.len()));
+                    return Err(format!(
+                        "mesh has {} normals for {} positions",
+                        n.len(),
+                        positions.len()
+                    ));
                 }
                 if n.iter().any(|v| v.length_squared() == 0.0) {
                     return Err("mesh normals must not be zero".into());
@@ -178,11 +204,22 @@ fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
                 [c(0, 0, 0), c(0, 1, 0), c(1, 1, 0), c(1, 0, 0)], // -z
                 [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)], // +z
             ];
-            faces.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect()
+            faces
+                .iter()
+                .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+                .collect()
         }
-        Shape::Mesh { positions, indices, .. } => indices
+        Shape::Mesh {
+            positions, indices, ..
+        } => indices
             .iter()
-            .map(|t| [positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]])
+            .map(|t| {
+                [
+                    positions[t[0] as usize],
+                    positions[t[1] as usize],
+                    positions[t[2] as usize],
+                ]
+            })
             .collect(),
     }
 }
@@ -209,14 +246,27 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
         for (entity, name, transform, shape, emitter) in items {
             let m = transform.matrix();
             let world_shape = bake_shape(shape, &m);
-            if let WorldShape::Triangles { triangles, normals, parallelogram } = world_shape {
+            if let WorldShape::Triangles {
+                triangles,
+                normals,
+                parallelogram,
+            } = world_shape
+            {
                 let before = triangles.len();
                 let keep: Vec<bool> = triangles.iter().map(|t| !is_degenerate(t)).collect();
                 let normals = normals.map(|n| {
-                    n.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(n, _)| n).collect::<Vec<_>>()
+                    n.into_iter()
+                        .zip(&keep)
+                        .filter(|(_, k)| **k)
+                        .map(|(n, _)| n)
+                        .collect::<Vec<_>>()
                 });
-                let triangles: Vec<_> =
-                    triangles.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(t, _)| t).collect();
+                let triangles: Vec<_> = triangles
+                    .into_iter()
+                    .zip(&keep)
+                    .filter(|(_, k)| **k)
+                    .map(|(t, _)| t)
+                    .collect();
                 if triangles.len() < before {
                     warnings.push(format!(
                         "entity `{}`: dropped {} degenerate triangle(s) of {before}",
@@ -231,15 +281,28 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
                     warnings.push(format!("entity `{}`: no triangles left; ignored", name.0));
                     continue;
                 }
-                let parallelogram = if triangles.len() == before { parallelogram } else { None };
-                baked.push((entity, WorldShape::Triangles { triangles, normals, parallelogram }));
+                let parallelogram = if triangles.len() == before {
+                    parallelogram
+                } else {
+                    None
+                };
+                baked.push((
+                    entity,
+                    WorldShape::Triangles {
+                        triangles,
+                        normals,
+                        parallelogram,
+                    },
+                ));
             } else {
                 baked.push((entity, world_shape));
             }
         }
     }
     for (entity, shape) in baked {
-        world.insert_one(entity, shape).expect("baked entity exists");
+        world
+            .insert_one(entity, shape)
+            .expect("baked entity exists");
     }
     Ok(warnings)
 }
@@ -252,10 +315,16 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
             radius: radius * m.matrix3.x_axis.length(),
         },
         _ => {
-            let triangles: Vec<[Vec3A; 3]> =
-                local_triangles(shape).iter().map(|t| t.map(|p| m.transform_point3a(p))).collect();
+            let triangles: Vec<[Vec3A; 3]> = local_triangles(shape)
+                .iter()
+                .map(|t| t.map(|p| m.transform_point3a(p)))
+                .collect();
             let normals = match shape {
-                Shape::Mesh { normals: Some(n), indices, .. } => {
+                Shape::Mesh {
+                    normals: Some(n),
+                    indices,
+                    ..
+                } => {
                     let nm: Mat3A = m.matrix3.inverse().transpose();
                     Some(
                         indices
@@ -273,7 +342,11 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
                 }
                 _ => None,
             };
-            WorldShape::Triangles { triangles, normals, parallelogram }
+            WorldShape::Triangles {
+                triangles,
+                normals,
+                parallelogram,
+            }
         }
     }
 }
@@ -287,20 +360,37 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
         .filter_map(|(entity, emitter, transform, shape)| {
             let lights = match (*emitter, shape) {
                 (Emitter::Point { intensity }, _) => {
-                    vec![Light::Point { position: transform.translate.into(), intensity }]
+                    vec![Light::Point {
+                        position: transform.translate.into(),
+                        intensity,
+                    }]
                 }
                 (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
-                    vec![Light::Sphere { center: *center, radius: *radius, radiance }]
+                    vec![Light::Sphere {
+                        center: *center,
+                        radius: *radius,
+                        radiance,
+                    }]
                 }
-                (Emitter::Area { radiance, two_sided }, Some(WorldShape::Triangles { triangles, parallelogram, .. })) => {
-                    match parallelogram {
-                        Some([p0, e1, e2]) => vec![Light::parallelogram(*p0, *e1, *e2, radiance, two_sided)],
-                        None => triangles
-                            .iter()
-                            .map(|t| Light::triangle(t[0], t[1], t[2], radiance, two_sided))
-                            .collect(),
+                (
+                    Emitter::Area {
+                        radiance,
+                        two_sided,
+                    },
+                    Some(WorldShape::Triangles {
+                        triangles,
+                        parallelogram,
+                        ..
+                    }),
+                ) => match parallelogram {
+                    Some([p0, e1, e2]) => {
+                        vec![Light::parallelogram(*p0, *e1, *e2, radiance, two_sided)]
                     }
-                }
+                    None => triangles
+                        .iter()
+                        .map(|t| Light::triangle(t[0], t[1], t[2], radiance, two_sided))
+                        .collect(),
+                },
                 // Validation guarantees area emitters have shapes; a shape dropped by the bake
                 // step (all triangles degenerate) was already reported.
                 (Emitter::Area { .. }, None) => return None,

@@ -1,0 +1,351 @@
+//! The `raylab` program as a user runs it: rendering, listing, validating, determinism, and
+//! bad input (exit code 2, a message naming the file and place, no output file left behind).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn raylab(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("raylab runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+const ROOM: &str = "scenes/report_room.ron";
+const CORNELL: &str = "scenes/cornell_box.ron";
+
+#[test]
+fn renders_the_report_room_to_png_and_reports_rays_per_second() {
+    let dir = tmp();
+    let out = dir.path().join("room.png");
+    let o = raylab(&[
+        "render",
+        ROOM,
+        "-i",
+        "albedo",
+        "--spp",
+        "1",
+        "--size",
+        "64x64",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (64, 64));
+    // The left wall is yellow, the right one red (as in the report's figures).
+    let left = img.get_pixel(2, 32);
+    let right = img.get_pixel(61, 32);
+    assert!(
+        left[0] > 150 && left[1] > 150 && left[2] < 100,
+        "left wall {left:?}"
+    );
+    assert!(right[0] > 150 && right[1] < 100, "right wall {right:?}");
+    let e = stderr(&o);
+    assert!(
+        e.contains("M rays/s") && e.contains("M samples/s") && e.contains("camera 4096"),
+        "{e}"
+    );
+}
+
+#[test]
+fn exr_is_bit_identical_at_one_and_two_threads() {
+    let dir = tmp();
+    for integrator in ["path", "normals"] {
+        let mut files: Vec<Vec<u8>> = Vec::new();
+        for threads in ["1", "2"] {
+            let out = dir.path().join(format!("{integrator}-{threads}.exr"));
+            let o = raylab(&[
+                "render",
+                CORNELL,
+                "-i",
+                integrator,
+                "--spp",
+                "4",
+                "--size",
+                "48x40",
+                "--threads",
+                threads,
+                "-o",
+                s(&out),
+                "-q",
+            ]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            files.push(std::fs::read(&out).unwrap());
+        }
+        assert_eq!(
+            files[0], files[1],
+            "{integrator}: thread count changed the image"
+        );
+    }
+}
+
+#[test]
+fn exr_holds_linear_radiance_above_one() {
+    let dir = tmp();
+    let out = dir.path().join("c.exr");
+    let o = raylab(&[
+        "render",
+        CORNELL,
+        "-i",
+        "albedo",
+        "--spp",
+        "1",
+        "-o",
+        s(&out),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&out).unwrap().to_rgb32f();
+    let max = img.pixels().map(|p| p[0]).fold(0.0f32, f32::max);
+    // The light's radiance (18.387 in red) survives unscaled.
+    assert!((max - 18.387).abs() < 1e-3, "max {max}");
+}
+
+#[test]
+fn integrators_lists_every_integrator_with_parameters() {
+    let o = raylab(&["integrators"]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    for name in [
+        "whitted",
+        "fixed-depth",
+        "russian-roulette",
+        "path",
+        "normals",
+        "albedo",
+        "depth",
+    ] {
+        assert!(text.lines().any(|l| l == name), "{name} missing:\n{text}");
+    }
+    assert!(text.contains("-p branching=<int>  (default 20)"), "{text}");
+    assert!(
+        text.contains("-p max-depth=<depth>  (default unlimited)"),
+        "{text}"
+    );
+}
+
+#[test]
+fn validate_prints_counts_and_bounds() {
+    let o = raylab(&["validate", ROOM]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("triangles  26")
+            && text.contains("spheres    2")
+            && text.contains("emitters   1"),
+        "{text}"
+    );
+    assert!(
+        text.contains("(-3.000, -6.000, -5.000) .. (13.000, 6.000, 5.000)"),
+        "{text}"
+    );
+    let o = raylab(&["validate", CORNELL]);
+    assert!(stdout(&o).contains("triangles  36"), "{}", stdout(&o));
+}
+
+/// Runs a render that must fail: exit code 2, the expected words in the message, no panic,
+/// and no output file.
+fn expect_failure(args: &[&str], out: &Path, expected: &[&str]) {
+    let mut all: Vec<&str> = vec!["render"];
+    all.extend_from_slice(args);
+    let o = raylab(&all);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
+    for word in expected {
+        assert!(e.contains(word), "{args:?}: expected `{word}` in: {e}");
+    }
+    assert!(!out.exists(), "{args:?} left {}", out.display());
+}
+
+fn write_scene(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+const GOOD: &str = r#"(
+    camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (8, 8)),
+    materials: {"w": Lambert(albedo: (0.5, 0.5, 0.5))},
+    entities: [
+        (name: "ball", shape: Sphere(radius: 1), material: "w"),
+    ],
+)"#;
+
+#[test]
+fn bad_scene_files_fail_cleanly_with_file_line_and_column() {
+    let dir = tmp();
+    let d = dir.path();
+    let out = d.join("out.png");
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        (
+            "truncated.ron",
+            GOOD[..GOOD.len() / 2].to_string(),
+            vec!["truncated.ron:"],
+        ),
+        (
+            "syntax.ron",
+            GOOD.replace("fov: 40,", "fov: 40,,"),
+            vec!["syntax.ron:2:"],
+        ),
+        (
+            "unknown_field.ron",
+            GOOD.replace("radius: 1", "radus: 1"),
+            vec!["unknown_field.ron:5:", "radus"],
+        ),
+        (
+            "wrong_type.ron",
+            GOOD.replace("radius: 1", "radius: \"big\""),
+            vec!["wrong_type.ron:5:"],
+        ),
+        (
+            "unknown_variant.ron",
+            GOOD.replace("Sphere(", "Spear("),
+            vec!["unknown_variant.ron:5:", "Spear"],
+        ),
+        (
+            "missing_material.ron",
+            GOOD.replace("material: \"w\"", "material: \"x\""),
+            vec!["entity `ball`", "unknown material `x`"],
+        ),
+        (
+            "negative_radius.ron",
+            GOOD.replace("radius: 1", "radius: -1"),
+            vec!["entity `ball`", "radius must be positive"],
+        ),
+        (
+            "nan.ron",
+            GOOD.replace("eye: (0, 0, 5)", "eye: (0, NaN, 5)"),
+            vec!["camera", "finite"],
+        ),
+        (
+            "zero_res.ron",
+            GOOD.replace("(8, 8)", "(0, 8)"),
+            vec!["camera", "at least 1x1"],
+        ),
+        (
+            "huge_res.ron",
+            GOOD.replace("(8, 8)", "(60000, 60000)"),
+            vec!["too large"],
+        ),
+        (
+            "no_entities.ron",
+            GOOD.replace(
+                "(name: \"ball\", shape: Sphere(radius: 1), material: \"w\"),",
+                "",
+            ),
+            vec!["no entities"],
+        ),
+    ];
+    for (name, text, expected) in cases {
+        let scene = write_scene(d, name, &text);
+        let mut words = vec![name];
+        words.extend(expected);
+        expect_failure(&[s(&scene), "-o", s(&out), "-q"], &out, &words);
+    }
+    expect_failure(
+        &["does/not/exist.ron", "-o", s(&out)],
+        &out,
+        &["does/not/exist.ron", "cannot read"],
+    );
+}
+
+#[test]
+fn bad_command_lines_fail_cleanly() {
+    let dir = tmp();
+    let out = dir.path().join("out.png");
+    let o = s(&out);
+    expect_failure(
+        &[CORNELL, "-i", "pathh", "-o", o],
+        &out,
+        &["unknown integrator `pathh`", "valid integrators", "path"],
+    );
+    expect_failure(
+        &[CORNELL, "-i", "path", "-p", "maxdepth=3", "-o", o],
+        &out,
+        &["no parameter `maxdepth`", "max-depth"],
+    );
+    expect_failure(
+        &[CORNELL, "-i", "path", "-p", "max-depth=-1", "-o", o],
+        &out,
+        &["max-depth", "out of range"],
+    );
+    expect_failure(
+        &[CORNELL, "-i", "path", "-p", "max-depth", "-o", o],
+        &out,
+        &["NAME=VALUE"],
+    );
+    expect_failure(
+        &[CORNELL, "--spp", "0", "-o", o],
+        &out,
+        &["--spp must be at least 1"],
+    );
+    expect_failure(
+        &[CORNELL, "--threads", "0", "-o", o],
+        &out,
+        &["--threads must be at least 1"],
+    );
+    expect_failure(
+        &[CORNELL, "--size", "0x10", "-o", o],
+        &out,
+        &["at least 1x1"],
+    );
+    expect_failure(
+        &[CORNELL, "--size", "100000x100000", "-o", o],
+        &out,
+        &["too large"],
+    );
+    expect_failure(
+        &[CORNELL, "--size", "big", "-o", o],
+        &out,
+        &["WIDTHxHEIGHT"],
+    );
+    let missing = dir.path().join("no/such/folder/x.png");
+    expect_failure(&[CORNELL, "-o", s(&missing)], &missing, &["does not exist"]);
+    let bad_ext = dir.path().join("x.jpg");
+    expect_failure(
+        &[CORNELL, "-o", s(&bad_ext)],
+        &bad_ext,
+        &["unknown output extension"],
+    );
+    // Usage errors from the argument parser also exit with 2.
+    expect_failure(&[CORNELL, "--bogus"], &out, &["--bogus"]);
+}
+
+#[cfg(unix)]
+#[test]
+fn unwritable_output_folder_fails_and_an_existing_file_survives() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tmp();
+    let locked = dir.path().join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    let out = locked.join("old.png");
+    std::fs::write(&out, b"old image").unwrap();
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    // Root ignores permissions: only check where the folder is really read-only.
+    if tempfile::NamedTempFile::new_in(&locked).is_err() {
+        let o = raylab(&["render", CORNELL, "--spp", "1", "-o", s(&out), "-q"]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("cannot write"), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(&out).unwrap(), b"old image");
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
