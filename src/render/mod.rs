@@ -205,3 +205,114 @@ pub fn render(
     }
     Ok((film, stats))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::build::RenderScene;
+    use crate::scene::parse_scene;
+    use raylab_integrators::{Ray, Rgb};
+
+    /// Returns 1 everywhere.
+    struct One;
+
+    impl Integrator for One {
+        fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+            let _ = (tracer.camera(ray), sampler.next_1d());
+            Rgb::ONE
+        }
+    }
+
+    /// Returns NaN for rays well right of the image centre, 1 elsewhere.
+    struct Poisoned;
+
+    impl Integrator for Poisoned {
+        fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+            tracer.camera(ray);
+            if ray.dir.x > 0.2 {
+                Rgb::splat(f32::NAN)
+            } else {
+                Rgb::ONE
+            }
+        }
+    }
+
+    fn scene() -> (RenderScene, Camera) {
+        let text = r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (20, 10)),
+            materials: {"w": Lambert(albedo: (0.5, 0.5, 0.5))},
+            entities: [(shape: Sphere(radius: 1), material: "w")])"#;
+        let loaded = parse_scene(text, std::path::Path::new("t.ron")).unwrap();
+        (RenderScene::build(&loaded), loaded.camera)
+    }
+
+    fn settings(spp: u32, threads: usize) -> RenderSettings {
+        RenderSettings {
+            spp,
+            seed: 3,
+            threads: Some(threads),
+            progress: false,
+        }
+    }
+
+    #[test]
+    fn counts_every_camera_ray_and_averages_samples() {
+        let (s, cam) = scene();
+        let (film, stats) = render(&s, &cam, &One, &settings(5, 2)).unwrap();
+        assert_eq!(stats.samples, 20 * 10 * 5);
+        assert_eq!(stats.rays.camera, 1000);
+        assert_eq!(stats.dropped, 0);
+        assert!(film.pixels.iter().all(|p| *p == glam::Vec3::ONE));
+        assert!(film.variance.iter().all(|v| *v == glam::Vec3::ZERO));
+    }
+
+    #[test]
+    fn non_finite_samples_are_dropped_counted_and_located() {
+        let (s, cam) = scene();
+        let (film, stats) = render(&s, &cam, &Poisoned, &settings(4, 2)).unwrap();
+        assert!(
+            stats.dropped > 0 && stats.dropped < 800,
+            "{}",
+            stats.dropped
+        );
+        let first = stats.first_dropped.unwrap();
+        // The first in raster order is on the top row, right of centre.
+        assert_eq!(first.y, 0);
+        assert!(first.x > 10);
+        assert!(film.pixels.iter().all(|p| p.is_finite()));
+        // Dropped samples count as zero in the average: the far right column is black.
+        assert_eq!(film.pixels[19], glam::Vec3::ZERO);
+    }
+
+    #[test]
+    fn image_does_not_depend_on_thread_count() {
+        let (s, cam) = scene();
+        let path = raylab_integrators::find("path")
+            .unwrap()
+            .instantiate(&[])
+            .unwrap();
+        let (a, _) = render(&s, &cam, path.as_ref(), &settings(3, 1)).unwrap();
+        let (b, _) = render(&s, &cam, path.as_ref(), &settings(3, 2)).unwrap();
+        let (c, _) = render(&s, &cam, path.as_ref(), &settings(3, 5)).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a, c);
+    }
+
+    #[test]
+    fn samples_are_stratified_within_the_pixel() {
+        let mut positions = Vec::new();
+        for s in 0..16 {
+            let mut sampler = Sampler::new(0, 0, s);
+            positions.push(sample_position(0, 0, s as u32, 16, &mut sampler));
+        }
+        // 16 spp: one sample in each cell of a 4x4 grid.
+        for j in 0..4 {
+            for i in 0..4 {
+                let n = positions
+                    .iter()
+                    .filter(|p| (p.x * 4.0) as u32 == i && (p.y * 4.0) as u32 == j)
+                    .count();
+                assert_eq!(n, 1, "cell ({i}, {j})");
+            }
+        }
+    }
+}
