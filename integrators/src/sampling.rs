@@ -91,3 +91,98 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
         a / (a + b)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chi2::{assert_chi2, Grid, SAMPLES};
+    use crate::Sampler;
+
+    #[test]
+    fn chi2_uniform_hemisphere() {
+        assert_chi2(
+            "uniform hemisphere",
+            &Grid::hemisphere(20, 40),
+            SAMPLES,
+            101,
+            |s| Some(uniform_hemisphere(s.next_2d())),
+            |w| {
+                if w.z > 0.0 {
+                    UNIFORM_HEMISPHERE_PDF
+                } else {
+                    0.0
+                }
+            },
+        );
+    }
+
+    #[test]
+    fn chi2_uniform_sphere() {
+        assert_chi2(
+            "uniform sphere",
+            &Grid::sphere(20, 40),
+            SAMPLES,
+            102,
+            |s| Some(uniform_sphere(s.next_2d())),
+            |_| UNIFORM_SPHERE_PDF,
+        );
+    }
+
+    #[test]
+    fn chi2_uniform_cone() {
+        let cos_max = 0.7f32;
+        assert_chi2(
+            "uniform cone",
+            &Grid::cap_with_edge(Vec3A::Z, 1.0 - cos_max as f64, 20, 40),
+            SAMPLES,
+            103,
+            |s| Some(uniform_cone(s.next_2d(), cos_max)),
+            |w| {
+                if w.z >= cos_max {
+                    uniform_cone_pdf(cos_max)
+                } else {
+                    0.0
+                }
+            },
+        );
+    }
+
+    #[test]
+    fn concentric_disk_stays_in_the_disk_and_keeps_quadrants() {
+        let mut s = Sampler::new(5, 0, 0);
+        for _ in 0..10_000 {
+            let u = s.next_2d();
+            let d = concentric_disk(u);
+            assert!(d.length() <= 1.0 + 1e-6);
+            assert_eq!(d.x >= 0.0, u.x >= 0.5, "{u} -> {d}");
+        }
+        assert_eq!(concentric_disk(Vec2::splat(0.5)), Vec2::ZERO);
+    }
+
+    #[test]
+    fn uniform_triangle_is_inside_with_the_centroid_as_mean() {
+        let mut s = Sampler::new(6, 0, 0);
+        let n = 200_000;
+        let mut mean = Vec2::ZERO;
+        for _ in 0..n {
+            let b = uniform_triangle(s.next_2d());
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+            mean += b / n as f32;
+        }
+        // Standard deviation of a barycentric coordinate is sqrt(1/18); allow 5 standard errors.
+        let tol = 5.0 * (1.0f32 / 18.0 / n as f32).sqrt();
+        assert!(
+            (mean - Vec2::splat(1.0 / 3.0)).abs().max_element() < tol,
+            "{mean}"
+        );
+    }
+
+    #[test]
+    fn power_heuristic_limits() {
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+        assert_eq!(power_heuristic(1.0, 0.0), 1.0);
+        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 1.0);
+        assert!((power_heuristic(1.0, 1.0) - 0.5).abs() < 1e-7);
+        assert!((power_heuristic(2.0, 1.0) - 0.8).abs() < 1e-6);
+    }
+}

@@ -19,12 +19,8 @@ pub type EntityError = (String, String);
 /// Checks every entity's components: finite numbers, positive sizes and scales, shapes that
 /// make sense, emitters with non-negative radiance on the right kind of entity.
 pub fn validate(world: &World) -> Result<(), EntityError> {
-    let mut entities: Vec<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)> =
-        Vec::new();
     let mut query = world.query::<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)>();
-    for (e, name, t, shape, emitter) in query.iter() {
-        entities.push((e, name, t, shape, emitter));
-    }
+    let mut entities: Vec<_> = query.iter().collect();
     entities.sort_by_key(|(e, ..)| e.id());
     for (_, name, transform, shape, emitter) in entities {
         let fail = |m: String| (name.0.clone(), m);
@@ -230,7 +226,7 @@ pub fn is_degenerate(t: &[Vec3A; 3]) -> bool {
     let e2 = t[2] - t[0];
     let scale = e1.length_squared().max(e2.length_squared());
     let cross = e1.cross(e2).length_squared();
-    !(cross > 1e-12 * scale * scale) || !cross.is_finite()
+    cross.is_nan() || cross <= 1e-12 * scale * scale || !cross.is_finite()
 }
 
 /// Computes every shaped entity's world-space geometry and inserts it as a [`WorldShape`].

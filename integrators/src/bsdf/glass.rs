@@ -1,14 +1,30 @@
-//! Smooth dielectric: Fresnel-weighted specular reflection and refraction.
-// STUB: to be implemented (helper task). Keep the public API.
+//! Smooth dielectric (glass, water): Fresnel-weighted specular reflection and refraction.
+//!
+//! Parameters and units:
+//! * `ior`: index of refraction of the inside relative to the outside, unitless (> 0; 1.5 for
+//!   glass in air). The outside is the side the normal faces (`z > 0` in the local frame).
+//! * `tint`: per-channel multiplier of both lobes, unitless, in `[0, 1]`.
+//!
+//! Both lobes are Dirac deltas. [`Bxdf::sample`] picks reflection with probability `F` (the
+//! exact unpolarised Fresnel reflectance, [`fresnel_dielectric`]) and refraction otherwise, so
+//! the throughput weight `f |cos(wi)| / pdf` is `tint` for reflection and `tint / eta^2` for
+//! refraction, `eta` being the relative IOR (transmitted side over the side of `wo`). The
+//! `1 / eta^2` is the compression of solid angle on refraction: radiance carried along camera
+//! paths is scaled by it (pbrt-v4's `TransportMode::Radiance`).
+//!
+//! Unlike the opaque models, glass sees the true side of the surface: `wo.z > 0` means the
+//! ray arrives from outside, `wo.z < 0` from inside.
 
 use super::{BsdfSample, Bxdf};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 
+/// A smooth dielectric interface (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Glass {
     /// Index of refraction inside relative to outside (outside = the side the normal faces).
     pub ior: f32,
+    /// Per-channel multiplier of reflection and transmission, unitless.
     pub tint: Rgb,
 }
 
@@ -16,21 +32,223 @@ pub struct Glass {
 /// incident angle measured against the normal on the incident side's convention (positive:
 /// arriving from outside); `eta` = inside IOR / outside IOR. Returns 1 on total internal
 /// reflection.
-pub fn fresnel_dielectric(_cos_i: f32, _eta: f32) -> f32 {
-    todo!()
+///
+/// This is the exact average of the parallel and perpendicular reflectances (pbrt-v4's
+/// `FrDielectric`); for `cos_i < 0` the roles of the two media are swapped.
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let mut cos_i = cos_i.clamp(-1.0, 1.0);
+    let mut eta = eta;
+    if cos_i < 0.0 {
+        eta = 1.0 / eta;
+        cos_i = -cos_i;
+    }
+    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
+    let sin2_t = sin2_i / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)
 }
 
 impl Bxdf for Glass {
     fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
         Rgb::ZERO
     }
+
     fn pdf(&self, _wo: Vec3A, _wi: Vec3A) -> f32 {
         0.0
     }
-    fn sample(&self, _wo: Vec3A, _u_lobe: f32, _u: Vec2) -> Option<BsdfSample> {
-        todo!()
+
+    fn sample(&self, wo: Vec3A, u_lobe: f32, _u: Vec2) -> Option<BsdfSample> {
+        if wo.z == 0.0 || !wo.z.is_finite() || !(self.ior > 0.0 && self.ior.is_finite()) {
+            return None;
+        }
+        let fresnel = fresnel_dielectric(wo.z, self.ior);
+        if u_lobe < fresnel {
+            let wi = Vec3A::new(-wo.x, -wo.y, wo.z);
+            return Some(BsdfSample {
+                wi,
+                f: self.tint * (fresnel / wi.z.abs()),
+                pdf: fresnel,
+                specular: true,
+            });
+        }
+        let transmit = 1.0 - fresnel;
+        if transmit <= 0.0 {
+            return None;
+        }
+        // Relative IOR (transmitted side over the side of wo) and the normal on wo's side.
+        let (eta, side) = if wo.z > 0.0 {
+            (self.ior, 1.0)
+        } else {
+            (1.0 / self.ior, -1.0)
+        };
+        let cos_i = wo.z.abs();
+        let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+        if sin2_t >= 1.0 {
+            return None; // total internal reflection: fresnel was 1, unreachable for u_lobe < 1
+        }
+        let cos_t = (1.0 - sin2_t).sqrt();
+        // Snell's law: wi = -wo / eta + (cos_i / eta - cos_t) n, with n = (0, 0, side).
+        let wi = Vec3A::new(-wo.x / eta, -wo.y / eta, -side * cos_t);
+        if cos_t <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            f: self.tint * (transmit / (cos_t * eta * eta)),
+            pdf: transmit,
+            specular: true,
+        })
     }
+
     fn albedo(&self) -> Rgb {
         self.tint
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chi2::dir;
+    use crate::Sampler;
+
+    const GLASS: Glass = Glass {
+        ior: 1.5,
+        tint: Rgb::new(1.0, 0.9, 0.8),
+    };
+
+    #[test]
+    fn normal_incidence_reflectance_is_four_percent() {
+        let r = fresnel_dielectric(1.0, 1.5);
+        assert!((r - 0.04).abs() < 1e-6, "{r}");
+        assert!(
+            (fresnel_dielectric(-1.0, 1.5) - 0.04).abs() < 1e-6,
+            "same from inside"
+        );
+        // Sampling frequency of reflection: binomial, 5 standard errors.
+        let n = 1_000_000;
+        let mut s = Sampler::new(501, 0, 0);
+        let reflected = (0..n)
+            .filter_map(|_| GLASS.sample(Vec3A::Z, s.next_1d(), s.next_2d()))
+            .filter(|b| b.wi.z > 0.0)
+            .count();
+        let freq = reflected as f64 / n as f64;
+        let sd = (0.04 * 0.96 / n as f64).sqrt();
+        println!(
+            "glass: reflection frequency at normal incidence {freq:.5} (expected 0.04 +- {sd:.5})"
+        );
+        assert!((freq - 0.04).abs() < 5.0 * sd, "{freq}");
+    }
+
+    #[test]
+    fn fresnel_limits_and_symmetry() {
+        assert_eq!(fresnel_dielectric(0.0, 1.5), 1.0, "grazing");
+        assert!(fresnel_dielectric(0.7, 1.0) < 1e-12, "index matched");
+        // Textbook value: 45 degrees into glass n = 1.5: Rs = 0.0920, Rp = 0.0085.
+        let r45 = fresnel_dielectric(std::f32::consts::FRAC_1_SQRT_2, 1.5);
+        assert!((r45 - 0.5 * (0.092_0 + 0.008_5)).abs() < 2e-4, "{r45}");
+        // The reflectance is the same from both sides for a refracted pair of angles.
+        for theta_i in [5.0f32, 30.0, 60.0, 85.0] {
+            let (si, ci) = theta_i.to_radians().sin_cos();
+            let ct = (1.0 - (si / 1.5) * (si / 1.5)).sqrt();
+            let (outside, inside) = (fresnel_dielectric(ci, 1.5), fresnel_dielectric(-ct, 1.5));
+            assert!(
+                (outside - inside).abs() < 1e-5,
+                "{theta_i}: {outside} vs {inside}"
+            );
+        }
+        // Monotone towards grazing incidence from outside (above Brewster's angle).
+        assert!(fresnel_dielectric(0.2, 1.5) > fresnel_dielectric(0.5, 1.5));
+    }
+
+    #[test]
+    fn total_internal_reflection_past_the_critical_angle() {
+        let critical = (1.0f32 / 1.5).asin().to_degrees(); // 41.8 degrees
+        for theta in [critical + 0.5, 60.0, 89.0] {
+            let (s, c) = theta.to_radians().sin_cos();
+            assert_eq!(fresnel_dielectric(-c, 1.5), 1.0, "{theta}");
+            let wo = Vec3A::new(s, 0.0, -c); // inside the glass
+            for u in [0.0, 0.5, 0.999_999_9] {
+                let b = GLASS.sample(wo, u, Vec2::ZERO).expect("reflects");
+                assert!(b.specular && b.pdf == 1.0 && b.wi.z < 0.0);
+                assert!((b.weight() - GLASS.tint).abs().max_element() < 1e-5);
+            }
+        }
+        // Just inside the critical angle some light still leaves.
+        let (s, c) = (critical - 1.0).to_radians().sin_cos();
+        assert!(fresnel_dielectric(-c, 1.5) < 1.0);
+        assert!(GLASS
+            .sample(Vec3A::new(s, 0.0, -c), 0.9999, Vec2::ZERO)
+            .is_some_and(|b| b.wi.z > 0.0));
+    }
+
+    #[test]
+    fn refraction_obeys_snell_and_carries_one_over_eta_squared() {
+        for (theta, phi) in [(0.0f32, 0.0f32), (30.0, 20.0), (60.0, 135.0), (85.0, 270.0)] {
+            // From outside: refract into the glass.
+            let wo = dir(theta, phi);
+            let f = fresnel_dielectric(wo.z, 1.5);
+            let b = GLASS.sample(wo, 0.999, Vec2::ZERO).expect("refracts");
+            assert!(b.specular && b.wi.z < 0.0 && (b.wi.length() - 1.0).abs() < 1e-5);
+            assert!((b.pdf - (1.0 - f)).abs() < 1e-6);
+            let (sin_i, sin_t) = (wo.truncate().length(), b.wi.truncate().length());
+            assert!(
+                (sin_i - 1.5 * sin_t).abs() < 1e-5,
+                "Snell: {sin_i} vs 1.5 * {sin_t}"
+            );
+            if theta > 0.0 {
+                // Same plane of incidence, on the other side of the normal.
+                assert!(wo.truncate().normalize().dot(b.wi.truncate().normalize()) < -0.9999);
+            }
+            assert!(
+                (b.weight() - GLASS.tint / 2.25).abs().max_element() < 1e-5,
+                "{}",
+                b.weight()
+            );
+            // Reversed, from inside (wo = the transmitted direction): the path refracts back
+            // out along the original wo, with weight tint * eta^2.
+            let back = GLASS.sample(b.wi, 0.999, Vec2::ZERO).expect("refracts out");
+            assert!((back.wi - wo).length() < 1e-4, "{:?} vs {wo:?}", back.wi);
+            assert!(
+                (back.weight() - GLASS.tint * 2.25).abs().max_element() < 1e-4,
+                "{}",
+                back.weight()
+            );
+            // Reflection: mirror direction, weight tint.
+            let r = GLASS.sample(wo, 0.0, Vec2::ZERO).expect("reflects");
+            assert!((r.wi - Vec3A::new(-wo.x, -wo.y, wo.z)).length() < 1e-6 && r.pdf == f);
+            assert!((r.weight() - GLASS.tint).abs().max_element() < 1e-5);
+        }
+        assert!(
+            GLASS.sample(Vec3A::X, 0.5, Vec2::ZERO).is_none(),
+            "wo.z == 0"
+        );
+        assert_eq!(GLASS.eval(Vec3A::Z, -Vec3A::Z), Rgb::ZERO);
+        assert_eq!(GLASS.pdf(Vec3A::Z, -Vec3A::Z), 0.0);
+    }
+
+    #[test]
+    fn expected_weight_from_outside_is_f_plus_t_over_eta_squared() {
+        let wo = dir(50.0, 0.0);
+        let f = fresnel_dielectric(wo.z, 1.5) as f64;
+        let n = 200_000;
+        let mut s = Sampler::new(502, 0, 0);
+        let mut sum = 0.0f64;
+        for _ in 0..n {
+            if let Some(b) = GLASS.sample(wo, s.next_1d(), s.next_2d()) {
+                sum += b.weight().x as f64;
+            }
+        }
+        let expected = f + (1.0 - f) / 2.25;
+        // Weights are 1 or 1/2.25: standard deviation < 0.3.
+        assert!(
+            (sum / n as f64 - expected).abs() < 5.0 * 0.3 / (n as f64).sqrt(),
+            "{} vs {expected}",
+            sum / n as f64
+        );
     }
 }

@@ -26,10 +26,59 @@ impl Bxdf for Lambert {
     fn sample(&self, _wo: Vec3A, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let wi = cosine_hemisphere(u);
         let pdf = cosine_hemisphere_pdf(wi.z);
-        (pdf > 0.0).then(|| BsdfSample { wi, f: self.albedo * FRAC_1_PI, pdf, specular: false })
+        (pdf > 0.0).then(|| BsdfSample {
+            wi,
+            f: self.albedo * FRAC_1_PI,
+            pdf,
+            specular: false,
+        })
     }
 
     fn albedo(&self) -> Rgb {
         self.albedo
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chi2::{
+        assert_chi2, check_sample_matches_eval, dir, directional_albedo, Grid, SAMPLES,
+    };
+
+    #[test]
+    fn chi2_cosine_hemisphere() {
+        let l = Lambert {
+            albedo: Rgb::new(0.8, 0.5, 0.2),
+        };
+        let wo = dir(30.0, 10.0);
+        assert_chi2(
+            "cosine hemisphere (Lambert)",
+            &Grid::hemisphere(20, 40),
+            SAMPLES,
+            201,
+            |s| l.sample(wo, s.next_1d(), s.next_2d()).map(|b| b.wi),
+            |w| l.pdf(wo, w),
+        );
+    }
+
+    #[test]
+    fn sample_matches_eval_and_albedo_is_exact() {
+        let albedo = Rgb::new(0.8, 0.5, 0.2);
+        let l = Lambert { albedo };
+        for wo in [dir(0.0, 0.0), dir(60.0, 30.0), dir(89.0, 200.0)] {
+            check_sample_matches_eval(&l, wo, 10_000, 202);
+            let (mean, _) = directional_albedo(&l, wo, 100_000, 203);
+            for c in 0..3 {
+                assert!(
+                    (mean[c] - albedo[c] as f64).abs() < 1e-4,
+                    "{mean} vs {albedo}"
+                );
+            }
+        }
+        assert_eq!(
+            l.eval(dir(10.0, 0.0), Vec3A::new(0.6, 0.0, -0.8)),
+            Rgb::ZERO
+        );
     }
 }

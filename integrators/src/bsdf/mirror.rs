@@ -23,10 +23,39 @@ impl Bxdf for Mirror {
         if wi.z <= 0.0 {
             return None;
         }
-        Some(BsdfSample { wi, f: self.tint / wi.z, pdf: 1.0, specular: true })
+        Some(BsdfSample {
+            wi,
+            f: self.tint / wi.z,
+            pdf: 1.0,
+            specular: true,
+        })
     }
 
     fn albedo(&self) -> Rgb {
         self.tint
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chi2::dir;
+
+    #[test]
+    fn reflects_about_the_normal_with_weight_tint() {
+        let m = Mirror {
+            tint: Rgb::new(0.9, 0.8, 0.7),
+        };
+        let wo = dir(40.0, 75.0);
+        let s = m.sample(wo, 0.3, Vec2::new(0.1, 0.9)).expect("reflects");
+        assert!(s.specular && s.pdf == 1.0);
+        assert!((s.wi - Vec3A::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
+        assert!((s.weight() - m.tint).abs().max_element() < 1e-6);
+        assert_eq!(m.eval(wo, s.wi), Rgb::ZERO);
+        assert_eq!(m.pdf(wo, s.wi), 0.0);
+        assert!(
+            m.sample(Vec3A::X, 0.5, Vec2::splat(0.5)).is_none(),
+            "grazing wo has no reflection"
+        );
     }
 }

@@ -148,3 +148,72 @@ impl Material {
         dispatch!(self, m => m.albedo())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chi2::dir;
+    use crate::Sampler;
+
+    #[test]
+    fn opaque_materials_are_two_sided_and_consistent_below_the_surface() {
+        let materials = [
+            Material::Lambert(Lambert {
+                albedo: Rgb::splat(0.5),
+            }),
+            Material::OrenNayar(OrenNayar::new(Rgb::splat(0.5), 30.0)),
+            Material::Phong(Phong {
+                kd: Rgb::splat(0.3),
+                ks: Rgb::splat(0.6),
+                exponent: 20.0,
+            }),
+        ];
+        let mut s = Sampler::new(601, 0, 0);
+        for m in &materials {
+            for wo in [
+                dir(30.0, 40.0),
+                -dir(30.0, 40.0),
+                Vec3A::new(0.5, 0.1, -0.3).normalize(),
+            ] {
+                for _ in 0..2000 {
+                    let Some(b) = m.sample(wo, s.next_1d(), s.next_2d()) else {
+                        continue;
+                    };
+                    assert!(b.wi.z * wo.z > 0.0, "reflection stays on wo's side");
+                    let (f, pdf) = (m.eval(wo, b.wi), m.pdf(wo, b.wi));
+                    assert!(
+                        (pdf - b.pdf).abs() <= 1e-4 * pdf,
+                        "{m:?}: {pdf} vs {}",
+                        b.pdf
+                    );
+                    assert!(
+                        (f - b.f).abs().max_element() <= 1e-4 * f.max_element(),
+                        "{m:?}"
+                    );
+                    // Mirroring both directions gives the same values.
+                    let flip = |v: Vec3A| Vec3A::new(v.x, v.y, -v.z);
+                    assert!((m.eval(flip(wo), flip(b.wi)) - f).abs().max_element() <= 1e-6);
+                }
+                assert_eq!(m.eval(wo, Vec3A::new(0.0, 0.0, -wo.z.signum())), Rgb::ZERO);
+                assert_eq!(m.pdf(wo, Vec3A::new(0.0, 0.0, -wo.z.signum())), 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn glass_sees_the_true_side() {
+        let m = Material::Glass(Glass {
+            ior: 1.5,
+            tint: Rgb::ONE,
+        });
+        assert!(m.is_specular());
+        // From inside past the critical angle: total internal reflection, staying inside.
+        let b = m
+            .sample(Vec3A::new(0.9, 0.0, -0.435_889_9), 0.99, Vec2::ZERO)
+            .expect("reflects");
+        assert!(b.wi.z < 0.0 && b.pdf == 1.0);
+        // From outside, refraction goes below.
+        let b = m.sample(Vec3A::Z, 0.99, Vec2::ZERO).expect("refracts");
+        assert!(b.wi.z < 0.0 && (b.wi + Vec3A::Z).length() < 1e-6);
+    }
+}
