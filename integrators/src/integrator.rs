@@ -176,14 +176,60 @@ pub fn mis_weight_for_hit(
     crate::sampling::power_heuristic(bsdf_pdf, light_pdf)
 }
 
+/// Largest survival probability of [`russian_roulette`]: even a path whose throughput never
+/// drops (a ray trapped between perfect mirrors, or inside a mirror sphere) ends after about
+/// 20 more bounces on average, so every estimate terminates (as in Mitsuba 3).
+pub const MAX_SURVIVAL: f32 = 0.95;
+
 /// Russian roulette on the path throughput `beta`: survives with probability
-/// `min(1, max component of beta)`; returns the factor to divide `beta` by, or `None` when
-/// the path ends. Unbiased: E[beta'] = beta.
+/// `min(0.95, max component of beta)`; returns the probability to divide `beta` by, or `None`
+/// when the path ends. Unbiased: E[beta'] = beta.
 #[inline]
 pub fn russian_roulette(beta: Rgb, sampler: &mut Sampler) -> Option<f32> {
-    let survive = beta.max_element().min(1.0);
-    if survive >= 1.0 {
-        return Some(1.0);
-    }
+    let survive = beta.max_element().min(MAX_SURVIVAL);
     (sampler.next_1d() < survive).then_some(survive)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::{Glass, Mirror};
+    use crate::Material;
+    use glam::Vec3A;
+
+    #[test]
+    fn specular_lobes_of_glass_split_energy_by_fresnel() {
+        let glass = Material::Glass(Glass {
+            ior: 1.5,
+            tint: Rgb::ONE,
+        });
+        let [r, t] = specular_lobes(&glass, Vec3A::Z);
+        let (r, t) = (r.unwrap(), t.unwrap());
+        assert!(
+            (r.0 - Vec3A::Z).length() < 1e-6 && (r.1.x - 0.04).abs() < 1e-4,
+            "{r:?}"
+        );
+        // Refraction straight through, (1 - F) / eta^2 for radiance.
+        assert!(
+            (t.0 + Vec3A::Z).length() < 1e-6 && (t.1.x - 0.96 / 2.25).abs() < 1e-4,
+            "{t:?}"
+        );
+        // From inside past the critical angle: total internal reflection, one lobe of weight 1.
+        let wo = Vec3A::new(0.9, 0.0, -(1.0f32 - 0.81).sqrt());
+        let [r, t] = specular_lobes(&glass, wo);
+        assert!((r.unwrap().1.x - 1.0).abs() < 1e-5 && t.is_none());
+    }
+
+    #[test]
+    fn specular_lobes_of_a_mirror_is_one_tinted_reflection() {
+        let mirror = Material::Mirror(Mirror {
+            tint: Rgb::new(0.9, 0.5, 0.1),
+        });
+        let wo = Vec3A::new(0.6, 0.0, 0.8);
+        let [r, t] = specular_lobes(&mirror, wo);
+        let r = r.unwrap();
+        assert!((r.0 - Vec3A::new(-0.6, 0.0, 0.8)).length() < 1e-6);
+        assert!((r.1 - Rgb::new(0.9, 0.5, 0.1)).length() < 1e-5);
+        assert!(t.is_none());
+    }
 }

@@ -6,7 +6,7 @@
 //! weighted by the power heuristic against the other strategy's density, so neither small
 //! bright lights nor glossy reflections of large ones are noisy. Specular bounces take the
 //! emitter they reach with full weight. From `rr-depth` scattering events on, Russian roulette
-//! ends paths with probability `1 - min(1, max(throughput))`.
+//! ends paths with probability `1 - min(0.95, max(throughput))`.
 //!
 //! **Parameters**: `max-depth` (default unlimited), `rr-depth` (default 3).
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
@@ -152,5 +152,13 @@ mod tests {
     #[test]
     fn convex_sphere_under_environment() {
         expect_mean("path", &[], &sphere_under_sky(0.6, 2.0), 1.2, 20000);
+    }
+
+    #[test]
+    fn paths_end_inside_a_closed_mirror() {
+        // Unlimited depth and a throughput that never drops: Russian roulette must still end
+        // every path (a regression: this used to loop forever).
+        let (mean, _) = estimate("path", &[], &inside_a_mirror(), 2000);
+        assert_eq!(mean, 0.0);
     }
 }

@@ -6,7 +6,7 @@
 //! ray. Emitters reached by continuation rays count only after specular bounces (direct light
 //! already covers them), so there is no multiple importance sampling: compare with `path`.
 //! From `rr-depth` scattering events on, the path survives with probability
-//! `min(1, max(throughput))` and its throughput is divided by that probability.
+//! `min(0.95, max(throughput))` and its throughput is divided by that probability.
 //!
 //! **Parameters**: `rr-depth` (default 3), `max-depth` (default unlimited).
 //! **Bias**: none with unlimited `max-depth` (Russian roulette is unbiased); truncation
@@ -139,5 +139,13 @@ mod tests {
             1.2,
             20000,
         );
+    }
+
+    #[test]
+    fn paths_end_inside_a_closed_mirror() {
+        // Unlimited depth and a throughput that never drops: Russian roulette must still end
+        // every path (a regression: this used to loop forever).
+        let (mean, _) = estimate("russian-roulette", &[], &inside_a_mirror(), 2000);
+        assert_eq!(mean, 0.0);
     }
 }

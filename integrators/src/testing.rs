@@ -306,3 +306,17 @@ pub fn expect_mean(name: &str, params: &[(&str, &str)], scene: &TestScene, expec
         "{name}: standard error {se:.5} too large to detect a 5% bias; use more samples"
     );
 }
+
+/// The camera inside a closed perfect mirror (a unit sphere) with no light: every path keeps
+/// its full throughput forever unless the integrator ends it. Radiance is 0.
+pub fn inside_a_mirror() -> TestScene {
+    TestScene {
+        surfaces: vec![Surface::Sphere {
+            center: Vec3A::ZERO,
+            radius: 1.0,
+        }],
+        material: Material::Mirror(crate::bsdf::Mirror { tint: Rgb::ONE }),
+        lights: LightTable::new(Vec::new(), 1.0),
+        camera: Camera::Omni(Vec3A::new(0.2, 0.1, 0.0)),
+    }
+}

@@ -24,8 +24,9 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         kind: ParamKind::Depth,
         default: 5.0,
         min: 0.0,
-        max: f64::INFINITY,
-        doc: "scattering events per path, specular ones included",
+        max: 32.0,
+        doc:
+            "scattering events per path, specular ones included (glass doubles the rays per level)",
     }],
     build: |p: &Params| {
         Box::new(Whitted {
