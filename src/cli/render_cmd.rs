@@ -99,6 +99,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         None => loaded.camera.clone(),
     };
 
+    render::check_memory(camera.width, camera.height)?;
     let built = RenderScene::build(&loaded);
     let settings = RenderSettings {
         spp,

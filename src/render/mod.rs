@@ -61,6 +61,35 @@ impl RenderStats {
     }
 }
 
+/// Bytes of memory a render of `width x height` needs (film, tiles and the 8-bit copy).
+pub fn memory_needed(width: u32, height: u32) -> u64 {
+    // Film: mean + variance (2 x 12 B); tile results (24 B); PNG or EXR buffer (<= 12 B).
+    width as u64 * height as u64 * 64
+}
+
+/// Refuses a render whose buffers would not fit in the memory available now (Linux), so an
+/// absurd resolution is an error before anything is allocated, not an abort.
+pub fn check_memory(width: u32, height: u32) -> anyhow::Result<()> {
+    let needed = memory_needed(width, height);
+    let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|m| {
+        m.lines()
+            .find(|l| l.starts_with("MemAvailable:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<u64>().ok())
+            .map(|kb| kb * 1024)
+    });
+    if let Some(available) = available {
+        if needed > available {
+            anyhow::bail!(
+                "a {width}x{height} image needs {:.1} GiB of memory, only {:.1} GiB is available",
+                needed as f64 / (1u64 << 30) as f64,
+                available as f64 / (1u64 << 30) as f64
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Film position of sample `s` of `spp` in pixel `(x, y)`.
 #[inline]
 fn sample_position(x: u32, y: u32, s: u32, spp: u32, sampler: &mut Sampler) -> Vec2 {
