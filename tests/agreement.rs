@@ -27,12 +27,7 @@ fn render_mean(
         .unwrap()
         .instantiate(&given)
         .unwrap();
-    let settings = RenderSettings {
-        spp,
-        seed,
-        threads: None,
-        progress: false,
-    };
+    let settings = RenderSettings::fixed(spp, seed, None);
     render(&built, &camera, integrator.as_ref(), &settings)
         .unwrap()
         .0

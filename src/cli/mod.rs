@@ -64,6 +64,16 @@ pub struct RenderArgs {
     /// Tone curve for the PNG.
     #[arg(long, value_enum, default_value_t = Tonemap::Clamp)]
     pub tonemap: Tonemap,
+    /// Stop after this many seconds (at the end of the pass that passes it) and write the
+    /// image. Without --spp the render is open-ended.
+    #[arg(long, value_name = "SECONDS")]
+    pub time: Option<f64>,
+    /// Save the render's state to FILE after every pass.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<PathBuf>,
+    /// Continue from --checkpoint FILE (refused if the scene or settings changed).
+    #[arg(long)]
+    pub resume: bool,
     /// No progress bar and no summary line.
     #[arg(short, long)]
     pub quiet: bool,

@@ -3,13 +3,15 @@
 use super::RenderArgs;
 use crate::build::RenderScene;
 use crate::output::{self, DisplaySettings};
-use crate::render::{self, RenderSettings};
+use crate::render::{self, checkpoint, Accumulation, RenderSettings, StopReason};
 use crate::scene::{self, load::check_size};
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use raylab_integrators::{registry, ParamKind};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Duration;
 
 /// Parses `WxH`.
 fn parse_size(text: &str) -> Result<(u32, u32)> {
@@ -55,6 +57,19 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     if args.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
+    if let Some(t) = args.time {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--time must be a positive number of seconds, got {t}");
+        }
+    }
+    if args.resume && args.checkpoint.is_none() {
+        bail!("--resume needs --checkpoint FILE");
+    }
+    if let Some(c) = &args.checkpoint {
+        if !args.resume {
+            output::check_writable_folder(c)?;
+        }
+    }
     if !args.exposure.is_finite() {
         bail!("--exposure must be finite");
     }
@@ -90,24 +105,76 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         .resolve(&given)
         .map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
     let integrator = (entry.build)(&params);
-    let spp = args.spp.unwrap_or(loaded.render.spp);
-    if spp == 0 {
+    // Target: --spp, else open-ended under --time, else the scene's spp.
+    let spp = match (args.spp, args.time) {
+        (Some(n), _) => Some(n),
+        (None, Some(_)) => None,
+        (None, None) => Some(loaded.render.spp),
+    };
+    if spp == Some(0) {
         bail!("{}: render.spp must be at least 1", args.scene.display());
     }
     let camera = match size {
         Some((w, h)) => loaded.camera.with_resolution(w, h),
         None => loaded.camera.clone(),
     };
+    let seed = args.seed.unwrap_or(loaded.render.seed);
 
     render::check_memory(camera.width, camera.height)?;
     let built = RenderScene::build(&loaded);
     let settings = RenderSettings {
         spp,
-        seed: args.seed.unwrap_or(loaded.render.seed),
+        seed,
         threads: args.threads,
         progress: !args.quiet,
+        time_budget: args.time.map(Duration::from_secs_f64),
     };
-    let (film, stats) = render::render(&built, &camera, integrator.as_ref(), &settings)?;
+
+    // Checkpoints are tied to everything that determines the image.
+    let scene_bytes = std::fs::read(&args.scene)
+        .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
+    let settings_text = format!(
+        "{} {} spp={spp:?} seed={seed} {}x{} v{}",
+        entry.name,
+        params.describe(entry.params),
+        camera.width,
+        camera.height,
+        env!("CARGO_PKG_VERSION")
+    );
+    let hash = checkpoint::stable_hash(&[&scene_bytes, settings_text.as_bytes()]);
+    let mut acc = match (&args.checkpoint, args.resume) {
+        (Some(path), true) => {
+            let acc = checkpoint::load(path, hash, camera.width, camera.height)?;
+            if !args.quiet {
+                eprintln!("resuming from {} at {} spp", path.display(), acc.spp_done);
+            }
+            acc
+        }
+        _ => Accumulation::new(camera.width, camera.height),
+    };
+
+    // Ctrl-C: the first finishes the pass and writes the image, the second stops at once.
+    install_interrupt_handler();
+    let stop = || INTERRUPTS.load(Ordering::SeqCst) > 0;
+    let mut after_pass = |acc: &Accumulation| -> Result<()> {
+        if let Some(path) = &args.checkpoint {
+            checkpoint::save(path, acc, hash)?;
+        }
+        Ok(())
+    };
+    let stats = render::render_passes(
+        &built,
+        &camera,
+        integrator.as_ref(),
+        &settings,
+        &mut acc,
+        &stop,
+        &mut after_pass,
+    )?;
+    if acc.spp_done == 0 {
+        bail!("stopped before the first pass finished: no image written");
+    }
+    let film = acc.film();
     output::write_image(
         &output_path,
         &film,
@@ -117,6 +184,17 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         },
     )?;
 
+    match stats.stopped {
+        Some(StopReason::Interrupted) => eprintln!(
+            "interrupted: wrote the image with {} spp{}",
+            acc.spp_done,
+            spp.map_or(String::new(), |n| format!(" of {n}"))
+        ),
+        Some(StopReason::TimeBudget) => {
+            eprintln!("time budget spent: {} spp", acc.spp_done)
+        }
+        _ => {}
+    }
     if stats.dropped > 0 {
         let first = stats.first_dropped.expect("a dropped sample was recorded");
         eprintln!(
@@ -134,7 +212,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             params.describe(entry.params),
             camera.width,
             camera.height,
-            spp,
+            acc.spp_done,
             secs,
             stats.threads,
             stats.samples_per_second() / 1e6,
@@ -149,6 +227,21 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Ctrl-C presses so far.
+static INTERRUPTS: AtomicUsize = AtomicUsize::new(0);
+
+fn install_interrupt_handler() {
+    // Fails only if a handler is already installed (a second render in one process).
+    let _ = ctrlc::set_handler(|| {
+        if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
+            eprintln!("\ninterrupt: finishing this pass, then writing the image (Ctrl-C again to stop at once)");
+        } else {
+            eprintln!("\ninterrupt: stopped, nothing written");
+            std::process::exit(130);
+        }
+    });
 }
 
 pub fn validate(path: &Path) -> Result<ExitCode> {

@@ -40,10 +40,16 @@ pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
             path.display()
         ),
     };
+    check_writable_folder(path)?;
+    Ok(format)
+}
+
+/// Checks that the folder `path` would be written in exists and takes new files.
+pub fn check_writable_folder(path: &Path) -> Result<()> {
     let dir = parent_dir(path);
     if !dir.is_dir() {
         bail!(
-            "{}: the output folder `{}` does not exist",
+            "{}: the folder `{}` does not exist",
             path.display(),
             dir.display()
         );
@@ -51,12 +57,12 @@ pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
     // Probe that we can create files there, without touching the target.
     tempfile::NamedTempFile::new_in(dir).with_context(|| {
         format!(
-            "{}: cannot write in the output folder `{}`",
+            "{}: cannot write in the folder `{}`",
             path.display(),
             dir.display()
         )
     })?;
-    Ok(format)
+    Ok(())
 }
 
 fn parent_dir(path: &Path) -> &Path {

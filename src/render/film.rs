@@ -45,11 +45,12 @@ impl Film {
 }
 
 /// Running sums for one pixel, in f64 so that thousands of samples add up exactly enough.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct PixelAccumulator {
-    sum: glam::DVec3,
-    sum_sq: glam::DVec3,
-    count: u32,
+    pub(crate) sum: glam::DVec3,
+    pub(crate) sum_sq: glam::DVec3,
+    /// Finite samples added (dropped ones are not counted here).
+    pub(crate) count: u32,
 }
 
 impl PixelAccumulator {

@@ -1,10 +1,17 @@
-//! The render loop: one parallel loop over tiles for every integrator.
+//! The render loop: one parallel loop over tiles for every integrator, in passes.
 //!
 //! Per pixel, `spp` sub-samples are stratified on an `n x n` grid (`n = floor(sqrt(spp))`)
-//! with a random jitter inside each cell; samples beyond `n^2` are uniform in the pixel. Each
-//! sample has its own [`Sampler`] seeded from (seed, pixel, sample index) only, so images are
-//! bit-identical whatever the thread count or tile order.
+//! with a random jitter inside each cell; samples beyond `n^2` are uniform in the pixel (an
+//! open-ended render, `spp = None`, jitters uniformly). Each sample has its own [`Sampler`]
+//! seeded from (seed, pixel, sample index) only, and each pixel adds its samples in index
+//! order, so images are bit-identical whatever the thread count, the tile order, or how the
+//! samples are split into passes (and so across a checkpoint and resume).
+//!
+//! A pass takes one more sample in every pixel. Between passes the loop checks whether to
+//! stop (Ctrl-C, time budget) and hands the accumulated state to a callback (checkpoints,
+//! progressive output).
 
+pub mod checkpoint;
 pub mod film;
 
 pub use film::Film;
@@ -23,12 +30,29 @@ pub const TILE: u32 = 16;
 /// What to render.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
-    pub spp: u32,
+    /// Samples per pixel to reach; `None` renders until stopped (needs a time budget or a
+    /// stop signal).
+    pub spp: Option<u32>,
     pub seed: u64,
     /// Worker threads; `None` uses every core.
     pub threads: Option<usize>,
     /// Show a progress bar on stderr (only drawn on a terminal).
     pub progress: bool,
+    /// Stop after the pass during which this much time has passed.
+    pub time_budget: Option<Duration>,
+}
+
+impl RenderSettings {
+    /// A render of exactly `spp` samples per pixel, no time limit, no progress bar.
+    pub fn fixed(spp: u32, seed: u64, threads: Option<usize>) -> Self {
+        RenderSettings {
+            spp: Some(spp),
+            seed,
+            threads,
+            progress: false,
+            time_budget: None,
+        }
+    }
 }
 
 /// Where the first non-finite sample occurred.
@@ -39,16 +63,28 @@ pub struct BadSample {
     pub sample: u32,
 }
 
-/// What a render cost.
+/// What a render cost (this run only: a resumed render counts from where it resumed).
 #[derive(Clone, Debug, Default)]
 pub struct RenderStats {
     pub elapsed: Duration,
+    /// Camera samples taken in this run.
     pub samples: u64,
     pub rays: RayCounters,
-    /// Samples dropped because they were NaN or infinite.
+    /// Samples dropped because they were NaN or infinite (over the whole render).
     pub dropped: u64,
     pub first_dropped: Option<BadSample>,
     pub threads: usize,
+    /// Samples per pixel reached, over the whole render.
+    pub spp_done: u32,
+    /// Why the render ended before its target, if it did.
+    pub stopped: Option<StopReason>,
+}
+
+/// Why a render ended early.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopReason {
+    Interrupted,
+    TimeBudget,
 }
 
 impl RenderStats {
@@ -61,10 +97,11 @@ impl RenderStats {
     }
 }
 
-/// Bytes of memory a render of `width x height` needs (film, tiles and the 8-bit copy).
+/// Bytes of memory a render of `width x height` needs (accumulators, film, output buffer).
 pub fn memory_needed(width: u32, height: u32) -> u64 {
-    // Film: mean + variance (2 x 12 B); tile results (24 B); PNG or EXR buffer (<= 12 B).
-    width as u64 * height as u64 * 64
+    // Accumulators 56 B, film mean + variance 24 B, tile bookkeeping and the 8-bit or f32
+    // output copy <= 24 B.
+    width as u64 * height as u64 * 104
 }
 
 /// Refuses a render whose buffers would not fit in the memory available now (Linux), so an
@@ -90,10 +127,10 @@ pub fn check_memory(width: u32, height: u32) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Film position of sample `s` of `spp` in pixel `(x, y)`.
+/// Film position of sample `s` in pixel `(x, y)` of a render of `spp` samples per pixel.
 #[inline]
-fn sample_position(x: u32, y: u32, s: u32, spp: u32, sampler: &mut Sampler) -> Vec2 {
-    let n = (spp as f64).sqrt().floor() as u32;
+fn sample_position(x: u32, y: u32, s: u32, spp: Option<u32>, sampler: &mut Sampler) -> Vec2 {
+    let n = spp.map_or(1, |spp| (spp as f64).sqrt().floor() as u32);
     let jitter = sampler.next_2d();
     let offset = if s < n * n {
         (Vec2::new((s % n) as f32, (s / n) as f32) + jitter) / n as f32
@@ -103,127 +140,74 @@ fn sample_position(x: u32, y: u32, s: u32, spp: u32, sampler: &mut Sampler) -> V
     Vec2::new(x as f32, y as f32) + offset
 }
 
-struct TileResult {
-    x0: u32,
-    y0: u32,
-    w: u32,
-    h: u32,
-    pixels: Vec<(glam::Vec3, glam::Vec3)>,
-    rays: RayCounters,
-    dropped: u64,
-    first_dropped: Option<BadSample>,
+/// The running sums of one tile's pixels.
+#[derive(Clone, Debug)]
+pub struct TileAccumulator {
+    pub x0: u32,
+    pub y0: u32,
+    pub w: u32,
+    pub h: u32,
+    pub pixels: Vec<PixelAccumulator>,
 }
 
-fn render_tile(
-    scene: &dyn Scene,
-    camera: &Camera,
-    integrator: &dyn Integrator,
-    settings: &RenderSettings,
-    (x0, y0): (u32, u32),
-) -> TileResult {
-    let w = TILE.min(camera.width - x0);
-    let h = TILE.min(camera.height - y0);
-    let mut tracer = Tracer::new(scene);
-    let mut pixels = Vec::with_capacity((w * h) as usize);
-    let mut dropped = 0;
-    let mut first_dropped = None;
-    for y in y0..y0 + h {
-        for x in x0..x0 + w {
-            let pixel_index = y as u64 * camera.width as u64 + x as u64;
-            let mut acc = PixelAccumulator::default();
-            for s in 0..settings.spp {
-                let mut sampler = Sampler::new(settings.seed, pixel_index, s as u64);
-                let pos = sample_position(x, y, s, settings.spp, &mut sampler);
-                let ray = camera.ray(pos.x, pos.y);
-                let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
-                if l.is_finite() {
-                    acc.add(l);
-                } else {
-                    dropped += 1;
-                    first_dropped.get_or_insert(BadSample { x, y, sample: s });
+/// The state of a render between passes: per-pixel running sums (tile by tile) and counts.
+#[derive(Clone, Debug)]
+pub struct Accumulation {
+    pub width: u32,
+    pub height: u32,
+    pub tiles: Vec<TileAccumulator>,
+    /// Samples taken in every pixel so far.
+    pub spp_done: u32,
+    pub dropped: u64,
+    pub first_dropped: Option<BadSample>,
+}
+
+impl Accumulation {
+    /// An empty accumulation for an image of `width x height`.
+    pub fn new(width: u32, height: u32) -> Accumulation {
+        let mut tiles = Vec::new();
+        for y0 in (0..height).step_by(TILE as usize) {
+            for x0 in (0..width).step_by(TILE as usize) {
+                let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
+                tiles.push(TileAccumulator {
+                    x0,
+                    y0,
+                    w,
+                    h,
+                    pixels: vec![PixelAccumulator::default(); (w * h) as usize],
+                });
+            }
+        }
+        Accumulation {
+            width,
+            height,
+            tiles,
+            spp_done: 0,
+            dropped: 0,
+            first_dropped: None,
+        }
+    }
+
+    /// The image so far: the mean of the samples taken (dropped ones count as zero).
+    pub fn film(&self) -> Film {
+        let mut film = Film::new(self.width, self.height);
+        for t in &self.tiles {
+            for j in 0..t.h {
+                for i in 0..t.w {
+                    let (mean, var) = t.pixels[(j * t.w + i) as usize].finish(self.spp_done);
+                    let idx = ((t.y0 + j) * self.width + t.x0 + i) as usize;
+                    film.pixels[idx] = mean;
+                    film.variance[idx] = var;
                 }
             }
-            pixels.push(acc.finish(settings.spp));
         }
+        film
     }
-    TileResult {
-        x0,
-        y0,
-        w,
-        h,
-        pixels,
-        rays: tracer.counters,
-        dropped,
-        first_dropped,
-    }
-}
 
-/// Renders `scene` through `camera` with `integrator`.
-pub fn render(
-    scene: &dyn Scene,
-    camera: &Camera,
-    integrator: &dyn Integrator,
-    settings: &RenderSettings,
-) -> anyhow::Result<(Film, RenderStats)> {
-    let tiles: Vec<(u32, u32)> = (0..camera.height.div_ceil(TILE))
-        .flat_map(|ty| (0..camera.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let progress = if settings.progress {
-        let bar = ProgressBar::new(tiles.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
-        );
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
-
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = settings.threads {
-        builder = builder.num_threads(n);
-    }
-    let pool = builder.build()?;
-    let threads = pool.current_num_threads();
-
-    let start = Instant::now();
-    let results: Vec<TileResult> = pool.install(|| {
-        tiles
-            .par_iter()
-            .map(|&origin| {
-                let r = render_tile(scene, camera, integrator, settings, origin);
-                progress.inc(1);
-                r
-            })
-            .collect()
-    });
-    let elapsed = start.elapsed();
-    progress.finish_and_clear();
-
-    // Assemble the film in tile order (deterministic), and the statistics.
-    let mut film = Film::new(camera.width, camera.height);
-    let mut stats = RenderStats {
-        elapsed,
-        samples: camera.width as u64 * camera.height as u64 * settings.spp as u64,
-        threads,
-        ..Default::default()
-    };
-    for t in results {
-        for j in 0..t.h {
-            for i in 0..t.w {
-                let (mean, var) = t.pixels[(j * t.w + i) as usize];
-                let idx = ((t.y0 + j) * camera.width + t.x0 + i) as usize;
-                film.pixels[idx] = mean;
-                film.variance[idx] = var;
-            }
-        }
-        stats.rays.add(&t.rays);
-        stats.dropped += t.dropped;
+    fn note_dropped(&mut self, bad: Option<BadSample>, count: u64) {
+        self.dropped += count;
         // The first in raster order, whatever the tile order.
-        stats.first_dropped = match (stats.first_dropped, t.first_dropped) {
+        self.first_dropped = match (self.first_dropped, bad) {
             (Some(a), Some(b)) => Some(if (b.y, b.x, b.sample) < (a.y, a.x, a.sample) {
                 b
             } else {
@@ -232,7 +216,176 @@ pub fn render(
             (a, b) => a.or(b),
         };
     }
-    Ok((film, stats))
+}
+
+/// What one tile's pass produced besides its pixels.
+struct TilePass {
+    rays: RayCounters,
+    dropped: u64,
+    first_dropped: Option<BadSample>,
+}
+
+/// Adds samples `samples` of every pixel of `tile`.
+fn render_tile_pass(
+    scene: &dyn Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    tile: &mut TileAccumulator,
+    samples: std::ops::Range<u32>,
+) -> TilePass {
+    let mut tracer = Tracer::new(scene);
+    let mut out = TilePass {
+        rays: RayCounters::default(),
+        dropped: 0,
+        first_dropped: None,
+    };
+    for j in 0..tile.h {
+        for i in 0..tile.w {
+            let (x, y) = (tile.x0 + i, tile.y0 + j);
+            let pixel_index = y as u64 * camera.width as u64 + x as u64;
+            let acc = &mut tile.pixels[(j * tile.w + i) as usize];
+            for s in samples.clone() {
+                // One camera sample: its own sampler, a stratified film position, a radiance
+                // estimate; non-finite estimates are dropped and counted.
+                let mut sampler = Sampler::new(settings.seed, pixel_index, s as u64);
+                let pos = sample_position(x, y, s, settings.spp, &mut sampler);
+                let ray = camera.ray(pos.x, pos.y);
+                let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
+                if l.is_finite() {
+                    acc.add(l);
+                } else {
+                    out.dropped += 1;
+                    out.first_dropped
+                        .get_or_insert(BadSample { x, y, sample: s });
+                }
+            }
+        }
+    }
+    out.rays = tracer.counters;
+    out
+}
+
+fn progress_bar(settings: &RenderSettings, start_spp: u32, tiles: usize) -> ProgressBar {
+    if !settings.progress {
+        return ProgressBar::hidden();
+    }
+    let (len, template) = match (settings.spp, settings.time_budget) {
+        (Some(spp), _) => (
+            (spp.saturating_sub(start_spp)) as u64 * tiles as u64,
+            "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta} {msg}",
+        ),
+        (None, Some(budget)) => (
+            budget.as_millis() as u64,
+            "{spinner} rendering [{bar:40}] {elapsed_precise} {msg}",
+        ),
+        (None, None) => (0, "{spinner} rendering {elapsed_precise} {msg}"),
+    };
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template(template)
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// Renders pass after pass into `acc` until `settings.spp` is reached, `stop()` returns
+/// true, or the time budget is spent. After each pass `after_pass` sees the accumulation
+/// (for checkpoints); an error from it ends the render.
+pub fn render_passes(
+    scene: &dyn Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    acc: &mut Accumulation,
+    stop: &dyn Fn() -> bool,
+    after_pass: &mut dyn FnMut(&Accumulation) -> anyhow::Result<()>,
+) -> anyhow::Result<RenderStats> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = settings.threads {
+        builder = builder.num_threads(n);
+    }
+    let pool = builder.build()?;
+    let mut stats = RenderStats {
+        threads: pool.current_num_threads(),
+        ..Default::default()
+    };
+    let progress = progress_bar(settings, acc.spp_done, acc.tiles.len());
+    let start = Instant::now();
+    loop {
+        if settings.spp.is_some_and(|spp| acc.spp_done >= spp) {
+            break;
+        }
+        if stop() {
+            stats.stopped = Some(StopReason::Interrupted);
+            break;
+        }
+        if settings.time_budget.is_some_and(|b| start.elapsed() >= b) {
+            stats.stopped = Some(StopReason::TimeBudget);
+            break;
+        }
+        // One pass: one more sample in every pixel, tiles in parallel.
+        let samples = acc.spp_done..acc.spp_done + 1;
+        let results: Vec<TilePass> = pool.install(|| {
+            acc.tiles
+                .par_iter_mut()
+                .map(|tile| {
+                    let r = render_tile_pass(
+                        scene,
+                        camera,
+                        integrator,
+                        settings,
+                        tile,
+                        samples.clone(),
+                    );
+                    if settings.spp.is_some() {
+                        progress.inc(1);
+                    }
+                    r
+                })
+                .collect()
+        });
+        acc.spp_done += 1;
+        for r in results {
+            stats.rays.add(&r.rays);
+            acc.note_dropped(r.first_dropped, r.dropped);
+        }
+        stats.samples += acc.width as u64 * acc.height as u64;
+        if settings.spp.is_none() {
+            if let Some(b) = settings.time_budget {
+                progress.set_position(start.elapsed().as_millis().min(b.as_millis()) as u64);
+            }
+        }
+        progress.set_message(format!("{} spp", acc.spp_done));
+        after_pass(acc)?;
+    }
+    progress.finish_and_clear();
+    stats.elapsed = start.elapsed();
+    stats.spp_done = acc.spp_done;
+    stats.dropped = acc.dropped;
+    stats.first_dropped = acc.first_dropped;
+    Ok(stats)
+}
+
+/// Renders `scene` through `camera` with `integrator` to completion.
+pub fn render(
+    scene: &dyn Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+) -> anyhow::Result<(Film, RenderStats)> {
+    let mut acc = Accumulation::new(camera.width, camera.height);
+    let stats = render_passes(
+        scene,
+        camera,
+        integrator,
+        settings,
+        &mut acc,
+        &|| false,
+        &mut |_| Ok(()),
+    )?;
+    Ok((acc.film(), stats))
 }
 
 #[cfg(test)]
@@ -275,12 +428,7 @@ mod tests {
     }
 
     fn settings(spp: u32, threads: usize) -> RenderSettings {
-        RenderSettings {
-            spp,
-            seed: 3,
-            threads: Some(threads),
-            progress: false,
-        }
+        RenderSettings::fixed(spp, 3, Some(threads))
     }
 
     #[test]
@@ -331,7 +479,7 @@ mod tests {
         let mut positions = Vec::new();
         for s in 0..16 {
             let mut sampler = Sampler::new(0, 0, s);
-            positions.push(sample_position(0, 0, s as u32, 16, &mut sampler));
+            positions.push(sample_position(0, 0, s as u32, Some(16), &mut sampler));
         }
         // 16 spp: one sample in each cell of a 4x4 grid.
         for j in 0..4 {

@@ -1,0 +1,194 @@
+//! Checkpoints: the accumulated state of a render, saved after every pass so that it can be
+//! resumed. The file records a hash of everything that determines the image (scene text,
+//! integrator and parameters, target spp, seed, resolution); resuming with any of them changed
+//! is refused. Rendering N spp directly, or k spp and then resuming to N, gives bit-identical
+//! images.
+//!
+//! Format (little-endian): magic `RAYLABCK`, version `u32`, settings hash `u64`, width and
+//! height `u32`, samples per pixel done `u32`, dropped samples `u64`, first dropped sample
+//! (`u8` present flag, then x, y, sample `u32`), then for every pixel in tile order its running
+//! sums: sum of radiance (3 x `f64`), sum of squares (3 x `f64`), sample count `u32`.
+
+use super::{Accumulation, BadSample};
+use anyhow::{bail, Context, Result};
+use std::io::{Read, Write};
+use std::path::Path;
+
+const MAGIC: &[u8; 8] = b"RAYLABCK";
+const VERSION: u32 = 1;
+
+/// FNV-1a, 64 bits: a hash that is stable across builds and platforms (unlike std's).
+pub fn stable_hash(parts: &[&[u8]]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for part in parts {
+        // Length-prefix each part so that ("ab", "c") and ("a", "bc") differ.
+        for b in (part.len() as u64).to_le_bytes().iter().chain(part.iter()) {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// Serialises `acc` with the settings hash `hash`.
+pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
+    let pixels: usize = acc.tiles.iter().map(|t| t.pixels.len()).sum();
+    let mut out = Vec::with_capacity(64 + pixels * 52);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&hash.to_le_bytes());
+    out.extend_from_slice(&acc.width.to_le_bytes());
+    out.extend_from_slice(&acc.height.to_le_bytes());
+    out.extend_from_slice(&acc.spp_done.to_le_bytes());
+    out.extend_from_slice(&acc.dropped.to_le_bytes());
+    let bad = acc.first_dropped.unwrap_or(BadSample {
+        x: 0,
+        y: 0,
+        sample: 0,
+    });
+    out.push(acc.first_dropped.is_some() as u8);
+    for v in [bad.x, bad.y, bad.sample] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for t in &acc.tiles {
+        for p in &t.pixels {
+            for v in p.sum.to_array().iter().chain(p.sum_sq.to_array().iter()) {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+            out.extend_from_slice(&p.count.to_le_bytes());
+        }
+    }
+    out
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+}
+
+impl Reader<'_> {
+    fn take<const N: usize>(&mut self) -> Result<[u8; N]> {
+        if self.bytes.len() < N {
+            bail!("the file is truncated");
+        }
+        let (head, rest) = self.bytes.split_at(N);
+        self.bytes = rest;
+        Ok(head.try_into().expect("split at N"))
+    }
+    fn u32(&mut self) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.take()?))
+    }
+    fn u64(&mut self) -> Result<u64> {
+        Ok(u64::from_le_bytes(self.take()?))
+    }
+    fn f64(&mut self) -> Result<f64> {
+        Ok(f64::from_le_bytes(self.take()?))
+    }
+}
+
+/// Restores an accumulation for an image of `width x height` rendered with settings hash
+/// `hash`; refuses a file made with other settings.
+pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumulation> {
+    let mut r = Reader { bytes };
+    if &r.take::<8>()? != MAGIC {
+        bail!("not a raylab checkpoint");
+    }
+    let version = r.u32()?;
+    if version != VERSION {
+        bail!("checkpoint version {version}, this raylab reads version {VERSION}");
+    }
+    if r.u64()? != hash {
+        bail!("the scene or the render settings changed since the checkpoint was written (integrator, parameters, spp, seed, resolution and the scene file must match)");
+    }
+    let (w, h) = (r.u32()?, r.u32()?);
+    if (w, h) != (width, height) {
+        bail!("the checkpoint is {w}x{h}, the render {width}x{height}");
+    }
+    let mut acc = Accumulation::new(width, height);
+    acc.spp_done = r.u32()?;
+    acc.dropped = r.u64()?;
+    let has_bad = r.take::<1>()?[0] != 0;
+    let bad = BadSample {
+        x: r.u32()?,
+        y: r.u32()?,
+        sample: r.u32()?,
+    };
+    acc.first_dropped = has_bad.then_some(bad);
+    for t in &mut acc.tiles {
+        for p in &mut t.pixels {
+            p.sum = glam::DVec3::new(r.f64()?, r.f64()?, r.f64()?);
+            p.sum_sq = glam::DVec3::new(r.f64()?, r.f64()?, r.f64()?);
+            p.count = r.u32()?;
+        }
+    }
+    if !r.bytes.is_empty() {
+        bail!("the file has {} unexpected trailing bytes", r.bytes.len());
+    }
+    Ok(acc)
+}
+
+/// Writes a checkpoint atomically (temporary file in the same folder, then rename).
+pub fn save(path: &Path, acc: &Accumulation, hash: u64) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("{}: cannot write a checkpoint there", path.display()))?;
+    tmp.write_all(&encode(acc, hash))
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("{}: cannot move the checkpoint into place", path.display()))?;
+    Ok(())
+}
+
+/// Reads a checkpoint written by [`save`] for the same settings.
+pub fn load(path: &Path, hash: u64, width: u32, height: u32) -> Result<Accumulation> {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_to_end(&mut bytes))
+        .with_context(|| format!("{}: cannot read the checkpoint", path.display()))?;
+    decode(&bytes, hash, width, height)
+        .with_context(|| format!("{}: cannot resume", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trips_and_refuses_other_settings_or_damage() {
+        let mut acc = Accumulation::new(20, 17);
+        acc.spp_done = 3;
+        acc.dropped = 2;
+        acc.first_dropped = Some(BadSample {
+            x: 4,
+            y: 5,
+            sample: 1,
+        });
+        acc.tiles[1].pixels[7].add(glam::Vec3A::new(1.0, 2.0, 3.0));
+        let bytes = encode(&acc, 42);
+        let back = decode(&bytes, 42, 20, 17).unwrap();
+        assert_eq!(back.film(), acc.film());
+        assert_eq!(
+            (back.spp_done, back.dropped, back.first_dropped),
+            (3, 2, acc.first_dropped)
+        );
+        assert!(decode(&bytes, 43, 20, 17)
+            .unwrap_err()
+            .to_string()
+            .contains("changed"));
+        assert!(decode(&bytes, 42, 20, 18).is_err());
+        assert!(decode(&bytes[..bytes.len() - 1], 42, 20, 17)
+            .unwrap_err()
+            .to_string()
+            .contains("truncated"));
+        assert!(decode(b"garbage!", 42, 20, 17).is_err());
+    }
+
+    #[test]
+    fn hash_separates_parts() {
+        assert_ne!(stable_hash(&[b"ab", b"c"]), stable_hash(&[b"a", b"bc"]));
+        assert_eq!(stable_hash(&[b"scene"]), stable_hash(&[b"scene"]));
+    }
+}

@@ -1,0 +1,221 @@
+//! Rendering in passes: time budgets, Ctrl-C, checkpoint and resume, determinism.
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn raylab(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("raylab runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+const CORNELL: &str = "scenes/cornell_box.ron";
+
+#[test]
+fn every_integrator_is_bit_identical_at_1_2_and_8_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    for integrator in [
+        "whitted",
+        "fixed-depth",
+        "russian-roulette",
+        "path",
+        "normals",
+        "albedo",
+        "depth",
+    ] {
+        let mut images: Vec<Vec<u8>> = Vec::new();
+        for threads in ["1", "2", "8"] {
+            let out = dir.path().join(format!("{integrator}-{threads}.exr"));
+            let mut args = vec![
+                "render",
+                "scenes/report_room.ron",
+                "-i",
+                integrator,
+                "--size",
+                "24x20",
+                "--spp",
+                "3",
+            ];
+            if integrator == "fixed-depth" {
+                args.extend(["-p", "branching=3", "-p", "shadow-grid=2"]);
+            }
+            args.extend(["--threads", threads, "-o", s(&out), "-q"]);
+            let o = raylab(&args);
+            assert!(o.status.success(), "{integrator}: {}", stderr(&o));
+            images.push(std::fs::read(&out).unwrap());
+        }
+        assert!(
+            images[0] == images[1] && images[0] == images[2],
+            "{integrator}: the thread count changed the image"
+        );
+    }
+}
+
+#[test]
+fn checkpoint_then_resume_equals_a_direct_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let direct = d.join("direct.exr");
+    let common = [
+        "render", CORNELL, "--size", "96x96", "--spp", "40", "--seed", "9", "-q",
+    ];
+    let o = raylab(&[&common[..], &["-o", s(&direct)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // Stop part-way through with a tiny time budget, leaving a checkpoint...
+    let partial = d.join("partial.exr");
+    let ck = d.join("render.ck");
+    let o = raylab(
+        &[
+            &common[..],
+            &["--time", "0.02", "--checkpoint", s(&ck), "-o", s(&partial)],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("time budget spent"), "{e}");
+    assert!(ck.exists());
+    assert_ne!(
+        std::fs::read(&partial).unwrap(),
+        std::fs::read(&direct).unwrap()
+    );
+
+    // ... then resume to the end: the image is bit-identical to the direct render.
+    let resumed = d.join("resumed.exr");
+    let o = raylab(
+        &[
+            &common[..],
+            &["--checkpoint", s(&ck), "--resume", "-o", s(&resumed)],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(&resumed).unwrap(),
+        std::fs::read(&direct).unwrap()
+    );
+
+    // Resuming with other settings is refused, and nothing is written.
+    let other = d.join("other.exr");
+    let o = raylab(&[
+        "render",
+        CORNELL,
+        "--size",
+        "96x96",
+        "--spp",
+        "40",
+        "--seed",
+        "10",
+        "-q",
+        "--checkpoint",
+        s(&ck),
+        "--resume",
+        "-o",
+        s(&other),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("changed since the checkpoint"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!other.exists());
+    let o = raylab(&["render", CORNELL, "--resume", "-o", s(&other)]);
+    assert!(
+        stderr(&o).contains("--resume needs --checkpoint"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn time_budget_stops_an_open_ended_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.png");
+    let start = Instant::now();
+    let o = raylab(&[
+        "render",
+        CORNELL,
+        "--size",
+        "64x64",
+        "--time",
+        "0.5",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(start.elapsed() < Duration::from_secs(20));
+    assert!(stderr(&o).contains("time budget spent"), "{}", stderr(&o));
+    assert!(out.exists());
+    for bad in ["0", "-1", "nan"] {
+        let o = raylab(&["render", CORNELL, "--time", bad, "-o", s(&out)]);
+        assert_eq!(o.status.code(), Some(2), "--time {bad}");
+    }
+}
+
+#[cfg(unix)]
+fn interrupt(pid: u32) {
+    Command::new("kill")
+        .args(["-INT", &pid.to_string()])
+        .status()
+        .unwrap();
+}
+
+#[cfg(unix)]
+#[test]
+fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let spawn = |out: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_raylab"))
+            .args([
+                "render",
+                CORNELL,
+                "--size",
+                "128x128",
+                "--spp",
+                "100000",
+                "-o",
+                s(out),
+                "-q",
+            ])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    // One Ctrl-C: the current pass ends and the image is written with what it has.
+    let out = dir.path().join("once.png");
+    let child = spawn(&out);
+    std::thread::sleep(Duration::from_millis(1500));
+    interrupt(child.id());
+    let o = child.wait_with_output().unwrap();
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("interrupted: wrote the image with") && e.contains("of 100000"),
+        "{e}"
+    );
+    assert!(out.exists());
+
+    // Two: stop at once, nothing written.
+    let out = dir.path().join("twice.png");
+    let child = spawn(&out);
+    std::thread::sleep(Duration::from_millis(1500));
+    interrupt(child.id());
+    interrupt(child.id());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(!out.exists());
+}
