@@ -6,6 +6,7 @@
 
 pub mod build;
 pub mod cli;
+pub mod compare;
 pub mod output;
 pub mod render;
 pub mod scene;

@@ -1,6 +1,7 @@
 //! Command-line interface: parses flags, calls into the library, prints, and maps errors to
 //! exit codes (0 ok, 1 "differs", 2 error).
 
+mod compare_cmd;
 mod render_cmd;
 
 use clap::{Parser, Subcommand};
@@ -26,6 +27,10 @@ pub enum Command {
     Render(RenderArgs),
     /// List every integrator with its summary, parameters and defaults.
     Integrators,
+    /// Render a scene with several integrators and compare them against a reference.
+    Compare(CompareArgs),
+    /// Print the error metrics between two images (EXR or PNG).
+    Diff(DiffArgs),
     /// Parse and build a scene, then print its counts and bounds.
     Validate {
         /// Scene file (RON).
@@ -79,6 +84,77 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+#[derive(clap::Args, Debug, Clone)]
+pub struct CompareArgs {
+    /// Scene file (RON).
+    pub scene: PathBuf,
+    /// An integrator to compare; repeat for several.
+    #[arg(short = 'i', long = "integrator", required = true)]
+    pub integrators: Vec<String>,
+    /// Integrator parameter as INTEGRATOR.NAME=VALUE; repeat for several.
+    #[arg(short = 'p', long = "param", value_name = "INTEGRATOR.NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Equal samples per pixel for every integrator (default 16).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Equal time for every integrator, in seconds (progressive passes; at least one each).
+    #[arg(long, value_name = "SECONDS")]
+    pub time: Option<f64>,
+    /// Reference image (EXR, linear radiance) of the same size.
+    #[arg(long, value_name = "FILE")]
+    pub reference: Option<PathBuf>,
+    /// Render the reference with `path` at this many spp (default 1024; cached by scene).
+    #[arg(long, value_name = "N")]
+    pub reference_spp: Option<u32>,
+    /// Render one image per value of a parameter: NAME=V1,V2,...
+    #[arg(long, value_name = "NAME=V1,V2,...")]
+    pub sweep: Option<String>,
+    /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Random seed (the same for every integrator).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output folder (created if missing).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// A note shown at the top of the page (e.g. why the resolution was reduced).
+    #[arg(long)]
+    pub note: Option<String>,
+    /// No progress bars.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// The metric `diff --tolerance` applies to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Metric {
+    Rmse,
+    RelMse,
+    Psnr,
+    Flip,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct DiffArgs {
+    /// First image (EXR or PNG).
+    pub a: PathBuf,
+    /// Second image, the reference (EXR or PNG).
+    pub b: PathBuf,
+    /// Write FLIP's error map here (PNG).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Metric the tolerance applies to.
+    #[arg(long, value_enum, default_value_t = Metric::Flip)]
+    pub metric: Metric,
+    /// Exit with 1 when the metric is beyond this (for PSNR: below it).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
+}
+
 /// Runs the command line and returns the process exit code.
 pub fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
@@ -109,5 +185,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Validate { scene } => render_cmd::validate(&scene),
+        Command::Compare(args) => compare_cmd::compare(&args),
+        Command::Diff(args) => compare_cmd::diff(&args),
     }
 }

@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
 
 /// Parses `WxH`.
-fn parse_size(text: &str) -> Result<(u32, u32)> {
+pub(super) fn parse_size(text: &str) -> Result<(u32, u32)> {
     let (w, h) = text
         .split_once(['x', 'X'])
         .ok_or_else(|| anyhow!("--size `{text}`: expected WIDTHxHEIGHT, e.g. 400x400"))?;

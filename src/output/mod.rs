@@ -127,3 +127,38 @@ pub fn write_image(path: &Path, film: &Film, display: DisplaySettings) -> Result
         }
     }
 }
+
+/// Reads an image as linear radiance: EXR as stored, PNG (8 or 16 bit) decoded from sRGB.
+pub fn read_image(path: &Path) -> Result<Film> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    let img =
+        image::open(path).with_context(|| format!("{}: cannot read the image", path.display()))?;
+    let (w, h) = (img.width(), img.height());
+    let mut film = Film::new(w, h);
+    match ext.as_deref() {
+        Some("exr") => {
+            for (p, q) in film.pixels.iter_mut().zip(img.to_rgb32f().pixels()) {
+                *p = glam::Vec3::new(q[0], q[1], q[2]);
+            }
+        }
+        _ => {
+            for (p, q) in film.pixels.iter_mut().zip(img.to_rgb16().pixels()) {
+                let lin = |v: u16| tonemap::srgb_decode(v as f32 / 65535.0);
+                *p = glam::Vec3::new(lin(q[0]), lin(q[1]), lin(q[2]));
+            }
+        }
+    }
+    Ok(film)
+}
+
+/// Writes an 8-bit RGB image as PNG, atomically.
+pub fn write_png(path: &Path, img: &RgbImage) -> Result<()> {
+    check_writable_folder(path)?;
+    write_atomic(path, |w| {
+        img.write_to(w, ImageFormat::Png)?;
+        Ok(())
+    })
+}

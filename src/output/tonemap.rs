@@ -42,6 +42,16 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
+/// The inverse of [`srgb_encode`].
+#[inline]
+pub fn srgb_decode(y: f32) -> f32 {
+    if y <= 0.040_45 {
+        y / 12.92
+    } else {
+        ((y + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// One pixel to 8-bit sRGB: `exposure` is in stops (EV), so each +1 doubles the radiance.
 #[inline]
 pub fn to_srgb8(v: Vec3, exposure: f32, curve: Tonemap) -> [u8; 3] {

@@ -1,0 +1,148 @@
+//! `raylab compare` and `raylab diff`.
+
+use super::{CompareArgs, DiffArgs, Metric};
+use crate::compare::{self, metrics, Budget, CompareOptions, ReferenceSpec};
+use crate::output;
+use anyhow::{anyhow, bail, Result};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// `INTEGRATOR.key=value`.
+fn parse_scoped_param(text: &str) -> Result<(String, String, String)> {
+    let err = || anyhow!("-p `{text}`: expected INTEGRATOR.NAME=VALUE, e.g. -p path.max-depth=8");
+    let (lhs, value) = text.split_once('=').ok_or_else(err)?;
+    let (integrator, name) = lhs.split_once('.').ok_or_else(err)?;
+    Ok((
+        integrator.trim().into(),
+        name.trim().into(),
+        value.trim().into(),
+    ))
+}
+
+/// `NAME=v1,v2,...`.
+fn parse_sweep(text: &str) -> Result<(String, Vec<String>)> {
+    let (name, values) = text.split_once('=').ok_or_else(|| {
+        anyhow!("--sweep `{text}`: expected NAME=V1,V2,..., e.g. --sweep depth=1,2,3,4")
+    })?;
+    let values: Vec<String> = values
+        .split(',')
+        .map(|v| v.trim().to_string())
+        .filter(|v| !v.is_empty())
+        .collect();
+    if values.is_empty() {
+        bail!("--sweep `{text}`: no values");
+    }
+    Ok((name.trim().to_string(), values))
+}
+
+fn cache_dir(out: &std::path::Path) -> PathBuf {
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")));
+    match base {
+        Some(b) => b.join("raylab"),
+        None => out.join(".cache"),
+    }
+}
+
+pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
+    let params = args
+        .params
+        .iter()
+        .map(|p| parse_scoped_param(p))
+        .collect::<Result<Vec<_>>>()?;
+    for (i, _, _) in &params {
+        if !args.integrators.contains(i) {
+            bail!("-p names integrator `{i}`, which is not compared (add -i {i})");
+        }
+    }
+    let sweep = args.sweep.as_deref().map(parse_sweep).transpose()?;
+    let contestants = compare::contestants(
+        &args.integrators,
+        &params,
+        sweep.as_ref().map(|(n, v)| (n.as_str(), v.as_slice())),
+    )?;
+    let budget = match (args.spp, args.time) {
+        (Some(_), Some(_)) => bail!("give either --spp or --time, not both"),
+        (Some(0), _) => bail!("--spp must be at least 1"),
+        (Some(n), None) => Budget::Spp(n),
+        (None, Some(t)) if t.is_finite() && t > 0.0 => Budget::Time(Duration::from_secs_f64(t)),
+        (None, Some(t)) => bail!("--time must be a positive number of seconds, got {t}"),
+        (None, None) => Budget::Spp(16),
+    };
+    let reference = match (&args.reference, args.reference_spp) {
+        (Some(_), Some(_)) => bail!("give either --reference or --reference-spp, not both"),
+        (Some(f), None) => ReferenceSpec::File(f.clone()),
+        (None, Some(0)) => bail!("--reference-spp must be at least 1"),
+        (None, n) => ReferenceSpec::Spp(n.unwrap_or(1024)),
+    };
+    if args.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    let size = args
+        .size
+        .as_deref()
+        .map(super::render_cmd::parse_size)
+        .transpose()?;
+    let opts = CompareOptions {
+        scene: args.scene.clone(),
+        contestants,
+        budget,
+        reference,
+        cache_dir: cache_dir(&args.output),
+        out_dir: args.output.clone(),
+        threads: args.threads,
+        seed: args.seed,
+        size,
+        progress: !args.quiet,
+        note: args.note.clone(),
+    };
+    compare::run(&opts)?;
+    eprintln!("wrote {}", args.output.join("index.html").display());
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
+    let a = output::read_image(&args.a)?;
+    let b = output::read_image(&args.b)?;
+    let (m, map) = metrics::compare(&a, &b)
+        .map_err(|e| anyhow!("{} vs {}: {e}", args.a.display(), args.b.display()))?;
+    if let Some(path) = &args.output {
+        output::write_png(path, &metrics::error_map_image(&map, a.width, a.height))?;
+    }
+    println!("RMSE    {:.6}", m.rmse);
+    println!("relMSE  {:.6}", m.rel_mse);
+    println!(
+        "PSNR    {} dB",
+        if m.psnr.is_infinite() {
+            "inf".to_string()
+        } else {
+            format!("{:.3}", m.psnr)
+        }
+    );
+    println!("FLIP    {:.6}", m.flip);
+    let (ma, mb) = (a.mean(), b.mean());
+    println!("mean A  ({:.5}, {:.5}, {:.5})", ma.x, ma.y, ma.z);
+    println!("mean B  ({:.5}, {:.5}, {:.5})", mb.x, mb.y, mb.z);
+    if let Some(t) = args.tolerance {
+        if !t.is_finite() {
+            bail!("--tolerance must be finite");
+        }
+        let (value, exceeded) = match args.metric {
+            Metric::Rmse => (m.rmse, m.rmse > t),
+            Metric::RelMse => (m.rel_mse, m.rel_mse > t),
+            Metric::Flip => (m.flip, m.flip > t),
+            // Higher PSNR is better: the tolerance is a floor.
+            Metric::Psnr => (m.psnr, m.psnr < t),
+        };
+        if exceeded {
+            println!(
+                "differs: {:?} {value} is beyond the tolerance {t}",
+                args.metric
+            );
+            return Ok(ExitCode::from(1));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,163 @@
+//! Sweep plots: error against time, and time against the swept value, as SVG and PNG.
+
+use super::{Report, Row};
+use anyhow::{anyhow, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+const SIZE: (u32, u32) = (1000, 420);
+
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, report: &Report) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("plot: {e}");
+    root.fill(&WHITE).map_err(err)?;
+    let (left, right) = root.split_horizontally(SIZE.0 / 2);
+    let rows: Vec<&Row> = report
+        .rows
+        .iter()
+        .filter(|r| r.swept_value.is_some())
+        .collect();
+    let param = rows
+        .first()
+        .and_then(|r| r.swept_param.clone())
+        .unwrap_or_default();
+    let series: Vec<String> = {
+        let mut v: Vec<String> = rows.iter().map(|r| r.integrator.clone()).collect();
+        v.dedup();
+        v
+    };
+    let colours = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK];
+
+    // Left: RMSE against time (log-log), each point labelled with its value.
+    let t_max = rows.iter().map(|r| r.time_s).fold(1e-3, f64::max) * 2.0;
+    let t_min = rows
+        .iter()
+        .map(|r| r.time_s)
+        .fold(f64::INFINITY, f64::min)
+        .max(1e-4)
+        / 2.0;
+    let e_max = rows.iter().map(|r| r.metrics.rmse).fold(1e-6, f64::max) * 2.0;
+    let e_min = rows
+        .iter()
+        .map(|r| r.metrics.rmse)
+        .fold(f64::INFINITY, f64::min)
+        .max(1e-6)
+        / 2.0;
+    let mut chart = ChartBuilder::on(&left)
+        .caption("error against time", ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((t_min..t_max).log_scale(), (e_min..e_max).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("RMSE")
+        .draw()
+        .map_err(err)?;
+    for (i, name) in series.iter().enumerate() {
+        let c = colours[i % colours.len()];
+        let pts: Vec<(f64, f64, String)> = rows
+            .iter()
+            .filter(|r| &r.integrator == name)
+            .map(|r| {
+                (
+                    r.time_s,
+                    r.metrics.rmse,
+                    r.swept_value.clone().unwrap_or_default(),
+                )
+            })
+            .collect();
+        chart
+            .draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.0, p.1)),
+                c.stroke_width(2),
+            ))
+            .map_err(err)?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart
+            .draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 4, c.filled())))
+            .map_err(err)?;
+        chart
+            .draw_series(
+                pts.iter()
+                    .map(|p| Text::new(format!("{param}={}", p.2), (p.0, p.1), ("sans-serif", 13))),
+            )
+            .map_err(err)?;
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE)
+        .draw()
+        .map_err(err)?;
+
+    // Right: time against the swept value (numeric values on a linear axis).
+    let xs: Vec<f64> = rows
+        .iter()
+        .filter_map(|r| r.swept_value.as_deref()?.parse().ok())
+        .collect();
+    let (x_min, x_max) = xs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        });
+    let (x_min, x_max) = if x_min.is_finite() {
+        (x_min - 0.5, x_max + 0.5)
+    } else {
+        (0.0, 1.0)
+    };
+    let mut chart = ChartBuilder::on(&right)
+        .caption(format!("time against {param}"), ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x_min..x_max, (t_min..t_max).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(param.clone())
+        .y_desc("time (s)")
+        .draw()
+        .map_err(err)?;
+    for (i, name) in series.iter().enumerate() {
+        let c = colours[i % colours.len()];
+        let pts: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| &r.integrator == name)
+            .filter_map(|r| Some((r.swept_value.as_deref()?.parse().ok()?, r.time_s)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+            .map_err(err)?;
+        chart
+            .draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled())))
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Writes `sweep.svg` and `sweep.png`; returns the SVG text for the page.
+pub fn write_sweep_plots(dir: &Path, report: &Report) -> Result<Option<String>> {
+    let mut svg = String::new();
+    draw(
+        SVGBackend::with_string(&mut svg, SIZE).into_drawing_area(),
+        report,
+    )?;
+    super::write_text(&dir.join("sweep.svg"), &svg)?;
+    let mut buffer = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+    draw(
+        BitMapBackend::with_buffer(&mut buffer, SIZE).into_drawing_area(),
+        report,
+    )?;
+    let img =
+        image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer).expect("buffer matches the plot size");
+    crate::output::write_png(&dir.join("sweep.png"), &img)?;
+    Ok(Some(svg))
+}
