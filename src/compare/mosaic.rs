@@ -38,19 +38,21 @@ pub fn write(dir: &Path, report: &Report) -> Result<()> {
             ],
         ));
     }
-    let (w, h) = (report.width, report.height);
+    // Small images are enlarged (nearest neighbour) so that captions fit under them.
+    let scale = 200u32.div_ceil(report.width).max(1);
+    let (w, h) = (report.width * scale, report.height * scale);
     let cols = tiles.len().min(PER_ROW) as u32;
     let rows = tiles.len().div_ceil(PER_ROW) as u32;
     let (mw, mh) = (cols * w, rows * (h + CAPTION));
     let mut buffer = vec![255u8; (mw * mh * 3) as usize];
     for (i, (img, _)) in tiles.iter().enumerate() {
-        let (x0, y0) = (
-            (i % PER_ROW) as u32 * w,
-            (i / PER_ROW) as u32 * (h + CAPTION),
-        );
-        for (x, y, p) in img.enumerate_pixels() {
-            let idx = (((y0 + y) * mw + x0 + x) * 3) as usize;
-            buffer[idx..idx + 3].copy_from_slice(&p.0);
+        let (x0, y0) = ((i % PER_ROW) as u32 * w, (i / PER_ROW) as u32 * (h + CAPTION));
+        for y in 0..h {
+            for x in 0..w {
+                let p = img.get_pixel(x / scale, y / scale);
+                let idx = (((y0 + y) * mw + x0 + x) * 3) as usize;
+                buffer[idx..idx + 3].copy_from_slice(&p.0);
+            }
         }
     }
     {
