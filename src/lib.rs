@@ -4,6 +4,7 @@
 //! integrators' `Scene` trait) -> `render` (tile loop, film) -> `output` (EXR, PNG). The
 //! integrators live in the `raylab-integrators` crate and know none of these modules.
 
+pub mod bench;
 pub mod build;
 pub mod cli;
 pub mod compare;

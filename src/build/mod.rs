@@ -230,6 +230,49 @@ impl RenderScene {
         out
     }
 
+    /// The triangles, in BVH order (for benchmark dumps).
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.tri
+    }
+
+    /// The spheres as (centre, radius), in BVH order.
+    pub fn spheres(&self) -> Vec<(Vec3A, f32)> {
+        self.sph_center
+            .iter()
+            .copied()
+            .zip(self.sph_radius.iter().copied())
+            .collect()
+    }
+
+    /// Bytes held by the geometry, its per-primitive data and the BVH (not the materials or
+    /// lights): what a benchmark reports per triangle.
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        let v = |n: usize, each: usize| n * each;
+        v(self.prims.capacity(), 4)
+            + v(self.tri.capacity(), size_of::<Triangle>())
+            + v(self.tri_normal.capacity(), size_of::<Vec3A>())
+            + v(
+                self.tri_material.capacity()
+                    + self.tri_light.capacity()
+                    + self.tri_smooth.capacity(),
+                4,
+            )
+            + v(self.smooth_normals.capacity(), size_of::<[Vec3A; 3]>())
+            + v(self.sph_center.capacity(), size_of::<Vec3A>())
+            + v(
+                self.sph_radius.capacity()
+                    + self.sph_material.capacity()
+                    + self.sph_light.capacity(),
+                4,
+            )
+            + v(
+                self.bvh.nodes.capacity(),
+                size_of::<obvhs::cwbvh::node::CwBvhNode>(),
+            )
+            + v(self.bvh.primitive_indices.capacity(), 4)
+    }
+
     /// Distance to primitive slot `slot` along `ray`, or infinity.
     #[inline(always)]
     fn intersect_slot(&self, ray: &obvhs::ray::Ray, slot: usize) -> f32 {

@@ -31,6 +31,8 @@ pub enum Command {
     Compare(CompareArgs),
     /// Print the error metrics between two images (EXR or PNG).
     Diff(DiffArgs),
+    /// Measure rays per second, samples per second, BVH build time and memory.
+    Bench(BenchArgs),
     /// Parse and build a scene, then print its counts and bounds.
     Validate {
         /// Scene file (RON).
@@ -129,6 +131,22 @@ pub struct CompareArgs {
     pub quiet: bool,
 }
 
+#[derive(clap::Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Rays per measurement.
+    #[arg(long, default_value_t = 1 << 20)]
+    pub rays: usize,
+    /// Subdivision level of the large icosphere (8: 1.31 M triangles).
+    #[arg(long, default_value_t = 8)]
+    pub subdivisions: u32,
+    /// Thread counts to measure at (default: 1 and all cores).
+    #[arg(long, value_delimiter = ',')]
+    pub threads: Vec<usize>,
+    /// Write each case's triangles and rays here (see `raylab bench --help` and the README).
+    #[arg(long, value_name = "DIR")]
+    pub dump: Option<PathBuf>,
+}
+
 /// The metric `diff --tolerance` applies to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Metric {
@@ -187,5 +205,29 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate { scene } => render_cmd::validate(&scene),
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
+        Command::Bench(args) => {
+            if args.rays == 0 || args.subdivisions > 10 || args.threads.contains(&0) {
+                anyhow::bail!(
+                    "bench: --rays must be positive, --subdivisions at most 10, --threads positive"
+                );
+            }
+            let threads = if args.threads.is_empty() {
+                let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+                if all > 1 {
+                    vec![1, all]
+                } else {
+                    vec![1]
+                }
+            } else {
+                args.threads.clone()
+            };
+            crate::bench::run(&crate::bench::BenchOptions {
+                rays: args.rays,
+                subdivisions: args.subdivisions,
+                threads,
+                dump: args.dump.clone(),
+            })?;
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }

@@ -1,0 +1,305 @@
+//! `raylab bench`: rays per second (closest hit and occlusion, separately), samples per
+//! second, BVH build time and memory, on standard cases, at 1 thread and at every core.
+//!
+//! Cases: the report's room and the Cornell box (tiny scenes: the cost is shading and
+//! sampling) and a procedural displaced icosphere of 1,310,720 triangles (traversal at
+//! scale). Each is traced with coherent rays (one camera ray through the centre of each pixel
+//! of a square image, in raster order) and incoherent rays (origins uniform in the scene
+//! bounds, directions uniform on the sphere), both from a fixed seed.
+//!
+//! `--dump DIR` writes the work so that any other engine can trace exactly the same rays:
+//! `CASE.tris`: `u32` triangle count, then per triangle 9 `f32` (v0, v1, v2 xyz);
+//! `CASE.spheres`: `u32` count, then per sphere 4 `f32` (centre xyz, radius);
+//! `CASE-coherent.rays` and `CASE-incoherent.rays`: `u32` ray count, then per ray 8 `f32`
+//! (origin xyz, unit direction xyz, tmin, tmax). All little-endian.
+
+pub mod procedural;
+
+use crate::build::RenderScene;
+use crate::render::{self, RenderSettings};
+use crate::scene::components::{MaterialRef, Name, Transform, WorldShape};
+use crate::scene::{parse_scene, Camera, LoadedScene};
+use anyhow::{Context, Result};
+use glam::Vec3A;
+use raylab_integrators::sampling::uniform_sphere;
+use raylab_integrators::{Ray, Sampler, Scene};
+use rayon::prelude::*;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Rays per measurement.
+    pub rays: usize,
+    /// Subdivision level of the large mesh (8: 1.31 M triangles).
+    pub subdivisions: u32,
+    /// Thread counts to measure at.
+    pub threads: Vec<usize>,
+    pub dump: Option<PathBuf>,
+}
+
+/// One benchmark scene.
+pub struct Case {
+    pub name: &'static str,
+    pub scene: RenderScene,
+    pub camera: Camera,
+    pub build_time: Duration,
+    /// Whether `path` samples per second are measured (small scenes only).
+    pub shade: bool,
+}
+
+fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
+    let loaded = parse_scene(text, Path::new(file))?;
+    let start = Instant::now();
+    let scene = RenderScene::build(&loaded);
+    Ok(Case {
+        name,
+        build_time: start.elapsed(),
+        scene,
+        camera: loaded.camera,
+        shade: true,
+    })
+}
+
+/// The displaced icosphere as a scene of one mesh, lit by nothing (traversal only).
+fn large_mesh(subdivisions: u32) -> Case {
+    let (positions, indices) = procedural::icosphere(subdivisions, 0.05);
+    let triangles: Vec<[Vec3A; 3]> = indices
+        .iter()
+        .map(|t| t.map(|i| positions[i as usize]))
+        .collect();
+    let mut world = hecs::World::new();
+    world.spawn((
+        Name("icosphere".into()),
+        Transform::default(),
+        MaterialRef(0),
+        WorldShape::Triangles {
+            triangles,
+            normals: None,
+            parallelogram: None,
+        },
+    ));
+    let camera = Camera::look_at(
+        Vec3A::new(0.0, 0.0, 3.5),
+        Vec3A::ZERO,
+        Vec3A::Y,
+        40.0,
+        (512, 512),
+    );
+    let loaded = LoadedScene {
+        path: PathBuf::from("icosphere"),
+        world,
+        camera: camera.clone(),
+        render: Default::default(),
+        materials: vec![raylab_integrators::Material::Lambert(
+            raylab_integrators::bsdf::Lambert {
+                albedo: raylab_integrators::Rgb::splat(0.5),
+            },
+        )],
+        material_names: vec!["grey".into()],
+        environment: None,
+        warnings: Vec::new(),
+    };
+    let start = Instant::now();
+    let scene = RenderScene::build(&loaded);
+    Case {
+        name: "icosphere-1m",
+        build_time: start.elapsed(),
+        scene,
+        camera,
+        shade: false,
+    }
+}
+
+/// One camera ray through the centre of each pixel of a `side x side` image, raster order.
+pub fn coherent_rays(camera: &Camera, count: usize) -> Vec<Ray> {
+    let side = (count as f64).sqrt().ceil() as u32;
+    let cam = camera.with_resolution(side, side);
+    (0..count as u32)
+        .map(|i| cam.ray((i % side) as f32 + 0.5, (i / side) as f32 + 0.5))
+        .collect()
+}
+
+/// Origins uniform in the bounds, directions uniform on the sphere, from a fixed seed.
+pub fn incoherent_rays(bounds: (Vec3A, Vec3A), count: usize) -> Vec<Ray> {
+    let mut s = Sampler::new(0xbe4c, 0, 0);
+    let (lo, hi) = bounds;
+    (0..count)
+        .map(|_| {
+            let t = Vec3A::new(s.next_1d(), s.next_1d(), s.next_1d());
+            Ray::new(lo + (hi - lo) * t, uniform_sphere(s.next_2d()))
+        })
+        .collect()
+}
+
+/// Rays per second of `trace` over `rays` on `threads` threads (best of three runs).
+fn rays_per_second(
+    rays: &[Ray],
+    threads: usize,
+    trace: &(dyn Fn(&Ray) -> bool + Sync),
+) -> Result<(f64, usize)> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let mut best = f64::INFINITY;
+    let mut hits = 0;
+    for _ in 0..3 {
+        let start = Instant::now();
+        hits = pool.install(|| {
+            rays.par_chunks(4096)
+                .map(|chunk| chunk.iter().filter(|r| trace(r)).count())
+                .sum::<usize>()
+        });
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    Ok((rays.len() as f64 / best, hits))
+}
+
+/// Peak resident memory of this process, in bytes (Linux; 0 elsewhere).
+pub fn peak_rss() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> Result<()> {
+    let mut w = std::io::BufWriter::new(
+        std::fs::File::create(path)
+            .with_context(|| format!("{}: cannot create", path.display()))?,
+    );
+    w.write_all(&(count as u32).to_le_bytes())?;
+    for v in values {
+        w.write_all(&v.to_le_bytes())?;
+    }
+    w.flush()
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(())
+}
+
+fn dump(dir: &Path, case: &Case, coherent: &[Ray], incoherent: &[Ray]) -> Result<()> {
+    let tris = case.scene.triangles();
+    write_f32s(
+        &dir.join(format!("{}.tris", case.name)),
+        tris.len(),
+        tris.iter()
+            .flat_map(|t| [t.v0, t.v1, t.v2].into_iter().flat_map(|v| v.to_array())),
+    )?;
+    let spheres = case.scene.spheres();
+    write_f32s(
+        &dir.join(format!("{}.spheres", case.name)),
+        spheres.len(),
+        spheres.iter().flat_map(|(c, r)| [c.x, c.y, c.z, *r]),
+    )?;
+    for (kind, rays) in [("coherent", coherent), ("incoherent", incoherent)] {
+        write_f32s(
+            &dir.join(format!("{}-{kind}.rays", case.name)),
+            rays.len(),
+            rays.iter().flat_map(|r| {
+                let (o, d) = (r.origin, r.dir);
+                [o.x, o.y, o.z, d.x, d.y, d.z, 0.0, r.tmax]
+            }),
+        )?;
+    }
+    Ok(())
+}
+
+/// Runs every case and returns the report as text (also printed as it goes).
+pub fn run(opts: &BenchOptions) -> Result<String> {
+    let mut out = String::new();
+    let mut say = |line: String| {
+        println!("{line}");
+        out.push_str(&line);
+        out.push('\n');
+    };
+    if let Some(dir) = &opts.dump {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create", dir.display()))?;
+    }
+    say(format!(
+        "raylab bench: {} rays per measurement, best of 3; threads {:?}",
+        opts.rays, opts.threads
+    ));
+    say(format!(
+        "{:<14} {:>10} {:>10} {:>8} {:>14} {:>16} {:>10}",
+        "case", "triangles", "rays", "threads", "closest M/s", "occlusion M/s", "hit rate"
+    ));
+    let cases: Vec<Box<dyn Fn() -> Result<Case>>> = vec![
+        Box::new(|| {
+            embedded(
+                "report-room",
+                "scenes/report_room.ron",
+                include_str!("../../scenes/report_room.ron"),
+            )
+        }),
+        Box::new(|| {
+            embedded(
+                "cornell-box",
+                "scenes/cornell_box.ron",
+                include_str!("../../scenes/cornell_box.ron"),
+            )
+        }),
+        Box::new(|| Ok(large_mesh(opts.subdivisions))),
+    ];
+    for make in cases {
+        let case = make()?;
+        let coherent = coherent_rays(&case.camera, opts.rays);
+        let incoherent = incoherent_rays(case.scene.bounds(), opts.rays);
+        if let Some(dir) = &opts.dump {
+            dump(dir, &case, &coherent, &incoherent)?;
+        }
+        let scene = &case.scene;
+        for (kind, rays) in [("coherent", &coherent), ("incoherent", &incoherent)] {
+            for &t in &opts.threads {
+                let (closest, hits) = rays_per_second(rays, t, &|r| scene.intersect(r).is_some())?;
+                let (occlusion, _) = rays_per_second(rays, t, &|r| scene.occluded(r))?;
+                say(format!(
+                    "{:<14} {:>10} {:>10} {:>8} {:>14.2} {:>16.2} {:>9.1}%",
+                    case.name,
+                    scene.stats.triangles,
+                    kind,
+                    t,
+                    closest / 1e6,
+                    occlusion / 1e6,
+                    100.0 * hits as f64 / rays.len() as f64
+                ));
+            }
+        }
+        let tris = scene.stats.triangles.max(1);
+        say(format!(
+            "{:<14} BVH build {:.1} ms, geometry + BVH {:.1} MB ({:.0} bytes/triangle), peak RSS so far {:.0} MB",
+            case.name,
+            case.build_time.as_secs_f64() * 1e3,
+            scene.memory_bytes() as f64 / 1e6,
+            scene.memory_bytes() as f64 / tris as f64,
+            peak_rss() as f64 / 1e6
+        ));
+        if case.shade {
+            let integrator = raylab_integrators::find("path")?.instantiate(&[])?;
+            let camera = case.camera.with_resolution(256, 256);
+            for &t in &opts.threads {
+                let (_, stats) = render::render(
+                    scene,
+                    &camera,
+                    integrator.as_ref(),
+                    &RenderSettings::fixed(8, 0, Some(t)),
+                )?;
+                say(format!(
+                    "{:<14} path 256x256 8 spp, {} threads: {:.3} M samples/s, {:.2} M rays/s",
+                    case.name,
+                    t,
+                    stats.samples_per_second() / 1e6,
+                    stats.rays_per_second() / 1e6
+                ));
+            }
+        }
+    }
+    Ok(out)
+}

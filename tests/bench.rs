@@ -1,0 +1,49 @@
+//! `raylab bench` runs every case and dumps the work in the documented format.
+
+use std::process::Command;
+
+#[test]
+fn bench_reports_every_case_and_dumps_triangles_and_rays() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args([
+            "bench",
+            "--rays",
+            "5000",
+            "--subdivisions",
+            "3",
+            "--threads",
+            "1,2",
+            "--dump",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for case in ["report-room", "cornell-box", "icosphere-1m"] {
+        for kind in ["coherent", "incoherent"] {
+            let lines = text
+                .lines()
+                .filter(|l| l.starts_with(case) && l.contains(&format!(" {kind} ")))
+                .count();
+            assert_eq!(lines, 2, "{case} {kind}: one line per thread count\n{text}");
+        }
+        assert!(
+            text.lines()
+                .any(|l| l.starts_with(case) && l.contains("BVH build")),
+            "{text}"
+        );
+    }
+    assert!(text.contains("M samples/s"));
+    // Dumps: u32 count then 9 floats per triangle / 8 per ray.
+    let tris = std::fs::read(dir.path().join("cornell-box.tris")).unwrap();
+    assert_eq!(u32::from_le_bytes(tris[..4].try_into().unwrap()), 36);
+    assert_eq!(tris.len(), 4 + 36 * 9 * 4);
+    let rays = std::fs::read(dir.path().join("icosphere-1m-incoherent.rays")).unwrap();
+    assert_eq!(rays.len(), 4 + 5000 * 8 * 4);
+    let spheres = std::fs::read(dir.path().join("report-room.spheres")).unwrap();
+    assert_eq!(spheres.len(), 4 + 2 * 4 * 4);
+    // 20 * 4^3 triangles at subdivision 3.
+    assert!(text.contains("1280"), "{text}");
+}
