@@ -5,10 +5,11 @@ use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("{}: cannot read scene file: {source}", path.display())]
+    // Not a `source`: the message already holds the reason, and error chains would repeat it.
+    #[error("{}: cannot read scene file: {reason}", path.display())]
     Read {
         path: PathBuf,
-        source: std::io::Error,
+        reason: std::io::Error,
     },
     #[error("{}:{line}:{col}: {message}", path.display())]
     Parse {

@@ -3,11 +3,11 @@
 use super::camera::Camera;
 use super::components::{Emitter, MaterialRef, Name, Shape, Transform};
 use super::error::{finite, SceneError};
-use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, SceneFile, ShapeDesc};
+use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
 use super::{systems, LoadedScene};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
-use raylab_integrators::{Material, Rgb};
+use raylab_integrators::{registry, Material, Rgb};
 use ron::extensions::Extensions;
 use std::path::Path;
 
@@ -18,9 +18,9 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// Reads, parses, spawns, validates and bakes a scene file.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+    let text = std::fs::read_to_string(path).map_err(|reason| SceneError::Read {
         path: path.to_path_buf(),
-        source,
+        reason,
     })?;
     parse_scene(&text, path)
 }
@@ -28,13 +28,30 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
 /// Parses scene text; `path` is used in messages and to resolve relative files.
 pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
     let options = ron::Options::default().with_default_extension(Extensions::IMPLICIT_SOME);
-    let file: SceneFile = options.from_str(text).map_err(|e| SceneError::Parse {
-        path: path.to_path_buf(),
-        line: e.span.start.line,
-        col: e.span.start.col,
-        message: e.code.to_string(),
+    let file: SceneFile = options.from_str(text).map_err(|e| {
+        let (line, col) = (e.span.start.line, e.span.start.col);
+        let mut message = e.code.to_string();
+        // The error's span reaches the end of the text: it ran out of text.
+        if (e.span.end.line, e.span.end.col) >= end_position(text) {
+            message.push_str("; the file ends here: is it truncated?");
+        }
+        SceneError::Parse {
+            path: path.to_path_buf(),
+            line,
+            col,
+            message,
+        }
     })?;
     build_world(file, path)
+}
+
+/// Line and column (as ron counts them: from 1, in characters) just after the last
+/// non-whitespace character of `text`.
+fn end_position(text: &str) -> (usize, usize) {
+    let text = text.trim_end();
+    let line = 1 + text.matches('\n').count();
+    let col = 1 + text.chars().rev().take_while(|&c| c != '\n').count();
+    (line, col)
 }
 
 fn v3(a: [f32; 3]) -> Vec3A {
@@ -122,6 +139,25 @@ pub fn check_size(w: u32, h: u32) -> Result<(), String> {
             "resolution {w}x{h} is too large (at most {MAX_SIDE} pixels a side and {MAX_PIXELS} pixels)"
         ));
     }
+    Ok(())
+}
+
+/// Checks the render defaults: at least 1 spp, a known integrator, and parameters it takes,
+/// in range (as `raylab render` would read them, so a bad scene fails whatever the flags).
+fn check_render(render: &RenderDesc) -> Result<(), String> {
+    if render.spp == 0 {
+        return Err("render.spp must be at least 1".into());
+    }
+    let entry =
+        registry::find(&render.integrator).map_err(|e| format!("render.integrator: {e}"))?;
+    let given: Vec<(String, String)> = render
+        .params
+        .iter()
+        .map(|(k, v)| (k.clone(), format!("{v}")))
+        .collect();
+    entry
+        .resolve(&given)
+        .map_err(|e| format!("render.params: {e}"))?;
     Ok(())
 }
 
@@ -257,6 +293,11 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
         materials.push(m);
         material_names.push(name.clone());
     }
+
+    check_render(&file.render).map_err(|message| SceneError::Scene {
+        path: path_buf.clone(),
+        message,
+    })?;
 
     let camera = camera_from_desc(&file.camera).map_err(|message| SceneError::Camera {
         path: path_buf.clone(),

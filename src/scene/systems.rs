@@ -229,9 +229,45 @@ pub fn is_degenerate(t: &[Vec3A; 3]) -> bool {
     cross.is_nan() || cross <= 1e-12 * scale * scale || !cross.is_finite()
 }
 
+/// How far from the origin world-space geometry may reach. Beyond it `f32` is too coarse to
+/// trace (one unit is 1 ulp at 1e7), and bounding-box areas overflow soon after, which
+/// breaks the BVH build.
+pub const MAX_COORDINATE: f32 = 1e7;
+
+/// Checks that a world-space shape stays within [`MAX_COORDINATE`] of the origin on every
+/// axis (a finite transform of finite numbers can still overflow).
+fn check_reach(shape: &WorldShape) -> Result<(), String> {
+    let within = |r: f32| r.is_finite() && r <= MAX_COORDINATE;
+    // `max_element` skips NaN: a point with a NaN is infinitely far.
+    let far = |p: &Vec3A| {
+        if p.is_finite() {
+            p.abs().max_element()
+        } else {
+            f32::INFINITY
+        }
+    };
+    let reach = match shape {
+        WorldShape::Sphere { center, radius } => far(center) + radius,
+        WorldShape::Triangles { triangles, .. } => triangles
+            .iter()
+            .flatten()
+            .map(far)
+            .find(|r| !within(*r))
+            .unwrap_or(0.0),
+    };
+    if within(reach) {
+        Ok(())
+    } else {
+        Err(format!(
+            "in world space it reaches {reach:e} from the origin, beyond the {MAX_COORDINATE:e} \
+             raylab can trace (check transform.scale and transform.translate)"
+        ))
+    }
+}
+
 /// Computes every shaped entity's world-space geometry and inserts it as a [`WorldShape`].
-/// Degenerate triangles are dropped with a warning (returned); an emitter left without
-/// area is an error.
+/// Geometry reaching beyond [`MAX_COORDINATE`] is an error. Degenerate triangles are dropped
+/// with a warning (returned); an emitter left without area is an error.
 pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
     let mut warnings = Vec::new();
     let mut baked: Vec<(Entity, WorldShape)> = Vec::new();
@@ -242,6 +278,7 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
         for (entity, name, transform, shape, emitter) in items {
             let m = transform.matrix();
             let world_shape = bake_shape(shape, &m);
+            check_reach(&world_shape).map_err(|e| (name.0.clone(), e))?;
             if let WorldShape::Triangles {
                 triangles,
                 normals,
