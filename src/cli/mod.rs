@@ -51,13 +51,13 @@ pub struct RenderArgs {
     #[arg(short = 'p', long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
     /// Samples per pixel (stratified on an NxN grid when a square).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub spp: Option<u32>,
     /// Random seed.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub seed: Option<u64>,
     /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
     #[arg(long, value_name = "WxH")]
@@ -73,7 +73,7 @@ pub struct RenderArgs {
     pub tonemap: Tonemap,
     /// Stop after this many seconds (at the end of the pass that passes it) and write the
     /// image. Without --spp the render is open-ended.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Save the render's state to FILE after every pass.
     #[arg(long, value_name = "FILE")]

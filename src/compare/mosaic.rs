@@ -46,7 +46,10 @@ pub fn write(dir: &Path, report: &Report) -> Result<()> {
     let (mw, mh) = (cols * w, rows * (h + CAPTION));
     let mut buffer = vec![255u8; (mw * mh * 3) as usize];
     for (i, (img, _)) in tiles.iter().enumerate() {
-        let (x0, y0) = ((i % PER_ROW) as u32 * w, (i / PER_ROW) as u32 * (h + CAPTION));
+        let (x0, y0) = (
+            (i % PER_ROW) as u32 * w,
+            (i / PER_ROW) as u32 * (h + CAPTION),
+        );
         for y in 0..h {
             for x in 0..w {
                 let p = img.get_pixel(x / scale, y / scale);

@@ -34,7 +34,12 @@ where
 
     // Left: FLIP against time (log), each point labelled with its swept value.
     let t_max = rows.iter().map(|r| r.time_s).fold(1e-3, f64::max) * 2.0;
-    let t_min = rows.iter().map(|r| r.time_s).fold(f64::INFINITY, f64::min).max(1e-4) / 2.0;
+    let t_min = rows
+        .iter()
+        .map(|r| r.time_s)
+        .fold(f64::INFINITY, f64::min)
+        .max(1e-4)
+        / 2.0;
     let e_max = rows.iter().map(|r| r.metrics.flip).fold(1e-6, f64::max) * 1.2;
     let mut chart = ChartBuilder::on(&left)
         .caption("error against time", ("sans-serif", 20))
@@ -43,21 +48,37 @@ where
         .y_label_area_size(60)
         .build_cartesian_2d((t_min..t_max).log_scale(), 0.0..e_max)
         .map_err(err)?;
-    chart.configure_mesh().x_desc("time (s)").y_desc("FLIP (lower is better)")
-        .light_line_style(WHITE).draw().map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("FLIP (lower is better)")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
     for (i, name) in series.iter().enumerate() {
         let c = colours[i % colours.len()];
         let pts: Vec<(f64, f64, String)> = rows
             .iter()
             .filter(|r| &r.integrator == name)
-            .map(|r| (r.time_s, r.metrics.flip, r.swept_value.clone().unwrap_or_default()))
+            .map(|r| {
+                (
+                    r.time_s,
+                    r.metrics.flip,
+                    r.swept_value.clone().unwrap_or_default(),
+                )
+            })
             .collect();
         chart
-            .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), c.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.0, p.1)),
+                c.stroke_width(2),
+            ))
             .map_err(err)?
             .label(format!("{name}, labelled by {param}"))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-        chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 4, c.filled()))).map_err(err)?;
+        chart
+            .draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 4, c.filled())))
+            .map_err(err)?;
         chart
             .draw_series(pts.iter().map(|p| {
                 EmptyElement::at((p.0, p.1)) + Text::new(p.2.clone(), (6, -18), ("sans-serif", 14))

@@ -47,6 +47,9 @@ pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
 /// Checks that the folder `path` would be written in exists and takes new files.
 pub fn check_writable_folder(path: &Path) -> Result<()> {
     let dir = parent_dir(path);
+    if dir.exists() && !dir.is_dir() {
+        bail!("{}: `{}` is not a folder", path.display(), dir.display());
+    }
     if !dir.is_dir() {
         bail!(
             "{}: the folder `{}` does not exist",
