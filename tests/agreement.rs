@@ -136,3 +136,35 @@ fn the_comparison_detects_a_missing_bounce() {
     let z = (mb.x - ma.x) / (sa.x * sa.x + sb.x * sb.x).sqrt();
     assert!(z > 4.0, "depth 3 {ma} vs depth 4 {mb}: z = {z}");
 }
+
+#[test]
+fn cornell_box_matches_mitsuba_3() {
+    // Mitsuba 3.9.1's converged mean of its own Cornell box (box filter, max_depth 8 = raylab
+    // max-depth 7), given to 4 digits (shared/ANCHORS.md): (0.2401, 0.1411, 0.0600). The image
+    // mean does not depend on the resolution, so a small render will do.
+    let film = render_mean(
+        "scenes/cornell_box.ron",
+        "path",
+        &[("max-depth", "7")],
+        4096,
+        11,
+    );
+    let (m, se) = (film.mean(), film.mean_standard_error());
+    let mitsuba = [0.2401f32, 0.1411, 0.0600];
+    for c in 0..3 {
+        let rounding = 0.00005f32;
+        let z = (m[c] - mitsuba[c]) / (se[c] * se[c] + rounding * rounding).sqrt();
+        assert!(
+            z.abs() < 4.0,
+            "channel {c}: raylab {:.5} +- {:.5}, Mitsuba {:.4} (z = {z:.2})",
+            m[c],
+            se[c],
+            mitsuba[c]
+        );
+    }
+    assert!(
+        se.x < 0.0025 * m.x,
+        "standard error {} too large to see a 1% difference at 4 sigma",
+        se.x
+    );
+}

@@ -15,7 +15,6 @@
 //! **Bias**: truncation only (paths longer than `depth` are missing); unbiased below it.
 
 use crate::integrator::{emitted_at, escaped, Integrator, Tracer};
-use crate::light::Light;
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Frame, Hit, Material, Ray, Rgb, Sampler};
 use glam::{Vec2, Vec3A};
@@ -79,7 +78,7 @@ impl FixedDepth {
         let mut l = Rgb::ZERO;
         let lights = tracer.scene.lights();
         for light in lights.lights() {
-            let n = if matches!(light, Light::Point { .. }) {
+            let n = if light.is_delta() {
                 1
             } else {
                 self.shadow_grid

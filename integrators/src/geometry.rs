@@ -63,18 +63,21 @@ impl Hit {
         Ray::new(self.offset_origin(dir), dir)
     }
 
-    /// A shadow ray from this surface towards `target`, stopping just short of it.
-    /// Returns the ray and the distance to `target`.
+    /// A shadow ray from this surface towards `target` (a point on a light), stopping short
+    /// of it by the same margin spawned rays keep from surfaces, so that it cannot hit the
+    /// light's own surface at any scene scale.
     #[inline]
     pub fn spawn_ray_to(&self, target: Vec3A) -> Ray {
         let d = target - self.p;
         let origin = self.offset_origin(d);
         let to = target - origin;
         let dist = to.length();
+        let margin = (2.0 * (ABSOLUTE_OFFSET + RELATIVE_OFFSET * target.abs().max_element()))
+            .max(1e-4 * dist);
         Ray {
             origin,
             dir: to / dist,
-            tmax: dist * (1.0 - 1e-4),
+            tmax: (dist - margin).max(0.0),
         }
     }
 

@@ -104,6 +104,10 @@ impl Integrator for PathTracer {
                 break;
             };
             beta *= bs.weight();
+            // Nothing more can arrive along a path that carries no light (pure emitters are black).
+            if beta == Rgb::ZERO {
+                break;
+            }
             specular = bs.specular;
             prev_pdf = bs.pdf;
             prev_p = hit.p;

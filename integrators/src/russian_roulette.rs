@@ -92,6 +92,10 @@ impl Integrator for RussianRouletteTracer {
                 break;
             };
             beta *= bs.weight();
+            // Nothing more can arrive along a path that carries no light (pure emitters are black).
+            if beta == Rgb::ZERO {
+                break;
+            }
             count_emission = bs.specular;
             ray = hit.spawn_ray(frame.to_world(bs.wi));
             bounces += 1;

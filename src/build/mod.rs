@@ -100,9 +100,11 @@ impl RenderScene {
         // Lights: one table entry per emitting primitive (or quad), in entity order.
         let emitters = systems::collect_emitters(world);
         let mut lights: Vec<Light> = Vec::new();
-        let mut light_of: Vec<(Entity, u32, usize)> = Vec::new(); // entity, first light, count
+        // Entity -> (first light, count).
+        let mut light_of: std::collections::HashMap<Entity, (u32, usize)> =
+            std::collections::HashMap::new();
         for (entity, ls) in &emitters {
-            light_of.push((*entity, lights.len() as u32, ls.len()));
+            light_of.insert(*entity, (lights.len() as u32, ls.len()));
             lights.extend(ls.iter().cloned());
         }
 
@@ -115,10 +117,11 @@ impl RenderScene {
         shaped.sort_by_key(|(e, ..)| e.id());
         let mut prims: Vec<Prim> = Vec::new();
         for (entity, shape, material) in &shaped {
-            let light = light_of.iter().find(|(e, ..)| e == entity);
+            let light = light_of.get(entity);
             let light_for = |i: usize| match light {
-                Some(&(_, first, 1)) => first,
-                Some(&(_, first, _)) => first + i as u32,
+                // One light for the whole entity (a sphere, a quad), or one per triangle.
+                Some(&(first, 1)) => first,
+                Some(&(first, _)) => first + i as u32,
                 None => NONE,
             };
             match shape {

@@ -67,8 +67,12 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         (Some(_), Some(_)) => bail!("give either --spp or --time, not both"),
         (Some(0), _) => bail!("--spp must be at least 1"),
         (Some(n), None) => Budget::Spp(n),
-        (None, Some(t)) if t.is_finite() && t > 0.0 => Budget::Time(Duration::from_secs_f64(t)),
-        (None, Some(t)) => bail!("--time must be a positive number of seconds, got {t}"),
+        (None, Some(t)) if t.is_finite() && t > 0.0 && t <= 1e9 => {
+            Budget::Time(Duration::from_secs_f64(t))
+        }
+        (None, Some(t)) => {
+            bail!("--time must be a positive number of seconds, at most 1e9, got {t}")
+        }
         (None, None) => Budget::Spp(16),
     };
     let reference = match (&args.reference, args.reference_spp) {

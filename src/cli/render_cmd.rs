@@ -11,7 +11,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+/// Shortest time between two checkpoint writes.
+const CHECKPOINT_INTERVAL: Duration = Duration::from_secs(2);
 
 /// Parses `WxH`.
 pub(super) fn parse_size(text: &str) -> Result<(u32, u32)> {
@@ -58,8 +61,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         bail!("--threads must be at least 1");
     }
     if let Some(t) = args.time {
-        if !(t.is_finite() && t > 0.0) {
-            bail!("--time must be a positive number of seconds, got {t}");
+        if !(t.is_finite() && t > 0.0 && t <= 1e9) {
+            bail!("--time must be a positive number of seconds, at most 1e9, got {t}");
         }
     }
     if args.resume && args.checkpoint.is_none() {
@@ -156,9 +159,14 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     // Ctrl-C: the first finishes the pass and writes the image, the second stops at once.
     install_interrupt_handler();
     let stop = || INTERRUPTS.load(Ordering::SeqCst) > 0;
+    // Checkpoints: at most every few seconds while rendering, and once at the end.
+    let mut last_save: Option<Instant> = None;
     let mut after_pass = |acc: &Accumulation| -> Result<()> {
         if let Some(path) = &args.checkpoint {
-            checkpoint::save(path, acc, hash)?;
+            if last_save.is_none_or(|t| t.elapsed() >= CHECKPOINT_INTERVAL) {
+                checkpoint::save(path, acc, hash)?;
+                last_save = Some(Instant::now());
+            }
         }
         Ok(())
     };
@@ -171,6 +179,9 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         &stop,
         &mut after_pass,
     )?;
+    if let Some(path) = &args.checkpoint {
+        checkpoint::save(path, &acc, hash)?;
+    }
     if acc.spp_done == 0 {
         bail!("stopped before the first pass finished: no image written");
     }

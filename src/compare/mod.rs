@@ -214,9 +214,12 @@ fn reference(
                 .with_context(|| format!("{}: cannot read scene file", opts.scene.display()))?;
             // A seed of its own, so that its noise is independent of the renders'.
             let seed = opts.seed ^ 0x5eed_5eed_5eed_5eed;
+            // The version too: a light-transport fix must not reuse an old reference.
             let key = format!(
-                "reference path max-depth=unlimited spp={spp} seed={seed} {}x{}",
-                camera.width, camera.height
+                "raylab {} reference path max-depth=unlimited spp={spp} seed={seed} {}x{}",
+                env!("CARGO_PKG_VERSION"),
+                camera.width,
+                camera.height
             );
             let hash = stable_hash(&[&scene_bytes, key.as_bytes()]);
             let cached = opts.cache_dir.join(format!("reference-{hash:016x}.exr"));

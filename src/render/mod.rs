@@ -129,15 +129,63 @@ pub fn check_memory(width: u32, height: u32) -> anyhow::Result<()> {
 
 /// Film position of sample `s` in pixel `(x, y)` of a render of `spp` samples per pixel.
 #[inline]
-fn sample_position(x: u32, y: u32, s: u32, spp: Option<u32>, sampler: &mut Sampler) -> Vec2 {
+fn sample_position(
+    x: u32,
+    y: u32,
+    s: u32,
+    spp: Option<u32>,
+    seed: u64,
+    sampler: &mut Sampler,
+) -> Vec2 {
     let n = spp.map_or(1, |spp| (spp as f64).sqrt().floor() as u32);
     let jitter = sampler.next_2d();
     let offset = if s < n * n {
-        (Vec2::new((s % n) as f32, (s / n) as f32) + jitter) / n as f32
+        // Strata are visited in an order scrambled per pixel, so a render stopped early
+        // (Ctrl-C, a time budget) still covers the whole pixel.
+        let key = (seed as u32) ^ (y.wrapping_mul(0x9e37_79b9) ^ x.wrapping_mul(0x85eb_ca6b));
+        let cell = permute(s, n * n, key);
+        (Vec2::new((cell % n) as f32, (cell / n) as f32) + jitter) / n as f32
     } else {
         jitter
     };
     Vec2::new(x as f32, y as f32) + offset
+}
+
+/// A pseudo-random permutation of `[0, len)` selected by `key`: Kensler's hash-based
+/// permutation ("Correlated Multi-Jittered Sampling", 2013), by cycle walking.
+fn permute(mut i: u32, len: u32, key: u32) -> u32 {
+    if len <= 1 {
+        return 0;
+    }
+    let mut w = len - 1;
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= key;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= key >> 16;
+        i ^= (i & w) >> 4;
+        i ^= key >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= key >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | key >> 27);
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < len {
+            return (i.wrapping_add(key)) % len;
+        }
+    }
 }
 
 /// The running sums of one tile's pixels.
@@ -249,7 +297,7 @@ fn render_tile_pass(
                 // One camera sample: its own sampler, a stratified film position, a radiance
                 // estimate; non-finite estimates are dropped and counted.
                 let mut sampler = Sampler::new(settings.seed, pixel_index, s as u64);
-                let pos = sample_position(x, y, s, settings.spp, &mut sampler);
+                let pos = sample_position(x, y, s, settings.spp, settings.seed, &mut sampler);
                 let ray = camera.ray(pos.x, pos.y);
                 let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
                 if l.is_finite() {
@@ -314,7 +362,7 @@ pub fn render_passes(
     let progress = progress_bar(settings, acc.spp_done, acc.tiles.len());
     let start = Instant::now();
     loop {
-        if settings.spp.is_some_and(|spp| acc.spp_done >= spp) {
+        if settings.spp.is_some_and(|spp| acc.spp_done >= spp) || acc.spp_done == u32::MAX {
             break;
         }
         if stop() {
@@ -422,6 +470,7 @@ mod tests {
     fn scene() -> (RenderScene, Camera) {
         let text = r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (20, 10)),
             materials: {"w": Lambert(albedo: (0.5, 0.5, 0.5))},
+            environment: (1, 0.5, 0.25),
             entities: [(shape: Sphere(radius: 1), material: "w")])"#;
         let loaded = parse_scene(text, std::path::Path::new("t.ron")).unwrap();
         (RenderScene::build(&loaded), loaded.camera)
@@ -470,8 +519,37 @@ mod tests {
         let (a, _) = render(&s, &cam, path.as_ref(), &settings(3, 1)).unwrap();
         let (b, _) = render(&s, &cam, path.as_ref(), &settings(3, 2)).unwrap();
         let (c, _) = render(&s, &cam, path.as_ref(), &settings(3, 5)).unwrap();
+        assert!(
+            a.pixels.iter().any(|p| p.x > 0.0),
+            "the scene must be lit for the test to mean anything"
+        );
         assert_eq!(a, b);
         assert_eq!(a, c);
+    }
+
+    #[test]
+    fn strata_are_visited_in_a_scrambled_order_that_covers_the_pixel_early() {
+        // With 10000 spp (100 x 100 strata), the first 16 samples must already spread over
+        // the pixel's height, not sit in its top row of strata.
+        for (x, y) in [(0, 0), (5, 9), (1000, 3)] {
+            let ys: Vec<f32> = (0..16)
+                .map(|s| {
+                    let mut sampler = Sampler::new(1, 0, s as u64);
+                    sample_position(x, y, s, Some(10_000), 1, &mut sampler).y - y as f32
+                })
+                .collect();
+            assert!(
+                ys.iter().any(|v| *v > 0.5) && ys.iter().any(|v| *v < 0.5),
+                "{ys:?}"
+            );
+        }
+        // And the order is a permutation: every stratum exactly once.
+        let mut seen = vec![false; 10_000];
+        for s in 0..10_000 {
+            let c = permute(s, 10_000, 77) as usize;
+            assert!(!seen[c]);
+            seen[c] = true;
+        }
     }
 
     #[test]
@@ -479,7 +557,7 @@ mod tests {
         let mut positions = Vec::new();
         for s in 0..16 {
             let mut sampler = Sampler::new(0, 0, s);
-            positions.push(sample_position(0, 0, s as u32, Some(16), &mut sampler));
+            positions.push(sample_position(0, 0, s as u32, Some(16), 0, &mut sampler));
         }
         // 16 spp: one sample in each cell of a 4x4 grid.
         for j in 0..4 {

@@ -100,8 +100,10 @@ pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
                 ));
             }
             finite("exponent", &[*exponent])?;
-            if *exponent < 0.0 {
-                return Err(format!("exponent must be >= 0, got {exponent}"));
+            // Beyond ~1e5 cos^n underflows in f32 and sampling no longer matches the density:
+            // use Mirror for a perfect reflector.
+            if !(0.0..=1e5).contains(exponent) {
+                return Err(format!("exponent must be in [0, 1e5] (use Mirror for a perfect reflector), got {exponent}"));
             }
             Material::Phong(Phong {
                 kd,

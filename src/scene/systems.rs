@@ -29,11 +29,23 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
             validate_shape(shape, transform).map_err(fail)?;
         }
         match (emitter, shape) {
-            (Some(Emitter::Area { radiance, .. }), s) => {
+            (
+                Some(Emitter::Area {
+                    radiance,
+                    two_sided,
+                }),
+                s,
+            ) => {
                 check_radiance("radiance", *radiance).map_err(fail)?;
                 if s.is_none() {
                     return Err(fail(
                         "an area emitter needs a shape (use `Point` for a point light)".into(),
+                    ));
+                }
+                if *two_sided && matches!(s, Some(Shape::Sphere { .. })) {
+                    return Err(fail(
+                        "a sphere is closed and emits outwards: `two_sided` has no meaning on it"
+                            .into(),
                     ));
                 }
             }
