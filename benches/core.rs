@@ -1,0 +1,125 @@
+//! Micro-benchmarks (criterion): BVH traversal, each BSDF's sample and eval, and one pixel of
+//! each integrator on the report's room. Run with `cargo bench`; `raylab bench` measures the
+//! whole-program rates.
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use glam::{Vec2, Vec3A};
+use raylab::bench::{coherent_rays, incoherent_rays};
+use raylab::build::RenderScene;
+use raylab::render::{render, RenderSettings};
+use raylab::scene::parse_scene;
+use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
+use raylab_integrators::{Material, Rgb, Scene};
+use std::path::Path;
+
+fn room() -> (RenderScene, raylab::scene::Camera) {
+    let loaded = parse_scene(
+        include_str!("../scenes/report_room.ron"),
+        Path::new("scenes/report_room.ron"),
+    )
+    .unwrap();
+    (RenderScene::build(&loaded), loaded.camera)
+}
+
+fn traversal(c: &mut Criterion) {
+    let (scene, camera) = room();
+    let coherent = coherent_rays(&camera, 4096);
+    let incoherent = incoherent_rays(scene.bounds(), 4096);
+    let mut g = c.benchmark_group("traversal (4096 rays, report room)");
+    g.bench_function("closest, coherent", |b| {
+        b.iter(|| {
+            coherent
+                .iter()
+                .filter(|r| scene.intersect(r).is_some())
+                .count()
+        })
+    });
+    g.bench_function("closest, incoherent", |b| {
+        b.iter(|| {
+            incoherent
+                .iter()
+                .filter(|r| scene.intersect(r).is_some())
+                .count()
+        })
+    });
+    g.bench_function("occlusion, incoherent", |b| {
+        b.iter(|| incoherent.iter().filter(|r| scene.occluded(r)).count())
+    });
+    g.finish();
+}
+
+fn bsdfs(c: &mut Criterion) {
+    let materials = [
+        (
+            "lambert",
+            Material::Lambert(Lambert {
+                albedo: Rgb::splat(0.5),
+            }),
+        ),
+        (
+            "oren-nayar",
+            Material::OrenNayar(OrenNayar::new(Rgb::splat(0.5), 20.0)),
+        ),
+        (
+            "phong",
+            Material::Phong(Phong {
+                kd: Rgb::splat(0.4),
+                ks: Rgb::splat(0.4),
+                exponent: 50.0,
+            }),
+        ),
+        ("mirror", Material::Mirror(Mirror { tint: Rgb::ONE })),
+        (
+            "glass",
+            Material::Glass(Glass {
+                ior: 1.5,
+                tint: Rgb::ONE,
+            }),
+        ),
+    ];
+    let wo = Vec3A::new(0.3, 0.2, 0.93).normalize();
+    let wi = Vec3A::new(-0.4, 0.1, 0.91).normalize();
+    let mut g = c.benchmark_group("bsdf");
+    for (name, m) in &materials {
+        g.bench_function(format!("{name} sample"), |b| {
+            let mut u = 0.0f32;
+            b.iter(|| {
+                u = (u + 0.618_034) % 1.0;
+                black_box(m.sample(black_box(wo), u, Vec2::new(u, 1.0 - u)))
+            })
+        });
+        g.bench_function(format!("{name} eval+pdf"), |b| {
+            b.iter(|| (m.eval(black_box(wo), black_box(wi)), m.pdf(wo, wi)))
+        });
+    }
+    g.finish();
+}
+
+fn integrators(c: &mut Criterion) {
+    let (scene, camera) = room();
+    let camera = camera.with_resolution(1, 1);
+    let mut g = c.benchmark_group("one pixel, 16 spp, report room");
+    g.sample_size(20);
+    for name in ["whitted", "fixed-depth", "russian-roulette", "path"] {
+        let integrator = raylab_integrators::find(name)
+            .unwrap()
+            .instantiate(&[])
+            .unwrap();
+        let spp = if name == "fixed-depth" { 1 } else { 16 };
+        g.bench_function(format!("{name} ({spp} spp)"), |b| {
+            b.iter(|| {
+                render(
+                    &scene,
+                    &camera,
+                    integrator.as_ref(),
+                    &RenderSettings::fixed(spp, 0, Some(1)),
+                )
+                .unwrap()
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, traversal, bsdfs, integrators);
+criterion_main!(benches);
