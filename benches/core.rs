@@ -6,10 +6,9 @@ use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use glam::{Vec2, Vec3A};
 use raylab::bench::{coherent_rays, incoherent_rays};
 use raylab::build::RenderScene;
-use raylab::render::{render, RenderSettings};
 use raylab::scene::parse_scene;
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
-use raylab_integrators::{Material, Rgb, Scene};
+use raylab_integrators::{Material, Rgb, Sampler, Scene, Tracer};
 use std::path::Path;
 
 fn room() -> (RenderScene, raylab::scene::Camera) {
@@ -97,8 +96,9 @@ fn bsdfs(c: &mut Criterion) {
 
 fn integrators(c: &mut Criterion) {
     let (scene, camera) = room();
-    let camera = camera.with_resolution(1, 1);
-    let mut g = c.benchmark_group("one pixel, 16 spp, report room");
+    // The centre pixel's camera samples, traced directly (no thread pool, no film).
+    let ray = camera.ray(camera.width as f32 / 2.0, camera.height as f32 / 2.0);
+    let mut g = c.benchmark_group("one pixel, report room");
     g.sample_size(20);
     for name in ["whitted", "fixed-depth", "russian-roulette", "path"] {
         let integrator = raylab_integrators::find(name)
@@ -108,13 +108,13 @@ fn integrators(c: &mut Criterion) {
         let spp = if name == "fixed-depth" { 1 } else { 16 };
         g.bench_function(format!("{name} ({spp} spp)"), |b| {
             b.iter(|| {
-                render(
-                    &scene,
-                    &camera,
-                    integrator.as_ref(),
-                    &RenderSettings::fixed(spp, 0, Some(1)),
-                )
-                .unwrap()
+                let mut tracer = Tracer::new(&scene);
+                let mut sum = Rgb::ZERO;
+                for s in 0..spp {
+                    let mut sampler = Sampler::new(0, 0, s);
+                    sum += integrator.radiance(&ray, &mut tracer, &mut sampler);
+                }
+                black_box(sum)
             })
         });
     }

@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""raylab `path` against Mitsuba 3 on the Cornell box: samples per second, their ratio, and
+the two images' mean values (which must agree within noise).
+
+Mitsuba renders its built-in `cornell_box()` (box filter, max_depth 8); raylab renders
+scenes/cornell_box.ron (the same box) with max-depth 7, the same depth in raylab's convention.
+Both at 256x256 on the threads the machine has.
+
+    pip install mitsuba numpy
+    cargo build --release
+    python3 benches/mitsuba_cornell.py [--spp 256] [--variant scalar_rgb|llvm_ad_rgb]
+
+llvm_ad_rgb needs Debian's libllvm19 and DRJIT_LIBLLVM_PATH pointing at libLLVM-19.so.
+"""
+import argparse
+import pathlib
+import re
+import subprocess
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def mitsuba(variant, spp):
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant(variant)
+    mi.set_log_level(mi.LogLevel.Warn)
+    d = mi.cornell_box()
+    d["sensor"]["film"]["rfilter"] = {"type": "box"}
+    d["integrator"]["max_depth"] = 8
+    scene = mi.load_dict(d)
+    mi.render(scene, spp=4)  # warm-up (and JIT compilation for the llvm variants)
+    start = time.time()
+    img = np.array(mi.render(scene, spp=spp))
+    seconds = time.time() - start
+    return 256 * 256 * spp / seconds, img.reshape(-1, 3).mean(0)
+
+
+def raylab(spp):
+    exe = ROOT / "target" / "release" / "raylab"
+    out = ROOT / "out" / "bench-cornell.exr"
+    out.parent.mkdir(exist_ok=True)
+    r = subprocess.run(
+        [str(exe), "render", "scenes/cornell_box.ron", "--spp", str(spp), "-o", str(out)],
+        cwd=ROOT, capture_output=True, text=True, check=True,
+    )
+    line = r.stderr.strip().splitlines()[-1]
+    rate = float(re.search(r"([0-9.]+) M samples/s", line).group(1)) * 1e6
+    mean = [float(v) for v in re.search(r"mean radiance \(([^)]*)\)", line).group(1).split(",")]
+    return rate, mean
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--variant", default="scalar_rgb")
+    args = ap.parse_args()
+    ours, our_mean = raylab(args.spp)
+    theirs, their_mean = mitsuba(args.variant, args.spp)
+    print(f"raylab path            {ours / 1e6:8.3f} M samples/s  mean {tuple(round(v, 4) for v in our_mean)}")
+    print(f"mitsuba {args.variant:<14} {theirs / 1e6:8.3f} M samples/s  mean {tuple(round(float(v), 4) for v in their_mean)}")
+    print(f"ratio raylab / mitsuba {ours / theirs:8.2f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
