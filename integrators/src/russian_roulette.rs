@@ -152,4 +152,16 @@ mod tests {
         let (mean, _) = estimate("russian-roulette", &[], &inside_a_mirror(), 2000);
         assert_eq!(mean, 0.0);
     }
+
+    #[test]
+    fn a_glass_ball_in_the_furnace_is_invisible() {
+        // Looking at the ball: radiance through it equals the radiance everywhere.
+        expect_mean(
+            "russian-roulette",
+            &[],
+            &furnace_with_glass(0.5, 1.0),
+            2.0,
+            30000,
+        );
+    }
 }

@@ -9,8 +9,15 @@ use glam::Vec3A;
 
 /// One surface: a triangle or a sphere, with a material and maybe a light.
 enum Surface {
-    Triangle { v: [Vec3A; 3], light: Option<u32> },
-    Sphere { center: Vec3A, radius: f32 },
+    Triangle {
+        v: [Vec3A; 3],
+        light: Option<u32>,
+    },
+    Sphere {
+        center: Vec3A,
+        radius: f32,
+        material: u32,
+    },
 }
 
 /// Where camera rays start and where they go.
@@ -27,7 +34,8 @@ pub enum Camera {
 
 pub struct TestScene {
     surfaces: Vec<Surface>,
-    material: Material,
+    /// Triangles use material 0; spheres name theirs.
+    materials: Vec<Material>,
     lights: LightTable,
     pub camera: Camera,
 }
@@ -80,7 +88,11 @@ impl Scene for TestScene {
                         });
                     }
                 }
-                Surface::Sphere { center, radius } => {
+                Surface::Sphere {
+                    center,
+                    radius,
+                    material,
+                } => {
                     if let Some(t) = intersect_sphere(*center, *radius, &r) {
                         let n = (ray.at(t) - *center).normalize();
                         best = Some(Hit {
@@ -88,7 +100,7 @@ impl Scene for TestScene {
                             p: *center + n * *radius,
                             ng: n,
                             ns: n,
-                            material: 0,
+                            material: *material,
                             light: None,
                         });
                     }
@@ -102,8 +114,8 @@ impl Scene for TestScene {
         self.intersect(ray).is_some()
     }
 
-    fn material(&self, _id: u32) -> &Material {
-        &self.material
+    fn material(&self, id: u32) -> &Material {
+        &self.materials[id as usize]
     }
 
     fn lights(&self) -> &LightTable {
@@ -194,7 +206,7 @@ pub fn furnace_sphere(a: f32, le: f32) -> TestScene {
     }
     TestScene {
         surfaces,
-        material: lambert(a),
+        materials: vec![lambert(a)],
         lights: LightTable::new(lights, 1.0),
         camera: Camera::Omni(Vec3A::new(0.1, -0.2, 0.3)),
     }
@@ -207,8 +219,9 @@ pub fn point_in_sphere(a: f32) -> TestScene {
         surfaces: vec![Surface::Sphere {
             center: Vec3A::ZERO,
             radius: 1.0,
+            material: 0,
         }],
-        material: lambert(a),
+        materials: vec![lambert(a)],
         lights: LightTable::new(
             vec![Light::Point {
                 position: Vec3A::ZERO,
@@ -227,8 +240,9 @@ pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
         surfaces: vec![Surface::Sphere {
             center: Vec3A::ZERO,
             radius: 1.0,
+            material: 0,
         }],
-        material: lambert(a),
+        materials: vec![lambert(a)],
         lights: LightTable::new(
             vec![Light::Environment {
                 radiance: Rgb::splat(sky),
@@ -314,9 +328,32 @@ pub fn inside_a_mirror() -> TestScene {
         surfaces: vec![Surface::Sphere {
             center: Vec3A::ZERO,
             radius: 1.0,
+            material: 0,
         }],
-        material: Material::Mirror(crate::bsdf::Mirror { tint: Rgb::ONE }),
+        materials: vec![Material::Mirror(crate::bsdf::Mirror { tint: Rgb::ONE })],
         lights: LightTable::new(Vec::new(), 1.0),
         camera: Camera::Omni(Vec3A::new(0.2, 0.1, 0.0)),
     }
+}
+
+/// [`furnace_sphere`] with a glass ball (ior 1.5, clear) in the middle: lossless glass in a
+/// uniform radiance field is invisible, so radiance everywhere is still `le / (1 - a)`. This
+/// checks Fresnel, refraction, total internal reflection and the 1/eta^2 radiance scaling.
+pub fn furnace_with_glass(a: f32, le: f32) -> TestScene {
+    let mut scene = furnace_sphere(a, le);
+    scene.materials.push(Material::Glass(crate::bsdf::Glass {
+        ior: 1.5,
+        tint: Rgb::ONE,
+    }));
+    scene.surfaces.push(Surface::Sphere {
+        center: Vec3A::ZERO,
+        radius: 0.3,
+        material: 1,
+    });
+    scene.camera = Camera::AtSphere {
+        eye: Vec3A::new(0.0, 0.0, 0.8),
+        center: Vec3A::ZERO,
+        radius: 0.3,
+    };
+    scene
 }
