@@ -44,7 +44,6 @@ pub struct RenderScene {
     prims: Vec<u32>,
     // Triangles, stored in the order the BVH visits them.
     tri: Vec<Triangle>,
-    tri_normal: Vec<Vec3A>,
     tri_material: Vec<u32>,
     tri_light: Vec<u32>,
     /// Index into `smooth_normals` or `NONE` for flat shading.
@@ -166,7 +165,6 @@ impl RenderScene {
         let mut out = RenderScene {
             prims: Vec::with_capacity(prims.len()),
             tri: Vec::new(),
-            tri_normal: Vec::new(),
             tri_material: Vec::new(),
             tri_light: Vec::new(),
             tri_smooth: Vec::new(),
@@ -201,7 +199,6 @@ impl RenderScene {
                         v1: v[1],
                         v2: v[2],
                     };
-                    out.tri_normal.push(t.compute_normal());
                     out.tri.push(t);
                     out.tri_material.push(*material);
                     out.tri_light.push(*light);
@@ -229,6 +226,19 @@ impl RenderScene {
         }
         out.stats.triangles = out.tri.len();
         out.stats.spheres = out.sph_center.len();
+        // The builder over-allocates its node array (one slot per primitive) and the arrays
+        // above grew by doubling: give the memory back (here, ~130 bytes per triangle).
+        out.bvh.nodes.shrink_to_fit();
+        out.bvh.primitive_indices.shrink_to_fit();
+        for v in [
+            &mut out.tri_material,
+            &mut out.tri_light,
+            &mut out.tri_smooth,
+        ] {
+            v.shrink_to_fit();
+        }
+        out.tri.shrink_to_fit();
+        out.smooth_normals.shrink_to_fit();
         out.stats.build_time = start.elapsed();
         out
     }
@@ -254,7 +264,6 @@ impl RenderScene {
         let v = |n: usize, each: usize| n * each;
         v(self.prims.capacity(), 4)
             + v(self.tri.capacity(), size_of::<Triangle>())
-            + v(self.tri_normal.capacity(), size_of::<Vec3A>())
             + v(
                 self.tri_material.capacity()
                     + self.tri_light.capacity()
@@ -312,7 +321,8 @@ impl RenderScene {
         } else {
             let i = p as usize;
             let tri = &self.tri[i];
-            let ng = self.tri_normal[i];
+            // Computed per hit rather than stored: 16 bytes a triangle saved for a cross product.
+            let ng = tri.compute_normal();
             let ns = match self.tri_smooth[i] {
                 NONE => ng,
                 k => {

@@ -153,7 +153,10 @@ fn the_build_does_not_depend_on_the_thread_count() {
     // must come out the same on 1 and 2 threads (the images rely on it).
     let loaded = parse_scene(&random_scene(5000, 30, 11), Path::new("random.ron")).unwrap();
     let build = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| RenderScene::build(&loaded))
     };
     let (a, b) = (build(1), build(2));
