@@ -40,9 +40,9 @@ pub struct BuildStats {
 /// The flattened, BVH-backed scene that rendering reads.
 pub struct RenderScene {
     bvh: CwBvh,
-    /// Per BVH primitive slot: `SPHERE_BIT | sphere index` or a triangle index.
+    /// Per BVH primitive slot: `SPHERE_BIT | sphere index`, or the slot itself for a triangle.
     prims: Vec<u32>,
-    // Triangles, stored in the order the BVH visits them.
+    // Triangle data, indexed by BVH slot (a sphere's slot holds a NaN triangle and NONE).
     tri: Vec<Triangle>,
     tri_material: Vec<u32>,
     tri_light: Vec<u32>,
@@ -217,6 +217,16 @@ impl RenderScene {
                     light,
                 } => {
                     out.prims.push(SPHERE_BIT | out.sph_center.len() as u32);
+                    // Triangle arrays are indexed by slot: a NaN triangle marks a sphere's
+                    // slot, so traversal tests triangles with no indirection.
+                    out.tri.push(Triangle {
+                        v0: Vec3A::NAN,
+                        v1: Vec3A::NAN,
+                        v2: Vec3A::NAN,
+                    });
+                    out.tri_material.push(NONE);
+                    out.tri_light.push(NONE);
+                    out.tri_smooth.push(NONE);
                     out.sph_center.push(*center);
                     out.sph_radius.push(*radius);
                     out.sph_material.push(*material);
@@ -224,7 +234,7 @@ impl RenderScene {
                 }
             }
         }
-        out.stats.triangles = out.tri.len();
+        out.stats.triangles = out.tri.len() - out.sph_center.len();
         out.stats.spheres = out.sph_center.len();
         // The builder over-allocates its node array (one slot per primitive) and the arrays
         // above grew by doubling: give the memory back (here, ~130 bytes per triangle).
@@ -244,8 +254,12 @@ impl RenderScene {
     }
 
     /// The triangles, in BVH order (for benchmark dumps).
-    pub fn triangles(&self) -> &[Triangle] {
-        &self.tri
+    pub fn triangles(&self) -> Vec<Triangle> {
+        self.tri
+            .iter()
+            .filter(|t| !t.v0.x.is_nan())
+            .copied()
+            .collect()
     }
 
     /// The spheres as (centre, radius), in BVH order.
@@ -288,12 +302,12 @@ impl RenderScene {
     /// Distance to primitive slot `slot` along `ray`, or infinity.
     #[inline(always)]
     fn intersect_slot(&self, ray: &obvhs::ray::Ray, slot: usize) -> f32 {
-        let p = self.prims[slot];
-        if p & SPHERE_BIT != 0 {
-            let i = (p & !SPHERE_BIT) as usize;
+        let tri = &self.tri[slot];
+        if tri.v0.x.is_nan() {
+            let i = (self.prims[slot] & !SPHERE_BIT) as usize;
             intersect_sphere(self.sph_center[i], self.sph_radius[i], ray)
         } else {
-            self.tri[p as usize].intersect(ray)
+            tri.intersect(ray)
         }
     }
 
