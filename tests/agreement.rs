@@ -168,3 +168,40 @@ fn cornell_box_matches_mitsuba_3() {
         se.x
     );
 }
+
+#[test]
+fn no_light_leaks_through_smooth_shaded_surfaces() {
+    // A large plane with per-vertex normals tilted 60 degrees, seen from above, lit only by a
+    // lamp underneath facing up. Shading normals put the lamp "in front" of the shading frame,
+    // but no light may cross the opaque plane: every integrator must see black.
+    let text = r#"(
+        camera: LookAt(eye: (0, 0, 3), look_at: (0, 0, 0), up: (0, 1, 0), fov: 30, resolution: (8, 8)),
+        materials: {"white": Lambert(albedo: (0.8, 0.8, 0.8))},
+        entities: [
+            (name: "plane", shape: Mesh(
+                positions: [(-50, -50, 0), (50, -50, 0), (50, 50, 0), (-50, 50, 0)],
+                indices: [(0, 1, 2), (0, 2, 3)],
+                normals: [(0.866, 0, 0.5), (0.866, 0, 0.5), (0.866, 0, 0.5), (0.866, 0, 0.5)],
+            ), material: "white"),
+            (name: "lamp below", shape: Quad(vertices: [(-1, -1, -0.5), (1, -1, -0.5), (1, 1, -0.5), (-1, 1, -0.5)]),
+             emitter: Area(radiance: (10, 10, 10))),
+        ],
+    )"#;
+    let loaded = raylab::scene::parse_scene(text, Path::new("leak.ron")).unwrap();
+    let built = RenderScene::build(&loaded);
+    for name in ["path", "russian-roulette", "whitted", "fixed-depth"] {
+        let integrator = registry::find(name).unwrap().instantiate(&[]).unwrap();
+        let (film, _) = render(
+            &built,
+            &loaded.camera,
+            integrator.as_ref(),
+            &RenderSettings::fixed(16, 1, None),
+        )
+        .unwrap();
+        assert_eq!(
+            film.mean(),
+            glam::Vec3::ZERO,
+            "{name}: light leaked through the plane"
+        );
+    }
+}

@@ -14,7 +14,7 @@
 //! **Cost** grows like `branching^(depth - 1)` rays per camera sample: that is the point.
 //! **Bias**: truncation only (paths longer than `depth` are missing); unbiased below it.
 
-use crate::integrator::{emitted_at, escaped, Integrator, Tracer};
+use crate::integrator::{emitted_at, escaped, stays_on_viewer_side, Integrator, Tracer};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Frame, Hit, Material, Ray, Rgb, Sampler};
 use glam::{Vec2, Vec3A};
@@ -90,6 +90,9 @@ impl FixedDepth {
                     let Some(ls) = light.sample_li(hit.p, u) else {
                         continue;
                     };
+                    if !stays_on_viewer_side(material, hit.ng, frame.to_world(wo), ls.wi) {
+                        continue;
+                    }
                     let wi = frame.to_local(ls.wi);
                     let f = material.eval(wo, wi);
                     if f == Rgb::ZERO || ls.pdf <= 0.0 {
@@ -132,7 +135,11 @@ impl FixedDepth {
         // Specular surfaces: one continuation ray, emission at its end counts.
         if material.is_specular() {
             if let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) {
-                let next = hit.spawn_ray(frame.to_world(bs.wi));
+                let wi = frame.to_world(bs.wi);
+                if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
+                    return l;
+                }
+                let next = hit.spawn_ray(wi);
                 l += bs.weight()
                     * match tracer.extend(&next) {
                         Some(h) => self.shade(&next, &h, bounces + 1, true, tracer, sampler),
@@ -153,7 +160,11 @@ impl FixedDepth {
                 let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
                     continue;
                 };
-                let next = hit.spawn_ray(frame.to_world(bs.wi));
+                let wi = frame.to_world(bs.wi);
+                if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
+                    continue;
+                }
+                let next = hit.spawn_ray(wi);
                 // Misses carry no light here: the environment was sampled as direct light.
                 if let Some(h) = tracer.extend(&next) {
                     sum += bs.weight()

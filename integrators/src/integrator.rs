@@ -113,6 +113,19 @@ pub fn specular_lobes(
     [first, second]
 }
 
+/// False when `wi` would cross an opaque surface. Shading normals can put a direction on the
+/// viewer's side of the shading frame yet behind the geometry (near the silhouettes of smooth
+/// meshes); following it would leak light through the surface.
+#[inline]
+pub fn stays_on_viewer_side(
+    material: &crate::Material,
+    ng: glam::Vec3A,
+    wo: glam::Vec3A,
+    wi: glam::Vec3A,
+) -> bool {
+    material.is_transmissive() || ng.dot(wo) * ng.dot(wi) > 0.0
+}
+
 /// Next-event estimation with one light chosen in proportion to power: the radiance
 /// reflected at `hit` towards `wo` from one sample on that light, divided by both
 /// probabilities. With `mis`, the sample is weighted by the power heuristic against BSDF
@@ -137,6 +150,9 @@ pub fn sample_one_light(
         return Rgb::ZERO;
     };
     if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    if !stays_on_viewer_side(material, hit.ng, frame.to_world(wo), ls.wi) {
         return Rgb::ZERO;
     }
     let wi = frame.to_local(ls.wi);

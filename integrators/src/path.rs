@@ -12,7 +12,8 @@
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::integrator::{
-    emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light, Integrator, Tracer,
+    emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light,
+    stays_on_viewer_side, Integrator, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -111,7 +112,11 @@ impl Integrator for PathTracer {
             specular = bs.specular;
             prev_pdf = bs.pdf;
             prev_p = hit.p;
-            ray = hit.spawn_ray(frame.to_world(bs.wi));
+            let wi = frame.to_world(bs.wi);
+            if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
+                break;
+            }
+            ray = hit.spawn_ray(wi);
             bounces += 1;
             // Russian roulette.
             if bounces >= self.rr_depth {

@@ -13,7 +13,8 @@
 //! otherwise.
 
 use crate::integrator::{
-    emitted_at, escaped, russian_roulette, sample_one_light, Integrator, Tracer,
+    emitted_at, escaped, russian_roulette, sample_one_light, stays_on_viewer_side, Integrator,
+    Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -97,7 +98,11 @@ impl Integrator for RussianRouletteTracer {
                 break;
             }
             count_emission = bs.specular;
-            ray = hit.spawn_ray(frame.to_world(bs.wi));
+            let wi = frame.to_world(bs.wi);
+            if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
+                break;
+            }
+            ray = hit.spawn_ray(wi);
             bounces += 1;
             // Russian roulette on the throughput.
             if bounces >= self.rr_depth {

@@ -12,7 +12,9 @@
 //! **Bias**: no indirect light at non-specular surfaces (no colour bleeding); the result is
 //! the truncated series `Le + direct`. Unbiased for that truncated quantity.
 
-use crate::integrator::{emitted_at, escaped, specular_lobes, Integrator, Tracer};
+use crate::integrator::{
+    emitted_at, escaped, specular_lobes, stays_on_viewer_side, Integrator, Tracer,
+};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Hit, Ray, Rgb, Sampler};
 
@@ -77,6 +79,9 @@ impl Whitted {
             let Some(ls) = light.sample_li(hit.p, sampler.next_2d()) else {
                 continue;
             };
+            if !stays_on_viewer_side(material, hit.ng, -ray.dir, ls.wi) {
+                continue;
+            }
             let wi = frame.to_local(ls.wi);
             let f = material.eval(wo, wi);
             if f == Rgb::ZERO || ls.pdf <= 0.0 {

@@ -95,6 +95,13 @@ impl Material {
         !matches!(self, Material::Glass(_))
     }
 
+    /// True for materials that let light through (glass): only they may send a path to the
+    /// other side of the surface.
+    #[inline]
+    pub fn is_transmissive(&self) -> bool {
+        matches!(self, Material::Glass(_))
+    }
+
     /// True when every lobe is a Dirac delta (no direct lighting possible).
     #[inline]
     pub fn is_specular(&self) -> bool {
