@@ -13,12 +13,9 @@
 //! `CASE-coherent.rays` and `CASE-incoherent.rays`: `u32` ray count, then per ray 8 `f32`
 //! (origin xyz, unit direction xyz, tmin, tmax). All little-endian.
 
-pub mod procedural;
-
 use crate::build::RenderScene;
 use crate::render::{self, RenderSettings};
-use crate::scene::components::{MaterialRef, Name, Transform, WorldShape};
-use crate::scene::{parse_scene, Camera, LoadedScene};
+use crate::scene::{parse_scene, Camera};
 use anyhow::{Context, Result};
 use glam::Vec3A;
 use raylab_integrators::sampling::uniform_sphere;
@@ -50,6 +47,7 @@ pub struct Case {
     pub shade: bool,
 }
 
+/// A case from scene text; the build time covers the BVH build only (not parsing).
 fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
     let loaded = parse_scene(text, Path::new(file))?;
     let start = Instant::now();
@@ -63,54 +61,19 @@ fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
     })
 }
 
-/// The displaced icosphere as a scene of one mesh, lit by nothing (traversal only).
-fn large_mesh(subdivisions: u32) -> Case {
-    let (positions, indices) = procedural::icosphere(subdivisions, 0.05);
-    let triangles: Vec<[Vec3A; 3]> = indices
-        .iter()
-        .map(|t| t.map(|i| positions[i as usize]))
-        .collect();
-    let mut world = hecs::World::new();
-    world.spawn((
-        Name("icosphere".into()),
-        Transform::default(),
-        MaterialRef(0),
-        WorldShape::Triangles {
-            triangles,
-            normals: None,
-            parallelogram: None,
-        },
-    ));
-    let camera = Camera::look_at(
-        Vec3A::new(0.0, 0.0, 3.5),
-        Vec3A::ZERO,
-        Vec3A::Y,
-        40.0,
-        (512, 512),
+/// The displaced icosphere, asked for through the scene format like any user scene, lit by
+/// nothing (traversal only).
+fn large_mesh(subdivisions: u32) -> Result<Case> {
+    let text = format!(
+        r#"(
+            camera: LookAt(eye: (0, 0, 3.5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (512, 512)),
+            materials: {{"grey": Lambert(albedo: (0.5, 0.5, 0.5))}},
+            entities: [(name: "icosphere", shape: Icosphere(subdivisions: {subdivisions}, displacement: 0.05), material: "grey")],
+        )"#
     );
-    let loaded = LoadedScene {
-        path: PathBuf::from("icosphere"),
-        world,
-        camera: camera.clone(),
-        render: Default::default(),
-        materials: vec![raylab_integrators::Material::Lambert(
-            raylab_integrators::bsdf::Lambert {
-                albedo: raylab_integrators::Rgb::splat(0.5),
-            },
-        )],
-        material_names: vec!["grey".into()],
-        environment: None,
-        warnings: Vec::new(),
-    };
-    let start = Instant::now();
-    let scene = RenderScene::build(&loaded);
-    Case {
-        name: "icosphere-1m",
-        build_time: start.elapsed(),
-        scene,
-        camera,
-        shade: false,
-    }
+    let mut case = embedded("icosphere-1m", "icosphere.ron", &text)?;
+    case.shade = false;
+    Ok(case)
 }
 
 /// One camera ray through the centre of each pixel of a `side x side` image, raster order.
@@ -246,7 +209,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                 include_str!("../../scenes/cornell_box.ron"),
             )
         }),
-        Box::new(|| Ok(large_mesh(opts.subdivisions))),
+        Box::new(|| large_mesh(opts.subdivisions)),
     ];
     for make in cases {
         let case = make()?;

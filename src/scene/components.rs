@@ -51,6 +51,10 @@ pub enum Shape {
     Triangle([Vec3A; 3]),
     Quad([Vec3A; 4]),
     Tetrahedron([Vec3A; 4]),
+    Icosphere {
+        subdivisions: u32,
+        displacement: f32,
+    },
     Box {
         min: Vec3A,
         max: Vec3A,

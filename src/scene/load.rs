@@ -264,6 +264,13 @@ fn shape_from_desc(desc: ShapeDesc) -> Result<Shape, String> {
         ShapeDesc::Tetrahedron { vertices } => {
             Shape::Tetrahedron(corners("Tetrahedron", &vertices)?)
         }
+        ShapeDesc::Icosphere {
+            subdivisions,
+            displacement,
+        } => Shape::Icosphere {
+            subdivisions,
+            displacement,
+        },
         ShapeDesc::Box { min, max } => Shape::Box {
             min: v3(min),
             max: v3(max),

@@ -132,6 +132,10 @@ pub enum MaterialDesc {
     },
 }
 
+fn default_subdivisions() -> u32 {
+    4
+}
+
 fn white() -> V3 {
     [1.0; 3]
 }
@@ -236,6 +240,15 @@ pub enum ShapeDesc {
     Tetrahedron { vertices: Vec<V3> },
     /// Axis-aligned box in local space, faces oriented outwards.
     Box { min: V3, max: V3 },
+    /// A unit sphere as a triangle mesh: an icosahedron subdivided `subdivisions` times
+    /// (`20 * 4^n` triangles; 8 gives 1.31 M), each vertex moved along its normal by up to
+    /// `displacement` (smooth bumps). Size it with `transform.scale`. Defaults: 4, 0.
+    Icosphere {
+        #[serde(default = "default_subdivisions")]
+        subdivisions: u32,
+        #[serde(default)]
+        displacement: f32,
+    },
     /// Triangle mesh: vertex positions, triangles as index triples, optional per-vertex normals
     /// for smooth shading.
     Mesh {

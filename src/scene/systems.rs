@@ -126,6 +126,23 @@ fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
                 );
             }
         }
+        Shape::Icosphere {
+            subdivisions,
+            displacement,
+        } => {
+            if *subdivisions > MAX_SUBDIVISIONS {
+                return Err(format!(
+                    "icosphere subdivisions must be at most {MAX_SUBDIVISIONS} ({} triangles), got {subdivisions}",
+                    20u64 << (2 * MAX_SUBDIVISIONS)
+                ));
+            }
+            finite("icosphere displacement", &[*displacement])?;
+            if !(0.0..=0.5).contains(displacement) {
+                return Err(format!(
+                    "icosphere displacement must be in [0, 0.5], got {displacement}"
+                ));
+            }
+        }
         Shape::Box { min, max } => {
             all("box corners", &[*min, *max])?;
             if (*max - *min).min_element() <= 0.0 {
@@ -175,9 +192,22 @@ fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
 }
 
 /// Local-space triangles of a shape, with outward (or right-handed) winding.
+/// Largest icosphere subdivision level: 20 * 4^10 = 21 M triangles.
+pub const MAX_SUBDIVISIONS: u32 = 10;
+
 fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
     match shape {
         Shape::Sphere { .. } => Vec::new(),
+        Shape::Icosphere {
+            subdivisions,
+            displacement,
+        } => {
+            let (positions, indices) = super::procedural::icosphere(*subdivisions, *displacement);
+            indices
+                .iter()
+                .map(|t| t.map(|i| positions[i as usize]))
+                .collect()
+        }
         Shape::Triangle(v) => vec![*v],
         Shape::Quad(v) => vec![[v[0], v[1], v[2]], [v[0], v[2], v[3]]],
         Shape::Tetrahedron(v) => {

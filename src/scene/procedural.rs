@@ -98,6 +98,12 @@ mod tests {
             );
             assert!(p.iter().all(|v| (v.length() - 1.0).abs() < 1e-5));
         }
+        // Faces wind counter-clockwise seen from outside: normals point away from the centre.
+        let (p, t) = icosphere(2, 0.0);
+        for [a, b, c] in t {
+            let (a, b, c) = (p[a as usize], p[b as usize], p[c as usize]);
+            assert!((b - a).cross(c - a).dot(a + b + c) > 0.0);
+        }
         let (p, _) = icosphere(3, 0.1);
         assert!(p
             .iter()
