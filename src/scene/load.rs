@@ -253,8 +253,63 @@ fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A;
     })
 }
 
-fn shape_from_desc(desc: ShapeDesc) -> Result<Shape, String> {
+/// Loads an OBJ file as one mesh (all its objects), with normals when every object has them.
+fn load_obj(file: &Path) -> Result<Shape, String> {
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
+    // The parser is third-party code fed user files: a panic in it is an error here, not a crash.
+    let loaded = std::panic::catch_unwind(|| tobj::load_obj(file, &options))
+        .map_err(|_| format!("the OBJ parser failed on `{}`", file.display()))?;
+    let (models, _materials) =
+        loaded.map_err(|e| format!("cannot load OBJ file `{}`: {e}", file.display()))?;
+    let mut positions: Vec<Vec3A> = Vec::new();
+    let mut normals: Vec<Vec3A> = Vec::new();
+    let mut indices: Vec<[u32; 3]> = Vec::new();
+    let all_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
+    for m in &models {
+        let base = positions.len() as u32;
+        let count = m.mesh.positions.len() / 3;
+        positions.extend(
+            m.mesh
+                .positions
+                .chunks_exact(3)
+                .map(|p| Vec3A::new(p[0], p[1], p[2])),
+        );
+        if all_normals {
+            normals.extend(
+                m.mesh
+                    .normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3A::new(n[0], n[1], n[2])),
+            );
+        }
+        for t in m.mesh.indices.chunks_exact(3) {
+            if t.iter().any(|&i| i as usize >= count) {
+                return Err(format!(
+                    "OBJ file `{}`: a face index is out of range",
+                    file.display()
+                ));
+            }
+            indices.push([base + t[0], base + t[1], base + t[2]]);
+        }
+    }
+    if indices.is_empty() {
+        return Err(format!("OBJ file `{}` has no faces", file.display()));
+    }
+    let normals = (all_normals && normals.len() == positions.len()).then_some(normals);
+    Ok(Shape::Mesh {
+        positions,
+        indices,
+        normals,
+    })
+}
+
+fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
     Ok(match desc {
+        ShapeDesc::Obj { path } => load_obj(&scene_dir.join(path))?,
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),
             radius,
@@ -381,9 +436,10 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
                 intensity: v3(intensity),
             },
         });
+        let scene_dir = path.parent().unwrap_or(Path::new("."));
         let shape = e
             .shape
-            .map(shape_from_desc)
+            .map(|d| shape_from_desc(d, scene_dir))
             .transpose()
             .map_err(&entity_error)?;
         let entity = world.spawn((Name(name), transform));

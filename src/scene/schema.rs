@@ -249,6 +249,9 @@ pub enum ShapeDesc {
         #[serde(default)]
         displacement: f32,
     },
+    /// A Wavefront OBJ file, `path` relative to the scene file; every object in it, triangulated,
+    /// with its normals when the file has them. Its materials are not used.
+    Obj { path: String },
     /// Triangle mesh: vertex positions, triangles as index triples, optional per-vertex normals
     /// for smooth shading.
     Mesh {
