@@ -7,7 +7,7 @@ use std::path::Path;
 
 #[test]
 fn obj_mesh_is_placed_and_oriented_by_its_transform() {
-    let loaded = load_scene(Path::new("scenes/obj_box.ron")).unwrap();
+    let loaded = load_scene(Path::new("scenes/mesh_files.ron")).unwrap();
     let mut query = loaded.world.query::<(&Name, &WorldShape)>();
     let (_, shape) = query
         .iter()
@@ -39,4 +39,41 @@ fn obj_mesh_is_placed_and_oriented_by_its_transform() {
         let n = (t[1] - t[0]).cross(t[2] - t[0]);
         assert!(n.dot((t[0] + t[1] + t[2]) / 3.0 - centre) > 0.0);
     }
+}
+
+#[test]
+fn gltf_mesh_follows_its_node_hierarchy() {
+    let loaded = load_scene(Path::new("scenes/mesh_files.ron")).unwrap();
+    let mut query = loaded.world.query::<(&Name, &WorldShape)>();
+    let (_, shape) = query
+        .iter()
+        .find(|(n, _)| n.0 == "panel")
+        .expect("the panel entity");
+    let WorldShape::Triangles {
+        triangles, normals, ..
+    } = shape
+    else {
+        panic!("a mesh")
+    };
+    assert_eq!(triangles.len(), 2);
+    // Corner (0.5, 0.5, 0): turned 45 degrees about y by the child node, then scaled by 0.6
+    // and moved down 0.3 by the parent: (0.2121, 0.0, -0.2121).
+    let corner = Vec3A::new(0.212_132, 0.0, -0.212_132);
+    assert!(
+        triangles
+            .iter()
+            .flatten()
+            .any(|v| (*v - corner).length() < 1e-4),
+        "{triangles:?}"
+    );
+    // The face and its vertex normals point along (1, 0, 1) / sqrt 2.
+    let expected = Vec3A::new(1.0, 0.0, 1.0).normalize();
+    for t in triangles {
+        assert!(((t[1] - t[0]).cross(t[2] - t[0]).normalize() - expected).length() < 1e-4);
+    }
+    let normals = normals.as_ref().expect("the file has normals");
+    assert!(normals
+        .iter()
+        .flatten()
+        .all(|n| (*n - expected).length() < 1e-4));
 }

@@ -252,6 +252,10 @@ pub enum ShapeDesc {
     /// A Wavefront OBJ file, `path` relative to the scene file; every object in it, triangulated,
     /// with its normals when the file has them. Its materials are not used.
     Obj { path: String },
+    /// A glTF 2.0 file (`.gltf` or `.glb`), `path` relative to the scene file: the triangles of
+    /// every mesh in its default scene, placed by the node transforms, with their normals when
+    /// present. Its materials are not used.
+    Gltf { path: String },
     /// Triangle mesh: vertex positions, triangles as index triples, optional per-vertex normals
     /// for smooth shading.
     Mesh {
