@@ -77,7 +77,11 @@ impl FixedDepth {
     ) -> Rgb {
         let mut l = Rgb::ZERO;
         let lights = tracer.scene.lights();
-        for light in lights.lights() {
+        for (index, light) in lights.lights().iter().enumerate() {
+            // A flat or convex emitter cannot light itself.
+            if hit.light == Some(index as u32) {
+                continue;
+            }
             let n = if light.is_delta() {
                 1
             } else {
@@ -229,5 +233,25 @@ mod tests {
         let scene = point_in_sphere(0.5);
         let params = [("depth", "2"), ("branching", "4"), ("shadow-grid", "1")];
         expect_mean("fixed-depth", &params, &scene, 0.75, 2000);
+    }
+
+    #[test]
+    fn floor_under_a_sphere_light_and_one_sided_emission() {
+        // Radiance a L (r/d)^2 = 0.5 * 4 * (0.5/2)^2 = 0.125 below a spherical light.
+        expect_mean(
+            "fixed-depth",
+            &[("depth", "1"), ("shadow-grid", "2")],
+            &floor_under_sphere_light(0.5, 4.0, 0.5, 2.0),
+            0.125,
+            4000,
+        );
+        // A one-sided light facing away from the floor lights nothing, and its back is black.
+        let (mean, _) = estimate(
+            "fixed-depth",
+            &[("depth", "1"), ("shadow-grid", "2")],
+            &floor_under_light_facing_away(),
+            2000,
+        );
+        assert_eq!(mean, 0.0);
     }
 }

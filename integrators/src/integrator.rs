@@ -146,6 +146,11 @@ pub fn sample_one_light(
     let Some((index, pmf)) = lights.sample(u_light) else {
         return Rgb::ZERO;
     };
+    // A flat or convex emitter cannot light itself: skip it exactly rather than leave
+    // rounding to produce a grazing sample of its own plane.
+    if hit.light == Some(index) {
+        return Rgb::ZERO;
+    }
     let Some(ls) = lights.get(index).sample_li(hit.p, u) else {
         return Rgb::ZERO;
     };

@@ -176,4 +176,19 @@ mod tests {
         // Looking at the ball: radiance through it equals the radiance everywhere.
         expect_mean("path", &[], &furnace_with_glass(0.5, 1.0), 2.0, 20000);
     }
+
+    #[test]
+    fn floor_under_a_sphere_light_and_one_sided_emission() {
+        // Radiance a L (r/d)^2 = 0.5 * 4 * (0.5/2)^2 = 0.125 below a spherical light.
+        expect_mean(
+            "path",
+            &[],
+            &floor_under_sphere_light(0.5, 4.0, 0.5, 2.0),
+            0.125,
+            4000,
+        );
+        // A one-sided light facing away from the floor lights nothing, and its back is black.
+        let (mean, _) = estimate("path", &[], &floor_under_light_facing_away(), 2000);
+        assert_eq!(mean, 0.0);
+    }
 }

@@ -18,6 +18,12 @@ enum Surface {
         radius: f32,
         material: u32,
     },
+    /// An emitting sphere (light `light` of the table), black.
+    SphereLight {
+        center: Vec3A,
+        radius: f32,
+        light: u32,
+    },
 }
 
 /// Where camera rays start and where they go.
@@ -30,6 +36,8 @@ pub enum Camera {
         center: Vec3A,
         radius: f32,
     },
+    /// Always the same ray.
+    Fixed(Ray),
 }
 
 pub struct TestScene {
@@ -102,6 +110,23 @@ impl Scene for TestScene {
                             ns: n,
                             material: *material,
                             light: None,
+                        });
+                    }
+                }
+                Surface::SphereLight {
+                    center,
+                    radius,
+                    light,
+                } => {
+                    if let Some(t) = intersect_sphere(*center, *radius, &r) {
+                        let n = (ray.at(t) - *center).normalize();
+                        best = Some(Hit {
+                            t,
+                            p: *center + n * *radius,
+                            ng: n,
+                            ns: n,
+                            material: 1,
+                            light: Some(*light),
                         });
                     }
                 }
@@ -259,6 +284,7 @@ pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
 
 fn camera_ray(camera: &Camera, sampler: &mut Sampler) -> Ray {
     match camera {
+        Camera::Fixed(r) => *r,
         Camera::Omni(o) => Ray::new(*o, uniform_sphere(sampler.next_2d())),
         Camera::AtSphere {
             eye,
@@ -356,4 +382,91 @@ pub fn furnace_with_glass(a: f32, le: f32) -> TestScene {
         radius: 0.3,
     };
     scene
+}
+
+/// A large diffuse floor (albedo `a`, z = 0) under a black emitting sphere of radius `r` and
+/// radiance `l` centred at height `d`, seen at the point right below it. The sphere subtends a
+/// cap of projected solid angle `pi (r/d)^2` there, so the floor's radiance is `a l (r/d)^2`;
+/// no light comes back (the sphere is black).
+pub fn floor_under_sphere_light(a: f32, l: f32, r: f32, d: f32) -> TestScene {
+    let s = 100.0;
+    let c = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
+    TestScene {
+        surfaces: vec![
+            Surface::Triangle {
+                v: [c(-s, -s), c(s, -s), c(s, s)],
+                light: None,
+            },
+            Surface::Triangle {
+                v: [c(-s, -s), c(s, s), c(-s, s)],
+                light: None,
+            },
+            Surface::SphereLight {
+                center: Vec3A::new(0.0, 0.0, d),
+                radius: r,
+                light: 0,
+            },
+        ],
+        materials: vec![lambert(a), lambert(0.0)],
+        lights: LightTable::new(
+            vec![Light::Sphere {
+                center: Vec3A::new(0.0, 0.0, d),
+                radius: r,
+                radiance: Rgb::splat(l),
+            }],
+            s,
+        ),
+        // From the side, at the point under the sphere.
+        camera: Camera::Fixed(Ray::new(
+            Vec3A::new(3.0, 0.0, 1.0),
+            Vec3A::new(-3.0, 0.0, -1.0).normalize(),
+        )),
+    }
+}
+
+/// The same floor under a one-sided square light at height 1 whose front faces up, away from
+/// the floor: nothing reaches the floor, and the camera (above it, looking down at its
+/// back... and at the floor) sees black everywhere.
+pub fn floor_under_light_facing_away() -> TestScene {
+    let s = 100.0;
+    let c = |x: f32, y: f32, z: f32| Vec3A::new(x, y, z);
+    // Counter-clockwise seen from above: the front faces +z.
+    let (p0, p1, p2, p3) = (
+        c(-0.5, -0.5, 1.0),
+        c(0.5, -0.5, 1.0),
+        c(0.5, 0.5, 1.0),
+        c(-0.5, 0.5, 1.0),
+    );
+    TestScene {
+        surfaces: vec![
+            Surface::Triangle {
+                v: [c(-s, -s, 0.0), c(s, -s, 0.0), c(s, s, 0.0)],
+                light: None,
+            },
+            Surface::Triangle {
+                v: [c(-s, -s, 0.0), c(s, s, 0.0), c(-s, s, 0.0)],
+                light: None,
+            },
+            Surface::Triangle {
+                v: [p0, p1, p2],
+                light: Some(0),
+            },
+            Surface::Triangle {
+                v: [p0, p2, p3],
+                light: Some(0),
+            },
+        ],
+        materials: vec![lambert(0.8)],
+        lights: LightTable::new(
+            vec![Light::parallelogram(
+                p0,
+                p1 - p0,
+                p3 - p0,
+                Rgb::splat(10.0),
+                false,
+            )],
+            s,
+        ),
+        camera: Camera::Omni(Vec3A::new(0.3, 0.2, 0.5)),
+    }
 }

@@ -75,7 +75,11 @@ impl Whitted {
 
         // Direct light: one shadow ray to every light.
         let lights = tracer.scene.lights();
-        for light in lights.lights() {
+        for (index, light) in lights.lights().iter().enumerate() {
+            // A flat or convex emitter cannot light itself.
+            if hit.light == Some(index as u32) {
+                continue;
+            }
             let Some(ls) = light.sample_li(hit.p, sampler.next_2d()) else {
                 continue;
             };
@@ -127,5 +131,20 @@ mod tests {
     fn convex_sphere_under_environment_reflects_albedo_times_radiance() {
         let scene = sphere_under_sky(0.6, 2.0);
         expect_mean("whitted", &[], &scene, 0.6 * 2.0, 16000);
+    }
+
+    #[test]
+    fn floor_under_a_sphere_light_and_one_sided_emission() {
+        // Radiance a L (r/d)^2 = 0.5 * 4 * (0.5/2)^2 = 0.125 below a spherical light.
+        expect_mean(
+            "whitted",
+            &[],
+            &floor_under_sphere_light(0.5, 4.0, 0.5, 2.0),
+            0.125,
+            4000,
+        );
+        // A one-sided light facing away from the floor lights nothing, and its back is black.
+        let (mean, _) = estimate("whitted", &[], &floor_under_light_facing_away(), 2000);
+        assert_eq!(mean, 0.0);
     }
 }
