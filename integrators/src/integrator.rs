@@ -202,6 +202,32 @@ pub fn mis_weight_for_hit(
 /// 20 more bounces on average, so every estimate terminates (as in Mitsuba 3).
 pub const MAX_SURVIVAL: f32 = 0.95;
 
+/// One BSDF-sampled continuation of a path at `hit` (`wo` in the shading frame, `incoming` the
+/// direction of the ray that arrived): multiplies the throughput `beta` by the sample's weight
+/// and returns the next ray and the sample. `None` ends the path: no sample, no throughput left
+/// (pure emitters are black), or a direction that would cross an opaque surface.
+#[inline]
+pub fn continue_path(
+    hit: &Hit,
+    frame: &crate::Frame,
+    wo: glam::Vec3A,
+    incoming: glam::Vec3A,
+    material: &crate::Material,
+    beta: &mut Rgb,
+    sampler: &mut Sampler,
+) -> Option<(Ray, crate::BsdfSample)> {
+    let bs = material.sample(wo, sampler.next_1d(), sampler.next_2d())?;
+    *beta *= bs.weight();
+    if *beta == Rgb::ZERO {
+        return None;
+    }
+    let wi = frame.to_world(bs.wi);
+    if !stays_on_viewer_side(material, hit.ng, -incoming, wi) {
+        return None;
+    }
+    Some((hit.spawn_ray(wi), bs))
+}
+
 /// Russian roulette on the path throughput `beta`: survives with probability
 /// `min(0.95, max component of beta)`; returns the probability to divide `beta` by, or `None`
 /// when the path ends. Unbiased: E[beta'] = beta.

@@ -12,8 +12,8 @@
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::integrator::{
-    emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light,
-    stays_on_viewer_side, Integrator, Tracer,
+    continue_path, emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light,
+    Integrator, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -101,22 +101,15 @@ impl Integrator for PathTracer {
                 l += beta * sample_one_light(&hit, &frame, wo, material, true, tracer, sampler);
             }
             // BSDF sampling for the next segment.
-            let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
+            let Some((next, bs)) =
+                continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)
+            else {
                 break;
             };
-            beta *= bs.weight();
-            // Nothing more can arrive along a path that carries no light (pure emitters are black).
-            if beta == Rgb::ZERO {
-                break;
-            }
             specular = bs.specular;
             prev_pdf = bs.pdf;
             prev_p = hit.p;
-            let wi = frame.to_world(bs.wi);
-            if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
-                break;
-            }
-            ray = hit.spawn_ray(wi);
+            ray = next;
             bounces += 1;
             // Russian roulette.
             if bounces >= self.rr_depth {

@@ -13,8 +13,7 @@
 //! otherwise.
 
 use crate::integrator::{
-    emitted_at, escaped, russian_roulette, sample_one_light, stays_on_viewer_side, Integrator,
-    Tracer,
+    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, Integrator, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -89,20 +88,13 @@ impl Integrator for RussianRouletteTracer {
                 l += beta * sample_one_light(&hit, &frame, wo, material, false, tracer, sampler);
             }
             // Continuation: one BSDF-sampled ray.
-            let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
+            let Some((next, bs)) =
+                continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)
+            else {
                 break;
             };
-            beta *= bs.weight();
-            // Nothing more can arrive along a path that carries no light (pure emitters are black).
-            if beta == Rgb::ZERO {
-                break;
-            }
             count_emission = bs.specular;
-            let wi = frame.to_world(bs.wi);
-            if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
-                break;
-            }
-            ray = hit.spawn_ray(wi);
+            ray = next;
             bounces += 1;
             // Russian roulette on the throughput.
             if bounces >= self.rr_depth {
