@@ -23,12 +23,12 @@ fn render_mean(
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
-    let integrator = registry::find(integrator)
+    let mut integrator = registry::find(integrator)
         .unwrap()
         .instantiate(&given)
         .unwrap();
     let settings = RenderSettings::fixed(spp, seed, None);
-    render(&built, &camera, integrator.as_ref(), &settings)
+    render(&built, &camera, integrator.as_mut(), &settings)
         .unwrap()
         .0
 }
@@ -190,11 +190,11 @@ fn no_light_leaks_through_smooth_shaded_surfaces() {
     let loaded = raylab::scene::parse_scene(text, Path::new("leak.ron")).unwrap();
     let built = RenderScene::build(&loaded);
     for name in ["path", "russian-roulette", "whitted", "fixed-depth"] {
-        let integrator = registry::find(name).unwrap().instantiate(&[]).unwrap();
+        let mut integrator = registry::find(name).unwrap().instantiate(&[]).unwrap();
         let (film, _) = render(
             &built,
             &loaded.camera,
-            integrator.as_ref(),
+            integrator.as_mut(),
             &RenderSettings::fixed(16, 1, None),
         )
         .unwrap();

@@ -25,14 +25,14 @@ fn load_build_render(text: &str) -> bool {
         "a loaded scene has geometry"
     );
     let camera = loaded.camera.with_resolution(4, 4);
-    let normals = raylab::integrators::find("normals")
+    let mut normals = raylab::integrators::find("normals")
         .unwrap()
         .instantiate(&[])
         .unwrap();
     render(
         &built,
         &camera,
-        normals.as_ref(),
+        normals.as_mut(),
         &RenderSettings::fixed(1, 0, Some(1)),
     )
     .unwrap();

@@ -67,12 +67,22 @@ impl<'a> Tracer<'a> {
 
 /// A light-transport algorithm: estimates the radiance arriving at the camera along a ray.
 ///
-/// Implementations are immutable and shared between threads; all per-sample state lives in
-/// the [`Sampler`] and the [`Tracer`].
+/// During a pass an integrator is shared, immutably, between threads; all per-sample state
+/// lives in the [`Sampler`] and the [`Tracer`]. Between passes the render loop calls
+/// [`Integrator::prepare_pass`] with exclusive access, for work shared by every pixel of the
+/// pass (photon maps).
 pub trait Integrator: Send + Sync {
     /// One sample of the radiance arriving along `ray` (a camera ray). May return non-finite
     /// values only through bugs; the render loop drops and counts them.
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb;
+
+    /// Called before the pass in which every pixel takes sample number `pass`. Whatever it
+    /// computes must depend only on (`scene`, `seed`, `pass`), so that images stay the same
+    /// whatever the thread count and across a checkpoint and resume. It may use rayon: the
+    /// render loop calls it inside its own thread pool. Returns the rays it cast.
+    fn prepare_pass(&mut self, _scene: &dyn Scene, _seed: u64, _pass: u32) -> RayCounters {
+        RayCounters::default()
+    }
 }
 
 /// Radiance emitted by the surface at `hit` towards the ray's origin.

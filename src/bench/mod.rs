@@ -245,13 +245,13 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             peak_rss() as f64 / 1e6
         ));
         if case.shade {
-            let integrator = raylab_integrators::find("path")?.instantiate(&[])?;
+            let mut integrator = raylab_integrators::find("path")?.instantiate(&[])?;
             let camera = case.camera.with_resolution(256, 256);
             for &t in &opts.threads {
                 let (_, stats) = render::render(
                     scene,
                     &camera,
-                    integrator.as_ref(),
+                    integrator.as_mut(),
                     &RenderSettings::fixed(8, 0, Some(t)),
                 )?;
                 say(format!(

@@ -107,7 +107,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let params = entry
         .resolve(&given)
         .map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
-    let integrator = (entry.build)(&params);
+    let mut integrator = (entry.build)(&params);
     // Target: --spp, else open-ended under --time, else the scene's spp.
     let spp = match (args.spp, args.time) {
         (Some(n), _) => Some(n),
@@ -173,7 +173,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let stats = render::render_passes(
         &built,
         &camera,
-        integrator.as_ref(),
+        integrator.as_mut(),
         &settings,
         &mut acc,
         &stop,

@@ -161,7 +161,7 @@ fn render_one(
 ) -> Result<(Film, render::RenderStats, String)> {
     let entry = registry::find(&c.integrator)?;
     let params = entry.resolve(&c.params)?;
-    let integrator = (entry.build)(&params);
+    let mut integrator = (entry.build)(&params);
     let settings = match budget {
         Budget::Spp(n) => RenderSettings {
             progress: opts.progress,
@@ -179,7 +179,7 @@ fn render_one(
     let stats = render::render_passes(
         built,
         camera,
-        integrator.as_ref(),
+        integrator.as_mut(),
         &settings,
         &mut acc,
         &|| false,

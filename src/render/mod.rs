@@ -344,7 +344,7 @@ fn progress_bar(settings: &RenderSettings, start_spp: u32, tiles: usize) -> Prog
 pub fn render_passes(
     scene: &dyn Scene,
     camera: &Camera,
-    integrator: &dyn Integrator,
+    integrator: &mut dyn Integrator,
     settings: &RenderSettings,
     acc: &mut Accumulation,
     stop: &dyn Fn() -> bool,
@@ -373,8 +373,14 @@ pub fn render_passes(
             stats.stopped = Some(StopReason::TimeBudget);
             break;
         }
-        // One pass: one more sample in every pixel, tiles in parallel.
-        let samples = acc.spp_done..acc.spp_done + 1;
+        // Work shared by the pass's pixels (photon maps), then one more sample in every
+        // pixel, tiles in parallel.
+        let pass = acc.spp_done;
+        stats
+            .rays
+            .add(&pool.install(|| integrator.prepare_pass(scene, settings.seed, pass)));
+        let integrator: &dyn Integrator = integrator;
+        let samples = pass..pass + 1;
         let results: Vec<TilePass> = pool.install(|| {
             acc.tiles
                 .par_iter_mut()
@@ -420,7 +426,7 @@ pub fn render_passes(
 pub fn render(
     scene: &dyn Scene,
     camera: &Camera,
-    integrator: &dyn Integrator,
+    integrator: &mut dyn Integrator,
     settings: &RenderSettings,
 ) -> anyhow::Result<(Film, RenderStats)> {
     let mut acc = Accumulation::new(camera.width, camera.height);
@@ -483,7 +489,7 @@ mod tests {
     #[test]
     fn counts_every_camera_ray_and_averages_samples() {
         let (s, cam) = scene();
-        let (film, stats) = render(&s, &cam, &One, &settings(5, 2)).unwrap();
+        let (film, stats) = render(&s, &cam, &mut One, &settings(5, 2)).unwrap();
         assert_eq!(stats.samples, 20 * 10 * 5);
         assert_eq!(stats.rays.camera, 1000);
         assert_eq!(stats.dropped, 0);
@@ -494,7 +500,7 @@ mod tests {
     #[test]
     fn non_finite_samples_are_dropped_counted_and_located() {
         let (s, cam) = scene();
-        let (film, stats) = render(&s, &cam, &Poisoned, &settings(4, 2)).unwrap();
+        let (film, stats) = render(&s, &cam, &mut Poisoned, &settings(4, 2)).unwrap();
         assert!(
             stats.dropped > 0 && stats.dropped < 800,
             "{}",
@@ -512,13 +518,13 @@ mod tests {
     #[test]
     fn image_does_not_depend_on_thread_count() {
         let (s, cam) = scene();
-        let path = raylab_integrators::find("path")
+        let mut path = raylab_integrators::find("path")
             .unwrap()
             .instantiate(&[])
             .unwrap();
-        let (a, _) = render(&s, &cam, path.as_ref(), &settings(3, 1)).unwrap();
-        let (b, _) = render(&s, &cam, path.as_ref(), &settings(3, 2)).unwrap();
-        let (c, _) = render(&s, &cam, path.as_ref(), &settings(3, 5)).unwrap();
+        let (a, _) = render(&s, &cam, path.as_mut(), &settings(3, 1)).unwrap();
+        let (b, _) = render(&s, &cam, path.as_mut(), &settings(3, 2)).unwrap();
+        let (c, _) = render(&s, &cam, path.as_mut(), &settings(3, 5)).unwrap();
         assert!(
             a.pixels.iter().any(|p| p.x > 0.0),
             "the scene must be lit for the test to mean anything"
