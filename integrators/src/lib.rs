@@ -20,6 +20,7 @@ pub mod bsdf;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
+pub mod photon_map;
 pub mod registry;
 pub mod sampler;
 pub mod sampling;
@@ -31,6 +32,7 @@ mod fixed_depth;
 mod normals_view;
 mod path;
 mod russian_roulette;
+mod sppm;
 mod whitted;
 
 #[cfg(test)]
@@ -41,7 +43,7 @@ mod testing;
 pub use bsdf::{BsdfSample, Material};
 pub use geometry::{Frame, Hit, Ray};
 pub use integrator::{Integrator, RayCounters, Tracer};
-pub use light::{Light, LightSample, LightTable};
+pub use light::{EmissionSample, Light, LightSample, LightTable};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};
 pub use sampler::Sampler;
 pub use scene::Scene;

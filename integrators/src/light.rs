@@ -102,6 +102,17 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+/// A photon (or light-path) origin sampled on an emitter by [`Light::sample_emission`].
+#[derive(Clone, Copy, Debug)]
+pub struct EmissionSample {
+    /// The ray leaving the light (already pushed off its surface).
+    pub ray: crate::Ray,
+    /// `Le cos / (pdf_pos pdf_dir)`: the power, in watts per channel, that the sample stands
+    /// for before division by the light's selection probability and the number of samples.
+    /// Summed over samples, it estimates the light's emitted power.
+    pub weight: Rgb,
+}
+
 /// Area-light samples seen under a smaller `|cos|` than this are dropped: their solid-angle
 /// density is unbounded and their contribution vanishes (`p` on the light's plane).
 const MIN_COS: f32 = 1e-6;
@@ -408,6 +419,98 @@ impl Light {
             Light::Point { .. } => Rgb::ZERO,
             Light::Environment { radiance } => radiance,
         }
+    }
+
+    /// Samples a ray leaving the light, for photon tracing: a uniform point on the surface and
+    /// a cosine-weighted direction on its emitting side (a random side, each with probability
+    /// 1/2, when two-sided); a uniform direction for point lights; for the environment, a
+    /// uniform direction and a uniform point on the disk of radius `scene_radius` facing it
+    /// outside the scene's bounding sphere (centre `scene_center`). `u_side` picks the side.
+    pub fn sample_emission(
+        &self,
+        u_pos: Vec2,
+        u_dir: Vec2,
+        u_side: f32,
+        scene_center: Vec3A,
+        scene_radius: f32,
+    ) -> Option<EmissionSample> {
+        use crate::sampling::{concentric_disk, cosine_hemisphere};
+        // A ray leaving a surface point with normal `n` in the cosine-distributed direction.
+        let leave = |p: Vec3A, n: Vec3A| {
+            let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));
+            let surface = crate::Hit {
+                t: 0.0,
+                p,
+                ng: n,
+                ns: n,
+                material: 0,
+                light: None,
+            };
+            surface.spawn_ray(dir)
+        };
+        let side = |n: Vec3A, two_sided: bool| {
+            if two_sided && u_side < 0.5 {
+                -n
+            } else {
+                n
+            }
+        };
+        let sides = |two_sided: bool| if two_sided { 2.0 } else { 1.0 };
+        let (ray, weight) = match *self {
+            Light::Triangle {
+                p0,
+                e1,
+                e2,
+                n,
+                area,
+                radiance,
+                two_sided,
+            } => {
+                let b = uniform_triangle(u_pos);
+                let p = p0 + e1 * b.x + e2 * b.y;
+                let w = radiance * (area * PI * sides(two_sided));
+                (leave(p, side(n, two_sided)), w)
+            }
+            Light::Parallelogram {
+                p0,
+                e1,
+                e2,
+                n,
+                area,
+                radiance,
+                two_sided,
+            } => {
+                let p = p0 + e1 * u_pos.x + e2 * u_pos.y;
+                let w = radiance * (area * PI * sides(two_sided));
+                (leave(p, side(n, two_sided)), w)
+            }
+            Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => {
+                let n = uniform_sphere(u_pos);
+                let w = radiance * (4.0 * PI * radius * radius * PI);
+                (leave(center + n * radius, n), w)
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => (
+                crate::Ray::new(position, uniform_sphere(u_dir)),
+                intensity * (4.0 * PI),
+            ),
+            Light::Environment { radiance } => {
+                let dir = uniform_sphere(u_dir);
+                let frame = Frame::from_normal(dir);
+                let d = concentric_disk(u_pos) * scene_radius;
+                let origin =
+                    scene_center - dir * (2.0 * scene_radius) + frame.s * d.x + frame.t * d.y;
+                let w = radiance * (PI * scene_radius * scene_radius * 4.0 * PI);
+                (crate::Ray::new(origin, dir), w)
+            }
+        };
+        (weight.is_finite() && weight != Rgb::ZERO).then_some(EmissionSample { ray, weight })
     }
 
     /// Emitted power (luminance, watts) used to choose lights; `scene_radius` bounds the

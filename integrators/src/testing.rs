@@ -307,7 +307,8 @@ pub fn estimate(name: &str, params: &[(&str, &str)], scene: &TestScene, n: u32) 
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
-    let integrator = find(name).unwrap().instantiate(&given).unwrap();
+    let mut integrator = find(name).unwrap().instantiate(&given).unwrap();
+    integrator.prepare_pass(scene, 12345, 0);
     let mut tracer = Tracer::new(scene);
     let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
     for i in 0..n {
@@ -339,6 +340,65 @@ pub fn expect_mean(name: &str, params: &[(&str, &str)], scene: &TestScene, expec
     };
     assert!(
         t.abs() < 4.0,
+        "{name} {params:?}: mean {mean:.5} +- {se:.5}, expected {expected:.5} (t = {t:.2})"
+    );
+    assert!(
+        se < expected / 80.0,
+        "{name}: standard error {se:.5} too large to detect a 5% bias; use more samples"
+    );
+}
+
+/// Mean of the green channel over `passes` passes of `per_pass` camera samples, each pass
+/// prepared as the render loop prepares it, and the standard error of that mean computed
+/// from the spread of the pass means: for integrators whose samples share per-pass state
+/// (a photon map), whose errors are correlated within a pass.
+pub fn estimate_passes(
+    name: &str,
+    params: &[(&str, &str)],
+    scene: &TestScene,
+    passes: u32,
+    per_pass: u32,
+) -> (f64, f64) {
+    let given: Vec<(String, String)> = params
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    let mut integrator = find(name).unwrap().instantiate(&given).unwrap();
+    let mut means = Vec::with_capacity(passes as usize);
+    for pass in 0..passes {
+        integrator.prepare_pass(scene, 12345, pass);
+        let mut tracer = Tracer::new(scene);
+        let mut sum = 0.0f64;
+        for i in 0..per_pass {
+            let mut sampler = Sampler::new(12345, i as u64, pass as u64);
+            let ray = camera_ray(&scene.camera, &mut sampler);
+            let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
+            assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
+            sum += l.y as f64;
+        }
+        means.push(sum / per_pass as f64);
+    }
+    let n = passes as f64;
+    let mean = means.iter().sum::<f64>() / n;
+    let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (mean, (var / n).sqrt())
+}
+
+/// [`expect_mean`] for integrators with per-pass state, by [`estimate_passes`]; the t-test
+/// has `passes - 1` degrees of freedom, so use 30 passes or more.
+pub fn expect_mean_passes(
+    name: &str,
+    params: &[(&str, &str)],
+    scene: &TestScene,
+    expected: f32,
+    passes: u32,
+    per_pass: u32,
+) {
+    let (mean, se) = estimate_passes(name, params, scene, passes, per_pass);
+    let expected = expected as f64;
+    let t = (mean - expected) / se.max(1e-12);
+    assert!(
+        t.abs() < 4.5,
         "{name} {params:?}: mean {mean:.5} +- {se:.5}, expected {expected:.5} (t = {t:.2})"
     );
     assert!(

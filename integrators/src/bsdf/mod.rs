@@ -149,6 +149,22 @@ impl Material {
         }
     }
 
+    /// Throughput weight of sample `s` (drawn with [`Material::sample`] at `wo`) for a particle
+    /// that carries power away from the lights (a photon), rather than radiance towards the
+    /// camera: pbrt-v4's `TransportMode::Importance`. The BSDFs are symmetric except for
+    /// refraction, which compresses radiance by `1/eta^2` but conserves power, so the weight of
+    /// a refracted photon is `eta^2` times the radiance weight.
+    #[inline]
+    pub fn importance_weight(&self, wo: Vec3A, s: &BsdfSample) -> Rgb {
+        match self {
+            Material::Glass(g) if s.specular && wo.z * s.wi.z < 0.0 => {
+                let eta = if wo.z > 0.0 { g.ior } else { 1.0 / g.ior };
+                s.weight() * (eta * eta)
+            }
+            _ => s.weight(),
+        }
+    }
+
     /// Base colour, for the `albedo` debug view.
     #[inline]
     pub fn albedo(&self) -> Rgb {
@@ -222,5 +238,28 @@ mod tests {
         // From outside, refraction goes below.
         let b = m.sample(Vec3A::Z, 0.99, Vec2::ZERO).expect("refracts");
         assert!(b.wi.z < 0.0 && (b.wi + Vec3A::Z).length() < 1e-6);
+    }
+
+    #[test]
+    fn photons_through_glass_keep_their_power() {
+        // Lossless glass conserves power: the mean importance weight over both lobes is 1 from
+        // either side, while radiance weights carry 1/eta^2 on refraction.
+        let glass = Material::Glass(Glass {
+            ior: 1.5,
+            tint: Rgb::ONE,
+        });
+        let mut s = Sampler::new(77, 0, 0);
+        for wo in [dir(30.0, 20.0), dir(150.0, 20.0)] {
+            let n = 200_000;
+            let (mut importance, mut radiance) = (0.0f64, 0.0f64);
+            for _ in 0..n {
+                let b = glass.sample(wo, s.next_1d(), s.next_2d()).expect("a lobe");
+                importance += glass.importance_weight(wo, &b).x as f64;
+                radiance += b.weight().x as f64;
+            }
+            let (importance, radiance) = (importance / n as f64, radiance / n as f64);
+            assert!((importance - 1.0).abs() < 1e-3, "{importance}");
+            assert!((radiance - 1.0).abs() > 0.1, "{radiance}");
+        }
     }
 }
