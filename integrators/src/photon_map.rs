@@ -169,7 +169,7 @@ fn trace_one(
         };
         // Russian roulette, keeping the photon's power about constant.
         let survive = (luminance(next.1) / luminance(beta)).min(MAX_SURVIVAL);
-        if !(survive > 0.0) || sampler.next_1d() >= survive {
+        if survive.is_nan() || sampler.next_1d() >= survive {
             return;
         }
         beta = next.1 / survive;
