@@ -31,6 +31,7 @@ mod depth_view;
 mod fixed_depth;
 mod normals_view;
 mod path;
+mod photon;
 mod russian_roulette;
 mod sppm;
 mod whitted;

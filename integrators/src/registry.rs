@@ -228,6 +228,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     crate::fixed_depth::ENTRY,
     crate::russian_roulette::ENTRY,
     crate::path::ENTRY,
+    crate::photon::ENTRY,
     crate::sppm::ENTRY,
     crate::normals_view::ENTRY,
     crate::albedo_view::ENTRY,
