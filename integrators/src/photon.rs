@@ -19,8 +19,8 @@
 //!
 //! **Parameters**: `photons` (global map, default 200000), `caustic-photons` (emitted for the
 //! caustic map, default 1000000), `radius` (caustic gather radius; 0 = 0.5% of the scene's
-//! bounding-box diagonal), `global-radius` (0 = 3% of it), `gather` (final-gather rays,
-//! default 16), `max-depth` (default unlimited).
+//! bounding-box diagonal), `global-radius` (0 = 1% of it), `gather` (final-gather rays,
+//! default 8), `max-depth` (default unlimited).
 //! **Bias**: density estimation blurs light over the gather radii and does not vanish with
 //! more passes (use `sppm` for a consistent estimate); truncation with a finite `max-depth`.
 
@@ -65,12 +65,12 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             default: 0.0,
             min: 0.0,
             max: 1e7,
-            doc: "global-map gather radius, scene units (0 = 3% of the bounding-box diagonal)",
+            doc: "global-map gather radius, scene units (0 = 1% of the bounding-box diagonal)",
         },
         ParamSpec {
             name: "gather",
             kind: ParamKind::Int,
-            default: 16.0,
+            default: 8.0,
             min: 0.0,
             max: 1e5,
             doc: "final-gather rays per camera sample (0 = read the global map directly)",
@@ -203,7 +203,7 @@ impl Integrator for PhotonMapping {
         rays.add(&global_rays);
         self.maps = Some(Maps {
             caustic: PhotonMap::build(caustic, pick(self.radius, 0.005)),
-            global: PhotonMap::build(global, pick(self.global_radius, 0.03)),
+            global: PhotonMap::build(global, pick(self.global_radius, 0.01)),
         });
         rays
     }

@@ -10,8 +10,9 @@
 //!   correction for shading normals; Russian roulette keeps a photon with probability
 //!   `min(0.95, lum(beta') / lum(beta))`, so surviving photons keep about the same power.
 //! * **Storage.** A hashed uniform grid (Teschner et al. 2003) whose cells are twice the
-//!   gather radius wide, so a gather looks at 8 cells at most. Photons are counting-sorted by
-//!   bucket: the map is two flat arrays and its build is deterministic.
+//!   gather radius wide, so a gather looks at 8 cells at most. Buckets are computed in
+//!   parallel and photons counting-sorted by bucket: the map is two flat arrays and its build
+//!   is linear and deterministic.
 //! * **Estimate.** `L_r(x, wo) = sum_p f(wo, wi_p) Phi_p / (pi r^2)` over the photons within
 //!   distance `r` of `x` (a uniform disk kernel), skipping photons that arrived on the other
 //!   side of an opaque surface.
@@ -240,11 +241,12 @@ impl PhotonMap {
         let inv_cell = 1.0 / (2.0 * radius);
         let buckets = (photons.len() * 2).next_power_of_two().max(1);
         let mask = buckets - 1;
+        // Buckets in parallel, then a counting sort by bucket (linear, and stable, so the
+        // map does not depend on the thread count).
         let keys: Vec<u32> = photons
-            .iter()
+            .par_iter()
             .map(|ph| bucket_of(cell_of(Vec3A::from(ph.p), inv_cell), mask) as u32)
             .collect();
-        // Counting sort by bucket.
         let mut starts = vec![0u32; buckets + 1];
         for &k in &keys {
             starts[k as usize + 1] += 1;

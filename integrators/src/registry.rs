@@ -66,6 +66,11 @@ impl ParamSpec {
 fn format_value(kind: ParamKind, v: f64) -> String {
     if v.is_infinite() && kind == ParamKind::Depth {
         "unlimited".to_string()
+    } else if kind == ParamKind::Float && v != 0.0 && (v * 1e6).fract() != 0.0 {
+        // Nine significant digits at most (2/3 prints as 0.666666667).
+        let digits = (8 - v.abs().log10().floor() as i32).clamp(0, 17) as usize;
+        let text = format!("{v:.digits$}");
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
         format!("{v}")
     }

@@ -1,7 +1,7 @@
 //! `raylab compare` and `raylab diff`.
 
 use super::{CompareArgs, DiffArgs, Metric};
-use crate::compare::{self, metrics, Budget, CompareOptions, ReferenceSpec};
+use crate::compare::{self, metrics, Budget, CompareOptions, ReferenceSpec, Region};
 use crate::output;
 use anyhow::{anyhow, bail, Result};
 use std::path::PathBuf;
@@ -89,6 +89,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         .as_deref()
         .map(super::render_cmd::parse_size)
         .transpose()?;
+    let region = args.region.as_deref().map(parse_region).transpose()?;
     let opts = CompareOptions {
         scene: args.scene.clone(),
         contestants,
@@ -101,10 +102,21 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         size,
         progress: !args.quiet,
         note: args.note.clone(),
+        region,
     };
     compare::run(&opts)?;
     eprintln!("wrote {}", args.output.join("index.html").display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// `X,Y,W,H` in pixels.
+fn parse_region(text: &str) -> Result<Region> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let numbers: Option<Vec<u32>> = parts.iter().map(|p| p.parse().ok()).collect();
+    match numbers.as_deref() {
+        Some(&[x, y, w, h]) if w > 0 && h > 0 => Ok(Region { x, y, w, h }),
+        _ => bail!("--region: expected X,Y,W,H (whole numbers, W and H at least 1), got `{text}`"),
+    }
 }
 
 pub fn diff(args: &DiffArgs) -> Result<ExitCode> {

@@ -126,6 +126,10 @@ pub struct CompareArgs {
     /// A note shown at the top of the page (e.g. why the resolution was reduced).
     #[arg(long)]
     pub note: Option<String>,
+    /// Also measure the error inside this pixel rectangle (a caustic, a shadow): X,Y,W,H
+    /// from the top-left corner.
+    #[arg(long, value_name = "X,Y,W,H")]
+    pub region: Option<String>,
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,

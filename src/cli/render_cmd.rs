@@ -137,9 +137,9 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let scene_bytes = std::fs::read(&args.scene)
         .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
     let settings_text = format!(
-        "{} {} spp={spp:?} seed={seed} {}x{} v{}",
+        "{} {:?} spp={spp:?} seed={seed} {}x{} v{}",
         entry.name,
-        params.describe(entry.params),
+        params,
         camera.width,
         camera.height,
         env!("CARGO_PKG_VERSION")

@@ -63,6 +63,23 @@ pub struct CompareOptions {
     pub progress: bool,
     /// Shown at the top of the page and kept in `metrics.json`.
     pub note: Option<String>,
+    /// A pixel rectangle measured on its own as well (a caustic, a shadow).
+    pub region: Option<Region>,
+}
+
+/// A rectangle of pixels: top-left corner `(x, y)`, `w x h`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Region {
+    pub x: u32,
+    pub y: u32,
+    pub w: u32,
+    pub h: u32,
+}
+
+impl std::fmt::Display for Region {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}x{} at ({}, {})", self.w, self.h, self.x, self.y)
+    }
 }
 
 /// One row of the results.
@@ -83,6 +100,9 @@ pub struct Row {
     pub mean: [f32; 3],
     #[serde(flatten)]
     pub metrics: Metrics,
+    /// The same metrics inside the region, if one was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub region: Option<Metrics>,
 }
 
 /// The whole comparison, as written to `metrics.json`.
@@ -96,6 +116,8 @@ pub struct Report {
     pub threads: usize,
     pub seed: u64,
     pub note: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub region: Option<Region>,
     pub rows: Vec<Row>,
 }
 
@@ -278,6 +300,18 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
         None => loaded.camera.clone(),
     };
     render::check_memory(camera.width, camera.height)?;
+    if let Some(r) = opts.region {
+        if Film::new(camera.width, camera.height)
+            .crop(r.x, r.y, r.w, r.h)
+            .is_none()
+        {
+            bail!(
+                "--region {r} is not inside the {}x{} image",
+                camera.width,
+                camera.height
+            );
+        }
+    }
     let built = RenderScene::build(&loaded);
     let (reference, reference_what) = reference(opts, &built, &camera)?;
     output::write_image(
@@ -312,6 +346,13 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
             &dir.join(format!("{}-error.png", c.label)),
             &metrics::error_map_image(&error, film.width, film.height),
         )?;
+        let region = match opts.region {
+            Some(r) => {
+                let crop = |f: &Film| f.crop(r.x, r.y, r.w, r.h).context("region outside image");
+                Some(metrics::compare(&crop(&film)?, &crop(&reference)?)?.0)
+            }
+            None => None,
+        };
         let mean = film.mean();
         let row = Row {
             label: c.label.clone(),
@@ -328,9 +369,16 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
             samples_per_s: stats.samples_per_second(),
             mean: mean.to_array(),
             metrics: m,
+            region,
         };
+        let in_region = region.map_or(String::new(), |m| {
+            format!(
+                "  region: RMSE {:.4}  relMSE {:.4}  FLIP {:.4}",
+                m.rmse, m.rel_mse, m.flip
+            )
+        });
         eprintln!(
-            "{:<28} {:>6} spp {:>9.2} s {:>8.2} M rays/s  RMSE {:.4}  relMSE {:.4}  PSNR {:>6.2} dB  FLIP {:.4}",
+            "{:<28} {:>6} spp {:>9.2} s {:>8.2} M rays/s  RMSE {:.4}  relMSE {:.4}  PSNR {:>6.2} dB  FLIP {:.4}{in_region}",
             row.label, row.spp, row.time_s, row.rays_per_s / 1e6, m.rmse, m.rel_mse, m.psnr, m.flip
         );
         rows.push(row);
@@ -348,6 +396,7 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
         threads,
         seed: opts.seed,
         note: opts.note.clone(),
+        region: opts.region,
         rows,
     };
     write_tables(&opts.out_dir, &report)?;
@@ -367,12 +416,12 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
         serde_json::to_string_pretty(report).map_err(|e| anyhow!("cannot encode metrics: {e}"))?;
     write_text(&dir.join("metrics.json"), &json)?;
     let mut csv = String::from(
-        "label,integrator,params,swept_param,swept_value,spp,time_s,rays_camera,rays_extension,rays_shadow,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,rmse,rel_mse,psnr,flip\n",
+        "label,integrator,params,swept_param,swept_value,spp,time_s,rays_camera,rays_extension,rays_shadow,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,rmse,rel_mse,psnr,flip,region_rmse,region_rel_mse,region_psnr,region_flip\n",
     );
     for r in &report.rows {
         let _ = writeln!(
             csv,
-            "{},{},\"{}\",{},{},{},{:.4},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.6}",
+            "{},{},\"{}\",{},{},{},{:.4},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.6},{}",
             r.label,
             r.integrator,
             r.params,
@@ -391,7 +440,11 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
             r.metrics.rmse,
             r.metrics.rel_mse,
             r.metrics.psnr,
-            r.metrics.flip
+            r.metrics.flip,
+            r.region.map_or(",,,".to_string(), |m| format!(
+                "{:.6},{:.6},{:.3},{:.6}",
+                m.rmse, m.rel_mse, m.psnr, m.flip
+            ))
         );
     }
     write_text(&dir.join("metrics.csv"), &csv)

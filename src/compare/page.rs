@@ -62,13 +62,20 @@ pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()>
     let mut table = String::from(
         "<table id=\"metrics\"><thead><tr><th>render</th><th>parameters</th><th>spp</th><th>time (s)</th>\
          <th>rays (camera / extension / shadow)</th><th>M rays/s</th><th>mean radiance</th>\
-         <th>RMSE</th><th>relMSE</th><th>PSNR (dB)</th><th>FLIP</th></tr></thead><tbody>",
+         <th>RMSE</th><th>relMSE</th><th>PSNR (dB)</th><th>FLIP</th>",
     );
+    if let Some(region) = report.region {
+        let _ = write!(
+            table,
+            "<th>RMSE in {region}</th><th>relMSE in region</th><th>FLIP in region</th>"
+        );
+    }
+    table.push_str("</tr></thead><tbody>");
     for r in &report.rows {
         let _ = write!(
             table,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{} / {} / {}</td><td>{:.2}</td>\
-             <td>{:.4}, {:.4}, {:.4}</td><td>{:.5}</td><td>{:.5}</td><td>{}</td><td>{:.4}</td></tr>",
+             <td>{:.4}, {:.4}, {:.4}</td><td>{:.5}</td><td>{:.5}</td><td>{}</td><td>{:.4}</td>",
             escape(&r.label),
             escape(&r.params),
             r.spp,
@@ -85,6 +92,14 @@ pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()>
             fmt_metric(r.metrics.psnr, 2),
             r.metrics.flip
         );
+        if let Some(m) = r.region {
+            let _ = write!(
+                table,
+                "<td>{:.5}</td><td>{:.5}</td><td>{:.4}</td>",
+                m.rmse, m.rel_mse, m.flip
+            );
+        }
+        table.push_str("</tr>");
     }
     table.push_str("</tbody></table>");
 

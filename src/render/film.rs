@@ -33,6 +33,27 @@ impl Film {
         (sum / self.pixels.len() as f64).as_vec3()
     }
 
+    /// The `w x h` pixels whose top-left corner is `(x, y)`; `None` unless the rectangle is
+    /// non-empty and inside the image.
+    pub fn crop(&self, x: u32, y: u32, w: u32, h: u32) -> Option<Film> {
+        let inside = w > 0
+            && h > 0
+            && x.checked_add(w).is_some_and(|r| r <= self.width)
+            && y.checked_add(h).is_some_and(|b| b <= self.height);
+        if !inside {
+            return None;
+        }
+        let mut out = Film::new(w, h);
+        for j in 0..h {
+            let from = ((y + j) * self.width + x) as usize;
+            let to = (j * w) as usize;
+            out.pixels[to..to + w as usize].copy_from_slice(&self.pixels[from..from + w as usize]);
+            out.variance[to..to + w as usize]
+                .copy_from_slice(&self.variance[from..from + w as usize]);
+        }
+        Some(out)
+    }
+
     /// Standard error of [`Film::mean`], from the per-pixel variances.
     pub fn mean_standard_error(&self) -> Vec3 {
         let sum = self
