@@ -6,8 +6,8 @@
 //! - `GET /`: the page (self-contained HTML, CSS and script; see [`page`]).
 //! - `GET /image.png`: the latest image, tonemapped, from memory (503 before the first).
 //! - `GET /state[?since=N]`: JSON: version, scene, selection, load error, render statistics,
-//!   and the image's version and integrator. With `since`, waits up to [`LONG_POLL`] for a
-//!   version above N (long polling).
+//!   and the image's version and integrator. With `since`, waits up to [`LONG_POLL`] (or
+//!   `wait=MS`, if shorter) for a version above N (long polling).
 //! - `GET /integrators`: JSON: every integrator with its parameters (name, kind, default,
 //!   min, max, doc), from the registry.
 //! - `GET /settings`: the current selection; `POST /settings` (JSON
@@ -379,12 +379,12 @@ impl Context {
             })
     }
 
-    /// `GET /state?since=N`: waits for a version above N, at most [`LONG_POLL`].
-    fn state(&self, since: Option<u64>) -> Reply {
+    /// `GET /state?since=N[&wait=MS]`: waits for a version above N, at most `wait`.
+    fn state(&self, since: Option<u64>, wait: Duration) -> Reply {
         let shared = &self.shared;
         let mut s = shared.lock();
         if let Some(since) = since {
-            let end = Instant::now() + LONG_POLL;
+            let end = Instant::now() + wait;
             while s.version <= since && !self.control.is_quitting() {
                 let left = end.saturating_duration_since(Instant::now());
                 if left.is_zero() {
@@ -464,7 +464,10 @@ impl Context {
             },
             ("/state", true) => {
                 let since = query_value(query, "since").and_then(|v| v.parse::<u64>().ok());
-                self.state(since)
+                let wait = query_value(query, "wait")
+                    .and_then(|v| v.parse::<u64>().ok())
+                    .map_or(LONG_POLL, |ms| Duration::from_millis(ms).min(LONG_POLL));
+                self.state(since, wait)
             }
             ("/integrators", true) => Reply::json(&integrators_json()),
             ("/settings", true) => self.settings(),
@@ -487,7 +490,7 @@ impl Context {
             .with_header(header("X-Frame-Options", "DENY"))
             .with_header(header(
                 "Content-Security-Policy",
-                "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self'; connect-src 'self'",
+                "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self' data:; connect-src 'self'",
             ));
         // A client that went away: nothing to do but drop its connection.
         let _ = request.respond(response);

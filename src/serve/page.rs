@@ -176,7 +176,7 @@ async function selftestStep(s) {
       const menu = $("integrator");
       menu.value = selftest;
       menu.dispatchEvent(new Event("change"));
-    } else if (test.polls > 60) {
+    } else if (test.polls > 100) {
       finish(false, "no first image arrived");
     }
     return;
@@ -193,7 +193,7 @@ async function selftestStep(s) {
     if (!$("caption").textContent.startsWith(selftest)) return finish(false, "the caption does not name " + selftest);
     return finish(true, `switched to ${selftest}; its image arrived (${s.image.spp} spp)`);
   }
-  if (test.polls > 60) finish(false, `no image by ${selftest} arrived`);
+  if (test.polls > 40) finish(false, `no image by ${selftest} arrived`);
 }
 
 async function main() {
@@ -216,7 +216,9 @@ async function main() {
   while (!stopped) {
     let s;
     try {
-      const r = await fetch("/state?since=" + since, { cache: "no-store" });
+      // The self-test polls briefly, so that it gives up in seconds when nothing comes.
+      const wait = selftest ? "&wait=300" : "";
+      const r = await fetch("/state?since=" + since + wait, { cache: "no-store" });
       s = await r.json();
       $("status").textContent = "";
     } catch (e) {
