@@ -5,14 +5,13 @@
 
 mod common;
 
-use common::{eventually, save, scene_copy, Running, CORNELL_LIGHT, TIMEOUT};
+use common::{
+    chromium, chromium_dump_dom, eventually, save, scene_copy, Running, CORNELL_LIGHT, TIMEOUT,
+};
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::Path;
-use std::process::Command;
-use std::sync::mpsc::RecvTimeoutError;
-use std::time::Duration;
 
 /// A running `raylab serve` and its address.
 struct Served {
@@ -307,26 +306,6 @@ fn shows_the_load_error_while_the_scene_is_broken_and_reloads_on_save() {
     assert_eq!(srv.run.interrupt().code(), Some(0));
 }
 
-/// Chromium, if this machine has it (CI installs it; elsewhere the test says it skipped).
-fn chromium() -> Option<&'static str> {
-    let found = ["chromium", "chromium-browser", "google-chrome"]
-        .into_iter()
-        .find(|c| {
-            Command::new(c)
-                .arg("--version")
-                .output()
-                .is_ok_and(|o| o.status.success())
-        });
-    if found.is_none() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must provide Chromium (apt-get install chromium)"
-        );
-        eprintln!("SKIPPED the page test: no Chromium on this machine (apt-get install chromium)");
-    }
-    found
-}
-
 /// Opens the page with `#selftest=whitted` in headless Chromium: the page switches the menu
 /// to whitted, waits for whitted's image to arrive and load, and reports in its title.
 #[test]
@@ -334,54 +313,10 @@ fn the_page_switches_the_integrator_in_headless_chromium() {
     let Some(chromium) = chromium() else {
         return;
     };
-    let (dir, scene) = scene_copy("cornell_box.ron");
+    let (_dir, scene) = scene_copy("cornell_box.ron");
     let srv = serve(&scene, "16");
-    let profile = dir.path().join("profile");
     let url = format!("http://{}/#selftest=whitted", srv.addr);
-    let mut browser = Command::new(chromium)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--enable-logging=stderr",
-            "--v=0",
-            "--virtual-time-budget=30000",
-            &format!("--user-data-dir={}", profile.display()),
-            "--dump-dom",
-            &url,
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Kill a hung browser rather than hang the test suite (only if it has not exited).
-    let pid = browser.id();
-    let (exited, watch) = std::sync::mpsc::channel::<()>();
-    std::thread::spawn(move || {
-        if let Err(RecvTimeoutError::Timeout) = watch.recv_timeout(Duration::from_secs(90)) {
-            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
-        }
-    });
-    let mut dom = String::new();
-    browser
-        .stdout
-        .take()
-        .unwrap()
-        .read_to_string(&mut dom)
-        .unwrap();
-    let mut log = String::new();
-    browser
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut log)
-        .unwrap();
-    browser.wait().unwrap();
-    let _ = exited.send(());
+    let (dom, console) = chromium_dump_dom(chromium, &url, 30_000);
     assert!(
         dom.contains("<title>selftest: ok</title>"),
         "page self-test failed: {}\nverdict: {}\nraylab stderr:\n{}",
@@ -393,7 +328,6 @@ fn the_page_switches_the_integrator_in_headless_chromium() {
             .unwrap_or("no verdict"),
         srv.run.stderr()
     );
-    let console: Vec<&str> = log.lines().filter(|l| l.contains(":CONSOLE")).collect();
     assert!(console.is_empty(), "console messages: {console:#?}");
     // The server agrees: the switch went through the menu to the session.
     let s = srv.state();

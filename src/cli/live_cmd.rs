@@ -36,6 +36,22 @@ struct Common<'a> {
     exposure: f32,
 }
 
+/// The [`Common`] flags of a [`RenderArgs`] or a [`ServeArgs`] (same names, two structs).
+macro_rules! common {
+    ($args:expr) => {
+        Common {
+            scene: &$args.scene,
+            integrator: $args.integrator.as_ref(),
+            params: &$args.params,
+            spp: $args.spp,
+            seed: $args.seed,
+            threads: $args.threads,
+            size: $args.size.as_deref(),
+            exposure: $args.exposure,
+        }
+    };
+}
+
 fn settings(c: &Common, interval: Duration) -> Result<(LiveSettings, live::Selection)> {
     if c.spp == Some(0) {
         bail!("--spp must be at least 1");
@@ -161,19 +177,7 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| super::render_cmd::default_output(&args.scene));
     output::check_output_path(&output_path)?;
-    let (settings, selection) = settings(
-        &Common {
-            scene: &args.scene,
-            integrator: args.integrator.as_ref(),
-            params: &args.params,
-            spp: args.spp,
-            seed: args.seed,
-            threads: args.threads,
-            size: args.size.as_deref(),
-            exposure: args.exposure,
-        },
-        FILE_INTERVAL,
-    )?;
+    let (settings, selection) = settings(&common!(args), FILE_INTERVAL)?;
     let control = Arc::new(Control::new());
     install_interrupt_handler(Arc::clone(&control));
     let watcher = SceneWatcher::start(&args.scene, Arc::clone(&control))?;
@@ -204,19 +208,7 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
 
 /// `raylab serve SCENE`.
 pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
-    let (settings, selection) = settings(
-        &Common {
-            scene: &args.scene,
-            integrator: args.integrator.as_ref(),
-            params: &args.params,
-            spp: args.spp,
-            seed: args.seed,
-            threads: args.threads,
-            size: args.size.as_deref(),
-            exposure: args.exposure,
-        },
-        PAGE_INTERVAL,
-    )?;
+    let (settings, selection) = settings(&common!(args), PAGE_INTERVAL)?;
     let control = Arc::new(Control::new());
     let shared = serve::Shared::new(&args.scene.display().to_string(), selection.clone());
     let server = serve::Server::bind(

@@ -118,3 +118,79 @@ pub fn scene_copy(name: &str) -> (tempfile::TempDir, PathBuf) {
 
 /// The light of `scenes/cornell_box.ron`, to edit.
 pub const CORNELL_LIGHT: &str = "radiance: (18.387, 13.9873, 6.75357)";
+
+/// Chromium, if this machine has it. Missing is a failure under CI (which installs it) and a
+/// loud skip elsewhere: `None`, after saying so.
+pub fn chromium() -> Option<&'static str> {
+    let found = ["chromium", "chromium-browser", "google-chrome"]
+        .into_iter()
+        .find(|c| {
+            Command::new(c)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        });
+    if found.is_none() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must provide Chromium (apt-get install chromium)"
+        );
+        eprintln!("SKIPPED the page test: no Chromium on this machine (apt-get install chromium)");
+    }
+    found
+}
+
+/// Loads `url` in headless Chromium for `budget_ms` of virtual time (which stands still
+/// while a request is pending) and returns the DOM it dumps and the console lines it logged.
+/// A browser still running after 90 s of real time is killed.
+pub fn chromium_dump_dom(chromium: &str, url: &str, budget_ms: u32) -> (String, Vec<String>) {
+    let profile = tempfile::tempdir().unwrap();
+    let mut browser = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--enable-logging=stderr",
+            "--v=0",
+            &format!("--virtual-time-budget={budget_ms}"),
+            &format!("--user-data-dir={}", profile.path().display()),
+            "--dump-dom",
+            url,
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The watchdog kills only a browser that has not exited (no stray pid is signalled).
+    let pid = browser.id();
+    let (exited, watch) = std::sync::mpsc::channel::<()>();
+    std::thread::spawn(move || {
+        if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+            watch.recv_timeout(Duration::from_secs(90))
+        {
+            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
+        }
+    });
+    let mut stderr = browser.stderr.take().unwrap();
+    let log = std::thread::spawn(move || {
+        let mut log = String::new();
+        let _ = std::io::Read::read_to_string(&mut stderr, &mut log);
+        log
+    });
+    let mut dom = String::new();
+    std::io::Read::read_to_string(&mut browser.stdout.take().unwrap(), &mut dom).unwrap();
+    browser.wait().unwrap();
+    let _ = exited.send(());
+    let log = log.join().unwrap();
+    let console = log
+        .lines()
+        .filter(|l| l.contains(":CONSOLE"))
+        .map(String::from)
+        .collect();
+    (dom, console)
+}
