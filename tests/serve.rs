@@ -6,7 +6,8 @@
 mod common;
 
 use common::{
-    chromium, chromium_dump_dom, eventually, save, scene_copy, Running, CORNELL_LIGHT, TIMEOUT,
+    break_scene, chromium, chromium_dump_dom, eventually, save, scene_copy, Running, CORNELL_LIGHT,
+    TIMEOUT,
 };
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Read, Write};
@@ -280,18 +281,10 @@ fn shows_the_load_error_while_the_scene_is_broken_and_reloads_on_save() {
     let image_version = s["image"]["version"].clone();
     let good = srv.get("/image.png").body;
 
-    let text = std::fs::read_to_string(&scene).unwrap();
-    let line = 1 + text
-        .lines()
-        .position(|l| l.contains("entities: ["))
-        .unwrap();
-    save(&scene, &text.replacen("entities: [", "entities: [,,", 1));
+    let (text, at) = break_scene(&scene);
     let s = srv.wait_state("the load error", |s| s["error"].is_string());
     let error = s["error"].as_str().unwrap();
-    assert!(
-        error.contains(&format!("cornell_box.ron:{line}:")),
-        "{error}"
-    );
+    assert!(error.contains(&at), "{error}");
     assert_eq!(s["image"]["version"], image_version, "the last image stays");
     assert_eq!(srv.get("/image.png").body, good);
 

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{eventually, save, scene_copy, Running, CORNELL_LIGHT};
+use common::{break_scene, eventually, save, scene_copy, Running, CORNELL_LIGHT};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -76,13 +76,7 @@ fn a_broken_save_reports_line_and_column_and_keeps_the_last_image() {
     let good = std::fs::read(&out).unwrap();
 
     // A syntax error on the `entities: [` line.
-    let text = std::fs::read_to_string(&scene).unwrap();
-    let line = 1 + text
-        .lines()
-        .position(|l| l.contains("entities: ["))
-        .unwrap();
-    save(&scene, &text.replacen("entities: [", "entities: [,,", 1));
-    let at = format!("cornell_box.ron:{line}:");
+    let (text, at) = break_scene(&scene);
     run.wait_stderr("the load error", |e| e.contains(&at));
     assert!(run.stderr().contains("keeping"), "{}", run.stderr());
 

@@ -194,3 +194,16 @@ pub fn chromium_dump_dom(chromium: &str, url: &str, budget_ms: u32) -> (String, 
         .collect();
     (dom, console)
 }
+
+/// Saves `scene` with a syntax error (`,,`) on its `entities: [` line; returns the good text
+/// and the error's expected `FILE:LINE:` prefix.
+pub fn break_scene(scene: &Path) -> (String, String) {
+    let text = std::fs::read_to_string(scene).unwrap();
+    let line = 1 + text
+        .lines()
+        .position(|l| l.contains("entities: ["))
+        .unwrap();
+    save(scene, &text.replacen("entities: [", "entities: [,,", 1));
+    let name = scene.file_name().unwrap().to_str().unwrap();
+    (text, format!("{name}:{line}:"))
+}
