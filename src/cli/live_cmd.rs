@@ -110,6 +110,8 @@ struct FileObserver {
     output: PathBuf,
     display: DisplaySettings,
     quiet: bool,
+    /// Whether this session has written the output yet.
+    wrote: bool,
 }
 
 impl Observer for FileObserver {
@@ -131,8 +133,9 @@ impl Observer for FileObserver {
     }
 
     fn image(&mut self, film: &Film, _info: &RenderInfo, _stats: &RenderStats) {
-        if let Err(e) = output::write_image(&self.output, film, self.display) {
-            eprintln!("error: {e:#}");
+        match output::write_image(&self.output, film, self.display) {
+            Ok(()) => self.wrote = true,
+            Err(e) => eprintln!("error: {e:#}"),
         }
     }
 
@@ -160,10 +163,14 @@ impl Observer for FileObserver {
 
     fn load_failed(&mut self, message: &str) {
         eprintln!("error: {message}");
-        eprintln!(
-            "keeping {} as it was; save the file again to retry",
-            self.output.display()
-        );
+        if self.wrote {
+            eprintln!(
+                "keeping {} as it was; save the file again to retry",
+                self.output.display()
+            );
+        } else {
+            eprintln!("no image yet; save the file again to retry");
+        }
     }
 }
 
@@ -195,6 +202,7 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
             tonemap: args.tonemap,
         },
         quiet: args.quiet,
+        wrote: false,
     };
     live::run(
         &settings,
