@@ -165,8 +165,11 @@ impl Control {
     }
 
     fn request(&self, f: impl FnOnce(&mut Pending)) {
-        f(&mut self.lock());
+        let mut pending = self.lock();
+        f(&mut pending);
+        // Under the lock, as `take` clears it: never set with nothing pending.
         self.interrupt.store(true, Ordering::SeqCst);
+        drop(pending);
         self.wake.notify_all();
     }
 
@@ -196,7 +199,7 @@ impl Control {
         self.interrupt.load(Ordering::SeqCst)
     }
 
-    /// Takes the requests so far.
+    /// Takes the requests so far (and clears the interrupt, under the same lock).
     fn take(&self) -> Pending {
         let mut p = self.lock();
         self.interrupt.store(false, Ordering::SeqCst);
