@@ -140,7 +140,8 @@ impl Observer for FileObserver {
     }
 
     fn render_ended(&mut self, info: &RenderInfo, stats: &RenderStats, why: Ended) {
-        if self.quiet || why == Ended::Changed {
+        // A render stopped before its first pass wrote nothing: nothing to report.
+        if self.quiet || why == Ended::Changed || stats.spp_done == 0 {
             return;
         }
         let what = match why {
