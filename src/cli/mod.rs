@@ -28,7 +28,8 @@ pub enum Command {
     /// again whenever the scene file or a file it names is saved.
     Render(RenderArgs),
     /// Show a scene rendering live on a local web page (127.0.0.1), with a menu of
-    /// integrators and their parameters; it re-renders whenever the scene file is saved.
+    /// integrators and their parameters; it re-renders whenever the scene or a mesh it names
+    /// is saved.
     Serve(ServeArgs),
     /// List every integrator with its summary, parameters and defaults.
     Integrators,
@@ -89,8 +90,9 @@ pub struct RenderArgs {
     /// No progress bar and no summary line.
     #[arg(short, long)]
     pub quiet: bool,
-    /// Keep going: after the first image, watch the scene file and the files it names and
-    /// render again on every save, rewriting the output (atomically) as passes complete.
+    /// Keep going: watch the scene file and the files it names (meshes) and render again on
+    /// every save, rewriting the output (atomically, at most twice a second) as passes
+    /// complete.
     /// Renders until Ctrl-C unless --spp is given. A file that does not load prints its
     /// error (file:line:column) and leaves the last good image as it was.
     #[arg(long)]
