@@ -8,8 +8,10 @@ pub mod bench;
 pub mod build;
 pub mod cli;
 pub mod compare;
+pub mod live;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod serve;
 
 pub use raylab_integrators as integrators;

@@ -1,5 +1,7 @@
 //! `raylab compare` and `raylab diff` as a user runs them, and the page in headless Chromium.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -26,44 +28,11 @@ const CORNELL: &str = "scenes/cornell_box.ron";
 /// messages and report that its slider changes the shown image. Skipped (loudly) where
 /// Chromium is missing, except under CI, which installs it.
 fn check_page_in_chromium(page: &Path) {
-    let chromium = ["chromium", "chromium-browser", "google-chrome"]
-        .into_iter()
-        .find(|c| {
-            Command::new(c)
-                .arg("--version")
-                .output()
-                .is_ok_and(|o| o.status.success())
-        });
-    let Some(chromium) = chromium else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must provide Chromium (apt-get install chromium)"
-        );
-        eprintln!("SKIPPED the page test: no Chromium on this machine (apt-get install chromium)");
+    let Some(chromium) = common::chromium() else {
         return;
     };
-    let profile = tempfile::tempdir().unwrap();
     let url = format!("file://{}#selftest", page.canonicalize().unwrap().display());
-    let o = Command::new(chromium)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--enable-logging=stderr",
-            "--v=0",
-            "--virtual-time-budget=20000",
-            &format!("--user-data-dir={}", profile.path().display()),
-            "--dump-dom",
-            &url,
-        ])
-        .output()
-        .unwrap();
-    let dom = String::from_utf8_lossy(&o.stdout);
-    let log = stderr(&o);
+    let (dom, console) = common::chromium_dump_dom(chromium, &url, 20000);
     assert!(
         dom.contains("<title>selftest: ok</title>"),
         "page self-test failed: {}",
@@ -71,7 +40,6 @@ fn check_page_in_chromium(page: &Path) {
             .find(|l| l.contains("<title>"))
             .unwrap_or("no title")
     );
-    let console: Vec<&str> = log.lines().filter(|l| l.contains(":CONSOLE")).collect();
     assert!(console.is_empty(), "console messages: {console:#?}");
     assert!(dom.contains("<table id=\"metrics\">"));
 }

@@ -2,6 +2,7 @@
 //! exit codes (0 ok, 1 "differs", 2 error).
 
 mod compare_cmd;
+mod live_cmd;
 mod render_cmd;
 
 use clap::{Parser, Subcommand};
@@ -23,8 +24,13 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Render a scene to a PNG (tonemapped) or EXR (linear radiance).
+    /// Render a scene to a PNG (tonemapped) or EXR (linear radiance); with --watch, render
+    /// again whenever the scene file or a file it names is saved.
     Render(RenderArgs),
+    /// Show a scene rendering live on a local web page (127.0.0.1), with a menu of
+    /// integrators and their parameters; it re-renders whenever the scene or a mesh it names
+    /// is saved.
+    Serve(ServeArgs),
     /// List every integrator with its summary, parameters and defaults.
     Integrators,
     /// Render a scene with several integrators and compare them against a reference.
@@ -82,6 +88,53 @@ pub struct RenderArgs {
     #[arg(long)]
     pub resume: bool,
     /// No progress bar and no summary line.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// Keep going: watch the scene file and the files it names (meshes) and render again on
+    /// every save, rewriting the output (atomically, at most twice a second) as passes
+    /// complete.
+    /// Renders until Ctrl-C unless --spp is given. A file that does not load prints its
+    /// error (file:line:column) and leaves the last good image as it was.
+    #[arg(long)]
+    pub watch: bool,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct ServeArgs {
+    /// Scene file (RON).
+    pub scene: PathBuf,
+    /// Port to listen on; 0 picks a free one. The address is printed on stdout.
+    #[arg(long, default_value_t = 8765)]
+    pub port: u16,
+    /// Address to listen on. The default, loopback, keeps the page to this machine.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// Integrator to start with (see `raylab integrators`); default: the scene's.
+    #[arg(short, long)]
+    pub integrator: Option<String>,
+    /// Integrator parameter as NAME=VALUE; repeat for several.
+    #[arg(short = 'p', long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Stop each render at this many samples per pixel (default: refine until the next
+    /// change).
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<u32>,
+    /// Random seed (default: the scene's).
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+    /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Exposure in stops for the shown image.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Tone curve for the shown image.
+    #[arg(long, value_enum, default_value_t = Tonemap::Clamp)]
+    pub tonemap: Tonemap,
+    /// No line per render on stderr.
     #[arg(short, long)]
     pub quiet: bool,
 }
@@ -201,7 +254,9 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
+        Command::Render(args) if args.watch => live_cmd::watch(&args),
         Command::Render(args) => render_cmd::render(&args),
+        Command::Serve(args) => live_cmd::serve(&args),
         Command::Integrators => {
             print!("{}", render_cmd::integrators_listing());
             Ok(ExitCode::SUCCESS)

@@ -32,14 +32,15 @@ pub(super) fn parse_size(text: &str) -> Result<(u32, u32)> {
 }
 
 /// Parses `NAME=VALUE`.
-fn parse_param(text: &str) -> Result<(String, String)> {
+pub(super) fn parse_param(text: &str) -> Result<(String, String)> {
     let (k, v) = text
         .split_once('=')
         .ok_or_else(|| anyhow!("-p `{text}`: expected NAME=VALUE, e.g. -p max-depth=8"))?;
     Ok((k.trim().to_string(), v.trim().to_string()))
 }
 
-fn default_output(scene: &Path) -> PathBuf {
+/// `NAME.png` for scene `NAME.ron`, in the current folder.
+pub(super) fn default_output(scene: &Path) -> PathBuf {
     let stem = scene
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -87,26 +88,9 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    let integrator_name = args
-        .integrator
-        .clone()
-        .unwrap_or_else(|| loaded.render.integrator.clone());
-    let entry = registry::find(&integrator_name)?;
     // Scene parameters apply only to the scene's own integrator; the command line wins.
-    let mut given: Vec<(String, String)> = Vec::new();
-    if integrator_name == loaded.render.integrator {
-        given.extend(
-            loaded
-                .render
-                .params
-                .iter()
-                .map(|(k, v)| (k.clone(), format!("{v}"))),
-        );
-    }
-    given.extend(cli_params);
-    let params = entry
-        .resolve(&given)
-        .map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
+    let (entry, params) =
+        crate::live::choose_integrator(&loaded, args.integrator.as_deref(), &cli_params)?;
     let mut integrator = (entry.build)(&params);
     // Target: --spp, else open-ended under --time, else the scene's spp.
     let spp = match (args.spp, args.time) {

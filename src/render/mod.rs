@@ -350,6 +350,28 @@ pub fn render_passes(
     stop: &dyn Fn() -> bool,
     after_pass: &mut dyn FnMut(&Accumulation) -> anyhow::Result<()>,
 ) -> anyhow::Result<RenderStats> {
+    render_passes_with_stats(
+        scene,
+        camera,
+        integrator,
+        settings,
+        acc,
+        stop,
+        &mut |acc, _| after_pass(acc),
+    )
+}
+
+/// [`render_passes`] whose callback also sees the statistics so far (elapsed time, samples,
+/// rays, spp), for live displays of samples and rays per second.
+pub fn render_passes_with_stats(
+    scene: &dyn Scene,
+    camera: &Camera,
+    integrator: &mut dyn Integrator,
+    settings: &RenderSettings,
+    acc: &mut Accumulation,
+    stop: &dyn Fn() -> bool,
+    after_pass: &mut dyn FnMut(&Accumulation, &RenderStats) -> anyhow::Result<()>,
+) -> anyhow::Result<RenderStats> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = settings.threads {
         builder = builder.num_threads(n);
@@ -412,7 +434,9 @@ pub fn render_passes(
             }
         }
         progress.set_message(format!("{} spp", acc.spp_done));
-        after_pass(acc)?;
+        stats.elapsed = start.elapsed();
+        stats.spp_done = acc.spp_done;
+        after_pass(acc, &stats)?;
     }
     progress.finish_and_clear();
     stats.elapsed = start.elapsed();

@@ -27,6 +27,12 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
 
 /// Parses scene text; `path` is used in messages and to resolve relative files.
 pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
+    build_world(parse_scene_file(text, path)?, path)
+}
+
+/// Parses scene text into its schema, without loading any file it names or checking values;
+/// `path` is used in messages.
+pub fn parse_scene_file(text: &str, path: &Path) -> Result<SceneFile, SceneError> {
     let options = ron::Options::default().with_default_extension(Extensions::IMPLICIT_SOME);
     let file: SceneFile = options.from_str(text).map_err(|e| {
         let (line, col) = (e.span.start.line, e.span.start.col);
@@ -42,7 +48,7 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
             message,
         }
     })?;
-    build_world(file, path)
+    Ok(file)
 }
 
 /// Line and column (as ron counts them: from 1, in characters) just after the last

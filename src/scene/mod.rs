@@ -5,6 +5,7 @@ pub mod components;
 pub mod error;
 pub mod load;
 pub mod procedural;
+pub mod references;
 pub mod schema;
 pub mod systems;
 

@@ -1,0 +1,265 @@
+//! `raylab render --watch` and `raylab serve`: a live session (see [`crate::live`]) that
+//! writes the output file after each pass, or shows the render on a local web page.
+//!
+//! Ctrl-C, as for `raylab render`: the first stops after the current pass (the watch mode
+//! writes that last image) and exits 0, a second exits 130 at once.
+
+use super::render_cmd::{parse_param, parse_size};
+use super::{RenderArgs, ServeArgs};
+use crate::live::{self, watch::SceneWatcher, Control, Ended, LiveSettings, Observer, RenderInfo};
+use crate::output::{self, DisplaySettings};
+use crate::render::{Film, RenderStats};
+use crate::serve;
+use anyhow::{bail, Context, Result};
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Shortest time between two writes of the output file (tiny passes would rewrite it
+/// thousands of times a second).
+const FILE_INTERVAL: Duration = Duration::from_millis(500);
+/// Shortest time between two images for the page.
+const PAGE_INTERVAL: Duration = Duration::from_millis(200);
+
+/// The flags both commands share, checked.
+struct Common<'a> {
+    scene: &'a Path,
+    integrator: Option<&'a String>,
+    params: &'a [String],
+    spp: Option<u32>,
+    seed: Option<u64>,
+    threads: Option<usize>,
+    size: Option<&'a str>,
+    exposure: f32,
+}
+
+/// The [`Common`] flags of a [`RenderArgs`] or a [`ServeArgs`] (same names, two structs).
+macro_rules! common {
+    ($args:expr) => {
+        Common {
+            scene: &$args.scene,
+            integrator: $args.integrator.as_ref(),
+            params: &$args.params,
+            spp: $args.spp,
+            seed: $args.seed,
+            threads: $args.threads,
+            size: $args.size.as_deref(),
+            exposure: $args.exposure,
+        }
+    };
+}
+
+fn settings(c: &Common, interval: Duration) -> Result<(LiveSettings, live::Selection)> {
+    if c.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    if c.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    if !c.exposure.is_finite() {
+        bail!("--exposure must be finite");
+    }
+    if !c.scene.is_file() {
+        bail!("{}: no such scene file", c.scene.display());
+    }
+    let selection = live::Selection {
+        integrator: c.integrator.cloned(),
+        params: c
+            .params
+            .iter()
+            .map(|p| parse_param(p))
+            .collect::<Result<Vec<_>>>()?,
+    };
+    selection.check()?;
+    Ok((
+        LiveSettings {
+            scene: c.scene.to_path_buf(),
+            size: c.size.map(parse_size).transpose()?,
+            spp: c.spp,
+            seed: c.seed,
+            threads: c.threads,
+            image_interval: interval,
+        },
+        selection,
+    ))
+}
+
+/// Ctrl-C: the first asks the session to stop, the second exits 130 at once.
+fn install_interrupt_handler(control: Arc<Control>) {
+    let presses = AtomicUsize::new(0);
+    let installed = ctrlc::set_handler(move || {
+        if presses.fetch_add(1, Ordering::SeqCst) == 0 {
+            eprintln!("\ninterrupt: stopping after this pass (Ctrl-C again to stop at once)");
+            control.quit();
+        } else {
+            eprintln!("\ninterrupt: stopped");
+            std::process::exit(130);
+        }
+    });
+    if let Err(e) = installed {
+        eprintln!("warning: cannot catch Ctrl-C: {e}");
+    }
+}
+
+/// Writes every image to the output file (atomically) and reports on stderr.
+struct FileObserver {
+    scene: PathBuf,
+    output: PathBuf,
+    display: DisplaySettings,
+    quiet: bool,
+    /// Whether this session has written the output yet.
+    wrote: bool,
+}
+
+impl Observer for FileObserver {
+    fn render_started(&mut self, info: &RenderInfo) {
+        if !self.quiet {
+            let until = match info.target_spp {
+                Some(n) => format!("to {n} spp"),
+                None => "until the next change or Ctrl-C".to_string(),
+            };
+            eprintln!(
+                "rendering {}: {} {} | {}x{} | {until}",
+                self.scene.display(),
+                info.integrator,
+                info.describe_params(),
+                info.width,
+                info.height
+            );
+        }
+    }
+
+    fn image(&mut self, film: &Film, _info: &RenderInfo, _stats: &RenderStats) {
+        match output::write_image(&self.output, film, self.display) {
+            Ok(()) => self.wrote = true,
+            Err(e) => eprintln!("error: {e:#}"),
+        }
+    }
+
+    fn render_ended(&mut self, info: &RenderInfo, stats: &RenderStats, why: Ended) {
+        // A render stopped before its first pass wrote nothing: nothing to report.
+        if self.quiet || why == Ended::Changed || stats.spp_done == 0 {
+            return;
+        }
+        let what = match why {
+            Ended::Finished => "done",
+            _ => "stopped",
+        };
+        eprintln!(
+            "{what}: {} {} | {}x{} {} spp | {:.2} s | {:.3} M samples/s | {:.2} M rays/s | wrote {}",
+            info.integrator,
+            info.describe_params(),
+            info.width,
+            info.height,
+            stats.spp_done,
+            stats.elapsed.as_secs_f64(),
+            stats.samples_per_second() / 1e6,
+            stats.rays_per_second() / 1e6,
+            self.output.display()
+        );
+    }
+
+    fn load_failed(&mut self, message: &str) {
+        eprintln!("error: {message}");
+        if self.wrote {
+            eprintln!(
+                "keeping {} as it was; save the file again to retry",
+                self.output.display()
+            );
+        } else {
+            eprintln!("no image yet; save the file again to retry");
+        }
+    }
+}
+
+/// `raylab render SCENE --watch`.
+pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
+    if args.time.is_some() || args.checkpoint.is_some() || args.resume {
+        bail!("--watch renders until Ctrl-C: --time, --checkpoint and --resume do not apply");
+    }
+    let output_path = args
+        .output
+        .clone()
+        .unwrap_or_else(|| super::render_cmd::default_output(&args.scene));
+    output::check_output_path(&output_path)?;
+    let (settings, selection) = settings(&common!(args), FILE_INTERVAL)?;
+    let control = Arc::new(Control::new());
+    install_interrupt_handler(Arc::clone(&control));
+    let watcher = SceneWatcher::start(&args.scene, Arc::clone(&control))?;
+    if !args.quiet {
+        eprintln!(
+            "watching {} and the files it names; Ctrl-C to stop",
+            args.scene.display()
+        );
+    }
+    let mut observer = FileObserver {
+        scene: args.scene.clone(),
+        output: output_path,
+        display: DisplaySettings {
+            exposure: args.exposure,
+            tonemap: args.tonemap,
+        },
+        quiet: args.quiet,
+        wrote: false,
+    };
+    live::run(
+        &settings,
+        selection,
+        &control,
+        Some(&watcher),
+        &mut observer,
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `raylab serve SCENE`.
+pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
+    let (settings, selection) = settings(&common!(args), PAGE_INTERVAL)?;
+    let control = Arc::new(Control::new());
+    let shared = serve::Shared::new(&args.scene.display().to_string(), selection.clone());
+    let server = serve::Server::bind(
+        &args.host,
+        args.port,
+        Arc::clone(&shared),
+        Arc::clone(&control),
+    )?;
+    if !server.addr().ip().is_loopback() {
+        eprintln!(
+            "warning: serving on {}, reachable from other machines: anyone who can reach it can see the render and change its settings",
+            server.addr()
+        );
+    }
+    install_interrupt_handler(Arc::clone(&control));
+    let watcher = SceneWatcher::start(&args.scene, Arc::clone(&control))?;
+    let display = DisplaySettings {
+        exposure: args.exposure,
+        tonemap: args.tonemap,
+    };
+    let session = {
+        let control = Arc::clone(&control);
+        let quiet = args.quiet;
+        std::thread::Builder::new()
+            .name("raylab-session".into())
+            .spawn(move || {
+                let mut observer = serve::PageObserver::new(shared, display, quiet);
+                live::run(
+                    &settings,
+                    selection,
+                    &control,
+                    Some(&watcher),
+                    &mut observer,
+                );
+            })
+            .context("cannot start the render thread")?
+    };
+    println!("serving {}", server.url());
+    let _ = std::io::stdout().flush();
+    server.run();
+    if session.join().is_err() {
+        bail!("the render thread panicked");
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,403 @@
+//! Live editing: a session that loads a scene, renders it pass by pass, and starts over when
+//! a watched file changes or another integrator is chosen. `raylab render --watch` and
+//! `raylab serve` share it; they differ only in their [`Observer`] (write a file, or keep a
+//! PNG in memory for the page).
+//!
+//! Threads talk through a [`Control`]: the file watcher asks for a reload, the web page for a
+//! new [`Selection`], Ctrl-C for the end. Any of these stops the render in progress at the end
+//! of its current pass.
+
+pub mod watch;
+
+use crate::build::RenderScene;
+use crate::render::{self, Accumulation, Film, RenderSettings, RenderStats};
+use crate::scene::{self, Camera, LoadedScene};
+use anyhow::{anyhow, Result};
+use raylab_integrators::registry::{self, IntegratorEntry, ParamError, Params};
+use raylab_integrators::{Integrator, ParamKind};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Condvar, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+/// The integrator for `loaded`: `integrator`, else the scene's. The scene's parameters apply
+/// only to the scene's own integrator, and `given` (name, value text) overrides them.
+pub fn choose_integrator(
+    loaded: &LoadedScene,
+    integrator: Option<&str>,
+    given: &[(String, String)],
+) -> Result<(&'static IntegratorEntry, Params)> {
+    let name = integrator.unwrap_or(&loaded.render.integrator);
+    let entry = registry::find(name)?;
+    let mut all: Vec<(String, String)> = Vec::new();
+    if name == loaded.render.integrator {
+        all.extend(
+            loaded
+                .render
+                .params
+                .iter()
+                .map(|(k, v)| (k.clone(), format!("{v}"))),
+        );
+    }
+    all.extend(given.iter().cloned());
+    let params = entry
+        .resolve(&all)
+        .map_err(|e| anyhow!("{}: {e}", loaded.path.display()))?;
+    Ok((entry, params))
+}
+
+/// Which integrator to render with, and the parameters the user set.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Selection {
+    /// `None`: the scene's own integrator.
+    pub integrator: Option<String>,
+    /// (name, value text), checked against the registry.
+    pub params: Vec<(String, String)>,
+}
+
+impl Selection {
+    /// Checks the integrator name and the parameters against the registry. Parameters for
+    /// the scene's own integrator can only be checked once the scene is loaded.
+    pub fn check(&self) -> Result<(), ParamError> {
+        if let Some(name) = &self.integrator {
+            registry::find(name)?.resolve(&self.params)?;
+        }
+        Ok(())
+    }
+}
+
+/// What a live session renders, besides the integrator.
+#[derive(Clone, Debug)]
+pub struct LiveSettings {
+    pub scene: PathBuf,
+    /// Image size overriding the scene's.
+    pub size: Option<(u32, u32)>,
+    /// Samples per pixel to stop at; `None` renders until the next change or Ctrl-C.
+    pub spp: Option<u32>,
+    /// Seed overriding the scene's.
+    pub seed: Option<u64>,
+    pub threads: Option<usize>,
+    /// Shortest time between two images handed to the observer (the first pass and the last
+    /// are always handed over).
+    pub image_interval: Duration,
+}
+
+/// The render in progress, as observers see it.
+#[derive(Clone, Debug)]
+pub struct RenderInfo {
+    pub integrator: &'static str,
+    /// Every parameter with its value, as a user would type it.
+    pub params: Vec<(&'static str, String)>,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel to stop at, if any.
+    pub target_spp: Option<u32>,
+}
+
+impl RenderInfo {
+    /// `name=value` pairs separated by spaces.
+    pub fn describe_params(&self) -> String {
+        self.params
+            .iter()
+            .map(|(n, v)| format!("{n}={v}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// Why a render ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ended {
+    /// It reached its samples per pixel.
+    Finished,
+    /// A file changed or another integrator was chosen: a new render follows.
+    Changed,
+    /// The session is stopping (Ctrl-C).
+    Quit,
+}
+
+/// What a live session reports to. Calls come from the session's thread.
+pub trait Observer {
+    /// A scene loaded and a render starts.
+    fn render_started(&mut self, info: &RenderInfo);
+    /// An image of the render so far (at most every `image_interval`, and after the last
+    /// pass).
+    fn image(&mut self, film: &Film, info: &RenderInfo, stats: &RenderStats);
+    /// A render ended; the last image was already handed over.
+    fn render_ended(&mut self, info: &RenderInfo, stats: &RenderStats, why: Ended);
+    /// The scene (or a file it names, or the integrator chosen) failed: `message` names the
+    /// file and, for syntax errors, `line:column`. The last good image stays.
+    fn load_failed(&mut self, message: &str);
+}
+
+/// Requests not yet acted on.
+#[derive(Debug, Default)]
+struct Pending {
+    reload: bool,
+    selection: Option<Selection>,
+    quit: bool,
+}
+
+impl Pending {
+    fn any(&self) -> bool {
+        self.reload || self.selection.is_some() || self.quit
+    }
+}
+
+/// Requests to a live session from other threads: reload, switch integrator, stop.
+#[derive(Debug, Default)]
+pub struct Control {
+    pending: Mutex<Pending>,
+    wake: Condvar,
+    /// Set with any request: the render in progress stops at the end of its pass.
+    interrupt: AtomicBool,
+    quitting: AtomicBool,
+}
+
+impl Control {
+    pub fn new() -> Control {
+        Control::default()
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Pending> {
+        // A panic elsewhere while holding the lock leaves plain flags behind: still usable.
+        self.pending.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn request(&self, f: impl FnOnce(&mut Pending)) {
+        let mut pending = self.lock();
+        f(&mut pending);
+        // Under the lock, as `take` clears it: never set with nothing pending.
+        self.interrupt.store(true, Ordering::SeqCst);
+        drop(pending);
+        self.wake.notify_all();
+    }
+
+    /// A watched file changed: load the scene again.
+    pub fn request_reload(&self) {
+        self.request(|p| p.reload = true);
+    }
+
+    /// Render with another integrator or other parameters from now on.
+    pub fn select(&self, selection: Selection) {
+        self.request(|p| p.selection = Some(selection));
+    }
+
+    /// Stop the session (after the current pass).
+    pub fn quit(&self) {
+        self.quitting.store(true, Ordering::SeqCst);
+        self.request(|p| p.quit = true);
+    }
+
+    /// Whether [`Control::quit`] was called.
+    pub fn is_quitting(&self) -> bool {
+        self.quitting.load(Ordering::SeqCst)
+    }
+
+    /// Whether a request arrived since the session last took them.
+    fn interrupted(&self) -> bool {
+        self.interrupt.load(Ordering::SeqCst)
+    }
+
+    /// Takes the requests so far (and clears the interrupt, under the same lock).
+    fn take(&self) -> Pending {
+        let mut p = self.lock();
+        self.interrupt.store(false, Ordering::SeqCst);
+        std::mem::take(&mut *p)
+    }
+
+    /// Blocks until a request arrives (returns at once if one is waiting).
+    fn wait(&self) {
+        let mut p = self.lock();
+        while !p.any() {
+            p = self.wake.wait(p).unwrap_or_else(|e| e.into_inner());
+        }
+    }
+}
+
+/// A loaded scene ready to render.
+struct Job {
+    built: RenderScene,
+    camera: Camera,
+    integrator: Box<dyn Integrator>,
+    settings: RenderSettings,
+    info: RenderInfo,
+}
+
+fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, String)> {
+    entry
+        .params
+        .iter()
+        .map(|p| {
+            let v = params.get(p.name);
+            let text = if p.kind == ParamKind::Depth && v.is_infinite() {
+                "unlimited".to_string()
+            } else {
+                format!("{v}")
+            };
+            (p.name, text)
+        })
+        .collect()
+}
+
+/// Loads and builds the scene with the selected integrator.
+fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
+    let loaded = scene::load_scene(&settings.scene)?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {}: {w}", settings.scene.display());
+    }
+    let (entry, params) =
+        choose_integrator(&loaded, selection.integrator.as_deref(), &selection.params)?;
+    let camera = match settings.size {
+        Some((w, h)) => loaded.camera.with_resolution(w, h),
+        None => loaded.camera.clone(),
+    };
+    render::check_memory(camera.width, camera.height)?;
+    let built = RenderScene::build(&loaded);
+    let info = RenderInfo {
+        integrator: entry.name,
+        params: param_values(entry, &params),
+        width: camera.width,
+        height: camera.height,
+        target_spp: settings.spp,
+    };
+    Ok(Job {
+        built,
+        integrator: (entry.build)(&params),
+        settings: RenderSettings {
+            spp: settings.spp,
+            seed: settings.seed.unwrap_or(loaded.render.seed),
+            threads: settings.threads,
+            progress: false,
+            time_budget: None,
+        },
+        camera,
+        info,
+    })
+}
+
+/// Renders `job` until it finishes or a request arrives, handing images to `observer`.
+fn render_job(job: Job, interval: Duration, control: &Control, observer: &mut dyn Observer) {
+    let Job {
+        built,
+        camera,
+        mut integrator,
+        settings,
+        info,
+    } = job;
+    observer.render_started(&info);
+    let mut acc = Accumulation::new(camera.width, camera.height);
+    let mut last_image: Option<Instant> = None;
+    let mut shown_spp = 0;
+    let stop = || control.interrupted();
+    let result = render::render_passes_with_stats(
+        &built,
+        &camera,
+        integrator.as_mut(),
+        &settings,
+        &mut acc,
+        &stop,
+        &mut |acc, stats| {
+            if last_image.is_none_or(|t| t.elapsed() >= interval) {
+                observer.image(&acc.film(), &info, stats);
+                last_image = Some(Instant::now());
+                shown_spp = acc.spp_done;
+            }
+            Ok(())
+        },
+    );
+    match result {
+        Ok(stats) => {
+            if acc.spp_done > shown_spp {
+                observer.image(&acc.film(), &info, &stats);
+            }
+            let why = if stats.stopped.is_none() {
+                Ended::Finished
+            } else if control.is_quitting() {
+                Ended::Quit
+            } else {
+                Ended::Changed
+            };
+            observer.render_ended(&info, &stats, why);
+        }
+        Err(e) => observer.load_failed(&format!("{e:#}")),
+    }
+}
+
+/// Runs a live session until [`Control::quit`]: load, render, wait for a request, repeat.
+/// `watcher`, if any, is told the files the scene names after every load.
+pub fn run(
+    settings: &LiveSettings,
+    mut selection: Selection,
+    control: &Control,
+    watcher: Option<&watch::SceneWatcher>,
+    observer: &mut dyn Observer,
+) {
+    loop {
+        let pending = control.take();
+        if pending.quit {
+            return;
+        }
+        if let Some(s) = pending.selection {
+            selection = s;
+        }
+        if let Some(w) = watcher {
+            // Unparsable: keep watching what the last good version named.
+            if let Some(files) = scene::references::referenced_files(&settings.scene) {
+                if let Err(e) = w.track(&files) {
+                    eprintln!("warning: {e:#}");
+                }
+            }
+        }
+        match prepare(settings, &selection) {
+            Ok(job) => render_job(job, settings.image_interval, control, observer),
+            Err(e) => observer.load_failed(&format!("{e:#}")),
+        }
+        control.wait();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn requests_interrupt_and_are_taken_once() {
+        let c = Control::new();
+        assert!(!c.interrupted());
+        c.request_reload();
+        c.select(Selection {
+            integrator: Some("whitted".into()),
+            params: vec![],
+        });
+        assert!(c.interrupted());
+        c.wait(); // returns at once: something is pending
+        let p = c.take();
+        assert!(p.reload && !p.quit);
+        assert_eq!(p.selection.unwrap().integrator.as_deref(), Some("whitted"));
+        assert!(!c.interrupted());
+        assert!(!c.take().any());
+        c.quit();
+        assert!(c.is_quitting() && c.take().quit);
+    }
+
+    #[test]
+    fn selections_are_checked_against_the_registry() {
+        let sel = |i: Option<&str>, p: &[(&str, &str)]| Selection {
+            integrator: i.map(String::from),
+            params: p
+                .iter()
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .collect(),
+        };
+        assert!(sel(Some("path"), &[("max-depth", "3")]).check().is_ok());
+        assert!(sel(None, &[("anything", "3")]).check().is_ok());
+        let e = sel(Some("nope"), &[]).check().unwrap_err().to_string();
+        assert!(e.contains("unknown integrator `nope`"), "{e}");
+        let e = sel(Some("path"), &[("max-depth", "-1")])
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("out of range"), "{e}");
+    }
+}

@@ -1,0 +1,189 @@
+//! Watching a scene file and the files it names (the `notify` crate).
+//!
+//! Editors often save by writing a new file and renaming it over the old one, which a watch
+//! on the file itself would lose; so the folders are watched and events filtered by path.
+//! Events are debounced: the reload is requested once the files have been quiet for
+//! [`DEBOUNCE`], so one save (often several events) gives one reload.
+
+use super::Control;
+use anyhow::{Context, Result};
+use notify::{EventKind, RecommendedWatcher, RecursiveMode, Watcher};
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Quiet time after the last change before reloading.
+pub const DEBOUNCE: Duration = Duration::from_millis(150);
+
+/// Watches a scene and the files it names; a change asks the [`Control`] for a reload.
+pub struct SceneWatcher {
+    scene: PathBuf,
+    watcher: Mutex<RecommendedWatcher>,
+    /// Folders being watched.
+    dirs: Mutex<HashSet<PathBuf>>,
+    /// Files whose changes count (absolute, with canonical folders), shared with the thread.
+    files: Arc<Mutex<HashSet<PathBuf>>>,
+}
+
+/// `path` with its folder made canonical (the file itself may not exist, or be mid-rename),
+/// as notify reports paths under a canonical watched folder. `None` if the folder is missing.
+fn normalize(path: &Path) -> Option<(PathBuf, PathBuf)> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let dir = dir.canonicalize().ok()?;
+    let name = path.file_name()?;
+    Some((dir.join(name), dir))
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl SceneWatcher {
+    /// Starts watching `scene` (and nothing else until [`SceneWatcher::track`]).
+    pub fn start(scene: &Path, control: Arc<Control>) -> Result<SceneWatcher> {
+        let (tx, rx) = mpsc::channel::<notify::Result<notify::Event>>();
+        let watcher = notify::recommended_watcher(move |event| {
+            // The receiver is gone only when the session ends.
+            let _ = tx.send(event);
+        })
+        .context("cannot start watching files")?;
+        let files: Arc<Mutex<HashSet<PathBuf>>> = Arc::default();
+        let thread_files = Arc::clone(&files);
+        std::thread::Builder::new()
+            .name("raylab-watch".into())
+            .spawn(move || debounce(rx, &thread_files, &control))
+            .context("cannot start the file watcher thread")?;
+        let w = SceneWatcher {
+            scene: scene.to_path_buf(),
+            watcher: Mutex::new(watcher),
+            dirs: Mutex::default(),
+            files,
+        };
+        w.track(&[])?;
+        Ok(w)
+    }
+
+    /// Watches the scene and `files` from now on (the folders of files that do not exist
+    /// yet cannot be watched; their files will count once the folder is watched for another).
+    pub fn track(&self, files: &[PathBuf]) -> Result<()> {
+        let mut wanted = HashSet::new();
+        let mut dirs = HashSet::new();
+        for f in std::iter::once(&self.scene).chain(files) {
+            if let Some((file, dir)) = normalize(f) {
+                wanted.insert(file);
+                dirs.insert(dir);
+            }
+        }
+        let mut watcher = lock(&self.watcher);
+        let mut watched = lock(&self.dirs);
+        for d in dirs.difference(&watched.clone()) {
+            watcher
+                .watch(d, RecursiveMode::NonRecursive)
+                .with_context(|| format!("cannot watch the folder {}", d.display()))?;
+            watched.insert(d.clone());
+        }
+        for d in watched.difference(&dirs).cloned().collect::<Vec<_>>() {
+            let _ = watcher.unwatch(&d);
+            watched.remove(&d);
+        }
+        *lock(&self.files) = wanted;
+        Ok(())
+    }
+
+    /// The files whose changes count now.
+    pub fn files(&self) -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = lock(&self.files).iter().cloned().collect();
+        v.sort();
+        v
+    }
+}
+
+/// Whether `event` is a change to one of `files` (reads do not count: the session reads the
+/// files itself). Errors and rescans count: something may have been missed.
+fn relevant(event: &notify::Result<notify::Event>, files: &Mutex<HashSet<PathBuf>>) -> bool {
+    match event {
+        Err(_) => true,
+        Ok(e) if e.need_rescan() => true,
+        Ok(e) if matches!(e.kind, EventKind::Access(_)) => false,
+        Ok(e) => {
+            let files = lock(files);
+            e.paths.iter().any(|p| files.contains(p))
+        }
+    }
+}
+
+/// Turns bursts of relevant events into one reload request each, until the watcher is dropped.
+fn debounce(
+    rx: mpsc::Receiver<notify::Result<notify::Event>>,
+    files: &Mutex<HashSet<PathBuf>>,
+    control: &Control,
+) {
+    while let Ok(event) = rx.recv() {
+        if !relevant(&event, files) {
+            continue;
+        }
+        let mut deadline = Instant::now() + DEBOUNCE;
+        loop {
+            match rx.recv_timeout(deadline.saturating_duration_since(Instant::now())) {
+                Ok(e) => {
+                    if relevant(&e, files) {
+                        deadline = Instant::now() + DEBOUNCE;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => break,
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        }
+        control.request_reload();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Polls `f` for up to 10 s.
+    fn eventually(mut f: impl FnMut() -> bool) -> bool {
+        let end = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < end {
+            if f() {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        false
+    }
+
+    #[test]
+    fn a_save_by_rename_and_a_named_file_request_a_reload_and_other_files_do_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("s.ron");
+        let mesh = dir.path().join("m.obj");
+        std::fs::write(&scene, "a").unwrap();
+        let control = Arc::new(Control::new());
+        let w = SceneWatcher::start(&scene, Arc::clone(&control)).unwrap();
+        w.track(std::slice::from_ref(&mesh)).unwrap();
+        assert_eq!(w.files().len(), 2);
+
+        // An unrelated file in the same folder: nothing.
+        std::fs::write(dir.path().join("other.txt"), "x").unwrap();
+        std::thread::sleep(DEBOUNCE * 3);
+        assert!(!control.interrupted());
+
+        // Save by writing a temporary file and renaming it over the scene.
+        let tmp = dir.path().join(".s.ron.swp");
+        std::fs::write(&tmp, "b").unwrap();
+        std::fs::rename(&tmp, &scene).unwrap();
+        assert!(eventually(|| control.interrupted()));
+        assert!(control.take().reload);
+
+        // Creating a named file that did not exist.
+        std::fs::write(&mesh, "v 0 0 0").unwrap();
+        assert!(eventually(|| control.interrupted()));
+    }
+}

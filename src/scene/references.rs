@@ -1,0 +1,99 @@
+//! The files a scene file names: meshes (OBJ, glTF) and, for a `.gltf`, the buffers and images
+//! it points to. Live editing watches them so that saving any of them re-renders.
+
+use super::load::parse_scene_file;
+use super::schema::ShapeDesc;
+use std::path::{Path, PathBuf};
+
+/// The files `scene` refers to, resolved against its folder, in file order without repeats.
+/// `None` when the scene file cannot be read or parsed (the caller keeps what it had). Files
+/// that are missing are listed all the same: creating them must trigger a reload.
+pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
+    let text = std::fs::read_to_string(scene).ok()?;
+    let file = parse_scene_file(&text, scene).ok()?;
+    let dir = match scene.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut files: Vec<PathBuf> = Vec::new();
+    let mut add = |p: PathBuf| {
+        if !files.contains(&p) {
+            files.push(p);
+        }
+    };
+    for entity in &file.entities {
+        match &entity.shape {
+            Some(ShapeDesc::Obj { path }) => add(dir.join(path)),
+            Some(ShapeDesc::Gltf { path }) => {
+                let gltf = dir.join(path);
+                for uri in gltf_uris(&gltf) {
+                    add(gltf.parent().unwrap_or(Path::new(".")).join(uri));
+                }
+                add(gltf);
+            }
+            _ => {}
+        }
+    }
+    Some(files)
+}
+
+/// The external (not `data:`) buffer and image URIs of a `.gltf` JSON file; none for a
+/// binary `.glb` or a file that cannot be read.
+fn gltf_uris(path: &Path) -> Vec<String> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Vec::new();
+    };
+    let Ok(json) = serde_json::from_str::<serde_json::Value>(&text) else {
+        return Vec::new();
+    };
+    let mut uris = Vec::new();
+    for key in ["buffers", "images"] {
+        if let Some(items) = json.get(key).and_then(|v| v.as_array()) {
+            for item in items {
+                if let Some(uri) = item.get("uri").and_then(|u| u.as_str()) {
+                    // Relative file names only: no schemes, no absolute paths.
+                    if !uri.contains(':') && !uri.starts_with('/') {
+                        uris.push(uri.replace("%20", " "));
+                    }
+                }
+            }
+        }
+    }
+    uris
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lists_obj_gltf_and_gltf_buffers_relative_to_the_scene() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("s.ron");
+        std::fs::create_dir(dir.path().join("m")).unwrap();
+        std::fs::write(
+            dir.path().join("m/a.gltf"),
+            r#"{"buffers": [{"uri": "a.bin"}, {"uri": "data:application/octet-stream;base64,AA=="}]}"#,
+        )
+        .unwrap();
+        std::fs::write(
+            &scene,
+            r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), fov: 40, resolution: (8, 8)),
+                entities: [
+                    (shape: Obj(path: "m/x.obj")),
+                    (shape: Gltf(path: "m/a.gltf")),
+                    (shape: Obj(path: "m/x.obj")),
+                    (shape: Sphere(radius: 1)),
+                ])"#,
+        )
+        .unwrap();
+        let files = referenced_files(&scene).unwrap();
+        let d = dir.path();
+        assert_eq!(
+            files,
+            vec![d.join("m/x.obj"), d.join("m/a.bin"), d.join("m/a.gltf")]
+        );
+        std::fs::write(&scene, "(camera: ").unwrap();
+        assert_eq!(referenced_files(&scene), None);
+    }
+}

@@ -1,0 +1,209 @@
+//! Helpers for the tests that run `raylab` as a long-lived child process (`render --watch`,
+//! `serve`): start it with its stderr in a file, poll with generous timeouts, stop it with
+//! SIGINT, and never leave it running when a test fails.
+
+#![allow(dead_code)] // each test file uses its own subset
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// Long enough for a loaded 2-core machine; the tests finish in far less when things work.
+pub const TIMEOUT: Duration = Duration::from_secs(30);
+
+/// A running `raylab`, killed when dropped.
+pub struct Running {
+    pub child: Child,
+    pub stderr: PathBuf,
+}
+
+impl Running {
+    /// Starts `raylab ARGS` in the repository root, stderr to `stderr_file`; stdout piped
+    /// when `pipe_stdout`.
+    pub fn start(args: &[&str], stderr_file: &Path, pipe_stdout: bool) -> Running {
+        let err = std::fs::File::create(stderr_file).unwrap();
+        let child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stdin(Stdio::null())
+            .stdout(if pipe_stdout {
+                Stdio::piped()
+            } else {
+                Stdio::null()
+            })
+            .stderr(err)
+            .spawn()
+            .expect("raylab starts");
+        Running {
+            child,
+            stderr: stderr_file.to_path_buf(),
+        }
+    }
+
+    /// Everything it wrote to stderr so far.
+    pub fn stderr(&self) -> String {
+        std::fs::read_to_string(&self.stderr).unwrap_or_default()
+    }
+
+    /// Waits (up to [`TIMEOUT`]) until its stderr satisfies `f`; panics with the stderr if not.
+    pub fn wait_stderr(&self, what: &str, f: impl Fn(&str) -> bool) {
+        if !eventually(|| f(&self.stderr())) {
+            panic!("timed out waiting for {what}; stderr:\n{}", self.stderr());
+        }
+    }
+
+    /// Sends SIGINT (Ctrl-C) and waits for the exit.
+    pub fn interrupt(mut self) -> ExitStatus {
+        let pid = self.child.id().to_string();
+        let ok = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+        assert!(ok.success());
+        let end = Instant::now() + TIMEOUT;
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status;
+            }
+            assert!(
+                Instant::now() < end,
+                "still running after Ctrl-C; stderr:\n{}",
+                self.stderr()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// Polls `f` every 20 ms for up to [`TIMEOUT`].
+pub fn eventually(mut f: impl FnMut() -> bool) -> bool {
+    let end = Instant::now() + TIMEOUT;
+    loop {
+        if f() {
+            return true;
+        }
+        if Instant::now() >= end {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Saves `text` to `path` the way many editors do: a new file renamed over the old one.
+pub fn save(path: &Path, text: &str) {
+    let tmp = path.with_extension("ron.tmp~");
+    std::fs::write(&tmp, text).unwrap();
+    std::fs::rename(&tmp, path).unwrap();
+}
+
+/// A copy of `scenes/NAME` (and `scenes/assets`) in a new temporary folder.
+pub fn scene_copy(name: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::copy(src.join(name), dir.path().join(name)).unwrap();
+    std::fs::create_dir(dir.path().join("assets")).unwrap();
+    for f in std::fs::read_dir(src.join("assets")).unwrap() {
+        let f = f.unwrap();
+        std::fs::copy(f.path(), dir.path().join("assets").join(f.file_name())).unwrap();
+    }
+    let scene = dir.path().join(name);
+    (dir, scene)
+}
+
+/// The light of `scenes/cornell_box.ron`, to edit.
+pub const CORNELL_LIGHT: &str = "radiance: (18.387, 13.9873, 6.75357)";
+
+/// Chromium, if this machine has it. Missing is a failure under CI (which installs it) and a
+/// loud skip elsewhere: `None`, after saying so.
+pub fn chromium() -> Option<&'static str> {
+    let found = ["chromium", "chromium-browser", "google-chrome"]
+        .into_iter()
+        .find(|c| {
+            Command::new(c)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        });
+    if found.is_none() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must provide Chromium (apt-get install chromium)"
+        );
+        eprintln!("SKIPPED the page test: no Chromium on this machine (apt-get install chromium)");
+    }
+    found
+}
+
+/// Loads `url` in headless Chromium for `budget_ms` of virtual time (which stands still
+/// while a request is pending) and returns the DOM it dumps and the console lines it logged.
+/// A browser still running after 90 s of real time is killed.
+pub fn chromium_dump_dom(chromium: &str, url: &str, budget_ms: u32) -> (String, Vec<String>) {
+    let profile = tempfile::tempdir().unwrap();
+    let mut browser = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--enable-logging=stderr",
+            "--v=0",
+            &format!("--virtual-time-budget={budget_ms}"),
+            &format!("--user-data-dir={}", profile.path().display()),
+            "--dump-dom",
+            url,
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The watchdog kills only a browser that has not exited (no stray pid is signalled).
+    let pid = browser.id();
+    let (exited, watch) = std::sync::mpsc::channel::<()>();
+    std::thread::spawn(move || {
+        if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+            watch.recv_timeout(Duration::from_secs(90))
+        {
+            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
+        }
+    });
+    let mut stderr = browser.stderr.take().unwrap();
+    let log = std::thread::spawn(move || {
+        let mut log = String::new();
+        let _ = std::io::Read::read_to_string(&mut stderr, &mut log);
+        log
+    });
+    let mut dom = String::new();
+    std::io::Read::read_to_string(&mut browser.stdout.take().unwrap(), &mut dom).unwrap();
+    browser.wait().unwrap();
+    let _ = exited.send(());
+    let log = log.join().unwrap();
+    let console = log
+        .lines()
+        .filter(|l| l.contains(":CONSOLE"))
+        .map(String::from)
+        .collect();
+    (dom, console)
+}
+
+/// Saves `scene` with a syntax error (`,,`) on its `entities: [` line; returns the good text
+/// and the error's expected `FILE:LINE:` prefix.
+pub fn break_scene(scene: &Path) -> (String, String) {
+    let text = std::fs::read_to_string(scene).unwrap();
+    let line = 1 + text
+        .lines()
+        .position(|l| l.contains("entities: ["))
+        .unwrap();
+    save(scene, &text.replacen("entities: [", "entities: [,,", 1));
+    let name = scene.file_name().unwrap().to_str().unwrap();
+    (text, format!("{name}:{line}:"))
+}

@@ -1,0 +1,330 @@
+//! `raylab serve` over HTTP as a browser and a hostile client would use it: the routes, 404
+//! for every other path (no file is ever served), 400 with the registry's message for bad
+//! settings, clients that disconnect mid-request or mid-response, the load error shown while
+//! the scene is broken, and the page itself in headless Chromium switching the integrator.
+
+mod common;
+
+use common::{
+    break_scene, chromium, chromium_dump_dom, eventually, save, scene_copy, Running, CORNELL_LIGHT,
+    TIMEOUT,
+};
+use serde_json::Value;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::path::Path;
+
+/// A running `raylab serve` and its address.
+struct Served {
+    run: Running,
+    addr: SocketAddr,
+}
+
+/// `raylab serve SCENE --port 0` at 32x32, `spp` spp, one thread; reads the address from
+/// the first line of stdout.
+fn serve(scene: &Path, spp: &str) -> Served {
+    let mut run = Running::start(
+        &[
+            "serve",
+            scene.to_str().unwrap(),
+            "--port",
+            "0",
+            "--size",
+            "32x32",
+            "--spp",
+            spp,
+            "--threads",
+            "1",
+        ],
+        &scene.with_extension("stderr"),
+        true,
+    );
+    let stdout = run.child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = BufReader::new(stdout).read_line(&mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx
+        .recv_timeout(TIMEOUT)
+        .unwrap_or_else(|_| panic!("no address printed; stderr:\n{}", run.stderr()));
+    let url = line
+        .trim()
+        .strip_prefix("serving http://")
+        .and_then(|u| u.strip_suffix('/'))
+        .unwrap_or_else(|| panic!("unexpected first line {line:?}"));
+    Served {
+        addr: url.parse().unwrap(),
+        run,
+    }
+}
+
+/// A response: status, headers (lowercased names), body.
+struct Reply {
+    status: u16,
+    headers: String,
+    body: Vec<u8>,
+}
+
+impl Reply {
+    fn text(&self) -> String {
+        String::from_utf8_lossy(&self.body).into_owned()
+    }
+
+    fn json(&self) -> Value {
+        serde_json::from_slice(&self.body).unwrap_or_else(|e| panic!("{e}: {}", self.text()))
+    }
+}
+
+impl Served {
+    /// Sends `raw` (a whole request) and reads the whole response.
+    fn raw(&self, raw: &str) -> Reply {
+        let mut s = TcpStream::connect(self.addr).unwrap();
+        s.set_read_timeout(Some(TIMEOUT)).unwrap();
+        s.write_all(raw.as_bytes()).unwrap();
+        let mut all = Vec::new();
+        s.read_to_end(&mut all).unwrap();
+        let split = all
+            .windows(4)
+            .position(|w| w == b"\r\n\r\n")
+            .expect("a complete response");
+        let head = String::from_utf8_lossy(&all[..split]).to_lowercase();
+        let status = head.split_whitespace().nth(1).unwrap().parse().unwrap();
+        Reply {
+            status,
+            headers: head,
+            body: all[split + 4..].to_vec(),
+        }
+    }
+
+    fn get(&self, path: &str) -> Reply {
+        self.raw(&format!(
+            "GET {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
+            self.addr
+        ))
+    }
+
+    fn post(&self, path: &str, content_type: &str, body: &str) -> Reply {
+        self.raw(&format!(
+            "POST {path} HTTP/1.1\r\nHost: {}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+            self.addr,
+            body.len()
+        ))
+    }
+
+    fn state(&self) -> Value {
+        let r = self.get("/state");
+        assert_eq!(r.status, 200);
+        r.json()
+    }
+
+    /// Polls `/state` until `f` holds.
+    fn wait_state(&self, what: &str, f: impl Fn(&Value) -> bool) -> Value {
+        let mut last = Value::Null;
+        if eventually(|| {
+            last = self.state();
+            f(&last)
+        }) {
+            return last;
+        }
+        panic!(
+            "timed out waiting for {what}; state {last}; stderr:\n{}",
+            self.run.stderr()
+        );
+    }
+}
+
+fn finished(s: &Value) -> bool {
+    s["render"]["state"] == "finished" && s["image"].is_object()
+}
+
+#[test]
+fn serves_its_routes_and_nothing_else_and_survives_bad_clients() {
+    let (_dir, scene) = scene_copy("cornell_box.ron");
+    let srv = serve(&scene, "4");
+
+    let page = srv.get("/");
+    assert_eq!(page.status, 200);
+    assert!(page.headers.contains("content-type: text/html"));
+    let html = page.text();
+    assert!(html.contains("<select id=\"integrator\">") && html.contains("/state?since="));
+    assert!(
+        !html.contains("http://") && !html.contains("https://"),
+        "self-contained"
+    );
+
+    let list = srv.get("/integrators").json();
+    let names: Vec<&str> = list
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert!(
+        names.contains(&"path") && names.contains(&"whitted"),
+        "{names:?}"
+    );
+
+    let s = srv.wait_state("the first image", finished);
+    assert_eq!(s["render"]["integrator"], "path");
+    assert_eq!(
+        s["render"]["params"]["max-depth"], "7",
+        "the scene's parameters"
+    );
+    assert_eq!(s["render"]["spp"], 4);
+    assert!(s["render"]["rays_per_s"].as_f64().unwrap() > 0.0);
+    assert!(s["error"].is_null());
+    let png = srv.get("/image.png");
+    assert_eq!(png.status, 200);
+    assert!(png.headers.contains("content-type: image/png"));
+    let img = image::load_from_memory(&png.body).unwrap();
+    assert_eq!((img.width(), img.height()), (32, 32));
+
+    // Long polling: an old version answers at once, a current one waits for a change.
+    let v = s["version"].as_u64().unwrap();
+    assert_eq!(srv.get("/state?since=0").json()["version"], v);
+
+    // Nothing but the routes: no path reaches the file system.
+    for path in [
+        "/Cargo.toml",
+        "/../Cargo.toml",
+        "/%2e%2e/Cargo.toml",
+        "/image.png/../../Cargo.toml",
+        "//etc/passwd",
+        "/scenes/cornell_box.ron",
+        "/index.html",
+        "/state/",
+    ] {
+        let r = srv.get(path);
+        assert_eq!(r.status, 404, "{path}");
+        assert!(!r.text().contains("[package]"));
+    }
+    let r = srv.raw(&format!(
+        "DELETE / HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
+        srv.addr
+    ));
+    assert_eq!(r.status, 405);
+    // Another site's name for this address (DNS rebinding) is refused.
+    let r = srv.raw("GET /state HTTP/1.1\r\nHost: evil.example:80\r\nConnection: close\r\n\r\n");
+    assert_eq!(r.status, 403);
+
+    // Bad settings: 400 with the registry's message; a form post (another site) is refused.
+    for (body, expected) in [
+        (r#"{"integrator": "nope"}"#, "unknown integrator `nope`"),
+        (
+            r#"{"integrator": "path", "params": {"max-depth": "-3"}}"#,
+            "out of range",
+        ),
+        (
+            r#"{"integrator": "whitted", "params": {"bogus": 1}}"#,
+            "no parameter `bogus`",
+        ),
+        ("not json", "bad JSON"),
+    ] {
+        let r = srv.post("/settings", "application/json", body);
+        assert_eq!(r.status, 400, "{body}");
+        assert!(r.text().contains(expected), "{body}: {}", r.text());
+    }
+    let r = srv.post("/settings", "text/plain", r#"{"integrator": "whitted"}"#);
+    assert_eq!(r.status, 415);
+    assert_eq!(
+        srv.state()["render"]["integrator"],
+        "path",
+        "nothing changed"
+    );
+
+    // Clients that go away: mid-request, mid-long-poll, mid-response.
+    {
+        let mut a = TcpStream::connect(srv.addr).unwrap();
+        a.write_all(b"GET /sta").unwrap();
+        let mut b = TcpStream::connect(srv.addr).unwrap();
+        write!(
+            b,
+            "GET /state?since={v} HTTP/1.1\r\nHost: {}\r\n\r\n",
+            srv.addr
+        )
+        .unwrap();
+        for _ in 0..20 {
+            let mut c = TcpStream::connect(srv.addr).unwrap();
+            write!(c, "GET /image.png HTTP/1.1\r\nHost: {}\r\n\r\n", srv.addr).unwrap();
+            let mut first = [0u8; 10];
+            let _ = c.read(&mut first);
+        }
+        let _ = (a.shutdown(std::net::Shutdown::Both), b);
+    }
+    let silent = TcpStream::connect(srv.addr).unwrap(); // connects, never speaks
+    assert_eq!(srv.get("/state").status, 200, "still answering");
+
+    // A valid switch: the next image is by whitted.
+    let r = srv.post(
+        "/settings",
+        "application/json",
+        r#"{"integrator": "whitted", "params": {"max-depth": 3}}"#,
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let s = srv.wait_state("an image by whitted", |s| {
+        finished(s) && s["image"]["integrator"] == "whitted"
+    });
+    assert_eq!(s["render"]["params"]["max-depth"], "3");
+    assert_eq!(s["selection"]["integrator"], "whitted");
+    drop(silent);
+
+    assert_eq!(srv.run.interrupt().code(), Some(0));
+}
+
+#[test]
+fn shows_the_load_error_while_the_scene_is_broken_and_reloads_on_save() {
+    let (_dir, scene) = scene_copy("cornell_box.ron");
+    let srv = serve(&scene, "4");
+    let s = srv.wait_state("the first image", finished);
+    let image_version = s["image"]["version"].clone();
+    let good = srv.get("/image.png").body;
+
+    let (text, at) = break_scene(&scene);
+    let s = srv.wait_state("the load error", |s| s["error"].is_string());
+    let error = s["error"].as_str().unwrap();
+    assert!(error.contains(&at), "{error}");
+    assert_eq!(s["image"]["version"], image_version, "the last image stays");
+    assert_eq!(srv.get("/image.png").body, good);
+
+    save(
+        &scene,
+        &text.replace(CORNELL_LIGHT, "radiance: (1.5, 1.5, 1.5)"),
+    );
+    srv.wait_state("the render after the fix", |s| {
+        s["error"].is_null() && finished(s) && s["image"]["version"] != image_version
+    });
+    assert_ne!(srv.get("/image.png").body, good);
+    assert_eq!(srv.run.interrupt().code(), Some(0));
+}
+
+/// Opens the page with `#selftest=whitted` in headless Chromium: the page switches the menu
+/// to whitted, waits for whitted's image to arrive and load, and reports in its title.
+#[test]
+fn the_page_switches_the_integrator_in_headless_chromium() {
+    let Some(chromium) = chromium() else {
+        return;
+    };
+    let (_dir, scene) = scene_copy("cornell_box.ron");
+    let srv = serve(&scene, "16");
+    let url = format!("http://{}/#selftest=whitted", srv.addr);
+    let (dom, console) = chromium_dump_dom(chromium, &url, 30_000);
+    assert!(
+        dom.contains("<title>selftest: ok</title>"),
+        "page self-test failed: {}\nverdict: {}\nraylab stderr:\n{}",
+        dom.lines()
+            .find(|l| l.contains("<title>"))
+            .unwrap_or("no title"),
+        dom.lines()
+            .find(|l| l.contains("id=\"verdict\""))
+            .unwrap_or("no verdict"),
+        srv.run.stderr()
+    );
+    assert!(console.is_empty(), "console messages: {console:#?}");
+    // The server agrees: the switch went through the menu to the session.
+    let s = srv.state();
+    assert_eq!(s["selection"]["integrator"], "whitted");
+    assert_eq!(s["image"]["integrator"], "whitted");
+    assert_eq!(srv.run.interrupt().code(), Some(0));
+}

@@ -1,0 +1,145 @@
+//! `raylab render --watch` as a user runs it: saving the scene (or a mesh it names)
+//! re-renders and rewrites the output; a broken save reports file:line:column and keeps the
+//! last good image; fixing it resumes; Ctrl-C stops it cleanly.
+
+mod common;
+
+use common::{break_scene, eventually, save, scene_copy, Running, CORNELL_LIGHT};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// `raylab render SCENE --watch` at 32x32, 8 spp, one thread.
+fn watch(scene: &Path, out: &Path) -> Running {
+    Running::start(
+        &[
+            "render",
+            s(scene),
+            "--watch",
+            "--size",
+            "32x32",
+            "--spp",
+            "8",
+            "--threads",
+            "1",
+            "-o",
+            s(out),
+        ],
+        &scene.with_extension("stderr"),
+        false,
+    )
+}
+
+fn done_count(stderr: &str) -> usize {
+    stderr.lines().filter(|l| l.starts_with("done:")).count()
+}
+
+/// Mean of the PNG's 8-bit values.
+fn brightness(png: &Path) -> f64 {
+    let img = image::open(png).unwrap().to_rgb8();
+    img.as_raw().iter().map(|&v| v as f64).sum::<f64>() / img.as_raw().len() as f64
+}
+
+#[test]
+fn saving_the_scene_rerenders_and_ctrl_c_stops_cleanly() {
+    let (dir, scene) = scene_copy("cornell_box.ron");
+    let out = dir.path().join("out.png");
+    let run = watch(&scene, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+    let before = brightness(&out);
+    assert!(before > 20.0, "the box is lit: {before}");
+
+    // A dimmer light: the image must darken.
+    let text = std::fs::read_to_string(&scene).unwrap();
+    assert!(text.contains(CORNELL_LIGHT));
+    save(
+        &scene,
+        &text.replace(CORNELL_LIGHT, "radiance: (1.5, 1.5, 1.5)"),
+    );
+    run.wait_stderr("the second render", |e| done_count(e) >= 2);
+    let after = brightness(&out);
+    assert!(after < before * 0.5, "{after} vs {before}");
+
+    let status = run.interrupt();
+    assert_eq!(status.code(), Some(0), "Ctrl-C is a clean stop");
+}
+
+#[test]
+fn a_broken_save_reports_line_and_column_and_keeps_the_last_image() {
+    let (dir, scene) = scene_copy("cornell_box.ron");
+    let out = dir.path().join("out.png");
+    let run = watch(&scene, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+    let good = std::fs::read(&out).unwrap();
+
+    // A syntax error on the `entities: [` line.
+    let (text, at) = break_scene(&scene);
+    run.wait_stderr("the load error", |e| e.contains(&at));
+    assert!(run.stderr().contains("keeping"), "{}", run.stderr());
+
+    // The last good image stays, byte for byte, while the file is broken.
+    let end = Instant::now() + Duration::from_millis(800);
+    while Instant::now() < end {
+        assert_eq!(std::fs::read(&out).unwrap(), good, "the image changed");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert_eq!(done_count(&run.stderr()), 1);
+
+    // Fixed (with a dimmer light): rendering resumes.
+    save(
+        &scene,
+        &text.replace(CORNELL_LIGHT, "radiance: (1.5, 1.5, 1.5)"),
+    );
+    run.wait_stderr("the render after the fix", |e| done_count(e) >= 2);
+    assert!(eventually(|| std::fs::read(&out).unwrap() != good));
+    assert_eq!(run.interrupt().code(), Some(0));
+}
+
+#[test]
+fn saving_a_mesh_the_scene_names_rerenders() {
+    let (dir, scene) = scene_copy("mesh_files.ron");
+    let out = dir.path().join("out.png");
+    let run = watch(&scene, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+    let first = std::fs::read(&out).unwrap();
+
+    // Grow the pyramid from the OBJ file.
+    let obj = dir.path().join("assets/pyramid.obj");
+    let text = std::fs::read_to_string(&obj).unwrap();
+    let grown: String = text
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let c: Vec<f32> = v.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!("v {} {} {}\n", c[0] * 2.0, c[1] * 2.0, c[2] * 2.0)
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    assert_ne!(grown, text);
+    std::fs::write(&obj, grown).unwrap();
+    run.wait_stderr("the render after the mesh changed", |e| done_count(e) >= 2);
+    assert_ne!(std::fs::read(&out).unwrap(), first);
+    assert_eq!(run.interrupt().code(), Some(0));
+}
+
+#[test]
+fn watch_refuses_options_it_cannot_honour() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", "scenes/cornell_box.ron", "--watch", "--time", "1"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--watch renders until Ctrl-C"));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", "scenes/cornell_box.ron", "--watch", "-i", "nope"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown integrator `nope`"));
+}
