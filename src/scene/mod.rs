@@ -4,6 +4,7 @@ pub mod camera;
 pub mod components;
 pub mod error;
 pub mod load;
+pub mod mesh_files;
 pub mod procedural;
 pub mod schema;
 pub mod systems;
