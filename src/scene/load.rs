@@ -1,10 +1,10 @@
 //! Parsing a RON scene file and spawning its entities into a hecs world.
 
 use super::camera::Camera;
-use super::components::{Emitter, MaterialRef, Name, Shape, Transform};
+use super::components::{Emitter, Instanced, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::error::{finite, SceneError};
 use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
-use super::{mesh_files, systems, LoadedScene};
+use super::{assets, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
 use raylab_integrators::{registry, Material, Rgb};
@@ -253,10 +253,11 @@ fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A;
     })
 }
 
-fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
+pub(crate) fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
     Ok(match desc {
         ShapeDesc::Gltf { path } => mesh_files::load_gltf(&scene_dir.join(path))?,
         ShapeDesc::Obj { path } => mesh_files::load_obj(&scene_dir.join(path))?,
+        ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),
             radius,
@@ -407,23 +408,21 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
         }
     }
 
-    // Systems: validate, then bake transforms into world-space geometry.
-    systems::validate(&world).map_err(|(entity, message)| SceneError::Entity {
+    // Systems: validate, bake transforms into world-space geometry, resolve instances.
+    let entity_error = |(entity, message)| SceneError::Entity {
         path: path_buf.clone(),
         entity,
         message,
-    })?;
-    let warnings =
-        systems::bake_transforms(&mut world).map_err(|(entity, message)| SceneError::Entity {
-            path: path_buf.clone(),
-            entity,
-            message,
-        })?;
-    if !world
-        .query::<&super::components::WorldShape>()
-        .iter()
-        .any(|_| true)
-    {
+    };
+    systems::validate(&world).map_err(entity_error)?;
+    let mut warnings = systems::bake_transforms(&mut world).map_err(entity_error)?;
+    let scene_dir = path.parent().unwrap_or(Path::new("."));
+    let resolved =
+        assets::resolve_instances(&mut world, &file.meshes, scene_dir).map_err(entity_error)?;
+    warnings.extend(resolved.warnings);
+    let has_geometry = world.query::<&WorldShape>().iter().any(|_| true)
+        || world.query::<&Instanced>().iter().any(|_| true);
+    if !has_geometry {
         return Err(SceneError::Scene {
             path: path_buf,
             message: "the scene has no geometry (no entity with a shape)".into(),
@@ -437,6 +436,7 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
         render: file.render,
         materials,
         material_names,
+        meshes: resolved.meshes,
         environment,
         warnings,
     })
