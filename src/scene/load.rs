@@ -255,8 +255,8 @@ fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A;
 
 pub(crate) fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
     Ok(match desc {
-        ShapeDesc::Gltf { path } => mesh_files::load_gltf(&scene_dir.join(path))?,
-        ShapeDesc::Obj { path } => mesh_files::load_obj(&scene_dir.join(path))?,
+        ShapeDesc::Gltf { path } => mesh_files::load_gltf(&scene_dir.join(path))?.into_shape(),
+        ShapeDesc::Obj { path } => mesh_files::load_obj(&scene_dir.join(path), false)?.into_shape(),
         ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),
