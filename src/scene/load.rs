@@ -4,7 +4,7 @@ use super::camera::Camera;
 use super::components::{Emitter, Instanced, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::error::{finite, SceneError};
 use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
-use super::{assets, mesh_files, systems, LoadedScene};
+use super::{assets, file_materials, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
 use raylab_integrators::{registry, Material, Rgb};
@@ -290,6 +290,52 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape
     })
 }
 
+/// Spawns an entity with `material: "from-file"` as one entity per material of its mesh file
+/// (see [`file_materials`]), appending those materials to the table.
+fn spawn_file_parts(
+    world: &mut hecs::World,
+    materials: &mut Vec<Material>,
+    shape: &Option<ShapeDesc>,
+    has_emitter: bool,
+    name: String,
+    transform: Transform,
+    path: &Path,
+) -> Result<(), (String, String)> {
+    let fail = |m: String| (name.clone(), m);
+    if has_emitter {
+        return Err(fail(format!(
+            "with `material: \"{}\"` the file's materials say what emits: remove `emitter`",
+            file_materials::FROM_FILE
+        )));
+    }
+    let Some(shape) = shape else {
+        return Err(fail("has a material but no shape".into()));
+    };
+    if let ShapeDesc::Instance { mesh } = shape {
+        return Err(fail(format!(
+            "instances of mesh `{mesh}` take one material: `material: \"{}\"` works only \
+             on an `Obj` or `Gltf` shape of the entity itself",
+            file_materials::FROM_FILE
+        )));
+    }
+    let scene_dir = path.parent().unwrap_or(Path::new("."));
+    for part in file_materials::file_parts(shape, scene_dir).map_err(fail)? {
+        materials.push(part.material);
+        let entity = world.spawn((
+            Name(format!("{name}/{}", part.name)),
+            transform,
+            part.shape,
+            MaterialRef((materials.len() - 1) as u32),
+        ));
+        if let Some(emitter) = part.emitter {
+            world
+                .insert_one(entity, emitter)
+                .expect("entity was just spawned");
+        }
+    }
+    Ok(())
+}
+
 fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> {
     let path_buf = path.to_path_buf();
 
@@ -297,6 +343,13 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
     let mut materials = Vec::with_capacity(file.materials.0.len() + 1);
     let mut material_names = Vec::with_capacity(file.materials.0.len());
     for (name, desc) in &file.materials.0 {
+        if name == file_materials::FROM_FILE {
+            return Err(SceneError::Material {
+                path: path_buf.clone(),
+                material: name.clone(),
+                message: "this name is reserved: it asks for a mesh file's own materials".into(),
+            });
+        }
         let m = material_from_desc(desc).map_err(|message| SceneError::Material {
             path: path_buf.clone(),
             material: name.clone(),
@@ -347,6 +400,23 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
             rotate_degrees: Vec3::from_array(t.rotate),
             scale: Vec3::from_array(t.scale),
         };
+        if e.material.as_deref() == Some(file_materials::FROM_FILE) {
+            spawn_file_parts(
+                &mut world,
+                &mut materials,
+                &e.shape,
+                e.emitter.is_some(),
+                name,
+                transform,
+                path,
+            )
+            .map_err(|(entity, message)| SceneError::Entity {
+                path: path_buf.clone(),
+                entity,
+                message,
+            })?;
+            continue;
+        }
         let material = match (&e.material, &e.shape, &e.emitter) {
             (Some(m), _, _) => match material_names.iter().position(|n| n == m) {
                 Some(i) => Some(MaterialRef(i as u32)),

@@ -4,6 +4,7 @@ pub mod assets;
 pub mod camera;
 pub mod components;
 pub mod error;
+pub mod file_materials;
 pub mod load;
 pub mod mesh_files;
 pub mod procedural;
