@@ -175,3 +175,29 @@ fn gltf_base_colour_and_emission_become_material_and_emitter() {
     let built = raylab::build::RenderScene::build(&loaded);
     assert_eq!(built.stats.lights, 4);
 }
+
+#[test]
+fn instanced_and_file_material_scenes_render_the_same_at_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    for scene in ["scenes/instances.ron", "scenes/file_materials.ron"] {
+        let images: Vec<Vec<u8>> = ["1", "2"]
+            .iter()
+            .map(|threads| {
+                let out = dir.path().join(format!("image-{threads}.exr"));
+                let o = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+                    .args(["render", scene, "--size", "32x24", "--spp", "2"])
+                    .args(["--threads", threads, "-q", "-o"])
+                    .arg(&out)
+                    .current_dir(env!("CARGO_MANIFEST_DIR"))
+                    .output()
+                    .unwrap();
+                assert!(o.status.success(), "{scene}: {o:?}");
+                std::fs::read(&out).unwrap()
+            })
+            .collect();
+        assert!(
+            images[0] == images[1],
+            "{scene}: the thread count changed the image"
+        );
+    }
+}

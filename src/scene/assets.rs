@@ -74,7 +74,15 @@ pub fn resolve_instances(
                 }
             };
             let asset = Arc::clone(&meshes[id as usize]);
-            check_instance_reach(&asset, &transform.matrix()).map_err(fail)?;
+            let m = transform.matrix();
+            check_instance_reach(&asset, &m).map_err(fail)?;
+            // Rays are moved into the instance's space by the inverse.
+            if !m.inverse().is_finite() {
+                return Err(fail(format!(
+                    "transform.scale {:?} is too small: the instance's transform cannot be inverted",
+                    transform.scale.to_array()
+                )));
+            }
             resolved.push((entity, Instanced { mesh: id, asset }));
         }
     }

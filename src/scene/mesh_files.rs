@@ -192,10 +192,12 @@ pub fn load_obj(file: &Path, need_materials: bool) -> Result<FileMesh, String> {
         })?;
     let file_materials = match materials {
         Ok(m) => m,
-        Err(e) if need_materials => return Err(format!(
+        Err(e) if need_materials => {
+            return Err(format!(
             "OBJ file `{}`: cannot load its MTL materials (its `mtllib` file, relative to it): {e}",
             file.display()
-        )),
+        ))
+        }
         Err(_) => Vec::new(),
     };
     let mut materials: Vec<FileMaterial> = Vec::with_capacity(file_materials.len() + 1);
