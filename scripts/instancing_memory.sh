@@ -31,8 +31,10 @@ SCENE
 
 for n in flat 1 100; do
     scene "$n" > "$dir/balls-$n.ron"
-    /usr/bin/time -v "$bin" render "$dir/balls-$n.ron" -o "$dir/balls-$n.png" 2> "$dir/time-$n.txt" | sed "s|$dir/||"
+    /usr/bin/time -v "$bin" render "$dir/balls-$n.ron" -o "$dir/balls-$n.png" 2> "$dir/time-$n.txt"
     rss=$(awk -F': ' '/Maximum resident set size/ {print $2}' "$dir/time-$n.txt")
     wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {print $2}' "$dir/time-$n.txt")
-    echo "instances $n: peak RSS $((rss / 1024)) MB, wall $wall"
+    geometry=$("$bin" validate "$dir/balls-$n.ron" 2>/dev/null | awk '/memory/ {print $2, $3}')
+    summary=$(grep -o '[0-9.]* s, [0-9]* threads' "$dir/time-$n.txt" | head -1)
+    echo "instances $n: peak RSS $((rss / 1024)) MB, geometry + BVHs $geometry, render $summary, wall $wall"
 done
