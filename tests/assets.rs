@@ -77,3 +77,127 @@ fn gltf_mesh_follows_its_node_hierarchy() {
         .flatten()
         .all(|n| (*n - expected).length() < 1e-4));
 }
+
+/// The entity named `name` of a loaded scene: its material and emitter.
+fn part(
+    loaded: &raylab::scene::LoadedScene,
+    name: &str,
+) -> (
+    raylab_integrators::Material,
+    Option<raylab::scene::components::Emitter>,
+    WorldShape,
+) {
+    use raylab::scene::components::{Emitter, MaterialRef};
+    let mut query = loaded
+        .world
+        .query::<(&Name, &MaterialRef, Option<&Emitter>, &WorldShape)>();
+    let (_, m, e, s) = query
+        .iter()
+        .find(|(n, ..)| n.0 == name)
+        .unwrap_or_else(|| panic!("no entity `{name}`"));
+    (
+        loaded.materials[m.0 as usize].clone(),
+        e.copied(),
+        s.clone(),
+    )
+}
+
+fn albedo(m: &raylab_integrators::Material) -> Vec3A {
+    match m {
+        raylab_integrators::Material::Lambert(l) => l.albedo,
+        other => panic!("a Lambert material, got {other:?}"),
+    }
+}
+
+#[test]
+fn obj_materials_come_from_the_mtl_file() {
+    use raylab::scene::components::Emitter;
+    let loaded = load_scene(Path::new("scenes/file_materials.ron")).unwrap();
+    let (body, body_emits, body_shape) = part(&loaded, "lantern/body");
+    assert_eq!(albedo(&body), Vec3A::new(0.1, 0.45, 0.5));
+    assert!(body_emits.is_none());
+    let WorldShape::Triangles { triangles, .. } = body_shape else {
+        panic!("a mesh")
+    };
+    assert_eq!(triangles.len(), 10, "five quads");
+    let (glow, glow_emits, glow_shape) = part(&loaded, "lantern/glow");
+    assert_eq!(albedo(&glow), Vec3A::splat(0.9));
+    let Some(Emitter::Area {
+        radiance,
+        two_sided: false,
+    }) = glow_emits
+    else {
+        panic!("the glowing top emits from its front: {glow_emits:?}")
+    };
+    assert_eq!(radiance, Vec3A::new(4.0, 3.2, 2.0));
+    // The top face, at y = 1 in the file: scaled by 0.7 and moved down by 1, facing up.
+    let WorldShape::Triangles { triangles, .. } = glow_shape else {
+        panic!("a mesh")
+    };
+    assert_eq!(triangles.len(), 2);
+    for t in &triangles {
+        assert!(t.iter().all(|v| (v.y - (-0.3)).abs() < 1e-5), "{t:?}");
+        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+        assert!((n - Vec3A::Y).length() < 1e-5, "{n}");
+    }
+}
+
+#[test]
+fn gltf_base_colour_and_emission_become_material_and_emitter() {
+    use raylab::scene::components::Emitter;
+    let loaded = load_scene(Path::new("scenes/file_materials.ron")).unwrap();
+    let (base, base_emits, _) = part(&loaded, "lamp/base");
+    assert_eq!(albedo(&base), Vec3A::new(0.8, 0.3, 0.1));
+    assert!(base_emits.is_none());
+    let (_, shade_emits, shade_shape) = part(&loaded, "lamp/shade");
+    // emissiveFactor (1, 0.8, 0.5) x KHR_materials_emissive_strength 5.
+    let Some(Emitter::Area {
+        radiance,
+        two_sided: false,
+    }) = shade_emits
+    else {
+        panic!("{shade_emits:?}")
+    };
+    assert!((radiance - Vec3A::new(5.0, 4.0, 2.5)).length() < 1e-6);
+    // The shade: at y = 0.6 + 0.1 (node) in the file, scaled by 0.8, moved down by 1; facing down.
+    let WorldShape::Triangles { triangles, .. } = shade_shape else {
+        panic!("a mesh")
+    };
+    for t in &triangles {
+        assert!(
+            t.iter().all(|v| (v.y - (0.7 * 0.8 - 1.0)).abs() < 1e-5),
+            "{t:?}"
+        );
+        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+        assert!((n + Vec3A::Y).length() < 1e-5, "{n}");
+    }
+    // The emitting parts are the scene's lights: two triangles each.
+    let built = raylab::build::RenderScene::build(&loaded);
+    assert_eq!(built.stats.lights, 4);
+}
+
+#[test]
+fn instanced_and_file_material_scenes_render_the_same_at_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    for scene in ["scenes/instances.ron", "scenes/file_materials.ron"] {
+        let images: Vec<Vec<u8>> = ["1", "2"]
+            .iter()
+            .map(|threads| {
+                let out = dir.path().join(format!("image-{threads}.exr"));
+                let o = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+                    .args(["render", scene, "--size", "32x24", "--spp", "2"])
+                    .args(["--threads", threads, "-q", "-o"])
+                    .arg(&out)
+                    .current_dir(env!("CARGO_MANIFEST_DIR"))
+                    .output()
+                    .unwrap();
+                assert!(o.status.success(), "{scene}: {o:?}");
+                std::fs::read(&out).unwrap()
+            })
+            .collect();
+        assert!(
+            images[0] == images[1],
+            "{scene}: the thread count changed the image"
+        );
+    }
+}

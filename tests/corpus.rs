@@ -106,12 +106,11 @@ fn scene_cases() -> Vec<Case> {
     let mut cases = Vec::new();
     for path in files {
         let file = path.file_name().unwrap().to_string_lossy().into_owned();
-        let numbered = file.len() > 3
-            && file.as_bytes()[..2].iter().all(u8::is_ascii_digit)
-            && file.as_bytes()[2] == b'-';
+        let digits = file.bytes().take_while(u8::is_ascii_digit).count();
+        let numbered = digits >= 2 && file.as_bytes().get(digits) == Some(&b'-');
         assert!(
             numbered,
-            "{file}: corpus scenes are named NN-short-name.ron"
+            "{file}: corpus scenes are named NN-short-name.ron (or NNN-...)"
         );
         // Bytes, not text: some cases are not valid UTF-8 on purpose.
         let bytes = std::fs::read(&path).unwrap();

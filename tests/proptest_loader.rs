@@ -21,7 +21,7 @@ fn load_build_render(text: &str) -> bool {
     };
     let built = RenderScene::build(&loaded);
     assert!(
-        built.stats.triangles + built.stats.spheres > 0,
+        built.stats.triangles + built.stats.spheres + built.stats.instances > 0,
         "a loaded scene has geometry"
     );
     let camera = loaded.camera.with_resolution(4, 4);
@@ -202,6 +202,9 @@ fn shape(h: u32) -> impl Strategy<Value = String> {
         prop::collection::vec(v3(h), 4..=4)
             .prop_map(|v| format!("Tetrahedron(vertices: [{}])", v.join(", "))),
         (v3(h), v3(h)).prop_map(|(a, b)| format!("Box(min: {a}, max: {b})")),
+        // An instance of the scene's mesh asset `k0` (when it has one), or of an unknown name.
+        prop::sample::select(vec!["k0", "k0", "k0", "k1"])
+            .prop_map(|k| format!("Instance(mesh: \"{k}\")")),
         (int3(), 1i32..4).prop_map(|(a, s)| format!(
             "Box(min: {}, max: ({}, {}, {}))",
             p(a),
@@ -334,9 +337,10 @@ fn plausible_scene_with(h: u32) -> impl Strategy<Value = String> {
         prop::option::weighted((f64::from(h) / 100.0).max(0.001), material(h)),
         prop::option::weighted(0.2, radiance(h)),
         prop::collection::vec(entity(h), 1..5),
+        prop::option::weighted(0.7, shape(h)),
     )
         .prop_map(
-            |(camera, render, mut materials, duplicate, env, entities)| {
+            |(camera, render, mut materials, duplicate, env, entities, asset)| {
                 materials.extend(duplicate);
                 let mut s = format!("(\n    camera: {camera},\n");
                 if let Some(r) = render {
@@ -352,6 +356,9 @@ fn plausible_scene_with(h: u32) -> impl Strategy<Value = String> {
                 if let Some(e) = env {
                     s += &format!("    environment: {e},\n");
                 }
+                if let Some(a) = asset {
+                    s += &format!("    meshes: {{\"k0\": {a}}},\n");
+                }
                 s += &format!(
                     "    entities: [\n        {}\n    ],\n)\n",
                     entities.join(",\n        ")
@@ -366,9 +373,10 @@ fn plausible_scene() -> impl Strategy<Value = String> {
     prop::sample::select(vec![0u32, 0, 1, 3, 10, 50]).prop_flat_map(plausible_scene_with)
 }
 
-const SCENES: [&str; 2] = [
+const SCENES: [&str; 3] = [
     include_str!("../scenes/cornell_box.ron"),
     include_str!("../scenes/report_room.ron"),
+    include_str!("../scenes/instances.ron"),
 ];
 
 /// A shipped scene, truncated, or with a piece cut out or replaced by a token.

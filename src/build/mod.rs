@@ -1,14 +1,18 @@
 //! The build step: flattens the ECS world into structure-of-arrays primitive data, builds the
 //! BVH over triangles and spheres together, reorders the arrays by the BVH's primitive order,
-//! and collects emitters into the light table. The result implements the integrators'
-//! [`Scene`] trait and is immutable and `Sync`.
+//! and collects emitters into the light table. Instances of mesh assets are not flattened:
+//! they get a two-level BVH of their own ([`instances`]), traced after the flat BVH with the
+//! ray shortened to its hit, and only when the scene has any. The result implements the
+//! integrators' [`Scene`] trait and is immutable and `Sync`.
 
+mod instances;
 mod primitives;
 
 use crate::scene::components::{MaterialRef, Name, WorldShape};
 use crate::scene::{systems, LoadedScene};
 use glam::Vec3A;
 use hecs::Entity;
+use instances::InstanceSet;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::RayHit;
@@ -34,6 +38,11 @@ pub struct BuildStats {
     /// Entities that emit.
     pub emitters: usize,
     pub bvh_nodes: usize,
+    /// Instances of mesh assets, the triangles of those assets (each once) and the triangles
+    /// the instances place (each asset once per instance).
+    pub instances: usize,
+    pub instanced_triangles: usize,
+    pub placed_triangles: usize,
     pub build_time: Duration,
 }
 
@@ -54,6 +63,9 @@ pub struct RenderScene {
     sph_radius: Vec<f32>,
     sph_material: Vec<u32>,
     sph_light: Vec<u32>,
+
+    /// Instanced meshes (a two-level BVH); empty in most scenes.
+    instances: InstanceSet,
 
     materials: Vec<Material>,
     lights: LightTable,
@@ -145,7 +157,8 @@ impl RenderScene {
             }
         }
 
-        let mut bounds = Aabb::empty();
+        let instances = InstanceSet::build(scene);
+        let mut bounds = instances.bounds;
         for p in &prims {
             bounds = bounds.union(&p.aabb());
         }
@@ -157,11 +170,16 @@ impl RenderScene {
 
         // BVH over every primitive's box; then lay the arrays out in the BVH's order.
         let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
-        let bvh = build_cwbvh(
-            &aabbs,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        // A scene of instances only has no flat geometry: an empty BVH is traversed as a miss.
+        let bvh = if aabbs.is_empty() {
+            CwBvh::default()
+        } else {
+            build_cwbvh(
+                &aabbs,
+                BvhBuildParams::medium_build(),
+                &mut Duration::default(),
+            )
+        };
         let mut out = RenderScene {
             prims: Vec::with_capacity(prims.len()),
             tri: Vec::new(),
@@ -179,9 +197,13 @@ impl RenderScene {
                 entities: world.len() as usize,
                 lights: lights.len(),
                 emitters: emitters.len() + usize::from(scene.environment.is_some()),
-                bvh_nodes: bvh.nodes.len(),
+                bvh_nodes: bvh.nodes.len() + instances.bvh_nodes(),
+                instances: instances.len(),
+                instanced_triangles: instances.unique_triangles(),
+                placed_triangles: instances.placed_triangles(),
                 ..Default::default()
             },
+            instances,
             lights,
             bvh,
         };
@@ -271,12 +293,13 @@ impl RenderScene {
             .collect()
     }
 
-    /// Bytes held by the geometry, its per-primitive data and the BVH (not the materials or
-    /// lights): what a benchmark reports per triangle.
+    /// Bytes held by the geometry, its per-primitive data and the BVHs (not the materials or
+    /// lights): what a benchmark reports per triangle. Each instanced mesh counts once.
     pub fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
         let v = |n: usize, each: usize| n * each;
-        v(self.prims.capacity(), 4)
+        self.instances.memory_bytes()
+            + v(self.prims.capacity(), 4)
             + v(self.tri.capacity(), size_of::<Triangle>())
             + v(
                 self.tri_material.capacity()
@@ -378,21 +401,33 @@ impl Scene for RenderScene {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
         let mut hit = RayHit::none();
-        if self
+        let flat = self
             .bvh
-            .ray_traverse(bvh_ray, &mut hit, |r, slot| self.intersect_slot(r, slot))
-        {
-            Some(self.hit_record(ray, hit.primitive_id as usize, hit.t))
-        } else {
-            None
+            .ray_traverse(bvh_ray, &mut hit, |r, slot| self.intersect_slot(r, slot));
+        if !self.instances.is_empty() {
+            // Instances only count nearer than the flat geometry's hit.
+            let mut r = bvh_ray;
+            if flat {
+                r.tmax = hit.t;
+            }
+            if let Some((slot, prim, t)) = self.instances.intersect(&r) {
+                return Some(
+                    self.instances
+                        .hit_record(ray.origin, ray.dir, slot, prim, t),
+                );
+            }
         }
+        flat.then(|| self.hit_record(ray, hit.primitive_id as usize, hit.t))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
         match Self::to_bvh_ray(ray) {
-            Some(r) => !self
-                .bvh
-                .ray_traverse_miss(r, |r, slot| self.intersect_slot(r, slot)),
+            Some(r) => {
+                !self
+                    .bvh
+                    .ray_traverse_miss(r, |r, slot| self.intersect_slot(r, slot))
+                    || (!self.instances.is_empty() && self.instances.occluded(&r))
+            }
             None => false,
         }
     }
@@ -422,3 +457,6 @@ pub fn emitter_names(scene: &LoadedScene) -> Vec<String> {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod instance_tests;

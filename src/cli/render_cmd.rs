@@ -252,6 +252,19 @@ pub fn validate(path: &Path) -> Result<ExitCode> {
     println!("  materials  {}", loaded.material_names.len());
     println!("  triangles  {}", s.triangles);
     println!("  spheres    {}", s.spheres);
+    if s.instances > 0 {
+        println!(
+            "  instances  {} of {} mesh(es): {} triangles held once, {} placed",
+            s.instances,
+            loaded.meshes.len(),
+            s.instanced_triangles,
+            s.placed_triangles
+        );
+    }
+    println!(
+        "  memory     {:.1} MB of geometry and BVHs",
+        built.memory_bytes() as f64 / 1e6
+    );
     println!(
         "  emitters   {} ({} light table entries)",
         s.emitters, s.lights

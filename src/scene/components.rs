@@ -2,6 +2,7 @@
 
 use glam::{Affine3A, EulerRot, Quat, Vec3, Vec3A};
 use raylab_integrators::Rgb;
+use std::sync::Arc;
 
 /// Display name of an entity (from the file, or `entity #N`).
 #[derive(Clone, Debug, PartialEq)]
@@ -64,6 +65,32 @@ pub enum Shape {
         indices: Vec<[u32; 3]>,
         normals: Option<Vec<Vec3A>>,
     },
+    /// A mesh asset of the scene, by name; resolved to [`Instanced`] by
+    /// [`super::assets::resolve_instances`].
+    Instance {
+        mesh: String,
+    },
+}
+
+/// A mesh asset in its own space, loaded once and shared by every instance of it.
+#[derive(Debug, PartialEq)]
+pub struct LocalMesh {
+    /// The asset's name in the scene's `meshes` table.
+    pub name: String,
+    /// Triangles (none degenerate), right-handed winding.
+    pub triangles: Vec<[Vec3A; 3]>,
+    /// Per-triangle vertex normals for smooth shading, if the source has them.
+    pub normals: Option<Vec<[Vec3A; 3]>>,
+    /// Local bounds (min, max).
+    pub bounds: (Vec3A, Vec3A),
+}
+
+/// An entity that places a shared mesh asset: the asset's index in
+/// [`super::LoadedScene::meshes`] and the asset itself.
+#[derive(Clone, Debug)]
+pub struct Instanced {
+    pub mesh: u32,
+    pub asset: Arc<LocalMesh>,
 }
 
 /// Index of the entity's material in the scene's material table.

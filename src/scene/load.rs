@@ -1,10 +1,10 @@
 //! Parsing a RON scene file and spawning its entities into a hecs world.
 
 use super::camera::Camera;
-use super::components::{Emitter, MaterialRef, Name, Shape, Transform};
+use super::components::{Emitter, Instanced, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::error::{finite, SceneError};
 use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
-use super::{systems, LoadedScene};
+use super::{assets, file_materials, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
 use raylab_integrators::{registry, Material, Rgb};
@@ -259,139 +259,11 @@ fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A;
     })
 }
 
-/// Loads an OBJ file as one mesh (all its objects), with normals when every object has them.
-fn load_obj(file: &Path) -> Result<Shape, String> {
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ..Default::default()
-    };
-    // The parser is third-party code fed user files: a panic in it is an error here, not a crash.
-    let loaded = std::panic::catch_unwind(|| tobj::load_obj(file, &options))
-        .map_err(|_| format!("the OBJ parser failed on `{}`", file.display()))?;
-    let (models, _materials) =
-        loaded.map_err(|e| format!("cannot load OBJ file `{}`: {e}", file.display()))?;
-    let mut positions: Vec<Vec3A> = Vec::new();
-    let mut normals: Vec<Vec3A> = Vec::new();
-    let mut indices: Vec<[u32; 3]> = Vec::new();
-    let all_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
-    for m in &models {
-        let base = positions.len() as u32;
-        let count = m.mesh.positions.len() / 3;
-        positions.extend(
-            m.mesh
-                .positions
-                .chunks_exact(3)
-                .map(|p| Vec3A::new(p[0], p[1], p[2])),
-        );
-        if all_normals {
-            normals.extend(
-                m.mesh
-                    .normals
-                    .chunks_exact(3)
-                    .map(|n| Vec3A::new(n[0], n[1], n[2])),
-            );
-        }
-        for t in m.mesh.indices.chunks_exact(3) {
-            if t.iter().any(|&i| i as usize >= count) {
-                return Err(format!(
-                    "OBJ file `{}`: a face index is out of range",
-                    file.display()
-                ));
-            }
-            indices.push([base + t[0], base + t[1], base + t[2]]);
-        }
-    }
-    if indices.is_empty() {
-        return Err(format!("OBJ file `{}` has no faces", file.display()));
-    }
-    let normals = (all_normals && normals.len() == positions.len()).then_some(normals);
-    Ok(Shape::Mesh {
-        positions,
-        indices,
-        normals,
-    })
-}
-
-/// Loads the triangles of a glTF file's default scene (or its first) as one mesh, each mesh
-/// placed by its node's world transform; normals when every primitive has them.
-fn load_gltf(file: &Path) -> Result<Shape, String> {
-    let fail =
-        |e: &dyn std::fmt::Display| format!("cannot load glTF file `{}`: {e}", file.display());
-    let load = || -> Result<_, gltf::Error> {
-        let gltf = gltf::Gltf::open(file)?;
-        let buffers = gltf::import_buffers(&gltf.document, file.parent(), gltf.blob.clone())?;
-        Ok((gltf.document, buffers))
-    };
-    // Third-party parsing of user files: a panic is an error here, not a crash.
-    let (document, buffers) = std::panic::catch_unwind(load)
-        .map_err(|_| format!("the glTF parser failed on `{}`", file.display()))?
-        .map_err(|e| fail(&e))?;
-    let scene = document
-        .default_scene()
-        .or_else(|| document.scenes().next())
-        .ok_or_else(|| format!("glTF file `{}` has no scene", file.display()))?;
-    let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
-    let mut all_normals = true;
-    let mut stack: Vec<(gltf::Node, glam::Mat4)> =
-        scene.nodes().map(|n| (n, glam::Mat4::IDENTITY)).collect();
-    while let Some((node, parent)) = stack.pop() {
-        let world = parent * glam::Mat4::from_cols_array_2d(&node.transform().matrix());
-        if let Some(mesh) = node.mesh() {
-            let normal_matrix = glam::Mat3::from_mat4(world).inverse().transpose();
-            for primitive in mesh.primitives() {
-                if primitive.mode() != gltf::mesh::Mode::Triangles {
-                    return Err(format!(
-                        "glTF file `{}`: only triangle primitives are supported",
-                        file.display()
-                    ));
-                }
-                let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-                let base = positions.len() as u32;
-                let Some(p) = reader.read_positions() else {
-                    continue;
-                };
-                positions
-                    .extend(p.map(|v| Vec3A::from(world.transform_point3(glam::Vec3::from(v)))));
-                let count = positions.len() as u32 - base;
-                match reader.read_normals() {
-                    Some(n) if all_normals => normals.extend(n.map(|v| {
-                        Vec3A::from(normal_matrix * glam::Vec3::from(v)).normalize_or_zero()
-                    })),
-                    _ => all_normals = false,
-                }
-                let tri: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..count).collect(),
-                };
-                for t in tri.chunks_exact(3) {
-                    if t.iter().any(|&i| i >= count) {
-                        return Err(format!(
-                            "glTF file `{}`: an index is out of range",
-                            file.display()
-                        ));
-                    }
-                    indices.push([base + t[0], base + t[1], base + t[2]]);
-                }
-            }
-        }
-        stack.extend(node.children().map(|c| (c, world)));
-    }
-    if indices.is_empty() {
-        return Err(format!("glTF file `{}` has no triangles", file.display()));
-    }
-    let normals = (all_normals && normals.len() == positions.len()).then_some(normals);
-    Ok(Shape::Mesh {
-        positions,
-        indices,
-        normals,
-    })
-}
-
-fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
+pub(crate) fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
     Ok(match desc {
-        ShapeDesc::Gltf { path } => load_gltf(&scene_dir.join(path))?,
-        ShapeDesc::Obj { path } => load_obj(&scene_dir.join(path))?,
+        ShapeDesc::Gltf { path } => mesh_files::load_gltf(&scene_dir.join(path))?.into_shape(),
+        ShapeDesc::Obj { path } => mesh_files::load_obj(&scene_dir.join(path), false)?.into_shape(),
+        ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),
             radius,
@@ -424,6 +296,52 @@ fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
     })
 }
 
+/// Spawns an entity with `material: "from-file"` as one entity per material of its mesh file
+/// (see [`file_materials`]), appending those materials to the table.
+fn spawn_file_parts(
+    world: &mut hecs::World,
+    materials: &mut Vec<Material>,
+    shape: &Option<ShapeDesc>,
+    has_emitter: bool,
+    name: String,
+    transform: Transform,
+    path: &Path,
+) -> Result<(), (String, String)> {
+    let fail = |m: String| (name.clone(), m);
+    if has_emitter {
+        return Err(fail(format!(
+            "with `material: \"{}\"` the file's materials say what emits: remove `emitter`",
+            file_materials::FROM_FILE
+        )));
+    }
+    let Some(shape) = shape else {
+        return Err(fail("has a material but no shape".into()));
+    };
+    if let ShapeDesc::Instance { mesh } = shape {
+        return Err(fail(format!(
+            "instances of mesh `{mesh}` take one material: `material: \"{}\"` works only \
+             on an `Obj` or `Gltf` shape of the entity itself",
+            file_materials::FROM_FILE
+        )));
+    }
+    let scene_dir = path.parent().unwrap_or(Path::new("."));
+    for part in file_materials::file_parts(shape, scene_dir).map_err(fail)? {
+        materials.push(part.material);
+        let entity = world.spawn((
+            Name(format!("{name}/{}", part.name)),
+            transform,
+            part.shape,
+            MaterialRef((materials.len() - 1) as u32),
+        ));
+        if let Some(emitter) = part.emitter {
+            world
+                .insert_one(entity, emitter)
+                .expect("entity was just spawned");
+        }
+    }
+    Ok(())
+}
+
 fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> {
     let path_buf = path.to_path_buf();
 
@@ -431,6 +349,13 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
     let mut materials = Vec::with_capacity(file.materials.0.len() + 1);
     let mut material_names = Vec::with_capacity(file.materials.0.len());
     for (name, desc) in &file.materials.0 {
+        if name == file_materials::FROM_FILE {
+            return Err(SceneError::Material {
+                path: path_buf.clone(),
+                material: name.clone(),
+                message: "this name is reserved: it asks for a mesh file's own materials".into(),
+            });
+        }
         let m = material_from_desc(desc).map_err(|message| SceneError::Material {
             path: path_buf.clone(),
             material: name.clone(),
@@ -481,6 +406,23 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
             rotate_degrees: Vec3::from_array(t.rotate),
             scale: Vec3::from_array(t.scale),
         };
+        if e.material.as_deref() == Some(file_materials::FROM_FILE) {
+            spawn_file_parts(
+                &mut world,
+                &mut materials,
+                &e.shape,
+                e.emitter.is_some(),
+                name,
+                transform,
+                path,
+            )
+            .map_err(|(entity, message)| SceneError::Entity {
+                path: path_buf.clone(),
+                entity,
+                message,
+            })?;
+            continue;
+        }
         let material = match (&e.material, &e.shape, &e.emitter) {
             (Some(m), _, _) => match material_names.iter().position(|n| n == m) {
                 Some(i) => Some(MaterialRef(i as u32)),
@@ -542,23 +484,21 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
         }
     }
 
-    // Systems: validate, then bake transforms into world-space geometry.
-    systems::validate(&world).map_err(|(entity, message)| SceneError::Entity {
+    // Systems: validate, bake transforms into world-space geometry, resolve instances.
+    let entity_error = |(entity, message)| SceneError::Entity {
         path: path_buf.clone(),
         entity,
         message,
-    })?;
-    let warnings =
-        systems::bake_transforms(&mut world).map_err(|(entity, message)| SceneError::Entity {
-            path: path_buf.clone(),
-            entity,
-            message,
-        })?;
-    if !world
-        .query::<&super::components::WorldShape>()
-        .iter()
-        .any(|_| true)
-    {
+    };
+    systems::validate(&world).map_err(entity_error)?;
+    let mut warnings = systems::bake_transforms(&mut world).map_err(entity_error)?;
+    let scene_dir = path.parent().unwrap_or(Path::new("."));
+    let resolved =
+        assets::resolve_instances(&mut world, &file.meshes, scene_dir).map_err(entity_error)?;
+    warnings.extend(resolved.warnings);
+    let has_geometry = world.query::<&WorldShape>().iter().any(|_| true)
+        || world.query::<&Instanced>().iter().any(|_| true);
+    if !has_geometry {
         return Err(SceneError::Scene {
             path: path_buf,
             message: "the scene has no geometry (no entity with a shape)".into(),
@@ -572,6 +512,7 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
         render: file.render,
         materials,
         material_names,
+        meshes: resolved.meshes,
         environment,
         warnings,
     })

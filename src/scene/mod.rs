@@ -1,9 +1,12 @@
 //! Scenes: the RON schema, loading into a hecs world, and the ECS systems.
 
+pub mod assets;
 pub mod camera;
 pub mod components;
 pub mod error;
+pub mod file_materials;
 pub mod load;
+pub mod mesh_files;
 pub mod procedural;
 pub mod references;
 pub mod schema;
@@ -21,13 +24,17 @@ pub struct LoadedScene {
     /// The file it came from (for messages and relative paths).
     pub path: PathBuf,
     /// One entity per object, with `Name`, `Transform` and optionally `Shape`, `MaterialRef`,
-    /// `Emitter`; after loading, shaped entities also carry their baked `WorldShape`.
+    /// `Emitter`; after loading, shaped entities also carry their baked `WorldShape`, and
+    /// instances (shape `Instance`) an `Instanced` pointing at their shared mesh asset.
     pub world: hecs::World,
     pub camera: Camera,
     pub render: schema::RenderDesc,
     /// The material table (file order; a black material may be appended for pure emitters).
     pub materials: Vec<Material>,
     pub material_names: Vec<String>,
+    /// The mesh assets instances place (loaded ones only, in order of first use); entities
+    /// refer to them through their `Instanced` component.
+    pub meshes: Vec<std::sync::Arc<components::LocalMesh>>,
     /// Constant environment radiance, if any.
     pub environment: Option<Rgb>,
     /// Non-fatal problems found while loading (e.g. dropped degenerate triangles).

@@ -21,10 +21,22 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
             files.push(p);
         }
     };
-    for entity in &file.entities {
-        match &entity.shape {
-            Some(ShapeDesc::Obj { path }) => add(dir.join(path)),
-            Some(ShapeDesc::Gltf { path }) => {
+    // Entities' shapes, then the mesh assets they may instance.
+    let shapes = file
+        .entities
+        .iter()
+        .filter_map(|e| e.shape.as_ref())
+        .chain(file.meshes.0.iter().map(|(_, shape)| shape));
+    for shape in shapes {
+        match shape {
+            ShapeDesc::Obj { path } => {
+                let obj = dir.join(path);
+                for mtl in obj_mtllibs(&obj) {
+                    add(obj.parent().unwrap_or(Path::new(".")).join(mtl));
+                }
+                add(obj);
+            }
+            ShapeDesc::Gltf { path } => {
                 let gltf = dir.join(path);
                 for uri in gltf_uris(&gltf) {
                     add(gltf.parent().unwrap_or(Path::new(".")).join(uri));
@@ -35,6 +47,19 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
         }
     }
     Some(files)
+}
+
+/// The material libraries (`mtllib` lines) an OBJ file names; none if it cannot be read.
+fn obj_mtllibs(path: &Path) -> Vec<String> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Vec::new();
+    };
+    text.lines()
+        .filter_map(|l| l.trim().strip_prefix("mtllib"))
+        .filter(|rest| rest.starts_with(char::is_whitespace))
+        .map(|rest| rest.trim().to_string())
+        .filter(|name| !name.is_empty())
+        .collect()
 }
 
 /// The external (not `data:`) buffer and image URIs of a `.gltf` JSON file; none for a
@@ -76,14 +101,17 @@ mod tests {
             r#"{"buffers": [{"uri": "a.bin"}, {"uri": "data:application/octet-stream;base64,AA=="}]}"#,
         )
         .unwrap();
+        std::fs::write(dir.path().join("m/y.obj"), "mtllib y.mtl\nv 0 0 0\n").unwrap();
         std::fs::write(
             &scene,
             r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), fov: 40, resolution: (8, 8)),
+                meshes: {"asset": Obj(path: "m/y.obj")},
                 entities: [
                     (shape: Obj(path: "m/x.obj")),
                     (shape: Gltf(path: "m/a.gltf")),
                     (shape: Obj(path: "m/x.obj")),
                     (shape: Sphere(radius: 1)),
+                    (shape: Instance(mesh: "asset")),
                 ])"#,
         )
         .unwrap();
@@ -91,7 +119,13 @@ mod tests {
         let d = dir.path();
         assert_eq!(
             files,
-            vec![d.join("m/x.obj"), d.join("m/a.bin"), d.join("m/a.gltf")]
+            vec![
+                d.join("m/x.obj"),
+                d.join("m/a.bin"),
+                d.join("m/a.gltf"),
+                d.join("m/y.mtl"),
+                d.join("m/y.obj")
+            ]
         );
         std::fs::write(&scene, "(camera: ").unwrap();
         assert_eq!(referenced_files(&scene), None);

@@ -24,6 +24,12 @@ pub struct SceneFile {
     /// Named materials that entities refer to. Default: none.
     #[serde(default)]
     pub materials: MaterialTable,
+    /// Named mesh assets that `Instance` shapes place, e.g.
+    /// `{"ball": Icosphere(subdivisions: 6)}`: any shape made of triangles (`Obj`, `Gltf`,
+    /// `Icosphere`, `Mesh`, `Box`, ...). Each is loaded once, when an entity first uses it, and
+    /// shared by all its instances. Default: none.
+    #[serde(default)]
+    pub meshes: MeshTable,
     /// Constant radiance arriving from every direction that escapes the scene (an environment
     /// emitter). Default: none (black).
     #[serde(default)]
@@ -144,33 +150,60 @@ fn glass_ior() -> f32 {
     1.5
 }
 
-/// The named materials, in file order. Rejects a name given twice.
-#[derive(Debug, Default)]
-pub struct MaterialTable(pub Vec<(String, MaterialDesc)>);
+/// What a [`NamedTable`] holds, for its messages.
+pub trait TableEntry {
+    /// "material", "mesh": used in "duplicate material name `x`".
+    const KIND: &'static str;
+}
 
-impl<'de> Deserialize<'de> for MaterialTable {
+impl TableEntry for MaterialDesc {
+    const KIND: &'static str = "material";
+}
+
+impl TableEntry for ShapeDesc {
+    const KIND: &'static str = "mesh";
+}
+
+/// A map from names to entries, in file order. Rejects a name given twice.
+#[derive(Debug)]
+pub struct NamedTable<T>(pub Vec<(String, T)>);
+
+impl<T> Default for NamedTable<T> {
+    fn default() -> Self {
+        NamedTable(Vec::new())
+    }
+}
+
+/// The named materials, in file order.
+pub type MaterialTable = NamedTable<MaterialDesc>;
+
+/// The named mesh assets (shapes made of triangles), in file order.
+pub type MeshTable = NamedTable<ShapeDesc>;
+
+impl<'de, T: Deserialize<'de> + TableEntry> Deserialize<'de> for NamedTable<T> {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        struct TableVisitor;
-        impl<'de> Visitor<'de> for TableVisitor {
-            type Value = MaterialTable;
+        struct TableVisitor<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de> + TableEntry> Visitor<'de> for TableVisitor<T> {
+            type Value = NamedTable<T>;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a map from material names to materials")
+                write!(f, "a map from {} names to {}es", T::KIND, T::KIND)
             }
             fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
-                let mut out: Vec<(String, MaterialDesc)> = Vec::new();
+                let mut out: Vec<(String, T)> = Vec::new();
                 while let Some(name) = map.next_key::<String>()? {
                     if out.iter().any(|(n, _)| *n == name) {
                         return Err(de::Error::custom(format!(
-                            "duplicate material name `{name}`"
+                            "duplicate {} name `{name}`",
+                            T::KIND
                         )));
                     }
-                    let material = map.next_value::<MaterialDesc>()?;
-                    out.push((name, material));
+                    let entry = map.next_value::<T>()?;
+                    out.push((name, entry));
                 }
-                Ok(MaterialTable(out))
+                Ok(NamedTable(out))
             }
         }
-        deserializer.deserialize_map(TableVisitor)
+        deserializer.deserialize_map(TableVisitor(std::marker::PhantomData))
     }
 }
 
@@ -256,6 +289,9 @@ pub enum ShapeDesc {
     /// every mesh in its default scene, placed by the node transforms, with their normals when
     /// present. Its materials are not used.
     Gltf { path: String },
+    /// A mesh asset of the scene's `meshes` table, placed by the entity's transform. Every
+    /// instance shares one copy of the mesh and its BVH. Instances cannot emit light.
+    Instance { mesh: String },
     /// Triangle mesh: vertex positions, triangles as index triples, optional per-vertex normals
     /// for smooth shading.
     Mesh {

@@ -2,7 +2,9 @@
 //!
 //! * [`validate`] checks every component and names the entity at fault;
 //! * [`bake_transforms`] turns `Shape` + `Transform` into world-space `WorldShape`;
-//! * [`collect_emitters`] gathers the lights the emitting entities define.
+//! * [`collect_emitters`] gathers the lights the emitting entities define;
+//! * [`super::assets::resolve_instances`] (in its own module) resolves `Instance` shapes to
+//!   shared mesh assets.
 //!
 //! Queries visit entities in archetype order; every system sorts by entity id so that results
 //! (and therefore images) never depend on it.
@@ -29,6 +31,13 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
             validate_shape(shape, transform).map_err(fail)?;
         }
         match (emitter, shape) {
+            (Some(Emitter::Area { .. }), Some(Shape::Instance { mesh })) => {
+                return Err(fail(format!(
+                    "an instance of mesh `{mesh}` cannot emit light: instances share one mesh \
+                     and its BVH, lights need their own triangles (put the mesh's shape on this \
+                     entity instead of `Instance`)"
+                )));
+            }
             (
                 Some(Emitter::Area {
                     radiance,
@@ -90,7 +99,8 @@ fn validate_transform(t: &Transform) -> Result<(), String> {
     Ok(())
 }
 
-fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
+/// Checks a shape's own numbers (and, for a sphere, that `t` keeps it a sphere).
+pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
     let all = |what: &str, pts: &[Vec3A]| -> Result<(), String> {
         if pts.iter().all(|p| p.is_finite()) {
             Ok(())
@@ -113,6 +123,8 @@ fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
                 ));
             }
         }
+        // Resolved, and its asset checked, by `assets::resolve_instances`.
+        Shape::Instance { .. } => {}
         Shape::Triangle(v) => all("triangle vertices", v)?,
         Shape::Tetrahedron(v) => all("tetrahedron vertices", v)?,
         Shape::Quad(v) => {
@@ -197,7 +209,7 @@ pub const MAX_SUBDIVISIONS: u32 = 10;
 
 fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
     match shape {
-        Shape::Sphere { .. } => Vec::new(),
+        Shape::Sphere { .. } | Shape::Instance { .. } => Vec::new(),
         Shape::Icosphere {
             subdivisions,
             displacement,
@@ -278,25 +290,42 @@ pub const MAX_COORDINATE: f32 = 1e7;
 
 /// Checks that a world-space shape stays within [`MAX_COORDINATE`] of the origin on every
 /// axis (a finite transform of finite numbers can still overflow).
-fn check_reach(shape: &WorldShape) -> Result<(), String> {
-    let within = |r: f32| r.is_finite() && r <= MAX_COORDINATE;
-    // `max_element` skips NaN: a point with a NaN is infinitely far.
-    let far = |p: &Vec3A| {
-        if p.is_finite() {
-            p.abs().max_element()
-        } else {
-            f32::INFINITY
+pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
+    match shape {
+        WorldShape::Sphere { center, radius } => check_reach_of(far(center) + radius),
+        WorldShape::Triangles { triangles, .. } => {
+            check_points_reach(triangles.iter().flatten().copied())
         }
-    };
-    let reach = match shape {
-        WorldShape::Sphere { center, radius } => far(center) + radius,
-        WorldShape::Triangles { triangles, .. } => triangles
-            .iter()
-            .flatten()
-            .map(far)
-            .find(|r| !within(*r))
-            .unwrap_or(0.0),
-    };
+    }
+}
+
+/// [`check_reach`] for a set of world-space points.
+pub fn check_points_reach(points: impl Iterator<Item = Vec3A>) -> Result<(), String> {
+    let mut reach = 0.0;
+    for p in points {
+        reach = far(&p);
+        if !within(reach) {
+            break;
+        }
+    }
+    check_reach_of(reach)
+}
+
+fn within(r: f32) -> bool {
+    r.is_finite() && r <= MAX_COORDINATE
+}
+
+/// Distance from the origin along the farthest axis; `max_element` skips NaN, so a point with
+/// a NaN is infinitely far.
+fn far(p: &Vec3A) -> f32 {
+    if p.is_finite() {
+        p.abs().max_element()
+    } else {
+        f32::INFINITY
+    }
+}
+
+fn check_reach_of(reach: f32) -> Result<(), String> {
     if within(reach) {
         Ok(())
     } else {
@@ -318,6 +347,9 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
         let mut items: Vec<_> = query.iter().collect();
         items.sort_by_key(|(e, ..)| e.id());
         for (entity, name, transform, shape, emitter) in items {
+            if matches!(shape, Shape::Instance { .. }) {
+                continue;
+            }
             let m = transform.matrix();
             let world_shape = bake_shape(shape, &m);
             check_reach(&world_shape).map_err(|e| (name.0.clone(), e))?;
@@ -328,20 +360,7 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
             } = world_shape
             {
                 let before = triangles.len();
-                let keep: Vec<bool> = triangles.iter().map(|t| !is_degenerate(t)).collect();
-                let normals = normals.map(|n| {
-                    n.into_iter()
-                        .zip(&keep)
-                        .filter(|(_, k)| **k)
-                        .map(|(n, _)| n)
-                        .collect::<Vec<_>>()
-                });
-                let triangles: Vec<_> = triangles
-                    .into_iter()
-                    .zip(&keep)
-                    .filter(|(_, k)| **k)
-                    .map(|(t, _)| t)
-                    .collect();
+                let (triangles, normals) = drop_degenerate(triangles, normals);
                 if triangles.len() < before {
                     warnings.push(format!(
                         "entity `{}`: dropped {} degenerate triangle(s) of {before}",
@@ -380,6 +399,31 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
             .expect("baked entity exists");
     }
     Ok(warnings)
+}
+
+/// Triangles without the degenerate ones (see [`is_degenerate`]), with their normals.
+pub fn drop_degenerate(
+    triangles: Vec<[Vec3A; 3]>,
+    normals: Option<Vec<[Vec3A; 3]>>,
+) -> (Vec<[Vec3A; 3]>, Option<Vec<[Vec3A; 3]>>) {
+    if !triangles.iter().any(is_degenerate) {
+        return (triangles, normals);
+    }
+    let keep: Vec<bool> = triangles.iter().map(|t| !is_degenerate(t)).collect();
+    let normals = normals.map(|n| {
+        n.into_iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(n, _)| n)
+            .collect::<Vec<_>>()
+    });
+    let triangles = triangles
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(t, _)| t)
+        .collect();
+    (triangles, normals)
 }
 
 /// The world-space geometry of one shape under matrix `m`.

@@ -343,3 +343,29 @@ fn scene_level_checks() {
     let m = format!("({CAMERA} materials: {{\"p\": Phong(kd: (0.6,0.6,0.6), ks: (0.6,0.6,0.6), exponent: 10)}}, entities: [])");
     assert!(err(&m).contains("material `p`: kd + ks must be <= 1"));
 }
+
+#[test]
+fn instances_share_one_loaded_copy_of_their_mesh() {
+    let text = r#"(camera: LookAt(eye: (0, 0, 10), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40),
+        materials: {"m": Lambert(albedo: (0.5, 0.5, 0.5))},
+        meshes: {"ball": Icosphere(subdivisions: 2), "spare": Box(min: (0, 0, 0), max: (1, 1, 1))},
+        entities: [
+            (name: "a", shape: Instance(mesh: "ball"), material: "m"),
+            (name: "b", transform: (translate: (3, 0, 0)), shape: Instance(mesh: "ball"), material: "m"),
+        ])"#;
+    let s = parse_scene(text, Path::new("i.ron")).unwrap();
+    assert_eq!(s.meshes.len(), 1, "only the used asset is loaded");
+    assert_eq!(s.meshes[0].triangles.len(), 320);
+    let mut q = s.world.query::<&super::components::Instanced>();
+    let all: Vec<_> = q.iter().collect();
+    assert_eq!(all.len(), 2);
+    assert!(all
+        .iter()
+        .all(|i| i.mesh == 0 && std::sync::Arc::ptr_eq(&i.asset, &s.meshes[0])));
+    // Two instances + the table's own reference.
+    assert_eq!(std::sync::Arc::strong_count(&s.meshes[0]), 3);
+    assert!(s
+        .warnings
+        .iter()
+        .any(|w| w.contains("mesh `spare` is not used")));
+}

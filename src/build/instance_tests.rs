@@ -1,0 +1,168 @@
+//! Instancing against flattening: a scene of instances and the same scene with every instance
+//! written out as its own mesh must give the same hits (distance, point, normals, material)
+//! and the same occlusion; and 100 instances must cost about the memory of one.
+
+use super::*;
+use crate::scene::parse_scene;
+use raylab_integrators::{Ray, Sampler, Scene};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// A panel of two triangles with vertex normals tilted apart (smooth shading to check).
+const PANEL: &str = "Mesh(positions: [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], \
+    indices: [(0, 1, 2), (0, 2, 3)], \
+    normals: [(-0.5, -0.5, 1), (0.5, -0.5, 1), (0.5, 0.5, 1), (-0.3, 0.6, 1)])";
+
+/// `n` placements (rotated, non-uniformly scaled) alternating a bumpy ball and the panel, with
+/// a floor and a sphere as ordinary geometry. `instanced`: as `Instance`s of `meshes`, or
+/// with each shape written on its entity.
+fn scene_text(n: usize, subdivisions: u32, instanced: bool, seed: u64) -> String {
+    let ball = format!("Icosphere(subdivisions: {subdivisions}, displacement: 0.2)");
+    let mut s = Sampler::new(seed, 0, 0);
+    let mut r = |lo: f32, hi: f32| lo + (hi - lo) * s.next_1d();
+    let mut entities = String::from(
+        r#"(name: "floor", shape: Quad(vertices: [(-9, -9, -1), (9, -9, -1), (9, 9, -1), (-9, 9, -1)]), material: "a"),
+           (name: "orb", transform: (translate: (0, 0, 3)), shape: Sphere(radius: 0.7), material: "b"),"#,
+    );
+    for i in 0..n {
+        let shape = match (instanced, i % 2) {
+            (true, 0) => r#"Instance(mesh: "ball")"#.to_string(),
+            (true, _) => r#"Instance(mesh: "panel")"#.to_string(),
+            (false, 0) => ball.clone(),
+            (false, _) => PANEL.to_string(),
+        };
+        let _ = write!(
+            entities,
+            r#"(name: "e{i}", transform: (translate: ({}, {}, {}), rotate: ({}, {}, {}), scale: ({}, {}, {})), shape: {shape}, material: "{}"),"#,
+            r(-6.0, 6.0),
+            r(-6.0, 6.0),
+            r(-0.5, 2.0),
+            r(0.0, 360.0),
+            r(0.0, 360.0),
+            r(0.0, 360.0),
+            r(0.3, 1.2),
+            r(0.3, 1.2),
+            r(0.3, 1.2),
+            if i % 3 == 0 { "a" } else { "b" },
+        );
+    }
+    let meshes = if instanced {
+        format!(r#"meshes: {{"ball": {ball}, "panel": {PANEL}}},"#)
+    } else {
+        String::new()
+    };
+    format!(
+        r#"(camera: LookAt(eye: (0, 0, 10), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40),
+          materials: {{"a": Lambert(albedo: (0.5, 0.5, 0.5)), "b": Lambert(albedo: (0.2, 0.7, 0.2))}},
+          {meshes}
+          entities: [{entities}])"#
+    )
+}
+
+fn build(text: &str) -> RenderScene {
+    RenderScene::build(&parse_scene(text, Path::new("instances.ron")).unwrap())
+}
+
+#[test]
+fn instances_hit_exactly_what_their_flattened_copies_hit() {
+    let instanced = build(&scene_text(24, 2, true, 5));
+    let flat = build(&scene_text(24, 2, false, 5));
+    assert_eq!(instanced.stats.instances, 24);
+    assert_eq!(flat.stats.instances, 0);
+    assert_eq!(
+        instanced.stats.placed_triangles + instanced.stats.triangles,
+        flat.stats.triangles
+    );
+    let close = |a: Vec3A, b: Vec3A, tol: f32| (a - b).length() <= tol;
+    let mut sampler = Sampler::new(17, 0, 0);
+    let (mut hits, mut smooth, mut mismatches, mut occluded) = (0, 0, 0, 0);
+    let rays = 20_000;
+    for i in 0..rays {
+        let origin =
+            Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 14.0 - 7.0;
+        let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
+        let tmax = if i % 2 == 0 {
+            f32::INFINITY
+        } else {
+            sampler.next_1d() * 6.0
+        };
+        let ray = Ray { origin, dir, tmax };
+        match (flat.intersect(&ray), instanced.intersect(&ray)) {
+            (None, None) => {}
+            (Some(f), Some(g)) if (f.t - g.t).abs() <= 1e-4 * f.t.max(1.0) => {
+                hits += 1;
+                assert!(close(f.p, g.p, 1e-3), "ray {i}: {} vs {}", f.p, g.p);
+                assert!(close(f.ng, g.ng, 1e-3), "ray {i}: ng {} vs {}", f.ng, g.ng);
+                assert!(close(f.ns, g.ns, 2e-3), "ray {i}: ns {} vs {}", f.ns, g.ns);
+                assert_eq!((f.material, f.light), (g.material, g.light), "ray {i}");
+                smooth += usize::from(f.ns.dot(f.ng) < 0.999);
+            }
+            // Rays grazing a triangle edge may hit its neighbour in one and not the other.
+            _ => mismatches += 1,
+        }
+        let blocked = flat.occluded(&ray);
+        mismatches += usize::from(blocked != instanced.occluded(&ray));
+        occluded += usize::from(blocked);
+    }
+    assert!(mismatches <= rays / 1000, "{mismatches} mismatches");
+    assert!(hits > rays / 5 && hits < rays * 9 / 10, "hits {hits}");
+    assert!(smooth > 100, "smooth-shaded hits {smooth}");
+    assert!(occluded > rays / 5, "occluded {occluded}");
+}
+
+#[test]
+fn a_hundred_instances_cost_about_one_copy_of_the_mesh() {
+    // 20,480 triangles a ball.
+    let mesh = |n: usize| {
+        let mut entities = String::new();
+        for i in 0..n {
+            let _ = write!(
+                entities,
+                r#"(transform: (translate: ({}, {}, 0), rotate: (0, 0, {i})), shape: Instance(mesh: "ball"), material: "m"),"#,
+                (i % 10) as f32 * 2.5,
+                (i / 10) as f32 * 2.5
+            );
+        }
+        build(&format!(
+            r#"(camera: LookAt(eye: (0, 0, 30), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40),
+              materials: {{"m": Lambert(albedo: (0.5, 0.5, 0.5))}},
+              meshes: {{"ball": Icosphere(subdivisions: 5), "unused": Icosphere(subdivisions: 9)}},
+              entities: [{entities}])"#
+        ))
+    };
+    let (one, hundred) = (mesh(1), mesh(100));
+    assert_eq!(hundred.stats.placed_triangles, 100 * 20_480);
+    assert_eq!(hundred.stats.instanced_triangles, 20_480);
+    let (a, b) = (one.memory_bytes(), hundred.memory_bytes());
+    // One copy is ~57 bytes a triangle (1.2 MB); an instance adds a few dozen bytes (its
+    // transform, mesh, material and its share of the top-level BVH).
+    assert!(a > 20_480 * 40, "one instance: {a} bytes");
+    assert!(
+        b < a + a / 50 + 100 * 200,
+        "100 instances: {b} bytes, one: {a}"
+    );
+}
+
+#[test]
+fn the_instance_build_does_not_depend_on_the_thread_count() {
+    let loaded = parse_scene(&scene_text(40, 3, true, 9), Path::new("instances.ron")).unwrap();
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| RenderScene::build(&loaded))
+    };
+    let (a, b) = (build(1), build(2));
+    let mut sampler = Sampler::new(3, 0, 0);
+    for _ in 0..2000 {
+        let origin = Vec3A::new(sampler.next_1d(), sampler.next_1d(), 9.0) * 10.0 - 5.0;
+        let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
+        let ray = Ray::new(origin, dir);
+        let (x, y) = (a.intersect(&ray), b.intersect(&ray));
+        assert_eq!(
+            x.map(|h| (h.t, h.ng, h.material)),
+            y.map(|h| (h.t, h.ng, h.material))
+        );
+    }
+}

@@ -1,0 +1,272 @@
+//! Instanced geometry: a two-level BVH. Each mesh asset gets one bottom-level CWBVH over its
+//! triangles in its own space (built once, however many instances place it); a top-level
+//! CWBVH holds the instances' world-space boxes. A ray reaching an instance is moved into the
+//! instance's space by the stored world-to-local affine map, *without* renormalising its
+//! direction, so that the local hit distance `t` is the world one: `o' + t d' = M^-1 (o + t d)`.
+//! Normals go back to world space by the inverse transpose, `(M^-1)^T`.
+//!
+//! Traversal nests two obvhs traversals; both keep their stacks on the call stack, so no ray
+//! allocates.
+
+use crate::scene::assets::box_corners;
+use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
+use crate::scene::LoadedScene;
+use glam::{Affine3A, Vec3A};
+use hecs::Entity;
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use raylab_integrators::Hit;
+use std::time::Duration;
+
+/// One mesh asset's triangles in BVH order, with their BVH.
+struct MeshBlas {
+    bvh: CwBvh,
+    tri: Vec<Triangle>,
+    /// Vertex normals per triangle (BVH order), or empty for flat shading.
+    smooth: Vec<[Vec3A; 3]>,
+}
+
+/// One placement of a mesh asset.
+#[derive(Clone, Copy)]
+struct Instance {
+    world_to_local: Affine3A,
+    mesh: u32,
+    material: u32,
+}
+
+/// Every instance of the scene, over their shared meshes.
+#[derive(Default)]
+pub struct InstanceSet {
+    tlas: CwBvh,
+    /// In TLAS order: slot `i` of the TLAS is `instances[i]`.
+    instances: Vec<Instance>,
+    meshes: Vec<MeshBlas>,
+    /// World bounds of all instances.
+    pub bounds: Aabb,
+}
+
+impl MeshBlas {
+    fn build(mesh: &LocalMesh) -> MeshBlas {
+        let tris: Vec<Triangle> = mesh
+            .triangles
+            .iter()
+            .map(|v| Triangle {
+                v0: v[0],
+                v1: v[1],
+                v2: v[2],
+            })
+            .collect();
+        let mut bvh = build_cwbvh(
+            &tris,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let order = &bvh.primitive_indices;
+        let tri: Vec<Triangle> = order.iter().map(|&i| tris[i as usize]).collect();
+        let smooth = match &mesh.normals {
+            Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
+            None => Vec::new(),
+        };
+        // The builder over-allocates (see the flat build); the order is baked in, so the
+        // primitive indices are no longer needed.
+        bvh.nodes.shrink_to_fit();
+        bvh.primitive_indices = Vec::new();
+        MeshBlas { bvh, tri, smooth }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.bvh.nodes.capacity() * size_of::<obvhs::cwbvh::node::CwBvhNode>()
+            + self.tri.capacity() * size_of::<Triangle>()
+            + self.smooth.capacity() * size_of::<[Vec3A; 3]>()
+    }
+}
+
+impl InstanceSet {
+    /// Builds the BLAS of every mesh asset and the TLAS over the scene's instances (entities
+    /// with [`Instanced`] and a material), in entity order.
+    pub fn build(scene: &LoadedScene) -> InstanceSet {
+        let mut items: Vec<(Entity, Instanced, u32, Affine3A)> = scene
+            .world
+            .query::<(
+                Entity,
+                &Instanced,
+                &MaterialRef,
+                &crate::scene::components::Transform,
+            )>()
+            .iter()
+            .map(|(e, i, m, t)| (e, i.clone(), m.0, t.matrix()))
+            .collect();
+        if items.is_empty() {
+            return InstanceSet::default();
+        }
+        items.sort_by_key(|(e, ..)| e.id());
+        let meshes: Vec<MeshBlas> = scene.meshes.iter().map(|m| MeshBlas::build(m)).collect();
+        let boxes: Vec<Aabb> = items
+            .iter()
+            .map(|(_, inst, _, m)| {
+                let corners = box_corners(inst.asset.bounds).map(|p| m.transform_point3a(p));
+                Aabb::from_points(&corners)
+            })
+            .collect();
+        let mut bounds = Aabb::empty();
+        for b in &boxes {
+            bounds = bounds.union(b);
+        }
+        let mut tlas = build_cwbvh(
+            &boxes,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let instances = tlas
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let (_, inst, material, m) = &items[i as usize];
+                Instance {
+                    world_to_local: m.inverse(),
+                    mesh: inst.mesh,
+                    material: *material,
+                }
+            })
+            .collect();
+        tlas.nodes.shrink_to_fit();
+        tlas.primitive_indices = Vec::new();
+        InstanceSet {
+            tlas,
+            instances,
+            meshes,
+            bounds,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.instances.is_empty()
+    }
+
+    pub fn len(&self) -> usize {
+        self.instances.len()
+    }
+
+    /// Triangles over all mesh assets, each counted once.
+    pub fn unique_triangles(&self) -> usize {
+        self.meshes.iter().map(|m| m.tri.len()).sum()
+    }
+
+    /// Triangles as placed in the scene (each mesh counted once per instance).
+    pub fn placed_triangles(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes[i.mesh as usize].tri.len())
+            .sum()
+    }
+
+    pub fn bvh_nodes(&self) -> usize {
+        self.tlas.nodes.len() + self.meshes.iter().map(|m| m.bvh.nodes.len()).sum::<usize>()
+    }
+
+    /// Bytes held by the meshes (once each), their BVHs, the TLAS and the instances.
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.meshes
+            .iter()
+            .map(MeshBlas::memory_bytes)
+            .sum::<usize>()
+            + self.tlas.nodes.capacity() * size_of::<obvhs::cwbvh::node::CwBvhNode>()
+            + self.instances.capacity() * size_of::<Instance>()
+    }
+
+    /// The ray in instance `inst`'s space, with the same `t` range.
+    #[inline(always)]
+    fn local_ray(inst: &Instance, ray: &Ray) -> Ray {
+        let m = &inst.world_to_local;
+        Ray::new(
+            m.transform_point3a(ray.origin),
+            m.transform_vector3a(ray.direction),
+            ray.tmin,
+            ray.tmax,
+        )
+    }
+
+    /// Closest hit with `t < ray.tmax`: (instance slot, triangle slot, t).
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<(u32, u32, f32)> {
+        let mut best_prim = 0u32;
+        let mut hit = RayHit::none();
+        let found = self.tlas.ray_traverse(*ray, &mut hit, |r, slot| {
+            let inst = &self.instances[slot];
+            let mesh = &self.meshes[inst.mesh as usize];
+            let mut local_hit = RayHit::none();
+            // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
+            if mesh
+                .bvh
+                .ray_traverse(Self::local_ray(inst, r), &mut local_hit, |lr, k| {
+                    mesh.tri[k].intersect(lr)
+                })
+            {
+                best_prim = local_hit.primitive_id;
+                local_hit.t
+            } else {
+                f32::INFINITY
+            }
+        });
+        found.then_some((hit.primitive_id, best_prim, hit.t))
+    }
+
+    /// True if any instance has a surface on `ray` before `ray.tmax`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        !self.tlas.ray_traverse_miss(*ray, |r, slot| {
+            let inst = &self.instances[slot];
+            let mesh = &self.meshes[inst.mesh as usize];
+            let missed = mesh
+                .bvh
+                .ray_traverse_miss(Self::local_ray(inst, r), |lr, k| mesh.tri[k].intersect(lr));
+            if missed {
+                f32::INFINITY
+            } else {
+                0.0
+            }
+        })
+    }
+
+    /// The world-space surface record of triangle `prim` of instance `slot`, hit at `t` by
+    /// the world ray `origin + t dir`.
+    pub fn hit_record(&self, origin: Vec3A, dir: Vec3A, slot: u32, prim: u32, t: f32) -> Hit {
+        let inst = &self.instances[slot as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let tri = &mesh.tri[prim as usize];
+        // Normals transform by the inverse transpose of the local-to-world map.
+        let normal_matrix = inst.world_to_local.matrix3.transpose();
+        let ng = (normal_matrix * tri.compute_normal()).normalize_or_zero();
+        let ns = if mesh.smooth.is_empty() {
+            ng
+        } else {
+            let local_p = inst.world_to_local.transform_point3a(origin)
+                + inst.world_to_local.transform_vector3a(dir) * t;
+            let b = super::barycentrics(tri, local_p);
+            // Each vertex normal to world space, then interpolated: as the flattened build
+            // does, so an instance shades like its flattened copy under non-uniform scales.
+            let n = mesh.smooth[prim as usize].map(|n| (normal_matrix * n).normalize_or_zero());
+            let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
+            if s == Vec3A::ZERO {
+                ng
+            } else if s.dot(ng) < 0.0 {
+                -s
+            } else {
+                s
+            }
+        };
+        Hit {
+            t,
+            p: origin + dir * t,
+            ng,
+            ns,
+            material: inst.material,
+            light: None,
+        }
+    }
+}

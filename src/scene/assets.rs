@@ -1,0 +1,171 @@
+//! Mesh assets and instancing: the ECS system that resolves every `Instance` shape to one
+//! shared, reference-counted copy of a mesh from the scene's `meshes` table.
+//!
+//! An asset is loaded (file read, procedural mesh generated, degenerate triangles dropped) the
+//! first time an entity uses it, in entity order, and never again: every instance holds the
+//! same `Arc<LocalMesh>`, and the build step gives each asset one BVH. Unused assets are not
+//! loaded (a warning says so). Errors name the entity that asked for the asset, and the asset.
+
+use super::components::{Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
+use super::schema::{MeshTable, ShapeDesc};
+use super::systems::{self, EntityError};
+use glam::{Affine3A, Vec3A};
+use hecs::{Entity, World};
+use std::path::Path;
+use std::sync::Arc;
+
+/// The loaded assets (in order of first use) and warnings about them.
+pub struct ResolvedMeshes {
+    pub meshes: Vec<Arc<LocalMesh>>,
+    pub warnings: Vec<String>,
+}
+
+/// Gives every entity whose shape is `Instance { mesh }` an [`Instanced`] component pointing at
+/// the one loaded copy of asset `mesh`, loading it on first use. Errors: an unknown name, an
+/// asset that cannot be loaded or is not made of triangles, an instance reaching beyond
+/// [`systems::MAX_COORDINATE`].
+pub fn resolve_instances(
+    world: &mut World,
+    table: &MeshTable,
+    scene_dir: &Path,
+) -> Result<ResolvedMeshes, EntityError> {
+    let mut loaded: Vec<Option<u32>> = vec![None; table.0.len()];
+    let mut meshes: Vec<Arc<LocalMesh>> = Vec::new();
+    let mut warnings = Vec::new();
+    let mut resolved: Vec<(Entity, Instanced)> = Vec::new();
+    {
+        let mut query = world.query::<(Entity, &Name, &Transform, &Shape)>();
+        let mut items: Vec<_> = query
+            .iter()
+            .filter_map(|(e, n, t, s)| match s {
+                Shape::Instance { mesh } => Some((e, n, t, mesh)),
+                _ => None,
+            })
+            .collect();
+        items.sort_by_key(|(e, ..)| e.id());
+        for (entity, name, transform, mesh) in items {
+            let fail = |m: String| (name.0.clone(), m);
+            let Some(index) = table.0.iter().position(|(n, _)| n == mesh) else {
+                let known = if table.0.is_empty() {
+                    "the scene defines no meshes (add a `meshes` table)".to_string()
+                } else {
+                    let names: Vec<&str> = table.0.iter().map(|(n, _)| n.as_str()).collect();
+                    format!("defined meshes: {}", names.join(", "))
+                };
+                return Err(fail(format!("unknown mesh `{mesh}`; {known}")));
+            };
+            let id = match loaded[index] {
+                Some(id) => id,
+                None => {
+                    let (name, desc) = &table.0[index];
+                    let asset = load_asset(name, desc, scene_dir)
+                        .map_err(|e| fail(format!("mesh `{mesh}`: {e}")))?;
+                    if asset.1 > 0 {
+                        warnings.push(format!(
+                            "mesh `{mesh}`: dropped {} degenerate triangle(s) of {}",
+                            asset.1,
+                            asset.1 + asset.0.triangles.len()
+                        ));
+                    }
+                    meshes.push(Arc::new(asset.0));
+                    let id = (meshes.len() - 1) as u32;
+                    loaded[index] = Some(id);
+                    id
+                }
+            };
+            let asset = Arc::clone(&meshes[id as usize]);
+            let m = transform.matrix();
+            check_instance_reach(&asset, &m).map_err(fail)?;
+            // Rays are moved into the instance's space by the inverse.
+            if !m.inverse().is_finite() {
+                return Err(fail(format!(
+                    "transform.scale {:?} is too small: the instance's transform cannot be inverted",
+                    transform.scale.to_array()
+                )));
+            }
+            resolved.push((entity, Instanced { mesh: id, asset }));
+        }
+    }
+    for ((name, _), used) in table.0.iter().zip(&loaded) {
+        if used.is_none() {
+            warnings.push(format!(
+                "mesh `{name}` is not used by any entity; not loaded"
+            ));
+        }
+    }
+    for (entity, instanced) in resolved {
+        world
+            .insert_one(entity, instanced)
+            .expect("resolved entity exists");
+    }
+    Ok(ResolvedMeshes { meshes, warnings })
+}
+
+/// Loads one asset in its own space: the mesh and how many degenerate triangles were dropped.
+fn load_asset(
+    name: &str,
+    desc: &ShapeDesc,
+    scene_dir: &Path,
+) -> Result<(LocalMesh, usize), String> {
+    match desc {
+        ShapeDesc::Sphere { .. } => {
+            return Err(
+                "a mesh asset must be made of triangles; a Sphere is analytic (use Icosphere)"
+                    .into(),
+            )
+        }
+        ShapeDesc::Instance { .. } => {
+            return Err("a mesh asset cannot itself be an Instance".into());
+        }
+        _ => {}
+    }
+    let shape = super::load::shape_from_desc(desc.clone(), scene_dir)?;
+    systems::validate_shape(&shape, &Transform::default())?;
+    let WorldShape::Triangles {
+        triangles, normals, ..
+    } = systems::bake_shape(&shape, &Affine3A::IDENTITY)
+    else {
+        return Err("a mesh asset must be made of triangles".into());
+    };
+    let before = triangles.len();
+    let (triangles, normals) = systems::drop_degenerate(triangles, normals);
+    if triangles.is_empty() {
+        return Err(format!(
+            "has no triangles (of {before}) that are not degenerate"
+        ));
+    }
+    let mut bounds = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+    for p in triangles.iter().flatten() {
+        bounds = (bounds.0.min(*p), bounds.1.max(*p));
+    }
+    let dropped = before - triangles.len();
+    Ok((
+        LocalMesh {
+            name: name.to_string(),
+            triangles,
+            normals,
+            bounds,
+        },
+        dropped,
+    ))
+}
+
+/// The eight corners of a box (min, max).
+pub fn box_corners((min, max): (Vec3A, Vec3A)) -> [Vec3A; 8] {
+    std::array::from_fn(|i| {
+        Vec3A::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    })
+}
+
+/// An instance must stay within reach like any geometry: its world box's corners are checked.
+fn check_instance_reach(asset: &LocalMesh, m: &Affine3A) -> Result<(), String> {
+    systems::check_points_reach(
+        box_corners(asset.bounds)
+            .into_iter()
+            .map(|p| m.transform_point3a(p)),
+    )
+}

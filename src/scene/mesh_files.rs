@@ -1,0 +1,444 @@
+//! Mesh files: Wavefront OBJ through `tobj` and glTF 2.0 / GLB through `gltf`, each read into
+//! one local-space [`FileMesh`]: triangles, optional vertex normals, and which of the file's
+//! materials each triangle uses (OBJ `Kd`/`Ke` from the MTL file; glTF `baseColorFactor`,
+//! `emissiveFactor` times `KHR_materials_emissive_strength`).
+//!
+//! Both parsers are third-party code fed user files: a panic in either is caught (quietly) and
+//! becomes an error naming the file, and everything they return is checked here (indices in
+//! range, finite positions, at least one triangle, no cycle in a glTF node graph).
+
+use super::components::Shape;
+use glam::{Mat3, Mat4, Vec3, Vec3A};
+use std::panic::UnwindSafe;
+use std::path::Path;
+use std::sync::Mutex;
+
+/// A material as a mesh file describes it, reduced to what raylab uses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileMaterial {
+    /// The file's name for it (or `#N` / `default` when it has none).
+    pub name: String,
+    /// Diffuse reflectance (linear RGB), used as a Lambert albedo.
+    pub albedo: [f32; 3],
+    /// Emitted radiance, when non-zero.
+    pub emission: Option<[f32; 3]>,
+    /// glTF `doubleSided` (emits from both sides); OBJ materials are one-sided.
+    pub two_sided: bool,
+}
+
+/// A mesh read from a file, in the file's space.
+#[derive(Debug)]
+pub struct FileMesh {
+    pub positions: Vec<Vec3A>,
+    pub indices: Vec<[u32; 3]>,
+    pub normals: Option<Vec<Vec3A>>,
+    /// Per triangle, its index in `materials`.
+    pub triangle_material: Vec<u32>,
+    pub materials: Vec<FileMaterial>,
+}
+
+impl FileMesh {
+    /// The geometry alone.
+    pub fn into_shape(self) -> Shape {
+        Shape::Mesh {
+            positions: self.positions,
+            indices: self.indices,
+            normals: self.normals,
+        }
+    }
+
+    /// One mesh per material that some triangle uses (in material order), each with only the
+    /// vertices it uses.
+    pub fn split_by_material(self) -> Vec<(FileMaterial, Shape)> {
+        let mut out = Vec::new();
+        for (m, material) in self.materials.iter().enumerate() {
+            let mut remap = vec![u32::MAX; self.positions.len()];
+            let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+            for (t, _) in self
+                .indices
+                .iter()
+                .zip(&self.triangle_material)
+                .filter(|(_, k)| **k as usize == m)
+            {
+                indices.push(t.map(|v| {
+                    let v = v as usize;
+                    if remap[v] == u32::MAX {
+                        remap[v] = positions.len() as u32;
+                        positions.push(self.positions[v]);
+                        if let Some(n) = &self.normals {
+                            normals.push(n[v]);
+                        }
+                    }
+                    remap[v]
+                }));
+            }
+            if !indices.is_empty() {
+                let normals = self.normals.is_some().then_some(normals);
+                out.push((
+                    material.clone(),
+                    Shape::Mesh {
+                        positions,
+                        indices,
+                        normals,
+                    },
+                ));
+            }
+        }
+        out
+    }
+}
+
+/// Runs a third-party parser on a user file. A panic in it becomes an error; the default
+/// hook, which would print "panicked" as if raylab had crashed, is silenced meanwhile (the
+/// lock keeps two loads from swapping hooks at once).
+fn guarded<T>(
+    kind: &str,
+    file: &Path,
+    parse: impl FnOnce() -> T + UnwindSafe,
+) -> Result<T, String> {
+    static HOOK: Mutex<()> = Mutex::new(());
+    let _lock = HOOK.lock().unwrap_or_else(|e| e.into_inner());
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let result = std::panic::catch_unwind(parse);
+    std::panic::set_hook(previous);
+    result.map_err(|payload| {
+        let reason = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown reason".into());
+        format!(
+            "cannot load {kind} file `{}`: the file is malformed (the parser failed: {reason})",
+            file.display()
+        )
+    })
+}
+
+/// Refuses what is not a readable file before a parser sees it.
+fn check_file(kind: &str, file: &Path) -> Result<(), String> {
+    let meta = std::fs::metadata(file)
+        .map_err(|e| format!("cannot load {kind} file `{}`: {e}", file.display()))?;
+    if meta.is_dir() {
+        return Err(format!(
+            "cannot load {kind} file `{}`: it is a directory",
+            file.display()
+        ));
+    }
+    Ok(())
+}
+
+/// Every position and normal finite, at least one triangle.
+fn check_mesh(kind: &str, file: &Path, mesh: &FileMesh) -> Result<(), String> {
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.is_finite())
+    {
+        return Err(format!(
+            "{kind} file `{}`: vertex {i} has a position that is not finite: {:?}",
+            file.display(),
+            p.to_array()
+        ));
+    }
+    if let Some(n) = &mesh.normals {
+        if let Some((i, v)) = n.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(format!(
+                "{kind} file `{}`: vertex {i} has a normal that is not finite: {:?}",
+                file.display(),
+                v.to_array()
+            ));
+        }
+    }
+    if mesh.indices.is_empty() {
+        return Err(format!("{kind} file `{}` has no triangles", file.display()));
+    }
+    Ok(())
+}
+
+/// A colour channel triple from a file: finite, non-negative.
+fn colour(file: &Path, material: &str, what: &str, c: [f32; 3]) -> Result<[f32; 3], String> {
+    if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        Ok(c)
+    } else {
+        Err(format!(
+            "material `{material}` of `{}`: {what} must be finite and non-negative, got {c:?}",
+            file.display()
+        ))
+    }
+}
+
+/// The grey that OBJ faces without a material get (glTF has its own default: white).
+pub const OBJ_DEFAULT_ALBEDO: [f32; 3] = [0.8, 0.8, 0.8];
+
+/// Loads an OBJ file as one mesh (all its objects), with normals when every object has them,
+/// and the diffuse (`Kd`) and emitted (`Ke`) colours of its MTL materials. A missing or bad
+/// MTL file is an error only if `need_materials`.
+pub fn load_obj(file: &Path, need_materials: bool) -> Result<FileMesh, String> {
+    check_file("OBJ", file)?;
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
+    let (models, materials) =
+        guarded("OBJ", file, || tobj::load_obj(file, &options))?.map_err(|e| {
+            let hint = match e {
+                tobj::LoadError::ReadError => " (is it a text OBJ file?)",
+                _ => "",
+            };
+            format!("cannot load OBJ file `{}`: {e}{hint}", file.display())
+        })?;
+    let file_materials = match materials {
+        Ok(m) => m,
+        Err(e) if need_materials => {
+            return Err(format!(
+            "OBJ file `{}`: cannot load its MTL materials (its `mtllib` file, relative to it): {e}",
+            file.display()
+        ))
+        }
+        Err(_) => Vec::new(),
+    };
+    let mut materials: Vec<FileMaterial> = Vec::with_capacity(file_materials.len() + 1);
+    for m in &file_materials {
+        let albedo = colour(file, &m.name, "Kd", m.diffuse.unwrap_or(OBJ_DEFAULT_ALBEDO))?;
+        let emission = colour(file, &m.name, "Ke", m.emissive.unwrap_or([0.0; 3]))?;
+        materials.push(FileMaterial {
+            name: m.name.clone(),
+            albedo,
+            emission: emission.iter().any(|c| *c > 0.0).then_some(emission),
+            two_sided: false,
+        });
+    }
+    let default_material = materials.len() as u32;
+    let mut uses_default = false;
+
+    let mut mesh = FileMesh {
+        positions: Vec::new(),
+        indices: Vec::new(),
+        normals: None,
+        triangle_material: Vec::new(),
+        materials: Vec::new(),
+    };
+    let mut normals: Vec<Vec3A> = Vec::new();
+    let all_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
+    for m in &models {
+        let base = mesh.positions.len() as u32;
+        let count = m.mesh.positions.len() / 3;
+        let material = match m.mesh.material_id {
+            Some(k) if k < file_materials.len() => k as u32,
+            _ => {
+                uses_default = true;
+                default_material
+            }
+        };
+        mesh.positions.extend(
+            m.mesh
+                .positions
+                .chunks_exact(3)
+                .map(|p| Vec3A::new(p[0], p[1], p[2])),
+        );
+        if all_normals {
+            normals.extend(
+                m.mesh
+                    .normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3A::new(n[0], n[1], n[2])),
+            );
+        }
+        for t in m.mesh.indices.chunks_exact(3) {
+            if t.iter().any(|&i| i as usize >= count) {
+                return Err(format!(
+                    "OBJ file `{}`: object `{}`: a face index is out of range (the object has {count} vertices)",
+                    file.display(),
+                    m.name
+                ));
+            }
+            mesh.indices.push([base + t[0], base + t[1], base + t[2]]);
+            mesh.triangle_material.push(material);
+        }
+    }
+    if uses_default {
+        materials.push(FileMaterial {
+            name: "default".into(),
+            albedo: OBJ_DEFAULT_ALBEDO,
+            emission: None,
+            two_sided: false,
+        });
+    }
+    mesh.materials = materials;
+    mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
+    check_mesh("OBJ", file, &mesh)?;
+    Ok(mesh)
+}
+
+/// Loads the triangles of a glTF file's default scene (or its first) as one mesh, each mesh
+/// placed by its node's world transform; normals when every primitive has them; the base
+/// colour and emission of each primitive's material.
+pub fn load_gltf(file: &Path) -> Result<FileMesh, String> {
+    check_file("glTF", file)?;
+    let (document, buffers) = guarded("glTF", file, || {
+        gltf::Gltf::open(file).map(|g| {
+            let buffers = gltf::import_buffers(&g.document, file.parent(), g.blob.clone());
+            (g.document, buffers)
+        })
+    })?
+    .map_err(|e| format!("cannot load glTF file `{}`: {e}", file.display()))?;
+    let buffers = buffers.map_err(|e| {
+        let uris: Vec<String> = document
+            .buffers()
+            .filter_map(|b| match b.source() {
+                gltf::buffer::Source::Uri(u) if !u.starts_with("data:") => Some(format!("`{u}`")),
+                _ => None,
+            })
+            .collect();
+        format!(
+            "cannot load the buffers of glTF file `{}` ({}): {e}",
+            file.display(),
+            if uris.is_empty() {
+                "embedded".to_string()
+            } else {
+                uris.join(", ")
+            }
+        )
+    })?;
+    let scene = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+        .ok_or_else(|| format!("glTF file `{}` has no scene", file.display()))?;
+
+    let mut materials: Vec<FileMaterial> = Vec::new();
+    for (i, m) in document.materials().enumerate() {
+        materials.push(gltf_material(file, &m, i)?);
+    }
+    // Primitives without a material use the specification's default (white, no emission).
+    let default_material = materials.len() as u32;
+    let mut uses_default = false;
+
+    let mut mesh = FileMesh {
+        positions: Vec::new(),
+        indices: Vec::new(),
+        normals: None,
+        triangle_material: Vec::new(),
+        materials: Vec::new(),
+    };
+    let mut normals = Vec::new();
+    let mut all_normals = true;
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    // A valid file is a forest: each node is reached once. More visits mean a cycle.
+    let mut visits_left = document.nodes().len();
+    while let Some((node, parent)) = stack.pop() {
+        if visits_left == 0 {
+            return Err(format!(
+                "glTF file `{}`: its node hierarchy has a cycle",
+                file.display()
+            ));
+        }
+        visits_left -= 1;
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if !world.is_finite() {
+            return Err(format!(
+                "glTF file `{}`: node {} has a transform that is not finite",
+                file.display(),
+                node.index()
+            ));
+        }
+        if let Some(gmesh) = node.mesh() {
+            let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+            for primitive in gmesh.primitives() {
+                let at = || {
+                    format!(
+                        "glTF file `{}`: mesh {} primitive {}",
+                        file.display(),
+                        gmesh.index(),
+                        primitive.index()
+                    )
+                };
+                if primitive.mode() != gltf::mesh::Mode::Triangles {
+                    return Err(format!("{}: only triangle primitives are supported", at()));
+                }
+                let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+                let base = mesh.positions.len() as u32;
+                let p = reader.read_positions().ok_or_else(|| {
+                    format!(
+                        "{}: its POSITION data cannot be read (missing, or outside its buffer)",
+                        at()
+                    )
+                })?;
+                mesh.positions
+                    .extend(p.map(|v| Vec3A::from(world.transform_point3(Vec3::from(v)))));
+                let count = mesh.positions.len() as u32 - base;
+                match reader.read_normals() {
+                    Some(n) if all_normals => {
+                        normals.extend(n.map(|v| {
+                            Vec3A::from(normal_matrix * Vec3::from(v)).normalize_or_zero()
+                        }))
+                    }
+                    _ => all_normals = false,
+                }
+                let tri: Vec<u32> = match (primitive.indices(), reader.read_indices()) {
+                    (None, _) => (0..count).collect(),
+                    (Some(_), Some(i)) => i.into_u32().collect(),
+                    (Some(_), None) => {
+                        return Err(format!(
+                            "{}: its indices cannot be read (outside their buffer?)",
+                            at()
+                        ))
+                    }
+                };
+                let material = match primitive.material().index() {
+                    Some(k) => k as u32,
+                    None => {
+                        uses_default = true;
+                        default_material
+                    }
+                };
+                for t in tri.chunks_exact(3) {
+                    if let Some(i) = t.iter().find(|&&i| i >= count) {
+                        return Err(format!(
+                            "{}: index {i} is out of range (the primitive has {count} vertices)",
+                            at()
+                        ));
+                    }
+                    mesh.indices.push([base + t[0], base + t[1], base + t[2]]);
+                    mesh.triangle_material.push(material);
+                }
+            }
+        }
+        stack.extend(node.children().map(|c| (c, world)));
+    }
+    if uses_default {
+        materials.push(FileMaterial {
+            name: "default".into(),
+            albedo: [1.0; 3],
+            emission: None,
+            two_sided: false,
+        });
+    }
+    mesh.materials = materials;
+    mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
+    check_mesh("glTF", file, &mesh)?;
+    Ok(mesh)
+}
+
+/// A glTF material's base colour (as albedo) and emission (`emissiveFactor` times
+/// `KHR_materials_emissive_strength`); textures are not used.
+fn gltf_material(file: &Path, m: &gltf::Material, index: usize) -> Result<FileMaterial, String> {
+    let name = m.name().map_or_else(|| format!("#{index}"), str::to_string);
+    let [r, g, b, _alpha] = m.pbr_metallic_roughness().base_color_factor();
+    let albedo = colour(file, &name, "baseColorFactor", [r, g, b])?;
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let emission = colour(
+        file,
+        &name,
+        "emissiveFactor x emissive_strength",
+        m.emissive_factor().map(|c| c * strength),
+    )?;
+    Ok(FileMaterial {
+        name,
+        albedo,
+        emission: emission.iter().any(|c| *c > 0.0).then_some(emission),
+        two_sided: m.double_sided(),
+    })
+}
