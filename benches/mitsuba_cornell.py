@@ -7,12 +7,16 @@ scenes/cornell_box.ron (the same box) with max-depth 7, the same depth in raylab
 Both at 256x256 on the threads the machine has.
 
     pip install mitsuba numpy
+    apt-get install libllvm19          # for llvm_ad_rgb (libLLVM 15 crashes it)
     cargo build --release
-    python3 benches/mitsuba_cornell.py [--spp 256] [--variant scalar_rgb|llvm_ad_rgb]
+    python3 benches/mitsuba_cornell.py [--spp 256] [--variants scalar_rgb,llvm_ad_rgb] [--repeat 2]
 
-llvm_ad_rgb needs Debian's libllvm19 and DRJIT_LIBLLVM_PATH pointing at libLLVM-19.so.
+Each round measures raylab, then every variant, then raylab again, so that the ratios compare
+renders made minutes apart on the same (shared, noisy) machine. llvm_ad_rgb needs
+DRJIT_LIBLLVM_PATH pointing at libLLVM-19.so; the script sets it when Debian's file exists.
 """
 import argparse
+import os
 import pathlib
 import re
 import subprocess
@@ -20,6 +24,9 @@ import sys
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
+DEBIAN_LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
+if "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(DEBIAN_LLVM):
+    os.environ["DRJIT_LIBLLVM_PATH"] = DEBIAN_LLVM
 
 
 def mitsuba(variant, spp):
@@ -56,13 +63,23 @@ def raylab(spp):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--variant", default="scalar_rgb")
+    ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb")
+    ap.add_argument("--repeat", type=int, default=1, help="rounds to run")
     args = ap.parse_args()
-    ours, our_mean = raylab(args.spp)
-    theirs, their_mean = mitsuba(args.variant, args.spp)
-    print(f"raylab path            {ours / 1e6:8.3f} M samples/s  mean {tuple(round(v, 4) for v in our_mean)}")
-    print(f"mitsuba {args.variant:<14} {theirs / 1e6:8.3f} M samples/s  mean {tuple(round(float(v), 4) for v in their_mean)}")
-    print(f"ratio raylab / mitsuba {ours / theirs:8.2f}x")
+    for round_ in range(args.repeat):
+        before, our_mean = raylab(args.spp)
+        theirs = {}
+        for variant in args.variants.split(","):
+            try:
+                theirs[variant] = mitsuba(variant, args.spp)
+            except Exception as e:  # a variant that cannot load (no LLVM) is reported, not fatal
+                print(f"mitsuba {variant}: not measured ({e})")
+        after, _ = raylab(args.spp)
+        ours = (before + after) / 2
+        print(f"round {round_ + 1}: 256x256, {args.spp} spp, max depth 8 (raylab max-depth 7)")
+        print(f"  raylab path            {ours / 1e6:8.3f} M samples/s (before {before / 1e6:.3f}, after {after / 1e6:.3f})  mean {tuple(round(v, 4) for v in our_mean)}")
+        for variant, (rate, mean) in theirs.items():
+            print(f"  mitsuba {variant:<14} {rate / 1e6:8.3f} M samples/s  mean {tuple(round(float(v), 4) for v in mean)}  raylab/mitsuba {ours / rate:5.2f}x")
     return 0
 
 

@@ -24,12 +24,10 @@
 //! **Bias**: density estimation blurs light over the gather radii and does not vanish with
 //! more passes (use `sppm` for a consistent estimate); truncation with a finite `max-depth`.
 
-use crate::integrator::{
-    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, Integrator, Tracer,
-};
-use crate::photon_map::{auto_radius, trace_photons, Keep, PhotonMap};
+use crate::integrator::{continue_path, sample_one_light, Integrator, Tracer};
+use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
-use crate::{Hit, Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "photon",
@@ -115,67 +113,6 @@ struct Maps {
     global: PhotonMap,
 }
 
-/// A path followed through specular bounces to its first non-specular surface.
-struct Landing {
-    hit: Hit,
-    ray: Ray,
-    /// Throughput from the path's start to `hit`.
-    beta: Rgb,
-    /// Specular bounces before `hit`.
-    bounces: u32,
-}
-
-/// Follows `ray` through specular bounces (at most `max_bounces`) to a non-specular surface.
-/// With `emission`, adds the emission met on the way (and escaping radiance) to `l`.
-fn land(
-    mut ray: Ray,
-    first_is_camera: bool,
-    max_bounces: u32,
-    emission: Option<&mut Rgb>,
-    tracer: &mut Tracer,
-    sampler: &mut Sampler,
-) -> Option<Landing> {
-    let mut l = emission;
-    let mut beta = Rgb::ONE;
-    let mut bounces = 0u32;
-    loop {
-        let hit = if bounces == 0 && first_is_camera {
-            tracer.camera(&ray)
-        } else {
-            tracer.extend(&ray)
-        };
-        let Some(hit) = hit else {
-            if let Some(l) = l.as_deref_mut() {
-                *l += beta * escaped(tracer.scene, &ray);
-            }
-            return None;
-        };
-        if let Some(l) = l.as_deref_mut() {
-            *l += beta * emitted_at(tracer.scene, &hit, &ray);
-        }
-        let material = tracer.scene.material(hit.material);
-        if !material.is_specular() {
-            return Some(Landing {
-                hit,
-                ray,
-                beta,
-                bounces,
-            });
-        }
-        if bounces >= max_bounces {
-            return None;
-        }
-        let frame = hit.frame();
-        let wo = frame.to_local(-ray.dir);
-        let (next, _) = continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)?;
-        ray = next;
-        bounces += 1;
-        if bounces >= RR_DEPTH {
-            beta /= russian_roulette(beta, sampler)?;
-        }
-    }
-}
-
 impl Integrator for PhotonMapping {
     fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, _pass: u32) -> RayCounters {
         if self.maps.is_some() {
@@ -218,6 +155,7 @@ impl Integrator for PhotonMapping {
             *camera_ray,
             true,
             self.max_depth,
+            RR_DEPTH,
             Some(&mut l),
             tracer,
             sampler,
@@ -268,7 +206,7 @@ impl Integrator for PhotonMapping {
                 continue;
             };
             let budget = self.max_depth.saturating_sub(depth + 2);
-            let Some(y) = land(ray, false, budget, None, tracer, sampler) else {
+            let Some(y) = land(ray, false, budget, RR_DEPTH, None, tracer, sampler) else {
                 continue;
             };
             // Reaching y took `y.bounces` specular bounces: y's photons may have scattered

@@ -21,8 +21,10 @@
 //! [`Sampler`] seeded from (seed, stream, photon index), and blocks are concatenated in order,
 //! so a map is the same whatever the thread count.
 
-use crate::integrator::{stays_on_viewer_side, MAX_SURVIVAL};
-use crate::{luminance, Hit, Material, RayCounters, Rgb, Sampler, Scene, Tracer};
+use crate::integrator::{
+    continue_path, emitted_at, escaped, russian_roulette, stays_on_viewer_side, MAX_SURVIVAL,
+};
+use crate::{luminance, Hit, Material, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -205,6 +207,70 @@ fn scatter(
     let correction = (-dir).dot(hit.ns).abs() * wi.dot(hit.ng).abs() / denom;
     let beta = beta * material.importance_weight(wo, &bs) * correction;
     (beta.is_finite() && beta != Rgb::ZERO).then_some((wi, beta))
+}
+
+/// A path followed through specular bounces to its first non-specular surface.
+pub struct Landing {
+    pub hit: Hit,
+    /// The ray that arrived at `hit`.
+    pub ray: Ray,
+    /// Throughput from the path's start to `hit`.
+    pub beta: Rgb,
+    /// Specular bounces before `hit`.
+    pub bounces: u32,
+}
+
+/// Follows `ray` through specular bounces (at most `max_bounces`, Russian roulette from
+/// `rr_depth` on) to a non-specular surface: where photon integrators gather. With
+/// `emission`, adds the emission met on the way (and escaping radiance) to it.
+pub fn land(
+    mut ray: Ray,
+    first_is_camera: bool,
+    max_bounces: u32,
+    rr_depth: u32,
+    emission: Option<&mut Rgb>,
+    tracer: &mut Tracer,
+    sampler: &mut Sampler,
+) -> Option<Landing> {
+    let mut l = emission;
+    let mut beta = Rgb::ONE;
+    let mut bounces = 0u32;
+    loop {
+        let hit = if bounces == 0 && first_is_camera {
+            tracer.camera(&ray)
+        } else {
+            tracer.extend(&ray)
+        };
+        let Some(hit) = hit else {
+            if let Some(l) = l.as_deref_mut() {
+                *l += beta * escaped(tracer.scene, &ray);
+            }
+            return None;
+        };
+        if let Some(l) = l.as_deref_mut() {
+            *l += beta * emitted_at(tracer.scene, &hit, &ray);
+        }
+        let material = tracer.scene.material(hit.material);
+        if !material.is_specular() {
+            return Some(Landing {
+                hit,
+                ray,
+                beta,
+                bounces,
+            });
+        }
+        if bounces >= max_bounces {
+            return None;
+        }
+        let frame = hit.frame();
+        let wo = frame.to_local(-ray.dir);
+        let (next, _) = continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)?;
+        ray = next;
+        bounces += 1;
+        if bounces >= rr_depth {
+            beta /= russian_roulette(beta, sampler)?;
+        }
+    }
 }
 
 /// Photons in a hashed grid, for gathers of radius up to the one the map was built for.

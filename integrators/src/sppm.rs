@@ -21,10 +21,8 @@
 //! **Bias**: a blur of radius `r_i` in pass `i`, vanishing as passes grow (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
-use crate::integrator::{
-    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, Integrator, Tracer,
-};
-use crate::photon_map::{auto_radius, trace_photons, Keep, PhotonMap};
+use crate::integrator::{sample_one_light, Integrator, Tracer};
+use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
 
@@ -132,56 +130,35 @@ impl Integrator for Sppm {
 
     fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut ray = *camera_ray;
-        let mut bounces = 0u32;
-        loop {
-            // Trace the next segment of the camera path.
-            let hit = if bounces == 0 {
-                tracer.camera(&ray)
-            } else {
-                tracer.extend(&ray)
-            };
-            let Some(hit) = hit else {
-                l += beta * escaped(tracer.scene, &ray);
-                break;
-            };
-            // Emission seen directly or through specular bounces: nothing else finds it.
-            l += beta * emitted_at(tracer.scene, &hit, &ray);
-            if bounces >= self.max_depth {
-                break;
-            }
-            let material = tracer.scene.material(hit.material);
-            let frame = hit.frame();
-            let wo = frame.to_local(-ray.dir);
-            if !material.is_specular() {
-                // The visible point: direct light by next-event estimation (no BSDF sample
-                // looks for emitters here, so no MIS) ...
-                l += beta * sample_one_light(&hit, &frame, wo, material, false, tracer, sampler);
-                // ... and everything else from this pass's photons, within the depth limit.
-                let max_photon_bounces = self.max_depth.saturating_sub(bounces + 1);
-                let photons = self.map.radiance(&hit, &frame, wo, material, |p| {
-                    (p.bounces as u32) <= max_photon_bounces
-                });
-                l += beta * photons;
-                break;
-            }
-            // A specular bounce: follow the sampled lobe.
-            let Some((next, _)) =
-                continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)
-            else {
-                break;
-            };
-            ray = next;
-            bounces += 1;
-            // Russian roulette on long specular chains.
-            if bounces >= self.rr_depth {
-                match russian_roulette(beta, sampler) {
-                    Some(p) => beta /= p,
-                    None => break,
-                }
-            }
+        // Follow the camera path through specular bounces to its visible point, adding the
+        // emission seen on the way (nothing else finds it).
+        let Some(x) = land(
+            *camera_ray,
+            true,
+            self.max_depth,
+            self.rr_depth,
+            Some(&mut l),
+            tracer,
+            sampler,
+        ) else {
+            return l;
+        };
+        if x.bounces >= self.max_depth {
+            return l;
         }
+        let material = tracer.scene.material(x.hit.material);
+        let frame = x.hit.frame();
+        let wo = frame.to_local(-x.ray.dir);
+        // Direct light by next-event estimation (no BSDF sample looks for emitters here, so
+        // no MIS) ...
+        l += x.beta * sample_one_light(&x.hit, &frame, wo, material, false, tracer, sampler);
+        // ... and everything else from this pass's photons, within the depth limit: a photon
+        // that landed after b bounces makes a path of depth x.bounces + 1 + b.
+        let max_photon_bounces = self.max_depth.saturating_sub(x.bounces + 1);
+        l += x.beta
+            * self.map.radiance(&x.hit, &frame, wo, material, |p| {
+                (p.bounces as u32) <= max_photon_bounces
+            });
         l
     }
 }
