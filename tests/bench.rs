@@ -47,3 +47,22 @@ fn bench_reports_every_case_and_dumps_triangles_and_rays() {
     // 20 * 4^3 triangles at subdivision 3.
     assert!(text.contains("1280"), "{text}");
 }
+
+/// Without the `embree` feature, `--embree` is a usage error that says how to get it.
+#[cfg(not(feature = "embree"))]
+#[test]
+fn bench_embree_without_the_feature_exits_2_and_says_how_to_build_it() {
+    let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["bench", "--embree", "--rays", "10", "--subdivisions", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains(
+            "raylab was built without the `embree` feature: cargo build --release --features embree (needs Debian's libembree-dev)"
+        ),
+        "{err}"
+    );
+    assert!(o.stdout.is_empty(), "nothing measured");
+}

@@ -35,6 +35,8 @@ pub struct BenchOptions {
     /// Thread counts to measure at.
     pub threads: Vec<usize>,
     pub dump: Option<PathBuf>,
+    /// Also run the Embree comparison (`embree` feature only; see `embree.rs`).
+    pub embree: bool,
 }
 
 /// One benchmark scene.

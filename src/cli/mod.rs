@@ -202,6 +202,10 @@ pub struct BenchArgs {
     /// Write each case's triangles and rays here (see `raylab bench --help` and the README).
     #[arg(long, value_name = "DIR")]
     pub dump: Option<PathBuf>,
+    /// Also trace the same rays with Intel Embree 3 and print raylab/Embree ratios, build
+    /// times, memory and hit agreement (needs a build with `--features embree`).
+    #[arg(long)]
+    pub embree: bool,
 }
 
 /// The metric `diff --tolerance` applies to.
@@ -265,6 +269,11 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
         Command::Bench(args) => {
+            if args.embree && !cfg!(feature = "embree") {
+                anyhow::bail!(
+                    "raylab was built without the `embree` feature: cargo build --release --features embree (needs Debian's libembree-dev)"
+                );
+            }
             if args.rays == 0 || args.subdivisions > 10 || args.threads.contains(&0) {
                 anyhow::bail!(
                     "bench: --rays must be positive, --subdivisions at most 10, --threads positive"
@@ -285,6 +294,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 subdivisions: args.subdivisions,
                 threads,
                 dump: args.dump.clone(),
+                embree: args.embree,
             })?;
             Ok(ExitCode::SUCCESS)
         }
