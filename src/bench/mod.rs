@@ -13,9 +13,12 @@
 //! `CASE-coherent.rays` and `CASE-incoherent.rays`: `u32` ray count, then per ray 8 `f32`
 //! (origin xyz, unit direction xyz, tmin, tmax). All little-endian.
 
+#[cfg(feature = "embree")]
+mod embree;
+
 use crate::build::RenderScene;
 use crate::render::{self, RenderSettings};
-use crate::scene::{parse_scene, Camera};
+use crate::scene::{parse_scene, Camera, LoadedScene};
 use anyhow::{Context, Result};
 use glam::Vec3A;
 use raylab_integrators::sampling::uniform_sphere;
@@ -47,6 +50,8 @@ pub struct Case {
     pub build_time: Duration,
     /// Whether `path` samples per second are measured (small scenes only).
     pub shade: bool,
+    /// What `scene` was built from (the Embree comparison rebuilds it on each pool size).
+    pub source: LoadedScene,
 }
 
 /// A case from scene text; the build time covers the BVH build only (not parsing).
@@ -58,8 +63,9 @@ fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
         name,
         build_time: start.elapsed(),
         scene,
-        camera: loaded.camera,
+        camera: loaded.camera.clone(),
         shade: true,
+        source: loaded,
     })
 }
 
@@ -196,6 +202,8 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
         "{:<14} {:>10} {:>10} {:>8} {:>14} {:>16} {:>10}",
         "case", "triangles", "rays", "threads", "closest M/s", "occlusion M/s", "hit rate"
     ));
+    #[cfg(feature = "embree")]
+    let mut embree_header = opts.embree.then(embree::header);
     let cases: Vec<Box<dyn Fn() -> Result<Case>>> = vec![
         Box::new(|| {
             embedded(
@@ -264,6 +272,18 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                     stats.rays_per_second() / 1e6
                 ));
             }
+        }
+        #[cfg(feature = "embree")]
+        if opts.embree {
+            for line in embree_header.take().into_iter().flatten() {
+                say(line);
+            }
+            embree::compare(
+                &case,
+                &[("coherent", &coherent), ("incoherent", &incoherent)],
+                &opts.threads,
+                &mut say,
+            )?;
         }
     }
     Ok(out)

@@ -1,0 +1,324 @@
+//! `raylab bench --embree` (the `embree` cargo feature): the same work traced by Intel Embree 3
+//! (Debian's libembree3, through the safe `embree3` crate), as a yardstick for raylab's BVH.
+//!
+//! Per case and per thread count N:
+//! - Build: an Embree device configured with `threads=N` (threads started up front) gets
+//!   exactly the primitives raylab traces, `RenderScene::triangles` as a triangle soup (three
+//!   vertices per triangle, like raylab's own storage) and `RenderScene::spheres` as one
+//!   `SPHERE_POINT` geometry (x, y, z, radius). Timed: the scene commit, which is Embree's
+//!   BVH build (default quality), against raylab's `RenderScene::build` on an N-thread rayon
+//!   pool; best of three each. Memory: raylab's `memory_bytes` against what Embree's memory
+//!   monitor callback counted on that device (geometry buffers + BVH) after the commit, and
+//!   its peak during the commit.
+//! - Rays: the same coherent and incoherent rays as raylab's table, traced with Embree's
+//!   single-ray `rtcIntersect1` (closest hit) and `rtcOccluded1` (any hit), with the context's
+//!   coherent/incoherent flag to match, through `rays_per_second`: an N-thread rayon pool,
+//!   chunks of 4096, best of 3. raylab is measured again right next to each Embree
+//!   measurement (same function, same pool size), so the ratio compares runs seconds apart
+//!   on the same, possibly busy, machine. Ratio = raylab / Embree: above 1, raylab is faster.
+//! - Agreement (once per case and ray kind): the fraction of rays on which raylab and Embree
+//!   agree on hit or miss and, when both hit, on the distance within 1e-4 relative. Rays
+//!   grazing an edge shared by two triangles, or a sphere's silhouette, may differ: the two
+//!   engines round differently there.
+//!
+//! Not done: Embree's packet and stream APIs (raylab traces single rays), flush-to-zero /
+//! denormals-are-zero on the worker threads (Embree's performance advice; raylab does not set
+//! it either), and the robust or compact scene flags.
+
+use super::{rays_per_second, Case};
+use crate::build::RenderScene;
+use anyhow::{anyhow, Result};
+use embree3::{
+    BufferUsage, Config, Device, DeviceProperty, Format, GeometryKind, IntersectContext, RayHit,
+};
+use raylab_integrators::{Ray, Scene};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicIsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Bytes Embree says it holds on one device, and the most it held.
+#[derive(Default)]
+struct Memory {
+    now: AtomicIsize,
+    peak: AtomicIsize,
+}
+
+/// A committed Embree scene and what its build cost.
+struct Built {
+    scene: embree3::Scene<'static>,
+    /// The scene commit (Embree's BVH build).
+    commit: Duration,
+    /// Device memory after the commit and its peak (both include the geometry buffers).
+    bytes: isize,
+    peak: isize,
+}
+
+fn embree_err(what: &str) -> impl Fn(embree3::Error) -> anyhow::Error + '_ {
+    move |e| anyhow!("Embree: {what}: {e:?}")
+}
+
+/// Bytes for people: kB below a megabyte.
+fn size(bytes: f64) -> String {
+    if bytes < 1e6 {
+        format!("{:.1} kB", bytes / 1e3)
+    } else {
+        format!("{:.1} MB", bytes / 1e6)
+    }
+}
+
+/// Milliseconds with three significant digits or so.
+fn ms(d: Duration) -> String {
+    let ms = d.as_secs_f64() * 1e3;
+    if ms < 10.0 {
+        format!("{ms:.3} ms")
+    } else {
+        format!("{ms:.1} ms")
+    }
+}
+
+/// The Embree version string of a device ("3.13.5").
+fn version(device: &Device) -> String {
+    match device.get_property(DeviceProperty::VERSION) {
+        Ok(v) => format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100),
+        Err(_) => "3 (unknown version)".into(),
+    }
+}
+
+/// A fresh `threads`-thread device holding the case's triangles and spheres, committed.
+fn build_once(case: &Case, threads: usize) -> Result<Built> {
+    let device = Device::with_config(Config {
+        threads: threads as u32,
+        // Thread creation belongs to the device, not to the build being timed.
+        start_threads: true,
+        ..Config::default()
+    })
+    .map_err(embree_err("cannot create a device"))?;
+    let memory = Arc::new(Memory::default());
+    let counter = memory.clone();
+    device.set_memory_monitor_function(move |bytes, _post| {
+        // Embree reports allocations (> 0) before they happen and frees (< 0) after; we never
+        // cancel, so every report is real.
+        let now = counter.now.fetch_add(bytes, Ordering::Relaxed) + bytes;
+        counter.peak.fetch_max(now, Ordering::Relaxed);
+        true
+    });
+    let mut scene = device
+        .create_scene()
+        .map_err(embree_err("cannot create a scene"))?;
+
+    let tris = case.scene.triangles();
+    if !tris.is_empty() {
+        let mut g = device
+            .create_geometry(GeometryKind::TRIANGLE)
+            .map_err(embree_err("triangle geometry"))?;
+        let mut vertices = g
+            .set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, 3 * tris.len())
+            .map_err(embree_err("vertex buffer"))?;
+        for (out, t) in vertices.chunks_exact_mut(3).zip(&tris) {
+            out[0] = t.v0.to_array();
+            out[1] = t.v1.to_array();
+            out[2] = t.v2.to_array();
+        }
+        let mut indices = g
+            .set_new_buffer::<[u32; 3]>(BufferUsage::INDEX, 0, Format::UINT3, 12, tris.len())
+            .map_err(embree_err("index buffer"))?;
+        for (i, out) in indices.iter_mut().enumerate() {
+            let v = 3 * i as u32;
+            *out = [v, v + 1, v + 2];
+        }
+        scene.attach_geometry(&g.commit());
+    }
+    let spheres = case.scene.spheres();
+    if !spheres.is_empty() {
+        let mut g = device
+            .create_geometry(GeometryKind::SPHERE_POINT)
+            .map_err(embree_err("sphere geometry"))?;
+        let mut points = g
+            .set_new_buffer::<[f32; 4]>(BufferUsage::VERTEX, 0, Format::FLOAT4, 16, spheres.len())
+            .map_err(embree_err("sphere buffer"))?;
+        for (out, (c, r)) in points.iter_mut().zip(&spheres) {
+            *out = [c.x, c.y, c.z, *r];
+        }
+        scene.attach_geometry(&g.commit());
+    }
+
+    let start = Instant::now();
+    scene.commit();
+    let commit = start.elapsed();
+    match device.get_error() {
+        embree3::Error::NONE => {}
+        e => return Err(anyhow!("Embree: scene commit failed: {e:?}")),
+    }
+    Ok(Built {
+        scene,
+        commit,
+        bytes: memory.now.load(Ordering::Relaxed),
+        peak: memory.peak.load(Ordering::Relaxed),
+    })
+}
+
+/// Best of three Embree builds (the last one is kept to trace with).
+fn build(case: &Case, threads: usize) -> Result<Built> {
+    let mut best = Duration::MAX;
+    let mut built = None;
+    for _ in 0..3 {
+        let b = build_once(case, threads)?;
+        best = best.min(b.commit);
+        built = Some(b);
+    }
+    let mut built = built.expect("three builds");
+    built.commit = best;
+    Ok(built)
+}
+
+/// Best of three raylab builds of the case on a `threads`-thread pool.
+fn raylab_build(case: &Case, threads: usize) -> Result<Duration> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let mut best = Duration::MAX;
+    for _ in 0..3 {
+        let took = pool.install(|| {
+            let start = Instant::now();
+            let scene = RenderScene::build(&case.source);
+            let took = start.elapsed();
+            drop(scene);
+            took
+        });
+        best = best.min(took);
+    }
+    Ok(best)
+}
+
+fn embree_ray(r: &Ray) -> embree3::Ray {
+    embree3::Ray::segment(r.origin.to_array(), r.dir.to_array(), 0.0, r.tmax)
+}
+
+/// Embree's closest-hit distance along `r`, if it hits.
+fn embree_hit(scene: &embree3::Scene, context: fn() -> IntersectContext, r: &Ray) -> Option<f32> {
+    let mut rh = RayHit::from(embree_ray(r));
+    scene.intersect(&mut context(), &mut rh);
+    rh.hit.is_valid().then_some(rh.ray.tfar)
+}
+
+/// Ray kinds and the Embree context flag that matches them.
+fn context_for(kind: &str) -> fn() -> IntersectContext {
+    if kind == "coherent" {
+        IntersectContext::coherent
+    } else {
+        IntersectContext::incoherent
+    }
+}
+
+/// The header of the comparison table (printed once, before the first case).
+pub(super) fn header() -> Vec<String> {
+    let version = Device::new()
+        .map(|d| version(&d))
+        .unwrap_or_else(|_| "3 (no device)".into());
+    vec![
+        format!(
+            "embree comparison: Embree {version}, single rays (rtcIntersect1 / rtcOccluded1), the same rays, pool, chunks and best of 3; raylab re-measured next to each; ratio = raylab / Embree (> 1: raylab faster)"
+        ),
+        format!(
+            "{:<6} {:<14} {:>10} {:>8} {:>14} {:>14} {:>7} {:>14} {:>14} {:>7}",
+            "embree",
+            "case",
+            "rays",
+            "threads",
+            "raylab closest",
+            "Embree closest",
+            "ratio",
+            "raylab occl.",
+            "Embree occl.",
+            "ratio"
+        ),
+    ]
+}
+
+/// Runs the comparison for one case (raylab's own table for it has been printed).
+pub(super) fn compare(
+    case: &Case,
+    kinds: &[(&str, &[Ray])],
+    threads: &[usize],
+    say: &mut dyn FnMut(String),
+) -> Result<()> {
+    let ours = &case.scene;
+    let tris = ours.stats.triangles.max(1) as f64;
+    let mut last = None;
+    for &t in threads {
+        let built = build(case, t)?;
+        let raylab_time = raylab_build(case, t)?;
+        say(format!(
+            "{:<6} {:<14} build, {} threads: raylab {}, Embree commit {}; memory raylab {} ({:.0} bytes/triangle), Embree {} ({:.0} bytes/triangle, peak during commit {})",
+            "embree",
+            case.name,
+            t,
+            ms(raylab_time),
+            ms(built.commit),
+            size(ours.memory_bytes() as f64),
+            ours.memory_bytes() as f64 / tris,
+            size(built.bytes as f64),
+            built.bytes as f64 / tris,
+            size(built.peak as f64),
+        ));
+        let theirs = &built.scene;
+        for &(kind, rays) in kinds {
+            let context = context_for(kind);
+            let (our_closest, _) = rays_per_second(rays, t, &|r| ours.intersect(r).is_some())?;
+            let (their_closest, _) =
+                rays_per_second(rays, t, &|r| embree_hit(theirs, context, r).is_some())?;
+            let (our_occl, _) = rays_per_second(rays, t, &|r| ours.occluded(r))?;
+            let (their_occl, _) = rays_per_second(rays, t, &|r| {
+                theirs.occluded(&mut context(), &mut embree_ray(r))
+            })?;
+            say(format!(
+                "{:<6} {:<14} {:>10} {:>8} {:>14.2} {:>14.2} {:>7.2} {:>14.2} {:>14.2} {:>7.2}",
+                "embree",
+                case.name,
+                kind,
+                t,
+                our_closest / 1e6,
+                their_closest / 1e6,
+                our_closest / their_closest,
+                our_occl / 1e6,
+                their_occl / 1e6,
+                our_occl / their_occl,
+            ));
+        }
+        last = Some(built);
+    }
+    let Some(built) = last else {
+        return Ok(());
+    };
+    for &(kind, rays) in kinds {
+        let context = context_for(kind);
+        // (hit/miss differ, both hit at distances more than 1e-4 relative apart)
+        let (miss, far) = rays
+            .par_iter()
+            .map(|r| {
+                match (
+                    ours.intersect(r).map(|h| h.t),
+                    embree_hit(&built.scene, context, r),
+                ) {
+                    (None, None) => (0, 0),
+                    (Some(a), Some(b)) if (a - b).abs() <= 1e-4 * a.abs().max(b.abs()) => (0, 0),
+                    (Some(_), Some(_)) => (0, 1),
+                    _ => (1, 0),
+                }
+            })
+            .reduce(|| (0usize, 0usize), |a, b| (a.0 + b.0, a.1 + b.1));
+        let n = rays.len().max(1);
+        say(format!(
+            "{:<6} {:<14} agreement {}: {:.4}% of {} rays (hit/miss differ on {}, distances on {})",
+            "embree",
+            case.name,
+            kind,
+            100.0 * (n - miss - far) as f64 / n as f64,
+            rays.len(),
+            miss,
+            far
+        ));
+    }
+    Ok(())
+}
