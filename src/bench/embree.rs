@@ -174,6 +174,10 @@ fn build(case: &Case, threads: usize) -> Result<Built> {
 
 /// Best of three raylab builds of the case on a `threads`-thread pool.
 fn raylab_build(case: &Case, threads: usize) -> Result<Duration> {
+    let source = case
+        .source
+        .as_ref()
+        .ok_or_else(|| anyhow!("bench: {}: the scene source was not kept", case.name))?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -181,7 +185,7 @@ fn raylab_build(case: &Case, threads: usize) -> Result<Duration> {
     for _ in 0..3 {
         let took = pool.install(|| {
             let start = Instant::now();
-            let scene = RenderScene::build(&case.source);
+            let scene = RenderScene::build(source);
             let took = start.elapsed();
             drop(scene);
             took

@@ -50,8 +50,9 @@ pub struct Case {
     pub build_time: Duration,
     /// Whether `path` samples per second are measured (small scenes only).
     pub shade: bool,
-    /// What `scene` was built from (the Embree comparison rebuilds it on each pool size).
-    pub source: LoadedScene,
+    /// What `scene` was built from, kept only for the Embree comparison (which rebuilds it
+    /// on each pool size); dropped otherwise, so that peak RSS is what it always was.
+    pub source: Option<LoadedScene>,
 }
 
 /// A case from scene text; the build time covers the BVH build only (not parsing).
@@ -65,7 +66,7 @@ fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
         scene,
         camera: loaded.camera.clone(),
         shade: true,
-        source: loaded,
+        source: Some(loaded),
     })
 }
 
@@ -222,7 +223,10 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
         Box::new(|| large_mesh(opts.subdivisions)),
     ];
     for make in cases {
-        let case = make()?;
+        let mut case = make()?;
+        if !opts.embree {
+            case.source = None;
+        }
         let coherent = coherent_rays(&case.camera, opts.rays);
         let incoherent = incoherent_rays(case.scene.bounds(), opts.rays);
         if let Some(dir) = &opts.dump {
