@@ -8,6 +8,7 @@
 //! Traversal nests two obvhs traversals; both keep their stacks on the call stack, so no ray
 //! allocates.
 
+use super::primitives::intersect_triangle;
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
 use crate::scene::LoadedScene;
@@ -204,7 +205,7 @@ impl InstanceSet {
             if mesh
                 .bvh
                 .ray_traverse(Self::local_ray(inst, r), &mut local_hit, |lr, k| {
-                    mesh.tri[k].intersect(lr)
+                    intersect_triangle(&mesh.tri[k], lr)
                 })
             {
                 best_prim = local_hit.primitive_id;
@@ -224,7 +225,9 @@ impl InstanceSet {
             let mesh = &self.meshes[inst.mesh as usize];
             let missed = mesh
                 .bvh
-                .ray_traverse_miss(Self::local_ray(inst, r), |lr, k| mesh.tri[k].intersect(lr));
+                .ray_traverse_miss(Self::local_ray(inst, r), |lr, k| {
+                    intersect_triangle(&mesh.tri[k], lr)
+                });
             if missed {
                 f32::INFINITY
             } else {

@@ -18,7 +18,7 @@ use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
-use primitives::intersect_sphere;
+use primitives::{intersect_sphere, intersect_triangle};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
 use std::time::{Duration, Instant};
 
@@ -330,7 +330,7 @@ impl RenderScene {
             let i = (self.prims[slot] & !SPHERE_BIT) as usize;
             intersect_sphere(self.sph_center[i], self.sph_radius[i], ray)
         } else {
-            tri.intersect(ray)
+            intersect_triangle(tri, ray)
         }
     }
 

@@ -1,7 +1,36 @@
-//! Ray–primitive intersection for analytic shapes (triangles use obvhs's Möller–Trumbore).
+//! Ray–primitive intersection: triangles (Möller–Trumbore) and analytic spheres.
 
 use glam::Vec3A;
 use obvhs::ray::Ray;
+use obvhs::triangle::Triangle;
+
+/// Distance in `[ray.tmin, ray.tmax]` at which `ray` meets the triangle, or infinity.
+///
+/// Möller–Trumbore in the form obvhs uses (Fast Minimum Storage Ray Triangle Intersection),
+/// with one difference: a barycentric coordinate of -0.0 counts as inside. obvhs tests the
+/// three sign bits at once, so a ray exactly on an edge shared by two triangles (a camera ray
+/// along the diagonal of a quad, an axis-aligned ray along a box's seam) missed both and
+/// leaked through; with `min(u, v, w) >= 0` it hits one of them, as in Embree.
+#[inline(always)]
+pub fn intersect_triangle(tri: &Triangle, ray: &Ray) -> f32 {
+    let e1 = tri.v0 - tri.v1;
+    let e2 = tri.v2 - tri.v0;
+    let n = e1.cross(e2);
+    let c = tri.v0 - ray.origin;
+    let r = ray.direction.cross(c);
+    let inv_det = 1.0 / n.dot(ray.direction);
+    let u = r.dot(e2) * inv_det;
+    let v = r.dot(e1) * inv_det;
+    let w = 1.0 - u - v;
+    // NaN (a ray in the triangle's plane: inv_det infinite) fails the comparison.
+    if u.min(v).min(w) >= 0.0 && inv_det != 0.0 {
+        let t = n.dot(c) * inv_det;
+        if t >= ray.tmin && t <= ray.tmax {
+            return t;
+        }
+    }
+    f32::INFINITY
+}
 
 /// Nearest distance in `[ray.tmin, ray.tmax]` at which `ray` meets the sphere, or infinity.
 /// Uses the numerically stable form of the quadratic (Hearn & Baker / Ray Tracing Gems ch. 7):
@@ -53,6 +82,61 @@ mod tests {
         assert!(intersect_sphere(c, 1.0, &behind).is_infinite());
         let short = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, 3.0);
         assert!(intersect_sphere(c, 1.0, &short).is_infinite());
+    }
+
+    /// Rays exactly on the diagonal shared by a square's two triangles, straight down and
+    /// slanted within the diagonal's vertical plane: each hits one triangle. (obvhs's sign-bit
+    /// test misses every one of them coming from below.)
+    #[test]
+    fn rays_on_a_shared_edge_hit_one_of_its_triangles() {
+        let v = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
+        let a = Triangle {
+            v0: v(0.0, 0.0),
+            v1: v(1.0, 0.0),
+            v2: v(1.0, 1.0),
+        };
+        let b = Triangle {
+            v0: v(0.0, 0.0),
+            v1: v(1.0, 1.0),
+            v2: v(0.0, 1.0),
+        };
+        let (mut rays, mut misses) = (0, 0);
+        for i in 1..1000 {
+            let x = i as f32 / 1000.0;
+            for (slant, down) in [-0.5f32, -0.1, 0.0, 0.3]
+                .into_iter()
+                .flat_map(|s| [(s, 1.0), (s, -1.0)])
+            {
+                // From above and from below: the signs of the barycentrics' zeros differ.
+                let dir = Vec3A::new(slant, slant, -down).normalize();
+                let ray = Ray::new_inf(Vec3A::new(x, x, 0.0) - dir * 2.0, dir);
+                let hit = intersect_triangle(&a, &ray).min(intersect_triangle(&b, &ray));
+                rays += 1;
+                misses += usize::from(!hit.is_finite());
+            }
+        }
+        assert_eq!(
+            misses, 0,
+            "{misses} of {rays} rays on the shared edge missed both triangles"
+        );
+    }
+
+    #[test]
+    fn triangle_hits_inside_misses_outside_and_respects_the_interval() {
+        let tri = Triangle {
+            v0: Vec3A::new(0.0, 0.0, 5.0),
+            v1: Vec3A::new(1.0, 0.0, 5.0),
+            v2: Vec3A::new(0.0, 1.0, 5.0),
+        };
+        let at = |x: f32, y: f32| Ray::new_inf(Vec3A::new(x, y, 0.0), Vec3A::Z);
+        assert!((intersect_triangle(&tri, &at(0.2, 0.2)) - 5.0).abs() < 1e-6);
+        assert!(intersect_triangle(&tri, &at(0.6, 0.6)).is_infinite());
+        assert!(intersect_triangle(&tri, &at(-0.01, 0.5)).is_infinite());
+        let short = Ray::new(Vec3A::new(0.2, 0.2, 0.0), Vec3A::Z, 0.0, 4.0);
+        assert!(intersect_triangle(&tri, &short).is_infinite());
+        // A ray in the triangle's plane never hits it (no NaN distance).
+        let grazing = Ray::new_inf(Vec3A::new(-1.0, 0.2, 5.0), Vec3A::X);
+        assert!(intersect_triangle(&tri, &grazing).is_infinite());
     }
 
     #[test]

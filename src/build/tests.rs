@@ -52,12 +52,12 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
             WorldShape::Triangles { triangles, .. } => triangles
                 .iter()
                 .map(|t| {
-                    Triangle {
+                    let tri = Triangle {
                         v0: t[0],
                         v1: t[1],
                         v2: t[2],
-                    }
-                    .intersect(&obvhs_ray)
+                    };
+                    primitives::intersect_triangle(&tri, &obvhs_ray)
                 })
                 .collect(),
         };
