@@ -73,27 +73,27 @@ pub struct RenderScene {
     pub stats: BuildStats,
 }
 
-/// One primitive before reordering.
-enum Prim {
-    Tri {
-        v: [Vec3A; 3],
-        normals: Option<[Vec3A; 3]>,
-        material: u32,
-        light: u32,
-    },
-    Sphere {
-        center: Vec3A,
-        radius: f32,
-        material: u32,
-        light: u32,
-    },
+/// One primitive before reordering: a reference into the world's baked shapes (12 bytes, so
+/// that a million-triangle mesh is not copied before the BVH is built).
+#[derive(Clone, Copy)]
+struct Prim {
+    /// Index into the build's list of shaped entities.
+    shape: u32,
+    /// Triangle index within the shape (0 for a sphere).
+    index: u32,
+    light: u32,
 }
 
+/// An entity with geometry: its shape and material, in entity order.
+type Shaped<'w> = (Entity, &'w WorldShape, &'w MaterialRef);
+
 impl Prim {
-    fn aabb(&self) -> Aabb {
-        match self {
-            Prim::Tri { v, .. } => Aabb::from_points(v),
-            Prim::Sphere { center, radius, .. } => Aabb::new(
+    fn aabb(self, shaped: &[Shaped]) -> Aabb {
+        match shaped[self.shape as usize].1 {
+            WorldShape::Triangles { triangles, .. } => {
+                Aabb::from_points(&triangles[self.index as usize])
+            }
+            WorldShape::Sphere { center, radius } => Aabb::new(
                 *center - Vec3A::splat(*radius),
                 *center + Vec3A::splat(*radius),
             ),
@@ -120,47 +120,35 @@ impl RenderScene {
         }
 
         // Primitives in entity order.
-        let mut shaped: Vec<(Entity, &WorldShape, &MaterialRef)> = Vec::new();
         let mut query = world.query::<(Entity, &WorldShape, &MaterialRef)>();
-        for (e, s, m) in query.iter() {
-            shaped.push((e, s, m));
-        }
+        let mut shaped: Vec<Shaped> = query.iter().collect();
         shaped.sort_by_key(|(e, ..)| e.id());
-        let mut prims: Vec<Prim> = Vec::new();
-        for (entity, shape, material) in &shaped {
+        let count = |shape: &WorldShape| match shape {
+            WorldShape::Triangles { triangles, .. } => triangles.len(),
+            WorldShape::Sphere { .. } => 1,
+        };
+        let mut prims: Vec<Prim> =
+            Vec::with_capacity(shaped.iter().map(|(_, s, _)| count(s)).sum());
+        for (k, (entity, shape, _)) in shaped.iter().enumerate() {
             let light = light_of.get(entity);
-            let light_for = |i: usize| match light {
+            prims.extend((0..count(shape)).map(|i| Prim {
+                shape: k as u32,
+                index: i as u32,
                 // One light for the whole entity (a sphere, a quad), or one per triangle.
-                Some(&(first, 1)) => first,
-                Some(&(first, _)) => first + i as u32,
-                None => NONE,
-            };
-            match shape {
-                WorldShape::Sphere { center, radius } => prims.push(Prim::Sphere {
-                    center: *center,
-                    radius: *radius,
-                    material: material.0,
-                    light: light_for(0),
-                }),
-                WorldShape::Triangles {
-                    triangles, normals, ..
-                } => {
-                    for (i, v) in triangles.iter().enumerate() {
-                        prims.push(Prim::Tri {
-                            v: *v,
-                            normals: normals.as_ref().map(|n| n[i]),
-                            material: material.0,
-                            light: light_for(i),
-                        });
-                    }
-                }
-            }
+                light: match light {
+                    Some(&(first, 1)) => first,
+                    Some(&(first, _)) => first + i as u32,
+                    None => NONE,
+                },
+            }));
         }
 
         let instances = InstanceSet::build(scene);
         let mut bounds = instances.bounds;
-        for p in &prims {
-            bounds = bounds.union(&p.aabb());
+        // BVH over every primitive's box; then lay the arrays out in the BVH's order.
+        let aabbs: Vec<Aabb> = prims.iter().map(|p| p.aabb(&shaped)).collect();
+        for b in &aabbs {
+            bounds = bounds.union(b);
         }
         let radius = 0.5 * bounds.diagonal().length();
         if let Some(env) = scene.environment {
@@ -168,8 +156,6 @@ impl RenderScene {
         }
         let lights = LightTable::new(lights, radius);
 
-        // BVH over every primitive's box; then lay the arrays out in the BVH's order.
-        let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
         // A scene of instances only has no flat geometry: an empty BVH is traversed as a miss.
         let bvh = if aabbs.is_empty() {
             CwBvh::default()
@@ -180,13 +166,24 @@ impl RenderScene {
                 &mut Duration::default(),
             )
         };
+        // Every array at its exact size: no growth, nothing to give back.
+        let n = prims.len();
+        let smooth: usize = shaped
+            .iter()
+            .filter_map(|(_, s, _)| match s {
+                WorldShape::Triangles {
+                    normals: Some(n), ..
+                } => Some(n.len()),
+                _ => None,
+            })
+            .sum();
         let mut out = RenderScene {
-            prims: Vec::with_capacity(prims.len()),
-            tri: Vec::new(),
-            tri_material: Vec::new(),
-            tri_light: Vec::new(),
-            tri_smooth: Vec::new(),
-            smooth_normals: Vec::new(),
+            prims: Vec::with_capacity(n),
+            tri: Vec::with_capacity(n),
+            tri_material: Vec::with_capacity(n),
+            tri_light: Vec::with_capacity(n),
+            tri_smooth: Vec::with_capacity(n),
+            smooth_normals: Vec::with_capacity(smooth),
             sph_center: Vec::new(),
             sph_radius: Vec::new(),
             sph_material: Vec::new(),
@@ -207,37 +204,32 @@ impl RenderScene {
             lights,
             bvh,
         };
+        drop(aabbs);
         for &original in &out.bvh.primitive_indices {
-            match &prims[original as usize] {
-                Prim::Tri {
-                    v,
-                    normals,
-                    material,
-                    light,
+            let p = prims[original as usize];
+            let (_, shape, material) = shaped[p.shape as usize];
+            match shape {
+                WorldShape::Triangles {
+                    triangles, normals, ..
                 } => {
+                    let v = &triangles[p.index as usize];
                     out.prims.push(out.tri.len() as u32);
-                    let t = Triangle {
+                    out.tri.push(Triangle {
                         v0: v[0],
                         v1: v[1],
                         v2: v[2],
-                    };
-                    out.tri.push(t);
-                    out.tri_material.push(*material);
-                    out.tri_light.push(*light);
+                    });
+                    out.tri_material.push(material.0);
+                    out.tri_light.push(p.light);
                     match normals {
                         Some(n) => {
                             out.tri_smooth.push(out.smooth_normals.len() as u32);
-                            out.smooth_normals.push(*n);
+                            out.smooth_normals.push(n[p.index as usize]);
                         }
                         None => out.tri_smooth.push(NONE),
                     }
                 }
-                Prim::Sphere {
-                    center,
-                    radius,
-                    material,
-                    light,
-                } => {
+                WorldShape::Sphere { center, radius } => {
                     out.prims.push(SPHERE_BIT | out.sph_center.len() as u32);
                     // Triangle arrays are indexed by slot: a NaN triangle marks a sphere's
                     // slot, so traversal tests triangles with no indirection.
@@ -251,26 +243,16 @@ impl RenderScene {
                     out.tri_smooth.push(NONE);
                     out.sph_center.push(*center);
                     out.sph_radius.push(*radius);
-                    out.sph_material.push(*material);
-                    out.sph_light.push(*light);
+                    out.sph_material.push(material.0);
+                    out.sph_light.push(p.light);
                 }
             }
         }
         out.stats.triangles = out.tri.len() - out.sph_center.len();
         out.stats.spheres = out.sph_center.len();
-        // The builder over-allocates its node array (one slot per primitive) and the arrays
-        // above grew by doubling: give the memory back (here, ~130 bytes per triangle).
+        // The builder over-allocates its node array (one slot per primitive): give it back.
         out.bvh.nodes.shrink_to_fit();
         out.bvh.primitive_indices.shrink_to_fit();
-        for v in [
-            &mut out.tri_material,
-            &mut out.tri_light,
-            &mut out.tri_smooth,
-        ] {
-            v.shrink_to_fit();
-        }
-        out.tri.shrink_to_fit();
-        out.smooth_normals.shrink_to_fit();
         out.stats.build_time = start.elapsed();
         out
     }
