@@ -255,3 +255,63 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
     assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     assert!(!out.exists());
 }
+
+/// A checkpoint is tied to the mesh files the scene names, not only to the scene file: after
+/// an edit to the OBJ, resuming is refused.
+#[test]
+fn editing_a_mesh_file_invalidates_the_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("assets")).unwrap();
+    for f in ["assets/pyramid.obj", "assets/panel.gltf"] {
+        std::fs::copy(Path::new("scenes").join(f), d.join(f)).unwrap();
+    }
+    let scene = d.join("mesh_files.ron");
+    std::fs::copy("scenes/mesh_files.ron", &scene).unwrap();
+    let ck = d.join("ck.bin");
+    let render = |out: &str| {
+        raylab(&[
+            "render",
+            s(&scene),
+            "--size",
+            "32x32",
+            "--spp",
+            "4",
+            "-q",
+            "--checkpoint",
+            s(&ck),
+            "--resume",
+            "-o",
+            s(&d.join(out)),
+        ])
+    };
+    // A first render with --checkpoint alone writes the checkpoint; resuming it works.
+    let first = raylab(&[
+        "render",
+        s(&scene),
+        "--size",
+        "32x32",
+        "--spp",
+        "4",
+        "-q",
+        "--checkpoint",
+        s(&ck),
+        "-o",
+        s(&d.join("first.exr")),
+    ]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    let o = render("resumed.exr");
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Edit the OBJ (a comment is enough: the hash is of its bytes); the scene file is unchanged.
+    let obj = d.join("assets/pyramid.obj");
+    let text = std::fs::read_to_string(&obj).unwrap();
+    std::fs::write(&obj, format!("{text}\n# edited\n")).unwrap();
+    let o = render("after-edit.exr");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("changed since the checkpoint"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!d.join("after-edit.exr").exists());
+}

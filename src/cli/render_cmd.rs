@@ -118,7 +118,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     };
 
     // Checkpoints are tied to everything that determines the image.
-    let scene_bytes = std::fs::read(&args.scene)
+    // (The scene file and the mesh files it names.)
+    let scene_bytes = crate::scene::references::scene_content(&args.scene)
         .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
     let settings_text = format!(
         "{} {:?} spp={spp:?} seed={seed} {}x{} v{}",

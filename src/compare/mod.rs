@@ -232,7 +232,8 @@ fn reference(
             Ok((film, format!("file {}", path.display())))
         }
         ReferenceSpec::Spp(spp) => {
-            let scene_bytes = std::fs::read(&opts.scene)
+            // The scene file and the mesh files it names: editing either renders anew.
+            let scene_bytes = crate::scene::references::scene_content(&opts.scene)
                 .with_context(|| format!("{}: cannot read scene file", opts.scene.display()))?;
             // A seed of its own, so that its noise is independent of the renders'.
             let seed = opts.seed ^ 0x5eed_5eed_5eed_5eed;

@@ -1,8 +1,8 @@
 //! Checkpoints: the accumulated state of a render, saved after every pass so that it can be
-//! resumed. The file records a hash of everything that determines the image (scene text,
-//! integrator and parameters, target spp, seed, resolution); resuming with any of them changed
-//! is refused. Rendering N spp directly, or k spp and then resuming to N, gives bit-identical
-//! images.
+//! resumed. The file records a hash of everything that determines the image (scene text and
+//! the mesh files it names, integrator and parameters, target spp, seed, resolution);
+//! resuming with any of them changed is refused. Rendering N spp directly, or k spp and then
+//! resuming to N, gives bit-identical images.
 //!
 //! Format (little-endian): magic `RAYLABCK`, version `u32`, settings hash `u64`, width and
 //! height `u32`, samples per pixel done `u32`, dropped samples `u64`, first dropped sample
@@ -97,7 +97,7 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
         bail!("checkpoint version {version}, this raylab reads version {VERSION}");
     }
     if r.u64()? != hash {
-        bail!("the scene or the render settings changed since the checkpoint was written (integrator, parameters, spp, seed, resolution and the scene file must match)");
+        bail!("the scene or the render settings changed since the checkpoint was written (integrator, parameters, spp, seed, resolution, the scene file and the mesh files it names must match)");
     }
     let (w, h) = (r.u32()?, r.u32()?);
     if (w, h) != (width, height) {

@@ -3,7 +3,24 @@
 
 use super::load::parse_scene_file;
 use super::schema::ShapeDesc;
+use crate::render::checkpoint::stable_hash;
 use std::path::{Path, PathBuf};
+
+/// The bytes that determine what `scene` renders: its own text, then for every file it refers
+/// to the file's path and a hash of its contents (or a marker when it cannot be read). Hashes
+/// that must change when any of them changes (checkpoints, `compare`'s cached reference) are
+/// taken over this.
+pub fn scene_content(scene: &Path) -> std::io::Result<Vec<u8>> {
+    let mut bytes = std::fs::read(scene)?;
+    for file in referenced_files(scene).unwrap_or_default() {
+        bytes.extend_from_slice(file.to_string_lossy().as_bytes());
+        match std::fs::read(&file) {
+            Ok(content) => bytes.extend_from_slice(&stable_hash(&[&content]).to_le_bytes()),
+            Err(_) => bytes.extend_from_slice(b"\0unreadable"),
+        }
+    }
+    Ok(bytes)
+}
 
 /// The files `scene` refers to, resolved against its folder, in file order without repeats.
 /// `None` when the scene file cannot be read or parsed (the caller keeps what it had). Files
