@@ -254,6 +254,13 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     assert!(!out.exists());
+    // No temporary file left behind either (tempfile names them ".tmp...").
+    let stray: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".tmp"))
+        .collect();
+    assert!(stray.is_empty(), "{stray:?}");
 }
 
 /// A checkpoint is tied to the mesh files the scene names, not only to the scene file: after

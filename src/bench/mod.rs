@@ -143,17 +143,17 @@ pub fn peak_rss() -> u64 {
 }
 
 fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> Result<()> {
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(path)
-            .with_context(|| format!("{}: cannot create", path.display()))?,
-    );
-    w.write_all(&(count as u32).to_le_bytes())?;
-    for v in values {
-        w.write_all(&v.to_le_bytes())?;
-    }
-    w.flush()
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    Ok(())
+    crate::output::atomic::write_atomic(path, |file| {
+        let mut w = std::io::BufWriter::new(file);
+        let write_all = || -> std::io::Result<()> {
+            w.write_all(&(count as u32).to_le_bytes())?;
+            for v in values {
+                w.write_all(&v.to_le_bytes())?;
+            }
+            w.flush()
+        };
+        write_all().with_context(|| format!("{}: cannot write", path.display()))
+    })
 }
 
 fn dump(dir: &Path, case: &Case, coherent: &[Ray], incoherent: &[Ray]) -> Result<()> {

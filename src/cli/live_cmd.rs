@@ -96,6 +96,8 @@ fn install_interrupt_handler(control: Arc<Control>) {
             control.quit();
         } else {
             eprintln!("\ninterrupt: stopped");
+            // Exiting skips destructors: remove a half-written image or checkpoint first.
+            crate::output::atomic::remove_unfinished();
             std::process::exit(130);
         }
     });

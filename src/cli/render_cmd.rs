@@ -235,6 +235,8 @@ fn install_interrupt_handler() {
             eprintln!("\ninterrupt: finishing this pass, then writing the image (Ctrl-C again to stop at once)");
         } else {
             eprintln!("\ninterrupt: stopped, nothing written");
+            // Exiting skips destructors: remove a half-written image or checkpoint first.
+            crate::output::atomic::remove_unfinished();
             std::process::exit(130);
         }
     });

@@ -454,16 +454,8 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
 /// Writes a text file atomically.
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
     use std::io::Write;
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    tmp.write_all(text.as_bytes())
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("{}: cannot move into place", path.display()))?;
-    Ok(())
+    crate::output::atomic::write_atomic(path, |file| {
+        file.write_all(text.as_bytes())
+            .with_context(|| format!("{}: cannot write", path.display()))
+    })
 }

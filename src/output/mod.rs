@@ -2,10 +2,12 @@
 //! file is written to a temporary file in the target folder and renamed into place, so a
 //! failure never leaves a partial file and an old file survives intact.
 
+pub mod atomic;
 pub mod tonemap;
 
 use crate::render::Film;
 use anyhow::{bail, Context, Result};
+use atomic::parent_dir;
 use image::{ImageFormat, Rgb32FImage, RgbImage};
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -68,35 +70,17 @@ pub fn check_writable_folder(path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn parent_dir(path: &Path) -> &Path {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    }
-}
-
-/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+/// Writes `path` atomically through a buffered writer.
 fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<()>,
 ) -> Result<()> {
-    let mut tmp = tempfile::NamedTempFile::new_in(parent_dir(path)).with_context(|| {
-        format!(
-            "{}: cannot create a temporary file beside it",
-            path.display()
-        )
-    })?;
-    {
-        let mut w = BufWriter::new(tmp.as_file_mut());
+    atomic::write_atomic(path, |file| {
+        let mut w = BufWriter::new(file);
         write(&mut w).with_context(|| format!("{}: cannot encode the image", path.display()))?;
         w.flush()
-            .with_context(|| format!("{}: cannot write", path.display()))?;
-    }
-    tmp.as_file().sync_all().ok();
-    tmp.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("{}: cannot move the image into place", path.display()))?;
-    Ok(())
+            .with_context(|| format!("{}: cannot write", path.display()))
+    })
 }
 
 /// The film as 8-bit sRGB after exposure and tone curve.

@@ -128,18 +128,10 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
 
 /// Writes a checkpoint atomically (temporary file in the same folder, then rename).
 pub fn save(path: &Path, acc: &Accumulation, hash: u64) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("{}: cannot write a checkpoint there", path.display()))?;
-    tmp.write_all(&encode(acc, hash))
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("{}: cannot move the checkpoint into place", path.display()))?;
-    Ok(())
+    crate::output::atomic::write_atomic(path, |file| {
+        file.write_all(&encode(acc, hash))
+            .with_context(|| format!("{}: cannot write the checkpoint", path.display()))
+    })
 }
 
 /// Reads a checkpoint written by [`save`] for the same settings.

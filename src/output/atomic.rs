@@ -1,0 +1,120 @@
+//! Atomic file writes: a temporary file in the target's folder, then a rename, so that no
+//! reader ever sees a partly written file. The temporary files being written are registered,
+//! so that a second Ctrl-C, which exits at once without running destructors, can remove them
+//! first ([`remove_unfinished`]) rather than leave them beside the output.
+
+use anyhow::{Context, Result};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Temporary files being written now.
+static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn unfinished() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    // A panic elsewhere while holding the lock leaves the list usable.
+    UNFINISHED.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Takes a temporary file off the list when its write ends, however it ends.
+struct Registered(PathBuf);
+
+impl Drop for Registered {
+    fn drop(&mut self) {
+        unfinished().retain(|p| p != &self.0);
+    }
+}
+
+/// The folder `path` is written in ("." for a bare file name).
+pub fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Writes `path` atomically: `write` fills a temporary file beside it, which then replaces
+/// `path`. On any error `path` is untouched and the temporary file is removed. Errors from
+/// `write` are returned as they are.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut std::fs::File) -> Result<()>,
+) -> Result<()> {
+    let mut tmp = tempfile::NamedTempFile::new_in(parent_dir(path)).with_context(|| {
+        format!(
+            "{}: cannot create a temporary file beside it",
+            path.display()
+        )
+    })?;
+    unfinished().push(tmp.path().to_path_buf());
+    let _registered = Registered(tmp.path().to_path_buf());
+    // (The caller's errors carry its own context: "cannot encode the image", ...)
+    write(tmp.as_file_mut())?;
+    tmp.as_file().sync_all().ok();
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("{}: cannot move it into place", path.display()))?;
+    Ok(())
+}
+
+/// Removes the temporary files being written now: for an exit that skips destructors.
+pub fn remove_unfinished() {
+    remove_unfinished_where(|_| true);
+}
+
+/// Removes (and forgets) the temporary files being written whose path matches.
+fn remove_unfinished_where(matches: impl Fn(&Path) -> bool) {
+    unfinished().retain(|p| {
+        if matches(p) {
+            let _ = std::fs::remove_file(p);
+        }
+        !matches(p)
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn writes_replace_the_target_and_failures_leave_it_and_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.txt");
+        write_atomic(&target, |f| Ok(f.write_all(b"one")?)).unwrap();
+        write_atomic(&target, |f| Ok(f.write_all(b"two")?)).unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"two");
+        let failed = write_atomic(&target, |f| {
+            f.write_all(b"partial")?;
+            anyhow::bail!("encoder failed")
+        });
+        assert!(failed.is_err());
+        assert_eq!(std::fs::read(&target).unwrap(), b"two");
+        assert_eq!(names(dir.path()), ["out.txt"]);
+    }
+
+    /// What a second Ctrl-C does in the middle of a write: the temporary file goes. (Only
+    /// this test's folder: other tests may be writing files at the same time.)
+    #[test]
+    fn remove_unfinished_removes_a_temporary_being_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("checkpoint.bin");
+        let result = write_atomic(&target, |f| {
+            f.write_all(b"half")?;
+            assert_eq!(names(dir.path()).len(), 1, "the temporary file exists");
+            remove_unfinished_where(|p| p.starts_with(dir.path()));
+            assert!(names(dir.path()).is_empty(), "and is removed");
+            anyhow::bail!("interrupted")
+        });
+        assert!(result.is_err());
+        assert!(names(dir.path()).is_empty());
+    }
+}
