@@ -146,13 +146,7 @@ fn a_hundred_instances_cost_about_one_copy_of_the_mesh() {
 #[test]
 fn the_instance_build_does_not_depend_on_the_thread_count() {
     let loaded = parse_scene(&scene_text(40, 3, true, 9), Path::new("instances.ron")).unwrap();
-    let build = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| RenderScene::build(&loaded))
-    };
+    let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
     let (a, b) = (build(1), build(2));
     let mut sampler = Sampler::new(3, 0, 0);
     for _ in 0..2000 {

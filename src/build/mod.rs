@@ -102,6 +102,21 @@ impl Prim {
 }
 
 impl RenderScene {
+    /// [`RenderScene::build`] on `threads` worker threads (every core when `None`), so that
+    /// `--threads` bounds the build as it bounds the render that follows.
+    pub fn build_on_threads(
+        scene: &LoadedScene,
+        threads: Option<usize>,
+    ) -> anyhow::Result<RenderScene> {
+        Ok(match threads {
+            None => Self::build(scene),
+            Some(n) => rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()?
+                .install(|| Self::build(scene)),
+        })
+    }
+
     /// Builds the render scene from a loaded world. The world must have been validated and
     /// baked (as [`crate::scene::load_scene`] does) and hold at least one shape.
     pub fn build(scene: &LoadedScene) -> RenderScene {

@@ -149,16 +149,10 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
 
 #[test]
 fn the_build_does_not_depend_on_the_thread_count() {
-    // obvhs builds in parallel on the current rayon pool: the BVH and the primitive order
-    // must come out the same on 1 and 2 threads (the images rely on it).
+    // obvhs builds in parallel on the current rayon pool (--threads sets it): the BVH and the
+    // primitive order must come out the same on 1 and 2 threads (the images rely on it).
     let loaded = parse_scene(&random_scene(5000, 30, 11), Path::new("random.ron")).unwrap();
-    let build = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| RenderScene::build(&loaded))
-    };
+    let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
     let (a, b) = (build(1), build(2));
     assert_eq!(a.bvh, b.bvh);
     assert_eq!(a.prims, b.prims);

@@ -108,7 +108,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let seed = args.seed.unwrap_or(loaded.render.seed);
 
     render::check_memory(camera.width, camera.height)?;
-    let built = RenderScene::build(&loaded);
+    let built = RenderScene::build_on_threads(&loaded, args.threads)?;
     let settings = RenderSettings {
         spp,
         seed,

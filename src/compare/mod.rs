@@ -313,7 +313,7 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
             );
         }
     }
-    let built = RenderScene::build(&loaded);
+    let built = RenderScene::build_on_threads(&loaded, opts.threads)?;
     let (reference, reference_what) = reference(opts, &built, &camera)?;
     output::write_image(
         &opts.out_dir.join("reference.exr"),

@@ -253,7 +253,7 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
         None => loaded.camera.clone(),
     };
     render::check_memory(camera.width, camera.height)?;
-    let built = RenderScene::build(&loaded);
+    let built = RenderScene::build_on_threads(&loaded, settings.threads)?;
     let info = RenderInfo {
         integrator: entry.name,
         params: param_values(entry, &params),
