@@ -515,7 +515,12 @@ impl Light {
 
     /// Emitted power (luminance, watts) used to choose lights; `scene_radius` bounds the
     /// environment's contribution. Never negative; NaN powers become 0.
-    pub fn power(&self, scene_radius: f32) -> f32 {
+    pub fn power(&self, scene_radius: f32) -> f64 {
+        use std::f64::consts::PI;
+        // In f64: radiance times area may pass f32's range in a valid scene (a bright light
+        // the size of a planet), and an infinite power would drop the light from the table.
+        // (Luminance itself stays in f32: it is a weighted mean, never above the largest channel.)
+        let lum = |c: Rgb| luminance(c) as f64;
         let power = match *self {
             Light::Triangle {
                 area,
@@ -530,16 +535,20 @@ impl Light {
                 ..
             } => {
                 let sides = if two_sided { 2.0 } else { 1.0 };
-                luminance(radiance) * area * PI * sides
+                lum(radiance) * area as f64 * PI * sides
             }
             Light::Sphere {
                 radius, radiance, ..
-            } => luminance(radiance) * 4.0 * PI * radius * radius * PI,
-            Light::Point { intensity, .. } => 4.0 * PI * luminance(intensity),
+            } => {
+                let r = radius as f64;
+                lum(radiance) * 4.0 * PI * r * r * PI
+            }
+            Light::Point { intensity, .. } => 4.0 * PI * lum(intensity),
             Light::Environment { radiance } => {
                 // pbrt-v4's UniformInfiniteLight::Phi: the power crossing a disk of the scene's
                 // radius from every direction.
-                luminance(radiance) * PI * scene_radius * scene_radius * 4.0 * PI
+                let r = scene_radius as f64;
+                lum(radiance) * PI * r * r * 4.0 * PI
             }
         };
         power.max(0.0)
@@ -565,7 +574,7 @@ impl LightTable {
             .map(|l| {
                 let p = l.power(scene_radius);
                 if p.is_finite() && p > 0.0 {
-                    p as f64
+                    p
                 } else {
                     0.0
                 }
@@ -1074,34 +1083,52 @@ mod tests {
 
     #[test]
     fn power_formulas() {
-        let lum = crate::luminance(L);
-        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * b.abs();
+        let lum = crate::luminance(L) as f64;
+        let pi = std::f64::consts::PI;
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-5 * b.abs();
         let tri = triangle(false);
         let Light::Triangle { area, .. } = tri else {
             unreachable!()
         };
-        assert!(close(tri.power(1.0), lum * area * PI));
-        assert!(close(triangle(true).power(1.0), 2.0 * lum * area * PI));
+        assert!(close(tri.power(1.0), lum * area as f64 * pi));
+        assert!(close(
+            triangle(true).power(1.0),
+            2.0 * lum * area as f64 * pi
+        ));
         let q = quad(false);
-        assert!(close(q.power(1.0), lum * (1.0f32 + 0.09).sqrt() * PI));
+        assert!(close(q.power(1.0), lum * (1.0f64 + 0.09).sqrt() * pi));
         let s = Light::Sphere {
             center: Vec3A::ZERO,
             radius: 2.0,
             radiance: L,
         };
-        assert!(close(s.power(1.0), lum * 16.0 * PI * PI));
+        assert!(close(s.power(1.0), lum * 16.0 * pi * pi));
         let p = Light::Point {
             position: Vec3A::ZERO,
             intensity: L,
         };
-        assert!(close(p.power(1.0), 4.0 * PI * lum));
+        assert!(close(p.power(1.0), 4.0 * pi * lum));
         let e = Light::Environment { radiance: L };
-        assert!(close(e.power(3.0), lum * 36.0 * PI * PI));
+        assert!(close(e.power(3.0), lum * 36.0 * pi * pi));
         let black = Light::Point {
             position: Vec3A::ZERO,
             intensity: Rgb::new(-1.0, f32::NAN, 0.0),
         };
         assert_eq!(black.power(1.0), 0.0);
+    }
+
+    /// A light whose power passes f32's range is still chosen (in proportion to its power),
+    /// not dropped as infinite.
+    #[test]
+    fn a_light_beyond_f32_power_is_still_sampled() {
+        let huge = Light::Sphere {
+            center: Vec3A::ZERO,
+            radius: 1e15,
+            radiance: Rgb::splat(1e10),
+        };
+        assert!(huge.power(1.0) > f32::MAX as f64 && huge.power(1.0).is_finite());
+        let table = LightTable::new(vec![point(1.0), huge], 1.0);
+        assert!(table.pmf(1) > 0.999, "{}", table.pmf(1));
     }
 
     fn point(intensity: f32) -> Light {
