@@ -32,6 +32,18 @@ pub fn parent_dir(path: &Path) -> &Path {
     }
 }
 
+/// A temporary file in `path`'s folder, with the permissions of any new file (0666 less the
+/// umask): tempfile's default, 0600, would make every image and checkpoint private.
+fn temporary_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let mut builder = tempfile::Builder::new();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(parent_dir(path))
+}
+
 /// Writes `path` atomically: `write` fills a temporary file beside it, which then replaces
 /// `path`. On any error `path` is untouched and the temporary file is removed. Errors from
 /// `write` are returned as they are.
@@ -39,7 +51,7 @@ pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut std::fs::File) -> Result<()>,
 ) -> Result<()> {
-    let mut tmp = tempfile::NamedTempFile::new_in(parent_dir(path)).with_context(|| {
+    let mut tmp = temporary_beside(path).with_context(|| {
         format!(
             "{}: cannot create a temporary file beside it",
             path.display()
@@ -99,6 +111,20 @@ mod tests {
         assert!(failed.is_err());
         assert_eq!(std::fs::read(&target).unwrap(), b"two");
         assert_eq!(names(dir.path()), ["out.txt"]);
+    }
+
+    /// Written files get the same permissions as a file made with `fs::write`, not 0600.
+    #[cfg(unix)]
+    #[test]
+    fn written_files_have_ordinary_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let ordinary = dir.path().join("ordinary.txt");
+        std::fs::write(&ordinary, b"x").unwrap();
+        let atomic = dir.path().join("atomic.txt");
+        write_atomic(&atomic, |f| Ok(f.write_all(b"x")?)).unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&atomic), mode(&ordinary));
     }
 
     /// What a second Ctrl-C does in the middle of a write: the temporary file goes. (Only
