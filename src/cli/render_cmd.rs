@@ -117,19 +117,24 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         time_budget: args.time.map(Duration::from_secs_f64),
     };
 
-    // Checkpoints are tied to everything that determines the image.
-    // (The scene file and the mesh files it names.)
-    let scene_bytes = crate::scene::references::scene_content(&args.scene)
-        .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
-    let settings_text = format!(
-        "{} {:?} spp={spp:?} seed={seed} {}x{} v{}",
-        entry.name,
-        params,
-        camera.width,
-        camera.height,
-        env!("CARGO_PKG_VERSION")
-    );
-    let hash = checkpoint::stable_hash(&[&scene_bytes, settings_text.as_bytes()]);
+    // Checkpoints are tied to everything that determines the image: the settings, the scene
+    // file and the mesh files it names (read and hashed only when there is a checkpoint).
+    let hash = match &args.checkpoint {
+        Some(_) => {
+            let scene_bytes = crate::scene::references::scene_content(&args.scene)
+                .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
+            let settings_text = format!(
+                "{} {:?} spp={spp:?} seed={seed} {}x{} v{}",
+                entry.name,
+                params,
+                camera.width,
+                camera.height,
+                env!("CARGO_PKG_VERSION")
+            );
+            checkpoint::stable_hash(&[&scene_bytes, settings_text.as_bytes()])
+        }
+        None => 0,
+    };
     let mut acc = match (&args.checkpoint, args.resume) {
         (Some(path), true) => {
             let acc = checkpoint::load(path, hash, camera.width, camera.height)?;

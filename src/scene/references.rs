@@ -6,14 +6,14 @@ use super::schema::ShapeDesc;
 use crate::render::checkpoint::stable_hash;
 use std::path::{Path, PathBuf};
 
-/// The bytes that determine what `scene` renders: its own text, then for every file it refers
-/// to the file's path and a hash of its contents (or a marker when it cannot be read). Hashes
-/// that must change when any of them changes (checkpoints, `compare`'s cached reference) are
-/// taken over this.
+/// The bytes that determine what `scene` renders: its own text, then a hash of the contents
+/// of every file it refers to, in the order the text names them (a marker for a file that
+/// cannot be read). Not the files' resolved paths: the scene's text already names them, and
+/// `scenes/x.ron` and `./scenes/x.ron` must hash alike. Hashes that must change when any of
+/// these files changes (checkpoints, `compare`'s cached reference) are taken over this.
 pub fn scene_content(scene: &Path) -> std::io::Result<Vec<u8>> {
     let mut bytes = std::fs::read(scene)?;
     for file in referenced_files(scene).unwrap_or_default() {
-        bytes.extend_from_slice(file.to_string_lossy().as_bytes());
         match std::fs::read(&file) {
             Ok(content) => bytes.extend_from_slice(&stable_hash(&[&content]).to_le_bytes()),
             Err(_) => bytes.extend_from_slice(b"\0unreadable"),
