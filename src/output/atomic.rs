@@ -15,8 +15,20 @@ fn unfinished() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     UNFINISHED.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Takes a temporary file off the list when its write ends, however it ends.
+/// A registered temporary file, taken off the list when its write ends, however it ends.
 struct Registered(PathBuf);
+
+impl Registered {
+    /// Creates the temporary file beside `path` and registers it under one lock, so that
+    /// [`remove_unfinished`] never misses a file that exists.
+    fn create_beside(path: &Path) -> std::io::Result<(tempfile::NamedTempFile, Registered)> {
+        let mut list = unfinished();
+        let tmp = temporary_beside(path)?;
+        list.push(tmp.path().to_path_buf());
+        let registered = Registered(tmp.path().to_path_buf());
+        Ok((tmp, registered))
+    }
+}
 
 impl Drop for Registered {
     fn drop(&mut self) {
@@ -51,14 +63,12 @@ pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut std::fs::File) -> Result<()>,
 ) -> Result<()> {
-    let mut tmp = temporary_beside(path).with_context(|| {
+    let (mut tmp, _registered) = Registered::create_beside(path).with_context(|| {
         format!(
             "{}: cannot create a temporary file beside it",
             path.display()
         )
     })?;
-    unfinished().push(tmp.path().to_path_buf());
-    let _registered = Registered(tmp.path().to_path_buf());
     // (The caller's errors carry its own context: "cannot encode the image", ...)
     write(tmp.as_file_mut())?;
     tmp.as_file().sync_all().ok();

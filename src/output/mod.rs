@@ -71,7 +71,7 @@ pub fn check_writable_folder(path: &Path) -> Result<()> {
 }
 
 /// Writes `path` atomically through a buffered writer.
-fn write_atomic(
+fn write_buffered(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<()>,
 ) -> Result<()> {
@@ -100,14 +100,14 @@ pub fn write_image(path: &Path, film: &Film, display: DisplaySettings) -> Result
             let data: Vec<f32> = film.pixels.iter().flat_map(|p| p.to_array()).collect();
             let img = Rgb32FImage::from_raw(film.width, film.height, data)
                 .expect("buffer matches the film size");
-            write_atomic(path, |w| {
+            write_buffered(path, |w| {
                 img.write_to(w, ImageFormat::OpenExr)?;
                 Ok(())
             })
         }
         OutputFormat::Png => {
             let img = to_srgb_image(film, display);
-            write_atomic(path, |w| {
+            write_buffered(path, |w| {
                 img.write_to(w, ImageFormat::Png)?;
                 Ok(())
             })
@@ -144,7 +144,7 @@ pub fn read_image(path: &Path) -> Result<Film> {
 /// Writes an 8-bit RGB image as PNG, atomically.
 pub fn write_png(path: &Path, img: &RgbImage) -> Result<()> {
     check_writable_folder(path)?;
-    write_atomic(path, |w| {
+    write_buffered(path, |w| {
         img.write_to(w, ImageFormat::Png)?;
         Ok(())
     })
