@@ -55,7 +55,8 @@ pub struct Case {
     pub source: Option<LoadedScene>,
 }
 
-/// A case from scene text; the build time covers the BVH build only (not parsing).
+/// A case from scene text; the build time covers the whole `RenderScene::build` (boxes, BVH,
+/// arrays in BVH order, light table), not parsing.
 fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
     let loaded = parse_scene(text, Path::new(file))?;
     let start = Instant::now();

@@ -112,7 +112,8 @@ impl RenderScene {
             None => Self::build(scene),
             Some(n) => rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
-                .build()?
+                .build()
+                .map_err(|e| anyhow::anyhow!("cannot start {n} worker threads: {e}"))?
                 .install(|| Self::build(scene)),
         })
     }
@@ -181,7 +182,8 @@ impl RenderScene {
                 &mut Duration::default(),
             )
         };
-        // Every array at its exact size: no growth, nothing to give back.
+        // The per-slot arrays at their exact size: no growth, nothing to give back (the
+        // sphere arrays, a handful of entries, grow as usual).
         let n = prims.len();
         let smooth: usize = shaped
             .iter()

@@ -10,7 +10,7 @@ use obvhs::triangle::Triangle;
 /// with one difference: a barycentric coordinate of -0.0 counts as inside. obvhs tests the
 /// three sign bits at once, so a ray exactly on an edge shared by two triangles (a camera ray
 /// along the diagonal of a quad, an axis-aligned ray along a box's seam) missed both and
-/// leaked through; with `min(u, v, w) >= 0` it hits one of them, as in Embree.
+/// leaked through; with `u >= 0 && v >= 0 && w >= 0` it hits one of them, as in Embree.
 #[inline(always)]
 pub fn intersect_triangle(tri: &Triangle, ray: &Ray) -> f32 {
     let e1 = tri.v0 - tri.v1;
@@ -22,8 +22,9 @@ pub fn intersect_triangle(tri: &Triangle, ray: &Ray) -> f32 {
     let u = r.dot(e2) * inv_det;
     let v = r.dot(e1) * inv_det;
     let w = 1.0 - u - v;
-    // NaN (a ray in the triangle's plane: inv_det infinite) fails the comparison.
-    if u.min(v).min(w) >= 0.0 && inv_det != 0.0 {
+    // Each compared on its own: a NaN (a ray parallel to the plane makes inv_det infinite)
+    // fails its comparison, where f32::min would pass over it.
+    if u >= 0.0 && v >= 0.0 && w >= 0.0 && inv_det != 0.0 {
         let t = n.dot(c) * inv_det;
         if t >= ray.tmin && t <= ray.tmax {
             return t;
@@ -134,9 +135,20 @@ mod tests {
         assert!(intersect_triangle(&tri, &at(-0.01, 0.5)).is_infinite());
         let short = Ray::new(Vec3A::new(0.2, 0.2, 0.0), Vec3A::Z, 0.0, 4.0);
         assert!(intersect_triangle(&tri, &short).is_infinite());
-        // A ray in the triangle's plane never hits it (no NaN distance).
+        // A ray in the triangle's plane, or parallel to it beside it, never hits it.
         let grazing = Ray::new_inf(Vec3A::new(-1.0, 0.2, 5.0), Vec3A::X);
         assert!(intersect_triangle(&tri, &grazing).is_infinite());
+        for (origin, dir) in [
+            (Vec3A::new(-1.0, 0.2, 4.0), Vec3A::X),
+            (Vec3A::new(0.2, -1.0, 6.0), Vec3A::Y),
+            (
+                Vec3A::new(0.0, 0.0, 4.5),
+                Vec3A::new(1.0, 1.0, 0.0).normalize(),
+            ),
+        ] {
+            let t = intersect_triangle(&tri, &Ray::new_inf(origin, dir));
+            assert!(t.is_infinite(), "{origin} {dir}: {t}");
+        }
     }
 
     #[test]
