@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Equal quality on the report's room: how long `path` takes to reach the error of the
 # report's own `fixed-depth` settings (400x400, 4 spp, depth 2, branching 20, 7x7 shadow
-# rays). Three `compare` runs against one cached 1024-spp `path` reference: fixed-depth at
+# rays). Four `compare` runs against one cached 1024-spp `path` reference: fixed-depth at
 # its defaults, then path at 1, 8 and 32 spp; each writes a page and metrics.csv (time, RMSE,
-# FLIP, ...). About 3 minutes on 2 cores.
-# Usage: scripts/equal_quality.sh
+# FLIP, ...) under out/equal-quality. About 3 minutes on 2 cores.
+# Usage: scripts/equal_quality.sh   (replaces the pages in docs/equal-quality)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
