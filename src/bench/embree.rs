@@ -160,14 +160,12 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
 
 /// Best of three Embree builds (the last one is kept to trace with).
 fn build(case: &Case, threads: usize) -> Result<Built> {
-    let mut best = Duration::MAX;
-    let mut built = None;
-    for _ in 0..3 {
-        let b = build_once(case, threads)?;
-        best = best.min(b.commit);
-        built = Some(b);
+    let mut built = build_once(case, threads)?;
+    let mut best = built.commit;
+    for _ in 1..3 {
+        built = build_once(case, threads)?;
+        best = best.min(built.commit);
     }
-    let mut built = built.expect("three builds");
     built.commit = best;
     Ok(built)
 }
