@@ -8,7 +8,7 @@
 //! Traversal nests two obvhs traversals; both keep their stacks on the call stack, so no ray
 //! allocates.
 
-use super::primitives::intersect_triangle;
+use super::primitives::{intersect_triangle, occludes_triangle};
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
 use crate::scene::LoadedScene;
@@ -226,7 +226,7 @@ impl InstanceSet {
             let missed = mesh
                 .bvh
                 .ray_traverse_miss(Self::local_ray(inst, r), |lr, k| {
-                    intersect_triangle(&mesh.tri[k], lr)
+                    occludes_triangle(&mesh.tri[k], lr)
                 });
             if missed {
                 f32::INFINITY

@@ -18,7 +18,7 @@ use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
-use primitives::{intersect_sphere, intersect_triangle};
+use primitives::{intersect_sphere, intersect_triangle, occludes_triangle};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
 use std::time::{Duration, Instant};
 
@@ -321,13 +321,16 @@ impl RenderScene {
             + v(self.bvh.primitive_indices.capacity(), 4)
     }
 
-    /// Distance to primitive slot `slot` along `ray`, or infinity.
+    /// Distance to primitive slot `slot` along `ray`, or infinity; `OCCLUSION` picks the
+    /// triangle test tuned for occlusion queries ([`primitives::occludes_triangle`]).
     #[inline(always)]
-    fn intersect_slot(&self, ray: &obvhs::ray::Ray, slot: usize) -> f32 {
+    fn intersect_slot<const OCCLUSION: bool>(&self, ray: &obvhs::ray::Ray, slot: usize) -> f32 {
         let tri = &self.tri[slot];
         if tri.v0.x.is_nan() {
             let i = (self.prims[slot] & !SPHERE_BIT) as usize;
             intersect_sphere(self.sph_center[i], self.sph_radius[i], ray)
+        } else if OCCLUSION {
+            occludes_triangle(tri, ray)
         } else {
             intersect_triangle(tri, ray)
         }
@@ -400,9 +403,9 @@ impl Scene for RenderScene {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
         let mut hit = RayHit::none();
-        let flat = self
-            .bvh
-            .ray_traverse(bvh_ray, &mut hit, |r, slot| self.intersect_slot(r, slot));
+        let flat = self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
+            self.intersect_slot::<false>(r, slot)
+        });
         if !self.instances.is_empty() {
             // Instances only count nearer than the flat geometry's hit.
             let mut r = bvh_ray;
@@ -424,7 +427,7 @@ impl Scene for RenderScene {
             Some(r) => {
                 !self
                     .bvh
-                    .ray_traverse_miss(r, |r, slot| self.intersect_slot(r, slot))
+                    .ray_traverse_miss(r, |r, slot| self.intersect_slot::<true>(r, slot))
                     || (!self.instances.is_empty() && self.instances.occluded(&r))
             }
             None => false,

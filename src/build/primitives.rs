@@ -4,15 +4,31 @@ use glam::Vec3A;
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
-/// Distance in `[ray.tmin, ray.tmax]` at which `ray` meets the triangle, or infinity.
+/// Distance in `[ray.tmin, ray.tmax]` at which `ray` meets the triangle, or infinity: the
+/// test for closest hits.
 ///
 /// Möller–Trumbore in the form obvhs uses (Fast Minimum Storage Ray Triangle Intersection),
 /// with one difference: a barycentric coordinate of -0.0 counts as inside. obvhs tests the
 /// three sign bits at once, so a ray exactly on an edge shared by two triangles (a camera ray
 /// along the diagonal of a quad, an axis-aligned ray along a box's seam) missed both and
-/// leaked through; with `u >= 0 && v >= 0 && w >= 0` it hits one of them, as in Embree.
+/// leaked through; here it hits one of them, as in Embree.
 #[inline(always)]
 pub fn intersect_triangle(tri: &Triangle, ray: &Ray) -> f32 {
+    moller_trumbore::<false>(tri, ray)
+}
+
+/// The same distance, for occlusion queries: the inside test is one check of three sign bits
+/// (after turning -0.0 into +0.0), without branches. Measured against the test above on the
+/// same rays (`raylab bench`, one thread): closest hits on small scenes are 1.4-1.6x faster
+/// with branches; occlusion on the 1.3 M-triangle mesh 3-10% faster without (A/B of the two
+/// choices for occlusion, same session).
+#[inline(always)]
+pub fn occludes_triangle(tri: &Triangle, ray: &Ray) -> f32 {
+    moller_trumbore::<true>(tri, ray)
+}
+
+#[inline(always)]
+fn moller_trumbore<const BRANCH_FREE: bool>(tri: &Triangle, ray: &Ray) -> f32 {
     let e1 = tri.v0 - tri.v1;
     let e2 = tri.v2 - tri.v0;
     let n = e1.cross(e2);
@@ -22,9 +38,17 @@ pub fn intersect_triangle(tri: &Triangle, ray: &Ray) -> f32 {
     let u = r.dot(e2) * inv_det;
     let v = r.dot(e1) * inv_det;
     let w = 1.0 - u - v;
-    // Each compared on its own: a NaN (a ray parallel to the plane makes inv_det infinite)
-    // fails its comparison, where f32::min would pass over it.
-    if u >= 0.0 && v >= 0.0 && w >= 0.0 && inv_det != 0.0 {
+    let inside = if BRANCH_FREE {
+        // x + 0.0 is +0.0 for x = -0.0. A NaN may pass with its sign bit clear, but then t is
+        // NaN or infinite and the interval test below, or traversal's `t < tmax`, rejects it.
+        let signs = (u + 0.0).to_bits() | (v + 0.0).to_bits() | (w + 0.0).to_bits();
+        signs & 0x8000_0000 == 0
+    } else {
+        // Each compared on its own: a NaN (a ray parallel to the plane makes inv_det
+        // infinite) fails its comparison, where f32::min would pass over it.
+        u >= 0.0 && v >= 0.0 && w >= 0.0
+    };
+    if inside && inv_det != 0.0 {
         let t = n.dot(c) * inv_det;
         if t >= ray.tmin && t <= ray.tmax {
             return t;
@@ -111,9 +135,11 @@ mod tests {
                 // From above and from below: the signs of the barycentrics' zeros differ.
                 let dir = Vec3A::new(slant, slant, -down).normalize();
                 let ray = Ray::new_inf(Vec3A::new(x, x, 0.0) - dir * 2.0, dir);
-                let hit = intersect_triangle(&a, &ray).min(intersect_triangle(&b, &ray));
-                rays += 1;
-                misses += usize::from(!hit.is_finite());
+                for test in [intersect_triangle, occludes_triangle] {
+                    let hit = test(&a, &ray).min(test(&b, &ray));
+                    rays += 1;
+                    misses += usize::from(!hit.is_finite());
+                }
             }
         }
         assert_eq!(
@@ -124,30 +150,32 @@ mod tests {
 
     #[test]
     fn triangle_hits_inside_misses_outside_and_respects_the_interval() {
-        let tri = Triangle {
-            v0: Vec3A::new(0.0, 0.0, 5.0),
-            v1: Vec3A::new(1.0, 0.0, 5.0),
-            v2: Vec3A::new(0.0, 1.0, 5.0),
-        };
-        let at = |x: f32, y: f32| Ray::new_inf(Vec3A::new(x, y, 0.0), Vec3A::Z);
-        assert!((intersect_triangle(&tri, &at(0.2, 0.2)) - 5.0).abs() < 1e-6);
-        assert!(intersect_triangle(&tri, &at(0.6, 0.6)).is_infinite());
-        assert!(intersect_triangle(&tri, &at(-0.01, 0.5)).is_infinite());
-        let short = Ray::new(Vec3A::new(0.2, 0.2, 0.0), Vec3A::Z, 0.0, 4.0);
-        assert!(intersect_triangle(&tri, &short).is_infinite());
-        // A ray in the triangle's plane, or parallel to it beside it, never hits it.
-        let grazing = Ray::new_inf(Vec3A::new(-1.0, 0.2, 5.0), Vec3A::X);
-        assert!(intersect_triangle(&tri, &grazing).is_infinite());
-        for (origin, dir) in [
-            (Vec3A::new(-1.0, 0.2, 4.0), Vec3A::X),
-            (Vec3A::new(0.2, -1.0, 6.0), Vec3A::Y),
-            (
-                Vec3A::new(0.0, 0.0, 4.5),
-                Vec3A::new(1.0, 1.0, 0.0).normalize(),
-            ),
-        ] {
-            let t = intersect_triangle(&tri, &Ray::new_inf(origin, dir));
-            assert!(t.is_infinite(), "{origin} {dir}: {t}");
+        for test in [intersect_triangle, occludes_triangle] {
+            let tri = Triangle {
+                v0: Vec3A::new(0.0, 0.0, 5.0),
+                v1: Vec3A::new(1.0, 0.0, 5.0),
+                v2: Vec3A::new(0.0, 1.0, 5.0),
+            };
+            let at = |x: f32, y: f32| Ray::new_inf(Vec3A::new(x, y, 0.0), Vec3A::Z);
+            assert!((test(&tri, &at(0.2, 0.2)) - 5.0).abs() < 1e-6);
+            assert!(test(&tri, &at(0.6, 0.6)).is_infinite());
+            assert!(test(&tri, &at(-0.01, 0.5)).is_infinite());
+            let short = Ray::new(Vec3A::new(0.2, 0.2, 0.0), Vec3A::Z, 0.0, 4.0);
+            assert!(test(&tri, &short).is_infinite());
+            // A ray in the triangle's plane, or parallel to it beside it, never hits it.
+            let grazing = Ray::new_inf(Vec3A::new(-1.0, 0.2, 5.0), Vec3A::X);
+            assert!(test(&tri, &grazing).is_infinite());
+            for (origin, dir) in [
+                (Vec3A::new(-1.0, 0.2, 4.0), Vec3A::X),
+                (Vec3A::new(0.2, -1.0, 6.0), Vec3A::Y),
+                (
+                    Vec3A::new(0.0, 0.0, 4.5),
+                    Vec3A::new(1.0, 1.0, 0.0).normalize(),
+                ),
+            ] {
+                let t = test(&tri, &Ray::new_inf(origin, dir));
+                assert!(t.is_infinite(), "{origin} {dir}: {t}");
+            }
         }
     }
 
