@@ -40,7 +40,12 @@ pub struct BenchOptions {
     pub dump: Option<PathBuf>,
     /// Also run the Embree comparison (`embree` feature only; see `embree.rs`).
     pub embree: bool,
+    /// The cases to run, by name ([`CASES`]); all when empty.
+    pub cases: Vec<String>,
 }
+
+/// The standard cases' names, in the order they run.
+pub const CASES: [&str; 3] = ["report-room", "cornell-box", "icosphere-1m"];
 
 /// One benchmark scene.
 pub struct Case {
@@ -223,7 +228,10 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
         }),
         Box::new(|| large_mesh(opts.subdivisions)),
     ];
-    for make in cases {
+    for (name, make) in CASES.iter().zip(cases) {
+        if !opts.cases.is_empty() && !opts.cases.iter().any(|c| c == name) {
+            continue;
+        }
         let mut case = make()?;
         if !opts.embree {
             case.source = None;

@@ -8,7 +8,7 @@
 //! Traversal nests two obvhs traversals; both keep their stacks on the call stack, so no ray
 //! allocates.
 
-use super::primitives::{intersect_triangle, occludes_triangle};
+use super::primitives::{flat_normal, intersect_triangle, occludes_triangle};
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
 use crate::scene::LoadedScene;
@@ -25,7 +25,7 @@ use std::time::Duration;
 /// One mesh asset's triangles in BVH order, with their BVH.
 struct MeshBlas {
     bvh: CwBvh,
-    tri: Vec<Triangle>,
+    tri: Vec<[Vec3A; 3]>,
     /// Vertex normals per triangle (BVH order), or empty for flat shading.
     smooth: Vec<[Vec3A; 3]>,
 }
@@ -66,7 +66,7 @@ impl MeshBlas {
             &mut Duration::default(),
         );
         let order = &bvh.primitive_indices;
-        let tri: Vec<Triangle> = order.iter().map(|&i| tris[i as usize]).collect();
+        let tri: Vec<[Vec3A; 3]> = order.iter().map(|&i| mesh.triangles[i as usize]).collect();
         let smooth = match &mesh.normals {
             Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
             None => Vec::new(),
@@ -81,7 +81,7 @@ impl MeshBlas {
     fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
         self.bvh.nodes.capacity() * size_of::<obvhs::cwbvh::node::CwBvhNode>()
-            + self.tri.capacity() * size_of::<Triangle>()
+            + self.tri.capacity() * size_of::<[Vec3A; 3]>()
             + self.smooth.capacity() * size_of::<[Vec3A; 3]>()
     }
 }
@@ -244,7 +244,7 @@ impl InstanceSet {
         let tri = &mesh.tri[prim as usize];
         // Normals transform by the inverse transpose of the local-to-world map.
         let normal_matrix = inst.world_to_local.matrix3.transpose();
-        let ng = (normal_matrix * tri.compute_normal()).normalize_or_zero();
+        let ng = (normal_matrix * flat_normal(tri)).normalize_or_zero();
         let ns = if mesh.smooth.is_empty() {
             ng
         } else {

@@ -7,6 +7,7 @@
 
 mod instances;
 mod primitives;
+mod slot;
 
 use crate::scene::components::{MaterialRef, Name, WorldShape};
 use crate::scene::{systems, LoadedScene};
@@ -18,14 +19,10 @@ use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
-use primitives::{intersect_sphere, intersect_triangle, occludes_triangle};
+use primitives::{flat_normal, intersect_sphere, intersect_triangle, occludes_triangle};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
+use slot::{Slot, NONE};
 use std::time::{Duration, Instant};
-
-/// Marks a primitive as a sphere in [`RenderScene::prims`]; otherwise it is a triangle.
-const SPHERE_BIT: u32 = 1 << 31;
-/// "No light" / "no smooth normals" in the per-primitive index arrays.
-const NONE: u32 = u32::MAX;
 
 /// Counts and timings of a build, for `raylab validate` and reports.
 #[derive(Clone, Debug, Default)]
@@ -49,14 +46,9 @@ pub struct BuildStats {
 /// The flattened, BVH-backed scene that rendering reads.
 pub struct RenderScene {
     bvh: CwBvh,
-    /// Per BVH primitive slot: `SPHERE_BIT | sphere index`, or the slot itself for a triangle.
-    prims: Vec<u32>,
-    // Triangle data, indexed by BVH slot (a sphere's slot holds a NaN triangle and NONE).
-    tri: Vec<Triangle>,
-    tri_material: Vec<u32>,
-    tri_light: Vec<u32>,
-    /// Index into `smooth_normals` or `NONE` for flat shading.
-    tri_smooth: Vec<u32>,
+    /// Per BVH primitive slot: a triangle and its shading data, or a sphere's index.
+    slots: Vec<Slot>,
+    /// Per-vertex normals of the triangles that have them ([`Slot::smooth`]).
     smooth_normals: Vec<[Vec3A; 3]>,
     // Spheres, likewise in BVH order.
     sph_center: Vec<Vec3A>,
@@ -195,11 +187,7 @@ impl RenderScene {
             })
             .sum();
         let mut out = RenderScene {
-            prims: Vec::with_capacity(n),
-            tri: Vec::with_capacity(n),
-            tri_material: Vec::with_capacity(n),
-            tri_light: Vec::with_capacity(n),
-            tri_smooth: Vec::with_capacity(n),
+            slots: Vec::with_capacity(n),
             smooth_normals: Vec::with_capacity(smooth),
             sph_center: Vec::new(),
             sph_radius: Vec::new(),
@@ -229,35 +217,22 @@ impl RenderScene {
                 WorldShape::Triangles {
                     triangles, normals, ..
                 } => {
-                    let v = &triangles[p.index as usize];
-                    out.prims.push(out.tri.len() as u32);
-                    out.tri.push(Triangle {
-                        v0: v[0],
-                        v1: v[1],
-                        v2: v[2],
-                    });
-                    out.tri_material.push(material.0);
-                    out.tri_light.push(p.light);
-                    match normals {
+                    let smooth = match normals {
                         Some(n) => {
-                            out.tri_smooth.push(out.smooth_normals.len() as u32);
                             out.smooth_normals.push(n[p.index as usize]);
+                            out.smooth_normals.len() as u32 - 1
                         }
-                        None => out.tri_smooth.push(NONE),
-                    }
+                        None => NONE,
+                    };
+                    out.slots.push(Slot::triangle(
+                        &triangles[p.index as usize],
+                        material.0,
+                        p.light,
+                        smooth,
+                    ));
                 }
                 WorldShape::Sphere { center, radius } => {
-                    out.prims.push(SPHERE_BIT | out.sph_center.len() as u32);
-                    // Triangle arrays are indexed by slot: a NaN triangle marks a sphere's
-                    // slot, so traversal tests triangles with no indirection.
-                    out.tri.push(Triangle {
-                        v0: Vec3A::NAN,
-                        v1: Vec3A::NAN,
-                        v2: Vec3A::NAN,
-                    });
-                    out.tri_material.push(NONE);
-                    out.tri_light.push(NONE);
-                    out.tri_smooth.push(NONE);
+                    out.slots.push(Slot::sphere(out.sph_center.len() as u32));
                     out.sph_center.push(*center);
                     out.sph_radius.push(*radius);
                     out.sph_material.push(material.0);
@@ -265,21 +240,25 @@ impl RenderScene {
                 }
             }
         }
-        out.stats.triangles = out.tri.len() - out.sph_center.len();
+        out.stats.triangles = out.slots.len() - out.sph_center.len();
         out.stats.spheres = out.sph_center.len();
         // The builder over-allocates its node array (one slot per primitive): give it back.
+        // Slots are in the BVH's order already, so its primitive indices are not needed.
         out.bvh.nodes.shrink_to_fit();
-        out.bvh.primitive_indices.shrink_to_fit();
+        out.bvh.primitive_indices = Vec::new();
         out.stats.build_time = start.elapsed();
         out
     }
 
     /// The triangles, in BVH order (for benchmark dumps).
     pub fn triangles(&self) -> Vec<Triangle> {
-        self.tri
+        self.slots
             .iter()
-            .filter(|t| !t.v0.x.is_nan())
-            .copied()
+            .filter(|s| s.sphere_index().is_none())
+            .map(|s| {
+                let [v0, v1, v2] = s.corners();
+                Triangle { v0, v1, v2 }
+            })
             .collect()
     }
 
@@ -298,14 +277,7 @@ impl RenderScene {
         use std::mem::size_of;
         let v = |n: usize, each: usize| n * each;
         self.instances.memory_bytes()
-            + v(self.prims.capacity(), 4)
-            + v(self.tri.capacity(), size_of::<Triangle>())
-            + v(
-                self.tri_material.capacity()
-                    + self.tri_light.capacity()
-                    + self.tri_smooth.capacity(),
-                4,
-            )
+            + v(self.slots.capacity(), size_of::<Slot>())
             + v(self.smooth_normals.capacity(), size_of::<[Vec3A; 3]>())
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(
@@ -325,14 +297,13 @@ impl RenderScene {
     /// triangle test tuned for occlusion queries ([`primitives::occludes_triangle`]).
     #[inline(always)]
     fn intersect_slot<const OCCLUSION: bool>(&self, ray: &obvhs::ray::Ray, slot: usize) -> f32 {
-        let tri = &self.tri[slot];
-        if tri.v0.x.is_nan() {
-            let i = (self.prims[slot] & !SPHERE_BIT) as usize;
+        let s = &self.slots[slot];
+        if let Some(i) = s.sphere_index() {
             intersect_sphere(self.sph_center[i], self.sph_radius[i], ray)
         } else if OCCLUSION {
-            occludes_triangle(tri, ray)
+            occludes_triangle(&s.corners(), ray)
         } else {
-            intersect_triangle(tri, ray)
+            intersect_triangle(&s.corners(), ray)
         }
     }
 
@@ -343,9 +314,8 @@ impl RenderScene {
 
     /// The surface record for slot `slot` hit at distance `t`.
     fn hit_record(&self, ray: &Ray, slot: usize, t: f32) -> Hit {
-        let p = self.prims[slot];
-        if p & SPHERE_BIT != 0 {
-            let i = (p & !SPHERE_BIT) as usize;
+        let s = &self.slots[slot];
+        if let Some(i) = s.sphere_index() {
             let (c, r) = (self.sph_center[i], self.sph_radius[i]);
             let n = (ray.at(t) - c).normalize();
             Hit {
@@ -358,15 +328,14 @@ impl RenderScene {
                 light: (self.sph_light[i] != NONE).then_some(self.sph_light[i]),
             }
         } else {
-            let i = p as usize;
-            let tri = &self.tri[i];
+            let tri = s.corners();
             // Computed per hit rather than stored: 16 bytes a triangle saved for a cross product.
-            let ng = tri.compute_normal();
-            let ns = match self.tri_smooth[i] {
-                NONE => ng,
-                k => {
-                    let b = barycentrics(tri, ray.at(t));
-                    let n = self.smooth_normals[k as usize];
+            let ng = flat_normal(&tri);
+            let ns = match s.smooth() {
+                None => ng,
+                Some(k) => {
+                    let b = barycentrics(&tri, ray.at(t));
+                    let n = self.smooth_normals[k];
                     let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
                     if s == Vec3A::ZERO {
                         ng
@@ -382,16 +351,16 @@ impl RenderScene {
                 p: ray.at(t),
                 ng,
                 ns,
-                material: self.tri_material[i],
-                light: (self.tri_light[i] != NONE).then_some(self.tri_light[i]),
+                material: s.material(),
+                light: s.light(),
             }
         }
     }
 }
 
 /// Barycentric weights of `p` (on the triangle's plane) for v0, v1, v2.
-fn barycentrics(t: &Triangle, p: Vec3A) -> Vec3A {
-    let (e1, e2, d) = (t.v1 - t.v0, t.v2 - t.v0, p - t.v0);
+fn barycentrics(t: &[Vec3A; 3], p: Vec3A) -> Vec3A {
+    let (e1, e2, d) = (t[1] - t[0], t[2] - t[0], p - t[0]);
     let n = e1.cross(e2);
     let inv = 1.0 / n.length_squared();
     let b1 = d.cross(e2).dot(n) * inv;
@@ -403,14 +372,17 @@ impl Scene for RenderScene {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
         let mut hit = RayHit::none();
-        let flat = self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
-            self.intersect_slot::<false>(r, slot)
-        });
+        let flat = self
+            .bvh
+            .ray_traverse(bvh_ray, &mut hit, |r, slot| {
+                self.intersect_slot::<false>(r, slot)
+            })
+            .then_some((hit.primitive_id, hit.t));
         if !self.instances.is_empty() {
             // Instances only count nearer than the flat geometry's hit.
             let mut r = bvh_ray;
-            if flat {
-                r.tmax = hit.t;
+            if let Some((_, t)) = flat {
+                r.tmax = t;
             }
             if let Some((slot, prim, t)) = self.instances.intersect(&r) {
                 return Some(
@@ -419,7 +391,7 @@ impl Scene for RenderScene {
                 );
             }
         }
-        flat.then(|| self.hit_record(ray, hit.primitive_id as usize, hit.t))
+        flat.map(|(slot, t)| self.hit_record(ray, slot as usize, t))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {

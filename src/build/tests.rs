@@ -51,14 +51,7 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
             }
             WorldShape::Triangles { triangles, .. } => triangles
                 .iter()
-                .map(|t| {
-                    let tri = Triangle {
-                        v0: t[0],
-                        v1: t[1],
-                        v2: t[2],
-                    };
-                    primitives::intersect_triangle(&tri, &obvhs_ray)
-                })
+                .map(|t| primitives::intersect_triangle(t, &obvhs_ray))
                 .collect(),
         };
         for t in ts {
@@ -129,7 +122,10 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
     let loaded = parse_scene(&random_scene(200, 10, 3), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
     // Triangles are not emitters, spheres are, each its own light.
-    assert!(scene.tri_light.iter().all(|l| *l == NONE));
+    assert!(scene
+        .slots
+        .iter()
+        .all(|s| s.sphere_index().is_some() || s.light().is_none()));
     let mut sphere_lights: Vec<u32> = scene.sph_light.clone();
     sphere_lights.sort();
     assert_eq!(sphere_lights, (0..10).collect::<Vec<u32>>());
@@ -144,7 +140,81 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
             other => panic!("{other:?}"),
         }
     }
-    assert_eq!(scene.prims.len(), 210);
+    assert_eq!(scene.slots.len(), 210);
+}
+
+/// A slot carries its triangle's material, light and smooth normals in the corners' spare
+/// lanes: each must come back as the world had it, whatever order the BVH put slots in.
+#[test]
+fn every_triangle_slot_keeps_its_material_light_and_normals() {
+    let mesh = |z: f32, normals: bool| {
+        let mut positions = String::new();
+        let mut extra = String::new();
+        for i in 0..40 {
+            let x = i as f32 * 0.1;
+            let _ = write!(
+                positions,
+                "({x}, 0, {z}), ({}, 0, {z}), ({x}, 1, {z}),",
+                x + 0.1
+            );
+            if normals {
+                let _ = write!(extra, "({x}, 0, 1), (0, {x}, 1), (0, 0, 1),");
+            }
+        }
+        let indices: String = (0..40)
+            .map(|i| format!("({}, {}, {}),", 3 * i, 3 * i + 1, 3 * i + 2))
+            .collect();
+        let normals = if normals {
+            format!(", normals: Some([{extra}])")
+        } else {
+            String::new()
+        };
+        format!("Mesh(positions: [{positions}], indices: [{indices}]{normals})")
+    };
+    let text = format!(
+        r#"(camera: LookAt(eye: (0, 0, 10), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40),
+          materials: {{"a": Lambert(albedo: (0.5, 0.5, 0.5)), "b": Lambert(albedo: (0.2, 0.2, 0.2)),
+                       "c": Mirror(tint: (1, 1, 1))}},
+          entities: [
+            (name: "plain", shape: {}, material: "a"),
+            (name: "lamp", shape: {}, material: "b", emitter: Area(radiance: (1, 1, 1))),
+            (name: "smooth", shape: {}, material: "c"),
+          ])"#,
+        mesh(0.0, false),
+        mesh(1.0, false),
+        mesh(2.0, true)
+    );
+    let loaded = parse_scene(&text, Path::new("slots.ron")).unwrap();
+    let scene = RenderScene::build(&loaded);
+    let (mut lit, mut smooth) = (0, 0);
+    for slot in &scene.slots {
+        let v = slot.corners();
+        // The mesh is told by its z, the triangle within it by its first corner's x.
+        let (mesh, i) = (v[0].z as usize, (v[0].x * 10.0).round() as usize);
+        assert_eq!(slot.material(), mesh as u32, "{v:?}");
+        match slot.light() {
+            Some(l) => {
+                assert_eq!(mesh, 1);
+                lit += 1;
+                match scene.lights.get(l) {
+                    Light::Triangle { p0, .. } => assert_eq!(*p0, v[0]),
+                    other => panic!("{other:?}"),
+                }
+            }
+            None => assert_ne!(mesh, 1),
+        }
+        match slot.smooth() {
+            Some(k) => {
+                assert_eq!(mesh, 2);
+                smooth += 1;
+                let x = i as f32 * 0.1;
+                let expected = Vec3A::new(0.0, x, 1.0).normalize();
+                assert!(scene.smooth_normals[k][1].abs_diff_eq(expected, 1e-6));
+            }
+            None => assert_ne!(mesh, 2),
+        }
+    }
+    assert_eq!((scene.slots.len(), lit, smooth), (120, 40, 40));
 }
 
 #[test]
@@ -155,5 +225,8 @@ fn the_build_does_not_depend_on_the_thread_count() {
     let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
     let (a, b) = (build(1), build(2));
     assert_eq!(a.bvh, b.bvh);
-    assert_eq!(a.prims, b.prims);
+    // Compared bit for bit: a sphere's slot holds NaNs.
+    let bits =
+        |s: &RenderScene| -> Vec<[u32; 12]> { s.slots.iter().map(|s| s.to_bits()).collect() };
+    assert_eq!(bits(&a), bits(&b));
 }

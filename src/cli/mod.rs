@@ -206,6 +206,9 @@ pub struct BenchArgs {
     /// times, memory and hit agreement (needs a build with `--features embree`).
     #[arg(long)]
     pub embree: bool,
+    /// Run only these cases (comma-separated; default: all).
+    #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(crate::bench::CASES))]
+    pub case: Vec<String>,
 }
 
 /// The metric `diff --tolerance` applies to.
@@ -295,6 +298,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 threads,
                 dump: args.dump.clone(),
                 embree: args.embree,
+                cases: args.case.clone(),
             })?;
             Ok(ExitCode::SUCCESS)
         }
