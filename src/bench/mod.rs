@@ -53,6 +53,8 @@ pub struct Case {
     pub scene: RenderScene,
     pub camera: Camera,
     pub build_time: Duration,
+    /// Memory the build used at its peak beyond what was resident before it (Linux only).
+    pub build_peak: Option<u64>,
     /// Whether `path` samples per second are measured (small scenes only).
     pub shade: bool,
     /// What `scene` was built from, kept only for the Embree comparison (which rebuilds it
@@ -64,11 +66,15 @@ pub struct Case {
 /// arrays in BVH order, light table), not parsing.
 fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
     let loaded = parse_scene(text, Path::new(file))?;
+    let resident = resident_bytes();
+    let peak_reset = reset_peak_rss();
     let start = Instant::now();
     let scene = RenderScene::build(&loaded);
+    let build_time = start.elapsed();
     Ok(Case {
         name,
-        build_time: start.elapsed(),
+        build_time,
+        build_peak: (peak_reset && resident > 0).then(|| peak_rss().saturating_sub(resident)),
         scene,
         camera: loaded.camera.clone(),
         shade: true,
@@ -137,15 +143,31 @@ fn rays_per_second(
 
 /// Peak resident memory of this process, in bytes (Linux; 0 elsewhere).
 pub fn peak_rss() -> u64 {
+    process_status("VmHWM:")
+}
+
+/// Resident memory of this process now, in bytes (Linux; 0 elsewhere).
+fn resident_bytes() -> u64 {
+    process_status("VmRSS:")
+}
+
+/// A memory figure of /proc/self/status, in bytes (0 where there is none).
+fn process_status(key: &str) -> u64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {
             s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
+                .find(|l| l.starts_with(key))
                 .and_then(|l| l.split_whitespace().nth(1))
                 .and_then(|kb| kb.parse::<u64>().ok())
         })
         .map_or(0, |kb| kb * 1024)
+}
+
+/// Resets the peak resident memory to the current one (Linux's `clear_refs` 5), so that a
+/// later [`peak_rss`] tells the peak of what ran in between. False where that is not possible.
+fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> Result<()> {
@@ -259,8 +281,16 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             }
         }
         let tris = scene.stats.triangles.max(1);
+        let build_peak = match case.build_peak {
+            Some(bytes) => format!(
+                ", build peak +{:.1} MB ({:.0} bytes/triangle)",
+                bytes as f64 / 1e6,
+                bytes as f64 / tris as f64
+            ),
+            None => String::new(),
+        };
         say(format!(
-            "{:<14} BVH build {:.1} ms, geometry + BVH {:.1} MB ({:.0} bytes/triangle), peak RSS so far {:.0} MB",
+            "{:<14} BVH build {:.1} ms, geometry + BVH {:.1} MB ({:.0} bytes/triangle){build_peak}, peak RSS so far {:.0} MB",
             case.name,
             case.build_time.as_secs_f64() * 1e3,
             scene.memory_bytes() as f64 / 1e6,
