@@ -66,3 +66,43 @@ fn bench_embree_without_the_feature_exits_2_and_says_how_to_build_it() {
     );
     assert!(o.stdout.is_empty(), "nothing measured");
 }
+
+/// `--case` runs only the named cases; a name that is not a case is a usage error.
+#[test]
+fn bench_case_runs_only_the_named_cases() {
+    let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args([
+            "bench",
+            "--rays",
+            "1000",
+            "--threads",
+            "1",
+            "--case",
+            "cornell-box",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.lines().any(|l| l.starts_with("cornell-box")), "{text}");
+    assert!(
+        !text.contains("report-room") && !text.contains("icosphere-1m"),
+        "{text}"
+    );
+    // The build's own peak memory is reported where Linux lets a process reset its peak.
+    if std::fs::write("/proc/self/clear_refs", "5").is_ok() {
+        assert!(text.contains("build peak +"), "{text}");
+    }
+
+    let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["bench", "--case", "sponza"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("sponza") && err.contains("icosphere-1m"),
+        "{err}"
+    );
+    assert!(o.stdout.is_empty());
+}
