@@ -281,12 +281,14 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             }
         }
         let tris = scene.stats.triangles.max(1);
+        // Per triangle only where triangles dominate: a tiny scene's peak is the allocator's.
         let build_peak = match case.build_peak {
-            Some(bytes) => format!(
+            Some(bytes) if tris >= 10_000 => format!(
                 ", build peak +{:.1} MB ({:.0} bytes/triangle)",
                 bytes as f64 / 1e6,
                 bytes as f64 / tris as f64
             ),
+            Some(bytes) => format!(", build peak +{:.1} MB", bytes as f64 / 1e6),
             None => String::new(),
         };
         say(format!(
