@@ -21,7 +21,7 @@ fn bench_reports_every_case_and_dumps_triangles_and_rays() {
         .unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    for case in ["report-room", "cornell-box", "icosphere-1m"] {
+    for case in ["report-room", "cornell-box", "icosphere-1m", "instances"] {
         for kind in ["coherent", "incoherent"] {
             let lines = text
                 .lines()
@@ -46,6 +46,15 @@ fn bench_reports_every_case_and_dumps_triangles_and_rays() {
     assert_eq!(spheres.len(), 4 + 2 * 4 * 4);
     // 20 * 4^3 triangles at subdivision 3.
     assert!(text.contains("1280"), "{text}");
+    // The instancing case counts every placed triangle: 300 instances of 20,480, and the
+    // floor's and light's 4. It is not dumped (the format is flat triangles).
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("instances") && l.contains(" 6144004 ")),
+        "{text}"
+    );
+    assert!(text.contains("instances      not dumped"), "{text}");
+    assert!(!dir.path().join("instances.tris").exists());
 }
 
 /// Without the `embree` feature, `--embree` is a usage error that says how to get it.

@@ -2,8 +2,9 @@
 //! second, BVH build time and memory, on standard cases, at 1 thread and at every core.
 //!
 //! Cases: the report's room and the Cornell box (tiny scenes: the cost is shading and
-//! sampling) and a procedural displaced icosphere of 1,310,720 triangles (traversal at
-//! scale). Each is traced with coherent rays (one camera ray through the centre of each pixel
+//! sampling), a procedural displaced icosphere of 1,310,720 triangles (traversal at scale) and
+//! `scenes/instances.ron`, 300 instances of a 20,480-triangle mesh (two-level traversal; not
+//! dumped, and not in the Embree comparison, which builds flat geometry only). Each is traced with coherent rays (one camera ray through the centre of each pixel
 //! of a square image, in raster order) and incoherent rays (origins uniform in the scene
 //! bounds, directions uniform on the sphere), both from a fixed seed.
 //!
@@ -45,7 +46,7 @@ pub struct BenchOptions {
 }
 
 /// The standard cases' names, in the order they run.
-pub const CASES: [&str; 3] = ["report-room", "cornell-box", "icosphere-1m"];
+pub const CASES: [&str; 4] = ["report-room", "cornell-box", "icosphere-1m", "instances"];
 
 /// One benchmark scene.
 pub struct Case {
@@ -58,13 +59,27 @@ pub struct Case {
     /// Whether `path` samples per second are measured (small scenes only).
     pub shade: bool,
     /// What `scene` was built from, kept only for the Embree comparison (which rebuilds it
-    /// on each pool size); dropped otherwise, so that peak RSS is what it always was.
+    /// on each pool size), so that peak RSS is otherwise what it always was.
     pub source: Option<LoadedScene>,
+}
+
+impl Case {
+    /// Triangles the rays can meet: the flat ones and every instance's (an instanced mesh
+    /// once per instance).
+    pub fn placed_triangles(&self) -> usize {
+        self.scene.stats.triangles + self.scene.stats.placed_triangles
+    }
+
+    /// Triangles held in memory: the flat ones and each instanced mesh once.
+    pub fn stored_triangles(&self) -> usize {
+        self.scene.stats.triangles + self.scene.stats.instanced_triangles
+    }
 }
 
 /// A case from scene text; the build time covers the whole `RenderScene::build` (boxes, BVH,
 /// arrays in BVH order, light table), not parsing.
-fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
+/// The scene is kept in the case only if `keep_source` (for `--embree`).
+fn embedded(name: &'static str, file: &str, text: &str, keep_source: bool) -> Result<Case> {
     let loaded = parse_scene(text, Path::new(file))?;
     let resident = resident_bytes();
     let peak_reset = reset_peak_rss();
@@ -78,13 +93,13 @@ fn embedded(name: &'static str, file: &str, text: &str) -> Result<Case> {
         scene,
         camera: loaded.camera.clone(),
         shade: true,
-        source: Some(loaded),
+        source: keep_source.then_some(loaded),
     })
 }
 
 /// The displaced icosphere, asked for through the scene format like any user scene, lit by
 /// nothing (traversal only).
-fn large_mesh(subdivisions: u32) -> Result<Case> {
+fn large_mesh(subdivisions: u32, keep_source: bool) -> Result<Case> {
     let text = format!(
         r#"(
             camera: LookAt(eye: (0, 0, 3.5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (512, 512)),
@@ -92,7 +107,7 @@ fn large_mesh(subdivisions: u32) -> Result<Case> {
             entities: [(name: "icosphere", shape: Icosphere(subdivisions: {subdivisions}, displacement: 0.05), material: "grey")],
         )"#
     );
-    let mut case = embedded("icosphere-1m", "icosphere.ron", &text)?;
+    let mut case = embedded("icosphere-1m", "icosphere.ron", &text, keep_source)?;
     case.shade = false;
     Ok(case)
 }
@@ -233,12 +248,14 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
     ));
     #[cfg(feature = "embree")]
     let mut embree_header = opts.embree.then(embree::header);
+    let keep = opts.embree;
     let cases: Vec<Box<dyn Fn() -> Result<Case>>> = vec![
         Box::new(|| {
             embedded(
                 "report-room",
                 "scenes/report_room.ron",
                 include_str!("../../scenes/report_room.ron"),
+                keep,
             )
         }),
         Box::new(|| {
@@ -246,22 +263,35 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                 "cornell-box",
                 "scenes/cornell_box.ron",
                 include_str!("../../scenes/cornell_box.ron"),
+                keep,
             )
         }),
-        Box::new(|| large_mesh(opts.subdivisions)),
+        Box::new(|| large_mesh(opts.subdivisions, keep)),
+        // Two-level traversal: 300 instances of a 20,480-triangle mesh (6.1 M placed).
+        Box::new(|| {
+            embedded(
+                "instances",
+                "scenes/instances.ron",
+                include_str!("../../scenes/instances.ron"),
+                false,
+            )
+        }),
     ];
     for (name, make) in CASES.iter().zip(cases) {
         if !opts.cases.is_empty() && !opts.cases.iter().any(|c| c == name) {
             continue;
         }
-        let mut case = make()?;
-        if !opts.embree {
-            case.source = None;
-        }
+        let case = make()?;
+        let instanced = case.scene.stats.instances > 0;
         let coherent = coherent_rays(&case.camera, opts.rays);
         let incoherent = incoherent_rays(case.scene.bounds(), opts.rays);
-        if let Some(dir) = &opts.dump {
-            dump(dir, &case, &coherent, &incoherent)?;
+        match &opts.dump {
+            Some(_) if instanced => say(format!(
+                "{:<14} not dumped: the dump format holds flat triangles, not instances",
+                case.name
+            )),
+            Some(dir) => dump(dir, &case, &coherent, &incoherent)?,
+            None => {}
         }
         let scene = &case.scene;
         for (kind, rays) in [("coherent", &coherent), ("incoherent", &incoherent)] {
@@ -271,7 +301,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                 say(format!(
                     "{:<14} {:>10} {:>10} {:>8} {:>14.2} {:>16.2} {:>9.1}%",
                     case.name,
-                    scene.stats.triangles,
+                    case.placed_triangles(),
                     kind,
                     t,
                     closest / 1e6,
@@ -280,7 +310,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                 ));
             }
         }
-        let tris = scene.stats.triangles.max(1);
+        let tris = case.stored_triangles().max(1);
         // Per triangle only where triangles dominate: a tiny scene's peak is the allocator's.
         let build_peak = match case.build_peak {
             Some(bytes) if tris >= 10_000 => format!(
@@ -319,7 +349,12 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             }
         }
         #[cfg(feature = "embree")]
-        if opts.embree {
+        if opts.embree && instanced {
+            say(format!(
+                "embree {:<14} not compared: the comparison builds flat triangles and spheres only",
+                case.name
+            ));
+        } else if opts.embree {
             for line in embree_header.take().into_iter().flatten() {
                 say(line);
             }
