@@ -2,9 +2,14 @@
 """raylab `path` against Mitsuba 3 on the Cornell box: samples per second, their ratio, and
 the two images' mean values (which must agree within noise).
 
-Mitsuba renders its built-in `cornell_box()` (box filter, max_depth 8); raylab renders
-scenes/cornell_box.ron (the same box) with max-depth 7, the same depth in raylab's convention.
-Both at 256x256 on the threads the machine has.
+Mitsuba renders its built-in `cornell_box()` (box filter, max_depth 8, rr_depth 5: its
+defaults for `path`); raylab renders scenes/cornell_box.ron (the same box) with max-depth 7
+and rr-depth 6, the same settings in raylab's convention: Mitsuba counts path vertices from 0
+at the first hit and starts Russian roulette at vertex `rr_depth`, raylab counts scattering
+events and starts it after `rr-depth` of them. Russian roulette decides how many bounces a
+sample costs, so it must match for samples per second to compare (raylab's own default,
+rr-depth 3, would end paths earlier and make it look 30% faster). Both at 256x256 on the
+threads the machine has.
 
     pip install mitsuba numpy
     apt-get install libllvm19          # for llvm_ad_rgb (libLLVM 15 crashes it)
@@ -25,6 +30,9 @@ import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DEBIAN_LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
+# Mitsuba's settings, and raylab's for the same paths (see the docstring).
+MAX_DEPTH, RR_DEPTH = 8, 5
+RAYLAB_PARAMS = ["-p", f"max-depth={MAX_DEPTH - 1}", "-p", f"rr-depth={RR_DEPTH + 1}"]
 if "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(DEBIAN_LLVM):
     os.environ["DRJIT_LIBLLVM_PATH"] = DEBIAN_LLVM
 
@@ -37,7 +45,8 @@ def mitsuba(variant, spp):
     mi.set_log_level(mi.LogLevel.Warn)
     d = mi.cornell_box()
     d["sensor"]["film"]["rfilter"] = {"type": "box"}
-    d["integrator"]["max_depth"] = 8
+    d["integrator"]["max_depth"] = MAX_DEPTH
+    d["integrator"]["rr_depth"] = RR_DEPTH
     scene = mi.load_dict(d)
     mi.render(scene, spp=4)  # warm-up (and JIT compilation for the llvm variants)
     start = time.time()
@@ -51,7 +60,8 @@ def raylab(spp):
     out = ROOT / "out" / "bench-cornell.exr"
     out.parent.mkdir(exist_ok=True)
     r = subprocess.run(
-        [str(exe), "render", "scenes/cornell_box.ron", "--spp", str(spp), "-o", str(out)],
+        [str(exe), "render", "scenes/cornell_box.ron", "--spp", str(spp), *RAYLAB_PARAMS,
+         "-o", str(out)],
         cwd=ROOT, capture_output=True, text=True, check=True,
     )
     line = r.stderr.strip().splitlines()[-1]
@@ -76,7 +86,8 @@ def main():
                 print(f"mitsuba {variant}: not measured ({e})")
         after, _ = raylab(args.spp)
         ours = (before + after) / 2
-        print(f"round {round_ + 1}: 256x256, {args.spp} spp, max depth 8 (raylab max-depth 7)")
+        print(f"round {round_ + 1}: 256x256, {args.spp} spp, max_depth {MAX_DEPTH} rr_depth {RR_DEPTH}"
+              f" (raylab {' '.join(RAYLAB_PARAMS[1::2])})")
         print(f"  raylab path            {ours / 1e6:8.3f} M samples/s (before {before / 1e6:.3f}, after {after / 1e6:.3f})  mean {tuple(round(v, 4) for v in our_mean)}")
         for variant, (rate, mean) in theirs.items():
             print(f"  mitsuba {variant:<14} {rate / 1e6:8.3f} M samples/s  mean {tuple(round(float(v), 4) for v in mean)}  raylab/mitsuba {ours / rate:5.2f}x")
