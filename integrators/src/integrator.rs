@@ -196,11 +196,11 @@ pub fn mis_weight_for_hit(
     let lights = scene.lights();
     let light_pdf = match hit {
         Some(h) => match h.light {
-            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, h.p, h.ng),
+            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, h.p),
             None => return 1.0,
         },
         None => match lights.environment() {
-            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, from, glam::Vec3A::ZERO),
+            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, from),
             None => return 1.0,
         },
     };

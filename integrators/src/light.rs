@@ -353,12 +353,12 @@ impl Light {
     }
 
     /// The solid-angle density with which [`Light::sample_li`] from `p` would produce the
-    /// direction `wi` that reaches the light at point `q` with geometric normal `nq`.
+    /// direction `wi` that reaches the light at point `q`.
     ///
-    /// The light's own geometry decides which side emits (`nq` is not needed and only kept
-    /// for the callers' convenience), so this matches `sample_li` exactly: zero for point
-    /// lights, for the back of one-sided emitters and for a sphere seen from inside.
-    pub fn pdf_li(&self, p: Vec3A, wi: Vec3A, q: Vec3A, _nq: Vec3A) -> f32 {
+    /// The light's own geometry decides which side emits (not the normal of the hit that
+    /// found `q`), so this matches `sample_li` exactly: zero for point lights, for the back of
+    /// one-sided emitters and for a sphere seen from inside.
+    pub fn pdf_li(&self, p: Vec3A, wi: Vec3A, q: Vec3A) -> f32 {
         match *self {
             Light::Triangle {
                 n, area, two_sided, ..
@@ -737,7 +737,7 @@ mod tests {
     /// The density `pdf_li` claims for direction `w` from `p`, found by ray casting.
     fn pdf_by_ray(light: &Light, p: Vec3A) -> impl Fn(Vec3A) -> f32 + '_ {
         move |w| match hit_light(light, p, w) {
-            Some((q, n)) => light.pdf_li(p, w, q, n),
+            Some((q, _)) => light.pdf_li(p, w, q),
             None => 0.0,
         }
     }
@@ -781,7 +781,7 @@ mod tests {
             accepted += 1;
             assert!((ls.wi.length() - 1.0).abs() < 1e-5 && ls.pdf > 0.0 && ls.pdf.is_finite());
             let (q, nq) = hit_light(light, p, ls.wi).expect("the sampled direction hits the light");
-            let pdf = light.pdf_li(p, ls.wi, q, nq);
+            let pdf = light.pdf_li(p, ls.wi, q);
             assert!(
                 (pdf - ls.pdf).abs() <= 1e-3 * pdf,
                 "pdf_li {pdf} vs sampled {}",
@@ -937,7 +937,7 @@ mod tests {
             assert!(light.sample_li(p, s.next_2d()).is_none());
             let w = crate::sampling::uniform_sphere(s.next_2d());
             let (q, n) = hit_light(&light, p, w).expect("inside");
-            assert_eq!(light.pdf_li(p, w, q, n), 0.0);
+            assert_eq!(light.pdf_li(p, w, q), 0.0);
             assert_eq!(light.emitted(n, -w), Rgb::ZERO);
         }
         let pdf = |w: Vec3A| {
@@ -990,7 +990,7 @@ mod tests {
             let verts = vertices(&light);
             let q = verts.iter().copied().sum::<Vec3A>() / verts.len() as f32;
             let (wi, n) = ((q - p).normalize(), light_normal(&light));
-            assert_eq!(light.pdf_li(p, wi, q, n), 0.0);
+            assert_eq!(light.pdf_li(p, wi, q), 0.0);
             assert_eq!(light.emitted(n, -wi), Rgb::ZERO);
             assert_eq!(light.emitted(n, wi), L, "front side");
             // On the light's plane: no sample, no density.
@@ -1045,10 +1045,7 @@ mod tests {
         assert!(ls.delta && light.is_delta() && ls.pdf == 1.0 && ls.dist == 2.0);
         assert_eq!(ls.wi, Vec3A::Z);
         assert_eq!(ls.radiance, Rgb::splat(2.0));
-        assert_eq!(
-            light.pdf_li(Vec3A::ZERO, Vec3A::Z, ls.point, -Vec3A::Z),
-            0.0
-        );
+        assert_eq!(light.pdf_li(Vec3A::ZERO, Vec3A::Z, ls.point), 0.0);
         assert_eq!(light.emitted(Vec3A::Z, Vec3A::Z), Rgb::ZERO);
         assert!(
             light
