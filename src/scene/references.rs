@@ -28,10 +28,7 @@ pub fn scene_content(scene: &Path) -> std::io::Result<Vec<u8>> {
 pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
     let text = std::fs::read_to_string(scene).ok()?;
     let file = parse_scene_file(&text, scene).ok()?;
-    let dir = match scene.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = folder_of(scene);
     let mut files: Vec<PathBuf> = Vec::new();
     let mut add = |p: PathBuf| {
         if !files.contains(&p) {
@@ -49,14 +46,14 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
             ShapeDesc::Obj { path } => {
                 let obj = dir.join(path);
                 for mtl in obj_mtllibs(&obj) {
-                    add(obj.parent().unwrap_or(Path::new(".")).join(mtl));
+                    add(folder_of(&obj).join(mtl));
                 }
                 add(obj);
             }
             ShapeDesc::Gltf { path } => {
                 let gltf = dir.join(path);
                 for uri in gltf_uris(&gltf) {
-                    add(gltf.parent().unwrap_or(Path::new(".")).join(uri));
+                    add(folder_of(&gltf).join(uri));
                 }
                 add(gltf);
             }
@@ -64,6 +61,15 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
         }
     }
     Some(files)
+}
+
+/// The folder a file's relative references are resolved against: its own ("." for a bare
+/// file name).
+fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
 }
 
 /// The material libraries (`mtllib` lines) an OBJ file names; none if it cannot be read.
