@@ -166,47 +166,8 @@ fn lambert(a: f32) -> Material {
 /// sample means converge too slowly for a t-test.
 pub fn furnace_sphere(a: f32, le: f32) -> TestScene {
     // Icosahedron, subdivided twice and projected onto the sphere.
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let v: Vec<Vec3A> = [
-        (-1., t, 0.),
-        (1., t, 0.),
-        (-1., -t, 0.),
-        (1., -t, 0.),
-        (0., -1., t),
-        (0., 1., t),
-        (0., -1., -t),
-        (0., 1., -t),
-        (t, 0., -1.),
-        (t, 0., 1.),
-        (-t, 0., -1.),
-        (-t, 0., 1.),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3A::new(x, y, z).normalize())
-    .collect();
-    let faces = [
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut tris: Vec<[Vec3A; 3]> = faces.iter().map(|f| [v[f[0]], v[f[1]], v[f[2]]]).collect();
+    let (v, faces) = crate::geometry::icosahedron();
+    let mut tris: Vec<[Vec3A; 3]> = faces.iter().map(|f| f.map(|i| v[i as usize])).collect();
     for _ in 0..2 {
         tris = tris
             .iter()

@@ -8,46 +8,9 @@ use std::collections::HashMap;
 /// Positions and triangles of an icosphere of radius 1 with `subdivisions` levels, each vertex
 /// moved along its normal by `displacement * bump(p)` with `bump` in [-1, 1].
 pub fn icosphere(subdivisions: u32, displacement: f32) -> (Vec<Vec3A>, Vec<[u32; 3]>) {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut positions: Vec<Vec3A> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3A::new(x, y, z).normalize())
-    .collect();
-    let mut triangles: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
+    let (vertices, faces) = raylab_integrators::geometry::icosahedron();
+    let mut positions: Vec<Vec3A> = vertices.to_vec();
+    let mut triangles: Vec<[u32; 3]> = faces.to_vec();
     for _ in 0..subdivisions {
         let mut midpoint: HashMap<(u32, u32), u32> =
             HashMap::with_capacity(triangles.len() * 3 / 2);
