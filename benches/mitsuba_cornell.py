@@ -3,12 +3,13 @@
 the two images' mean values (which must agree within noise).
 
 Mitsuba renders its built-in `cornell_box()` (box filter, max_depth 8, rr_depth 5: its
-defaults for `path`); raylab renders scenes/cornell_box.ron (the same box) with max-depth 7
-and rr-depth 6, the same settings in raylab's convention: Mitsuba counts path vertices from 0
-at the first hit and starts Russian roulette at vertex `rr_depth`, raylab counts scattering
-events and starts it after `rr-depth` of them. Russian roulette decides how many bounces a
-sample costs, so it must match for samples per second to compare (raylab's own default,
-rr-depth 3, would end paths earlier and make it look 30% faster). Both at 256x256 on the
+`path` defaults); raylab renders scenes/cornell_box.ron (the same box) with max-depth 7 and
+rr-depth 5, the same settings in raylab's convention. Mitsuba's max_depth counts path
+segments (one more than raylab's scattering events); its rr_depth, like raylab's rr-depth,
+counts the scattering events after which Russian roulette may end a path (its path.cpp adds
+one to the depth after each BSDF sample, then tests depth >= rr_depth). Russian roulette
+decides how many bounces a sample costs, so it must match for samples per second to compare:
+raylab's own default, rr-depth 3, would end paths two bounces earlier. Both at 256x256 on the
 threads the machine has.
 
     pip install mitsuba numpy
@@ -32,7 +33,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 DEBIAN_LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
 # Mitsuba's settings, and raylab's for the same paths (see the docstring).
 MAX_DEPTH, RR_DEPTH = 8, 5
-RAYLAB_PARAMS = ["-p", f"max-depth={MAX_DEPTH - 1}", "-p", f"rr-depth={RR_DEPTH + 1}"]
+RAYLAB_PARAMS = ["-p", f"max-depth={MAX_DEPTH - 1}", "-p", f"rr-depth={RR_DEPTH}"]
 if "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(DEBIAN_LLVM):
     os.environ["DRJIT_LIBLLVM_PATH"] = DEBIAN_LLVM
 

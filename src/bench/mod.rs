@@ -4,9 +4,10 @@
 //! Cases: the report's room and the Cornell box (tiny scenes: the cost is shading and
 //! sampling), a procedural displaced icosphere of 1,310,720 triangles (traversal at scale) and
 //! `scenes/instances.ron`, 300 instances of a 20,480-triangle mesh (two-level traversal; not
-//! dumped, and not in the Embree comparison, which builds flat geometry only). Each is traced with coherent rays (one camera ray through the centre of each pixel
-//! of a square image, in raster order) and incoherent rays (origins uniform in the scene
-//! bounds, directions uniform on the sphere), both from a fixed seed.
+//! dumped, and not in the Embree comparison, which builds flat geometry only). Each is traced
+//! with coherent rays (one camera ray through the centre of each pixel of a square image, in
+//! raster order) and incoherent rays (origins uniform in the scene bounds, directions uniform
+//! on the sphere), both from a fixed seed.
 //!
 //! `--dump DIR` writes the work so that any other engine can trace exactly the same rays:
 //! `CASE.tris`: `u32` triangle count, then per triangle 9 `f32` (v0, v1, v2 xyz);
@@ -55,8 +56,10 @@ pub struct Case {
     pub camera: Camera,
     pub build_time: Duration,
     /// Memory the build used at its peak beyond what was resident before it (Linux only).
+    /// Memory the allocator kept from earlier cases is counted as resident and may be reused,
+    /// so a case run alone (`--case`) can show a somewhat larger figure than in a full run.
     pub build_peak: Option<u64>,
-    /// Whether `path` samples per second are measured (small scenes only).
+    /// Whether `path` samples per second are measured (every case with a light).
     pub shade: bool,
     /// What `scene` was built from, kept only for the Embree comparison (which rebuilds it
     /// on each pool size), so that peak RSS is otherwise what it always was.
@@ -89,7 +92,10 @@ fn embedded(name: &'static str, file: &str, text: &str, keep_source: bool) -> Re
     Ok(Case {
         name,
         build_time,
-        build_peak: (peak_reset && resident > 0).then(|| peak_rss().saturating_sub(resident)),
+        build_peak: match peak_rss() {
+            peak if peak_reset && resident > 0 && peak > 0 => Some(peak.saturating_sub(resident)),
+            _ => None,
+        },
         scene,
         camera: loaded.camera.clone(),
         shade: true,
@@ -99,7 +105,7 @@ fn embedded(name: &'static str, file: &str, text: &str, keep_source: bool) -> Re
 
 /// The displaced icosphere, asked for through the scene format like any user scene, lit by
 /// nothing (traversal only).
-fn large_mesh(subdivisions: u32, keep_source: bool) -> Result<Case> {
+fn large_mesh(name: &'static str, subdivisions: u32, keep_source: bool) -> Result<Case> {
     let text = format!(
         r#"(
             camera: LookAt(eye: (0, 0, 3.5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (512, 512)),
@@ -107,7 +113,7 @@ fn large_mesh(subdivisions: u32, keep_source: bool) -> Result<Case> {
             entities: [(name: "icosphere", shape: Icosphere(subdivisions: {subdivisions}, displacement: 0.05), material: "grey")],
         )"#
     );
-    let mut case = embedded("icosphere-1m", "icosphere.ron", &text, keep_source)?;
+    let mut case = embedded(name, "icosphere.ron", &text, keep_source)?;
     case.shade = false;
     Ok(case)
 }
@@ -249,39 +255,43 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
     #[cfg(feature = "embree")]
     let mut embree_header = opts.embree.then(embree::header);
     let keep = opts.embree;
-    let cases: Vec<Box<dyn Fn() -> Result<Case>>> = vec![
-        Box::new(|| {
+    // In the order of CASES, whose names they are given.
+    let cases: Vec<Box<dyn Fn(&'static str) -> Result<Case>>> = vec![
+        Box::new(|name| {
             embedded(
-                "report-room",
+                name,
                 "scenes/report_room.ron",
                 include_str!("../../scenes/report_room.ron"),
                 keep,
             )
         }),
-        Box::new(|| {
+        Box::new(|name| {
             embedded(
-                "cornell-box",
+                name,
                 "scenes/cornell_box.ron",
                 include_str!("../../scenes/cornell_box.ron"),
                 keep,
             )
         }),
-        Box::new(|| large_mesh(opts.subdivisions, keep)),
+        Box::new(|name| large_mesh(name, opts.subdivisions, keep)),
         // Two-level traversal: 300 instances of a 20,480-triangle mesh (6.1 M placed).
-        Box::new(|| {
+        Box::new(|name| {
             embedded(
-                "instances",
+                name,
                 "scenes/instances.ron",
                 include_str!("../../scenes/instances.ron"),
                 false,
             )
         }),
     ];
-    for (name, make) in CASES.iter().zip(cases) {
+    let mut process_peak = 0;
+    for (name, make) in CASES.into_iter().zip(cases) {
         if !opts.cases.is_empty() && !opts.cases.iter().any(|c| c == name) {
             continue;
         }
-        let case = make()?;
+        // A case's build resets the process's peak (for its build peak): keep the maximum.
+        process_peak = process_peak.max(peak_rss());
+        let case = make(name)?;
         let instanced = case.scene.stats.instances > 0;
         let coherent = coherent_rays(&case.camera, opts.rays);
         let incoherent = incoherent_rays(case.scene.bounds(), opts.rays);
@@ -321,13 +331,14 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             Some(bytes) => format!(", build peak +{:.1} MB", bytes as f64 / 1e6),
             None => String::new(),
         };
+        process_peak = process_peak.max(peak_rss());
         say(format!(
             "{:<14} BVH build {:.1} ms, geometry + BVH {:.1} MB ({:.0} bytes/triangle){build_peak}, peak RSS so far {:.0} MB",
             case.name,
             case.build_time.as_secs_f64() * 1e3,
             scene.memory_bytes() as f64 / 1e6,
             scene.memory_bytes() as f64 / tris as f64,
-            peak_rss() as f64 / 1e6
+            process_peak as f64 / 1e6
         ));
         if case.shade {
             let mut integrator = raylab_integrators::find("path")?.instantiate(&[])?;

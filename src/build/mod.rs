@@ -1,6 +1,6 @@
-//! The build step: flattens the ECS world into structure-of-arrays primitive data, builds the
-//! BVH over triangles and spheres together, reorders the arrays by the BVH's primitive order,
-//! and collects emitters into the light table. Instances of mesh assets are not flattened:
+//! The build step: flattens the ECS world into primitives, builds the BVH over triangles and
+//! spheres together, lays the primitives out in the BVH's order as [`slot::Slot`]s (spheres'
+//! centres, radii and ids in arrays of their own), and collects emitters into the light table. Instances of mesh assets are not flattened:
 //! they get a two-level BVH of their own ([`instances`]), traced after the flat BVH with the
 //! ray shortened to its hit, and only when the scene has any. The result implements the
 //! integrators' [`Scene`] trait and is immutable and `Sync`.
@@ -174,8 +174,8 @@ impl RenderScene {
                 &mut Duration::default(),
             )
         };
-        // The per-slot arrays at their exact size: no growth, nothing to give back (the
-        // sphere arrays, a handful of entries, grow as usual).
+        // The slots (and smooth normals) at their exact size: no growth, nothing to give back
+        // (the sphere arrays, a handful of entries, grow as usual).
         let n = prims.len();
         let smooth: usize = shaped
             .iter()
@@ -290,7 +290,6 @@ impl RenderScene {
                 self.bvh.nodes.capacity(),
                 size_of::<obvhs::cwbvh::node::CwBvhNode>(),
             )
-            + v(self.bvh.primitive_indices.capacity(), 4)
     }
 
     /// Distance to primitive slot `slot` along `ray`, or infinity; `OCCLUSION` picks the
