@@ -40,21 +40,6 @@ pub fn uniform_sphere(u: Vec2) -> Vec3A {
 
 pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
 
-/// Uniform direction inside the cone of half-angle `acos(cos_max)` around `+z`.
-#[inline]
-pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3A {
-    let z = 1.0 - u.x * (1.0 - cos_max);
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3A::new(r * phi.cos(), r * phi.sin(), z)
-}
-
-/// Density of [`uniform_cone`] per unit solid angle.
-#[inline]
-pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
-    1.0 / (2.0 * PI * (1.0 - cos_max))
-}
-
 /// Shirley–Chiu concentric map from the square to the unit disk.
 #[inline]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
@@ -125,25 +110,6 @@ mod tests {
             102,
             |s| Some(uniform_sphere(s.next_2d())),
             |_| UNIFORM_SPHERE_PDF,
-        );
-    }
-
-    #[test]
-    fn chi2_uniform_cone() {
-        let cos_max = 0.7f32;
-        assert_chi2(
-            "uniform cone",
-            &Grid::cap_with_edge(Vec3A::Z, 1.0 - cos_max as f64, 20, 40),
-            SAMPLES,
-            103,
-            |s| Some(uniform_cone(s.next_2d(), cos_max)),
-            |w| {
-                if w.z >= cos_max {
-                    uniform_cone_pdf(cos_max)
-                } else {
-                    0.0
-                }
-            },
         );
     }
 
