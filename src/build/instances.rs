@@ -18,7 +18,6 @@ use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
-use obvhs::BvhBuildParams;
 use raylab_integrators::Hit;
 use std::time::Duration;
 
@@ -62,7 +61,7 @@ impl MeshBlas {
             .collect();
         let mut bvh = build_cwbvh(
             &tris,
-            BvhBuildParams::medium_build(),
+            super::build_params(tris.len()),
             &mut Duration::default(),
         );
         let order = &bvh.primitive_indices;
@@ -119,7 +118,7 @@ impl InstanceSet {
         }
         let mut tlas = build_cwbvh(
             &boxes,
-            BvhBuildParams::medium_build(),
+            super::build_params(boxes.len()),
             &mut Duration::default(),
         );
         let instances = tlas
