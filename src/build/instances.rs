@@ -1,13 +1,14 @@
-//! Instanced geometry: a two-level BVH. Each mesh asset gets one bottom-level CWBVH over its
+//! Instanced geometry: a two-level BVH. Each mesh asset gets one bottom-level [`Bvh4`] over its
 //! triangles in its own space (built once, however many instances place it); a top-level
-//! CWBVH holds the instances' world-space boxes. A ray reaching an instance is moved into the
+//! one holds the instances' world-space boxes. A ray reaching an instance is moved into the
 //! instance's space by the stored world-to-local affine map, *without* renormalising its
 //! direction, so that the local hit distance `t` is the world one: `o' + t d' = M^-1 (o + t d)`.
 //! Normals go back to world space by the inverse transpose, `(M^-1)^T`.
 //!
-//! Traversal nests two obvhs traversals; both keep their stacks on the call stack, so no ray
+//! Traversal nests two BVH traversals; both keep their stacks on the call stack, so no ray
 //! allocates.
 
+use super::bvh4::Bvh4;
 use super::primitives::{flat_normal, intersect_triangle, occludes_triangle};
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
@@ -15,15 +16,12 @@ use crate::scene::LoadedScene;
 use glam::{Affine3A, Vec3A};
 use hecs::Entity;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
-use obvhs::ray::{Ray, RayHit};
-use obvhs::triangle::Triangle;
+use obvhs::ray::Ray;
 use raylab_integrators::Hit;
-use std::time::Duration;
 
 /// One mesh asset's triangles in BVH order, with their BVH.
 struct MeshBlas {
-    bvh: CwBvh,
+    bvh: Bvh4,
     tri: Vec<[Vec3A; 3]>,
     /// Vertex normals per triangle (BVH order), or empty for flat shading.
     smooth: Vec<[Vec3A; 3]>,
@@ -40,7 +38,7 @@ struct Instance {
 /// Every instance of the scene, over their shared meshes.
 #[derive(Default)]
 pub struct InstanceSet {
-    tlas: CwBvh,
+    tlas: Bvh4,
     /// In TLAS order: slot `i` of the TLAS is `instances[i]`.
     instances: Vec<Instance>,
     meshes: Vec<MeshBlas>,
@@ -50,36 +48,20 @@ pub struct InstanceSet {
 
 impl MeshBlas {
     fn build(mesh: &LocalMesh) -> MeshBlas {
-        let tris: Vec<Triangle> = mesh
-            .triangles
-            .iter()
-            .map(|v| Triangle {
-                v0: v[0],
-                v1: v[1],
-                v2: v[2],
-            })
-            .collect();
-        let mut bvh = build_cwbvh(
-            &tris,
-            super::build_params(tris.len()),
-            &mut Duration::default(),
-        );
-        let order = &bvh.primitive_indices;
+        let (bvh, order) = Bvh4::build(mesh.triangles.len(), |i| {
+            Aabb::from_points(&mesh.triangles[i])
+        });
         let tri: Vec<[Vec3A; 3]> = order.iter().map(|&i| mesh.triangles[i as usize]).collect();
         let smooth = match &mesh.normals {
             Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
             None => Vec::new(),
         };
-        // The builder over-allocates (see the flat build); the order is baked in, so the
-        // primitive indices are no longer needed.
-        bvh.nodes.shrink_to_fit();
-        bvh.primitive_indices = Vec::new();
         MeshBlas { bvh, tri, smooth }
     }
 
     fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
-        self.bvh.nodes.capacity() * size_of::<obvhs::cwbvh::node::CwBvhNode>()
+        self.bvh.memory_bytes()
             + self.tri.capacity() * size_of::<[Vec3A; 3]>()
             + self.smooth.capacity() * size_of::<[Vec3A; 3]>()
     }
@@ -116,13 +98,8 @@ impl InstanceSet {
         for b in &boxes {
             bounds = bounds.union(b);
         }
-        let mut tlas = build_cwbvh(
-            &boxes,
-            super::build_params(boxes.len()),
-            &mut Duration::default(),
-        );
-        let instances = tlas
-            .primitive_indices
+        let (tlas, order) = Bvh4::build(boxes.len(), |i| boxes[i]);
+        let instances = order
             .iter()
             .map(|&i| {
                 let (_, inst, material, m) = &items[i as usize];
@@ -133,8 +110,6 @@ impl InstanceSet {
                 }
             })
             .collect();
-        tlas.nodes.shrink_to_fit();
-        tlas.primitive_indices = Vec::new();
         InstanceSet {
             tlas,
             instances,
@@ -165,7 +140,12 @@ impl InstanceSet {
     }
 
     pub fn bvh_nodes(&self) -> usize {
-        self.tlas.nodes.len() + self.meshes.iter().map(|m| m.bvh.nodes.len()).sum::<usize>()
+        self.tlas.node_count()
+            + self
+                .meshes
+                .iter()
+                .map(|m| m.bvh.node_count())
+                .sum::<usize>()
     }
 
     /// Bytes held by the meshes (once each), their BVHs, the TLAS and the instances.
@@ -175,7 +155,7 @@ impl InstanceSet {
             .iter()
             .map(MeshBlas::memory_bytes)
             .sum::<usize>()
-            + self.tlas.nodes.capacity() * size_of::<obvhs::cwbvh::node::CwBvhNode>()
+            + self.tlas.memory_bytes()
             + self.instances.capacity() * size_of::<Instance>()
     }
 
@@ -195,43 +175,32 @@ impl InstanceSet {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<(u32, u32, f32)> {
         let mut best_prim = 0u32;
-        let mut hit = RayHit::none();
-        let found = self.tlas.ray_traverse(*ray, &mut hit, |r, slot| {
+        let (slot, t) = self.tlas.closest(ray, |r, slot| {
             let inst = &self.instances[slot];
             let mesh = &self.meshes[inst.mesh as usize];
-            let mut local_hit = RayHit::none();
             // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
-            if mesh
-                .bvh
-                .ray_traverse(Self::local_ray(inst, r), &mut local_hit, |lr, k| {
-                    intersect_triangle(&mesh.tri[k], lr)
-                })
-            {
-                best_prim = local_hit.primitive_id;
-                local_hit.t
-            } else {
-                f32::INFINITY
+            match mesh.bvh.closest(&Self::local_ray(inst, r), |lr, k| {
+                intersect_triangle(&mesh.tri[k], lr)
+            }) {
+                Some((k, t)) => {
+                    best_prim = k as u32;
+                    t
+                }
+                None => f32::INFINITY,
             }
-        });
-        found.then_some((hit.primitive_id, best_prim, hit.t))
+        })?;
+        Some((slot as u32, best_prim, t))
     }
 
     /// True if any instance has a surface on `ray` before `ray.tmax`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        !self.tlas.ray_traverse_miss(*ray, |r, slot| {
+        self.tlas.any(ray, |r, slot| {
             let inst = &self.instances[slot];
             let mesh = &self.meshes[inst.mesh as usize];
-            let missed = mesh
-                .bvh
-                .ray_traverse_miss(Self::local_ray(inst, r), |lr, k| {
-                    occludes_triangle(&mesh.tri[k], lr)
-                });
-            if missed {
-                f32::INFINITY
-            } else {
-                0.0
-            }
+            mesh.bvh.any(&Self::local_ray(inst, r), |lr, k| {
+                occludes_triangle(&mesh.tri[k], lr).is_finite()
+            })
         })
     }
 

@@ -5,20 +5,19 @@
 //! ray shortened to its hit, and only when the scene has any. The result implements the
 //! integrators' [`Scene`] trait and is immutable and `Sync`.
 
+mod bvh4;
 mod instances;
 mod primitives;
 mod slot;
 
 use crate::scene::components::{MaterialRef, Name, WorldShape};
 use crate::scene::{systems, LoadedScene};
+use bvh4::Bvh4;
 use glam::Vec3A;
 use hecs::Entity;
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
-use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
-use obvhs::BvhBuildParams;
 use primitives::{flat_normal, intersect_sphere, intersect_triangle, occludes_triangle};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
 use slot::{Slot, NONE};
@@ -45,7 +44,7 @@ pub struct BuildStats {
 
 /// The flattened, BVH-backed scene that rendering reads.
 pub struct RenderScene {
-    bvh: CwBvh,
+    bvh: Bvh4,
     /// Per BVH primitive slot: a triangle and its shading data, or a sphere's index.
     slots: Vec<Slot>,
     /// Per-vertex normals of the triangles that have them ([`Slot::smooth`]).
@@ -74,26 +73,6 @@ struct Prim {
     /// Triangle index within the shape (0 for a sphere).
     index: u32,
     light: u32,
-}
-
-/// obvhs's build settings for a BVH over `primitives` boxes.
-///
-/// Up to 10,000 primitives (rooms, Cornell boxes, small meshes) the slowest preset: a wider
-/// PLOC search and reinsertion over the whole tree. It costs at most a few milliseconds
-/// there and its trees trace faster. Measured with `raylab bench` on 1 thread, alternating
-/// binaries:
-/// - the Cornell box: rays 10-15% faster, `path` 8-11%;
-/// - the report room: rays 5-10% faster, `path` 5%;
-/// - icospheres of 320 and 5,120 triangles: 4-8% faster.
-///
-/// Larger meshes keep obvhs's medium preset. At 20,480 triangles the slow one is no faster
-/// and takes 2.5x as long to build; at 81,920 its trees are 15% slower for coherent rays.
-fn build_params(primitives: usize) -> BvhBuildParams {
-    if primitives <= 10_000 {
-        BvhBuildParams::very_slow_build()
-    } else {
-        BvhBuildParams::medium_build()
-    }
 }
 
 /// An entity with geometry: its shape and material, in entity order.
@@ -172,24 +151,18 @@ impl RenderScene {
         }
 
         let instances = InstanceSet::build(scene);
-        let mut bounds = instances.bounds;
-        // BVH over every primitive's box; then lay the arrays out in the BVH's order.
-        let aabbs: Vec<Aabb> = prims.iter().map(|p| p.aabb(&shaped)).collect();
-        for b in &aabbs {
-            bounds = bounds.union(b);
-        }
+        // BVH over every primitive's box; then lay the slots out in the BVH's order.
+        let (bvh, order) = Bvh4::build(prims.len(), |i| prims[i].aabb(&shaped));
+        let bounds = match bvh.bounds() {
+            Some(b) => instances.bounds.union(&b),
+            None => instances.bounds,
+        };
         let radius = 0.5 * bounds.diagonal().length();
         if let Some(env) = scene.environment {
             lights.push(Light::Environment { radiance: env });
         }
         let lights = LightTable::new(lights, radius);
 
-        // A scene of instances only has no flat geometry: an empty BVH is traversed as a miss.
-        let bvh = if aabbs.is_empty() {
-            CwBvh::default()
-        } else {
-            build_cwbvh(&aabbs, build_params(aabbs.len()), &mut Duration::default())
-        };
         // The slots (and smooth normals) at their exact size: no growth, nothing to give back
         // (the sphere arrays, a handful of entries, grow as usual).
         let n = prims.len();
@@ -215,7 +188,7 @@ impl RenderScene {
                 entities: world.len() as usize,
                 lights: lights.len(),
                 emitters: emitters.len() + usize::from(scene.environment.is_some()),
-                bvh_nodes: bvh.nodes.len() + instances.bvh_nodes(),
+                bvh_nodes: bvh.node_count() + instances.bvh_nodes(),
                 instances: instances.len(),
                 instanced_triangles: instances.unique_triangles(),
                 placed_triangles: instances.placed_triangles(),
@@ -225,8 +198,7 @@ impl RenderScene {
             lights,
             bvh,
         };
-        drop(aabbs);
-        for &original in &out.bvh.primitive_indices {
+        for &original in &order {
             let p = prims[original as usize];
             let (_, shape, material) = shaped[p.shape as usize];
             match shape {
@@ -258,10 +230,6 @@ impl RenderScene {
         }
         out.stats.triangles = out.slots.len() - out.sph_center.len();
         out.stats.spheres = out.sph_center.len();
-        // The builder over-allocates its node array (one slot per primitive): give it back.
-        // Slots are in the BVH's order already, so its primitive indices are not needed.
-        out.bvh.nodes.shrink_to_fit();
-        out.bvh.primitive_indices = Vec::new();
         out.stats.build_time = start.elapsed();
         out
     }
@@ -302,10 +270,7 @@ impl RenderScene {
                     + self.sph_light.capacity(),
                 4,
             )
-            + v(
-                self.bvh.nodes.capacity(),
-                size_of::<obvhs::cwbvh::node::CwBvhNode>(),
-            )
+            + self.bvh.memory_bytes()
     }
 
     /// Distance to primitive slot `slot` along `ray`, or infinity; `OCCLUSION` picks the
@@ -386,13 +351,9 @@ fn barycentrics(t: &[Vec3A; 3], p: Vec3A) -> Vec3A {
 impl Scene for RenderScene {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
-        let mut hit = RayHit::none();
         let flat = self
             .bvh
-            .ray_traverse(bvh_ray, &mut hit, |r, slot| {
-                self.intersect_slot::<false>(r, slot)
-            })
-            .then_some((hit.primitive_id, hit.t));
+            .closest(&bvh_ray, |r, slot| self.intersect_slot::<false>(r, slot));
         if !self.instances.is_empty() {
             // Instances only count nearer than the flat geometry's hit.
             let mut r = bvh_ray;
@@ -406,16 +367,15 @@ impl Scene for RenderScene {
                 );
             }
         }
-        flat.map(|(slot, t)| self.hit_record(ray, slot as usize, t))
+        flat.map(|(slot, t)| self.hit_record(ray, slot, t))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
         match Self::to_bvh_ray(ray) {
             Some(r) => {
-                !self
-                    .bvh
-                    .ray_traverse_miss(r, |r, slot| self.intersect_slot::<true>(r, slot))
-                    || (!self.instances.is_empty() && self.instances.occluded(&r))
+                self.bvh.any(&r, |r, slot| {
+                    self.intersect_slot::<true>(r, slot).is_finite()
+                }) || (!self.instances.is_empty() && self.instances.occluded(&r))
             }
             None => false,
         }

@@ -1,0 +1,505 @@
+//! The binned-SAH builder of [`Bvh4`].
+//!
+//! Each primitive is one 32-byte [`Item`] (its box, with its index in a spare lane), and the
+//! items are partitioned in place: the build needs no other per-primitive memory, and the
+//! final order of the items is the leaf order returned to the caller.
+//!
+//! A node is opened into up to four children by splitting, again and again, the child with
+//! the largest surface area that the surface area heuristic (SAH, 16 bins per axis) says is
+//! worth splitting. Below [`MEDIAN_DEPTH`] nodes split at the object median instead, so that
+//! no input (every box equal, say) makes the tree deeper than the traversal stack allows.
+//! Children of nodes with at least [`PARALLEL_MIN`] primitives are built in parallel, and
+//! the bounds and bins of larger ranges are gathered in parallel; every reduction is a
+//! min, max or integer sum, so the tree is the same whatever the thread count.
+
+use super::{Bvh4, Node, EMPTY, LANES, MAX_LEAF};
+use glam::{BVec4A, Vec3A, Vec4};
+use obvhs::aabb::Aabb;
+use rayon::prelude::*;
+
+/// Most SAH bins per axis (a range of fewer items uses one bin per item).
+const BINS: usize = 16;
+/// Depth from which nodes split at the object median, in equal parts by count: [`MAX_DEPTH`]
+/// then holds for any input of up to 2^32 primitives.
+const MEDIAN_DEPTH: usize = 12;
+/// Deepest possible tree: 12 levels of SAH, then median splits that divide by [`LANES`].
+pub(super) const MAX_DEPTH: usize = MEDIAN_DEPTH + 32usize.div_ceil(LANES.ilog2() as usize) + 1;
+/// Nodes with at least this many primitives build their children in parallel.
+const PARALLEL_MIN: usize = 4096;
+/// Ranges with at least this many primitives gather their bounds and bins in parallel.
+const PARALLEL_SCAN_MIN: usize = 1 << 15;
+/// Items per parallel task in those scans.
+const SCAN_CHUNK: usize = 1 << 13;
+/// SAH cost of visiting a node, relative to intersecting one primitive. 2 rather than 1 makes
+/// leaves of about 3 triangles instead of 2 (only where leaves are chosen: nodes still fill
+/// their lanes), a third fewer nodes on the 1.3 M-triangle mesh and traversal no slower.
+const TRAVERSAL_COST: f32 = 2.0;
+
+/// One primitive during the build: its box, with its index as the bits of `lo`'s fourth lane.
+#[derive(Clone, Copy)]
+struct Item {
+    lo: Vec4,
+    hi: Vec3A,
+}
+
+impl Item {
+    fn new(b: &Aabb, id: u32) -> Item {
+        Item {
+            lo: b.min.extend(f32::from_bits(id)),
+            hi: b.max,
+        }
+    }
+
+    /// The box's minimum, the index lane zeroed (as a float it is a denormal, slow to compute
+    /// with: see `slot::zero_w`).
+    #[inline(always)]
+    fn min(&self) -> Vec3A {
+        Vec3A::from_vec4(Vec4::select(
+            BVec4A::new(true, true, true, false),
+            self.lo,
+            Vec4::ZERO,
+        ))
+    }
+
+    fn id(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+
+    /// Twice the box's centre (the factor does not change any split).
+    #[inline(always)]
+    fn centroid2(&self) -> Vec3A {
+        self.min() + self.hi
+    }
+}
+
+/// An axis-aligned box, empty as +inf/-inf.
+#[derive(Clone, Copy, Debug)]
+struct Bounds {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+    };
+
+    #[inline(always)]
+    fn grow(&mut self, min: Vec3A, max: Vec3A) {
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
+    }
+
+    fn union(self, o: Bounds) -> Bounds {
+        Bounds {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    /// Half the surface area (0 for an empty box).
+    fn half_area(&self) -> f32 {
+        let d = (self.max - self.min).max(Vec3A::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+}
+
+/// The boxes' bounds and their centres' (doubled) bounds over a range of items.
+#[derive(Clone, Copy)]
+struct Summary {
+    boxes: Bounds,
+    centres: Bounds,
+}
+
+impl Summary {
+    const EMPTY: Summary = Summary {
+        boxes: Bounds::EMPTY,
+        centres: Bounds::EMPTY,
+    };
+
+    fn of(items: &[Item]) -> Summary {
+        if items.len() >= PARALLEL_SCAN_MIN {
+            return items
+                .par_chunks(SCAN_CHUNK)
+                .map(Summary::of)
+                .reduce(|| Summary::EMPTY, Summary::merge);
+        }
+        let mut s = Summary::EMPTY;
+        for it in items {
+            s.boxes.grow(it.min(), it.hi);
+            let c = it.centroid2();
+            s.centres.grow(c, c);
+        }
+        s
+    }
+
+    fn merge(self, o: Summary) -> Summary {
+        Summary {
+            boxes: self.boxes.union(o.boxes),
+            centres: self.centres.union(o.centres),
+        }
+    }
+}
+
+/// Maps doubled centres to bins along each axis.
+#[derive(Clone, Copy, Debug)]
+struct Binning {
+    /// Bins in use per axis (at most [`BINS`]).
+    bins: usize,
+    origin: Vec3A,
+    /// Bins per unit along each axis; 0 along an axis where every centre is equal.
+    scale: Vec3A,
+}
+
+impl Binning {
+    fn new(centres: &Bounds, items: usize) -> Binning {
+        let bins = items.clamp(2, BINS);
+        let extent = centres.max - centres.min;
+        let scale = Vec3A::select(
+            extent.cmpgt(Vec3A::ZERO),
+            Vec3A::splat(bins as f32 * (1.0 - 1e-6)) / extent,
+            Vec3A::ZERO,
+        );
+        Binning {
+            bins,
+            origin: centres.min,
+            scale,
+        }
+    }
+
+    /// The bin of centre `c2` along `axis`.
+    #[inline(always)]
+    fn bin(&self, c2: Vec3A, axis: usize) -> usize {
+        (((c2[axis] - self.origin[axis]) * self.scale[axis]) as usize).min(self.bins - 1)
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Bounds,
+    count: u32,
+}
+
+type Bins = [[Bin; BINS]; 3];
+
+const EMPTY_BINS: Bins = [[Bin {
+    bounds: Bounds::EMPTY,
+    count: 0,
+}; BINS]; 3];
+
+fn bin_items(items: &[Item], binning: &Binning) -> Bins {
+    if items.len() >= PARALLEL_SCAN_MIN {
+        return items
+            .par_chunks(SCAN_CHUNK)
+            .map(|c| bin_items(c, binning))
+            .reduce(
+                || EMPTY_BINS,
+                |mut a, b| {
+                    for (ra, rb) in a.iter_mut().zip(&b) {
+                        for (x, y) in ra.iter_mut().zip(rb) {
+                            x.bounds = x.bounds.union(y.bounds);
+                            x.count += y.count;
+                        }
+                    }
+                    a
+                },
+            );
+    }
+    let mut bins = EMPTY_BINS;
+    for it in items {
+        let (min, c) = (it.min(), it.centroid2());
+        for (axis, axis_bins) in bins.iter_mut().enumerate() {
+            let b = &mut axis_bins[binning.bin(c, axis)];
+            b.bounds.grow(min, it.hi);
+            b.count += 1;
+        }
+    }
+    bins
+}
+
+/// How to split a range of items in two.
+#[derive(Clone, Copy, Debug)]
+enum Plan {
+    /// A single item.
+    None,
+    /// Items whose centre falls in bins `..=bin` along `axis` go left.
+    Split {
+        axis: usize,
+        bin: usize,
+        binning: Binning,
+    },
+    /// Split at the median centre along `axis`.
+    Median { axis: usize },
+}
+
+/// A contiguous range of the node's items, with its bounds, whether it is best left a leaf,
+/// and how to split it.
+#[derive(Clone, Copy, Debug)]
+struct Range {
+    start: usize,
+    end: usize,
+    bounds: Bounds,
+    leaf: bool,
+    plan: Plan,
+}
+
+impl Range {
+    fn len(&self) -> usize {
+        self.end - self.start
+    }
+
+    /// Which child to open next: the largest by area, or by count for median splits, so that
+    /// four median splits quarter a node and the depth bound holds.
+    fn priority(&self) -> f32 {
+        match self.plan {
+            Plan::Median { .. } => self.len() as f32,
+            _ => self.bounds.half_area(),
+        }
+    }
+
+    /// Summarises `items[start..end]` and decides its plan at `depth`.
+    fn new(items: &[Item], start: usize, end: usize, depth: u32) -> Range {
+        let slice = &items[start..end];
+        let s = Summary::of(slice);
+        let n = slice.len();
+        let extent = s.centres.max - s.centres.min;
+        let widest = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let (leaf, plan) = if n == 1 {
+            (true, Plan::None)
+        } else if depth as usize >= MEDIAN_DEPTH {
+            (n <= MAX_LEAF, Plan::Median { axis: widest })
+        } else {
+            sah_plan(slice, &s, n, widest)
+        };
+        Range {
+            start,
+            end,
+            bounds: s.boxes,
+            leaf,
+            plan,
+        }
+    }
+}
+
+/// The cheapest binned split of `items` by the SAH, and whether a leaf (if allowed) is cheaper.
+fn sah_plan(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan) {
+    let binning = Binning::new(&s.centres, n);
+    let nb = binning.bins;
+    let bins = bin_items(items, &binning);
+    let mut best: Option<(f32, usize, usize)> = None;
+    for (axis, axis_bins) in bins.iter().enumerate() {
+        if binning.scale[axis] == 0.0 {
+            continue;
+        }
+        // Right-hand costs (area x count of bins k..) from the right, then the sweep.
+        let mut right = [0.0f32; BINS];
+        let (mut rb, mut rc) = (Bounds::EMPTY, 0u32);
+        for k in (1..nb).rev() {
+            rb = rb.union(axis_bins[k].bounds);
+            rc += axis_bins[k].count;
+            right[k] = rb.half_area() * rc as f32;
+        }
+        let (mut lb, mut lc) = (Bounds::EMPTY, 0u32);
+        for k in 0..nb - 1 {
+            lb = lb.union(axis_bins[k].bounds);
+            lc += axis_bins[k].count;
+            if lc == 0 || lc as usize == n {
+                continue;
+            }
+            let cost = lb.half_area() * lc as f32 + right[k + 1];
+            if best.is_none_or(|(c, ..)| cost < c) {
+                best = Some((cost, axis, k));
+            }
+        }
+    }
+    let area = s.boxes.half_area();
+    match best {
+        Some((cost, axis, bin)) => {
+            let split_cost = TRAVERSAL_COST + cost / area.max(f32::MIN_POSITIVE);
+            let leaf = n <= MAX_LEAF && n as f32 <= split_cost;
+            (leaf, Plan::Split { axis, bin, binning })
+        }
+        // Every centre in one bin (equal centres): any order is as good as another.
+        None => (n <= MAX_LEAF, Plan::Median { axis: widest }),
+    }
+}
+
+/// Carries out `r`'s plan (not a leaf) on `items`: the two halves as ranges at `depth`.
+fn split(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range) {
+    let slice = &mut items[r.start..r.end];
+    let mid = match r.plan {
+        Plan::Split { axis, bin, binning } => {
+            let left = |it: &Item| binning.bin(it.centroid2(), axis) <= bin;
+            // In-place partition, left items first.
+            let (mut i, mut j) = (0, slice.len());
+            loop {
+                while i < j && left(&slice[i]) {
+                    i += 1;
+                }
+                while i < j && !left(&slice[j - 1]) {
+                    j -= 1;
+                }
+                if i >= j {
+                    break;
+                }
+                slice.swap(i, j - 1);
+                i += 1;
+                j -= 1;
+            }
+            i
+        }
+        Plan::Median { axis } => {
+            let mid = slice.len() / 2;
+            slice.select_nth_unstable_by(mid, |a, b| {
+                a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
+            });
+            mid
+        }
+        Plan::None => unreachable!("a single item is never split"),
+    };
+    // A split plan puts items on both sides by construction; guard anyway.
+    let mid = if mid == 0 || mid == slice.len() {
+        slice.len() / 2
+    } else {
+        mid
+    };
+    let mid = r.start + mid;
+    (
+        Range::new(items, r.start, mid, depth),
+        Range::new(items, mid, r.end, depth),
+    )
+}
+
+/// Builds the subtree of `r` (not a leaf) over `items` (the node's range, whose first item
+/// is at `offset` in the whole array) into `out`, returning its root's index in `out`.
+fn build_node(items: &mut [Item], offset: usize, r: Range, depth: u32, out: &mut Vec<Node>) -> u32 {
+    // Open the node into up to four children: split the largest child that should be split,
+    // then, while lanes are free, the largest that can be.
+    let mut kids = [r; LANES];
+    let mut len = 1;
+    while len < LANES {
+        let largest = |can: &dyn Fn(&Range) -> bool| {
+            (0..len)
+                .filter(|&i| can(&kids[i]))
+                .max_by(|&a, &b| kids[a].priority().total_cmp(&kids[b].priority()))
+        };
+        let Some(i) = largest(&|k| !k.leaf).or_else(|| largest(&|k| !matches!(k.plan, Plan::None)))
+        else {
+            break;
+        };
+        let (a, b) = split(items, &kids[i], depth + 1);
+        kids.copy_within(i + 1..len, i + 2);
+        kids[i] = a;
+        kids[i + 1] = b;
+        len += 1;
+    }
+    let kids = &kids[..len];
+
+    let index = out.len();
+    out.push(Node::EMPTY);
+    let mut node = Node::EMPTY;
+    for (c, k) in kids.iter().enumerate() {
+        node.set_box(c, k.bounds.min, k.bounds.max);
+        if k.leaf {
+            node.child[c] = (offset + k.start) as u32;
+            node.count[c] = k.len() as u32;
+        }
+    }
+
+    if r.len() >= PARALLEL_MIN {
+        // Children's subtrees in parallel, each into its own array, then appended in order.
+        let mut jobs = Vec::with_capacity(LANES);
+        let mut rest = &mut items[..];
+        let mut taken = 0;
+        for (c, k) in kids.iter().enumerate() {
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(k.end - taken);
+            rest = tail;
+            let own = &mut head[k.start - taken..];
+            taken = k.end;
+            if !k.leaf {
+                let local = Range {
+                    start: 0,
+                    end: k.len(),
+                    ..*k
+                };
+                jobs.push((c, own, offset + k.start, local));
+            }
+        }
+        let subtrees: Vec<(usize, Vec<Node>)> = jobs
+            .into_par_iter()
+            .map(|(c, own, off, local)| {
+                let mut v = Vec::new();
+                build_node(own, off, local, depth + 1, &mut v);
+                (c, v)
+            })
+            .collect();
+        for (c, mut v) in subtrees {
+            let base = out.len() as u32;
+            for n in &mut v {
+                for i in 0..LANES {
+                    if n.count[i] == 0 && n.child[i] != EMPTY {
+                        n.child[i] += base;
+                    }
+                }
+            }
+            node.child[c] = base;
+            out.append(&mut v);
+        }
+    } else {
+        for (c, k) in kids.iter().enumerate() {
+            if !k.leaf {
+                let local = Range {
+                    start: 0,
+                    end: k.len(),
+                    ..*k
+                };
+                node.child[c] = build_node(
+                    &mut items[k.start..k.end],
+                    offset + k.start,
+                    local,
+                    depth + 1,
+                    out,
+                );
+            }
+        }
+    }
+    out[index] = node;
+    index as u32
+}
+
+impl Bvh4 {
+    /// Builds the BVH over `n` primitives whose boxes `box_of` gives, on the current rayon
+    /// pool. Returns it with the primitives' order: leaf entries refer to positions in that
+    /// order, so primitive `order[k]` must be stored at position `k`.
+    pub fn build(n: usize, box_of: impl Fn(usize) -> Aabb + Sync) -> (Bvh4, Vec<u32>) {
+        if n == 0 {
+            return (Bvh4::default(), Vec::new());
+        }
+        let mut items: Vec<Item> = (0..n)
+            .into_par_iter()
+            .map(|i| Item::new(&box_of(i), i as u32))
+            .collect();
+        let root = Range::new(&items, 0, n, 0);
+        let mut nodes = Vec::new();
+        if root.leaf {
+            // A handful of primitives: one node with one leaf.
+            let mut node = Node::EMPTY;
+            node.set_box(0, root.bounds.min, root.bounds.max);
+            node.child[0] = 0;
+            node.count[0] = n as u32;
+            nodes.push(node);
+        } else {
+            build_node(&mut items, 0, root, 0, &mut nodes);
+        }
+        nodes.shrink_to_fit();
+        let order = items.iter().map(Item::id).collect();
+        (Bvh4 { nodes }, order)
+    }
+}

@@ -1,0 +1,132 @@
+//! raylab's own bounding volume hierarchy: a 4-wide BVH with uncompressed boxes, built with
+//! a binned SAH in parallel and traversed with one SSE comparison per node.
+//!
+//! Why not obvhs's compressed wide BVH (CWBVH), which raylab used until it was measured:
+//! - a CWBVH node stores its children's boxes quantised to 8 bits, so every node visit
+//!   decodes them first; on a 1.3 M-triangle mesh, where rays visit many nodes that are not
+//!   in cache, raylab traced at 0.4-0.6x Embree's rate, and a profile put the time in that
+//!   decode and the traversal loop around it;
+//! - its PLOC builder peaked at about 300 bytes per triangle and took 2.5-4x Embree's build
+//!   time, single-threaded in its conversion to the wide tree.
+//!
+//! Here a node ([`Node`]) is 128 bytes, two cache lines: the four children's boxes as six
+//! `Vec4`s (one per plane, a lane per child) and the children's indices and primitive counts.
+//! A ray tests all four boxes with a dozen SSE operations and one comparison mask. Leaves hold
+//! up to [`MAX_LEAF`] consecutive primitives of the reordered primitive array, so the caller
+//! lays out its own primitive data in the BVH's order ([`Bvh4::build`] returns that order)
+//! and nothing is read through an index.
+//!
+//! The builder ([`builder`]) splits each node four ways by repeated binned-SAH splits of its
+//! largest child, with the children of large nodes built in parallel (rayon). Its result does
+//! not depend on the number of threads. Traversal ([`traverse`]) keeps a fixed stack on the call
+//! stack: no ray allocates.
+
+mod builder;
+mod traverse;
+
+use glam::{Vec3A, Vec4};
+use obvhs::aabb::Aabb;
+
+/// Most primitives in one leaf.
+pub const MAX_LEAF: usize = 4;
+
+/// Children per node: 4 or 8 (a multiple of 4). Eight, two SSE vectors per plane, traced no
+/// faster on any `raylab bench` case (the report room 10-25% slower) and is not used.
+pub const LANES: usize = 4;
+/// SSE vectors per plane: four lanes each.
+const GROUPS: usize = LANES / 4;
+
+/// Marks an empty child slot (its box is empty, so no ray reaches it).
+const EMPTY: u32 = u32::MAX;
+
+/// One node: four children's boxes, a lane per child, and where each child is.
+///
+/// `planes[0]` holds the boxes' minima and `planes[1]` their maxima, by axis; an unused child
+/// has an empty box (+inf minima, -inf maxima), which no ray can enter. A child with
+/// `count[i] == 0` is the node `child[i]`; otherwise it is a leaf of `count[i]` primitives
+/// starting at `child[i]` in the BVH's order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Node {
+    planes: [[[Vec4; GROUPS]; 3]; 2],
+    child: [u32; LANES],
+    count: [u32; LANES],
+}
+
+impl Node {
+    const EMPTY: Node = Node {
+        planes: [
+            [[Vec4::INFINITY; GROUPS]; 3],
+            [[Vec4::NEG_INFINITY; GROUPS]; 3],
+        ],
+        child: [EMPTY; LANES],
+        count: [0; LANES],
+    };
+
+    /// Sets child `c`'s box.
+    fn set_box(&mut self, c: usize, min: Vec3A, max: Vec3A) {
+        for axis in 0..3 {
+            self.planes[0][axis][c / 4][c % 4] = min[axis];
+            self.planes[1][axis][c / 4][c % 4] = max[axis];
+        }
+    }
+
+    /// Child `c`'s box.
+    fn get_box(&self, c: usize) -> Aabb {
+        let lane = |p: usize| {
+            Vec3A::from_array(std::array::from_fn(|axis| {
+                self.planes[p][axis][c / 4][c % 4]
+            }))
+        };
+        Aabb::new(lane(0), lane(1))
+    }
+}
+
+/// A 4-wide BVH over primitives numbered in the order [`Bvh4::build`] returned.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bvh4 {
+    nodes: Vec<Node>,
+}
+
+impl Bvh4 {
+    /// Number of nodes (for reports).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Bytes held by the nodes.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Node>()
+    }
+
+    /// The box around every primitive, or `None` when empty.
+    pub fn bounds(&self) -> Option<Aabb> {
+        let root = self.nodes.first()?;
+        let mut b = Aabb::empty();
+        for c in (0..LANES).filter(|&c| root.child[c] != EMPTY) {
+            b = b.union(&root.get_box(c));
+        }
+        Some(b)
+    }
+
+    /// Depth of the tree (1 for a root alone, 0 when empty): what the traversal stack bounds.
+    #[cfg(test)]
+    pub fn depth(&self) -> usize {
+        fn depth_of(nodes: &[Node], i: usize) -> usize {
+            let n = &nodes[i];
+            1 + (0..LANES)
+                .filter(|&c| n.count[c] == 0 && n.child[c] != EMPTY)
+                .map(|c| depth_of(nodes, n.child[c] as usize))
+                .max()
+                .unwrap_or(0)
+        }
+        if self.nodes.is_empty() {
+            0
+        } else {
+            depth_of(&self.nodes, 0)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
