@@ -1,4 +1,4 @@
-//! Instanced geometry: a two-level BVH. Each mesh asset gets one bottom-level [`Bvh4`] over its
+//! Instanced geometry: a two-level BVH. Each mesh asset gets one bottom-level [`Bvh`] over its
 //! triangles in its own space (built once, however many instances place it); a top-level
 //! one holds the instances' world-space boxes. A ray reaching an instance is moved into the
 //! instance's space by the stored world-to-local affine map, *without* renormalising its
@@ -8,8 +8,9 @@
 //! Traversal nests two BVH traversals; both keep their stacks on the call stack, so no ray
 //! allocates.
 
-use super::bvh4::Bvh4;
-use super::primitives::{flat_normal, intersect_triangle, occludes_triangle};
+use super::bvh::{isa::Isa, Bvh};
+use super::packet::{self, Lane, Packet, PacketRay, Spheres, NONE};
+use super::primitives::flat_normal;
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
 use crate::scene::LoadedScene;
@@ -19,13 +20,21 @@ use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
 use raylab_integrators::Hit;
 
-/// One mesh asset's triangles in BVH order, with their BVH.
+/// One mesh asset's triangles as packets, one per leaf of their BVH.
 struct MeshBlas {
-    bvh: Bvh4,
-    tri: Vec<[Vec3A; 3]>,
+    bvh: Bvh,
+    /// Each lane's `smooth` index is the triangle's place in the BVH's order.
+    packets: Vec<Packet>,
     /// Vertex normals per triangle (BVH order), or empty for flat shading.
     smooth: Vec<[Vec3A; 3]>,
+    triangles: usize,
 }
+
+/// Instanced meshes have no spheres.
+const NO_SPHERES: Spheres = Spheres {
+    center: &[],
+    radius: &[],
+};
 
 /// One placement of a mesh asset.
 #[derive(Clone, Copy)]
@@ -38,7 +47,7 @@ struct Instance {
 /// Every instance of the scene, over their shared meshes.
 #[derive(Default)]
 pub struct InstanceSet {
-    tlas: Bvh4,
+    tlas: Bvh,
     /// In TLAS order: slot `i` of the TLAS is `instances[i]`.
     instances: Vec<Instance>,
     meshes: Vec<MeshBlas>,
@@ -48,21 +57,40 @@ pub struct InstanceSet {
 
 impl MeshBlas {
     fn build(mesh: &LocalMesh) -> MeshBlas {
-        let (bvh, order) = Bvh4::build(mesh.triangles.len(), |i| {
+        let (mut bvh, order) = Bvh::build::<{ packet::WIDTH }>(mesh.triangles.len(), |i| {
             Aabb::from_points(&mesh.triangles[i])
         });
-        let tri: Vec<[Vec3A; 3]> = order.iter().map(|&i| mesh.triangles[i as usize]).collect();
+        let packets = bvh
+            .number_leaves()
+            .iter()
+            .map(|&(first, count)| {
+                let lanes: arrayvec::ArrayVec<Lane, { packet::WIDTH }> = (first..first + count)
+                    .map(|k| Lane::Triangle {
+                        corners: mesh.triangles[order[k as usize] as usize],
+                        material: 0,
+                        light: NONE,
+                        smooth: k,
+                    })
+                    .collect();
+                Packet::new(&lanes)
+            })
+            .collect();
         let smooth = match &mesh.normals {
             Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
             None => Vec::new(),
         };
-        MeshBlas { bvh, tri, smooth }
+        MeshBlas {
+            bvh,
+            packets,
+            smooth,
+            triangles: order.len(),
+        }
     }
 
     fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
         self.bvh.memory_bytes()
-            + self.tri.capacity() * size_of::<[Vec3A; 3]>()
+            + self.packets.capacity() * size_of::<Packet>()
             + self.smooth.capacity() * size_of::<[Vec3A; 3]>()
     }
 }
@@ -98,7 +126,8 @@ impl InstanceSet {
         for b in &boxes {
             bounds = bounds.union(b);
         }
-        let (tlas, order) = Bvh4::build(boxes.len(), |i| boxes[i]);
+        // Leaves test their instances one at a time.
+        let (tlas, order) = Bvh::build::<1>(boxes.len(), |i| boxes[i]);
         let instances = order
             .iter()
             .map(|&i| {
@@ -128,14 +157,14 @@ impl InstanceSet {
 
     /// Triangles over all mesh assets, each counted once.
     pub fn unique_triangles(&self) -> usize {
-        self.meshes.iter().map(|m| m.tri.len()).sum()
+        self.meshes.iter().map(|m| m.triangles).sum()
     }
 
     /// Triangles as placed in the scene (each mesh counted once per instance).
     pub fn placed_triangles(&self) -> usize {
         self.instances
             .iter()
-            .map(|i| self.meshes[i.mesh as usize].tri.len())
+            .map(|i| self.meshes[i.mesh as usize].triangles)
             .sum()
     }
 
@@ -171,45 +200,59 @@ impl InstanceSet {
         )
     }
 
-    /// Closest hit with `t < ray.tmax`: (instance slot, triangle slot, t).
-    #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<(u32, u32, f32)> {
+    /// Closest hit with `t < ray.tmax`: (instance slot, hit within its mesh, t), the hit as
+    /// the packet's index times [`packet::WIDTH`] plus the lane.
+    #[inline(always)]
+    pub fn intersect<I: Isa>(&self, ray: &Ray) -> Option<(u32, u32, f32)> {
         let mut best_prim = 0u32;
-        let (slot, t) = self.tlas.closest(ray, |r, slot| {
-            let inst = &self.instances[slot];
-            let mesh = &self.meshes[inst.mesh as usize];
-            // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
-            match mesh.bvh.closest(&Self::local_ray(inst, r), |lr, k| {
-                intersect_triangle(&mesh.tri[k], lr)
-            }) {
-                Some((k, t)) => {
-                    best_prim = k as u32;
-                    t
+        let (slot, t) = self.tlas.closest::<I>(ray, |r, first, count| {
+            let mut best = None;
+            let mut r = *r;
+            for slot in first..first + count {
+                let inst = &self.instances[slot as usize];
+                let mesh = &self.meshes[inst.mesh as usize];
+                // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
+                let lr = Self::local_ray(inst, &r);
+                let lanes = PacketRay::new(&lr);
+                if let Some((id, t)) = mesh.bvh.closest::<I>(&lr, |lr, leaf, _| {
+                    let (lane, t) =
+                        mesh.packets[leaf as usize].closest(&lanes, lr, lr.tmax, &NO_SPHERES)?;
+                    Some((leaf * packet::WIDTH as u32 + lane as u32, t))
+                }) {
+                    best_prim = id;
+                    best = Some((slot, t));
+                    r.tmax = t;
                 }
-                None => f32::INFINITY,
             }
+            best
         })?;
-        Some((slot as u32, best_prim, t))
+        Some((slot, best_prim, t))
     }
 
     /// True if any instance has a surface on `ray` before `ray.tmax`.
-    #[inline]
-    pub fn occluded(&self, ray: &Ray) -> bool {
-        self.tlas.any(ray, |r, slot| {
-            let inst = &self.instances[slot];
-            let mesh = &self.meshes[inst.mesh as usize];
-            mesh.bvh.any(&Self::local_ray(inst, r), |lr, k| {
-                occludes_triangle(&mesh.tri[k], lr).is_finite()
+    #[inline(always)]
+    pub fn occluded<I: Isa>(&self, ray: &Ray) -> bool {
+        self.tlas.any::<I>(ray, |r, first, count| {
+            (first..first + count).any(|slot| {
+                let inst = &self.instances[slot as usize];
+                let mesh = &self.meshes[inst.mesh as usize];
+                let lr = Self::local_ray(inst, r);
+                let lanes = PacketRay::new(&lr);
+                mesh.bvh.any::<I>(&lr, |lr, leaf, _| {
+                    mesh.packets[leaf as usize].any(&lanes, lr, &NO_SPHERES)
+                })
             })
         })
     }
 
-    /// The world-space surface record of triangle `prim` of instance `slot`, hit at `t` by
-    /// the world ray `origin + t dir`.
+    /// The world-space surface record of hit `prim` (as [`InstanceSet::intersect`] gives it)
+    /// of instance `slot`, hit at `t` by the world ray `origin + t dir`.
     pub fn hit_record(&self, origin: Vec3A, dir: Vec3A, slot: u32, prim: u32, t: f32) -> Hit {
         let inst = &self.instances[slot as usize];
         let mesh = &self.meshes[inst.mesh as usize];
-        let tri = &mesh.tri[prim as usize];
+        let packet = &mesh.packets[prim as usize / packet::WIDTH];
+        let lane = prim as usize % packet::WIDTH;
+        let tri = &packet.corners(lane);
         // Normals transform by the inverse transpose of the local-to-world map.
         let normal_matrix = inst.world_to_local.matrix3.transpose();
         let ng = (normal_matrix * flat_normal(tri)).normalize_or_zero();
@@ -221,7 +264,10 @@ impl InstanceSet {
             let b = super::barycentrics(tri, local_p);
             // Each vertex normal to world space, then interpolated: as the flattened build
             // does, so an instance shades like its flattened copy under non-uniform scales.
-            let n = mesh.smooth[prim as usize].map(|n| (normal_matrix * n).normalize_or_zero());
+            let k = packet
+                .smooth(lane)
+                .expect("every instanced lane has its index");
+            let n = mesh.smooth[k].map(|n| (normal_matrix * n).normalize_or_zero());
             let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
             if s == Vec3A::ZERO {
                 ng

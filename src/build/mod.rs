@@ -1,26 +1,26 @@
 //! The build step: flattens the ECS world into primitives, builds the BVH over triangles and
-//! spheres together, lays the primitives out in the BVH's order as [`slot::Slot`]s (spheres'
-//! centres, radii and ids in arrays of their own), and collects emitters into the light table. Instances of mesh assets are not flattened:
+//! spheres together, lays the primitives out as one [`packet::Packet`] per BVH leaf (spheres'
+//! centres and radii in arrays of their own), and collects emitters into the light table. Instances of mesh assets are not flattened:
 //! they get a two-level BVH of their own ([`instances`]), traced after the flat BVH with the
 //! ray shortened to its hit, and only when the scene has any. The result implements the
 //! integrators' [`Scene`] trait and is immutable and `Sync`.
 
-mod bvh4;
+mod bvh;
 mod instances;
+mod packet;
 mod primitives;
-mod slot;
 
 use crate::scene::components::{MaterialRef, Name, WorldShape};
 use crate::scene::{systems, LoadedScene};
-use bvh4::Bvh4;
+use bvh::{isa, isa::Isa, Bvh};
 use glam::Vec3A;
 use hecs::Entity;
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
-use primitives::{flat_normal, intersect_sphere, intersect_triangle, occludes_triangle};
+use packet::{Lane, Packet, PacketRay, Spheres, NONE};
+use primitives::flat_normal;
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
-use slot::{Slot, NONE};
 use std::time::{Duration, Instant};
 
 /// Counts and timings of a build, for `raylab validate` and reports.
@@ -44,16 +44,14 @@ pub struct BuildStats {
 
 /// The flattened, BVH-backed scene that rendering reads.
 pub struct RenderScene {
-    bvh: Bvh4,
-    /// Per BVH primitive slot: a triangle and its shading data, or a sphere's index.
-    slots: Vec<Slot>,
-    /// Per-vertex normals of the triangles that have them ([`Slot::smooth`]).
+    bvh: Bvh,
+    /// Per BVH leaf: its triangles (or spheres) and their shading data.
+    packets: Vec<Packet>,
+    /// Per-vertex normals of the triangles that have them ([`Packet::smooth`]).
     smooth_normals: Vec<[Vec3A; 3]>,
-    // Spheres, likewise in BVH order.
+    // Spheres' geometry, in BVH order; their materials and lights are in their packets.
     sph_center: Vec<Vec3A>,
     sph_radius: Vec<f32>,
-    sph_material: Vec<u32>,
-    sph_light: Vec<u32>,
 
     /// Instanced meshes (a two-level BVH); empty in most scenes.
     instances: InstanceSet,
@@ -61,6 +59,8 @@ pub struct RenderScene {
     materials: Vec<Material>,
     lights: LightTable,
     bounds: (Vec3A, Vec3A),
+    /// Whether the processor has AVX2, for the traversal to use its AVX2 build.
+    avx2: bool,
     pub stats: BuildStats,
 }
 
@@ -151,8 +151,11 @@ impl RenderScene {
         }
 
         let instances = InstanceSet::build(scene);
-        // BVH over every primitive's box; then lay the slots out in the BVH's order.
-        let (bvh, order) = Bvh4::build(prims.len(), |i| prims[i].aabb(&shaped));
+        // BVH over every primitive's box, for leaves that test a packet at a time; then one
+        // packet per leaf, the leaves numbered in the BVH's primitive order.
+        let (mut bvh, order) =
+            Bvh::build::<{ packet::WIDTH }>(prims.len(), |i| prims[i].aabb(&shaped));
+        let leaves = bvh.number_leaves();
         let bounds = match bvh.bounds() {
             Some(b) => instances.bounds.union(&b),
             None => instances.bounds,
@@ -163,9 +166,8 @@ impl RenderScene {
         }
         let lights = LightTable::new(lights, radius);
 
-        // The slots (and smooth normals) at their exact size: no growth, nothing to give back
-        // (the sphere arrays, a handful of entries, grow as usual).
-        let n = prims.len();
+        // The packets (and smooth normals) at their exact size: no growth, nothing to give
+        // back (the sphere arrays, a handful of entries, grow as usual).
         let smooth: usize = shaped
             .iter()
             .filter_map(|(_, s, _)| match s {
@@ -176,14 +178,13 @@ impl RenderScene {
             })
             .sum();
         let mut out = RenderScene {
-            slots: Vec::with_capacity(n),
+            packets: Vec::with_capacity(leaves.len()),
             smooth_normals: Vec::with_capacity(smooth),
             sph_center: Vec::new(),
             sph_radius: Vec::new(),
-            sph_material: Vec::new(),
-            sph_light: Vec::new(),
             materials: scene.materials.clone(),
             bounds: (bounds.min, bounds.max),
+            avx2: has_avx2(),
             stats: BuildStats {
                 entities: world.len() as usize,
                 lights: lights.len(),
@@ -198,37 +199,41 @@ impl RenderScene {
             lights,
             bvh,
         };
-        for &original in &order {
-            let p = prims[original as usize];
-            let (_, shape, material) = shaped[p.shape as usize];
-            match shape {
-                WorldShape::Triangles {
-                    triangles, normals, ..
-                } => {
-                    let smooth = match normals {
-                        Some(n) => {
-                            out.smooth_normals.push(n[p.index as usize]);
-                            out.smooth_normals.len() as u32 - 1
+        let mut lanes = Vec::with_capacity(packet::WIDTH);
+        for &(first, count) in &leaves {
+            lanes.clear();
+            for &original in &order[first as usize..(first + count) as usize] {
+                let p = prims[original as usize];
+                let (_, shape, material) = shaped[p.shape as usize];
+                lanes.push(match shape {
+                    WorldShape::Triangles {
+                        triangles, normals, ..
+                    } => Lane::Triangle {
+                        corners: triangles[p.index as usize],
+                        material: material.0,
+                        light: p.light,
+                        smooth: match normals {
+                            Some(n) => {
+                                out.smooth_normals.push(n[p.index as usize]);
+                                out.smooth_normals.len() as u32 - 1
+                            }
+                            None => NONE,
+                        },
+                    },
+                    WorldShape::Sphere { center, radius } => {
+                        out.sph_center.push(*center);
+                        out.sph_radius.push(*radius);
+                        Lane::Sphere {
+                            index: out.sph_center.len() as u32 - 1,
+                            material: material.0,
+                            light: p.light,
                         }
-                        None => NONE,
-                    };
-                    out.slots.push(Slot::triangle(
-                        &triangles[p.index as usize],
-                        material.0,
-                        p.light,
-                        smooth,
-                    ));
-                }
-                WorldShape::Sphere { center, radius } => {
-                    out.slots.push(Slot::sphere(out.sph_center.len() as u32));
-                    out.sph_center.push(*center);
-                    out.sph_radius.push(*radius);
-                    out.sph_material.push(material.0);
-                    out.sph_light.push(p.light);
-                }
+                    }
+                });
             }
+            out.packets.push(Packet::new(&lanes));
         }
-        out.stats.triangles = out.slots.len() - out.sph_center.len();
+        out.stats.triangles = prims.len() - out.sph_center.len();
         out.stats.spheres = out.sph_center.len();
         out.stats.build_time = start.elapsed();
         out
@@ -236,11 +241,12 @@ impl RenderScene {
 
     /// The triangles, in BVH order (for benchmark dumps).
     pub fn triangles(&self) -> Vec<Triangle> {
-        self.slots
+        self.packets
             .iter()
-            .filter(|s| s.sphere_index().is_none())
-            .map(|s| {
-                let [v0, v1, v2] = s.corners();
+            .flat_map(|p| (0..packet::WIDTH).map(move |lane| (p, lane)))
+            .filter(|(p, lane)| p.used(*lane) && p.sphere_index(*lane).is_none())
+            .map(|(p, lane)| {
+                let [v0, v1, v2] = p.corners(lane);
                 Triangle { v0, v1, v2 }
             })
             .collect()
@@ -261,29 +267,17 @@ impl RenderScene {
         use std::mem::size_of;
         let v = |n: usize, each: usize| n * each;
         self.instances.memory_bytes()
-            + v(self.slots.capacity(), size_of::<Slot>())
+            + v(self.packets.capacity(), size_of::<Packet>())
             + v(self.smooth_normals.capacity(), size_of::<[Vec3A; 3]>())
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
-            + v(
-                self.sph_radius.capacity()
-                    + self.sph_material.capacity()
-                    + self.sph_light.capacity(),
-                4,
-            )
+            + v(self.sph_radius.capacity(), 4)
             + self.bvh.memory_bytes()
     }
 
-    /// Distance to primitive slot `slot` along `ray`, or infinity; `OCCLUSION` picks the
-    /// triangle test tuned for occlusion queries ([`primitives::occludes_triangle`]).
-    #[inline(always)]
-    fn intersect_slot<const OCCLUSION: bool>(&self, ray: &obvhs::ray::Ray, slot: usize) -> f32 {
-        let s = &self.slots[slot];
-        if let Some(i) = s.sphere_index() {
-            intersect_sphere(self.sph_center[i], self.sph_radius[i], ray)
-        } else if OCCLUSION {
-            occludes_triangle(&s.corners(), ray)
-        } else {
-            intersect_triangle(&s.corners(), ray)
+    fn sphere_geometry(&self) -> Spheres<'_> {
+        Spheres {
+            center: &self.sph_center,
+            radius: &self.sph_radius,
         }
     }
 
@@ -292,10 +286,13 @@ impl RenderScene {
             .then(|| obvhs::ray::Ray::new(ray.origin, ray.dir, 0.0, ray.tmax))
     }
 
-    /// The surface record for slot `slot` hit at distance `t`.
-    fn hit_record(&self, ray: &Ray, slot: usize, t: f32) -> Hit {
-        let s = &self.slots[slot];
-        if let Some(i) = s.sphere_index() {
+    /// The surface record for lane `id % WIDTH` of packet `id / WIDTH`, hit at distance `t`.
+    fn hit_record(&self, ray: &Ray, id: u32, t: f32) -> Hit {
+        let (s, lane) = (
+            &self.packets[id as usize / packet::WIDTH],
+            id as usize % packet::WIDTH,
+        );
+        if let Some(i) = s.sphere_index(lane) {
             let (c, r) = (self.sph_center[i], self.sph_radius[i]);
             let n = (ray.at(t) - c).normalize();
             Hit {
@@ -304,14 +301,14 @@ impl RenderScene {
                 p: c + n * r,
                 ng: n,
                 ns: n,
-                material: self.sph_material[i],
-                light: (self.sph_light[i] != NONE).then_some(self.sph_light[i]),
+                material: s.material(lane),
+                light: s.light(lane),
             }
         } else {
-            let tri = s.corners();
+            let tri = s.corners(lane);
             // Computed per hit rather than stored: 16 bytes a triangle saved for a cross product.
             let ng = flat_normal(&tri);
-            let ns = match s.smooth() {
+            let ns = match s.smooth(lane) {
                 None => ng,
                 Some(k) => {
                     let b = barycentrics(&tri, ray.at(t));
@@ -331,8 +328,8 @@ impl RenderScene {
                 p: ray.at(t),
                 ng,
                 ns,
-                material: s.material(),
-                light: s.light(),
+                material: s.material(lane),
+                light: s.light(lane),
             }
         }
     }
@@ -348,37 +345,98 @@ fn barycentrics(t: &[Vec3A; 3], p: Vec3A) -> Vec3A {
     Vec3A::new(1.0 - b1 - b2, b1, b2)
 }
 
-impl Scene for RenderScene {
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+/// Whether the traversal may run its AVX2 build (x86-64 processors since 2013); elsewhere the
+/// same code runs as compiled for the target (SSE2 on any x86-64, NEON on ARM).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The traversal built for AVX2: the same functions, inlined into these two and compiled
+/// with AVX2 enabled, with the BVH's eight-lane box tests as single AVX operations
+/// ([`bvh::isa`]). Both compute exactly what the portable build does.
+#[cfg(target_arch = "x86_64")]
+impl RenderScene {
+    #[target_feature(enable = "avx2")]
+    fn closest_hit_avx2(&self, ray: &Ray) -> Option<Hit> {
+        self.closest_hit::<isa::Avx2>(ray)
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn any_hit_avx2(&self, ray: &Ray) -> bool {
+        self.any_hit::<isa::Avx2>(ray)
+    }
+}
+
+impl RenderScene {
+    #[inline(always)]
+    fn closest_hit<I: Isa>(&self, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
-        let flat = self
-            .bvh
-            .closest(&bvh_ray, |r, slot| self.intersect_slot::<false>(r, slot));
+        let (lanes, spheres) = (PacketRay::new(&bvh_ray), self.sphere_geometry());
+        let flat = self.bvh.closest::<I>(
+            &bvh_ray,
+            #[inline(always)]
+            |r, leaf, _| {
+                let packet = &self.packets[leaf as usize];
+                let (lane, t) = packet.closest(&lanes, r, r.tmax, &spheres)?;
+                Some((leaf * packet::WIDTH as u32 + lane as u32, t))
+            },
+        );
         if !self.instances.is_empty() {
             // Instances only count nearer than the flat geometry's hit.
             let mut r = bvh_ray;
             if let Some((_, t)) = flat {
                 r.tmax = t;
             }
-            if let Some((slot, prim, t)) = self.instances.intersect(&r) {
+            if let Some((slot, prim, t)) = self.instances.intersect::<I>(&r) {
                 return Some(
                     self.instances
                         .hit_record(ray.origin, ray.dir, slot, prim, t),
                 );
             }
         }
-        flat.map(|(slot, t)| self.hit_record(ray, slot, t))
+        flat.map(|(id, t)| self.hit_record(ray, id, t))
     }
 
-    fn occluded(&self, ray: &Ray) -> bool {
+    #[inline(always)]
+    fn any_hit<I: Isa>(&self, ray: &Ray) -> bool {
         match Self::to_bvh_ray(ray) {
             Some(r) => {
-                self.bvh.any(&r, |r, slot| {
-                    self.intersect_slot::<true>(r, slot).is_finite()
-                }) || (!self.instances.is_empty() && self.instances.occluded(&r))
+                let (lanes, spheres) = (PacketRay::new(&r), self.sphere_geometry());
+                self.bvh.any::<I>(
+                    &r,
+                    #[inline(always)]
+                    |r, leaf, _| self.packets[leaf as usize].any(&lanes, r, &spheres),
+                ) || (!self.instances.is_empty() && self.instances.occluded::<I>(&r))
             }
             None => false,
         }
+    }
+}
+
+impl Scene for RenderScene {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the processor has AVX2 (`RenderScene::build`).
+            return unsafe { self.closest_hit_avx2(ray) };
+        }
+        self.closest_hit::<isa::Portable>(ray)
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: as in `intersect`.
+            return unsafe { self.any_hit_avx2(ray) };
+        }
+        self.any_hit::<isa::Portable>(ray)
     }
 
     fn material(&self, id: u32) -> &Material {

@@ -4,29 +4,28 @@ use glam::Vec3A;
 use obvhs::ray::Ray;
 
 /// Distance in `[ray.tmin, ray.tmax]` at which `ray` meets the triangle, or infinity: the
-/// test for closest hits.
+/// reference that the packet test ([`super::packet`]) reproduces lane by lane, bit for bit,
+/// and that the tests compare the BVH against.
 ///
 /// Möller–Trumbore in the form obvhs uses (Fast Minimum Storage Ray Triangle Intersection),
 /// with one difference: a barycentric coordinate of -0.0 counts as inside. obvhs tests the
 /// three sign bits at once, so a ray exactly on an edge shared by two triangles (a camera ray
 /// along the diagonal of a quad, an axis-aligned ray along a box's seam) missed both and
 /// leaked through; here it hits one of them, as in Embree.
-#[inline(always)]
+#[cfg(test)]
 pub fn intersect_triangle(tri: &[Vec3A; 3], ray: &Ray) -> f32 {
     moller_trumbore::<false>(tri, ray)
 }
 
-/// The same distance, for occlusion queries: the inside test is one check of three sign bits
-/// (after turning -0.0 into +0.0), without branches. Measured against the test above on the
-/// same rays (`raylab bench`, one thread): closest hits on small scenes are 1.4-1.6x faster
-/// with branches; occlusion on the 1.3 M-triangle mesh 3-10% faster without (A/B of the two
-/// choices for occlusion, same session).
-#[inline(always)]
+/// The same distance with the inside test as one check of three sign bits (after turning
+/// -0.0 into +0.0), without branches: what raylab's occlusion queries used before packets.
+/// It accepts and rejects the same points as [`intersect_triangle`].
+#[cfg(test)]
 pub fn occludes_triangle(tri: &[Vec3A; 3], ray: &Ray) -> f32 {
     moller_trumbore::<true>(tri, ray)
 }
 
-#[inline(always)]
+#[cfg(test)]
 fn moller_trumbore<const BRANCH_FREE: bool>(tri: &[Vec3A; 3], ray: &Ray) -> f32 {
     let [v0, v1, v2] = *tri;
     let e1 = v0 - v1;

@@ -67,6 +67,8 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
 fn bvh_closest_hit_and_occlusion_match_brute_force() {
     let loaded = parse_scene(&random_scene(3000, 40, 7), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
+    let mut portable = RenderScene::build(&loaded);
+    portable.avx2 = false;
     let baked_triangles: usize = loaded
         .world
         .query::<&WorldShape>()
@@ -94,6 +96,20 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
         let ray = Ray { origin, dir, tmax };
         let expected = brute_force(&loaded, &ray);
         let got = scene.intersect(&ray);
+        // The portable build of the traversal finds the same as the AVX2 one (where the
+        // processor has it and `scene` uses it), to the bit.
+        let same = |a: &Option<Hit>, b: &Option<Hit>| match (a, b) {
+            (Some(a), Some(b)) => {
+                (a.t.to_bits(), a.p, a.ng, a.ns, a.material, a.light)
+                    == (b.t.to_bits(), b.p, b.ng, b.ns, b.material, b.light)
+            }
+            (a, b) => a.is_none() && b.is_none(),
+        };
+        assert!(
+            same(&portable.intersect(&ray), &got),
+            "ray {i}: builds differ"
+        );
+        assert_eq!(portable.occluded(&ray), scene.occluded(&ray), "ray {i}");
         match (expected, got) {
             (None, None) => {}
             (Some((t, p)), Some(h)) => {
@@ -122,31 +138,41 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
     let loaded = parse_scene(&random_scene(200, 10, 3), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
     // Triangles are not emitters, spheres are, each its own light.
-    assert!(scene
-        .slots
-        .iter()
-        .all(|s| s.sphere_index().is_some() || s.light().is_none()));
-    let mut sphere_lights: Vec<u32> = scene.sph_light.clone();
-    sphere_lights.sort();
-    assert_eq!(sphere_lights, (0..10).collect::<Vec<u32>>());
-    for (i, light) in scene.sph_light.iter().enumerate() {
-        match scene.lights.get(*light) {
-            Light::Sphere { center, radius, .. } => {
-                assert_eq!(
-                    (*center, *radius),
-                    (scene.sph_center[i], scene.sph_radius[i])
-                );
+    let mut sphere_lights = Vec::new();
+    for (p, lane) in used_lanes(&scene) {
+        match p.sphere_index(lane) {
+            None => assert_eq!(p.light(lane), None),
+            Some(i) => {
+                let light = p.light(lane).expect("every sphere emits");
+                sphere_lights.push(light);
+                match scene.lights.get(light) {
+                    Light::Sphere { center, radius, .. } => assert_eq!(
+                        (*center, *radius),
+                        (scene.sph_center[i], scene.sph_radius[i])
+                    ),
+                    other => panic!("{other:?}"),
+                }
             }
-            other => panic!("{other:?}"),
         }
     }
-    assert_eq!(scene.slots.len(), 210);
+    sphere_lights.sort();
+    assert_eq!(sphere_lights, (0..10).collect::<Vec<u32>>());
+    assert_eq!(used_lanes(&scene).count(), 210);
 }
 
-/// A slot carries its triangle's material, light and smooth normals in the corners' spare
-/// lanes: each must come back as the world had it, whatever order the BVH put slots in.
+/// Every packet lane that holds a primitive.
+fn used_lanes(scene: &RenderScene) -> impl Iterator<Item = (&Packet, usize)> {
+    scene
+        .packets
+        .iter()
+        .flat_map(|p| (0..packet::WIDTH).map(move |lane| (p, lane)))
+        .filter(|(p, lane)| p.used(*lane))
+}
+
+/// A packet lane carries its triangle's material, light and smooth normals: each must come
+/// back as the world had it, whatever order the BVH put the triangles in.
 #[test]
-fn every_triangle_slot_keeps_its_material_light_and_normals() {
+fn every_triangle_lane_keeps_its_material_light_and_normals() {
     let mesh = |z: f32, normals: bool| {
         let mut positions = String::new();
         let mut extra = String::new();
@@ -184,15 +210,16 @@ fn every_triangle_slot_keeps_its_material_light_and_normals() {
         mesh(1.0, false),
         mesh(2.0, true)
     );
-    let loaded = parse_scene(&text, Path::new("slots.ron")).unwrap();
+    let loaded = parse_scene(&text, Path::new("lanes.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
-    let (mut lit, mut smooth) = (0, 0);
-    for slot in &scene.slots {
-        let v = slot.corners();
+    let (mut lit, mut smooth, mut triangles) = (0, 0, 0);
+    for (p, lane) in used_lanes(&scene) {
+        triangles += 1;
+        let v = p.corners(lane);
         // The mesh is told by its z, the triangle within it by its first corner's x.
         let (mesh, i) = (v[0].z as usize, (v[0].x * 10.0).round() as usize);
-        assert_eq!(slot.material(), mesh as u32, "{v:?}");
-        match slot.light() {
+        assert_eq!(p.material(lane), mesh as u32, "{v:?}");
+        match p.light(lane) {
             Some(l) => {
                 assert_eq!(mesh, 1);
                 lit += 1;
@@ -203,7 +230,7 @@ fn every_triangle_slot_keeps_its_material_light_and_normals() {
             }
             None => assert_ne!(mesh, 1),
         }
-        match slot.smooth() {
+        match p.smooth(lane) {
             Some(k) => {
                 assert_eq!(mesh, 2);
                 smooth += 1;
@@ -214,7 +241,7 @@ fn every_triangle_slot_keeps_its_material_light_and_normals() {
             None => assert_ne!(mesh, 2),
         }
     }
-    assert_eq!((scene.slots.len(), lit, smooth), (120, 40, 40));
+    assert_eq!((triangles, lit, smooth), (120, 40, 40));
 }
 
 #[test]
@@ -225,8 +252,8 @@ fn the_build_does_not_depend_on_the_thread_count() {
     let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
     let (a, b) = (build(1), build(2));
     assert_eq!(a.bvh, b.bvh);
-    // Compared bit for bit: a sphere's slot holds NaNs.
+    // Compared bit for bit: a sphere's lane holds NaNs.
     let bits =
-        |s: &RenderScene| -> Vec<[u32; 12]> { s.slots.iter().map(|s| s.to_bits()).collect() };
+        |s: &RenderScene| -> Vec<Vec<u32>> { s.packets.iter().map(|p| p.to_bits()).collect() };
     assert_eq!(bits(&a), bits(&b));
 }

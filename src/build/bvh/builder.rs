@@ -1,4 +1,4 @@
-//! The binned-SAH builder of [`Bvh4`].
+//! The binned-SAH builder of [`Bvh`].
 //!
 //! Each primitive is one 32-byte [`Item`] (its box, with its index in a spare lane), and the
 //! items are partitioned in place: the build needs no other per-primitive memory, and the
@@ -12,7 +12,7 @@
 //! the bounds and bins of larger ranges are gathered in parallel; every reduction is a
 //! min, max or integer sum, so the tree is the same whatever the thread count.
 
-use super::{Bvh4, Node, EMPTY, LANES, MAX_LEAF};
+use super::{Bvh, Node, EMPTY, LANES, MAX_LEAF};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use rayon::prelude::*;
@@ -259,7 +259,7 @@ impl Range {
     }
 
     /// Summarises `items[start..end]` and decides its plan at `depth`.
-    fn new(items: &[Item], start: usize, end: usize, depth: u32) -> Range {
+    fn new<const BLOCK: usize>(items: &[Item], start: usize, end: usize, depth: u32) -> Range {
         let slice = &items[start..end];
         let s = Summary::of(slice);
         let n = slice.len();
@@ -276,7 +276,7 @@ impl Range {
         } else if depth as usize >= MEDIAN_DEPTH {
             (n <= MAX_LEAF, Plan::Median { axis: widest })
         } else {
-            sah_plan(slice, &s, n, widest)
+            sah_plan::<BLOCK>(slice, &s, n, widest)
         };
         Range {
             start,
@@ -288,8 +288,19 @@ impl Range {
     }
 }
 
+/// SAH cost of testing `n` primitives in a leaf, which tests them `BLOCK` at a time.
+#[inline(always)]
+fn leaf_cost<const BLOCK: usize>(n: u32) -> f32 {
+    n.div_ceil(BLOCK as u32) as f32
+}
+
 /// The cheapest binned split of `items` by the SAH, and whether a leaf (if allowed) is cheaper.
-fn sah_plan(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan) {
+fn sah_plan<const BLOCK: usize>(
+    items: &[Item],
+    s: &Summary,
+    n: usize,
+    widest: usize,
+) -> (bool, Plan) {
     let binning = Binning::new(&s.centres, n);
     let nb = binning.bins;
     let bins = bin_items(items, &binning);
@@ -304,7 +315,7 @@ fn sah_plan(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan
         for k in (1..nb).rev() {
             rb = rb.union(axis_bins[k].bounds);
             rc += axis_bins[k].count;
-            right[k] = rb.half_area() * rc as f32;
+            right[k] = rb.half_area() * leaf_cost::<BLOCK>(rc);
         }
         let (mut lb, mut lc) = (Bounds::EMPTY, 0u32);
         for k in 0..nb - 1 {
@@ -313,7 +324,7 @@ fn sah_plan(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan
             if lc == 0 || lc as usize == n {
                 continue;
             }
-            let cost = lb.half_area() * lc as f32 + right[k + 1];
+            let cost = lb.half_area() * leaf_cost::<BLOCK>(lc) + right[k + 1];
             if best.is_none_or(|(c, ..)| cost < c) {
                 best = Some((cost, axis, k));
             }
@@ -323,7 +334,7 @@ fn sah_plan(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan
     match best {
         Some((cost, axis, bin)) => {
             let split_cost = TRAVERSAL_COST + cost / area.max(f32::MIN_POSITIVE);
-            let leaf = n <= MAX_LEAF && n as f32 <= split_cost;
+            let leaf = n <= MAX_LEAF && leaf_cost::<BLOCK>(n as u32) <= split_cost;
             (leaf, Plan::Split { axis, bin, binning })
         }
         // Every centre in one bin (equal centres): any order is as good as another.
@@ -332,7 +343,7 @@ fn sah_plan(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan
 }
 
 /// Carries out `r`'s plan (not a leaf) on `items`: the two halves as ranges at `depth`.
-fn split(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range) {
+fn split<const BLOCK: usize>(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range) {
     let slice = &mut items[r.start..r.end];
     let mid = match r.plan {
         Plan::Split { axis, bin, binning } => {
@@ -372,16 +383,22 @@ fn split(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range) {
     };
     let mid = r.start + mid;
     (
-        Range::new(items, r.start, mid, depth),
-        Range::new(items, mid, r.end, depth),
+        Range::new::<BLOCK>(items, r.start, mid, depth),
+        Range::new::<BLOCK>(items, mid, r.end, depth),
     )
 }
 
 /// Builds the subtree of `r` (not a leaf) over `items` (the node's range, whose first item
 /// is at `offset` in the whole array) into `out`, returning its root's index in `out`.
-fn build_node(items: &mut [Item], offset: usize, r: Range, depth: u32, out: &mut Vec<Node>) -> u32 {
+fn build_node<const BLOCK: usize>(
+    items: &mut [Item],
+    offset: usize,
+    r: Range,
+    depth: u32,
+    out: &mut Vec<Node>,
+) -> u32 {
     // Open the node into up to four children: split the largest child that should be split,
-    // then, while lanes are free, the largest that can be.
+    // then, while lanes are free, the largest that holds more than one block.
     let mut kids = [r; LANES];
     let mut len = 1;
     while len < LANES {
@@ -390,11 +407,12 @@ fn build_node(items: &mut [Item], offset: usize, r: Range, depth: u32, out: &mut
                 .filter(|&i| can(&kids[i]))
                 .max_by(|&a, &b| kids[a].priority().total_cmp(&kids[b].priority()))
         };
-        let Some(i) = largest(&|k| !k.leaf).or_else(|| largest(&|k| !matches!(k.plan, Plan::None)))
+        let Some(i) = largest(&|k| !k.leaf)
+            .or_else(|| largest(&|k| k.len() > BLOCK && !matches!(k.plan, Plan::None)))
         else {
             break;
         };
-        let (a, b) = split(items, &kids[i], depth + 1);
+        let (a, b) = split::<BLOCK>(items, &kids[i], depth + 1);
         kids.copy_within(i + 1..len, i + 2);
         kids[i] = a;
         kids[i + 1] = b;
@@ -436,7 +454,7 @@ fn build_node(items: &mut [Item], offset: usize, r: Range, depth: u32, out: &mut
             .into_par_iter()
             .map(|(c, own, off, local)| {
                 let mut v = Vec::new();
-                build_node(own, off, local, depth + 1, &mut v);
+                build_node::<BLOCK>(own, off, local, depth + 1, &mut v);
                 (c, v)
             })
             .collect();
@@ -460,7 +478,7 @@ fn build_node(items: &mut [Item], offset: usize, r: Range, depth: u32, out: &mut
                     end: k.len(),
                     ..*k
                 };
-                node.child[c] = build_node(
+                node.child[c] = build_node::<BLOCK>(
                     &mut items[k.start..k.end],
                     offset + k.start,
                     local,
@@ -474,19 +492,25 @@ fn build_node(items: &mut [Item], offset: usize, r: Range, depth: u32, out: &mut
     index as u32
 }
 
-impl Bvh4 {
+impl Bvh {
     /// Builds the BVH over `n` primitives whose boxes `box_of` gives, on the current rayon
-    /// pool. Returns it with the primitives' order: leaf entries refer to positions in that
-    /// order, so primitive `order[k]` must be stored at position `k`.
-    pub fn build(n: usize, box_of: impl Fn(usize) -> Aabb + Sync) -> (Bvh4, Vec<u32>) {
+    /// pool, for leaves that test their primitives `BLOCK` at a time (1: one by one; 4: a
+    /// packet): the SAH counts a leaf's cost in blocks, and lanes are filled by splitting
+    /// only children of more than one block. Returns it with the primitives' order: leaf
+    /// entries refer to positions in that order, so primitive `order[k]` must be stored at
+    /// position `k`.
+    pub fn build<const BLOCK: usize>(
+        n: usize,
+        box_of: impl Fn(usize) -> Aabb + Sync,
+    ) -> (Bvh, Vec<u32>) {
         if n == 0 {
-            return (Bvh4::default(), Vec::new());
+            return (Bvh::default(), Vec::new());
         }
         let mut items: Vec<Item> = (0..n)
             .into_par_iter()
             .map(|i| Item::new(&box_of(i), i as u32))
             .collect();
-        let root = Range::new(&items, 0, n, 0);
+        let root = Range::new::<BLOCK>(&items, 0, n, 0);
         let mut nodes = Vec::new();
         if root.leaf {
             // A handful of primitives: one node with one leaf.
@@ -496,10 +520,10 @@ impl Bvh4 {
             node.count[0] = n as u32;
             nodes.push(node);
         } else {
-            build_node(&mut items, 0, root, 0, &mut nodes);
+            build_node::<BLOCK>(&mut items, 0, root, 0, &mut nodes);
         }
         nodes.shrink_to_fit();
         let order = items.iter().map(Item::id).collect();
-        (Bvh4 { nodes }, order)
+        (Bvh { nodes }, order)
     }
 }

@@ -1,5 +1,5 @@
-//! raylab's own bounding volume hierarchy: a 4-wide BVH with uncompressed boxes, built with
-//! a binned SAH in parallel and traversed with one SSE comparison per node.
+//! raylab's own bounding volume hierarchy: an 8-wide BVH with uncompressed boxes, built with
+//! a binned SAH in parallel and traversed with one vector comparison per node.
 //!
 //! Why not obvhs's compressed wide BVH (CWBVH), which raylab used until it was measured:
 //! - a CWBVH node stores its children's boxes quantised to 8 bits, so every node visit
@@ -9,37 +9,40 @@
 //! - its PLOC builder peaked at about 300 bytes per triangle and took 2.5-4x Embree's build
 //!   time, single-threaded in its conversion to the wide tree.
 //!
-//! Here a node ([`Node`]) is 128 bytes, two cache lines: the four children's boxes as six
-//! `Vec4`s (one per plane, a lane per child) and the children's indices and primitive counts.
-//! A ray tests all four boxes with a dozen SSE operations and one comparison mask. Leaves hold
-//! up to [`MAX_LEAF`] consecutive primitives of the reordered primitive array, so the caller
-//! lays out its own primitive data in the BVH's order ([`Bvh4::build`] returns that order)
-//! and nothing is read through an index.
+//! Here a node ([`Node`]) is 256 bytes, four cache lines: the eight children's boxes as six
+//! planes of eight floats (a lane per child) and the children's indices and primitive counts.
+//! A ray tests all eight boxes at once: the test is written lane by lane on arrays, which the
+//! compiler turns into one AVX operation per step where the processor has AVX2 (the scene
+//! dispatches to such a build of its traversal at run time) and two SSE operations elsewhere.
+//! Leaves hold up to [`MAX_LEAF`] consecutive primitives of the reordered primitive array, so
+//! the caller lays out its own primitive data in the BVH's order ([`Bvh::build`] returns that
+//! order) and nothing is read through an index.
 //!
-//! The builder ([`builder`]) splits each node four ways by repeated binned-SAH splits of its
+//! The builder ([`builder`]) splits each node eight ways by repeated binned-SAH splits of its
 //! largest child, with the children of large nodes built in parallel (rayon). Its result does
 //! not depend on the number of threads. Traversal ([`traverse`]) keeps a fixed stack on the call
 //! stack: no ray allocates.
 
 mod builder;
+pub mod isa;
 mod traverse;
 
-use glam::{Vec3A, Vec4};
+use glam::Vec3A;
 use obvhs::aabb::Aabb;
 
 /// Most primitives in one leaf.
 pub const MAX_LEAF: usize = 4;
 
-/// Children per node: 4 or 8 (a multiple of 4). Eight, two SSE vectors per plane, traced no
-/// faster on any `raylab bench` case (the report room 10-25% slower) and is not used.
-pub const LANES: usize = 4;
-/// SSE vectors per plane: four lanes each.
-const GROUPS: usize = LANES / 4;
+/// Children per node.
+pub const LANES: usize = 8;
 
 /// Marks an empty child slot (its box is empty, so no ray reaches it).
 const EMPTY: u32 = u32::MAX;
 
-/// One node: four children's boxes, a lane per child, and where each child is.
+/// One plane of the children's boxes: a lane per child.
+type Plane = [f32; LANES];
+
+/// One node: eight children's boxes, a lane per child, and where each child is.
 ///
 /// `planes[0]` holds the boxes' minima and `planes[1]` their maxima, by axis; an unused child
 /// has an empty box (+inf minima, -inf maxima), which no ray can enter. A child with
@@ -48,17 +51,14 @@ const EMPTY: u32 = u32::MAX;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct Node {
-    planes: [[[Vec4; GROUPS]; 3]; 2],
+    planes: [[Plane; 3]; 2],
     child: [u32; LANES],
     count: [u32; LANES],
 }
 
 impl Node {
     const EMPTY: Node = Node {
-        planes: [
-            [[Vec4::INFINITY; GROUPS]; 3],
-            [[Vec4::NEG_INFINITY; GROUPS]; 3],
-        ],
+        planes: [[[f32::INFINITY; LANES]; 3], [[f32::NEG_INFINITY; LANES]; 3]],
         child: [EMPTY; LANES],
         count: [0; LANES],
     };
@@ -66,29 +66,26 @@ impl Node {
     /// Sets child `c`'s box.
     fn set_box(&mut self, c: usize, min: Vec3A, max: Vec3A) {
         for axis in 0..3 {
-            self.planes[0][axis][c / 4][c % 4] = min[axis];
-            self.planes[1][axis][c / 4][c % 4] = max[axis];
+            self.planes[0][axis][c] = min[axis];
+            self.planes[1][axis][c] = max[axis];
         }
     }
 
     /// Child `c`'s box.
     fn get_box(&self, c: usize) -> Aabb {
-        let lane = |p: usize| {
-            Vec3A::from_array(std::array::from_fn(|axis| {
-                self.planes[p][axis][c / 4][c % 4]
-            }))
-        };
+        let lane =
+            |p: usize| Vec3A::from_array(std::array::from_fn(|axis| self.planes[p][axis][c]));
         Aabb::new(lane(0), lane(1))
     }
 }
 
-/// A 4-wide BVH over primitives numbered in the order [`Bvh4::build`] returned.
+/// An 8-wide BVH over primitives numbered in the order [`Bvh::build`] returned.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Bvh4 {
+pub struct Bvh {
     nodes: Vec<Node>,
 }
 
-impl Bvh4 {
+impl Bvh {
     /// Number of nodes (for reports).
     pub fn node_count(&self) -> usize {
         self.nodes.len()
@@ -107,6 +104,28 @@ impl Bvh4 {
             b = b.union(&root.get_box(c));
         }
         Some(b)
+    }
+
+    /// Renumbers the leaves by their place in the primitive order: afterwards a leaf's
+    /// `first` is its rank `k` among the leaves (the `k`-th run of primitives in the order
+    /// [`Bvh::build`] returned), so that it indexes an array of the caller's with one entry
+    /// per leaf, such as packets of triangles. Its `count` is kept. Returns each leaf's
+    /// primitives as `(first, count)` in the order of the primitives, by rank.
+    pub fn number_leaves(&mut self) -> Vec<(u32, u32)> {
+        let mut leaves: Vec<(u32, u32, u32)> = Vec::new();
+        for (i, n) in self.nodes.iter().enumerate() {
+            for c in (0..LANES).filter(|&c| n.count[c] != 0) {
+                leaves.push((n.child[c], i as u32, c as u32));
+            }
+        }
+        leaves.sort_unstable();
+        for (rank, &(_, node, c)) in leaves.iter().enumerate() {
+            self.nodes[node as usize].child[c as usize] = rank as u32;
+        }
+        leaves
+            .iter()
+            .map(|&(first, node, c)| (first, self.nodes[node as usize].count[c as usize]))
+            .collect()
     }
 
     /// Depth of the tree (1 for a root alone, 0 when empty): what the traversal stack bounds.

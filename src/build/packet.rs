@@ -1,0 +1,389 @@
+//! A BVH leaf of the flat scene: up to four primitives stored lane by lane, so that one ray
+//! is tested against all four triangles at once with SSE, and what a hit record reads, in
+//! 192 bytes (three cache lines) and one place.
+//!
+//! Each BVH leaf is one packet ([`super::bvh::Bvh::number_leaves`]). Lane `i` of the
+//! corner arrays holds triangle `i`; beside them each lane's material, light and an index
+//! ([`Packet::aux`]): the triangle's smooth normals, or for a sphere the sphere's place in the
+//! sphere arrays. A sphere's lane has NaN corners, which no triangle test passes, and is
+//! tested on its own; an unused lane has zero corners (a degenerate triangle, which no ray
+//! hits) and the material [`NONE`].
+//!
+//! The triangle test is [`super::primitives::intersect_triangle`]'s Möller–Trumbore with the
+//! same operations in the same order, lane by lane, so a packet finds the same distances, to
+//! the bit, as testing its triangles one at a time.
+
+use super::primitives::intersect_sphere;
+use glam::{BVec4A, Vec3A, Vec4};
+use obvhs::ray::Ray;
+
+/// Primitives per packet.
+pub const WIDTH: usize = 4;
+
+/// "No light" / "no smooth normals".
+pub const NONE: u32 = u32::MAX;
+
+/// Three coordinates, a lane per primitive.
+type Lanes3 = [Vec4; 3];
+
+/// One primitive of a packet, as given to [`Packet::new`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lane {
+    Triangle {
+        corners: [Vec3A; 3],
+        material: u32,
+        light: u32,
+        smooth: u32,
+    },
+    Sphere {
+        index: u32,
+        material: u32,
+        light: u32,
+    },
+}
+
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub struct Packet {
+    /// `corner[k][axis]`: corner `k` of each lane's triangle.
+    corner: [Lanes3; 3],
+    material: [u32; WIDTH],
+    light: [u32; WIDTH],
+    aux: [u32; WIDTH],
+}
+
+/// A ray's origin and direction splatted across lanes, made once per ray.
+pub struct PacketRay {
+    origin: Lanes3,
+    dir: Lanes3,
+}
+
+impl PacketRay {
+    #[inline(always)]
+    pub fn new(ray: &Ray) -> PacketRay {
+        let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+        PacketRay {
+            origin: splat(ray.origin),
+            dir: splat(ray.direction),
+        }
+    }
+}
+
+#[inline(always)]
+fn sub(a: &Lanes3, b: &Lanes3) -> Lanes3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// As glam's `Vec3A::cross`: the same products, subtracted the same way.
+#[inline(always)]
+fn cross(a: &Lanes3, b: &Lanes3) -> Lanes3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// As glam's `Vec3A::dot`: (x + y) + z.
+#[inline(always)]
+fn dot(a: &Lanes3, b: &Lanes3) -> Vec4 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl Packet {
+    /// A packet of one to [`WIDTH`] primitives.
+    pub fn new(lanes: &[Lane]) -> Packet {
+        assert!(
+            !lanes.is_empty() && lanes.len() <= WIDTH,
+            "{} lanes",
+            lanes.len()
+        );
+        let mut corners = [[Vec3A::ZERO; 3]; WIDTH];
+        let mut p = Packet {
+            corner: [[Vec4::ZERO; 3]; 3],
+            material: [NONE; WIDTH],
+            light: [NONE; WIDTH],
+            aux: [NONE; WIDTH],
+        };
+        for (i, lane) in lanes.iter().enumerate() {
+            match *lane {
+                Lane::Triangle {
+                    corners: c,
+                    material,
+                    light,
+                    smooth,
+                } => {
+                    corners[i] = c;
+                    (p.material[i], p.light[i], p.aux[i]) = (material, light, smooth);
+                }
+                Lane::Sphere {
+                    index,
+                    material,
+                    light,
+                } => {
+                    corners[i] = [Vec3A::NAN; 3];
+                    (p.material[i], p.light[i], p.aux[i]) = (material, light, index);
+                }
+            }
+        }
+        for (k, corner) in p.corner.iter_mut().enumerate() {
+            for (axis, lanes) in corner.iter_mut().enumerate() {
+                *lanes = Vec4::from_array(std::array::from_fn(|i| corners[i][k][axis]));
+            }
+        }
+        p
+    }
+
+    /// Lanes holding spheres, a bit each.
+    #[inline(always)]
+    fn sphere_lanes(&self) -> u32 {
+        let x = self.corner[0][0];
+        x.cmpne(x).bitmask()
+    }
+
+    /// Each lane's distance along `ray` in `[tmin, tmax]`, or infinity; sphere lanes are
+    /// tested with [`intersect_sphere`] against `spheres`' centres and radii.
+    #[inline(always)]
+    fn distances(&self, r: &PacketRay, ray: &Ray, tmax: f32, spheres: &Spheres) -> Vec4 {
+        let [v0, v1, v2] = &self.corner;
+        let e1 = sub(v0, v1);
+        let e2 = sub(v2, v0);
+        let n = cross(&e1, &e2);
+        let c = sub(v0, &r.origin);
+        let q = cross(&r.dir, &c);
+        let inv_det = Vec4::ONE / dot(&n, &r.dir);
+        let u = dot(&q, &e2) * inv_det;
+        let v = dot(&q, &e1) * inv_det;
+        let w = Vec4::ONE - u - v;
+        let t = dot(&n, &c) * inv_det;
+        // Each barycentric compared on its own (a NaN fails), -0.0 inside: see
+        // `primitives::intersect_triangle`.
+        let zero = Vec4::ZERO;
+        let inside: BVec4A = u.cmpge(zero) & v.cmpge(zero) & w.cmpge(zero) & inv_det.cmpne(zero);
+        let within = t.cmpge(Vec4::splat(ray.tmin)) & t.cmple(Vec4::splat(tmax));
+        let mut t = Vec4::select(inside & within, t, Vec4::INFINITY);
+        let mut s = self.sphere_lanes();
+        while s != 0 {
+            let lane = s.trailing_zeros() as usize;
+            s &= s - 1;
+            let i = self.aux[lane] as usize;
+            let mut r = *ray;
+            r.tmax = tmax;
+            t[lane] = intersect_sphere(spheres.center[i], spheres.radius[i], &r);
+        }
+        t
+    }
+
+    /// The nearest lane whose primitive `ray` meets before `tmax` (strictly), with its
+    /// distance; the lowest such lane on a tie, as testing the lanes in order would.
+    #[inline(always)]
+    pub fn closest(
+        &self,
+        r: &PacketRay,
+        ray: &Ray,
+        tmax: f32,
+        spheres: &Spheres,
+    ) -> Option<(usize, f32)> {
+        let t = self.distances(r, ray, tmax, spheres);
+        let hit = t.cmplt(Vec4::splat(tmax)).bitmask();
+        if hit == 0 {
+            return None;
+        }
+        let best = t.min_element();
+        let lane = (t.cmpeq(Vec4::splat(best)).bitmask() & hit).trailing_zeros() as usize;
+        Some((lane, best))
+    }
+
+    /// Whether `ray` meets any of the packet's primitives within `[ray.tmin, ray.tmax]`.
+    #[inline(always)]
+    pub fn any(&self, r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+        self.distances(r, ray, ray.tmax, spheres)
+            .cmplt(Vec4::INFINITY)
+            .any()
+    }
+
+    /// Lane `lane`'s triangle corners (NaN for a sphere, zero for an unused lane).
+    #[inline(always)]
+    pub fn corners(&self, lane: usize) -> [Vec3A; 3] {
+        self.corner
+            .map(|c| Vec3A::new(c[0][lane], c[1][lane], c[2][lane]))
+    }
+
+    /// Lane `lane`'s sphere, as its index in the sphere arrays, or `None` for a triangle.
+    #[inline(always)]
+    pub fn sphere_index(&self, lane: usize) -> Option<usize> {
+        (self.sphere_lanes() >> lane & 1 == 1).then_some(self.aux[lane] as usize)
+    }
+
+    /// Whether lane `lane` holds a primitive.
+    pub fn used(&self, lane: usize) -> bool {
+        self.material[lane] != NONE
+    }
+
+    pub fn material(&self, lane: usize) -> u32 {
+        self.material[lane]
+    }
+
+    pub fn light(&self, lane: usize) -> Option<u32> {
+        Some(self.light[lane]).filter(|&l| l != NONE)
+    }
+
+    /// A triangle's index into the smooth normals, if it has them.
+    pub fn smooth(&self, lane: usize) -> Option<usize> {
+        Some(self.aux[lane])
+            .filter(|&s| s != NONE)
+            .map(|s| s as usize)
+    }
+
+    /// Every lane's bits, for comparing packets (sphere lanes hold NaNs).
+    #[cfg(test)]
+    pub fn to_bits(self) -> Vec<u32> {
+        let corners = self
+            .corner
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_array().map(f32::to_bits));
+        corners
+            .chain(self.material)
+            .chain(self.light)
+            .chain(self.aux)
+            .collect()
+    }
+}
+
+/// The spheres' geometry that packets refer to by index.
+#[derive(Clone, Copy)]
+pub struct Spheres<'a> {
+    pub center: &'a [Vec3A],
+    pub radius: &'a [f32],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::build::primitives::intersect_triangle;
+    use rand::rngs::StdRng;
+    use rand::{Rng, SeedableRng};
+
+    const NO_SPHERES: Spheres = Spheres {
+        center: &[],
+        radius: &[],
+    };
+
+    fn triangle(corners: [Vec3A; 3], material: u32) -> Lane {
+        Lane::Triangle {
+            corners,
+            material,
+            light: NONE,
+            smooth: NONE,
+        }
+    }
+
+    /// Each lane's distance is the one-triangle test's, bit for bit, on random rays through
+    /// random triangles, rays along the axes and rays exactly through shared corners.
+    #[test]
+    fn lanes_find_the_single_triangle_distances_exactly() {
+        let mut rng = StdRng::seed_from_u64(5);
+        let mut p3 = |s: f32| Vec3A::new(rng.random(), rng.random(), rng.random()) * s;
+        let (mut rays, mut hits) = (0, 0);
+        for round in 0..2000 {
+            let base = p3(2.0);
+            let tris: Vec<[Vec3A; 3]> = (0..1 + round % WIDTH)
+                .map(|_| [base + p3(1.0), base + p3(1.0), base + p3(1.0)])
+                .collect();
+            let lanes: Vec<Lane> = tris.iter().map(|&t| triangle(t, 0)).collect();
+            let packet = Packet::new(&lanes);
+            for k in 0..8 {
+                let target = match k {
+                    0 => tris[0][1],
+                    1 => (tris[0][0] + tris[0][2]) * 0.5,
+                    _ => base + p3(1.0),
+                };
+                let origin = if k == 3 {
+                    target - Vec3A::Z * 3.0
+                } else {
+                    p3(6.0) - 2.0
+                };
+                let ray = Ray::new(origin, target - origin, 0.0, [f32::INFINITY, 1.5][k % 2]);
+                let pr = PacketRay::new(&ray);
+                let t = packet.distances(&pr, &ray, ray.tmax, &NO_SPHERES);
+                for (i, tri) in tris.iter().enumerate() {
+                    assert_eq!(t[i].to_bits(), intersect_triangle(tri, &ray).to_bits());
+                    hits += usize::from(t[i].is_finite());
+                    rays += 1;
+                }
+                for i in tris.len()..WIDTH {
+                    assert!(t[i].is_infinite(), "unused lane {i} hit at {}", t[i]);
+                }
+                let expected = tris
+                    .iter()
+                    .map(|tri| intersect_triangle(tri, &ray))
+                    .enumerate()
+                    .filter(|(_, t)| *t < ray.tmax)
+                    .fold(None, |b: Option<(usize, f32)>, (i, t)| match b {
+                        Some((_, bt)) if bt <= t => b,
+                        _ => Some((i, t)),
+                    });
+                assert_eq!(packet.closest(&pr, &ray, ray.tmax, &NO_SPHERES), expected);
+                assert_eq!(packet.any(&pr, &ray, &NO_SPHERES), expected.is_some());
+            }
+        }
+        assert!(hits > rays / 10, "{hits} hits of {rays}");
+    }
+
+    #[test]
+    fn sphere_lanes_are_tested_as_spheres_and_keep_their_data() {
+        let centers = [Vec3A::new(0.0, 0.0, 5.0), Vec3A::new(0.0, 0.0, 9.0)];
+        let radii = [1.0, 2.0];
+        let spheres = Spheres {
+            center: &centers,
+            radius: &radii,
+        };
+        let tri = [
+            Vec3A::new(-1.0, -1.0, 7.0),
+            Vec3A::new(1.0, -1.0, 7.0),
+            Vec3A::new(0.0, 1.0, 7.0),
+        ];
+        let packet = Packet::new(&[
+            Lane::Sphere {
+                index: 1,
+                material: 3,
+                light: 8,
+            },
+            Lane::Triangle {
+                corners: tri,
+                material: 2,
+                light: NONE,
+                smooth: 6,
+            },
+            Lane::Sphere {
+                index: 0,
+                material: 1,
+                light: NONE,
+            },
+        ]);
+        let ray = Ray::new_inf(Vec3A::ZERO, Vec3A::Z);
+        let pr = PacketRay::new(&ray);
+        assert_eq!(
+            packet.closest(&pr, &ray, f32::INFINITY, &spheres),
+            Some((2, 4.0))
+        );
+        // Beyond the near sphere the far one and the triangle tie at 7: the lower lane wins.
+        let from = Ray::new(Vec3A::ZERO, Vec3A::Z, 6.5, f32::INFINITY);
+        let t = packet.closest(&PacketRay::new(&from), &from, f32::INFINITY, &spheres);
+        assert_eq!(t, Some((0, 7.0)));
+        assert_eq!(packet.sphere_index(0), Some(1));
+        assert_eq!(packet.sphere_index(1), None);
+        assert_eq!(packet.sphere_index(2), Some(0));
+        assert_eq!(packet.sphere_index(3), None);
+        assert_eq!((packet.material(0), packet.light(0)), (3, Some(8)));
+        assert_eq!(
+            (packet.material(1), packet.light(1), packet.smooth(1)),
+            (2, None, Some(6))
+        );
+        assert_eq!(packet.corners(1), tri);
+        let short = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, 3.0);
+        assert!(!packet.any(&PacketRay::new(&short), &short, &spheres));
+        assert_eq!(std::mem::size_of::<Packet>(), 192);
+    }
+}
