@@ -107,7 +107,8 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
         .create_scene()
         .map_err(embree_err("cannot create a scene"))?;
 
-    let tris = case.scene.triangles();
+    let source = case.source()?;
+    let tris = crate::build::flat_triangles(source);
     if !tris.is_empty() {
         let mut g = device
             .create_geometry(GeometryKind::TRIANGLE)
@@ -129,7 +130,7 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
         }
         scene.attach_geometry(&g.commit());
     }
-    let spheres = case.scene.spheres();
+    let spheres = crate::build::flat_spheres(source);
     if !spheres.is_empty() {
         let mut g = device
             .create_geometry(GeometryKind::SPHERE_POINT)
@@ -172,10 +173,7 @@ fn build(case: &Case, threads: usize) -> Result<Built> {
 
 /// Best of three raylab builds of the case on a `threads`-thread pool.
 fn raylab_build(case: &Case, threads: usize) -> Result<Duration> {
-    let source = case
-        .source
-        .as_ref()
-        .ok_or_else(|| anyhow!("bench: {}: the scene source was not kept", case.name))?;
+    let source = case.source()?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;

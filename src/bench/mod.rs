@@ -61,12 +61,19 @@ pub struct Case {
     pub build_peak: Option<u64>,
     /// Whether `path` samples per second are measured (every case with a light).
     pub shade: bool,
-    /// What `scene` was built from, kept only for the Embree comparison (which rebuilds it
-    /// on each pool size), so that peak RSS is otherwise what it always was.
+    /// What `scene` was built from, kept only for `--dump` and the Embree comparison (which
+    /// rebuilds it on each pool size), so that peak RSS is otherwise what it always was.
     pub source: Option<LoadedScene>,
 }
 
 impl Case {
+    /// What the scene was built from (kept for `--dump` and `--embree` only).
+    pub fn source(&self) -> Result<&LoadedScene> {
+        self.source
+            .as_ref()
+            .ok_or_else(|| anyhow::anyhow!("bench: {}: the scene source was not kept", self.name))
+    }
+
     /// Triangles the rays can meet: the flat ones and every instance's (an instanced mesh
     /// once per instance).
     pub fn placed_triangles(&self) -> usize {
@@ -81,7 +88,7 @@ impl Case {
 
 /// A case from scene text; the build time covers the whole `RenderScene::build` (boxes, BVH,
 /// arrays in BVH order, light table), not parsing.
-/// The scene is kept in the case only if `keep_source` (for `--embree`).
+/// The scene is kept in the case only if `keep_source` (for `--dump` and `--embree`).
 fn embedded(name: &'static str, file: &str, text: &str, keep_source: bool) -> Result<Case> {
     let loaded = parse_scene(text, Path::new(file))?;
     let resident = resident_bytes();
@@ -206,14 +213,15 @@ fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> R
 }
 
 fn dump(dir: &Path, case: &Case, coherent: &[Ray], incoherent: &[Ray]) -> Result<()> {
-    let tris = case.scene.triangles();
+    let source = case.source()?;
+    let tris = crate::build::flat_triangles(source);
     write_f32s(
         &dir.join(format!("{}.tris", case.name)),
         tris.len(),
         tris.iter()
             .flat_map(|t| [t.v0, t.v1, t.v2].into_iter().flat_map(|v| v.to_array())),
     )?;
-    let spheres = case.scene.spheres();
+    let spheres = crate::build::flat_spheres(source);
     write_f32s(
         &dir.join(format!("{}.spheres", case.name)),
         spheres.len(),
@@ -254,7 +262,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
     ));
     #[cfg(feature = "embree")]
     let mut embree_header = opts.embree.then(embree::header);
-    let keep = opts.embree;
+    let keep = opts.embree || opts.dump.is_some();
     // In the order of CASES, whose names they are given.
     let cases: Vec<Box<dyn Fn(&'static str) -> Result<Case>>> = vec![
         Box::new(|name| {
@@ -340,6 +348,18 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             scene.memory_bytes() as f64 / tris as f64,
             process_peak as f64 / 1e6
         ));
+        let s = &scene.stats;
+        if s.bvh_leaves > 0 && s.instances == 0 {
+            // Every child of a node is a node or a leaf, and every node but the root a child.
+            say(format!(
+                "{:<14} BVH {} nodes of {:.2} children on average, {} leaves of {:.2} primitives",
+                case.name,
+                s.bvh_nodes,
+                (s.bvh_nodes - 1 + s.bvh_leaves) as f64 / s.bvh_nodes as f64,
+                s.bvh_leaves,
+                (s.triangles + s.spheres) as f64 / s.bvh_leaves as f64
+            ));
+        }
         if case.shade {
             let mut integrator = raylab_integrators::find("path")?.instantiate(&[])?;
             let camera = case.camera.with_resolution(256, 256);

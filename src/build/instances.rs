@@ -9,8 +9,7 @@
 //! allocates.
 
 use super::bvh::{isa::Isa, Bvh};
-use super::packet::{self, Lane, Packet, PacketRay, Spheres, NONE};
-use super::primitives::flat_normal;
+use super::packet::{self, Lane, LaneData, Packet, PacketRay, NONE, NO_SPHERES};
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
 use crate::scene::LoadedScene;
@@ -23,18 +22,13 @@ use raylab_integrators::Hit;
 /// One mesh asset's triangles as packets, one per leaf of their BVH.
 struct MeshBlas {
     bvh: Bvh,
-    /// Each lane's `smooth` index is the triangle's place in the BVH's order.
     packets: Vec<Packet>,
+    /// Each lane's `smooth` index is the triangle's place in the BVH's order.
+    lane_data: Vec<LaneData>,
     /// Vertex normals per triangle (BVH order), or empty for flat shading.
     smooth: Vec<[Vec3A; 3]>,
     triangles: usize,
 }
-
-/// Instanced meshes have no spheres.
-const NO_SPHERES: Spheres = Spheres {
-    center: &[],
-    radius: &[],
-};
 
 /// One placement of a mesh asset.
 #[derive(Clone, Copy)]
@@ -60,10 +54,11 @@ impl MeshBlas {
         let (mut bvh, order) = Bvh::build::<{ packet::WIDTH }>(mesh.triangles.len(), |i| {
             Aabb::from_points(&mesh.triangles[i])
         });
-        let packets = bvh
-            .number_leaves()
+        let (packets, lane_data) = bvh
+            .number_leaves(packet::packets_for)
             .iter()
-            .map(|&(first, count)| {
+            .flat_map(|&(first, count)| packet::runs(first, count))
+            .map(|(first, count)| {
                 let lanes: arrayvec::ArrayVec<Lane, { packet::WIDTH }> = (first..first + count)
                     .map(|k| Lane::Triangle {
                         corners: mesh.triangles[order[k as usize] as usize],
@@ -74,7 +69,7 @@ impl MeshBlas {
                     .collect();
                 Packet::new(&lanes)
             })
-            .collect();
+            .unzip();
         let smooth = match &mesh.normals {
             Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
             None => Vec::new(),
@@ -82,6 +77,7 @@ impl MeshBlas {
         MeshBlas {
             bvh,
             packets,
+            lane_data,
             smooth,
             triangles: order.len(),
         }
@@ -91,6 +87,7 @@ impl MeshBlas {
         use std::mem::size_of;
         self.bvh.memory_bytes()
             + self.packets.capacity() * size_of::<Packet>()
+            + self.lane_data.capacity() * size_of::<LaneData>()
             + self.smooth.capacity() * size_of::<[Vec3A; 3]>()
     }
 }
@@ -214,10 +211,18 @@ impl InstanceSet {
                 // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
                 let lr = Self::local_ray(inst, &r);
                 let lanes = PacketRay::new(&lr);
-                if let Some((id, t)) = mesh.bvh.closest::<I>(&lr, |lr, leaf, _| {
-                    let (lane, t) =
-                        mesh.packets[leaf as usize].closest(&lanes, lr, lr.tmax, &NO_SPHERES)?;
-                    Some((leaf * packet::WIDTH as u32 + lane as u32, t))
+                if let Some((id, t)) = mesh.bvh.closest::<I>(&lr, |lr, first, count| {
+                    let mut best = None;
+                    let mut tmax = lr.tmax;
+                    for p in first..first + packet::packets_for(count) {
+                        let (packet, data) =
+                            (&mesh.packets[p as usize], &mesh.lane_data[p as usize]);
+                        if let Some((lane, t)) = packet.closest(&lanes, lr, tmax, &NO_SPHERES, data)
+                        {
+                            (best, tmax) = (Some((p * packet::WIDTH as u32 + lane as u32, t)), t);
+                        }
+                    }
+                    best
                 }) {
                     best_prim = id;
                     best = Some((slot, t));
@@ -238,8 +243,11 @@ impl InstanceSet {
                 let mesh = &self.meshes[inst.mesh as usize];
                 let lr = Self::local_ray(inst, r);
                 let lanes = PacketRay::new(&lr);
-                mesh.bvh.any::<I>(&lr, |lr, leaf, _| {
-                    mesh.packets[leaf as usize].any(&lanes, lr, &NO_SPHERES)
+                mesh.bvh.any::<I>(&lr, |lr, first, count| {
+                    (first..first + packet::packets_for(count)).any(|p| {
+                        let p = p as usize;
+                        mesh.packets[p].any(&lanes, lr, &NO_SPHERES, &mesh.lane_data[p])
+                    })
                 })
             })
         })
@@ -250,31 +258,34 @@ impl InstanceSet {
     pub fn hit_record(&self, origin: Vec3A, dir: Vec3A, slot: u32, prim: u32, t: f32) -> Hit {
         let inst = &self.instances[slot as usize];
         let mesh = &self.meshes[inst.mesh as usize];
-        let packet = &mesh.packets[prim as usize / packet::WIDTH];
-        let lane = prim as usize % packet::WIDTH;
-        let tri = &packet.corners(lane);
+        let (p, lane) = (prim as usize / packet::WIDTH, prim as usize % packet::WIDTH);
+        let packet = &mesh.packets[p];
         // Normals transform by the inverse transpose of the local-to-world map.
         let normal_matrix = inst.world_to_local.matrix3.transpose();
-        let ng = (normal_matrix * flat_normal(tri)).normalize_or_zero();
-        let ns = if mesh.smooth.is_empty() {
-            ng
-        } else {
-            let local_p = inst.world_to_local.transform_point3a(origin)
-                + inst.world_to_local.transform_vector3a(dir) * t;
-            let b = super::barycentrics(tri, local_p);
-            // Each vertex normal to world space, then interpolated: as the flattened build
-            // does, so an instance shades like its flattened copy under non-uniform scales.
-            let k = packet
-                .smooth(lane)
-                .expect("every instanced lane has its index");
-            let n = mesh.smooth[k].map(|n| (normal_matrix * n).normalize_or_zero());
-            let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
-            if s == Vec3A::ZERO {
-                ng
-            } else if s.dot(ng) < 0.0 {
-                -s
-            } else {
-                s
+        let ng = (normal_matrix * packet.normal(lane)).normalize_or_zero();
+        // The lane's index is the triangle's place in the BVH's order, where `smooth` keeps
+        // its vertex normals (when the mesh has them).
+        let smooth = mesh.lane_data[p]
+            .smooth(lane)
+            .and_then(|k| mesh.smooth.get(k));
+        let ns = match smooth {
+            None => ng,
+            Some(normals) => {
+                let local_p = inst.world_to_local.transform_point3a(origin)
+                    + inst.world_to_local.transform_vector3a(dir) * t;
+                let (v0, e1, e2) = packet.edges(lane);
+                let b = super::barycentrics(v0, e1, e2, local_p);
+                // Each vertex normal to world space, then interpolated: as the flattened build
+                // does, so an instance shades like its flattened copy under non-uniform scales.
+                let n = normals.map(|n| (normal_matrix * n).normalize_or_zero());
+                let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
+                if s == Vec3A::ZERO {
+                    ng
+                } else if s.dot(ng) < 0.0 {
+                    -s
+                } else {
+                    s
+                }
             }
         };
         Hit {

@@ -1,5 +1,5 @@
 //! The build step: flattens the ECS world into primitives, builds the BVH over triangles and
-//! spheres together, lays the primitives out as one [`packet::Packet`] per BVH leaf (spheres'
+//! spheres together, lays the primitives out in [`packet::Packet`]s, one or two per BVH leaf (spheres'
 //! centres and radii in arrays of their own), and collects emitters into the light table. Instances of mesh assets are not flattened:
 //! they get a two-level BVH of their own ([`instances`]), traced after the flat BVH with the
 //! ray shortened to its hit, and only when the scene has any. The result implements the
@@ -18,8 +18,7 @@ use hecs::Entity;
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
-use packet::{Lane, Packet, PacketRay, Spheres, NONE};
-use primitives::flat_normal;
+use packet::{Lane, LaneData, Packet, PacketRay, Spheres, NONE};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
 use std::time::{Duration, Instant};
 
@@ -34,6 +33,8 @@ pub struct BuildStats {
     /// Entities that emit.
     pub emitters: usize,
     pub bvh_nodes: usize,
+    /// Leaves of the flat scene's BVH.
+    pub bvh_leaves: usize,
     /// Instances of mesh assets, the triangles of those assets (each once) and the triangles
     /// the instances place (each asset once per instance).
     pub instances: usize,
@@ -47,9 +48,11 @@ pub struct RenderScene {
     bvh: Bvh,
     /// Per BVH leaf: its triangles (or spheres) and their shading data.
     packets: Vec<Packet>,
-    /// Per-vertex normals of the triangles that have them ([`Packet::smooth`]).
+    /// Per packet: its primitives' materials, lights and smooth-normal indices.
+    lane_data: Vec<LaneData>,
+    /// Per-vertex normals of the triangles that have them ([`LaneData::smooth`]).
     smooth_normals: Vec<[Vec3A; 3]>,
-    // Spheres' geometry, in BVH order; their materials and lights are in their packets.
+    // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
     sph_center: Vec<Vec3A>,
     sph_radius: Vec<f32>,
 
@@ -155,7 +158,7 @@ impl RenderScene {
         // packet per leaf, the leaves numbered in the BVH's primitive order.
         let (mut bvh, order) =
             Bvh::build::<{ packet::WIDTH }>(prims.len(), |i| prims[i].aabb(&shaped));
-        let leaves = bvh.number_leaves();
+        let leaves = bvh.number_leaves(packet::packets_for);
         let bounds = match bvh.bounds() {
             Some(b) => instances.bounds.union(&b),
             None => instances.bounds,
@@ -177,8 +180,13 @@ impl RenderScene {
                 _ => None,
             })
             .sum();
+        let packet_count = leaves
+            .iter()
+            .map(|&(_, count)| packet::packets_for(count) as usize)
+            .sum();
         let mut out = RenderScene {
-            packets: Vec::with_capacity(leaves.len()),
+            packets: Vec::with_capacity(packet_count),
+            lane_data: Vec::with_capacity(packet_count),
             smooth_normals: Vec::with_capacity(smooth),
             sph_center: Vec::new(),
             sph_radius: Vec::new(),
@@ -190,6 +198,7 @@ impl RenderScene {
                 lights: lights.len(),
                 emitters: emitters.len() + usize::from(scene.environment.is_some()),
                 bvh_nodes: bvh.node_count() + instances.bvh_nodes(),
+                bvh_leaves: leaves.len(),
                 instances: instances.len(),
                 instanced_triangles: instances.unique_triangles(),
                 placed_triangles: instances.placed_triangles(),
@@ -200,7 +209,10 @@ impl RenderScene {
             bvh,
         };
         let mut lanes = Vec::with_capacity(packet::WIDTH);
-        for &(first, count) in &leaves {
+        let runs = leaves
+            .iter()
+            .flat_map(|&(first, count)| packet::runs(first, count));
+        for (first, count) in runs {
             lanes.clear();
             for &original in &order[first as usize..(first + count) as usize] {
                 let p = prims[original as usize];
@@ -231,34 +243,14 @@ impl RenderScene {
                     }
                 });
             }
-            out.packets.push(Packet::new(&lanes));
+            let (packet, data) = Packet::new(&lanes);
+            out.packets.push(packet);
+            out.lane_data.push(data);
         }
         out.stats.triangles = prims.len() - out.sph_center.len();
         out.stats.spheres = out.sph_center.len();
         out.stats.build_time = start.elapsed();
         out
-    }
-
-    /// The triangles, in BVH order (for benchmark dumps).
-    pub fn triangles(&self) -> Vec<Triangle> {
-        self.packets
-            .iter()
-            .flat_map(|p| (0..packet::WIDTH).map(move |lane| (p, lane)))
-            .filter(|(p, lane)| p.used(*lane) && p.sphere_index(*lane).is_none())
-            .map(|(p, lane)| {
-                let [v0, v1, v2] = p.corners(lane);
-                Triangle { v0, v1, v2 }
-            })
-            .collect()
-    }
-
-    /// The spheres as (centre, radius), in BVH order.
-    pub fn spheres(&self) -> Vec<(Vec3A, f32)> {
-        self.sph_center
-            .iter()
-            .copied()
-            .zip(self.sph_radius.iter().copied())
-            .collect()
     }
 
     /// Bytes held by the geometry, its per-primitive data and the BVHs (not the materials or
@@ -268,6 +260,7 @@ impl RenderScene {
         let v = |n: usize, each: usize| n * each;
         self.instances.memory_bytes()
             + v(self.packets.capacity(), size_of::<Packet>())
+            + v(self.lane_data.capacity(), size_of::<LaneData>())
             + v(self.smooth_normals.capacity(), size_of::<[Vec3A; 3]>())
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
@@ -288,11 +281,9 @@ impl RenderScene {
 
     /// The surface record for lane `id % WIDTH` of packet `id / WIDTH`, hit at distance `t`.
     fn hit_record(&self, ray: &Ray, id: u32, t: f32) -> Hit {
-        let (s, lane) = (
-            &self.packets[id as usize / packet::WIDTH],
-            id as usize % packet::WIDTH,
-        );
-        if let Some(i) = s.sphere_index(lane) {
+        let (p, lane) = (id as usize / packet::WIDTH, id as usize % packet::WIDTH);
+        let (s, data) = (&self.packets[p], &self.lane_data[p]);
+        if let Some(i) = s.sphere_index(lane, data) {
             let (c, r) = (self.sph_center[i], self.sph_radius[i]);
             let n = (ray.at(t) - c).normalize();
             Hit {
@@ -301,17 +292,16 @@ impl RenderScene {
                 p: c + n * r,
                 ng: n,
                 ns: n,
-                material: s.material(lane),
-                light: s.light(lane),
+                material: data.material(lane),
+                light: data.light(lane),
             }
         } else {
-            let tri = s.corners(lane);
-            // Computed per hit rather than stored: 16 bytes a triangle saved for a cross product.
-            let ng = flat_normal(&tri);
-            let ns = match s.smooth(lane) {
+            let ng = s.normal(lane);
+            let ns = match data.smooth(lane) {
                 None => ng,
                 Some(k) => {
-                    let b = barycentrics(&tri, ray.at(t));
+                    let (v0, a, b) = s.edges(lane);
+                    let b = barycentrics(v0, a, b, ray.at(t));
                     let n = self.smooth_normals[k];
                     let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
                     if s == Vec3A::ZERO {
@@ -328,16 +318,17 @@ impl RenderScene {
                 p: ray.at(t),
                 ng,
                 ns,
-                material: s.material(lane),
-                light: s.light(lane),
+                material: data.material(lane),
+                light: data.light(lane),
             }
         }
     }
 }
 
-/// Barycentric weights of `p` (on the triangle's plane) for v0, v1, v2.
-fn barycentrics(t: &[Vec3A; 3], p: Vec3A) -> Vec3A {
-    let (e1, e2, d) = (t[1] - t[0], t[2] - t[0], p - t[0]);
+/// Barycentric weights of `p` (on the triangle's plane) for v0, v1, v2, from the triangle's
+/// `v0` and edges `e1 = v1 - v0`, `e2 = v2 - v0`.
+fn barycentrics(v0: Vec3A, e1: Vec3A, e2: Vec3A, p: Vec3A) -> Vec3A {
+    let d = p - v0;
     let n = e1.cross(e2);
     let inv = 1.0 / n.length_squared();
     let b1 = d.cross(e2).dot(n) * inv;
@@ -382,10 +373,16 @@ impl RenderScene {
         let flat = self.bvh.closest::<I>(
             &bvh_ray,
             #[inline(always)]
-            |r, leaf, _| {
-                let packet = &self.packets[leaf as usize];
-                let (lane, t) = packet.closest(&lanes, r, r.tmax, &spheres)?;
-                Some((leaf * packet::WIDTH as u32 + lane as u32, t))
+            |r, first, count| {
+                let mut best = None;
+                let mut tmax = r.tmax;
+                for p in first..first + packet::packets_for(count) {
+                    let (packet, data) = (&self.packets[p as usize], &self.lane_data[p as usize]);
+                    if let Some((lane, t)) = packet.closest(&lanes, r, tmax, &spheres, data) {
+                        (best, tmax) = (Some((p * packet::WIDTH as u32 + lane as u32, t)), t);
+                    }
+                }
+                best
             },
         );
         if !self.instances.is_empty() {
@@ -412,7 +409,12 @@ impl RenderScene {
                 self.bvh.any::<I>(
                     &r,
                     #[inline(always)]
-                    |r, leaf, _| self.packets[leaf as usize].any(&lanes, r, &spheres),
+                    |r, first, count| {
+                        (first..first + packet::packets_for(count)).any(|p| {
+                            let p = p as usize;
+                            self.packets[p].any(&lanes, r, &spheres, &self.lane_data[p])
+                        })
+                    },
                 ) || (!self.instances.is_empty() && self.instances.occluded::<I>(&r))
             }
             None => false,
@@ -450,6 +452,38 @@ impl Scene for RenderScene {
     fn bounds(&self) -> (Vec3A, Vec3A) {
         self.bounds
     }
+}
+
+/// The flat (not instanced) triangles of a loaded scene, exactly as the build places them,
+/// in entity order: the geometry `raylab bench` dumps and gives Embree.
+pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
+    let mut shapes: Vec<(Entity, &WorldShape)> = Vec::new();
+    let mut query = scene.world.query::<(Entity, &WorldShape)>();
+    shapes.extend(query.iter());
+    shapes.sort_by_key(|(e, _)| e.id());
+    shapes
+        .iter()
+        .flat_map(|(_, shape)| match shape {
+            WorldShape::Triangles { triangles, .. } => triangles.as_slice(),
+            WorldShape::Sphere { .. } => &[],
+        })
+        .map(|&[v0, v1, v2]| Triangle { v0, v1, v2 })
+        .collect()
+}
+
+/// The spheres of a loaded scene as (centre, radius), in entity order.
+pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
+    let mut spheres: Vec<(u32, Vec3A, f32)> = scene
+        .world
+        .query::<(Entity, &WorldShape)>()
+        .iter()
+        .filter_map(|(e, shape)| match shape {
+            WorldShape::Sphere { center, radius } => Some((e.id(), *center, *radius)),
+            WorldShape::Triangles { .. } => None,
+        })
+        .collect();
+    spheres.sort_by_key(|s| s.0);
+    spheres.into_iter().map(|(_, c, r)| (c, r)).collect()
 }
 
 /// Names of the entities that emit, for reports.

@@ -1,17 +1,19 @@
-//! A BVH leaf of the flat scene: up to four primitives stored lane by lane, so that one ray
-//! is tested against all four triangles at once with SSE, and what a hit record reads, in
-//! 192 bytes (three cache lines) and one place.
+//! A run of up to four primitives of a BVH leaf, stored lane by lane, so that one ray is
+//! tested against four triangles at once with SSE.
 //!
-//! Each BVH leaf is one packet ([`super::bvh::Bvh::number_leaves`]). Lane `i` of the
-//! corner arrays holds triangle `i`; beside them each lane's material, light and an index
-//! ([`Packet::aux`]): the triangle's smooth normals, or for a sphere the sphere's place in the
-//! sphere arrays. A sphere's lane has NaN corners, which no triangle test passes, and is
-//! tested on its own; an unused lane has zero corners (a degenerate triangle, which no ray
-//! hits) and the material [`NONE`].
+//! A BVH leaf is one or two packets ([`super::bvh::Bvh::number_leaves`]). A [`Packet`] holds
+//! what the intersection test reads, in 192 bytes (three cache lines): each lane's first
+//! corner `v0`, its edges `e1 = v0 - v1` and `e2 = v2 - v0` and their cross product
+//! `n = e1 x e2`, so the test computes neither. What only a hit needs (material, light, smooth
+//! normals) is in a [`LaneData`] of its own, 48 bytes in an array beside the packets: occlusion
+//! rays never read it, closest hits read one.
 //!
 //! The triangle test is [`super::primitives::intersect_triangle`]'s Möller–Trumbore with the
-//! same operations in the same order, lane by lane, so a packet finds the same distances, to
-//! the bit, as testing its triangles one at a time.
+//! same operations in the same order, lane by lane (the stored edges and normal are the values
+//! it computes), so a packet finds the same distances, to the bit, as testing its triangles one
+//! at a time. A sphere's lane has NaN corners, which no triangle test passes, and is tested on
+//! its own; an unused lane is all zeros (a degenerate triangle, which no ray hits) and has the
+//! material [`NONE`].
 
 use super::primitives::intersect_sphere;
 use glam::{BVec4A, Vec3A, Vec4};
@@ -19,6 +21,21 @@ use obvhs::ray::Ray;
 
 /// Primitives per packet.
 pub const WIDTH: usize = 4;
+
+/// Packets that hold a BVH leaf of `count` primitives.
+#[inline(always)]
+pub fn packets_for(count: u32) -> u32 {
+    count.div_ceil(WIDTH as u32)
+}
+
+/// A leaf's primitives `first..first + count` in the BVH's order, split into the runs that
+/// its packets hold, as (first, count).
+pub fn runs(first: u32, count: u32) -> impl Iterator<Item = (u32, u32)> {
+    (0..packets_for(count)).map(move |k| {
+        let start = first + k * WIDTH as u32;
+        (start, (first + count - start).min(WIDTH as u32))
+    })
+}
 
 /// "No light" / "no smooth normals".
 pub const NONE: u32 = u32::MAX;
@@ -42,11 +59,20 @@ pub enum Lane {
     },
 }
 
+/// What the intersection test reads of up to four primitives.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct Packet {
-    /// `corner[k][axis]`: corner `k` of each lane's triangle.
-    corner: [Lanes3; 3],
+    v0: Lanes3,
+    e1: Lanes3,
+    e2: Lanes3,
+    n: Lanes3,
+}
+
+/// What a hit reads of a packet's primitives: each lane's material, light and an index: the
+/// triangle's smooth normals, or the sphere's place in the sphere arrays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaneData {
     material: [u32; WIDTH],
     light: [u32; WIDTH],
     aux: [u32; WIDTH],
@@ -90,72 +116,81 @@ fn dot(a: &Lanes3, b: &Lanes3) -> Vec4 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// Lane `lane` of three lane vectors, as a point.
+#[inline(always)]
+fn lane3(v: &Lanes3, lane: usize) -> Vec3A {
+    Vec3A::new(v[0][lane], v[1][lane], v[2][lane])
+}
+
 impl Packet {
-    /// A packet of one to [`WIDTH`] primitives.
-    pub fn new(lanes: &[Lane]) -> Packet {
+    /// The packet of one to [`WIDTH`] primitives, with their lane data.
+    pub fn new(lanes: &[Lane]) -> (Packet, LaneData) {
         assert!(
             !lanes.is_empty() && lanes.len() <= WIDTH,
             "{} lanes",
             lanes.len()
         );
         let mut corners = [[Vec3A::ZERO; 3]; WIDTH];
-        let mut p = Packet {
-            corner: [[Vec4::ZERO; 3]; 3],
+        let mut data = LaneData {
             material: [NONE; WIDTH],
             light: [NONE; WIDTH],
             aux: [NONE; WIDTH],
         };
         for (i, lane) in lanes.iter().enumerate() {
-            match *lane {
+            let (c, material, light, aux) = match *lane {
                 Lane::Triangle {
-                    corners: c,
+                    corners,
                     material,
                     light,
                     smooth,
-                } => {
-                    corners[i] = c;
-                    (p.material[i], p.light[i], p.aux[i]) = (material, light, smooth);
-                }
+                } => (corners, material, light, smooth),
                 Lane::Sphere {
                     index,
                     material,
                     light,
-                } => {
-                    corners[i] = [Vec3A::NAN; 3];
-                    (p.material[i], p.light[i], p.aux[i]) = (material, light, index);
-                }
-            }
+                } => ([Vec3A::NAN; 3], material, light, index),
+            };
+            corners[i] = c;
+            (data.material[i], data.light[i], data.aux[i]) = (material, light, aux);
         }
-        for (k, corner) in p.corner.iter_mut().enumerate() {
-            for (axis, lanes) in corner.iter_mut().enumerate() {
-                *lanes = Vec4::from_array(std::array::from_fn(|i| corners[i][k][axis]));
-            }
-        }
-        p
+        let lanes3 = |f: &dyn Fn(&[Vec3A; 3]) -> Vec3A| -> Lanes3 {
+            std::array::from_fn(|axis| {
+                Vec4::from_array(std::array::from_fn(|i| f(&corners[i])[axis]))
+            })
+        };
+        let v0 = lanes3(&|c| c[0]);
+        let e1 = sub(&v0, &lanes3(&|c| c[1]));
+        let e2 = sub(&lanes3(&|c| c[2]), &v0);
+        let n = cross(&e1, &e2);
+        (Packet { v0, e1, e2, n }, data)
     }
 
     /// Lanes holding spheres, a bit each.
     #[inline(always)]
     fn sphere_lanes(&self) -> u32 {
-        let x = self.corner[0][0];
+        let x = self.v0[0];
         x.cmpne(x).bitmask()
     }
 
     /// Each lane's distance along `ray` in `[tmin, tmax]`, or infinity; sphere lanes are
-    /// tested with [`intersect_sphere`] against `spheres`' centres and radii.
+    /// tested with [`intersect_sphere`] against `spheres`' centres and radii, found through
+    /// `data` (read only for them).
     #[inline(always)]
-    fn distances(&self, r: &PacketRay, ray: &Ray, tmax: f32, spheres: &Spheres) -> Vec4 {
-        let [v0, v1, v2] = &self.corner;
-        let e1 = sub(v0, v1);
-        let e2 = sub(v2, v0);
-        let n = cross(&e1, &e2);
-        let c = sub(v0, &r.origin);
+    fn distances(
+        &self,
+        r: &PacketRay,
+        ray: &Ray,
+        tmax: f32,
+        spheres: &Spheres,
+        data: &LaneData,
+    ) -> Vec4 {
+        let c = sub(&self.v0, &r.origin);
         let q = cross(&r.dir, &c);
-        let inv_det = Vec4::ONE / dot(&n, &r.dir);
-        let u = dot(&q, &e2) * inv_det;
-        let v = dot(&q, &e1) * inv_det;
+        let inv_det = Vec4::ONE / dot(&self.n, &r.dir);
+        let u = dot(&q, &self.e2) * inv_det;
+        let v = dot(&q, &self.e1) * inv_det;
         let w = Vec4::ONE - u - v;
-        let t = dot(&n, &c) * inv_det;
+        let t = dot(&self.n, &c) * inv_det;
         // Each barycentric compared on its own (a NaN fails), -0.0 inside: see
         // `primitives::intersect_triangle`.
         let zero = Vec4::ZERO;
@@ -166,7 +201,7 @@ impl Packet {
         while s != 0 {
             let lane = s.trailing_zeros() as usize;
             s &= s - 1;
-            let i = self.aux[lane] as usize;
+            let i = data.aux[lane] as usize;
             let mut r = *ray;
             r.tmax = tmax;
             t[lane] = intersect_sphere(spheres.center[i], spheres.radius[i], &r);
@@ -183,8 +218,9 @@ impl Packet {
         ray: &Ray,
         tmax: f32,
         spheres: &Spheres,
+        data: &LaneData,
     ) -> Option<(usize, f32)> {
-        let t = self.distances(r, ray, tmax, spheres);
+        let t = self.distances(r, ray, tmax, spheres, data);
         let hit = t.cmplt(Vec4::splat(tmax)).bitmask();
         if hit == 0 {
             return None;
@@ -196,26 +232,50 @@ impl Packet {
 
     /// Whether `ray` meets any of the packet's primitives within `[ray.tmin, ray.tmax]`.
     #[inline(always)]
-    pub fn any(&self, r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
-        self.distances(r, ray, ray.tmax, spheres)
+    pub fn any(&self, r: &PacketRay, ray: &Ray, spheres: &Spheres, data: &LaneData) -> bool {
+        self.distances(r, ray, ray.tmax, spheres, data)
             .cmplt(Vec4::INFINITY)
             .any()
     }
 
-    /// Lane `lane`'s triangle corners (NaN for a sphere, zero for an unused lane).
+    /// Lane `lane`'s triangle as (`v0`, `v1 - v0`, `v2 - v0`), exactly as the triangle's
+    /// corners give them (meaningless for a sphere).
     #[inline(always)]
-    pub fn corners(&self, lane: usize) -> [Vec3A; 3] {
-        self.corner
-            .map(|c| Vec3A::new(c[0][lane], c[1][lane], c[2][lane]))
+    pub fn edges(&self, lane: usize) -> (Vec3A, Vec3A, Vec3A) {
+        (
+            lane3(&self.v0, lane),
+            -lane3(&self.e1, lane),
+            lane3(&self.e2, lane),
+        )
+    }
+
+    /// Lane `lane`'s unit normal, `(v1 - v0) x (v2 - v0)` normalised (zero if degenerate).
+    #[inline(always)]
+    pub fn normal(&self, lane: usize) -> Vec3A {
+        // n = e1 x e2 = (v0 - v1) x e2 = -((v1 - v0) x e2), exactly.
+        (-lane3(&self.n, lane)).normalize_or_zero()
     }
 
     /// Lane `lane`'s sphere, as its index in the sphere arrays, or `None` for a triangle.
     #[inline(always)]
-    pub fn sphere_index(&self, lane: usize) -> Option<usize> {
-        (self.sphere_lanes() >> lane & 1 == 1).then_some(self.aux[lane] as usize)
+    pub fn sphere_index(&self, lane: usize, data: &LaneData) -> Option<usize> {
+        (self.sphere_lanes() >> lane & 1 == 1).then_some(data.aux[lane] as usize)
     }
 
+    /// Every lane's bits, for comparing packets (sphere lanes hold NaNs).
+    #[cfg(test)]
+    pub fn to_bits(self) -> Vec<u32> {
+        [self.v0, self.e1, self.e2, self.n]
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_array().map(f32::to_bits))
+            .collect()
+    }
+}
+
+impl LaneData {
     /// Whether lane `lane` holds a primitive.
+    #[cfg(test)]
     pub fn used(&self, lane: usize) -> bool {
         self.material[lane] != NONE
     }
@@ -234,21 +294,6 @@ impl Packet {
             .filter(|&s| s != NONE)
             .map(|s| s as usize)
     }
-
-    /// Every lane's bits, for comparing packets (sphere lanes hold NaNs).
-    #[cfg(test)]
-    pub fn to_bits(self) -> Vec<u32> {
-        let corners = self
-            .corner
-            .iter()
-            .flatten()
-            .flat_map(|v| v.to_array().map(f32::to_bits));
-        corners
-            .chain(self.material)
-            .chain(self.light)
-            .chain(self.aux)
-            .collect()
-    }
 }
 
 /// The spheres' geometry that packets refer to by index.
@@ -258,17 +303,18 @@ pub struct Spheres<'a> {
     pub radius: &'a [f32],
 }
 
+/// No spheres (instanced meshes have none).
+pub const NO_SPHERES: Spheres = Spheres {
+    center: &[],
+    radius: &[],
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::build::primitives::intersect_triangle;
     use rand::rngs::StdRng;
     use rand::{Rng, SeedableRng};
-
-    const NO_SPHERES: Spheres = Spheres {
-        center: &[],
-        radius: &[],
-    };
 
     fn triangle(corners: [Vec3A; 3], material: u32) -> Lane {
         Lane::Triangle {
@@ -292,7 +338,7 @@ mod tests {
                 .map(|_| [base + p3(1.0), base + p3(1.0), base + p3(1.0)])
                 .collect();
             let lanes: Vec<Lane> = tris.iter().map(|&t| triangle(t, 0)).collect();
-            let packet = Packet::new(&lanes);
+            let (packet, data) = Packet::new(&lanes);
             for k in 0..8 {
                 let target = match k {
                     0 => tris[0][1],
@@ -306,7 +352,7 @@ mod tests {
                 };
                 let ray = Ray::new(origin, target - origin, 0.0, [f32::INFINITY, 1.5][k % 2]);
                 let pr = PacketRay::new(&ray);
-                let t = packet.distances(&pr, &ray, ray.tmax, &NO_SPHERES);
+                let t = packet.distances(&pr, &ray, ray.tmax, &NO_SPHERES, &data);
                 for (i, tri) in tris.iter().enumerate() {
                     assert_eq!(t[i].to_bits(), intersect_triangle(tri, &ray).to_bits());
                     hits += usize::from(t[i].is_finite());
@@ -324,8 +370,19 @@ mod tests {
                         Some((_, bt)) if bt <= t => b,
                         _ => Some((i, t)),
                     });
-                assert_eq!(packet.closest(&pr, &ray, ray.tmax, &NO_SPHERES), expected);
-                assert_eq!(packet.any(&pr, &ray, &NO_SPHERES), expected.is_some());
+                let found = packet.closest(&pr, &ray, ray.tmax, &NO_SPHERES, &data);
+                assert_eq!(found, expected);
+                assert_eq!(
+                    packet.any(&pr, &ray, &NO_SPHERES, &data),
+                    expected.is_some()
+                );
+            }
+            // The stored edges and normal are those of the corners, exactly.
+            for (i, tri) in tris.iter().enumerate() {
+                let (v0, a, b) = packet.edges(i);
+                assert_eq!((v0, a, b), (tri[0], tri[1] - tri[0], tri[2] - tri[0]));
+                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+                assert_eq!(packet.normal(i), n);
             }
         }
         assert!(hits > rays / 10, "{hits} hits of {rays}");
@@ -344,7 +401,7 @@ mod tests {
             Vec3A::new(1.0, -1.0, 7.0),
             Vec3A::new(0.0, 1.0, 7.0),
         ];
-        let packet = Packet::new(&[
+        let (packet, data) = Packet::new(&[
             Lane::Sphere {
                 index: 1,
                 material: 3,
@@ -364,26 +421,32 @@ mod tests {
         ]);
         let ray = Ray::new_inf(Vec3A::ZERO, Vec3A::Z);
         let pr = PacketRay::new(&ray);
-        assert_eq!(
-            packet.closest(&pr, &ray, f32::INFINITY, &spheres),
-            Some((2, 4.0))
-        );
+        let closest = packet.closest(&pr, &ray, f32::INFINITY, &spheres, &data);
+        assert_eq!(closest, Some((2, 4.0)));
         // Beyond the near sphere the far one and the triangle tie at 7: the lower lane wins.
         let from = Ray::new(Vec3A::ZERO, Vec3A::Z, 6.5, f32::INFINITY);
-        let t = packet.closest(&PacketRay::new(&from), &from, f32::INFINITY, &spheres);
+        let t = packet.closest(
+            &PacketRay::new(&from),
+            &from,
+            f32::INFINITY,
+            &spheres,
+            &data,
+        );
         assert_eq!(t, Some((0, 7.0)));
-        assert_eq!(packet.sphere_index(0), Some(1));
-        assert_eq!(packet.sphere_index(1), None);
-        assert_eq!(packet.sphere_index(2), Some(0));
-        assert_eq!(packet.sphere_index(3), None);
-        assert_eq!((packet.material(0), packet.light(0)), (3, Some(8)));
+        assert_eq!(packet.sphere_index(0, &data), Some(1));
+        assert_eq!(packet.sphere_index(1, &data), None);
+        assert_eq!(packet.sphere_index(2, &data), Some(0));
+        assert_eq!(packet.sphere_index(3, &data), None);
+        assert_eq!((data.material(0), data.light(0)), (3, Some(8)));
         assert_eq!(
-            (packet.material(1), packet.light(1), packet.smooth(1)),
+            (data.material(1), data.light(1), data.smooth(1)),
             (2, None, Some(6))
         );
-        assert_eq!(packet.corners(1), tri);
+        assert!(data.used(2) && !data.used(3));
+        assert_eq!(packet.edges(1).0, tri[0]);
         let short = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, 3.0);
-        assert!(!packet.any(&PacketRay::new(&short), &short, &spheres));
+        assert!(!packet.any(&PacketRay::new(&short), &short, &spheres, &data));
         assert_eq!(std::mem::size_of::<Packet>(), 192);
+        assert_eq!(std::mem::size_of::<LaneData>(), 48);
     }
 }

@@ -56,12 +56,6 @@ fn moller_trumbore<const BRANCH_FREE: bool>(tri: &[Vec3A; 3], ray: &Ray) -> f32 
     f32::INFINITY
 }
 
-/// The unit normal of a triangle's plane (v1 - v0) x (v2 - v0), or zero if it is degenerate.
-#[inline(always)]
-pub fn flat_normal(tri: &[Vec3A; 3]) -> Vec3A {
-    (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero()
-}
-
 /// Nearest distance in `[ray.tmin, ray.tmax]` at which `ray` meets the sphere, or infinity.
 /// Uses the numerically stable form of the quadratic (Hearn & Baker / Ray Tracing Gems ch. 7):
 /// the discriminant is computed from the distance of the centre to the ray's line.

@@ -139,11 +139,11 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
     let scene = RenderScene::build(&loaded);
     // Triangles are not emitters, spheres are, each its own light.
     let mut sphere_lights = Vec::new();
-    for (p, lane) in used_lanes(&scene) {
-        match p.sphere_index(lane) {
-            None => assert_eq!(p.light(lane), None),
+    for (p, d, lane) in used_lanes(&scene) {
+        match p.sphere_index(lane, d) {
+            None => assert_eq!(d.light(lane), None),
             Some(i) => {
-                let light = p.light(lane).expect("every sphere emits");
+                let light = d.light(lane).expect("every sphere emits");
                 sphere_lights.push(light);
                 match scene.lights.get(light) {
                     Light::Sphere { center, radius, .. } => assert_eq!(
@@ -160,13 +160,14 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
     assert_eq!(used_lanes(&scene).count(), 210);
 }
 
-/// Every packet lane that holds a primitive.
-fn used_lanes(scene: &RenderScene) -> impl Iterator<Item = (&Packet, usize)> {
+/// Every packet lane that holds a primitive, with its packet and lane data.
+fn used_lanes(scene: &RenderScene) -> impl Iterator<Item = (&Packet, &LaneData, usize)> {
     scene
         .packets
         .iter()
-        .flat_map(|p| (0..packet::WIDTH).map(move |lane| (p, lane)))
-        .filter(|(p, lane)| p.used(*lane))
+        .zip(&scene.lane_data)
+        .flat_map(|(p, d)| (0..packet::WIDTH).map(move |lane| (p, d, lane)))
+        .filter(|(_, d, lane)| d.used(*lane))
 }
 
 /// A packet lane carries its triangle's material, light and smooth normals: each must come
@@ -213,24 +214,24 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
     let loaded = parse_scene(&text, Path::new("lanes.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
     let (mut lit, mut smooth, mut triangles) = (0, 0, 0);
-    for (p, lane) in used_lanes(&scene) {
+    for (p, d, lane) in used_lanes(&scene) {
         triangles += 1;
-        let v = p.corners(lane);
+        let v0 = p.edges(lane).0;
         // The mesh is told by its z, the triangle within it by its first corner's x.
-        let (mesh, i) = (v[0].z as usize, (v[0].x * 10.0).round() as usize);
-        assert_eq!(p.material(lane), mesh as u32, "{v:?}");
-        match p.light(lane) {
+        let (mesh, i) = (v0.z as usize, (v0.x * 10.0).round() as usize);
+        assert_eq!(d.material(lane), mesh as u32, "{v0:?}");
+        match d.light(lane) {
             Some(l) => {
                 assert_eq!(mesh, 1);
                 lit += 1;
                 match scene.lights.get(l) {
-                    Light::Triangle { p0, .. } => assert_eq!(*p0, v[0]),
+                    Light::Triangle { p0, .. } => assert_eq!(*p0, v0),
                     other => panic!("{other:?}"),
                 }
             }
             None => assert_ne!(mesh, 1),
         }
-        match p.smooth(lane) {
+        match d.smooth(lane) {
             Some(k) => {
                 assert_eq!(mesh, 2);
                 smooth += 1;
@@ -256,4 +257,5 @@ fn the_build_does_not_depend_on_the_thread_count() {
     let bits =
         |s: &RenderScene| -> Vec<Vec<u32>> { s.packets.iter().map(|p| p.to_bits()).collect() };
     assert_eq!(bits(&a), bits(&b));
+    assert_eq!(a.lane_data, b.lane_data);
 }

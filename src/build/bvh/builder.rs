@@ -242,6 +242,9 @@ struct Range {
     bounds: Bounds,
     leaf: bool,
     plan: Plan,
+    /// What splitting in two would save, in SAH units (area x leaf cost), if both halves
+    /// stayed leaves in the same node: how much a leaf gains from taking a free lane.
+    split_gain: f32,
 }
 
 impl Range {
@@ -271,10 +274,10 @@ impl Range {
         } else {
             2
         };
-        let (leaf, plan) = if n == 1 {
-            (true, Plan::None)
+        let (leaf, plan, split_gain) = if n == 1 {
+            (true, Plan::None, 0.0)
         } else if depth as usize >= MEDIAN_DEPTH {
-            (n <= MAX_LEAF, Plan::Median { axis: widest })
+            (n <= MAX_LEAF, Plan::Median { axis: widest }, 0.0)
         } else {
             sah_plan::<BLOCK>(slice, &s, n, widest)
         };
@@ -284,6 +287,7 @@ impl Range {
             bounds: s.boxes,
             leaf,
             plan,
+            split_gain,
         }
     }
 }
@@ -294,13 +298,15 @@ fn leaf_cost<const BLOCK: usize>(n: u32) -> f32 {
     n.div_ceil(BLOCK as u32) as f32
 }
 
-/// The cheapest binned split of `items` by the SAH, and whether a leaf (if allowed) is cheaper.
+/// The cheapest binned split of `items` by the SAH, whether a leaf (if allowed) is cheaper,
+/// and what the split would save a leaf that has a free lane to split into
+/// ([`Range::split_gain`]).
 fn sah_plan<const BLOCK: usize>(
     items: &[Item],
     s: &Summary,
     n: usize,
     widest: usize,
-) -> (bool, Plan) {
+) -> (bool, Plan, f32) {
     let binning = Binning::new(&s.centres, n);
     let nb = binning.bins;
     let bins = bin_items(items, &binning);
@@ -335,10 +341,11 @@ fn sah_plan<const BLOCK: usize>(
         Some((cost, axis, bin)) => {
             let split_cost = TRAVERSAL_COST + cost / area.max(f32::MIN_POSITIVE);
             let leaf = n <= MAX_LEAF && leaf_cost::<BLOCK>(n as u32) <= split_cost;
-            (leaf, Plan::Split { axis, bin, binning })
+            let gain = area * leaf_cost::<BLOCK>(n as u32) - cost;
+            (leaf, Plan::Split { axis, bin, binning }, gain)
         }
         // Every centre in one bin (equal centres): any order is as good as another.
-        None => (n <= MAX_LEAF, Plan::Median { axis: widest }),
+        None => (n <= MAX_LEAF, Plan::Median { axis: widest }, 0.0),
     }
 }
 
@@ -397,19 +404,25 @@ fn build_node<const BLOCK: usize>(
     depth: u32,
     out: &mut Vec<Node>,
 ) -> u32 {
-    // Open the node into up to four children: split the largest child that should be split,
-    // then, while lanes are free, the largest that holds more than one block.
+    // Open the node into up to eight children, one split at a time. Below the SAH levels
+    // the child with the most primitives is split. Otherwise the split that saves most:
+    // splitting a child that would be a node saves that node's visit (its area times the
+    // traversal cost), splitting a leaf saves its `split_gain` (two walls of a room in one
+    // leaf make a box the size of the room, which every ray enters).
     let mut kids = [r; LANES];
     let mut len = 1;
     while len < LANES {
-        let largest = |can: &dyn Fn(&Range) -> bool| {
-            (0..len)
-                .filter(|&i| can(&kids[i]))
-                .max_by(|&a, &b| kids[a].priority().total_cmp(&kids[b].priority()))
+        let gain = |k: &Range| match k.plan {
+            Plan::None => None,
+            Plan::Median { .. } if k.leaf => None,
+            Plan::Median { .. } => Some(k.priority()),
+            Plan::Split { .. } if k.leaf => (k.split_gain > 0.0).then_some(k.split_gain),
+            Plan::Split { .. } => Some(k.bounds.half_area() * TRAVERSAL_COST),
         };
-        let Some(i) = largest(&|k| !k.leaf)
-            .or_else(|| largest(&|k| k.len() > BLOCK && !matches!(k.plan, Plan::None)))
-        else {
+        let best = (0..len)
+            .filter_map(|i| gain(&kids[i]).map(|g| (i, g)))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((i, _)) = best else {
             break;
         };
         let (a, b) = split::<BLOCK>(items, &kids[i], depth + 1);
@@ -427,7 +440,7 @@ fn build_node<const BLOCK: usize>(
         node.set_box(c, k.bounds.min, k.bounds.max);
         if k.leaf {
             node.child[c] = (offset + k.start) as u32;
-            node.count[c] = k.len() as u32;
+            node.count[c] = k.len() as u8;
         }
     }
 
@@ -517,10 +530,13 @@ impl Bvh {
             let mut node = Node::EMPTY;
             node.set_box(0, root.bounds.min, root.bounds.max);
             node.child[0] = 0;
-            node.count[0] = n as u32;
+            node.count[0] = n as u8;
             nodes.push(node);
         } else {
             build_node::<BLOCK>(&mut items, 0, root, 0, &mut nodes);
+        }
+        for node in &mut nodes {
+            node.mark_leaves();
         }
         nodes.shrink_to_fit();
         let order = items.iter().map(Item::id).collect();

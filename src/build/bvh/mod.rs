@@ -31,7 +31,7 @@ use glam::Vec3A;
 use obvhs::aabb::Aabb;
 
 /// Most primitives in one leaf.
-pub const MAX_LEAF: usize = 4;
+pub const MAX_LEAF: usize = 8;
 
 /// Children per node.
 pub const LANES: usize = 8;
@@ -47,13 +47,15 @@ type Plane = [f32; LANES];
 /// `planes[0]` holds the boxes' minima and `planes[1]` their maxima, by axis; an unused child
 /// has an empty box (+inf minima, -inf maxima), which no ray can enter. A child with
 /// `count[i] == 0` is the node `child[i]`; otherwise it is a leaf of `count[i]` primitives
-/// starting at `child[i]` in the BVH's order.
+/// starting at `child[i]` in the BVH's order. `leaves` has bit `i` set for leaf children, so
+/// that traversal splits a hit mask into leaves and nodes in one operation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct Node {
     planes: [[Plane; 3]; 2],
     child: [u32; LANES],
-    count: [u32; LANES],
+    count: [u8; LANES],
+    leaves: u8,
 }
 
 impl Node {
@@ -61,7 +63,13 @@ impl Node {
         planes: [[[f32::INFINITY; LANES]; 3], [[f32::NEG_INFINITY; LANES]; 3]],
         child: [EMPTY; LANES],
         count: [0; LANES],
+        leaves: 0,
     };
+
+    /// Sets `leaves` from the counts.
+    fn mark_leaves(&mut self) {
+        self.leaves = (0..LANES).fold(0, |m, c| m | u8::from(self.count[c] != 0) << c);
+    }
 
     /// Sets child `c`'s box.
     fn set_box(&mut self, c: usize, min: Vec3A, max: Vec3A) {
@@ -106,12 +114,12 @@ impl Bvh {
         Some(b)
     }
 
-    /// Renumbers the leaves by their place in the primitive order: afterwards a leaf's
-    /// `first` is its rank `k` among the leaves (the `k`-th run of primitives in the order
-    /// [`Bvh::build`] returned), so that it indexes an array of the caller's with one entry
-    /// per leaf, such as packets of triangles. Its `count` is kept. Returns each leaf's
-    /// primitives as `(first, count)` in the order of the primitives, by rank.
-    pub fn number_leaves(&mut self) -> Vec<(u32, u32)> {
+    /// Renumbers the leaves for an array of the caller's that holds `slots(count)` entries
+    /// per leaf of `count` primitives, leaf after leaf in the primitive order (packets of
+    /// triangles, say): afterwards a leaf's `first` is the index of its first entry there,
+    /// and its `count` is kept. Returns each leaf's primitives as `(first, count)`, in the
+    /// primitive order (the order of their entries).
+    pub fn number_leaves(&mut self, slots: impl Fn(u32) -> u32) -> Vec<(u32, u32)> {
         let mut leaves: Vec<(u32, u32, u32)> = Vec::new();
         for (i, n) in self.nodes.iter().enumerate() {
             for c in (0..LANES).filter(|&c| n.count[c] != 0) {
@@ -119,13 +127,16 @@ impl Bvh {
             }
         }
         leaves.sort_unstable();
-        for (rank, &(_, node, c)) in leaves.iter().enumerate() {
-            self.nodes[node as usize].child[c as usize] = rank as u32;
+        let mut next = 0;
+        let mut runs = Vec::with_capacity(leaves.len());
+        for &(first, node, c) in &leaves {
+            let n = &mut self.nodes[node as usize];
+            let count = u32::from(n.count[c as usize]);
+            n.child[c as usize] = next;
+            next += slots(count);
+            runs.push((first, count));
         }
-        leaves
-            .iter()
-            .map(|&(first, node, c)| (first, self.nodes[node as usize].count[c as usize]))
-            .collect()
+        runs
     }
 
     /// Depth of the tree (1 for a root alone, 0 when empty): what the traversal stack bounds.

@@ -195,7 +195,7 @@ fn numbered_leaves_index_their_runs_of_the_order() {
     let tris = random_triangles(3000, 21);
     let (mut bvh, ordered) = build::<4>(&tris);
     let before = bvh.clone();
-    let leaves = bvh.number_leaves();
+    let leaves = bvh.number_leaves(|_| 1);
     let mut next = 0;
     for &(first, count) in &leaves {
         assert_eq!(first, next, "leaves out of order");

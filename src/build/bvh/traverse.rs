@@ -8,12 +8,50 @@
 use super::builder::MAX_DEPTH;
 use super::isa::Isa;
 use super::{Bvh, LANES};
-use arrayvec::ArrayVec;
 use obvhs::ray::Ray;
+use std::mem::MaybeUninit;
 
 /// Traversal stack entries: a node pushes at most `LANES - 1` (one child is visited next),
 /// and the builder bounds the depth.
 const STACK: usize = (LANES - 1) * MAX_DEPTH + 1;
+
+/// A fixed stack on the call stack, left uninitialised: zero-filling its 1.3 kB for every ray
+/// would cost small scenes, whose rays visit two or three nodes, more than their traversal.
+struct Stack<T: Copy> {
+    items: [MaybeUninit<T>; STACK],
+    len: usize,
+}
+
+impl<T: Copy> Stack<T> {
+    #[inline(always)]
+    fn new() -> Self {
+        Stack {
+            items: [const { MaybeUninit::uninit() }; STACK],
+            len: 0,
+        }
+    }
+
+    /// Pushes `item` (the depth bound makes room; indexing checks it all the same).
+    #[inline(always)]
+    fn push(&mut self, item: T) {
+        self.items[self.len].write(item);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<T> {
+        self.len = self.len.checked_sub(1)?;
+        // SAFETY: entries below the old `len` were all written by `push`.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+
+    /// The last `n` entries pushed.
+    #[inline(always)]
+    fn top_mut(&mut self, n: usize) -> &mut [MaybeUninit<T>] {
+        let len = self.len;
+        &mut self.items[len - n..len]
+    }
+}
 
 impl Bvh {
     /// The closest hit on `ray` within `[ray.tmin, ray.tmax]`, as the leaf test gave it:
@@ -32,57 +70,59 @@ impl Bvh {
         let boxes = I::prepare(ray);
         let mut r = *ray;
         let mut best = None;
-        // Uninitialised until pushed: zero-filling it cost small scenes 10% of their rate.
-        let mut stack: ArrayVec<(f32, u32), STACK> = ArrayVec::new();
+        // Children to visit: (entry distance, child), a child being `index << 4 | count`
+        // (count 0 for a node, the primitives of a leaf otherwise).
+        let mut stack: Stack<(f32, u32)> = Stack::new();
         let mut node = 0u32;
         loop {
             // Test the node's eight boxes at once.
             let n = &self.nodes[node as usize];
             let (mask, entry) = I::hits(&boxes, n, r.tmin, r.tmax);
-            // Leaves hit are tested now; inner children hit are gathered.
-            let mut inner = [(0.0f32, 0u32); LANES];
-            let mut k = 0;
-            let mut m = mask;
-            while m != 0 {
-                let c = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let (first, count) = (n.child[c], n.count[c]);
-                if count == 0 {
-                    inner[k] = (entry[c], first);
-                    k += 1;
-                } else if let Some((id, t)) = leaf(&r, first, count) {
-                    r.tmax = t;
-                    best = Some(id);
-                }
-            }
-            // The nearest inner child next, the others onto the stack (farthest deepest).
-            match k {
-                0 => {}
-                1 => {
-                    if inner[0].0 <= r.tmax {
-                        node = inner[0].1;
+            let mut mask = mask as u8;
+            // The children hit, nearest first: one (the usual case) visited or tested at
+            // once; more pushed and sorted, farthest deepest, then taken from the top.
+            if mask != 0 {
+                let c = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if mask == 0 {
+                    if n.count[c] == 0 {
+                        node = n.child[c];
                         continue;
                     }
-                }
-                _ => {
-                    let inner = &mut inner[..k];
-                    sort_descending(inner);
-                    stack.extend(inner[..k - 1].iter().copied());
-                    let (t, next) = inner[k - 1];
-                    if t <= r.tmax {
-                        node = next;
-                        continue;
+                    if let Some((id, t)) = leaf(&r, n.child[c], n.count[c].into()) {
+                        r.tmax = t;
+                        best = Some(id);
                     }
+                } else {
+                    let reference = |c: usize| n.child[c] << 4 | u32::from(n.count[c]);
+                    stack.push((entry[c], reference(c)));
+                    let mut k = 1;
+                    while mask != 0 {
+                        let c = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack.push((entry[c], reference(c)));
+                        k += 1;
+                    }
+                    sort_descending(stack.top_mut(k));
                 }
             }
-            // Otherwise the nearest pushed node still nearer than the closest hit.
+            // The nearest pushed child still nearer than the closest hit: leaves are tested
+            // on the way, the first node is visited next.
             loop {
                 let Some((t, next)) = stack.pop() else {
                     return best.map(|id| (id, r.tmax));
                 };
-                if t <= r.tmax {
-                    node = next;
+                if t > r.tmax {
+                    continue;
+                }
+                let count = next & 15;
+                if count == 0 {
+                    node = next >> 4;
                     break;
+                }
+                if let Some((id, t)) = leaf(&r, next >> 4, count) {
+                    r.tmax = t;
+                    best = Some(id);
                 }
             }
         }
@@ -96,20 +136,25 @@ impl Bvh {
             return false;
         }
         let boxes = I::prepare(ray);
-        let mut stack: ArrayVec<u32, STACK> = ArrayVec::new();
+        let mut stack: Stack<u32> = Stack::new();
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            let (mut mask, _) = I::hits(&boxes, n, ray.tmin, ray.tmax);
-            while mask != 0 {
-                let c = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let (first, count) = (n.child[c], n.count[c]);
-                if count == 0 {
-                    stack.push(first);
-                } else if leaf(ray, first, count) {
+            let (mask, _) = I::hits(&boxes, n, ray.tmin, ray.tmax);
+            let mask = mask as u8;
+            let mut leaves = mask & n.leaves;
+            while leaves != 0 {
+                let c = leaves.trailing_zeros() as usize;
+                leaves &= leaves - 1;
+                if leaf(ray, n.child[c], n.count[c].into()) {
                     return true;
                 }
+            }
+            let mut inner = mask & !n.leaves;
+            while inner != 0 {
+                let c = inner.trailing_zeros() as usize;
+                inner &= inner - 1;
+                stack.push(n.child[c]);
             }
             match stack.pop() {
                 Some(next) => node = next,
@@ -119,31 +164,19 @@ impl Bvh {
     }
 }
 
-/// Sorts (distance, node) entries by distance, farthest first.
+/// Sorts two to eight pushed (distance, child) entries by distance, farthest first (an
+/// insertion sort: the runs are short).
 #[inline(always)]
-fn sort_descending(e: &mut [(f32, u32)]) {
-    #[inline(always)]
-    fn order(e: &mut [(f32, u32)], a: usize, b: usize) {
-        if e[a].0 < e[b].0 {
-            e.swap(a, b);
+fn sort_descending(e: &mut [MaybeUninit<(f32, u32)>]) {
+    // SAFETY: the caller passes entries it has just pushed, all written.
+    let read = |e: &[MaybeUninit<(f32, u32)>], i: usize| unsafe { e[i].assume_init() };
+    for i in 1..e.len() {
+        let x = read(e, i);
+        let mut j = i;
+        while j > 0 && read(e, j - 1).0 < x.0 {
+            e[j] = e[j - 1];
+            j -= 1;
         }
-    }
-    match e.len() {
-        0 | 1 => {}
-        2 => order(e, 0, 1),
-        3 => {
-            order(e, 0, 1);
-            order(e, 1, 2);
-            order(e, 0, 1);
-        }
-        4 => {
-            // A sorting network of five comparisons for four.
-            order(e, 0, 1);
-            order(e, 2, 3);
-            order(e, 0, 2);
-            order(e, 1, 3);
-            order(e, 1, 2);
-        }
-        _ => e.sort_unstable_by(|a, b| b.0.total_cmp(&a.0)),
+        e[j].write(x);
     }
 }
