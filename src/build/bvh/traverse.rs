@@ -70,59 +70,66 @@ impl Bvh {
         let boxes = I::prepare(ray);
         let mut r = *ray;
         let mut best = None;
-        // Children to visit: (entry distance, child), a child being `index << 4 | count`
-        // (count 0 for a node, the primitives of a leaf otherwise).
         let mut stack: Stack<(f32, u32)> = Stack::new();
         let mut node = 0u32;
         loop {
             // Test the node's eight boxes at once.
             let n = &self.nodes[node as usize];
             let (mask, entry) = I::hits(&boxes, n, r.tmin, r.tmax);
-            let mut mask = mask as u8;
-            // The children hit, nearest first: one (the usual case) visited or tested at
-            // once; more pushed and sorted, farthest deepest, then taken from the top.
-            if mask != 0 {
-                let c = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                if mask == 0 {
-                    if n.count[c] == 0 {
-                        node = n.child[c];
-                        continue;
-                    }
-                    if let Some((id, t)) = leaf(&r, n.child[c], n.count[c].into()) {
-                        r.tmax = t;
-                        best = Some(id);
-                    }
-                } else {
-                    let reference = |c: usize| n.child[c] << 4 | u32::from(n.count[c]);
-                    stack.push((entry[c], reference(c)));
-                    let mut k = 1;
-                    while mask != 0 {
-                        let c = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        stack.push((entry[c], reference(c)));
-                        k += 1;
-                    }
-                    sort_descending(stack.top_mut(k));
+            let mask = mask as u8;
+            // Leaves hit are tested now, shortening the ray before the nodes are ordered.
+            let mut leaves = mask & n.leaves;
+            while leaves != 0 {
+                let c = leaves.trailing_zeros() as usize;
+                leaves &= leaves - 1;
+                if let Some((id, t)) = leaf(&r, n.child[c], n.count[c].into()) {
+                    r.tmax = t;
+                    best = Some(id);
                 }
             }
-            // The nearest pushed child still nearer than the closest hit: leaves are tested
-            // on the way, the first node is visited next.
+            // Inner children hit: the nearest next, the others onto the stack, farthest
+            // deepest. One and two, the usual cases, without sorting.
+            let mut inner = mask & !n.leaves;
+            if inner != 0 {
+                let a = inner.trailing_zeros() as usize;
+                inner &= inner - 1;
+                if inner == 0 {
+                    if entry[a] <= r.tmax {
+                        node = n.child[a];
+                        continue;
+                    }
+                } else {
+                    let b = inner.trailing_zeros() as usize;
+                    inner &= inner - 1;
+                    let (near, far) = if entry[b] < entry[a] { (b, a) } else { (a, b) };
+                    if inner == 0 {
+                        stack.push((entry[far], n.child[far]));
+                        if entry[near] <= r.tmax {
+                            node = n.child[near];
+                            continue;
+                        }
+                    } else {
+                        let mut k = 2;
+                        stack.push((entry[far], n.child[far]));
+                        stack.push((entry[near], n.child[near]));
+                        while inner != 0 {
+                            let c = inner.trailing_zeros() as usize;
+                            inner &= inner - 1;
+                            stack.push((entry[c], n.child[c]));
+                            k += 1;
+                        }
+                        sort_descending(stack.top_mut(k));
+                    }
+                }
+            }
+            // Otherwise the nearest pushed node still nearer than the closest hit.
             loop {
                 let Some((t, next)) = stack.pop() else {
                     return best.map(|id| (id, r.tmax));
                 };
-                if t > r.tmax {
-                    continue;
-                }
-                let count = next & 15;
-                if count == 0 {
-                    node = next >> 4;
+                if t <= r.tmax {
+                    node = next;
                     break;
-                }
-                if let Some((id, t)) = leaf(&r, next >> 4, count) {
-                    r.tmax = t;
-                    best = Some(id);
                 }
             }
         }
