@@ -12,6 +12,7 @@ mod primitives;
 
 use crate::scene::components::{MaterialRef, Name, WorldShape};
 use crate::scene::{systems, LoadedScene};
+use arrayvec::ArrayVec;
 use bvh::{isa, isa::Isa, Bvh};
 use glam::Vec3A;
 use hecs::Entity;
@@ -20,6 +21,7 @@ use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
 use packet::{Lane, LaneData, Packet, PacketRay, Spheres, NONE};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
+use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 /// Counts and timings of a build, for `raylab validate` and reports.
@@ -169,27 +171,75 @@ impl RenderScene {
         }
         let lights = LightTable::new(lights, radius);
 
-        // The packets (and smooth normals) at their exact size: no growth, nothing to give
-        // back (the sphere arrays, a handful of entries, grow as usual).
-        let smooth: usize = shaped
-            .iter()
-            .filter_map(|(_, s, _)| match s {
+        // Each position of the BVH's order: its index among the smooth triangles or among the
+        // spheres (a running count, cheap), for the lanes to refer to.
+        let mut aux = Vec::with_capacity(order.len());
+        let (mut smooth, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
+        for &original in &order {
+            let p = prims[original as usize];
+            aux.push(match shaped[p.shape as usize].1 {
                 WorldShape::Triangles {
-                    normals: Some(n), ..
-                } => Some(n.len()),
-                _ => None,
+                    normals: Some(_), ..
+                } => {
+                    smooth += 1;
+                    smooth - 1
+                }
+                WorldShape::Triangles { normals: None, .. } => NONE,
+                WorldShape::Sphere { center, radius } => {
+                    sph_center.push(*center);
+                    sph_radius.push(*radius);
+                    sph_center.len() as u32 - 1
+                }
+            });
+        }
+        // Then, in parallel and in order, the smooth normals and the packets.
+        let smooth_normals: Vec<[Vec3A; 3]> = order
+            .par_iter()
+            .filter_map(|&original| {
+                let p = prims[original as usize];
+                match shaped[p.shape as usize].1 {
+                    WorldShape::Triangles {
+                        normals: Some(n), ..
+                    } => Some(n[p.index as usize]),
+                    _ => None,
+                }
             })
-            .sum();
-        let packet_count = leaves
+            .collect();
+        let lane = |k: u32| {
+            let p = prims[order[k as usize] as usize];
+            let (_, shape, material) = shaped[p.shape as usize];
+            match shape {
+                WorldShape::Triangles { triangles, .. } => Lane::Triangle {
+                    corners: triangles[p.index as usize],
+                    material: material.0,
+                    light: p.light,
+                    smooth: aux[k as usize],
+                },
+                WorldShape::Sphere { .. } => Lane::Sphere {
+                    index: aux[k as usize],
+                    material: material.0,
+                    light: p.light,
+                },
+            }
+        };
+        let runs: Vec<(u32, u32)> = leaves
             .iter()
-            .map(|&(_, count)| packet::packets_for(count) as usize)
-            .sum();
+            .flat_map(|&(first, count)| packet::runs(first, count))
+            .collect();
+        let (packets, lane_data): (Vec<Packet>, Vec<LaneData>) = runs
+            .par_iter()
+            .map(|&(first, count)| {
+                let lanes: ArrayVec<Lane, { packet::WIDTH }> =
+                    (first..first + count).map(lane).collect();
+                Packet::new(&lanes)
+            })
+            .unzip();
         let mut out = RenderScene {
-            packets: Vec::with_capacity(packet_count),
-            lane_data: Vec::with_capacity(packet_count),
-            smooth_normals: Vec::with_capacity(smooth),
-            sph_center: Vec::new(),
-            sph_radius: Vec::new(),
+            packets,
+            lane_data,
+            smooth_normals,
+            sph_center,
+            sph_radius,
             materials: scene.materials.clone(),
             bounds: (bounds.min, bounds.max),
             avx2: has_avx2(),
@@ -208,45 +258,6 @@ impl RenderScene {
             lights,
             bvh,
         };
-        let mut lanes = Vec::with_capacity(packet::WIDTH);
-        let runs = leaves
-            .iter()
-            .flat_map(|&(first, count)| packet::runs(first, count));
-        for (first, count) in runs {
-            lanes.clear();
-            for &original in &order[first as usize..(first + count) as usize] {
-                let p = prims[original as usize];
-                let (_, shape, material) = shaped[p.shape as usize];
-                lanes.push(match shape {
-                    WorldShape::Triangles {
-                        triangles, normals, ..
-                    } => Lane::Triangle {
-                        corners: triangles[p.index as usize],
-                        material: material.0,
-                        light: p.light,
-                        smooth: match normals {
-                            Some(n) => {
-                                out.smooth_normals.push(n[p.index as usize]);
-                                out.smooth_normals.len() as u32 - 1
-                            }
-                            None => NONE,
-                        },
-                    },
-                    WorldShape::Sphere { center, radius } => {
-                        out.sph_center.push(*center);
-                        out.sph_radius.push(*radius);
-                        Lane::Sphere {
-                            index: out.sph_center.len() as u32 - 1,
-                            material: material.0,
-                            light: p.light,
-                        }
-                    }
-                });
-            }
-            let (packet, data) = Packet::new(&lanes);
-            out.packets.push(packet);
-            out.lane_data.push(data);
-        }
         out.stats.triangles = prims.len() - out.sph_center.len();
         out.stats.spheres = out.sph_center.len();
         out.stats.build_time = start.elapsed();
