@@ -150,7 +150,13 @@ struct Binning {
     origin: Vec3A,
     /// Bins per unit along each axis; 0 along an axis where every centre is equal.
     scale: Vec3A,
+    /// The last bin's index, as a float.
+    last: f32,
 }
+
+/// 2^23: adding it to a float in `[0, 2^22)` rounds it to an integer held in the low bits of
+/// the sum's mantissa, a float-to-integer conversion with no range checks to pay for.
+const TO_INTEGER: f32 = 8_388_608.0;
 
 impl Binning {
     fn new(centres: &Bounds, items: usize) -> Binning {
@@ -165,13 +171,26 @@ impl Binning {
             bins,
             origin: centres.min,
             scale,
+            last: (bins - 1) as f32,
         }
     }
 
-    /// The bin of centre `c2` along `axis`.
+    /// The bins of centre `c2` along the three axes. Bin `k` holds the centres whose offset,
+    /// in bins, is in `[k, k + 1)` (up to rounding at the boundary: binning and
+    /// partitioning use this same function, which is all a split needs).
+    #[inline(always)]
+    fn bins(&self, c2: Vec3A) -> [usize; 3] {
+        let offset = (c2 - self.origin) * self.scale - Vec3A::splat(0.5);
+        let clamped = offset.max(Vec3A::ZERO).min(Vec3A::splat(self.last));
+        (clamped + Vec3A::splat(TO_INTEGER))
+            .to_array()
+            .map(|x| (x.to_bits() & 0xff) as usize)
+    }
+
+    /// The bin of centre `c2` along `axis`: the same as [`Binning::bins`]'s, lane by lane.
     #[inline(always)]
     fn bin(&self, c2: Vec3A, axis: usize) -> usize {
-        (((c2[axis] - self.origin[axis]) * self.scale[axis]) as usize).min(self.bins - 1)
+        self.bins(c2)[axis]
     }
 }
 
@@ -209,8 +228,8 @@ fn bin_items(items: &[Item], binning: &Binning) -> Bins {
     let mut bins = EMPTY_BINS;
     for it in items {
         let (min, c) = (it.min(), it.centroid2());
-        for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[binning.bin(c, axis)];
+        for (axis_bins, bin) in bins.iter_mut().zip(binning.bins(c)) {
+            let b = &mut axis_bins[bin];
             b.bounds.grow(min, it.hi);
             b.count += 1;
         }
