@@ -120,21 +120,31 @@ impl Bvh {
     /// and its `count` is kept. Returns each leaf's primitives as `(first, count)`, in the
     /// primitive order (the order of their entries).
     pub fn number_leaves(&mut self, slots: impl Fn(u32) -> u32) -> Vec<(u32, u32)> {
-        let mut leaves: Vec<(u32, u32, u32)> = Vec::new();
-        for (i, n) in self.nodes.iter().enumerate() {
-            for c in (0..LANES).filter(|&c| n.count[c] != 0) {
-                leaves.push((n.child[c], i as u32, c as u32));
+        // Children are in the order of their primitives (the builder splits ranges in place
+        // and keeps the halves in order), so a depth-first walk taking the children in lane
+        // order meets the leaves in the primitive order.
+        fn walk(
+            nodes: &mut [Node],
+            i: usize,
+            next: &mut u32,
+            slots: &impl Fn(u32) -> u32,
+            runs: &mut Vec<(u32, u32)>,
+        ) {
+            for c in 0..LANES {
+                let (child, count) = (nodes[i].child[c], u32::from(nodes[i].count[c]));
+                if count != 0 {
+                    debug_assert!(runs.last().is_none_or(|&(f, k)| f + k == child));
+                    runs.push((child, count));
+                    nodes[i].child[c] = *next;
+                    *next += slots(count);
+                } else if child != EMPTY {
+                    walk(nodes, child as usize, next, slots, runs);
+                }
             }
         }
-        leaves.sort_unstable();
-        let mut next = 0;
-        let mut runs = Vec::with_capacity(leaves.len());
-        for &(first, node, c) in &leaves {
-            let n = &mut self.nodes[node as usize];
-            let count = u32::from(n.count[c as usize]);
-            n.child[c as usize] = next;
-            next += slots(count);
-            runs.push((first, count));
+        let mut runs = Vec::new();
+        if !self.nodes.is_empty() {
+            walk(&mut self.nodes, 0, &mut 0, &slots, &mut runs);
         }
         runs
     }
