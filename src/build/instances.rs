@@ -9,7 +9,7 @@
 //! allocates.
 
 use super::bvh::{isa::Isa, Bvh};
-use super::packet::{self, Lane, LaneData, Packet, PacketRay, NONE, NO_SPHERES};
+use super::packet::{self, Lane, Packet, PacketRay, Stored, NONE, NO_SPHERES};
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
 use crate::scene::LoadedScene;
@@ -22,9 +22,8 @@ use raylab_integrators::Hit;
 /// One mesh asset's triangles as packets, one per leaf of their BVH.
 struct MeshBlas {
     bvh: Bvh,
-    packets: Vec<Packet>,
     /// Each lane's `smooth` index is the triangle's place in the BVH's order.
-    lane_data: Vec<LaneData>,
+    packets: Vec<Stored>,
     /// Vertex normals per triangle (BVH order), or empty for flat shading.
     smooth: Vec<[Vec3A; 3]>,
     triangles: usize,
@@ -54,7 +53,7 @@ impl MeshBlas {
         let (mut bvh, order) = Bvh::build::<{ packet::WIDTH }>(mesh.triangles.len(), |i| {
             Aabb::from_points(&mesh.triangles[i])
         });
-        let (packets, lane_data) = bvh
+        let packets = bvh
             .number_leaves(packet::packets_for)
             .iter()
             .flat_map(|&(first, count)| packet::runs(first, count))
@@ -67,9 +66,10 @@ impl MeshBlas {
                         smooth: k,
                     })
                     .collect();
-                Packet::new(&lanes)
+                let (packet, data) = Packet::new(&lanes);
+                Stored { packet, data }
             })
-            .unzip();
+            .collect();
         let smooth = match &mesh.normals {
             Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
             None => Vec::new(),
@@ -77,7 +77,6 @@ impl MeshBlas {
         MeshBlas {
             bvh,
             packets,
-            lane_data,
             smooth,
             triangles: order.len(),
         }
@@ -86,8 +85,7 @@ impl MeshBlas {
     fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
         self.bvh.memory_bytes()
-            + self.packets.capacity() * size_of::<Packet>()
-            + self.lane_data.capacity() * size_of::<LaneData>()
+            + self.packets.capacity() * size_of::<Stored>()
             + self.smooth.capacity() * size_of::<[Vec3A; 3]>()
     }
 }
@@ -215,8 +213,7 @@ impl InstanceSet {
                     let mut best = None;
                     let mut tmax = lr.tmax;
                     for p in first..first + packet::packets_for(count) {
-                        let (packet, data) =
-                            (&mesh.packets[p as usize], &mesh.lane_data[p as usize]);
+                        let Stored { packet, data } = &mesh.packets[p as usize];
                         if let Some((lane, t)) = packet.closest(&lanes, lr, tmax, &NO_SPHERES, data)
                         {
                             (best, tmax) = (Some((p * packet::WIDTH as u32 + lane as u32, t)), t);
@@ -245,8 +242,8 @@ impl InstanceSet {
                 let lanes = PacketRay::new(&lr);
                 mesh.bvh.any::<I>(&lr, |lr, first, count| {
                     (first..first + packet::packets_for(count)).any(|p| {
-                        let p = p as usize;
-                        mesh.packets[p].any(&lanes, lr, &NO_SPHERES, &mesh.lane_data[p])
+                        let Stored { packet, data } = &mesh.packets[p as usize];
+                        packet.any(&lanes, lr, &NO_SPHERES, data)
                     })
                 })
             })
@@ -259,15 +256,13 @@ impl InstanceSet {
         let inst = &self.instances[slot as usize];
         let mesh = &self.meshes[inst.mesh as usize];
         let (p, lane) = (prim as usize / packet::WIDTH, prim as usize % packet::WIDTH);
-        let packet = &mesh.packets[p];
+        let Stored { packet, data } = &mesh.packets[p];
         // Normals transform by the inverse transpose of the local-to-world map.
         let normal_matrix = inst.world_to_local.matrix3.transpose();
         let ng = (normal_matrix * packet.normal(lane)).normalize_or_zero();
         // The lane's index is the triangle's place in the BVH's order, where `smooth` keeps
         // its vertex normals (when the mesh has them).
-        let smooth = mesh.lane_data[p]
-            .smooth(lane)
-            .and_then(|k| mesh.smooth.get(k));
+        let smooth = data.smooth(lane).and_then(|k| mesh.smooth.get(k));
         let ns = match smooth {
             None => ng,
             Some(normals) => {

@@ -19,7 +19,7 @@ use hecs::Entity;
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
-use packet::{Lane, LaneData, Packet, PacketRay, Spheres, NONE};
+use packet::{Lane, Packet, PacketRay, Spheres, Stored, NONE};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -49,9 +49,8 @@ pub struct BuildStats {
 pub struct RenderScene {
     bvh: Bvh,
     /// Per BVH leaf: its triangles (or spheres) and their shading data.
-    packets: Vec<Packet>,
-    /// Per packet: its primitives' materials, lights and smooth-normal indices.
-    lane_data: Vec<LaneData>,
+    /// Per packet of a leaf's primitives: the packet and its lane data, side by side.
+    packets: Vec<Stored>,
     /// Per-vertex normals of the triangles that have them ([`LaneData::smooth`]).
     smooth_normals: Vec<[Vec3A; 3]>,
     // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
@@ -226,17 +225,17 @@ impl RenderScene {
             .iter()
             .flat_map(|&(first, count)| packet::runs(first, count))
             .collect();
-        let (packets, lane_data): (Vec<Packet>, Vec<LaneData>) = runs
+        let packets: Vec<Stored> = runs
             .par_iter()
             .map(|&(first, count)| {
                 let lanes: ArrayVec<Lane, { packet::WIDTH }> =
                     (first..first + count).map(lane).collect();
-                Packet::new(&lanes)
+                let (packet, data) = Packet::new(&lanes);
+                Stored { packet, data }
             })
-            .unzip();
+            .collect();
         let mut out = RenderScene {
             packets,
-            lane_data,
             smooth_normals,
             sph_center,
             sph_radius,
@@ -270,8 +269,7 @@ impl RenderScene {
         use std::mem::size_of;
         let v = |n: usize, each: usize| n * each;
         self.instances.memory_bytes()
-            + v(self.packets.capacity(), size_of::<Packet>())
-            + v(self.lane_data.capacity(), size_of::<LaneData>())
+            + v(self.packets.capacity(), size_of::<Stored>())
             + v(self.smooth_normals.capacity(), size_of::<[Vec3A; 3]>())
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
@@ -293,7 +291,7 @@ impl RenderScene {
     /// The surface record for lane `id % WIDTH` of packet `id / WIDTH`, hit at distance `t`.
     fn hit_record(&self, ray: &Ray, id: u32, t: f32) -> Hit {
         let (p, lane) = (id as usize / packet::WIDTH, id as usize % packet::WIDTH);
-        let (s, data) = (&self.packets[p], &self.lane_data[p]);
+        let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
         if let Some(i) = s.sphere_index(lane, data) {
             let (c, r) = (self.sph_center[i], self.sph_radius[i]);
             let n = (ray.at(t) - c).normalize();
@@ -388,7 +386,7 @@ impl RenderScene {
                 let mut best = None;
                 let mut tmax = r.tmax;
                 for p in first..first + packet::packets_for(count) {
-                    let (packet, data) = (&self.packets[p as usize], &self.lane_data[p as usize]);
+                    let Stored { packet, data } = &self.packets[p as usize];
                     if let Some((lane, t)) = packet.closest(&lanes, r, tmax, &spheres, data) {
                         (best, tmax) = (Some((p * packet::WIDTH as u32 + lane as u32, t)), t);
                     }
@@ -423,7 +421,8 @@ impl RenderScene {
                     |r, first, count| {
                         (first..first + packet::packets_for(count)).any(|p| {
                             let p = p as usize;
-                            self.packets[p].any(&lanes, r, &spheres, &self.lane_data[p])
+                            let Stored { packet, data } = &self.packets[p];
+                            packet.any(&lanes, r, &spheres, data)
                         })
                     },
                 ) || (!self.instances.is_empty() && self.instances.occluded::<I>(&r))

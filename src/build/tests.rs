@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::scene::parse_scene;
+use packet::LaneData;
 use glam::Vec3A;
 use raylab_integrators::{Ray, Sampler, Scene};
 use std::fmt::Write as _;
@@ -165,8 +166,7 @@ fn used_lanes(scene: &RenderScene) -> impl Iterator<Item = (&Packet, &LaneData, 
     scene
         .packets
         .iter()
-        .zip(&scene.lane_data)
-        .flat_map(|(p, d)| (0..packet::WIDTH).map(move |lane| (p, d, lane)))
+        .flat_map(|s| (0..packet::WIDTH).map(move |lane| (&s.packet, &s.data, lane)))
         .filter(|(_, d, lane)| d.used(*lane))
 }
 
@@ -254,8 +254,10 @@ fn the_build_does_not_depend_on_the_thread_count() {
     let (a, b) = (build(1), build(2));
     assert_eq!(a.bvh, b.bvh);
     // Compared bit for bit: a sphere's lane holds NaNs.
-    let bits =
-        |s: &RenderScene| -> Vec<Vec<u32>> { s.packets.iter().map(|p| p.to_bits()).collect() };
+    let bits = |s: &RenderScene| -> Vec<Vec<u32>> {
+        s.packets.iter().map(|p| p.packet.to_bits()).collect()
+    };
     assert_eq!(bits(&a), bits(&b));
-    assert_eq!(a.lane_data, b.lane_data);
+    let data = |s: &RenderScene| -> Vec<LaneData> { s.packets.iter().map(|p| p.data).collect() };
+    assert_eq!(data(&a), data(&b));
 }
