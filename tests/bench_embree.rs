@@ -1,5 +1,6 @@
 //! `raylab bench --embree` (only with the `embree` feature): a raylab/Embree ratio line for
-//! every case, ray kind and thread count, build lines, and hit agreement of at least 99.9%.
+//! every case (instancing too), ray kind and thread count, build lines, and hit agreement of at
+//! least 99.9%.
 //!
 //! 4,900 rays, not 5,000: coherent rays fill a square image of ceil(sqrt(n)) pixels a side,
 //! and at 71 (odd) the middle column of camera rays lies in the plane y = 0 of the report
@@ -33,7 +34,7 @@ fn bench_embree_reports_ratios_and_agrees_with_embree() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(text.contains("embree comparison: Embree 3."), "{text}");
-    for case in ["report-room", "cornell-box", "icosphere-1m"] {
+    for case in ["report-room", "cornell-box", "icosphere-1m", "instances"] {
         for kind in ["coherent", "incoherent"] {
             for threads in ["1", "2"] {
                 // embree CASE KIND THREADS raylab Embree ratio raylab Embree ratio

@@ -3,11 +3,13 @@
 //!
 //! Per case and per thread count N:
 //! - Build: an Embree device configured with `threads=N` (threads started up front) gets
-//!   exactly the primitives raylab traces, `RenderScene::triangles` as a triangle soup (three
-//!   vertices per triangle, like raylab's own storage) and `RenderScene::spheres` as one
-//!   `SPHERE_POINT` geometry (x, y, z, radius). Timed: the scene commit, which is Embree's
-//!   BVH build (default quality), against raylab's `RenderScene::build` on an N-thread rayon
-//!   pool; best of three each. Memory: raylab's `memory_bytes` against what Embree's memory
+//!   exactly the primitives raylab traces: the scene's flat triangles as a triangle soup
+//!   (three vertices per triangle, like raylab's own storage), its spheres as one
+//!   `SPHERE_POINT` geometry (x, y, z, radius), and for instancing one scene per mesh asset
+//!   with one `INSTANCE` geometry per placement (Embree's two-level BVH, as raylab's). Timed:
+//!   the scene commits (the mesh scenes' and the top scene's), which are Embree's BVH builds
+//!   (default quality), against raylab's `RenderScene::build` on an N-thread rayon pool; best
+//!   of three each. Memory: raylab's `memory_bytes` against what Embree's memory
 //!   monitor callback counted on that device (geometry buffers + BVH) after the commit, and
 //!   its peak during the commit.
 //! - Rays: the same coherent and incoherent rays as raylab's table, traced with Embree's
@@ -27,10 +29,14 @@
 
 use super::{rays_per_second, Case};
 use crate::build::RenderScene;
+use crate::scene::components::{Instanced, Transform};
 use anyhow::{anyhow, Result};
 use embree3::{
     BufferUsage, Config, Device, DeviceProperty, Format, GeometryKind, IntersectContext, RayHit,
 };
+use glam::Mat4;
+use hecs::Entity;
+use obvhs::triangle::Triangle;
 use raylab_integrators::{Ray, Scene};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicIsize, Ordering};
@@ -47,6 +53,9 @@ struct Memory {
 /// A committed Embree scene and what its build cost.
 struct Built {
     scene: embree3::Scene<'static>,
+    /// The scenes of the instanced meshes, one per mesh asset (kept with the scene that
+    /// instances them).
+    _meshes: Vec<embree3::Scene<'static>>,
     /// The scene commit (Embree's BVH build).
     commit: Duration,
     /// Device memory after the commit and its peak (both include the geometry buffers).
@@ -110,26 +119,42 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
     let source = case.source()?;
     let tris = crate::build::flat_triangles(source);
     if !tris.is_empty() {
+        scene.attach_geometry(&triangle_geometry(&device, &tris)?);
+    }
+    // Instanced meshes: one scene per mesh asset, committed (its BVH built) once, and one
+    // instance geometry per placement, with its local-to-world transform.
+    let start = Instant::now();
+    let mut meshes = Vec::with_capacity(source.meshes.len());
+    for mesh in &source.meshes {
+        let mut child = device
+            .create_scene()
+            .map_err(embree_err("cannot create a mesh scene"))?;
+        let tris: Vec<Triangle> = mesh
+            .triangles
+            .iter()
+            .map(|&[v0, v1, v2]| Triangle { v0, v1, v2 })
+            .collect();
+        child.attach_geometry(&triangle_geometry(&device, &tris)?);
+        child.commit();
+        meshes.push(child);
+    }
+    let mut instances = source
+        .world
+        .query::<(Entity, &Instanced, &Transform)>()
+        .iter()
+        .map(|(e, i, t)| (e.id(), i.mesh as usize, t.matrix()))
+        .collect::<Vec<_>>();
+    instances.sort_by_key(|i| i.0);
+    for (_, mesh, local_to_world) in instances {
         let mut g = device
-            .create_geometry(GeometryKind::TRIANGLE)
-            .map_err(embree_err("triangle geometry"))?;
-        let mut vertices = g
-            .set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, 3 * tris.len())
-            .map_err(embree_err("vertex buffer"))?;
-        for (out, t) in vertices.chunks_exact_mut(3).zip(&tris) {
-            out[0] = t.v0.to_array();
-            out[1] = t.v1.to_array();
-            out[2] = t.v2.to_array();
-        }
-        let mut indices = g
-            .set_new_buffer::<[u32; 3]>(BufferUsage::INDEX, 0, Format::UINT3, 12, tris.len())
-            .map_err(embree_err("index buffer"))?;
-        for (i, out) in indices.iter_mut().enumerate() {
-            let v = 3 * i as u32;
-            *out = [v, v + 1, v + 2];
-        }
+            .create_geometry(GeometryKind::INSTANCE)
+            .map_err(embree_err("instance geometry"))?;
+        g.set_instanced_scene(&meshes[mesh]);
+        g.set_transform(0, &Mat4::from(local_to_world).to_cols_array());
         scene.attach_geometry(&g.commit());
     }
+    let meshes_commit = start.elapsed();
+
     let spheres = crate::build::flat_spheres(source);
     if !spheres.is_empty() {
         let mut g = device
@@ -146,17 +171,42 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
 
     let start = Instant::now();
     scene.commit();
-    let commit = start.elapsed();
+    let commit = meshes_commit + start.elapsed();
     match device.get_error() {
         embree3::Error::NONE => {}
         e => return Err(anyhow!("Embree: scene commit failed: {e:?}")),
     }
     Ok(Built {
         scene,
+        _meshes: meshes,
         commit,
         bytes: memory.now.load(Ordering::Relaxed),
         peak: memory.peak.load(Ordering::Relaxed),
     })
+}
+
+/// A committed triangle-soup geometry of `tris` (three vertices per triangle, like raylab's
+/// own storage).
+fn triangle_geometry(device: &Device, tris: &[Triangle]) -> Result<embree3::Geometry<'static>> {
+    let mut g = device
+        .create_geometry(GeometryKind::TRIANGLE)
+        .map_err(embree_err("triangle geometry"))?;
+    let mut vertices = g
+        .set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, 3 * tris.len())
+        .map_err(embree_err("vertex buffer"))?;
+    for (out, t) in vertices.chunks_exact_mut(3).zip(tris) {
+        out[0] = t.v0.to_array();
+        out[1] = t.v1.to_array();
+        out[2] = t.v2.to_array();
+    }
+    let mut indices = g
+        .set_new_buffer::<[u32; 3]>(BufferUsage::INDEX, 0, Format::UINT3, 12, tris.len())
+        .map_err(embree_err("index buffer"))?;
+    for (i, out) in indices.iter_mut().enumerate() {
+        let v = 3 * i as u32;
+        *out = [v, v + 1, v + 2];
+    }
+    Ok(g.commit())
 }
 
 /// Best of three Embree builds (the last one is kept to trace with).
@@ -244,7 +294,8 @@ pub(super) fn compare(
     say: &mut dyn FnMut(String),
 ) -> Result<()> {
     let ours = &case.scene;
-    let tris = ours.stats.triangles.max(1) as f64;
+    // Memory per triangle held (an instanced mesh counts once).
+    let tris = case.stored_triangles().max(1) as f64;
     let mut last = None;
     for &t in threads {
         let built = build(case, t)?;

@@ -8,7 +8,7 @@
 //! Traversal nests two BVH traversals; both keep their stacks on the call stack, so no ray
 //! allocates.
 
-use super::bvh::{isa::Isa, Bvh};
+use super::bvh::{isa::Isa, Bvh, Packets, Singles};
 use super::packet::{self, Lane, Packet, PacketRay, Stored, NONE, NO_SPHERES};
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
@@ -50,7 +50,7 @@ pub struct InstanceSet {
 
 impl MeshBlas {
     fn build(mesh: &LocalMesh) -> MeshBlas {
-        let (mut bvh, order) = Bvh::build::<{ packet::WIDTH }>(mesh.triangles.len(), |i| {
+        let (mut bvh, order) = Bvh::build::<Packets>(mesh.triangles.len(), |i| {
             Aabb::from_points(&mesh.triangles[i])
         });
         let packets = bvh
@@ -121,8 +121,8 @@ impl InstanceSet {
         for b in &boxes {
             bounds = bounds.union(b);
         }
-        // Leaves test their instances one at a time.
-        let (tlas, order) = Bvh::build::<1>(boxes.len(), |i| boxes[i]);
+        // One instance per leaf.
+        let (tlas, order) = Bvh::build::<Singles>(boxes.len(), |i| boxes[i]);
         let instances = order
             .iter()
             .map(|&i| {

@@ -157,8 +157,7 @@ impl RenderScene {
         let instances = InstanceSet::build(scene);
         // BVH over every primitive's box, for leaves that test a packet at a time; then one
         // packet per leaf, the leaves numbered in the BVH's primitive order.
-        let (mut bvh, order) =
-            Bvh::build::<{ packet::WIDTH }>(prims.len(), |i| prims[i].aabb(&shaped));
+        let (mut bvh, order) = Bvh::build::<bvh::Packets>(prims.len(), |i| prims[i].aabb(&shaped));
         let leaves = bvh.number_leaves(packet::packets_for);
         let bounds = match bvh.bounds() {
             Some(b) => instances.bounds.union(&b),

@@ -2,8 +2,8 @@
 
 use super::*;
 use crate::scene::parse_scene;
-use packet::LaneData;
 use glam::Vec3A;
+use packet::LaneData;
 use raylab_integrators::{Ray, Sampler, Scene};
 use std::fmt::Write as _;
 use std::path::Path;

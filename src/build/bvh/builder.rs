@@ -12,7 +12,7 @@
 //! the bounds and bins of larger ranges are gathered in parallel; every reduction is a
 //! min, max or integer sum, so the tree is the same whatever the thread count.
 
-use super::{Bvh, Node, EMPTY, LANES, MAX_LEAF};
+use super::{Bvh, Leaves, Node, EMPTY, LANES, MAX_LEAF};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use rayon::prelude::*;
@@ -281,7 +281,7 @@ impl Range {
     }
 
     /// Summarises `items[start..end]` and decides its plan at `depth`.
-    fn new<const BLOCK: usize>(items: &[Item], start: usize, end: usize, depth: u32) -> Range {
+    fn new<L: Leaves>(items: &[Item], start: usize, end: usize, depth: u32) -> Range {
         let slice = &items[start..end];
         let s = Summary::of(slice);
         let n = slice.len();
@@ -296,9 +296,9 @@ impl Range {
         let (leaf, plan, split_gain) = if n == 1 {
             (true, Plan::None, 0.0)
         } else if depth as usize >= MEDIAN_DEPTH {
-            (n <= MAX_LEAF, Plan::Median { axis: widest }, 0.0)
+            (n <= L::MAX, Plan::Median { axis: widest }, 0.0)
         } else {
-            sah_plan::<BLOCK>(slice, &s, n, widest)
+            sah_plan::<L>(slice, &s, n, widest)
         };
         Range {
             start,
@@ -311,21 +311,16 @@ impl Range {
     }
 }
 
-/// SAH cost of testing `n` primitives in a leaf, which tests them `BLOCK` at a time.
+/// SAH cost of testing `n` primitives in a leaf, which tests them `L::BLOCK` at a time.
 #[inline(always)]
-fn leaf_cost<const BLOCK: usize>(n: u32) -> f32 {
-    n.div_ceil(BLOCK as u32) as f32
+fn leaf_cost<L: Leaves>(n: u32) -> f32 {
+    n.div_ceil(L::BLOCK as u32) as f32
 }
 
 /// The cheapest binned split of `items` by the SAH, whether a leaf (if allowed) is cheaper,
 /// and what the split would save a leaf that has a free lane to split into
 /// ([`Range::split_gain`]).
-fn sah_plan<const BLOCK: usize>(
-    items: &[Item],
-    s: &Summary,
-    n: usize,
-    widest: usize,
-) -> (bool, Plan, f32) {
+fn sah_plan<L: Leaves>(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan, f32) {
     let binning = Binning::new(&s.centres, n);
     let nb = binning.bins;
     let bins = bin_items(items, &binning);
@@ -340,7 +335,7 @@ fn sah_plan<const BLOCK: usize>(
         for k in (1..nb).rev() {
             rb = rb.union(axis_bins[k].bounds);
             rc += axis_bins[k].count;
-            right[k] = rb.half_area() * leaf_cost::<BLOCK>(rc);
+            right[k] = rb.half_area() * leaf_cost::<L>(rc);
         }
         let (mut lb, mut lc) = (Bounds::EMPTY, 0u32);
         for k in 0..nb - 1 {
@@ -349,7 +344,7 @@ fn sah_plan<const BLOCK: usize>(
             if lc == 0 || lc as usize == n {
                 continue;
             }
-            let cost = lb.half_area() * leaf_cost::<BLOCK>(lc) + right[k + 1];
+            let cost = lb.half_area() * leaf_cost::<L>(lc) + right[k + 1];
             if best.is_none_or(|(c, ..)| cost < c) {
                 best = Some((cost, axis, k));
             }
@@ -359,17 +354,17 @@ fn sah_plan<const BLOCK: usize>(
     match best {
         Some((cost, axis, bin)) => {
             let split_cost = TRAVERSAL_COST + cost / area.max(f32::MIN_POSITIVE);
-            let leaf = n <= MAX_LEAF && leaf_cost::<BLOCK>(n as u32) <= split_cost;
-            let gain = area * leaf_cost::<BLOCK>(n as u32) - cost;
+            let leaf = n <= L::MAX && leaf_cost::<L>(n as u32) <= split_cost;
+            let gain = area * leaf_cost::<L>(n as u32) - cost;
             (leaf, Plan::Split { axis, bin, binning }, gain)
         }
         // Every centre in one bin (equal centres): any order is as good as another.
-        None => (n <= MAX_LEAF, Plan::Median { axis: widest }, 0.0),
+        None => (n <= L::MAX, Plan::Median { axis: widest }, 0.0),
     }
 }
 
 /// Carries out `r`'s plan (not a leaf) on `items`: the two halves as ranges at `depth`.
-fn split<const BLOCK: usize>(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range) {
+fn split<L: Leaves>(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range) {
     let slice = &mut items[r.start..r.end];
     let mid = match r.plan {
         Plan::Split { axis, bin, binning } => {
@@ -409,14 +404,14 @@ fn split<const BLOCK: usize>(items: &mut [Item], r: &Range, depth: u32) -> (Rang
     };
     let mid = r.start + mid;
     (
-        Range::new::<BLOCK>(items, r.start, mid, depth),
-        Range::new::<BLOCK>(items, mid, r.end, depth),
+        Range::new::<L>(items, r.start, mid, depth),
+        Range::new::<L>(items, mid, r.end, depth),
     )
 }
 
 /// Builds the subtree of `r` (not a leaf) over `items` (the node's range, whose first item
 /// is at `offset` in the whole array) into `out`, returning its root's index in `out`.
-fn build_node<const BLOCK: usize>(
+fn build_node<L: Leaves>(
     items: &mut [Item],
     offset: usize,
     r: Range,
@@ -444,7 +439,7 @@ fn build_node<const BLOCK: usize>(
         let Some((i, _)) = best else {
             break;
         };
-        let (a, b) = split::<BLOCK>(items, &kids[i], depth + 1);
+        let (a, b) = split::<L>(items, &kids[i], depth + 1);
         kids.copy_within(i + 1..len, i + 2);
         kids[i] = a;
         kids[i + 1] = b;
@@ -486,7 +481,7 @@ fn build_node<const BLOCK: usize>(
             .into_par_iter()
             .map(|(c, own, off, local)| {
                 let mut v = Vec::new();
-                build_node::<BLOCK>(own, off, local, depth + 1, &mut v);
+                build_node::<L>(own, off, local, depth + 1, &mut v);
                 (c, v)
             })
             .collect();
@@ -510,7 +505,7 @@ fn build_node<const BLOCK: usize>(
                     end: k.len(),
                     ..*k
                 };
-                node.child[c] = build_node::<BLOCK>(
+                node.child[c] = build_node::<L>(
                     &mut items[k.start..k.end],
                     offset + k.start,
                     local,
@@ -526,15 +521,12 @@ fn build_node<const BLOCK: usize>(
 
 impl Bvh {
     /// Builds the BVH over `n` primitives whose boxes `box_of` gives, on the current rayon
-    /// pool, for leaves that test their primitives `BLOCK` at a time (1: one by one; 4: a
-    /// packet): the SAH counts a leaf's cost in blocks, and lanes are filled by splitting
-    /// only children of more than one block. Returns it with the primitives' order: leaf
+    /// pool, for leaves of the kind `L` (how many primitives they hold and test at once: the
+    /// SAH counts a leaf's cost in such blocks). Returns it with the primitives' order: leaf
     /// entries refer to positions in that order, so primitive `order[k]` must be stored at
     /// position `k`.
-    pub fn build<const BLOCK: usize>(
-        n: usize,
-        box_of: impl Fn(usize) -> Aabb + Sync,
-    ) -> (Bvh, Vec<u32>) {
+    pub fn build<L: Leaves>(n: usize, box_of: impl Fn(usize) -> Aabb + Sync) -> (Bvh, Vec<u32>) {
+        const { assert!(L::MAX >= 1 && L::MAX <= MAX_LEAF && L::BLOCK >= 1) };
         if n == 0 {
             return (Bvh::default(), Vec::new());
         }
@@ -542,7 +534,7 @@ impl Bvh {
             .into_par_iter()
             .map(|i| Item::new(&box_of(i), i as u32))
             .collect();
-        let root = Range::new::<BLOCK>(&items, 0, n, 0);
+        let root = Range::new::<L>(&items, 0, n, 0);
         let mut nodes = Vec::new();
         if root.leaf {
             // A handful of primitives: one node with one leaf.
@@ -552,7 +544,7 @@ impl Bvh {
             node.count[0] = n as u8;
             nodes.push(node);
         } else {
-            build_node::<BLOCK>(&mut items, 0, root, 0, &mut nodes);
+            build_node::<L>(&mut items, 0, root, 0, &mut nodes);
         }
         for node in &mut nodes {
             node.mark_leaves();

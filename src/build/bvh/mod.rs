@@ -30,8 +30,33 @@ mod traverse;
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
 
-/// Most primitives in one leaf.
+/// Most primitives in one leaf, of any kind of [`Leaves`].
 pub const MAX_LEAF: usize = 8;
+
+/// What the leaves of a BVH hold, for the builder's cost model.
+pub trait Leaves {
+    /// Primitives a leaf tests at once: its SAH cost is the number of such blocks.
+    const BLOCK: usize;
+    /// Most primitives in one leaf (at most [`MAX_LEAF`]).
+    const MAX: usize;
+}
+
+/// Packets of four triangles, one or two per leaf (the flat scene and instanced meshes).
+pub struct Packets;
+
+impl Leaves for Packets {
+    const BLOCK: usize = 4;
+    const MAX: usize = 8;
+}
+
+/// One primitive per leaf: instances, each a whole traversal of its mesh's BVH to test, far
+/// costlier than a node visit.
+pub struct Singles;
+
+impl Leaves for Singles {
+    const BLOCK: usize = 1;
+    const MAX: usize = 1;
+}
 
 /// Children per node.
 pub const LANES: usize = 8;

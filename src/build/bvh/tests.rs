@@ -35,8 +35,8 @@ fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-fn build<const BLOCK: usize>(tris: &[[Vec3A; 3]]) -> (Bvh, Vec<[Vec3A; 3]>) {
-    let (bvh, order) = Bvh::build::<BLOCK>(tris.len(), |i| Aabb::from_points(&tris[i]));
+fn build<L: Leaves>(tris: &[[Vec3A; 3]]) -> (Bvh, Vec<[Vec3A; 3]>) {
+    let (bvh, order) = Bvh::build::<L>(tris.len(), |i| Aabb::from_points(&tris[i]));
     let mut seen = vec![false; tris.len()];
     for &i in &order {
         assert!(!seen[i as usize], "primitive {i} twice in the order");
@@ -111,10 +111,18 @@ fn any(bvh: &Bvh, ray: &Ray, tris: &[[Vec3A; 3]]) -> bool {
     portable
 }
 
-/// Closest and any hit agree with testing every triangle, on every ray, with leaves tested
-/// one triangle at a time (`BLOCK` 1) or as packets of four (`BLOCK` 4).
-fn check_against_brute_force<const BLOCK: usize>(tris: &[[Vec3A; 3]], rays: &[Ray]) {
-    let (bvh, ordered) = build::<BLOCK>(tris);
+/// Leaves of up to eight primitives tested one at a time.
+struct Runs;
+
+impl Leaves for Runs {
+    const BLOCK: usize = 1;
+    const MAX: usize = MAX_LEAF;
+}
+
+/// Closest and any hit agree with testing every triangle, on every ray, for leaves of every
+/// kind: runs tested one triangle at a time, packets of four, single primitives.
+fn check_against_brute_force<L: Leaves>(tris: &[[Vec3A; 3]], rays: &[Ray]) {
+    let (bvh, ordered) = build::<L>(tris);
     assert!(bvh.depth() <= builder::MAX_DEPTH, "depth {}", bvh.depth());
     let mut hits = 0;
     for ray in rays {
@@ -149,14 +157,15 @@ fn check_against_brute_force<const BLOCK: usize>(tris: &[[Vec3A; 3]], rays: &[Ra
 fn closest_and_any_hit_match_brute_force() {
     for (n, seed) in [(1, 1), (3, 2), (5, 3), (17, 4), (300, 5), (5000, 6)] {
         let (tris, rays) = (random_triangles(n, seed), random_rays(2000, seed + 100));
-        check_against_brute_force::<1>(&tris, &rays);
-        check_against_brute_force::<4>(&tris, &rays);
+        check_against_brute_force::<Runs>(&tris, &rays);
+        check_against_brute_force::<Packets>(&tris, &rays);
+        check_against_brute_force::<Singles>(&tris, &rays);
     }
 }
 
 #[test]
 fn empty_bvh_has_no_hits() {
-    let (bvh, order) = Bvh::build::<1>(0, |_| unreachable!());
+    let (bvh, order) = Bvh::build::<Runs>(0, |_| unreachable!());
     assert!(order.is_empty());
     let ray = Ray::new_inf(Vec3A::ZERO, Vec3A::X);
     assert_eq!(closest(&bvh, &ray, &[]), None);
@@ -168,7 +177,7 @@ fn empty_bvh_has_no_hits() {
 #[test]
 fn degenerate_inputs_stay_shallow_and_correct() {
     let same = vec![[Vec3A::ZERO, Vec3A::X, Vec3A::Y]; 10_000];
-    let (bvh, ordered) = build::<1>(&same);
+    let (bvh, ordered) = build::<Runs>(&same);
     assert!(bvh.depth() <= 10, "equal boxes: depth {}", bvh.depth());
     let ray = Ray::new_inf(Vec3A::new(0.2, 0.2, -1.0), Vec3A::Z);
     assert_eq!(closest(&bvh, &ray, &ordered).map(|h| h.1), Some(1.0));
@@ -183,8 +192,8 @@ fn degenerate_inputs_stay_shallow_and_correct() {
             ]
         })
         .collect();
-    check_against_brute_force::<1>(&peeled, &random_rays(2000, 9));
-    check_against_brute_force::<4>(&peeled, &random_rays(2000, 9));
+    check_against_brute_force::<Runs>(&peeled, &random_rays(2000, 9));
+    check_against_brute_force::<Packets>(&peeled, &random_rays(2000, 9));
 }
 
 /// Leaves renumbered for packets: each leaf's rank indexes its run of the order, the runs
@@ -193,7 +202,7 @@ fn degenerate_inputs_stay_shallow_and_correct() {
 #[test]
 fn numbered_leaves_index_their_runs_of_the_order() {
     let tris = random_triangles(3000, 21);
-    let (mut bvh, ordered) = build::<4>(&tris);
+    let (mut bvh, ordered) = build::<Packets>(&tris);
     let before = bvh.clone();
     let leaves = bvh.number_leaves(|_| 1);
     let mut next = 0;
@@ -223,7 +232,7 @@ fn build_is_independent_of_the_thread_count() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| Bvh::build::<4>(tris.len(), |i| Aabb::from_points(&tris[i])))
+            .install(|| Bvh::build::<Packets>(tris.len(), |i| Aabb::from_points(&tris[i])))
     };
     let ((a, order_a), (b, order_b)) = (on(1), on(3));
     assert_eq!(order_a, order_b);
