@@ -9,7 +9,7 @@
 //! allocates.
 
 use super::bvh::{isa::Isa, Bvh, Packets, Singles};
-use super::packet::{self, Lane, Packet, PacketRay, Stored, NONE, NO_SPHERES};
+use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_SPHERES};
 use crate::scene::assets::box_corners;
 use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
 use crate::scene::LoadedScene;
@@ -198,7 +198,7 @@ impl InstanceSet {
     /// Closest hit with `t < ray.tmax`: (instance slot, hit within its mesh, t), the hit as
     /// the packet's index times [`packet::WIDTH`] plus the lane.
     #[inline(always)]
-    pub fn intersect<I: Isa>(&self, ray: &Ray) -> Option<(u32, u32, f32)> {
+    pub fn intersect<I: Isa + LeafTest>(&self, ray: &Ray) -> Option<(u32, u32, f32)> {
         let mut best_prim = 0u32;
         let (slot, t) = self.tlas.closest::<I>(ray, |r, first, count| {
             let mut best = None;
@@ -210,16 +210,10 @@ impl InstanceSet {
                 let lr = Self::local_ray(inst, &r);
                 let lanes = PacketRay::new(&lr);
                 if let Some((id, t)) = mesh.bvh.closest::<I>(&lr, |lr, first, count| {
-                    let mut best = None;
-                    let mut tmax = lr.tmax;
-                    for p in first..first + packet::packets_for(count) {
-                        let Stored { packet, data } = &mesh.packets[p as usize];
-                        if let Some((lane, t)) = packet.closest(&lanes, lr, tmax, &NO_SPHERES, data)
-                        {
-                            (best, tmax) = (Some((p * packet::WIDTH as u32 + lane as u32, t)), t);
-                        }
-                    }
-                    best
+                    let end = first + packet::packets_for(count);
+                    let leaf = &mesh.packets[first as usize..end as usize];
+                    let (k, t) = I::closest(leaf, &lanes, lr, lr.tmax, &NO_SPHERES)?;
+                    Some((first * packet::WIDTH as u32 + k as u32, t))
                 }) {
                     best_prim = id;
                     best = Some((slot, t));
@@ -233,7 +227,7 @@ impl InstanceSet {
 
     /// True if any instance has a surface on `ray` before `ray.tmax`.
     #[inline(always)]
-    pub fn occluded<I: Isa>(&self, ray: &Ray) -> bool {
+    pub fn occluded<I: Isa + LeafTest>(&self, ray: &Ray) -> bool {
         self.tlas.any::<I>(ray, |r, first, count| {
             (first..first + count).any(|slot| {
                 let inst = &self.instances[slot as usize];
@@ -241,10 +235,13 @@ impl InstanceSet {
                 let lr = Self::local_ray(inst, r);
                 let lanes = PacketRay::new(&lr);
                 mesh.bvh.any::<I>(&lr, |lr, first, count| {
-                    (first..first + packet::packets_for(count)).any(|p| {
-                        let Stored { packet, data } = &mesh.packets[p as usize];
-                        packet.any(&lanes, lr, &NO_SPHERES, data)
-                    })
+                    let end = first + packet::packets_for(count);
+                    I::any(
+                        &mesh.packets[first as usize..end as usize],
+                        &lanes,
+                        lr,
+                        &NO_SPHERES,
+                    )
                 })
             })
         })

@@ -19,7 +19,7 @@ use hecs::Entity;
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
-use packet::{Lane, Packet, PacketRay, Spheres, Stored, NONE};
+use packet::{Lane, LeafTest, Packet, PacketRay, Spheres, Stored, NONE};
 use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -375,22 +375,17 @@ impl RenderScene {
 
 impl RenderScene {
     #[inline(always)]
-    fn closest_hit<I: Isa>(&self, ray: &Ray) -> Option<Hit> {
+    fn closest_hit<I: Isa + LeafTest>(&self, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
         let (lanes, spheres) = (PacketRay::new(&bvh_ray), self.sphere_geometry());
         let flat = self.bvh.closest::<I>(
             &bvh_ray,
             #[inline(always)]
             |r, first, count| {
-                let mut best = None;
-                let mut tmax = r.tmax;
-                for p in first..first + packet::packets_for(count) {
-                    let Stored { packet, data } = &self.packets[p as usize];
-                    if let Some((lane, t)) = packet.closest(&lanes, r, tmax, &spheres, data) {
-                        (best, tmax) = (Some((p * packet::WIDTH as u32 + lane as u32, t)), t);
-                    }
-                }
-                best
+                let leaf =
+                    &self.packets[first as usize..(first + packet::packets_for(count)) as usize];
+                let (k, t) = I::closest(leaf, &lanes, r, r.tmax, &spheres)?;
+                Some((first * packet::WIDTH as u32 + k as u32, t))
             },
         );
         if !self.instances.is_empty() {
@@ -410,7 +405,7 @@ impl RenderScene {
     }
 
     #[inline(always)]
-    fn any_hit<I: Isa>(&self, ray: &Ray) -> bool {
+    fn any_hit<I: Isa + LeafTest>(&self, ray: &Ray) -> bool {
         match Self::to_bvh_ray(ray) {
             Some(r) => {
                 let (lanes, spheres) = (PacketRay::new(&r), self.sphere_geometry());
@@ -418,11 +413,13 @@ impl RenderScene {
                     &r,
                     #[inline(always)]
                     |r, first, count| {
-                        (first..first + packet::packets_for(count)).any(|p| {
-                            let p = p as usize;
-                            let Stored { packet, data } = &self.packets[p];
-                            packet.any(&lanes, r, &spheres, data)
-                        })
+                        let end = first + packet::packets_for(count);
+                        I::any(
+                            &self.packets[first as usize..end as usize],
+                            &lanes,
+                            r,
+                            &spheres,
+                        )
                     },
                 ) || (!self.instances.is_empty() && self.instances.occluded::<I>(&r))
             }

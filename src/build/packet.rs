@@ -305,6 +305,216 @@ impl LaneData {
     }
 }
 
+/// How a leaf's packets are tested: one after the other, or (with AVX2) a leaf of two
+/// packets as one test of eight lanes. Either way the hit found is the one testing the lanes
+/// in order would find, to the bit.
+pub trait LeafTest {
+    /// The nearest hit before `tmax` among `leaf`'s packets, as (packet within the leaf times
+    /// [`WIDTH`] plus lane, distance).
+    fn closest(
+        leaf: &[Stored],
+        r: &PacketRay,
+        ray: &Ray,
+        tmax: f32,
+        spheres: &Spheres,
+    ) -> Option<(usize, f32)>;
+
+    /// Whether `ray` meets any primitive of `leaf` within `[ray.tmin, ray.tmax]`.
+    fn any(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool;
+}
+
+/// One packet after the other.
+#[inline(always)]
+fn closest_in_turn(
+    leaf: &[Stored],
+    r: &PacketRay,
+    ray: &Ray,
+    mut tmax: f32,
+    spheres: &Spheres,
+) -> Option<(usize, f32)> {
+    let mut best = None;
+    for (k, Stored { packet, data }) in leaf.iter().enumerate() {
+        if let Some((lane, t)) = packet.closest(r, ray, tmax, spheres, data) {
+            (best, tmax) = (Some((k * WIDTH + lane, t)), t);
+        }
+    }
+    best
+}
+
+#[inline(always)]
+fn any_in_turn(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+    leaf.iter()
+        .any(|Stored { packet, data }| packet.any(r, ray, spheres, data))
+}
+
+impl LeafTest for super::bvh::isa::Portable {
+    #[inline(always)]
+    fn closest(
+        leaf: &[Stored],
+        r: &PacketRay,
+        ray: &Ray,
+        tmax: f32,
+        spheres: &Spheres,
+    ) -> Option<(usize, f32)> {
+        closest_in_turn(leaf, r, ray, tmax, spheres)
+    }
+
+    #[inline(always)]
+    fn any(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+        any_in_turn(leaf, r, ray, spheres)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::*;
+    use crate::build::bvh::isa::Avx2;
+    use std::arch::x86_64::*;
+
+    /// Eight lanes: four of packet `a`, then four of `b`.
+    type Lanes8 = [__m256; 3];
+
+    /// `a`'s and `b`'s lane vectors side by side.
+    #[inline(always)]
+    fn join(a: &Lanes3, b: &Lanes3) -> Lanes8 {
+        // SAFETY: register operations; the callers of `Avx2` guarantee AVX2 (`bvh::isa`).
+        std::array::from_fn(|axis| unsafe { _mm256_set_m128(b[axis].into(), a[axis].into()) })
+    }
+
+    // SAFETY (all below): register arithmetic only, under the same guarantee.
+    #[inline(always)]
+    fn sub(a: &Lanes8, b: &Lanes8) -> Lanes8 {
+        std::array::from_fn(|i| unsafe { _mm256_sub_ps(a[i], b[i]) })
+    }
+
+    #[inline(always)]
+    fn mul(a: __m256, b: __m256) -> __m256 {
+        unsafe { _mm256_mul_ps(a, b) }
+    }
+
+    #[inline(always)]
+    fn msub(a: __m256, b: __m256, c: __m256, d: __m256) -> __m256 {
+        unsafe { _mm256_sub_ps(_mm256_mul_ps(a, b), _mm256_mul_ps(c, d)) }
+    }
+
+    /// As `packet::cross`, lane by lane.
+    #[inline(always)]
+    fn cross(a: &Lanes8, b: &Lanes8) -> Lanes8 {
+        [
+            msub(a[1], b[2], a[2], b[1]),
+            msub(a[2], b[0], a[0], b[2]),
+            msub(a[0], b[1], a[1], b[0]),
+        ]
+    }
+
+    /// As `packet::dot`: (x + y) + z.
+    #[inline(always)]
+    fn dot(a: &Lanes8, b: &Lanes8) -> __m256 {
+        unsafe {
+            _mm256_add_ps(
+                _mm256_add_ps(mul(a[0], b[0]), mul(a[1], b[1])),
+                mul(a[2], b[2]),
+            )
+        }
+    }
+
+    #[inline(always)]
+    fn splat3(v: Vec3A) -> Lanes8 {
+        [v.x, v.y, v.z].map(|x| unsafe { _mm256_set1_ps(x) })
+    }
+
+    /// The two packets' eight distances, as `Packet::distances` computes each lane (the two
+    /// packets hold no spheres).
+    #[inline(always)]
+    fn distances(a: &Packet, b: &Packet, ray: &Ray, tmax: f32) -> __m256 {
+        let (origin, dir) = (splat3(ray.origin), splat3(ray.direction));
+        let v0 = join(&a.v0, &b.v0);
+        let c = sub(&v0, &origin);
+        let q = cross(&dir, &c);
+        let n = join(&a.n, &b.n);
+        unsafe {
+            let one = _mm256_set1_ps(1.0);
+            let zero = _mm256_setzero_ps();
+            let inv_det = _mm256_div_ps(one, dot(&n, &dir));
+            let u = mul(dot(&q, &join(&a.e2, &b.e2)), inv_det);
+            let v = mul(dot(&q, &join(&a.e1, &b.e1)), inv_det);
+            let w = _mm256_sub_ps(_mm256_sub_ps(one, u), v);
+            let t = mul(dot(&n, &c), inv_det);
+            let inside = _mm256_and_ps(
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(u, zero),
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(v, zero),
+                ),
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(w, zero),
+                    _mm256_cmp_ps::<_CMP_NEQ_UQ>(inv_det, zero),
+                ),
+            );
+            let within = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(t, _mm256_set1_ps(ray.tmin)),
+                _mm256_cmp_ps::<_CMP_LE_OQ>(t, _mm256_set1_ps(tmax)),
+            );
+            _mm256_blendv_ps(
+                _mm256_set1_ps(f32::INFINITY),
+                t,
+                _mm256_and_ps(inside, within),
+            )
+        }
+    }
+
+    /// Whether neither packet holds a sphere (spheres are tested one by one).
+    #[inline(always)]
+    fn triangles_only(a: &Packet, b: &Packet) -> bool {
+        a.sphere_lanes() | b.sphere_lanes() == 0
+    }
+
+    impl LeafTest for Avx2 {
+        #[inline(always)]
+        fn closest(
+            leaf: &[Stored],
+            r: &PacketRay,
+            ray: &Ray,
+            tmax: f32,
+            spheres: &Spheres,
+        ) -> Option<(usize, f32)> {
+            let [a, b] = leaf else {
+                return closest_in_turn(leaf, r, ray, tmax, spheres);
+            };
+            if !triangles_only(&a.packet, &b.packet) {
+                return closest_in_turn(leaf, r, ray, tmax, spheres);
+            }
+            let t = distances(&a.packet, &b.packet, ray, tmax);
+            unsafe {
+                let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(tmax)));
+                if hit == 0 {
+                    return None;
+                }
+                // The nearest distance over the eight lanes, then its lowest lane.
+                let m = _mm256_min_ps(t, _mm256_permute2f128_ps::<1>(t, t));
+                let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
+                let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
+                let best = _mm256_cvtss_f32(m);
+                let at = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, m)) & hit;
+                Some((at.trailing_zeros() as usize, best))
+            }
+        }
+
+        #[inline(always)]
+        fn any(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+            match leaf {
+                [a, b] if triangles_only(&a.packet, &b.packet) => {
+                    let t = distances(&a.packet, &b.packet, ray, ray.tmax);
+                    unsafe {
+                        let inf = _mm256_set1_ps(f32::INFINITY);
+                        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, inf)) != 0
+                    }
+                }
+                _ => any_in_turn(leaf, r, ray, spheres),
+            }
+        }
+    }
+}
+
 /// The spheres' geometry that packets refer to by index.
 #[derive(Clone, Copy)]
 pub struct Spheres<'a> {
