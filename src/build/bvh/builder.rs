@@ -4,10 +4,11 @@
 //! items are partitioned in place: the build needs no other per-primitive memory, and the
 //! final order of the items is the leaf order returned to the caller.
 //!
-//! A node is opened into up to four children by splitting, again and again, the child with
-//! the largest surface area that the surface area heuristic (SAH, 16 bins per axis) says is
-//! worth splitting. Below [`MEDIAN_DEPTH`] nodes split at the object median instead, so that
-//! no input (every box equal, say) makes the tree deeper than the traversal stack allows.
+//! A node is opened into up to eight children by splitting, again and again, the child whose
+//! split the surface area heuristic (SAH, 16 bins per axis, leaf costs counted in the blocks
+//! its kind of leaf tests at once, [`Leaves`]) says saves most (`build_node`). Below
+//! [`MEDIAN_DEPTH`] nodes split at the object median instead, so that no input (every box
+//! equal, say) makes the tree deeper than the traversal stack allows.
 //! Children of nodes with at least [`PARALLEL_MIN`] primitives are built in parallel, and
 //! the bounds and bins of larger ranges are gathered in parallel; every reduction is a
 //! min, max or integer sum, so the tree is the same whatever the thread count.
