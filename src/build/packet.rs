@@ -343,8 +343,13 @@ fn closest_in_turn(
 
 #[inline(always)]
 fn any_in_turn(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
-    leaf.iter()
-        .any(|Stored { packet, data }| packet.any(r, ray, spheres, data))
+    // A plain loop: `Iterator::any` was not inlined into the AVX2 build of the traversal.
+    for Stored { packet, data } in leaf {
+        if packet.any(r, ray, spheres, data) {
+            return true;
+        }
+    }
+    false
 }
 
 impl LeafTest for super::bvh::isa::Portable {
