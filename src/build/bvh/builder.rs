@@ -128,11 +128,16 @@ impl Summary {
         }
         let mut s = Summary::EMPTY;
         for it in items {
-            s.boxes.grow(it.min(), it.hi);
-            let c = it.centroid2();
-            s.centres.grow(c, c);
+            s.add(it, it.centroid2());
         }
         s
+    }
+
+    /// Adds one item, whose doubled centre is `c2`.
+    #[inline(always)]
+    fn add(&mut self, it: &Item, c2: Vec3A) {
+        self.boxes.grow(it.min(), it.hi);
+        self.centres.grow(c2, c2);
     }
 
     fn merge(self, o: Summary) -> Summary {
@@ -283,8 +288,18 @@ impl Range {
 
     /// Summarises `items[start..end]` and decides its plan at `depth`.
     fn new<L: Leaves>(items: &[Item], start: usize, end: usize, depth: u32) -> Range {
+        Range::summarised::<L>(items, start, end, depth, Summary::of(&items[start..end]))
+    }
+
+    /// [`Range::new`] for a range whose summary `s` is already known.
+    fn summarised<L: Leaves>(
+        items: &[Item],
+        start: usize,
+        end: usize,
+        depth: u32,
+        s: Summary,
+    ) -> Range {
         let slice = &items[start..end];
-        let s = Summary::of(slice);
         let n = slice.len();
         let extent = s.centres.max - s.centres.min;
         let widest = if extent.x >= extent.y && extent.x >= extent.z {
@@ -367,25 +382,43 @@ fn sah_plan<L: Leaves>(items: &[Item], s: &Summary, n: usize, widest: usize) -> 
 /// Carries out `r`'s plan (not a leaf) on `items`: the two halves as ranges at `depth`.
 fn split<L: Leaves>(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range) {
     let slice = &mut items[r.start..r.end];
+    // The halves' summaries, gathered by the partition when it visits each item anyway.
+    let mut halves = None;
     let mid = match r.plan {
         Plan::Split { axis, bin, binning } => {
-            let left = |it: &Item| binning.bin(it.centroid2(), axis) <= bin;
-            // In-place partition, left items first.
+            let left = |c2: Vec3A| binning.bin(c2, axis) <= bin;
+            // In-place partition, left items first; each item is classified once, and
+            // added to its side's summary then.
+            let (mut ls, mut rs) = (Summary::EMPTY, Summary::EMPTY);
             let (mut i, mut j) = (0, slice.len());
             loop {
-                while i < j && left(&slice[i]) {
+                while i < j {
+                    let c2 = slice[i].centroid2();
+                    if !left(c2) {
+                        break;
+                    }
+                    ls.add(&slice[i], c2);
                     i += 1;
                 }
-                while i < j && !left(&slice[j - 1]) {
+                while i < j {
+                    let c2 = slice[j - 1].centroid2();
+                    if left(c2) {
+                        break;
+                    }
+                    rs.add(&slice[j - 1], c2);
                     j -= 1;
                 }
                 if i >= j {
                     break;
                 }
+                // slice[i] goes right and slice[j - 1] left (i < j - 1: they differ).
+                rs.add(&slice[i], slice[i].centroid2());
+                ls.add(&slice[j - 1], slice[j - 1].centroid2());
                 slice.swap(i, j - 1);
                 i += 1;
                 j -= 1;
             }
+            halves = Some((ls, rs));
             i
         }
         Plan::Median { axis } => {
@@ -398,15 +431,21 @@ fn split<L: Leaves>(items: &mut [Item], r: &Range, depth: u32) -> (Range, Range)
         Plan::None => unreachable!("a single item is never split"),
     };
     // A split plan puts items on both sides by construction; guard anyway.
-    let mid = if mid == 0 || mid == slice.len() {
-        slice.len() / 2
+    let (mid, halves) = if mid == 0 || mid == slice.len() {
+        (slice.len() / 2, None)
     } else {
-        mid
+        (mid, halves)
     };
     let mid = r.start + mid;
+    let (ls, rs) = halves.unwrap_or_else(|| {
+        (
+            Summary::of(&items[r.start..mid]),
+            Summary::of(&items[mid..r.end]),
+        )
+    });
     (
-        Range::new::<L>(items, r.start, mid, depth),
-        Range::new::<L>(items, mid, r.end, depth),
+        Range::summarised::<L>(items, r.start, mid, depth, ls),
+        Range::summarised::<L>(items, mid, r.end, depth, rs),
     )
 }
 
