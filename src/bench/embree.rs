@@ -15,7 +15,7 @@
 //! - Rays: the same coherent and incoherent rays as raylab's table, traced with Embree's
 //!   single-ray `rtcIntersect1` (closest hit) and `rtcOccluded1` (any hit), with the context's
 //!   coherent/incoherent flag to match, through `rays_per_second`: an N-thread rayon pool,
-//!   chunks of 4096, best of 3. raylab is measured again right next to each Embree
+//!   chunks of 4096, best of 3 runs of at least `MIN_RUN`. raylab is measured again right next to each Embree
 //!   measurement (same function, same pool size), so the ratio compares runs seconds apart
 //!   on the same, possibly busy, machine. Ratio = raylab / Embree: above 1, raylab is faster.
 //! - Agreement (once per case and ray kind): the fraction of rays on which raylab and Embree
@@ -27,7 +27,7 @@
 //! denormals-are-zero on the worker threads (Embree's performance advice; raylab does not set
 //! it either), and the robust or compact scene flags.
 
-use super::{rays_per_second, Case};
+use super::{rays_per_second, Case, MIN_RUN};
 use crate::build::RenderScene;
 use crate::scene::components::{Instanced, Transform};
 use anyhow::{anyhow, Result};
@@ -268,7 +268,8 @@ pub(super) fn header() -> Vec<String> {
         .unwrap_or_else(|_| "3 (no device)".into());
     vec![
         format!(
-            "embree comparison: Embree {version}, single rays (rtcIntersect1 / rtcOccluded1), the same rays, pool, chunks and best of 3; raylab re-measured next to each; ratio = raylab / Embree (> 1: raylab faster)"
+            "embree comparison: Embree {version}, single rays (rtcIntersect1 / rtcOccluded1), the same rays, pool, chunks and timing (best of 3 runs of at least {} ms); raylab re-measured next to each; ratio = raylab / Embree (> 1: raylab faster)",
+            MIN_RUN.as_millis()
         ),
         format!(
             "{:<6} {:<14} {:>10} {:>8} {:>14} {:>14} {:>7} {:>14} {:>14} {:>7}",

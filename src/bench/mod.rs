@@ -146,7 +146,15 @@ pub fn incoherent_rays(bounds: (Vec3A, Vec3A), count: usize) -> Vec<Ray> {
         .collect()
 }
 
-/// Rays per second of `trace` over `rays` on `threads` threads (best of three runs).
+/// Shortest timed run of [`rays_per_second`]: a small scene traces 1 M rays in about 40 ms,
+/// short enough for the shared machine's hiccups to move one figure by 20% or more (and its
+/// 2-thread figure to come out anywhere from 1.2x to 2.8x the 1-thread one).
+const MIN_RUN: Duration = Duration::from_millis(200);
+/// Most passes over the rays in one run (tiny ray sets in tests stay quick).
+const MAX_PASSES: u32 = 64;
+
+/// Rays per second of `trace` over `rays` on `threads` threads: a warm-up pass, then the best
+/// of three runs, each of as many passes over the rays as last [`MIN_RUN`].
 fn rays_per_second(
     rays: &[Ray],
     threads: usize,
@@ -155,16 +163,24 @@ fn rays_per_second(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let mut best = f64::INFINITY;
-    let mut hits = 0;
-    for _ in 0..3 {
-        let start = Instant::now();
-        hits = pool.install(|| {
+    let pass = || {
+        pool.install(|| {
             rays.par_chunks(4096)
                 .map(|chunk| chunk.iter().filter(|r| trace(r)).count())
                 .sum::<usize>()
-        });
-        best = best.min(start.elapsed().as_secs_f64());
+        })
+    };
+    let start = Instant::now();
+    let hits = pass();
+    let once = start.elapsed().as_secs_f64().max(1e-9);
+    let passes = ((MIN_RUN.as_secs_f64() / once).ceil() as u32).clamp(1, MAX_PASSES);
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let start = Instant::now();
+        for _ in 0..passes {
+            pass();
+        }
+        best = best.min(start.elapsed().as_secs_f64() / f64::from(passes));
     }
     Ok((rays.len() as f64 / best, hits))
 }
@@ -253,8 +269,10 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             .with_context(|| format!("{}: cannot create", dir.display()))?;
     }
     say(format!(
-        "raylab bench: {} rays per measurement, best of 3; threads {:?}",
-        opts.rays, opts.threads
+        "raylab bench: {} rays per measurement, best of 3 runs of at least {} ms; threads {:?}",
+        opts.rays,
+        MIN_RUN.as_millis(),
+        opts.threads
     ));
     say(format!(
         "{:<14} {:>10} {:>10} {:>8} {:>14} {:>16} {:>10}",
