@@ -206,32 +206,43 @@ struct Bin {
     count: u32,
 }
 
-type Bins = [[Bin; BINS]; 3];
+impl Bin {
+    const EMPTY: Bin = Bin {
+        bounds: Bounds::EMPTY,
+        count: 0,
+    };
 
-const EMPTY_BINS: Bins = [[Bin {
-    bounds: Bounds::EMPTY,
-    count: 0,
-}; BINS]; 3];
-
-fn bin_items(items: &[Item], binning: &Binning) -> Bins {
-    if items.len() >= PARALLEL_SCAN_MIN {
-        return items
-            .par_chunks(SCAN_CHUNK)
-            .map(|c| bin_items(c, binning))
-            .reduce(
-                || EMPTY_BINS,
-                |mut a, b| {
-                    for (ra, rb) in a.iter_mut().zip(&b) {
-                        for (x, y) in ra.iter_mut().zip(rb) {
-                            x.bounds = x.bounds.union(y.bounds);
-                            x.count += y.count;
-                        }
-                    }
-                    a
-                },
-            );
+    fn merge(&mut self, o: &Bin) {
+        self.bounds = self.bounds.union(o.bounds);
+        self.count += o.count;
     }
-    let mut bins = EMPTY_BINS;
+}
+
+/// `B` bins per axis.
+type Bins<const B: usize> = [[Bin; B]; 3];
+
+/// Adds `items` to `bins` (the caller's, filled with [`Bin::EMPTY`], at least as many per axis
+/// as the binning uses). The caller sizes them to the range: most ranges are small, and
+/// filling sixteen bins per axis (2.3 kB) for a handful of items cost more than binning them.
+fn bin_items<const B: usize>(items: &[Item], binning: &Binning, bins: &mut Bins<B>) {
+    if items.len() >= PARALLEL_SCAN_MIN {
+        let parts = items
+            .par_chunks(SCAN_CHUNK)
+            .map(|c| {
+                let mut b = [[Bin::EMPTY; B]; 3];
+                bin_items(c, binning, &mut b);
+                b
+            })
+            .collect::<Vec<_>>();
+        for part in &parts {
+            for (axis, axis_part) in bins.iter_mut().zip(part) {
+                for (x, y) in axis.iter_mut().zip(axis_part) {
+                    x.merge(y);
+                }
+            }
+        }
+        return;
+    }
     for it in items {
         let (min, c) = (it.min(), it.centroid2());
         for (axis_bins, bin) in bins.iter_mut().zip(binning.bins(c)) {
@@ -240,7 +251,6 @@ fn bin_items(items: &[Item], binning: &Binning) -> Bins {
             b.count += 1;
         }
     }
-    bins
 }
 
 /// How to split a range of items in two.
@@ -314,7 +324,12 @@ impl Range {
         } else if depth as usize >= MEDIAN_DEPTH {
             (n <= L::MAX, Plan::Median { axis: widest }, 0.0)
         } else {
-            sah_plan::<L>(slice, &s, n, widest)
+            // Bins sized to the range (see `bin_items`).
+            match n {
+                ..=4 => sah_plan::<L, 4>(slice, &s, n, widest),
+                ..=8 => sah_plan::<L, 8>(slice, &s, n, widest),
+                _ => sah_plan::<L, BINS>(slice, &s, n, widest),
+            }
         };
         Range {
             start,
@@ -336,17 +351,23 @@ fn leaf_cost<L: Leaves>(n: u32) -> f32 {
 /// The cheapest binned split of `items` by the SAH, whether a leaf (if allowed) is cheaper,
 /// and what the split would save a leaf that has a free lane to split into
 /// ([`Range::split_gain`]).
-fn sah_plan<L: Leaves>(items: &[Item], s: &Summary, n: usize, widest: usize) -> (bool, Plan, f32) {
-    let binning = Binning::new(&s.centres, n);
+fn sah_plan<L: Leaves, const B: usize>(
+    items: &[Item],
+    s: &Summary,
+    n: usize,
+    widest: usize,
+) -> (bool, Plan, f32) {
+    let binning = Binning::new(&s.centres, n.min(B));
     let nb = binning.bins;
-    let bins = bin_items(items, &binning);
+    let mut bins = [[Bin::EMPTY; B]; 3];
+    bin_items(items, &binning, &mut bins);
     let mut best: Option<(f32, usize, usize)> = None;
     for (axis, axis_bins) in bins.iter().enumerate() {
         if binning.scale[axis] == 0.0 {
             continue;
         }
         // Right-hand costs (area x count of bins k..) from the right, then the sweep.
-        let mut right = [0.0f32; BINS];
+        let mut right = [0.0f32; B];
         let (mut rb, mut rc) = (Bounds::EMPTY, 0u32);
         for k in (1..nb).rev() {
             rb = rb.union(axis_bins[k].bounds);
