@@ -160,3 +160,40 @@ fn the_instance_build_does_not_depend_on_the_thread_count() {
         );
     }
 }
+
+#[test]
+fn bounds_of_a_scene_of_far_instances_do_not_reach_the_origin() {
+    // A scene without instances once had instance bounds of a zero box at the origin, so every
+    // scene's bounds (the environment light's radius, the bench's rays) took the origin in.
+    let text = format!(
+        r#"(camera: LookAt(eye: (0, 0, 30), look_at: (20, 20, 20), up: (0, 1, 0), fov: 40),
+          materials: {{"a": Lambert(albedo: (0.5, 0.5, 0.5))}},
+          meshes: {{"panel": {PANEL}}},
+          entities: [(name: "p", transform: (translate: (20, 20, 20)), shape: Instance(mesh: "panel"), material: "a"),
+                     (name: "q", transform: (translate: (22, 20, 20)), shape: Quad(vertices: [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]), material: "a")])"#
+    );
+    let scene = RenderScene::build(&parse_scene(&text, Path::new("far.ron")).unwrap());
+    let (lo, hi) = scene.bounds();
+    assert_eq!(
+        (lo, hi),
+        (Vec3A::new(19.0, 19.0, 20.0), Vec3A::new(23.0, 21.0, 20.0))
+    );
+    // Only instances, and only flat geometry.
+    for entities in [
+        r#"(name: "p", transform: (translate: (20, 20, 20)), shape: Instance(mesh: "panel"), material: "a")"#,
+        r#"(name: "q", transform: (translate: (22, 20, 20)), shape: Quad(vertices: [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]), material: "a")"#,
+    ] {
+        let text = format!(
+            r#"(camera: LookAt(eye: (0, 0, 30), look_at: (20, 20, 20), up: (0, 1, 0), fov: 40),
+              materials: {{"a": Lambert(albedo: (0.5, 0.5, 0.5))}},
+              meshes: {{"panel": {PANEL}}},
+              entities: [{entities}])"#
+        );
+        let (lo, hi) =
+            RenderScene::build(&parse_scene(&text, Path::new("far.ron")).unwrap()).bounds();
+        assert!(
+            lo.min_element() >= 19.0 && hi.max_element() <= 23.0,
+            "{lo} {hi}"
+        );
+    }
+}

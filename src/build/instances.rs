@@ -19,7 +19,7 @@ use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
 use raylab_integrators::Hit;
 
-/// One mesh asset's triangles as packets, one per leaf of their BVH.
+/// One mesh asset's triangles as packets, one or two per leaf of their BVH.
 struct MeshBlas {
     bvh: Bvh,
     /// Each lane's `smooth` index is the triangle's place in the BVH's order.
@@ -38,14 +38,24 @@ struct Instance {
 }
 
 /// Every instance of the scene, over their shared meshes.
-#[derive(Default)]
 pub struct InstanceSet {
     tlas: Bvh,
     /// In TLAS order: slot `i` of the TLAS is `instances[i]`.
     instances: Vec<Instance>,
     meshes: Vec<MeshBlas>,
-    /// World bounds of all instances.
+    /// World bounds of all instances (empty when there are none).
     pub bounds: Aabb,
+}
+
+impl Default for InstanceSet {
+    fn default() -> Self {
+        InstanceSet {
+            tlas: Bvh::default(),
+            instances: Vec::new(),
+            meshes: Vec::new(),
+            bounds: Aabb::empty(),
+        }
+    }
 }
 
 impl MeshBlas {
@@ -187,7 +197,7 @@ impl InstanceSet {
     #[inline(always)]
     fn local_ray(inst: &Instance, ray: &Ray) -> Ray {
         let m = &inst.world_to_local;
-        Ray::new(
+        super::bvh::ray(
             m.transform_point3a(ray.origin),
             m.transform_vector3a(ray.direction),
             ray.tmin,

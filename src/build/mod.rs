@@ -48,8 +48,8 @@ pub struct BuildStats {
 /// The flattened, BVH-backed scene that rendering reads.
 pub struct RenderScene {
     bvh: Bvh,
-    /// Per BVH leaf: its triangles (or spheres) and their shading data.
-    /// Per packet of a leaf's primitives: the packet and its lane data, side by side.
+    /// Per packet of a leaf's primitives (one or two per leaf): the packet and its lane data,
+    /// side by side.
     packets: Vec<Stored>,
     /// Per-vertex normals of the triangles that have them ([`LaneData::smooth`]).
     smooth_normals: Vec<[Vec3A; 3]>,
@@ -155,13 +155,19 @@ impl RenderScene {
         }
 
         let instances = InstanceSet::build(scene);
-        // BVH over every primitive's box, for leaves that test a packet at a time; then one
-        // packet per leaf, the leaves numbered in the BVH's primitive order.
+        // BVH over every primitive's box, for leaves that test a packet at a time; then one or
+        // two packets per leaf, the leaves numbered in the BVH's primitive order.
         let (mut bvh, order) = Bvh::build::<bvh::Packets>(prims.len(), |i| prims[i].aabb(&shaped));
         let leaves = bvh.number_leaves(packet::packets_for);
         let bounds = match bvh.bounds() {
             Some(b) => instances.bounds.union(&b),
             None => instances.bounds,
+        };
+        // A scene without geometry: a point at the origin.
+        let bounds = if bounds.valid() {
+            bounds
+        } else {
+            Aabb::default()
         };
         let radius = 0.5 * bounds.diagonal().length();
         if let Some(env) = scene.environment {
@@ -284,7 +290,7 @@ impl RenderScene {
 
     fn to_bvh_ray(ray: &Ray) -> Option<obvhs::ray::Ray> {
         (ray.origin.is_finite() && ray.dir.is_finite() && !ray.tmax.is_nan())
-            .then(|| obvhs::ray::Ray::new(ray.origin, ray.dir, 0.0, ray.tmax))
+            .then(|| bvh::ray(ray.origin, ray.dir, 0.0, ray.tmax))
     }
 
     /// The surface record for lane `id % WIDTH` of packet `id / WIDTH`, hit at distance `t`.

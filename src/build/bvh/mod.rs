@@ -35,6 +35,7 @@ mod traverse;
 
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
+use obvhs::ray::Ray;
 
 /// Most primitives in one leaf, of any kind of [`Leaves`].
 pub const MAX_LEAF: usize = 8;
@@ -66,6 +67,26 @@ impl Leaves for Singles {
 
 /// Children per node.
 pub const LANES: usize = 8;
+
+/// A ray for traversal: obvhs's [`Ray`] with the exact inverse of its direction.
+///
+/// obvhs's `Ray::new` replaces the inverse of every component of size up to `f32::EPSILON`
+/// by `±1 / EPSILON`, which shortens the slab distances along that axis: a box whose face is
+/// within about `t * EPSILON` of the origin was lost (a ray along +z from x = 0.5 missed a
+/// triangle at z = 20 whose box ends at x = 0.500001). Here a zero component's inverse is
+/// `±f32::MAX` instead of infinity, so that `(plane - origin) * inverse` is never
+/// `0 * inf = NaN`.
+#[inline(always)]
+pub fn ray(origin: Vec3A, direction: Vec3A, tmin: f32, tmax: f32) -> Ray {
+    let mut r = Ray::new(origin, direction, tmin, tmax);
+    let inv = direction.recip();
+    r.inv_direction = Vec3A::select(
+        inv.is_finite_mask(),
+        inv,
+        Vec3A::splat(f32::MAX).copysign(direction),
+    );
+    r
+}
 
 /// Marks an empty child slot (its box is empty, so no ray reaches it).
 const EMPTY: u32 = u32::MAX;

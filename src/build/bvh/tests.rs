@@ -30,7 +30,7 @@ fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
                     .normalize_or(Vec3A::X),
             };
             let tmax = if i % 7 == 0 { 2.0 } else { f32::INFINITY };
-            Ray::new(o, d, 0.0, tmax)
+            ray(o, d, 0.0, tmax)
         })
         .collect()
 }
@@ -246,4 +246,30 @@ fn build_is_independent_of_the_thread_count() {
         .iter()
         .zip(&b.nodes)
         .all(|(x, y)| bits(x) == bits(y)));
+}
+
+#[test]
+fn a_ray_along_an_axis_reaches_a_box_whose_face_is_just_beside_it() {
+    // The box ends 1e-6 beside the ray's x. obvhs's inverse of a small direction component
+    // (1 / EPSILON) put the box's x exit at t = 8.5, and the triangle at t = 20 was lost.
+    let tris = vec![[
+        Vec3A::new(0.0, -1.0, 20.0),
+        Vec3A::new(0.500001, -1.0, 20.0),
+        Vec3A::new(0.500001, 1.0, 20.0),
+    ]];
+    let (bvh, ordered) = build::<Runs>(&tris);
+    for dx in [0.0, -0.0, 1e-9, -1e-9] {
+        let r = ray(
+            Vec3A::new(0.5, 0.0, 0.0),
+            Vec3A::new(dx, 0.0, 1.0),
+            0.0,
+            f32::INFINITY,
+        );
+        let hit = closest(&bvh, &r, &ordered);
+        assert!(
+            hit.is_some_and(|(_, t)| (t - 20.0).abs() < 1e-4),
+            "dx {dx}: {hit:?}"
+        );
+        assert!(any(&bvh, &r, &ordered), "dx {dx}");
+    }
 }
