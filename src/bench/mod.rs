@@ -150,11 +150,13 @@ pub fn incoherent_rays(bounds: (Vec3A, Vec3A), count: usize) -> Vec<Ray> {
 /// short enough for the shared machine's hiccups to move one figure by 20% or more (and its
 /// 2-thread figure to come out anywhere from 1.2x to 2.8x the 1-thread one).
 const MIN_RUN: Duration = Duration::from_millis(200);
-/// Most passes over the rays in one run (tiny ray sets in tests stay quick).
+/// Most passes over the rays in one run: a tiny ray set (in tests) stops there, under
+/// [`MIN_RUN`].
 const MAX_PASSES: u32 = 64;
 
 /// Rays per second of `trace` over `rays` on `threads` threads: a warm-up pass, then the best
-/// of three runs, each of as many passes over the rays as last [`MIN_RUN`].
+/// of three runs, each of passes over the rays until it has lasted [`MIN_RUN`] (or made
+/// [`MAX_PASSES`]).
 fn rays_per_second(
     rays: &[Ray],
     threads: usize,
@@ -170,15 +172,14 @@ fn rays_per_second(
                 .sum::<usize>()
         })
     };
-    let start = Instant::now();
     let hits = pass();
-    let once = start.elapsed().as_secs_f64().max(1e-9);
-    let passes = ((MIN_RUN.as_secs_f64() / once).ceil() as u32).clamp(1, MAX_PASSES);
     let mut best = f64::INFINITY;
     for _ in 0..3 {
         let start = Instant::now();
-        for _ in 0..passes {
+        let mut passes = 0;
+        while passes < MAX_PASSES && (passes == 0 || start.elapsed() < MIN_RUN) {
             pass();
+            passes += 1;
         }
         best = best.min(start.elapsed().as_secs_f64() / f64::from(passes));
     }

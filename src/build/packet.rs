@@ -79,7 +79,7 @@ pub struct LaneData {
     aux: [u32; WIDTH],
 }
 
-/// A packet with its lane data after it: 240 bytes, in four cache lines.
+/// A packet with its lane data after it: 240 bytes, padded to 256 (four cache lines).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct Stored {

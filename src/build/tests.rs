@@ -247,7 +247,7 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
 
 #[test]
 fn the_build_does_not_depend_on_the_thread_count() {
-    // obvhs builds in parallel on the current rayon pool (--threads sets it): the BVH and the
+    // The BVH is built in parallel on the current rayon pool (--threads sets it): the BVH and the
     // primitive order must come out the same on 1 and 2 threads (the images rely on it).
     let loaded = parse_scene(&random_scene(5000, 30, 11), Path::new("random.ron")).unwrap();
     let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
