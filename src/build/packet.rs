@@ -673,4 +673,95 @@ mod tests {
         assert_eq!(std::mem::size_of::<Packet>(), 192);
         assert_eq!(std::mem::size_of::<LaneData>(), 48);
     }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn avx2_leaf(
+        leaf: &[Stored],
+        r: &PacketRay,
+        ray: &Ray,
+        spheres: &Spheres,
+    ) -> (Option<(usize, f32)>, bool) {
+        use crate::build::bvh::isa::Avx2;
+        (
+            <Avx2 as LeafTest>::closest(leaf, r, ray, ray.tmax, spheres),
+            <Avx2 as LeafTest>::any(leaf, r, ray, spheres),
+        )
+    }
+
+    /// The AVX2 test of a two-packet leaf (one eight-lane test) finds what testing the packets
+    /// in turn finds: leaves of 5 to 8 triangles (unused lanes), the same triangle in both
+    /// packets (a tie: the lower index wins), and a sphere lane (tested in turn).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_two_packet_leaves_match_the_packets_in_turn() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let centers = [Vec3A::new(1.5, 1.5, 1.5)];
+        let radii = [0.4];
+        let spheres = Spheres {
+            center: &centers,
+            radius: &radii,
+        };
+        let mut rng = StdRng::seed_from_u64(9);
+        let mut p3 = |s: f32| Vec3A::new(rng.random(), rng.random(), rng.random()) * s;
+        let (mut hits, mut ties, mut rays) = (0, 0, 0);
+        for round in 0..3000 {
+            let n = 5 + round % 4;
+            let mut lanes: Vec<Lane> = (0..n)
+                .map(|_| {
+                    let base = p3(3.0);
+                    triangle([base, base + p3(1.5) - 0.5, base + p3(1.5) - 0.5], 0)
+                })
+                .collect();
+            match round % 3 {
+                // The first packet's second triangle again in the second packet.
+                0 => lanes[WIDTH] = lanes[1],
+                1 => {
+                    lanes[WIDTH] = Lane::Sphere {
+                        index: 0,
+                        material: 0,
+                        light: NONE,
+                    }
+                }
+                _ => {}
+            }
+            let leaf: Vec<Stored> = lanes
+                .chunks(WIDTH)
+                .map(|c| {
+                    let (packet, data) = Packet::new(c);
+                    Stored { packet, data }
+                })
+                .collect();
+            for k in 0..8 {
+                let origin = p3(5.0) - 1.0;
+                let target = match (round % 3, k % 2) {
+                    (0, 0) => match lanes[1] {
+                        Lane::Triangle { corners, .. } => {
+                            (corners[0] + corners[1] + corners[2]) / 3.0
+                        }
+                        Lane::Sphere { .. } => unreachable!(),
+                    },
+                    _ => p3(3.0),
+                };
+                let tmax = [f32::INFINITY, 4.0][k % 2];
+                let ray = crate::build::bvh::ray(origin, target - origin, 0.0, tmax);
+                let pr = PacketRay::new(&ray);
+                let expected = closest_in_turn(&leaf, &pr, &ray, ray.tmax, &spheres);
+                let expected_any = any_in_turn(&leaf, &pr, &ray, &spheres);
+                // SAFETY: the processor has AVX2, checked at the top.
+                let (found, found_any) = unsafe { avx2_leaf(&leaf, &pr, &ray, &spheres) };
+                assert_eq!(found, expected, "round {round}, ray {k}");
+                assert_eq!(found_any, expected_any, "round {round}, ray {k}");
+                hits += usize::from(expected.is_some());
+                ties += usize::from(round % 3 == 0 && expected.is_some_and(|(i, _)| i == 1));
+                rays += 1;
+            }
+        }
+        assert!(
+            hits > rays / 10 && ties > 100,
+            "{hits} hits, {ties} ties of {rays}"
+        );
+    }
 }
