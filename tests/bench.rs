@@ -117,3 +117,15 @@ fn bench_case_runs_only_the_named_cases() {
     );
     assert!(o.stdout.is_empty());
 }
+
+#[test]
+fn rounds_must_be_at_least_one() {
+    let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["bench", "--rounds", "0"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--rounds"), "{err}");
+    assert!(o.stdout.is_empty());
+}

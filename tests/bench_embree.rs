@@ -77,3 +77,60 @@ fn bench_embree_reports_ratios_and_agrees_with_embree() {
         }
     }
 }
+
+#[test]
+fn bench_embree_rounds_print_medians_and_the_range_of_ratios() {
+    let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args([
+            "bench",
+            "--embree",
+            "--case",
+            "cornell-box",
+            "--rays",
+            "900",
+            "--threads",
+            "1",
+            "--rounds",
+            "3",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        text.contains("median rates and ratios of 3 rounds"),
+        "{text}"
+    );
+    for kind in ["coherent", "incoherent"] {
+        // "... KIND 1 threads, ratios over 3 rounds: closest LO-HI, occlusion LO-HI"; the
+        // median ratios lie within the rounds' range (both printed to two decimals).
+        let range_line = text
+            .lines()
+            .find(|l| l.contains(&format!("{kind} 1 threads, ratios over 3 rounds: closest")))
+            .unwrap_or_else(|| panic!("no range line for {kind}\n{text}"));
+        let ranges: Vec<(f64, f64)> = range_line
+            .split_whitespace()
+            .filter(|w| w.contains('-') && w.starts_with(|c: char| c.is_ascii_digit()))
+            .map(|w| {
+                let (lo, hi) = w.trim_end_matches(',').split_once('-').unwrap();
+                (lo.parse().unwrap(), hi.parse().unwrap())
+            })
+            .collect();
+        assert_eq!(ranges.len(), 2, "{range_line}");
+        let row: Vec<f64> = text
+            .lines()
+            .map(|l| l.split_whitespace().collect::<Vec<_>>())
+            .find(|w| w.len() == 10 && w[..4] == ["embree", "cornell-box", kind, "1"])
+            .unwrap_or_else(|| panic!("no ratio line for {kind}\n{text}"))[4..]
+            .iter()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        for (ratio, (lo, hi)) in [row[2], row[5]].into_iter().zip(ranges) {
+            assert!(lo <= hi && lo > 0.0, "{range_line}");
+            assert!(
+                ratio >= lo - 0.005 && ratio <= hi + 0.005,
+                "{ratio} {range_line}"
+            );
+        }
+    }
+}

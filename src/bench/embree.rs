@@ -252,6 +252,17 @@ fn embree_hit(scene: &embree3::Scene, context: fn() -> IntersectContext, r: &Ray
     rh.hit.is_valid().then_some(rh.ray.tfar)
 }
 
+/// The median of some rates (the mean of the middle two for an even count).
+fn median(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.collect();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
 /// Ray kinds and the Embree context flag that matches them.
 fn context_for(kind: &str) -> fn() -> IntersectContext {
     if kind == "coherent" {
@@ -262,14 +273,15 @@ fn context_for(kind: &str) -> fn() -> IntersectContext {
 }
 
 /// The header of the comparison table (printed once, before the first case).
-pub(super) fn header() -> Vec<String> {
+pub(super) fn header(rounds: usize) -> Vec<String> {
     let version = Device::new()
         .map(|d| version(&d))
         .unwrap_or_else(|_| "3 (no device)".into());
     vec![
         format!(
-            "embree comparison: Embree {version}, single rays (rtcIntersect1 / rtcOccluded1), the same rays, pool, chunks and timing (best of 3 runs of at least {} ms); raylab re-measured next to each; ratio = raylab / Embree (> 1: raylab faster)",
-            MIN_RUN.as_millis()
+            "embree comparison: Embree {version}, single rays (rtcIntersect1 / rtcOccluded1), the same rays, pool, chunks and timing (best of 3 runs of at least {} ms); raylab re-measured next to each; {}; ratio = raylab / Embree (> 1: raylab faster)",
+            MIN_RUN.as_millis(),
+            if rounds > 1 { format!("median rates and ratios of {rounds} rounds of both in turn") } else { "one round".to_string() }
         ),
         format!(
             "{:<6} {:<14} {:>10} {:>8} {:>14} {:>14} {:>7} {:>14} {:>14} {:>7}",
@@ -292,6 +304,7 @@ pub(super) fn compare(
     case: &Case,
     kinds: &[(&str, &[Ray])],
     threads: &[usize],
+    rounds: usize,
     say: &mut dyn FnMut(String),
 ) -> Result<()> {
     let ours = &case.scene;
@@ -317,13 +330,25 @@ pub(super) fn compare(
         let theirs = &built.scene;
         for &(kind, rays) in kinds {
             let context = context_for(kind);
-            let (our_closest, _) = rays_per_second(rays, t, &|r| ours.intersect(r).is_some())?;
-            let (their_closest, _) =
-                rays_per_second(rays, t, &|r| embree_hit(theirs, context, r).is_some())?;
-            let (our_occl, _) = rays_per_second(rays, t, &|r| ours.occluded(r))?;
-            let (their_occl, _) = rays_per_second(rays, t, &|r| {
-                theirs.occluded(&mut context(), &mut embree_ray(r))
-            })?;
+            // Per round: raylab closest, Embree closest, raylab occlusion, Embree occlusion.
+            let mut measured: Vec<[f64; 4]> = Vec::with_capacity(rounds);
+            for _ in 0..rounds {
+                measured.push([
+                    rays_per_second(rays, t, &|r| ours.intersect(r).is_some())?.0,
+                    rays_per_second(rays, t, &|r| embree_hit(theirs, context, r).is_some())?.0,
+                    rays_per_second(rays, t, &|r| ours.occluded(r))?.0,
+                    rays_per_second(rays, t, &|r| {
+                        theirs.occluded(&mut context(), &mut embree_ray(r))
+                    })?
+                    .0,
+                ]);
+            }
+            // Median rates, and the median of the rounds' ratios: each round's two figures were
+            // taken seconds apart, so its ratio is the one to trust.
+            let rate = |i: usize| median(measured.iter().map(|m| m[i]));
+            let ratio = |i: usize| median(measured.iter().map(|m| m[i] / m[i + 1]));
+            let (our_closest, their_closest) = (rate(0), rate(1));
+            let (our_occl, their_occl) = (rate(2), rate(3));
             say(format!(
                 "{:<6} {:<14} {:>10} {:>8} {:>14.2} {:>14.2} {:>7.2} {:>14.2} {:>14.2} {:>7.2}",
                 "embree",
@@ -332,11 +357,23 @@ pub(super) fn compare(
                 t,
                 our_closest / 1e6,
                 their_closest / 1e6,
-                our_closest / their_closest,
+                ratio(0),
                 our_occl / 1e6,
                 their_occl / 1e6,
-                our_occl / their_occl,
+                ratio(2),
             ));
+            if rounds > 1 {
+                let range = |i: usize| {
+                    let ratios = measured.iter().map(|m| m[i] / m[i + 1]);
+                    let lo = ratios.clone().fold(f64::INFINITY, f64::min);
+                    (lo, ratios.fold(0.0, f64::max))
+                };
+                let ((cl, ch), (ol, oh)) = (range(0), range(2));
+                say(format!(
+                    "{:<6} {:<14} {kind} {t} threads, ratios over {rounds} rounds: closest {cl:.2}-{ch:.2}, occlusion {ol:.2}-{oh:.2}",
+                    "embree", case.name
+                ));
+            }
         }
         last = Some(built);
     }

@@ -44,6 +44,9 @@ pub struct BenchOptions {
     pub embree: bool,
     /// The cases to run, by name ([`CASES`]); all when empty.
     pub cases: Vec<String>,
+    /// Embree comparison: rounds of raylab and Embree measured in turn, of which the medians
+    /// are printed (at least 1).
+    pub rounds: usize,
 }
 
 /// The standard cases' names, in the order they run.
@@ -280,7 +283,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
         "case", "triangles", "rays", "threads", "closest M/s", "occlusion M/s", "hit rate"
     ));
     #[cfg(feature = "embree")]
-    let mut embree_header = opts.embree.then(embree::header);
+    let mut embree_header = opts.embree.then(|| embree::header(opts.rounds));
     let keep = opts.embree || opts.dump.is_some();
     // In the order of CASES, whose names they are given.
     let cases: Vec<Box<dyn Fn(&'static str) -> Result<Case>>> = vec![
@@ -407,6 +410,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                 &case,
                 &[("coherent", &coherent), ("incoherent", &incoherent)],
                 &opts.threads,
+                opts.rounds,
                 &mut say,
             )?;
         }

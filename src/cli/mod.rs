@@ -209,6 +209,11 @@ pub struct BenchArgs {
     /// Run only these cases (comma-separated; default: all).
     #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(crate::bench::CASES))]
     pub case: Vec<String>,
+    /// With --embree: measure raylab and Embree in turn this many times and print the median
+    /// rates and ratios, with the range of the rounds' ratios (this shared machine's rates drift by
+    /// 10-20% between runs).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub rounds: u32,
 }
 
 /// The metric `diff --tolerance` applies to.
@@ -299,6 +304,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 dump: args.dump.clone(),
                 embree: args.embree,
                 cases: args.case.clone(),
+                rounds: args.rounds as usize,
             })?;
             Ok(ExitCode::SUCCESS)
         }
