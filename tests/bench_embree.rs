@@ -16,6 +16,18 @@
 
 use std::process::Command;
 
+/// The six figures of the line `embree CASE KIND THREADS raylab Embree ratio raylab Embree
+/// ratio` (closest hit, then occlusion).
+fn ratio_row(text: &str, case: &str, kind: &str, threads: &str) -> Vec<f64> {
+    text.lines()
+        .map(|l| l.split_whitespace().collect::<Vec<_>>())
+        .find(|w| w.len() == 10 && w[..4] == ["embree", case, kind, threads])
+        .unwrap_or_else(|| panic!("no ratio line for {case} {kind} {threads}\n{text}"))[4..]
+        .iter()
+        .map(|v| v.parse().unwrap())
+        .collect()
+}
+
 #[test]
 fn bench_embree_reports_ratios_and_agrees_with_embree() {
     let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
@@ -37,16 +49,7 @@ fn bench_embree_reports_ratios_and_agrees_with_embree() {
     for case in ["report-room", "cornell-box", "icosphere-1m", "instances"] {
         for kind in ["coherent", "incoherent"] {
             for threads in ["1", "2"] {
-                // embree CASE KIND THREADS raylab Embree ratio raylab Embree ratio
-                let row: Vec<f64> = text
-                    .lines()
-                    .map(|l| l.split_whitespace().collect::<Vec<_>>())
-                    .find(|w| w.len() == 10 && w[..4] == ["embree", case, kind, threads])
-                    .unwrap_or_else(|| panic!("no ratio line for {case} {kind} {threads}\n{text}"))
-                    [4..]
-                    .iter()
-                    .map(|v| v.parse().unwrap())
-                    .collect();
+                let row = ratio_row(&text, case, kind, threads);
                 assert!(row.iter().all(|v| v.is_finite() && *v > 0.0), "{row:?}");
                 let ratio = |i: usize| row[i] / row[i + 1];
                 // Printed to two decimals: the ratio columns match the M/s columns.
@@ -117,14 +120,7 @@ fn bench_embree_rounds_print_medians_and_the_range_of_ratios() {
             })
             .collect();
         assert_eq!(ranges.len(), 2, "{range_line}");
-        let row: Vec<f64> = text
-            .lines()
-            .map(|l| l.split_whitespace().collect::<Vec<_>>())
-            .find(|w| w.len() == 10 && w[..4] == ["embree", "cornell-box", kind, "1"])
-            .unwrap_or_else(|| panic!("no ratio line for {kind}\n{text}"))[4..]
-            .iter()
-            .map(|v| v.parse().unwrap())
-            .collect();
+        let row = ratio_row(&text, "cornell-box", kind, "1");
         for (ratio, (lo, hi)) in [row[2], row[5]].into_iter().zip(ranges) {
             assert!(lo <= hi && lo > 0.0, "{range_line}");
             assert!(
