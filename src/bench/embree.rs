@@ -15,9 +15,11 @@
 //! - Rays: the same coherent and incoherent rays as raylab's table, traced with Embree's
 //!   single-ray `rtcIntersect1` (closest hit) and `rtcOccluded1` (any hit), with the context's
 //!   coherent/incoherent flag to match, through `rays_per_second`: an N-thread rayon pool,
-//!   chunks of 4096, best of 3 runs of at least `MIN_RUN`. raylab is measured again right next to each Embree
-//!   measurement (same function, same pool size), so the ratio compares runs seconds apart
-//!   on the same, possibly busy, machine. Ratio = raylab / Embree: above 1, raylab is faster.
+//!   chunks of 4096, best of 3 runs of at least `MIN_RUN`. raylab is measured again right
+//!   next to each Embree measurement (same function, same pool size), so the ratio compares
+//!   runs seconds apart on the same, possibly busy, machine. Ratio = raylab / Embree: above 1,
+//!   raylab is faster. With `--rounds N` the two are measured in turn N times: the line gives
+//!   the median rates and the median of the rounds' ratios, and a second line their range.
 //! - Agreement (once per case and ray kind): the fraction of rays on which raylab and Embree
 //!   agree on hit or miss and, when both hit, on the distance within 1e-4 relative. Rays
 //!   grazing an edge shared by two triangles, or a sphere's silhouette, may differ: the two
@@ -277,11 +279,15 @@ pub(super) fn header(rounds: usize) -> Vec<String> {
     let version = Device::new()
         .map(|d| version(&d))
         .unwrap_or_else(|_| "3 (no device)".into());
+    let rounds = if rounds > 1 {
+        format!("median rates and ratios of {rounds} rounds of both in turn")
+    } else {
+        "one round".to_string()
+    };
     vec![
         format!(
-            "embree comparison: Embree {version}, single rays (rtcIntersect1 / rtcOccluded1), the same rays, pool, chunks and timing (best of 3 runs of at least {} ms); raylab re-measured next to each; {}; ratio = raylab / Embree (> 1: raylab faster)",
+            "embree comparison: Embree {version}, single rays (rtcIntersect1 / rtcOccluded1), the same rays, pool, chunks and timing (best of 3 runs of at least {} ms); raylab re-measured next to each; {rounds}; ratio = raylab / Embree (> 1: raylab faster)",
             MIN_RUN.as_millis(),
-            if rounds > 1 { format!("median rates and ratios of {rounds} rounds of both in turn") } else { "one round".to_string() }
         ),
         format!(
             "{:<6} {:<14} {:>10} {:>8} {:>14} {:>14} {:>7} {:>14} {:>14} {:>7}",
