@@ -374,9 +374,9 @@ fn plausible_scene() -> impl Strategy<Value = String> {
 }
 
 const SCENES: [&str; 3] = [
-    include_str!("../scenes/cornell_box.ron"),
-    include_str!("../scenes/report_room.ron"),
-    include_str!("../scenes/instances.ron"),
+    include_str!("../../scenes/cornell_box.ron"),
+    include_str!("../../scenes/report_room.ron"),
+    include_str!("../../scenes/instances.ron"),
 ];
 
 /// A shipped scene, truncated, or with a piece cut out or replaced by a token.

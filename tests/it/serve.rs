@@ -3,7 +3,7 @@
 //! settings, clients that disconnect mid-request or mid-response, the load error shown while
 //! the scene is broken, and the page itself in headless Chromium switching the integrator.
 
-mod common;
+use crate::common;
 
 use common::{
     break_scene, chromium, chromium_dump_dom, eventually, save, scene_copy, Running, CORNELL_LIGHT,

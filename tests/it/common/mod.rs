@@ -2,7 +2,7 @@
 //! `serve`): start it with its stderr in a file, poll with generous timeouts, stop it with
 //! SIGINT, and never leave it running when a test fails.
 
-#![allow(dead_code)] // each test file uses its own subset
+#![allow(dead_code)] // each test module uses its own subset
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};

@@ -12,8 +12,6 @@
 //! boundary only; rays on an edge shared by two triangles of one surface hit one of them
 //! (`build::primitives` tests it).
 
-#![cfg(feature = "embree")]
-
 use std::process::Command;
 
 /// The six figures of the line `embree CASE KIND THREADS raylab Embree ratio raylab Embree

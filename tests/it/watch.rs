@@ -2,7 +2,7 @@
 //! re-renders and rewrites the output; a broken save reports file:line:column and keeps the
 //! last good image; fixing it resumes; Ctrl-C stops it cleanly.
 
-mod common;
+use crate::common;
 
 use common::{break_scene, eventually, save, scene_copy, Running, CORNELL_LIGHT};
 use std::path::Path;

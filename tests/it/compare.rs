@@ -1,6 +1,6 @@
 //! `raylab compare` and `raylab diff` as a user runs them, and the page in headless Chromium.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Command, Output};

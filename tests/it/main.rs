@@ -1,0 +1,18 @@
+//! raylab's integration tests, in one binary (one link instead of a dozen on a small machine;
+//! ripgrep's layout). Each module tests one part of the program through its library or its
+//! real binary.
+
+mod agreement;
+mod assets;
+mod bench;
+#[cfg(feature = "embree")]
+mod bench_embree;
+mod cli;
+mod common;
+mod compare;
+mod corpus;
+mod passes;
+mod photons;
+mod proptest_loader;
+mod serve;
+mod watch;
