@@ -3,24 +3,22 @@
 # (10 s each, 320x240), measured over the whole image and inside the glass ball's caustic
 # (the --region). Path tracing this scene to convergence is out of reach (even 4096 spp is
 # full of fireflies from the tiny light seen through the glass), so the reference is `sppm` at
-# 4096 passes, whose image mean agrees with path's (tests/photons.rs); the same comparison
+# 4096 passes, whose image mean agrees with path's (tests/it/photons.rs); the same comparison
 # against the 4096-spp path render is written beside it. About 8 minutes on 2 cores.
+# Writes the pages into out/pages/caustics/vs-sppm and out/pages/caustics/vs-path (git ignores
+# out/; docs/integrators.md shows the table and the vs-sppm mosaic).
 # Usage: scripts/caustics_figure.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 R=./target/release/raylab
 S=scenes/caustics.ron
-O=out/caustics
+O=out/pages/caustics
 REGION=60,115,70,35
-mkdir -p "$O" docs/caustics
+mkdir -p "$O"
 [ -f $O/sppm-4096.exr ] || $R render $S -i sppm --spp 4096 -o $O/sppm-4096.exr -q
 $R compare $S -i path -i sppm -i photon --time 10 --reference $O/sppm-4096.exr --region $REGION \
   -o $O/vs-sppm -q --note "Equal time, 10 s each. Reference: sppm, 4096 passes. Region: the glass ball's caustic, $REGION."
 $R compare $S -i path -i sppm -i photon --time 10 --reference-spp 4096 --region $REGION \
   -o $O/vs-path -q --note "Equal time, 10 s each. Reference: path, 4096 spp (still full of fireflies). Region: the glass ball's caustic, $REGION."
-for d in vs-sppm vs-path; do
-  mkdir -p docs/caustics/$d
-  cp $O/$d/index.html $O/$d/mosaic.png $O/$d/metrics.csv docs/caustics/$d/
-done
-echo "wrote $O and docs/caustics"
+echo "wrote $O/vs-sppm/index.html and $O/vs-path/index.html"

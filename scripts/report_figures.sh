@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
-# Reproduces the report's figures on scenes/report_room.ron with `raylab compare`, into
-# out/figures/ (and copies the pages and pictures the README shows into docs/report/).
+# Reproduces the report's figures on scenes/report_room.ron with `raylab compare`, one page per
+# comparison in out/pages/report/ (equal-time, shadow-grid, depth, branching; git ignores
+# out/). docs/report.md shows their tables, mosaics and sweep plots.
 # Takes about 6 minutes on 2 cores. Usage: scripts/report_figures.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 R=./target/release/raylab
 S=scenes/report_room.ron
-O=out/figures
-mkdir -p "$O" docs/report
+O=out/pages/report
+mkdir -p "$O"
 
 # The four integrators at equal time (8 s each), 400x400, against a 1024-spp path reference.
 $R compare $S -i whitted -i fixed-depth -i russian-roulette -i path --time 8 -o $O/equal-time -q
@@ -27,9 +28,4 @@ $R compare $S -i fixed-depth --sweep depth=1,2,3,4 --spp 1 --size 64x64 -o $O/de
 $R compare $S -i fixed-depth --sweep branching=0,10,20,30 --spp 4 --size 200x200 -o $O/branching -q \
   --note "Report figures 21-24 at 200x200 (half the report's 400x400 per side), 4 spp, depth 2, 7x7 shadow rays."
 
-for d in equal-time shadow-grid depth branching; do
-  mkdir -p docs/report/$d
-  cp $O/$d/index.html $O/$d/mosaic.png $O/$d/metrics.csv docs/report/$d/
-  [ -f $O/$d/sweep.png ] && cp $O/$d/sweep.png $O/$d/sweep.svg docs/report/$d/
-done
-echo "wrote $O and docs/report"
+echo "wrote $O/{equal-time,shadow-grid,depth,branching}/index.html"

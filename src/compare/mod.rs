@@ -229,7 +229,7 @@ fn reference(
                     camera.height
                 );
             }
-            Ok((film, format!("file {}", path.display())))
+            Ok((film, format!("file {}", file_name(path))))
         }
         ReferenceSpec::Spp(spp) => {
             // The scene file and the mesh files it names: editing either renders anew.
@@ -246,9 +246,11 @@ fn reference(
             );
             let hash = stable_hash(&[&scene_bytes, key.as_bytes()]);
             let cached = opts.cache_dir.join(format!("reference-{hash:016x}.exr"));
+            // The page names the cache entry, not the folder: a page must not print a path
+            // of the machine that made it.
             let what = format!(
                 "path, {spp} spp, unlimited depth (cached as {})",
-                cached.display()
+                file_name(&cached)
             );
             if cached.exists() {
                 if let Ok(film) = output::read_image(&cached) {
@@ -386,7 +388,7 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
     }
 
     let report = Report {
-        scene: opts.scene.display().to_string(),
+        scene: file_name(&opts.scene),
         width: camera.width,
         height: camera.height,
         budget: match opts.budget {
@@ -458,4 +460,13 @@ pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
         file.write_all(text.as_bytes())
             .with_context(|| format!("{}: cannot write", path.display()))
     })
+}
+
+/// The last component of `path`, for pages and reports that must not print where the files
+/// of the machine that made them live.
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }

@@ -110,6 +110,13 @@ fn compare_writes_images_metrics_mosaic_and_a_working_page() {
         !html.contains("http://") && !html.contains("https://"),
         "the page loads nothing from the network"
     );
+    // Pages and metrics never print a path of the machine that made them (the reference's
+    // cache folder, the temporary folder the test runs in).
+    let json_text = std::fs::read_to_string(out.join("metrics.json")).unwrap();
+    for text in [&html, &json_text] {
+        assert!(!text.contains(s(dir.path())), "a machine path is printed");
+    }
+    assert!(json_text.contains("cached as reference-"), "{json_text}");
     check_page_in_chromium(&out.join("index.html"));
 
     // A second run reuses the cached reference.
