@@ -8,7 +8,7 @@ use raylab::bench::{coherent_rays, incoherent_rays};
 use raylab::build::RenderScene;
 use raylab::scene::parse_scene;
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
-use raylab_integrators::{Material, Rgb, Sampler, Scene, Tracer};
+use raylab_integrators::{Material, PixelSample, Rgb, Sampler, Scene, Splats, Tracer};
 use std::path::Path;
 
 fn room() -> (RenderScene, raylab::scene::Camera) {
@@ -96,8 +96,14 @@ fn bsdfs(c: &mut Criterion) {
 
 fn integrators(c: &mut Criterion) {
     let (scene, camera) = room();
-    // The centre pixel's camera samples, traced directly (no thread pool, no film).
-    let ray = camera.ray(camera.width as f32 / 2.0, camera.height as f32 / 2.0);
+    // The centre pixel's camera samples, through the integrators' interface directly (no
+    // thread pool, no film).
+    let pixel = PixelSample {
+        x: camera.width / 2,
+        y: camera.height / 2,
+        film: Vec2::new(camera.width as f32 / 2.0, camera.height as f32 / 2.0),
+        index: 0,
+    };
     let mut g = c.benchmark_group("one pixel, report room");
     g.sample_size(20);
     for name in ["whitted", "fixed-depth", "russian-roulette", "path"] {
@@ -109,10 +115,12 @@ fn integrators(c: &mut Criterion) {
         g.bench_function(format!("{name} ({spp} spp)"), |b| {
             b.iter(|| {
                 let mut tracer = Tracer::new(&scene);
+                let mut splats = Splats::default();
                 let mut sum = Rgb::ZERO;
                 for s in 0..spp {
                     let mut sampler = Sampler::new(0, 0, s);
-                    sum += integrator.radiance(&ray, &mut tracer, &mut sampler);
+                    sum +=
+                        integrator.sample(&pixel, &camera, &mut tracer, &mut sampler, &mut splats);
                 }
                 black_box(sum)
             })

@@ -16,34 +16,28 @@
 //!   pbrt-v4's `maxdepth`; Mitsuba 3's `max_depth` counts path segments, so Mitsuba's
 //!   `max_depth = D + 1` equals raylab's `max-depth = D`.
 
+#![forbid(unsafe_code)]
+
 pub mod bsdf;
+pub mod camera;
+pub mod filter;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
 pub mod photon_map;
-pub mod registry;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 
-mod albedo_view;
-mod depth_view;
-mod fixed_depth;
-mod normals_view;
-mod path;
-mod photon;
-mod russian_roulette;
-mod sppm;
-mod whitted;
-
-#[cfg(test)]
-mod chi2;
-#[cfg(test)]
-mod testing;
+pub use integrator::registry;
 
 pub use bsdf::{BsdfSample, Material};
+pub use camera::{Camera, CameraWiSample};
+pub use filter::Filter;
 pub use geometry::{Frame, Hit, Ray};
-pub use integrator::{Integrator, RayCounters, Tracer};
+pub use integrator::{Integrator, PixelSample, RayCounters, RayIntegrator, Splats, Tracer};
 pub use light::{EmissionSample, Light, LightSample, LightTable};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};
 pub use sampler::Sampler;

@@ -677,7 +677,7 @@ fn sum_or_one(pmf: &[f32]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chi2::{assert_chi2, assert_chi2_discrete, Grid, SAMPLES};
+    use crate::testing::chi2::{assert_chi2, assert_chi2_discrete, Grid, SAMPLES};
     use crate::Sampler;
     use glam::DVec3;
 

@@ -123,7 +123,7 @@ mod tests {
         // ulp too).
         assert!(worst <= 1.5, "worst error {worst} ulp");
     }
-    use crate::chi2::{assert_chi2, Grid, SAMPLES};
+    use crate::testing::chi2::{assert_chi2, Grid, SAMPLES};
     use crate::Sampler;
 
     #[test]

@@ -103,6 +103,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         progress: !args.quiet,
         note: args.note.clone(),
         region,
+        filter: args.filter,
     };
     compare::run(&opts)?;
     eprintln!("wrote {}", args.output.join("index.html").display());

@@ -34,6 +34,7 @@ struct Common<'a> {
     threads: Option<usize>,
     size: Option<&'a str>,
     exposure: f32,
+    filter: Option<raylab_integrators::Filter>,
 }
 
 /// The [`Common`] flags of a [`RenderArgs`] or a [`ServeArgs`] (same names, two structs).
@@ -48,6 +49,7 @@ macro_rules! common {
             threads: $args.threads,
             size: $args.size.as_deref(),
             exposure: $args.exposure,
+            filter: $args.filter,
         }
     };
 }
@@ -81,6 +83,7 @@ fn settings(c: &Common, interval: Duration) -> Result<(LiveSettings, live::Selec
             spp: c.spp,
             seed: c.seed,
             threads: c.threads,
+            filter: c.filter,
             image_interval: interval,
         },
         selection,

@@ -68,6 +68,10 @@ pub struct RenderArgs {
     /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
+    /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
+    /// radius 2); default: the scene's `render.filter`, else box.
+    #[arg(long, value_name = "NAME", value_parser = parse_filter)]
+    pub filter: Option<raylab_integrators::Filter>,
     /// Output file: .png or .exr (default: the scene's name with .png, in the current folder).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -128,6 +132,10 @@ pub struct ServeArgs {
     /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
+    /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
+    /// radius 2); default: the scene's `render.filter`, else box.
+    #[arg(long, value_name = "NAME", value_parser = parse_filter)]
+    pub filter: Option<raylab_integrators::Filter>,
     /// Exposure in stops for the shown image.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
@@ -173,6 +181,10 @@ pub struct CompareArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
+    /// radius 2); default: the scene's `render.filter`, else box.
+    #[arg(long, value_name = "NAME", value_parser = parse_filter)]
+    pub filter: Option<raylab_integrators::Filter>,
     /// Output folder (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -309,4 +321,9 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// `--filter NAME`.
+fn parse_filter(name: &str) -> Result<raylab_integrators::Filter, String> {
+    name.parse()
 }

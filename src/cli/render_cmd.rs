@@ -115,6 +115,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         threads: args.threads,
         progress: !args.quiet,
         time_budget: args.time.map(Duration::from_secs_f64),
+        filter: args.filter.unwrap_or(loaded.render.filter),
     };
 
     // Checkpoints are tied to everything that determines the image: the settings, the scene
@@ -124,11 +125,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             let scene_bytes = crate::scene::references::scene_content(&args.scene)
                 .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
             let settings_text = format!(
-                "{} {:?} spp={spp:?} seed={seed} {}x{} v{}",
+                "{} {:?} spp={spp:?} seed={seed} {}x{} filter={} v{}",
                 entry.name,
                 params,
                 camera.width,
                 camera.height,
+                settings.filter,
                 env!("CARGO_PKG_VERSION")
             );
             checkpoint::stable_hash(&[&scene_bytes, settings_text.as_bytes()])

@@ -65,6 +65,8 @@ pub struct CompareOptions {
     pub note: Option<String>,
     /// A pixel rectangle measured on its own as well (a caustic, a shadow).
     pub region: Option<Region>,
+    /// Pixel reconstruction filter for every render and the reference; `None`: the scene's.
+    pub filter: Option<raylab_integrators::Filter>,
 }
 
 /// A rectangle of pixels: top-left corner `(x, y)`, `w x h`.
@@ -187,6 +189,7 @@ fn render_one(
     let settings = match budget {
         Budget::Spp(n) => RenderSettings {
             progress: opts.progress,
+            filter: opts.filter.unwrap_or_default(),
             ..RenderSettings::fixed(n, opts.seed, opts.threads)
         },
         Budget::Time(t) => RenderSettings {
@@ -195,6 +198,7 @@ fn render_one(
             threads: opts.threads,
             progress: opts.progress,
             time_budget: Some(t),
+            filter: opts.filter.unwrap_or_default(),
         },
     };
     let mut acc = Accumulation::new(camera.width, camera.height);
@@ -239,10 +243,11 @@ fn reference(
             let seed = opts.seed ^ 0x5eed_5eed_5eed_5eed;
             // The version too: a light-transport fix must not reuse an old reference.
             let key = format!(
-                "raylab {} reference path max-depth=unlimited spp={spp} seed={seed} {}x{}",
+                "raylab {} reference path max-depth=unlimited spp={spp} seed={seed} {}x{} filter={}",
                 env!("CARGO_PKG_VERSION"),
                 camera.width,
-                camera.height
+                camera.height,
+                opts.filter.unwrap_or_default()
             );
             let hash = stable_hash(&[&scene_bytes, key.as_bytes()]);
             let cached = opts.cache_dir.join(format!("reference-{hash:016x}.exr"));
@@ -298,6 +303,11 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", opts.scene.display());
     }
+    // Every render and the reference with one filter: the flag's, else the scene's.
+    let opts = &CompareOptions {
+        filter: Some(opts.filter.unwrap_or(loaded.render.filter)),
+        ..opts.clone()
+    };
     let camera = match opts.size {
         Some((w, h)) => loaded.camera.with_resolution(w, h),
         None => loaded.camera.clone(),

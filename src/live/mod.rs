@@ -77,6 +77,8 @@ pub struct LiveSettings {
     /// Seed overriding the scene's.
     pub seed: Option<u64>,
     pub threads: Option<usize>,
+    /// Pixel reconstruction filter overriding the scene's.
+    pub filter: Option<raylab_integrators::Filter>,
     /// Shortest time between two images handed to the observer (the first pass and the last
     /// are always handed over).
     pub image_interval: Duration,
@@ -270,6 +272,7 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
             threads: settings.threads,
             progress: false,
             time_budget: None,
+            filter: settings.filter.unwrap_or(loaded.render.filter),
         },
         camera,
         info,

@@ -7,7 +7,8 @@
 //! Format (little-endian): magic `RAYLABCK`, version `u32`, settings hash `u64`, width and
 //! height `u32`, samples per pixel done `u32`, dropped samples `u64`, first dropped sample
 //! (`u8` present flag, then x, y, sample `u32`), then for every pixel in tile order its running
-//! sums: sum of radiance (3 x `f64`), sum of squares (3 x `f64`), sample count `u32`.
+//! sums, 13 `f64`: filter-weighted radiance (3), filter weight (1), splats (3), and the batch
+//! means' sums of the passes' estimates (3) and of their squares (3).
 
 use super::{Accumulation, BadSample};
 use anyhow::{bail, Context, Result};
@@ -15,7 +16,7 @@ use std::io::{Read, Write};
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"RAYLABCK";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// FNV-1a, 64 bits: a hash that is stable across builds and platforms (unlike std's).
 pub fn stable_hash(parts: &[&[u8]]) -> u64 {
@@ -33,7 +34,7 @@ pub fn stable_hash(parts: &[&[u8]]) -> u64 {
 /// Serialises `acc` with the settings hash `hash`.
 pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
     let pixels: usize = acc.tiles.iter().map(|t| t.pixels.len()).sum();
-    let mut out = Vec::with_capacity(64 + pixels * 52);
+    let mut out = Vec::with_capacity(64 + pixels * 104);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&hash.to_le_bytes());
@@ -52,10 +53,14 @@ pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
     }
     for t in &acc.tiles {
         for p in &t.pixels {
-            for v in p.sum.to_array().iter().chain(p.sum_sq.to_array().iter()) {
+            let values = p.sum.to_array().into_iter().chain([p.weight]).chain(
+                [p.splat, p.batch, p.batch_sq]
+                    .into_iter()
+                    .flat_map(|v| v.to_array()),
+            );
+            for v in values {
                 out.extend_from_slice(&v.to_le_bytes());
             }
-            out.extend_from_slice(&p.count.to_le_bytes());
         }
     }
     out
@@ -82,6 +87,9 @@ impl Reader<'_> {
     }
     fn f64(&mut self) -> Result<f64> {
         Ok(f64::from_le_bytes(self.take()?))
+    }
+    fn dvec3(&mut self) -> Result<glam::DVec3> {
+        Ok(glam::DVec3::new(self.f64()?, self.f64()?, self.f64()?))
     }
 }
 
@@ -115,9 +123,11 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
     acc.first_dropped = has_bad.then_some(bad);
     for t in &mut acc.tiles {
         for p in &mut t.pixels {
-            p.sum = glam::DVec3::new(r.f64()?, r.f64()?, r.f64()?);
-            p.sum_sq = glam::DVec3::new(r.f64()?, r.f64()?, r.f64()?);
-            p.count = r.u32()?;
+            p.sum = r.dvec3()?;
+            p.weight = r.f64()?;
+            p.splat = r.dvec3()?;
+            p.batch = r.dvec3()?;
+            p.batch_sq = r.dvec3()?;
         }
     }
     if !r.bytes.is_empty() {
@@ -158,10 +168,14 @@ mod tests {
             y: 5,
             sample: 1,
         });
-        acc.tiles[1].pixels[7].add(glam::Vec3A::new(1.0, 2.0, 3.0));
+        let mut pass = crate::render::film::PassPixel::default();
+        pass.add(glam::Vec3A::new(1.0, 2.0, 3.0), 0.5);
+        pass.splat = glam::DVec3::new(0.25, 0.0, 4.0);
+        acc.tiles[1].pixels[7].close_pass(&pass);
         let bytes = encode(&acc, 42);
         let back = decode(&bytes, 42, 20, 17).unwrap();
         assert_eq!(back.film(), acc.film());
+        assert_eq!(back.tiles[1].pixels[7], acc.tiles[1].pixels[7]);
         assert_eq!(
             (back.spp_done, back.dropped, back.first_dropped),
             (3, 2, acc.first_dropped)

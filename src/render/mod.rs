@@ -7,20 +7,24 @@
 //! order, so images are bit-identical whatever the thread count, the tile order, or how the
 //! samples are split into passes (and so across a checkpoint and resume).
 //!
-//! A pass takes one more sample in every pixel. Between passes the loop checks whether to
-//! stop (Ctrl-C, time budget) and hands the accumulated state to a callback (checkpoints,
-//! progressive output).
+//! A pass takes one more sample in every pixel. The pixel reconstruction filter ([`Filter`])
+//! shares each sample between the pixels around it; integrators may also add radiance at any
+//! film position (splats). Both are gathered per tile during the pass and added to the image
+//! after it in tile order, so the sums do not depend on which thread finished first. Between
+//! passes the loop checks whether to stop (Ctrl-C, time budget) and hands the accumulated
+//! state to a callback (checkpoints, progressive output).
 
 pub mod checkpoint;
 pub mod film;
 
 pub use film::Film;
+pub use raylab_integrators::Filter;
 
 use crate::scene::Camera;
-use film::PixelAccumulator;
-use glam::Vec2;
+use film::{PassPixel, PixelAccumulator};
+use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
-use raylab_integrators::{Integrator, RayCounters, Sampler, Scene, Tracer};
+use raylab_integrators::{Integrator, PixelSample, RayCounters, Sampler, Scene, Splats, Tracer};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -40,6 +44,8 @@ pub struct RenderSettings {
     pub progress: bool,
     /// Stop after the pass during which this much time has passed.
     pub time_budget: Option<Duration>,
+    /// The pixel reconstruction filter.
+    pub filter: Filter,
 }
 
 impl RenderSettings {
@@ -51,6 +57,7 @@ impl RenderSettings {
             threads,
             progress: false,
             time_budget: None,
+            filter: Filter::Box,
         }
     }
 }
@@ -99,9 +106,9 @@ impl RenderStats {
 
 /// Bytes of memory a render of `width x height` needs (accumulators, film, output buffer).
 pub fn memory_needed(width: u32, height: u32) -> u64 {
-    // Accumulators 56 B, film mean + variance 24 B, tile bookkeeping and the 8-bit or f32
-    // output copy <= 24 B.
-    width as u64 * height as u64 * 104
+    // Accumulators 104 B, a pass's sums 56 B, film mean + variance 24 B, tile bookkeeping and
+    // the 8-bit or f32 output copy <= 24 B.
+    width as u64 * height as u64 * 208
 }
 
 /// Refuses a render whose buffers would not fit in the memory available now (Linux), so an
@@ -198,6 +205,17 @@ pub struct TileAccumulator {
     pub pixels: Vec<PixelAccumulator>,
 }
 
+/// What a tile's pass produces before it is added to the image: the sums of its own pixels,
+/// filter weights that fall on other tiles' pixels, and the integrator's splats. Reused from
+/// pass to pass.
+#[derive(Clone, Debug, Default)]
+struct TileScratch {
+    pass: Vec<PassPixel>,
+    /// (pixel index in the image, weight times radiance, weight) for pixels of other tiles.
+    spill: Vec<(u32, DVec3, f32)>,
+    splats: Splats,
+}
+
 /// The state of a render between passes: per-pixel running sums (tile by tile) and counts.
 #[derive(Clone, Debug)]
 pub struct Accumulation {
@@ -208,6 +226,8 @@ pub struct Accumulation {
     pub spp_done: u32,
     pub dropped: u64,
     pub first_dropped: Option<BadSample>,
+    /// Per tile, the pass in progress (empty between passes).
+    scratch: Vec<TileScratch>,
 }
 
 impl Accumulation {
@@ -233,7 +253,54 @@ impl Accumulation {
             spp_done: 0,
             dropped: 0,
             first_dropped: None,
+            scratch: Vec::new(),
         }
+    }
+
+    /// The tile holding pixel `(x, y)` and the pixel's index within it.
+    #[inline]
+    fn locate(&self, x: u32, y: u32) -> (usize, usize) {
+        let tiles_x = self.width.div_ceil(TILE);
+        let t = ((y / TILE) * tiles_x + x / TILE) as usize;
+        let tile = &self.tiles[t];
+        (t, ((y - tile.y0) * tile.w + (x - tile.x0)) as usize)
+    }
+
+    /// Adds what every tile's pass left for pixels of other tiles (filter weights and
+    /// splats) to those pixels, tile after tile in order, then closes the pass in every pixel.
+    fn finish_pass(&mut self, filter: Filter) {
+        let splat_norm = 1.0 / (filter.integral_1d() as f64).powi(2);
+        for t in 0..self.scratch.len() {
+            let spill = std::mem::take(&mut self.scratch[t].spill);
+            for &(index, wl, w) in &spill {
+                let (x, y) = (index % self.width, index / self.width);
+                let (tt, k) = self.locate(x, y);
+                let p = &mut self.scratch[tt].pass[k];
+                p.sum += wl;
+                p.weight += w as f64;
+            }
+            self.scratch[t].spill = spill;
+            self.scratch[t].spill.clear();
+            let splats = std::mem::take(&mut self.scratch[t].splats);
+            for &(pos, l) in splats.entries() {
+                let d = DVec3::new(l.x as f64, l.y as f64, l.z as f64);
+                filter.footprint(pos.x, pos.y, self.width, self.height, |x, y, w| {
+                    let (tt, k) = self.locate(x, y);
+                    self.scratch[tt].pass[k].splat += d * (w as f64 * splat_norm);
+                });
+            }
+            self.scratch[t].splats = splats;
+            self.scratch[t].splats.clear();
+        }
+        self.tiles
+            .par_iter_mut()
+            .zip(self.scratch.par_iter_mut())
+            .for_each(|(tile, scratch)| {
+                for (acc, pass) in tile.pixels.iter_mut().zip(scratch.pass.iter_mut()) {
+                    acc.close_pass(pass);
+                    *pass = PassPixel::default();
+                }
+            });
     }
 
     /// The image so far: the mean of the samples taken (dropped ones count as zero).
@@ -273,14 +340,16 @@ struct TilePass {
     first_dropped: Option<BadSample>,
 }
 
-/// Adds samples `samples` of every pixel of `tile`.
+/// Takes sample number `pass` of every pixel of `tile`, into the tile's scratch.
+#[allow(clippy::too_many_arguments)]
 fn render_tile_pass(
     scene: &dyn Scene,
     camera: &Camera,
     integrator: &dyn Integrator,
     settings: &RenderSettings,
-    tile: &mut TileAccumulator,
-    samples: std::ops::Range<u32>,
+    tile: &TileAccumulator,
+    scratch: &mut TileScratch,
+    pass: u32,
 ) -> TilePass {
     let mut tracer = Tracer::new(scene);
     let mut out = TilePass {
@@ -288,25 +357,63 @@ fn render_tile_pass(
         dropped: 0,
         first_dropped: None,
     };
+    scratch.pass.resize(tile.pixels.len(), PassPixel::default());
     for j in 0..tile.h {
         for i in 0..tile.w {
             let (x, y) = (tile.x0 + i, tile.y0 + j);
             let pixel_index = y as u64 * camera.width as u64 + x as u64;
-            let acc = &mut tile.pixels[(j * tile.w + i) as usize];
-            for s in samples.clone() {
-                // One camera sample: its own sampler, a stratified film position, a radiance
-                // estimate; non-finite estimates are dropped and counted.
-                let mut sampler = Sampler::new(settings.seed, pixel_index, s as u64);
-                let pos = sample_position(x, y, s, settings.spp, settings.seed, &mut sampler);
-                let ray = camera.ray(pos.x, pos.y);
-                let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
-                if l.is_finite() {
-                    acc.add(l);
-                } else {
-                    out.dropped += 1;
-                    out.first_dropped
-                        .get_or_insert(BadSample { x, y, sample: s });
-                }
+            // One camera sample: its own sampler, a stratified film position, the
+            // integrator's estimate; a sample with a non-finite estimate or splat is dropped
+            // (it counts as black) and counted.
+            let mut sampler = Sampler::new(settings.seed, pixel_index, pass as u64);
+            let film = sample_position(x, y, pass, settings.spp, settings.seed, &mut sampler);
+            let sample = PixelSample {
+                x,
+                y,
+                film,
+                index: pass,
+            };
+            let splats_before = scratch.splats.entries().len();
+            let mut l = integrator.sample(
+                &sample,
+                camera,
+                &mut tracer,
+                &mut sampler,
+                &mut scratch.splats,
+            );
+            let splats_finite = scratch.splats.entries()[splats_before..]
+                .iter()
+                .all(|(p, v)| p.is_finite() && v.is_finite());
+            if !(l.is_finite() && splats_finite) {
+                scratch.splats.truncate(splats_before);
+                l = Vec3A::ZERO;
+                out.dropped += 1;
+                out.first_dropped
+                    .get_or_insert(BadSample { x, y, sample: pass });
+            }
+            // The estimate, shared between the pixels around its film position.
+            if settings.filter == Filter::Box {
+                scratch.pass[(j * tile.w + i) as usize].add(l, 1.0);
+            } else {
+                let d = DVec3::new(l.x as f64, l.y as f64, l.z as f64);
+                settings.filter.footprint(
+                    film.x,
+                    film.y,
+                    camera.width,
+                    camera.height,
+                    |px, py, w| {
+                        let inside = (tile.x0..tile.x0 + tile.w).contains(&px)
+                            && (tile.y0..tile.y0 + tile.h).contains(&py);
+                        if inside {
+                            let k = ((py - tile.y0) * tile.w + (px - tile.x0)) as usize;
+                            scratch.pass[k].add(l, w);
+                        } else {
+                            scratch
+                                .spill
+                                .push((py * camera.width + px, d * w as f64, w));
+                        }
+                    },
+                );
             }
         }
     }
@@ -402,19 +509,16 @@ pub fn render_passes_with_stats(
             .rays
             .add(&pool.install(|| integrator.prepare_pass(scene, settings.seed, pass)));
         let integrator: &dyn Integrator = integrator;
-        let samples = pass..pass + 1;
+        if acc.scratch.len() != acc.tiles.len() {
+            acc.scratch = vec![TileScratch::default(); acc.tiles.len()];
+        }
         let results: Vec<TilePass> = pool.install(|| {
             acc.tiles
-                .par_iter_mut()
-                .map(|tile| {
-                    let r = render_tile_pass(
-                        scene,
-                        camera,
-                        integrator,
-                        settings,
-                        tile,
-                        samples.clone(),
-                    );
+                .par_iter()
+                .zip(acc.scratch.par_iter_mut())
+                .map(|(tile, scratch)| {
+                    let r =
+                        render_tile_pass(scene, camera, integrator, settings, tile, scratch, pass);
                     if settings.spp.is_some() {
                         progress.inc(1);
                     }
@@ -422,6 +526,9 @@ pub fn render_passes_with_stats(
                 })
                 .collect()
         });
+        // Filter weights and splats that crossed tiles, in tile order; then the pass is
+        // closed in every pixel.
+        pool.install(|| acc.finish_pass(settings.filter));
         acc.spp_done += 1;
         for r in results {
             stats.rays.add(&r.rays);
@@ -471,12 +578,12 @@ mod tests {
     use super::*;
     use crate::build::RenderScene;
     use crate::scene::parse_scene;
-    use raylab_integrators::{Ray, Rgb};
+    use raylab_integrators::{Ray, RayIntegrator, Rgb};
 
     /// Returns 1 everywhere.
     struct One;
 
-    impl Integrator for One {
+    impl RayIntegrator for One {
         fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
             let _ = (tracer.camera(ray), sampler.next_1d());
             Rgb::ONE
@@ -486,7 +593,7 @@ mod tests {
     /// Returns NaN for rays well right of the image centre, 1 elsewhere.
     struct Poisoned;
 
-    impl Integrator for Poisoned {
+    impl RayIntegrator for Poisoned {
         fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
             tracer.camera(ray);
             if ray.dir.x > 0.2 {
@@ -555,6 +662,130 @@ mod tests {
         );
         assert_eq!(a, b);
         assert_eq!(a, c);
+    }
+
+    /// A light-path stand-in: returns nothing for its own sample and splats radiance at
+    /// film positions of its own choosing (a random one, and always the image's centre).
+    struct Splatter;
+
+    impl Integrator for Splatter {
+        fn sample(
+            &self,
+            pixel: &PixelSample,
+            camera: &Camera,
+            tracer: &mut Tracer,
+            sampler: &mut Sampler,
+            splats: &mut Splats,
+        ) -> Rgb {
+            tracer.camera(&camera.ray(pixel.film.x, pixel.film.y));
+            let anywhere = sampler.next_2d() * Vec2::new(camera.width as f32, camera.height as f32);
+            splats.add(anywhere, Rgb::splat(sampler.next_1d()));
+            let centre = Vec2::new(camera.width as f32, camera.height as f32) * 0.5;
+            splats.add(centre, Rgb::splat(0.001));
+            Rgb::ZERO
+        }
+    }
+
+    fn with_filter(spp: u32, threads: usize, filter: &str) -> RenderSettings {
+        RenderSettings {
+            filter: filter.parse().unwrap(),
+            ..settings(spp, threads)
+        }
+    }
+
+    #[test]
+    fn every_filter_averages_a_constant_to_itself() {
+        // Weights are normalised per pixel: a constant image stays constant at the borders too.
+        let (s, cam) = scene();
+        for filter in ["box", "tent", "gaussian"] {
+            let (film, stats) = render(&s, &cam, &mut One, &with_filter(3, 2, filter)).unwrap();
+            assert_eq!(stats.rays.camera, 600);
+            assert!(
+                film.pixels
+                    .iter()
+                    .all(|p| (*p - glam::Vec3::ONE).abs().max_element() < 1e-6),
+                "{filter}"
+            );
+        }
+    }
+
+    #[test]
+    fn wider_filters_blur_and_stay_independent_of_the_thread_count() {
+        let (s, cam) = scene();
+        let mut path = raylab_integrators::find("path")
+            .unwrap()
+            .instantiate(&[])
+            .unwrap();
+        let (boxed, _) = render(&s, &cam, path.as_mut(), &with_filter(4, 2, "box")).unwrap();
+        for filter in ["tent", "gaussian"] {
+            let (a, _) = render(&s, &cam, path.as_mut(), &with_filter(4, 1, filter)).unwrap();
+            let (b, _) = render(&s, &cam, path.as_mut(), &with_filter(4, 2, filter)).unwrap();
+            let (c, _) = render(&s, &cam, path.as_mut(), &with_filter(4, 7, filter)).unwrap();
+            assert_eq!(a, b, "{filter}");
+            assert_eq!(a, c, "{filter}");
+            // Blurring lowers the pixel-to-pixel differences of the noisy image.
+            let roughness = |f: &Film| -> f32 {
+                f.pixels
+                    .windows(2)
+                    .map(|w| (w[0] - w[1]).abs().element_sum())
+                    .sum()
+            };
+            assert!(roughness(&a) < roughness(&boxed), "{filter}");
+        }
+    }
+
+    #[test]
+    fn splats_are_averaged_over_passes_deterministically_and_survive_resume() {
+        let (s, cam) = scene();
+        let total = |f: &Film| f.pixels.iter().map(|p| p.x as f64).sum::<f64>();
+        for filter in ["box", "gaussian"] {
+            let (a, _) = render(&s, &cam, &mut Splatter, &with_filter(6, 1, filter)).unwrap();
+            let (b, _) = render(&s, &cam, &mut Splatter, &with_filter(6, 3, filter)).unwrap();
+            assert_eq!(a, b, "{filter}");
+            // Each pass splats 200 values of mean 1/2 (and 200 x 0.001 at the centre): the
+            // image's sum estimates 100.2 per pass, averaged over passes (standard error
+            // 1.7). The Gaussian loses the part of its footprint that leaves the image (a
+            // few percent on a 20 x 10 image).
+            let sum = total(&a);
+            if filter == "box" {
+                assert!((sum - 100.2).abs() < 6.0, "{filter}: {sum}");
+                // The centre pixel holds its 0.2 per pass on top of the random splats.
+                let centre = a.pixels[(5 * 20 + 10) as usize].x;
+                assert!(centre > 0.15, "{filter}: {centre}");
+            } else {
+                assert!(sum > 85.0 && sum < 100.2 + 6.0, "{filter}: {sum}");
+            }
+            // Batch means give splatted pixels an error estimate.
+            assert!(a.variance.iter().any(|v| v.x > 0.0), "{filter}");
+
+            // Three passes, a checkpoint, three more: the same bits.
+            let mut acc = Accumulation::new(cam.width, cam.height);
+            let settings = with_filter(3, 2, filter);
+            render_passes(
+                &s,
+                &cam,
+                &mut Splatter,
+                &settings,
+                &mut acc,
+                &|| false,
+                &mut |_| Ok(()),
+            )
+            .unwrap();
+            let bytes = checkpoint::encode(&acc, 9);
+            let mut acc = checkpoint::decode(&bytes, 9, cam.width, cam.height).unwrap();
+            let settings = with_filter(6, 2, filter);
+            render_passes(
+                &s,
+                &cam,
+                &mut Splatter,
+                &settings,
+                &mut acc,
+                &|| false,
+                &mut |_| Ok(()),
+            )
+            .unwrap();
+            assert_eq!(acc.film(), a, "{filter}");
+        }
     }
 
     #[test]

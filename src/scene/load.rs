@@ -1,12 +1,12 @@
 //! Parsing a RON scene file and spawning its entities into a hecs world.
 
-use super::camera::Camera;
 use super::components::{Emitter, Instanced, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::error::{finite, SceneError};
 use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
 use super::{assets, file_materials, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
+use raylab_integrators::Camera;
 use raylab_integrators::{registry, Material, Rgb};
 use ron::extensions::Extensions;
 use std::path::Path;

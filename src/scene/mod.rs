@@ -1,7 +1,6 @@
 //! Scenes: the RON schema, loading into a hecs world, and the ECS systems.
 
 pub mod assets;
-pub mod camera;
 pub mod components;
 pub mod error;
 pub mod file_materials;
@@ -12,9 +11,9 @@ pub mod references;
 pub mod schema;
 pub mod systems;
 
-pub use camera::Camera;
 pub use error::SceneError;
 pub use load::{load_scene, parse_scene};
+pub use raylab_integrators::Camera;
 
 use raylab_integrators::{Material, Rgb};
 use std::path::PathBuf;

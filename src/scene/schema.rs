@@ -4,6 +4,7 @@
 //! `implicit_some` extension is on), so `emitter: Area(radiance: (1, 1, 1))` works.
 //! See `scenes/README.md` for a guide with examples.
 
+use raylab_integrators::Filter;
 use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer};
 use std::collections::BTreeMap;
@@ -92,6 +93,16 @@ pub struct RenderDesc {
     /// Integrator parameters, e.g. `{"max-depth": 8}` (`inf` for unlimited). Default: none.
     #[serde(default)]
     pub params: BTreeMap<String, f64>,
+    /// Pixel reconstruction filter: `"box"`, `"tent"` or `"gaussian"` (Mitsuba 3's default).
+    /// Default: `"box"`.
+    #[serde(default, deserialize_with = "filter_name")]
+    pub filter: Filter,
+}
+
+/// A filter by name; an unknown name is an error at its place in the file.
+fn filter_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Filter, D::Error> {
+    let name = String::deserialize(d)?;
+    name.parse().map_err(serde::de::Error::custom)
 }
 
 impl Default for RenderDesc {
@@ -101,6 +112,7 @@ impl Default for RenderDesc {
             spp: default_spp(),
             seed: 0,
             params: BTreeMap::new(),
+            filter: Filter::Box,
         }
     }
 }

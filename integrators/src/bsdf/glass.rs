@@ -113,7 +113,7 @@ impl Bxdf for Glass {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chi2::dir;
+    use crate::testing::chi2::dir;
     use crate::Sampler;
 
     const GLASS: Glass = Glass {

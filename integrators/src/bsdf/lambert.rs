@@ -42,7 +42,7 @@ impl Bxdf for Lambert {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chi2::{
+    use crate::testing::chi2::{
         assert_chi2, check_sample_matches_eval, dir, directional_albedo, Grid, SAMPLES,
     };
 

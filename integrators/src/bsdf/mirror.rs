@@ -39,7 +39,7 @@ impl Bxdf for Mirror {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chi2::dir;
+    use crate::testing::chi2::dir;
 
     #[test]
     fn reflects_about_the_normal_with_weight_tint() {

@@ -175,7 +175,7 @@ impl Material {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chi2::dir;
+    use crate::testing::chi2::dir;
     use crate::Sampler;
 
     #[test]

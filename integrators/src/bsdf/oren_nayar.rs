@@ -110,7 +110,7 @@ impl Bxdf for OrenNayar {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chi2::{
+    use crate::testing::chi2::{
         assert_chi2, assert_energy_conserving, check_sample_matches_eval, dir, Grid, SAMPLES,
     };
     use crate::Sampler;

@@ -166,7 +166,7 @@ impl Bxdf for Phong {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chi2::{
+    use crate::testing::chi2::{
         assert_chi2, assert_energy_conserving, check_sample_matches_eval, dir, directional_albedo,
         Grid, SAMPLES,
     };

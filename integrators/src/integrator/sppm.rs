@@ -21,7 +21,7 @@
 //! **Bias**: a blur of radius `r_i` in pass `i`, vanishing as passes grow (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
-use crate::integrator::{sample_one_light, Integrator, Tracer};
+use crate::integrator::{sample_one_light, RayIntegrator, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
@@ -104,7 +104,7 @@ fn radius_scale(pass: u32, alpha: f64) -> f32 {
     r2.sqrt() as f32
 }
 
-impl Integrator for Sppm {
+impl RayIntegrator for Sppm {
     fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32) -> RayCounters {
         // This pass's radius and photons (landings after one bounce or more).
         let r0 = if self.radius > 0.0 {

@@ -1,4 +1,4 @@
-//! Chi-square goodness-of-fit tests for direction samplers (test-only).
+//! Chi-square goodness-of-fit tests for direction samplers.
 //!
 //! In the style of pbrt-v3/v4's BSDF chi-square tests and Mitsuba 3's `ChiSquareTest`: draw
 //! many directions from a sampler with a fixed seed, histogram them over a grid on the sphere,

@@ -229,15 +229,15 @@ impl IntegratorEntry {
 
 /// Every integrator raylab offers, in the order `raylab integrators` lists them.
 pub static REGISTRY: &[IntegratorEntry] = &[
-    crate::whitted::ENTRY,
-    crate::fixed_depth::ENTRY,
-    crate::russian_roulette::ENTRY,
-    crate::path::ENTRY,
-    crate::photon::ENTRY,
-    crate::sppm::ENTRY,
-    crate::normals_view::ENTRY,
-    crate::albedo_view::ENTRY,
-    crate::depth_view::ENTRY,
+    super::whitted::ENTRY,
+    super::fixed_depth::ENTRY,
+    super::russian_roulette::ENTRY,
+    super::path::ENTRY,
+    super::photon::ENTRY,
+    super::sppm::ENTRY,
+    super::normals_view::ENTRY,
+    super::albedo_view::ENTRY,
+    super::depth_view::ENTRY,
 ];
 
 /// Looks an integrator up by name.

@@ -13,7 +13,7 @@
 //! otherwise.
 
 use crate::integrator::{
-    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, Integrator, Tracer,
+    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, RayIntegrator, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -53,7 +53,7 @@ struct RussianRouletteTracer {
     max_depth: u32,
 }
 
-impl Integrator for RussianRouletteTracer {
+impl RayIntegrator for RussianRouletteTracer {
     fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         let mut l = Rgb::ZERO;
         let mut beta = Rgb::ONE;

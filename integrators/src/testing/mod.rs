@@ -1,8 +1,11 @@
-//! Tiny analytic scenes for integrator tests (no BVH: brute-force intersection), and a
+//! The testing kit (the `testing` feature, so that the engine's tests and a student's new
+//! integrator reuse it): tiny analytic scenes for integrator tests (no BVH: brute-force intersection), and a
 //! t-test helper that compares an integrator's mean radiance with an analytic answer.
 
+pub mod chi2;
+
 use crate::bsdf::Lambert;
-use crate::integrator::Tracer;
+use crate::integrator::{Integrator, RayIntegrator, Tracer};
 use crate::sampling::uniform_sphere;
 use crate::{find, Hit, Light, LightTable, Material, Ray, Rgb, Sampler, Scene};
 use glam::Vec3A;
@@ -26,8 +29,8 @@ enum Surface {
     },
 }
 
-/// Where camera rays start and where they go.
-pub enum Camera {
+/// Where the probe rays that stand in for camera rays start and where they go.
+pub enum Probe {
     /// From a point in uniformly random directions.
     Omni(Vec3A),
     /// From `eye` towards random points of a sphere's silhouette (every ray hits it).
@@ -45,7 +48,7 @@ pub struct TestScene {
     /// Triangles use material 0; spheres name theirs.
     materials: Vec<Material>,
     lights: LightTable,
-    pub camera: Camera,
+    pub camera: Probe,
 }
 
 fn intersect_triangle(v: &[Vec3A; 3], ray: &Ray) -> Option<f32> {
@@ -194,7 +197,7 @@ pub fn furnace_sphere(a: f32, le: f32) -> TestScene {
         surfaces,
         materials: vec![lambert(a)],
         lights: LightTable::new(lights, 1.0),
-        camera: Camera::Omni(Vec3A::new(0.1, -0.2, 0.3)),
+        camera: Probe::Omni(Vec3A::new(0.1, -0.2, 0.3)),
     }
 }
 
@@ -215,7 +218,7 @@ pub fn point_in_sphere(a: f32) -> TestScene {
             }],
             1.0,
         ),
-        camera: Camera::Omni(Vec3A::ZERO),
+        camera: Probe::Omni(Vec3A::ZERO),
     }
 }
 
@@ -235,7 +238,7 @@ pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
             }],
             1.0,
         ),
-        camera: Camera::AtSphere {
+        camera: Probe::AtSphere {
             eye: Vec3A::new(0.0, 0.0, 5.0),
             center: Vec3A::ZERO,
             radius: 1.0,
@@ -243,11 +246,11 @@ pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
     }
 }
 
-fn camera_ray(camera: &Camera, sampler: &mut Sampler) -> Ray {
+fn camera_ray(camera: &Probe, sampler: &mut Sampler) -> Ray {
     match camera {
-        Camera::Fixed(r) => *r,
-        Camera::Omni(o) => Ray::new(*o, uniform_sphere(sampler.next_2d())),
-        Camera::AtSphere {
+        Probe::Fixed(r) => *r,
+        Probe::Omni(o) => Ray::new(*o, uniform_sphere(sampler.next_2d())),
+        Probe::AtSphere {
             eye,
             center,
             radius,
@@ -262,6 +265,13 @@ fn camera_ray(camera: &Camera, sampler: &mut Sampler) -> Ray {
     }
 }
 
+/// The integrator `name` as an estimator of radiance along probe rays.
+fn as_ray_integrator<'a>(name: &str, integrator: &'a dyn Integrator) -> &'a dyn RayIntegrator {
+    integrator
+        .as_ray_integrator()
+        .unwrap_or_else(|| panic!("{name} does not estimate radiance along a ray"))
+}
+
 /// Mean and standard error of the green channel over `n` camera samples.
 pub fn estimate(name: &str, params: &[(&str, &str)], scene: &TestScene, n: u32) -> (f64, f64) {
     let given: Vec<(String, String)> = params
@@ -270,12 +280,13 @@ pub fn estimate(name: &str, params: &[(&str, &str)], scene: &TestScene, n: u32) 
         .collect();
     let mut integrator = find(name).unwrap().instantiate(&given).unwrap();
     integrator.prepare_pass(scene, 12345, 0);
+    let ray_integrator = as_ray_integrator(name, integrator.as_ref());
     let mut tracer = Tracer::new(scene);
     let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
     for i in 0..n {
         let mut sampler = Sampler::new(12345, i as u64, 0);
         let ray = camera_ray(&scene.camera, &mut sampler);
-        let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
+        let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler);
         assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
         let v = l.y as f64;
         sum += v;
@@ -328,12 +339,13 @@ pub fn estimate_passes(
     let mut means = Vec::with_capacity(passes as usize);
     for pass in 0..passes {
         integrator.prepare_pass(scene, 12345, pass);
+        let ray_integrator = as_ray_integrator(name, integrator.as_ref());
         let mut tracer = Tracer::new(scene);
         let mut sum = 0.0f64;
         for i in 0..per_pass {
             let mut sampler = Sampler::new(12345, i as u64, pass as u64);
             let ray = camera_ray(&scene.camera, &mut sampler);
-            let l = integrator.radiance(&ray, &mut tracer, &mut sampler);
+            let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler);
             assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
             sum += l.y as f64;
         }
@@ -379,7 +391,7 @@ pub fn inside_a_mirror() -> TestScene {
         }],
         materials: vec![Material::Mirror(crate::bsdf::Mirror { tint: Rgb::ONE })],
         lights: LightTable::new(Vec::new(), 1.0),
-        camera: Camera::Omni(Vec3A::new(0.2, 0.1, 0.0)),
+        camera: Probe::Omni(Vec3A::new(0.2, 0.1, 0.0)),
     }
 }
 
@@ -397,7 +409,7 @@ pub fn furnace_with_glass(a: f32, le: f32) -> TestScene {
         radius: 0.3,
         material: 1,
     });
-    scene.camera = Camera::AtSphere {
+    scene.camera = Probe::AtSphere {
         eye: Vec3A::new(0.0, 0.0, 0.8),
         center: Vec3A::ZERO,
         radius: 0.3,
@@ -438,7 +450,7 @@ pub fn floor_under_sphere_light(a: f32, l: f32, r: f32, d: f32) -> TestScene {
             s,
         ),
         // From the side, at the point under the sphere.
-        camera: Camera::Fixed(Ray::new(
+        camera: Probe::Fixed(Ray::new(
             Vec3A::new(3.0, 0.0, 1.0),
             Vec3A::new(-3.0, 0.0, -1.0).normalize(),
         )),
@@ -488,6 +500,6 @@ pub fn floor_under_light_facing_away() -> TestScene {
             )],
             s,
         ),
-        camera: Camera::Omni(Vec3A::new(0.3, 0.2, 0.5)),
+        camera: Probe::Omni(Vec3A::new(0.3, 0.2, 0.5)),
     }
 }

@@ -13,7 +13,7 @@
 
 use crate::integrator::{
     continue_path, emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light,
-    Integrator, Tracer,
+    RayIntegrator, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -48,7 +48,7 @@ struct PathTracer {
     rr_depth: u32,
 }
 
-impl Integrator for PathTracer {
+impl RayIntegrator for PathTracer {
     fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         let mut l = Rgb::ZERO;
         let mut beta = Rgb::ONE;

@@ -1,7 +1,21 @@
-//! The integrator interface, ray accounting, and helpers shared by integrators.
+//! The integrator interface, ray accounting, helpers shared by integrators, the registry
+//! ([`registry`]) and the integrators, one file each.
+
+pub mod registry;
+
+mod albedo_view;
+mod depth_view;
+mod fixed_depth;
+mod normals_view;
+mod path;
+mod photon;
+mod russian_roulette;
+mod sppm;
+mod whitted;
 
 use crate::light::LightSample;
-use crate::{Hit, Ray, Rgb, Sampler, Scene};
+use crate::{Camera, Hit, Ray, Rgb, Sampler, Scene};
+use glam::Vec2;
 
 /// Rays cast, by kind. Every integrator counts through [`Tracer`], so rays per second are
 /// reported the same way for all of them.
@@ -65,16 +79,72 @@ impl<'a> Tracer<'a> {
     }
 }
 
-/// A light-transport algorithm: estimates the radiance arriving at the camera along a ray.
+/// Where a camera sample lands: its pixel, its position on the film (pixels, `(0, 0)` the
+/// top-left corner of the image) and its number within the pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelSample {
+    pub x: u32,
+    pub y: u32,
+    pub film: Vec2,
+    pub index: u32,
+}
+
+/// Radiance an integrator adds at film positions of its choosing (light paths that reach the
+/// lens), besides the estimate it returns for its own sample. The render loop gathers them
+/// per work unit and adds them to the image in a fixed order, so images stay bit-identical at
+/// any thread count; they are averaged over passes (divided by the samples per pixel), as
+/// pbrt-v4's film does with splats.
+#[derive(Clone, Debug, Default)]
+pub struct Splats {
+    entries: Vec<(Vec2, Rgb)>,
+}
+
+impl Splats {
+    /// Adds `radiance` at film position `film` (pixels).
+    #[inline]
+    pub fn add(&mut self, film: Vec2, radiance: Rgb) {
+        self.entries.push((film, radiance));
+    }
+
+    /// The splats in the order they were added.
+    pub fn entries(&self) -> &[(Vec2, Rgb)] {
+        &self.entries
+    }
+
+    /// Forgets every splat, keeping the memory for the next work unit.
+    pub fn clear(&mut self) {
+        self.entries.clear();
+    }
+
+    /// Forgets the splats added after the first `len` (those of a sample that is dropped).
+    pub fn truncate(&mut self, len: usize) {
+        self.entries.truncate(len);
+    }
+}
+
+/// A light-transport algorithm, as the render loop drives it: one call per camera sample
+/// (pbrt-v4's `Integrator::EvaluatePixelSample`).
 ///
 /// During a pass an integrator is shared, immutably, between threads; all per-sample state
-/// lives in the [`Sampler`] and the [`Tracer`]. Between passes the render loop calls
-/// [`Integrator::prepare_pass`] with exclusive access, for work shared by every pixel of the
-/// pass (photon maps).
+/// lives in the [`Sampler`], the [`Tracer`] and the [`Splats`]. Between passes the render loop
+/// calls [`Integrator::prepare_pass`] with exclusive access, for work shared by every pixel of
+/// the pass (photon maps).
+///
+/// Most integrators estimate the radiance along a camera ray: they implement
+/// [`RayIntegrator`], and this trait follows.
 pub trait Integrator: Send + Sync {
-    /// One sample of the radiance arriving along `ray` (a camera ray). May return non-finite
-    /// values only through bugs; the render loop drops and counts them.
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb;
+    /// One camera sample: the estimate for the film position `pixel.film` (the film filters it
+    /// into the pixels around it), and any radiance for other film positions added to
+    /// `splats`. May return non-finite values only through bugs; the render loop drops and
+    /// counts them.
+    fn sample(
+        &self,
+        pixel: &PixelSample,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        splats: &mut Splats,
+    ) -> Rgb;
 
     /// Called before the pass in which every pixel takes sample number `pass`. Whatever it
     /// computes must depend only on (`scene`, `seed`, `pass`), so that images stay the same
@@ -82,6 +152,48 @@ pub trait Integrator: Send + Sync {
     /// render loop calls it inside its own thread pool. Returns the rays it cast.
     fn prepare_pass(&mut self, _scene: &dyn Scene, _seed: u64, _pass: u32) -> RayCounters {
         RayCounters::default()
+    }
+
+    /// The integrator as an estimator of radiance along a ray, if it is one (for tests that
+    /// probe it with rays of their own).
+    fn as_ray_integrator(&self) -> Option<&dyn RayIntegrator> {
+        None
+    }
+}
+
+/// An integrator that estimates the radiance arriving along a camera ray (Nori's and
+/// pbrt-v4's `RayIntegrator`): the camera ray through the sample's film position, one
+/// estimate, no splats.
+pub trait RayIntegrator: Send + Sync {
+    /// One sample of the radiance arriving along `ray` (a camera ray).
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb;
+
+    /// As [`Integrator::prepare_pass`].
+    fn prepare_pass(&mut self, _scene: &dyn Scene, _seed: u64, _pass: u32) -> RayCounters {
+        RayCounters::default()
+    }
+}
+
+impl<T: RayIntegrator> Integrator for T {
+    #[inline]
+    fn sample(
+        &self,
+        pixel: &PixelSample,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        _splats: &mut Splats,
+    ) -> Rgb {
+        let ray = camera.ray(pixel.film.x, pixel.film.y);
+        self.radiance(&ray, tracer, sampler)
+    }
+
+    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32) -> RayCounters {
+        RayIntegrator::prepare_pass(self, scene, seed, pass)
+    }
+
+    fn as_ray_integrator(&self) -> Option<&dyn RayIntegrator> {
+        Some(self)
     }
 }
 

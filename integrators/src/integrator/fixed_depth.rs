@@ -14,7 +14,7 @@
 //! **Cost** grows like `branching^(depth - 1)` rays per camera sample: that is the point.
 //! **Bias**: truncation only (paths longer than `depth` are missing); unbiased below it.
 
-use crate::integrator::{emitted_at, escaped, stays_on_viewer_side, Integrator, Tracer};
+use crate::integrator::{emitted_at, escaped, stays_on_viewer_side, RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Frame, Hit, Material, Ray, Rgb, Sampler};
 use glam::{Vec2, Vec3A};
@@ -181,7 +181,7 @@ impl FixedDepth {
     }
 }
 
-impl Integrator for FixedDepth {
+impl RayIntegrator for FixedDepth {
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         match tracer.camera(ray) {
             Some(hit) => self.shade(ray, &hit, 0, true, tracer, sampler),

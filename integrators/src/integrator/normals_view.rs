@@ -1,7 +1,7 @@
 //! `normals`: debug view of the shading normal at the first hit, mapped from [-1, 1] to
 //! [0, 1] per axis. Not radiance: for checking geometry and the build step.
 
-use crate::integrator::{Integrator, Tracer};
+use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, Params};
 use crate::{Ray, Rgb, Sampler};
 
@@ -14,7 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 
 struct NormalsView;
 
-impl Integrator for NormalsView {
+impl RayIntegrator for NormalsView {
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
         match tracer.camera(ray) {
             Some(hit) => hit.ns * 0.5 + 0.5,

@@ -1,7 +1,7 @@
 //! `depth`: debug view of the distance to the first hit divided by the diagonal of the scene
 //! bounds (so 1 is the scene's size), grey. Misses are black. Not radiance.
 
-use crate::integrator::{Integrator, Tracer};
+use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, Params};
 use crate::{Ray, Rgb, Sampler};
 
@@ -14,7 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 
 struct DepthView;
 
-impl Integrator for DepthView {
+impl RayIntegrator for DepthView {
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
         let Some(hit) = tracer.camera(ray) else {
             return Rgb::ZERO;

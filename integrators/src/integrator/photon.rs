@@ -24,7 +24,7 @@
 //! **Bias**: density estimation blurs light over the gather radii and does not vanish with
 //! more passes (use `sppm` for a consistent estimate); truncation with a finite `max-depth`.
 
-use crate::integrator::{continue_path, sample_one_light, Integrator, Tracer};
+use crate::integrator::{continue_path, sample_one_light, RayIntegrator, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
@@ -113,7 +113,7 @@ struct Maps {
     global: PhotonMap,
 }
 
-impl Integrator for PhotonMapping {
+impl RayIntegrator for PhotonMapping {
     fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, _pass: u32) -> RayCounters {
         if self.maps.is_some() {
             return RayCounters::default();

@@ -1,7 +1,7 @@
 //! `albedo`: debug view of the material's base colour at the first hit (emitters show their
 //! radiance). Not radiance: for checking materials and the build step.
 
-use crate::integrator::{emitted_at, Integrator, Tracer};
+use crate::integrator::{emitted_at, RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, Params};
 use crate::{Ray, Rgb, Sampler};
 
@@ -14,7 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 
 struct AlbedoView;
 
-impl Integrator for AlbedoView {
+impl RayIntegrator for AlbedoView {
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
         let Some(hit) = tracer.camera(ray) else {
             return Rgb::ZERO;

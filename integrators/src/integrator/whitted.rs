@@ -13,7 +13,7 @@
 //! the truncated series `Le + direct`. Unbiased for that truncated quantity.
 
 use crate::integrator::{
-    emitted_at, escaped, specular_lobes, stays_on_viewer_side, Integrator, Tracer,
+    emitted_at, escaped, specular_lobes, stays_on_viewer_side, RayIntegrator, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Hit, Ray, Rgb, Sampler};
@@ -99,7 +99,7 @@ impl Whitted {
     }
 }
 
-impl Integrator for Whitted {
+impl RayIntegrator for Whitted {
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         match tracer.camera(ray) {
             Some(hit) => self.shade(ray, &hit, 0, tracer, sampler),
