@@ -124,17 +124,16 @@ fn integrators_lists_every_integrator_with_parameters() {
     let o = raylab(&["integrators"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for name in [
-        "whitted",
-        "fixed-depth",
-        "russian-roulette",
-        "path",
-        "normals",
-        "albedo",
-        "depth",
-    ] {
-        assert!(text.lines().any(|l| l == name), "{name} missing:\n{text}");
-    }
+    // Every entry of the registry, and nothing else, in the registry's order.
+    let listed: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.is_empty() && !l.starts_with(' ') && !l.contains(' '))
+        .collect();
+    let registry: Vec<&str> = raylab_integrators::REGISTRY
+        .iter()
+        .map(|e| e.name)
+        .collect();
+    assert_eq!(listed, registry, "{text}");
     assert!(text.contains("-p branching=<int>  (default 20)"), "{text}");
     assert!(
         text.contains("-p max-depth=<depth>  (default unlimited)"),
@@ -348,4 +347,24 @@ fn unwritable_output_folder_fails_and_an_existing_file_survives() {
     }
     assert_eq!(std::fs::read(&out).unwrap(), b"old image");
     std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+#[test]
+fn the_readmes_integrator_table_is_the_registry() {
+    // One row per registry entry, in order, with the summary `raylab integrators` prints.
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let rows: Vec<(String, String)> = readme
+        .lines()
+        .filter_map(|l| {
+            let cells: Vec<&str> = l.strip_prefix("| `")?.splitn(2, "` | ").collect();
+            let summary = cells.get(1)?.trim_end().strip_suffix(" |")?;
+            Some((cells[0].to_string(), summary.to_string()))
+        })
+        .collect();
+    let registry: Vec<(String, String)> = raylab_integrators::REGISTRY
+        .iter()
+        .map(|e| (e.name.to_string(), e.summary.to_string()))
+        .collect();
+    assert_eq!(rows, registry, "README.md's integrator table");
 }
