@@ -36,7 +36,7 @@ pub struct Camera {
     pub width: u32,
     pub height: u32,
     view: View,
-    film: Film,
+    film: FilmPlane,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -59,7 +59,7 @@ enum View {
 
 /// The film parallelogram both views share, with what importance needs precomputed.
 #[derive(Clone, Debug, PartialEq)]
-struct Film {
+struct FilmPlane {
     top_left: Vec3A,
     /// Unit normal of the film plane, pointing away from the eye.
     normal: Vec3A,
@@ -73,8 +73,8 @@ struct Film {
     to_v: Vec3A,
 }
 
-impl Film {
-    fn new(eye: Vec3A, top_left: Vec3A, right_edge: Vec3A, down_edge: Vec3A) -> Film {
+impl FilmPlane {
+    fn new(eye: Vec3A, top_left: Vec3A, right_edge: Vec3A, down_edge: Vec3A) -> FilmPlane {
         let cross = right_edge.cross(down_edge);
         let area = cross.length();
         let mut normal = cross / area;
@@ -88,7 +88,7 @@ impl Film {
             down_edge.dot(down_edge),
         );
         let det = rr * dd - rd * rd;
-        Film {
+        FilmPlane {
             top_left,
             normal,
             distance: normal.dot(top_left - eye),
@@ -169,7 +169,7 @@ impl Camera {
         }
     }
 
-    fn film_of(eye: Vec3A, view: &View, (width, height): (u32, u32)) -> Film {
+    fn film_of(eye: Vec3A, view: &View, (width, height): (u32, u32)) -> FilmPlane {
         match *view {
             View::LookAt {
                 forward,
@@ -180,7 +180,7 @@ impl Camera {
                 let aspect = width as f32 / height as f32;
                 let half_w = right * (tan_half_fov * aspect);
                 let half_h = up * tan_half_fov;
-                Film::new(
+                FilmPlane::new(
                     eye,
                     eye + forward - half_w + half_h,
                     half_w * 2.0,
@@ -191,7 +191,7 @@ impl Camera {
                 top_left,
                 right_edge,
                 down_edge,
-            } => Film::new(eye, top_left, right_edge, down_edge),
+            } => FilmPlane::new(eye, top_left, right_edge, down_edge),
         }
     }
 

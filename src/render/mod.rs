@@ -759,31 +759,24 @@ mod tests {
             assert!(a.variance.iter().any(|v| v.x > 0.0), "{filter}");
 
             // Three passes, a checkpoint, three more: the same bits.
+            let run_to = |spp: u32, acc: &mut Accumulation| {
+                let settings = with_filter(spp, 2, filter);
+                render_passes(
+                    &s,
+                    &cam,
+                    &mut Splatter,
+                    &settings,
+                    acc,
+                    &|| false,
+                    &mut |_| Ok(()),
+                )
+                .unwrap();
+            };
             let mut acc = Accumulation::new(cam.width, cam.height);
-            let settings = with_filter(3, 2, filter);
-            render_passes(
-                &s,
-                &cam,
-                &mut Splatter,
-                &settings,
-                &mut acc,
-                &|| false,
-                &mut |_| Ok(()),
-            )
-            .unwrap();
+            run_to(3, &mut acc);
             let bytes = checkpoint::encode(&acc, 9);
             let mut acc = checkpoint::decode(&bytes, 9, cam.width, cam.height).unwrap();
-            let settings = with_filter(6, 2, filter);
-            render_passes(
-                &s,
-                &cam,
-                &mut Splatter,
-                &settings,
-                &mut acc,
-                &|| false,
-                &mut |_| Ok(()),
-            )
-            .unwrap();
+            run_to(6, &mut acc);
             assert_eq!(acc.film(), a, "{filter}");
         }
     }
