@@ -5,8 +5,8 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use glam::{Vec2, Vec3A};
 use raylab::bench::{coherent_rays, incoherent_rays};
-use raylab::build::RenderScene;
 use raylab::scene::parse_scene;
+use raylab::scene::RenderScene;
 use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
 use raylab_integrators::{Material, PixelSample, Rgb, Sampler, Scene, Splats, Tracer};
 use std::path::Path;

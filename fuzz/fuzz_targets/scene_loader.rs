@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use raylab::build::RenderScene;
+use raylab::scene::RenderScene;
 use raylab::render::{render, RenderSettings};
 use raylab::scene::parse_scene;
 use std::path::Path;

@@ -30,8 +30,8 @@
 //! it either), and the robust or compact scene flags.
 
 use super::{rays_per_second, Case, MIN_RUN};
-use crate::build::RenderScene;
 use crate::scene::components::{Instanced, Transform};
+use crate::scene::RenderScene;
 use anyhow::{anyhow, Result};
 use embree3::{
     BufferUsage, Config, Device, DeviceProperty, Format, GeometryKind, IntersectContext, RayHit,
@@ -119,7 +119,7 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
         .map_err(embree_err("cannot create a scene"))?;
 
     let source = case.source()?;
-    let tris = crate::build::flat_triangles(source);
+    let tris = crate::scene::flatten::flat_triangles(source);
     if !tris.is_empty() {
         scene.attach_geometry(&triangle_geometry(&device, &tris)?);
     }
@@ -157,7 +157,7 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
     }
     let meshes_commit = start.elapsed();
 
-    let spheres = crate::build::flat_spheres(source);
+    let spheres = crate::scene::flatten::flat_spheres(source);
     if !spheres.is_empty() {
         let mut g = device
             .create_geometry(GeometryKind::SPHERE_POINT)

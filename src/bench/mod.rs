@@ -18,8 +18,8 @@
 #[cfg(feature = "embree")]
 mod embree;
 
-use crate::build::RenderScene;
 use crate::render::{self, RenderSettings};
+use crate::scene::RenderScene;
 use crate::scene::{parse_scene, Camera, LoadedScene};
 use anyhow::{Context, Result};
 use glam::Vec3A;
@@ -234,14 +234,14 @@ fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> R
 
 fn dump(dir: &Path, case: &Case, coherent: &[Ray], incoherent: &[Ray]) -> Result<()> {
     let source = case.source()?;
-    let tris = crate::build::flat_triangles(source);
+    let tris = crate::scene::flatten::flat_triangles(source);
     write_f32s(
         &dir.join(format!("{}.tris", case.name)),
         tris.len(),
         tris.iter()
             .flat_map(|t| [t.v0, t.v1, t.v2].into_iter().flat_map(|v| v.to_array())),
     )?;
-    let spheres = crate::build::flat_spheres(source);
+    let spheres = crate::scene::flatten::flat_spheres(source);
     write_f32s(
         &dir.join(format!("{}.spheres", case.name)),
         spheres.len(),

@@ -1,9 +1,9 @@
 //! `raylab render`, `raylab validate` and `raylab integrators`.
 
 use super::RenderArgs;
-use crate::build::RenderScene;
 use crate::output::{self, DisplaySettings};
 use crate::render::{self, checkpoint, Accumulation, RenderSettings, StopReason};
+use crate::scene::RenderScene;
 use crate::scene::{self, load::check_size};
 use anyhow::{anyhow, bail, Context, Result};
 use raylab_integrators::{registry, ParamKind};

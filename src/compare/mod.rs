@@ -7,10 +7,10 @@ mod mosaic;
 mod page;
 mod plot;
 
-use crate::build::RenderScene;
 use crate::output::{self, DisplaySettings};
 use crate::render::{self, checkpoint::stable_hash, Accumulation, Film, RenderSettings};
 use crate::scene::load_scene;
+use crate::scene::RenderScene;
 use anyhow::{anyhow, bail, Context, Result};
 use metrics::Metrics;
 use raylab_integrators::registry;

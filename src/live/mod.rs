@@ -9,8 +9,8 @@
 
 pub mod watch;
 
-use crate::build::RenderScene;
 use crate::render::{self, Accumulation, Film, RenderSettings, RenderStats};
+use crate::scene::RenderScene;
 use crate::scene::{self, Camera, LoadedScene};
 use anyhow::{anyhow, Result};
 use raylab_integrators::registry::{self, IntegratorEntry, ParamError, Params};

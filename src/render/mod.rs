@@ -576,8 +576,8 @@ pub fn render(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::RenderScene;
     use crate::scene::parse_scene;
+    use crate::scene::RenderScene;
     use raylab_integrators::{Ray, RayIntegrator, Rgb};
 
     /// Returns 1 everywhere.

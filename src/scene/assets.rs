@@ -150,16 +150,7 @@ fn load_asset(
     ))
 }
 
-/// The eight corners of a box (min, max).
-pub fn box_corners((min, max): (Vec3A, Vec3A)) -> [Vec3A; 8] {
-    std::array::from_fn(|i| {
-        Vec3A::new(
-            if i & 1 == 0 { min.x } else { max.x },
-            if i & 2 == 0 { min.y } else { max.y },
-            if i & 4 == 0 { min.z } else { max.z },
-        )
-    })
-}
+pub use crate::accel::box_corners;
 
 /// An instance must stay within reach like any geometry: its world box's corners are checked.
 fn check_instance_reach(asset: &LocalMesh, m: &Affine3A) -> Result<(), String> {

@@ -1,9 +1,11 @@
-//! Scenes: the RON schema, loading into a hecs world, and the ECS systems.
+//! Scenes: the RON schema, loading into a hecs world, the ECS systems, and flattening the
+//! world into the render scene.
 
 pub mod assets;
 pub mod components;
 pub mod error;
 pub mod file_materials;
+pub mod flatten;
 pub mod load;
 pub mod mesh_files;
 pub mod procedural;
@@ -12,6 +14,7 @@ pub mod schema;
 pub mod systems;
 
 pub use error::SceneError;
+pub use flatten::RenderScene;
 pub use load::{load_scene, parse_scene};
 pub use raylab_integrators::Camera;
 

@@ -3,9 +3,9 @@
 //! image means must agree within statistical error (a z-test on each channel, standard errors
 //! from the film's per-pixel variances).
 
-use raylab::build::RenderScene;
 use raylab::render::{render, Film, RenderSettings};
 use raylab::scene::load_scene;
+use raylab::scene::RenderScene;
 use raylab_integrators::registry;
 use std::path::Path;
 

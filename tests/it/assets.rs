@@ -172,7 +172,7 @@ fn gltf_base_colour_and_emission_become_material_and_emitter() {
         assert!((n + Vec3A::Y).length() < 1e-5, "{n}");
     }
     // The emitting parts are the scene's lights: two triangles each.
-    let built = raylab::build::RenderScene::build(&loaded);
+    let built = raylab::scene::RenderScene::build(&loaded);
     assert_eq!(built.stats.lights, 4);
 }
 

@@ -9,8 +9,8 @@
 //! run, then every failure is reported at once. `tests/corpus/ok/` holds scenes that must
 //! load: the degenerate-triangles scene renders with warnings and its triangles are never hit.
 
-use raylab::build::RenderScene;
 use raylab::scene::parse_scene;
+use raylab::scene::RenderScene;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

@@ -7,9 +7,9 @@
 //! errors are correlated: standard errors here come from the spread of the passes' image
 //! means, not from per-pixel variances.
 
-use raylab::build::RenderScene;
 use raylab::compare::metrics;
 use raylab::render::{render_passes, Accumulation, Film, RenderSettings};
+use raylab::scene::RenderScene;
 use raylab::scene::{load_scene, Camera};
 use raylab_integrators::registry;
 use std::path::Path;

@@ -9,9 +9,9 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::Config;
-use raylab::build::RenderScene;
 use raylab::render::{render, RenderSettings};
 use raylab::scene::parse_scene;
+use raylab::scene::RenderScene;
 use std::path::Path;
 
 /// Loads, and for scenes that load, builds and renders 4x4 pixels at 1 spp.

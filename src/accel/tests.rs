@@ -1,9 +1,12 @@
 //! The build step against brute force: thousands of random rays, closest hit and occlusion.
 
 use super::*;
+use crate::scene::components::WorldShape;
 use crate::scene::parse_scene;
+use crate::scene::RenderScene;
 use glam::Vec3A;
 use packet::LaneData;
+use raylab_integrators::Light;
 use raylab_integrators::{Ray, Sampler, Scene};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -69,7 +72,7 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
     let loaded = parse_scene(&random_scene(3000, 40, 7), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
     let mut portable = RenderScene::build(&loaded);
-    portable.avx2 = false;
+    portable.accel.avx2 = None;
     let baked_triangles: usize = loaded
         .world
         .query::<&WorldShape>()
@@ -149,7 +152,7 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
                 match scene.lights.get(light) {
                     Light::Sphere { center, radius, .. } => assert_eq!(
                         (*center, *radius),
-                        (scene.sph_center[i], scene.sph_radius[i])
+                        (scene.accel.sph_center[i], scene.accel.sph_radius[i])
                     ),
                     other => panic!("{other:?}"),
                 }
@@ -164,6 +167,7 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
 /// Every packet lane that holds a primitive, with its packet and lane data.
 fn used_lanes(scene: &RenderScene) -> impl Iterator<Item = (&Packet, &LaneData, usize)> {
     scene
+        .accel
         .packets
         .iter()
         .flat_map(|s| (0..packet::WIDTH).map(move |lane| (&s.packet, &s.data, lane)))
@@ -237,7 +241,7 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
                 smooth += 1;
                 let x = i as f32 * 0.1;
                 let expected = Vec3A::new(0.0, x, 1.0).normalize();
-                assert!(scene.smooth_normals[k][1].abs_diff_eq(expected, 1e-6));
+                assert!(scene.accel.smooth_normals[k][1].abs_diff_eq(expected, 1e-6));
             }
             None => assert_ne!(mesh, 2),
         }
@@ -252,12 +256,13 @@ fn the_build_does_not_depend_on_the_thread_count() {
     let loaded = parse_scene(&random_scene(5000, 30, 11), Path::new("random.ron")).unwrap();
     let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
     let (a, b) = (build(1), build(2));
-    assert_eq!(a.bvh, b.bvh);
+    assert_eq!(a.accel.bvh, b.accel.bvh);
     // Compared bit for bit: a sphere's lane holds NaNs.
     let bits = |s: &RenderScene| -> Vec<Vec<u32>> {
-        s.packets.iter().map(|p| p.packet.to_bits()).collect()
+        s.accel.packets.iter().map(|p| p.packet.to_bits()).collect()
     };
     assert_eq!(bits(&a), bits(&b));
-    let data = |s: &RenderScene| -> Vec<LaneData> { s.packets.iter().map(|p| p.data).collect() };
+    let data =
+        |s: &RenderScene| -> Vec<LaneData> { s.accel.packets.iter().map(|p| p.data).collect() };
     assert_eq!(data(&a), data(&b));
 }

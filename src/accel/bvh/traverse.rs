@@ -61,13 +61,14 @@ impl Bvh {
     #[inline(always)]
     pub fn closest<I: Isa>(
         &self,
+        isa: I,
         ray: &Ray,
         mut leaf: impl FnMut(&Ray, u32, u32) -> Option<(u32, f32)>,
     ) -> Option<(u32, f32)> {
         if self.nodes.is_empty() {
             return None;
         }
-        let boxes = I::prepare(ray);
+        let boxes = isa.prepare(ray);
         let mut r = *ray;
         let mut best = None;
         let mut stack: Stack<(f32, u32)> = Stack::new();
@@ -75,7 +76,7 @@ impl Bvh {
         loop {
             // Test the node's eight boxes at once.
             let n = &self.nodes[node as usize];
-            let (mask, entry) = I::hits(&boxes, n, r.tmin, r.tmax);
+            let (mask, entry) = isa.hits(&boxes, n, r.tmin, r.tmax);
             let mask = mask as u8;
             // Leaves hit are tested now, shortening the ray before the nodes are ordered.
             let mut leaves = mask & n.leaves;
@@ -138,16 +139,21 @@ impl Bvh {
     /// Whether the leaf test `leaf(ray, first, count)` is true for any leaf that `ray`
     /// reaches within `[ray.tmin, ray.tmax]`. Stops at the first.
     #[inline(always)]
-    pub fn any<I: Isa>(&self, ray: &Ray, mut leaf: impl FnMut(&Ray, u32, u32) -> bool) -> bool {
+    pub fn any<I: Isa>(
+        &self,
+        isa: I,
+        ray: &Ray,
+        mut leaf: impl FnMut(&Ray, u32, u32) -> bool,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
-        let boxes = I::prepare(ray);
+        let boxes = isa.prepare(ray);
         let mut stack: Stack<u32> = Stack::new();
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            let (mask, _) = I::hits(&boxes, n, ray.tmin, ray.tmax);
+            let (mask, _) = isa.hits(&boxes, n, ray.tmin, ray.tmax);
             let mask = mask as u8;
             let mut leaves = mask & n.leaves;
             while leaves != 0 {

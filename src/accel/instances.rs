@@ -10,11 +10,8 @@
 
 use super::bvh::{isa::Isa, Bvh, Packets, Singles};
 use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_SPHERES};
-use crate::scene::assets::box_corners;
-use crate::scene::components::{Instanced, LocalMesh, MaterialRef};
-use crate::scene::LoadedScene;
+use super::{box_corners, InstanceDesc, Mesh};
 use glam::{Affine3A, Vec3A};
-use hecs::Entity;
 use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
 use raylab_integrators::Hit;
@@ -59,7 +56,7 @@ impl Default for InstanceSet {
 }
 
 impl MeshBlas {
-    fn build(mesh: &LocalMesh) -> MeshBlas {
+    fn build(mesh: &Mesh) -> MeshBlas {
         let (mut bvh, order) = Bvh::build::<Packets>(mesh.triangles.len(), |i| {
             Aabb::from_points(&mesh.triangles[i])
         });
@@ -80,7 +77,7 @@ impl MeshBlas {
                 Stored { packet, data }
             })
             .collect();
-        let smooth = match &mesh.normals {
+        let smooth = match mesh.normals {
             Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
             None => Vec::new(),
         };
@@ -101,29 +98,19 @@ impl MeshBlas {
 }
 
 impl InstanceSet {
-    /// Builds the BLAS of every mesh asset and the TLAS over the scene's instances (entities
-    /// with [`Instanced`] and a material), in entity order.
-    pub fn build(scene: &LoadedScene) -> InstanceSet {
-        let mut items: Vec<(Entity, Instanced, u32, Affine3A)> = scene
-            .world
-            .query::<(
-                Entity,
-                &Instanced,
-                &MaterialRef,
-                &crate::scene::components::Transform,
-            )>()
-            .iter()
-            .map(|(e, i, m, t)| (e, i.clone(), m.0, t.matrix()))
-            .collect();
-        if items.is_empty() {
+    /// Builds the BLAS of every mesh asset and the TLAS over `instances` (in the given
+    /// order); nothing when there are no instances.
+    pub fn build(meshes: &[Mesh], instances: &[InstanceDesc]) -> InstanceSet {
+        if instances.is_empty() {
             return InstanceSet::default();
         }
-        items.sort_by_key(|(e, ..)| e.id());
-        let meshes: Vec<MeshBlas> = scene.meshes.iter().map(|m| MeshBlas::build(m)).collect();
-        let boxes: Vec<Aabb> = items
+        let blas: Vec<MeshBlas> = meshes.iter().map(MeshBlas::build).collect();
+        let boxes: Vec<Aabb> = instances
             .iter()
-            .map(|(_, inst, _, m)| {
-                let corners = box_corners(inst.asset.bounds).map(|p| m.transform_point3a(p));
+            .map(|inst| {
+                let m = inst.local_to_world;
+                let corners =
+                    box_corners(meshes[inst.mesh as usize].bounds).map(|p| m.transform_point3a(p));
                 Aabb::from_points(&corners)
             })
             .collect();
@@ -136,18 +123,18 @@ impl InstanceSet {
         let instances = order
             .iter()
             .map(|&i| {
-                let (_, inst, material, m) = &items[i as usize];
+                let inst = &instances[i as usize];
                 Instance {
-                    world_to_local: m.inverse(),
+                    world_to_local: inst.local_to_world.inverse(),
                     mesh: inst.mesh,
-                    material: *material,
+                    material: inst.material,
                 }
             })
             .collect();
         InstanceSet {
             tlas,
             instances,
-            meshes,
+            meshes: blas,
             bounds,
         }
     }
@@ -208,9 +195,9 @@ impl InstanceSet {
     /// Closest hit with `t < ray.tmax`: (instance slot, hit within its mesh, t), the hit as
     /// the packet's index times [`packet::WIDTH`] plus the lane.
     #[inline(always)]
-    pub fn intersect<I: Isa + LeafTest>(&self, ray: &Ray) -> Option<(u32, u32, f32)> {
+    pub fn intersect<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> Option<(u32, u32, f32)> {
         let mut best_prim = 0u32;
-        let (slot, t) = self.tlas.closest::<I>(ray, |r, first, count| {
+        let (slot, t) = self.tlas.closest(isa, ray, |r, first, count| {
             let mut best = None;
             let mut r = *r;
             for slot in first..first + count {
@@ -219,10 +206,10 @@ impl InstanceSet {
                 // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
                 let lr = Self::local_ray(inst, &r);
                 let lanes = PacketRay::new(&lr);
-                if let Some((id, t)) = mesh.bvh.closest::<I>(&lr, |lr, first, count| {
+                if let Some((id, t)) = mesh.bvh.closest(isa, &lr, |lr, first, count| {
                     let end = first + packet::packets_for(count);
                     let leaf = &mesh.packets[first as usize..end as usize];
-                    let (k, t) = I::closest(leaf, &lanes, lr, lr.tmax, &NO_SPHERES)?;
+                    let (k, t) = isa.closest(leaf, &lanes, lr, lr.tmax, &NO_SPHERES)?;
                     Some((first * packet::WIDTH as u32 + k as u32, t))
                 }) {
                     best_prim = id;
@@ -237,16 +224,16 @@ impl InstanceSet {
 
     /// True if any instance has a surface on `ray` before `ray.tmax`.
     #[inline(always)]
-    pub fn occluded<I: Isa + LeafTest>(&self, ray: &Ray) -> bool {
-        self.tlas.any::<I>(ray, |r, first, count| {
+    pub fn occluded<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> bool {
+        self.tlas.any(isa, ray, |r, first, count| {
             (first..first + count).any(|slot| {
                 let inst = &self.instances[slot as usize];
                 let mesh = &self.meshes[inst.mesh as usize];
                 let lr = Self::local_ray(inst, r);
                 let lanes = PacketRay::new(&lr);
-                mesh.bvh.any::<I>(&lr, |lr, first, count| {
+                mesh.bvh.any(isa, &lr, |lr, first, count| {
                     let end = first + packet::packets_for(count);
-                    I::any(
+                    isa.any(
                         &mesh.packets[first as usize..end as usize],
                         &lanes,
                         lr,

@@ -312,6 +312,7 @@ pub trait LeafTest {
     /// The nearest hit before `tmax` among `leaf`'s packets, as (packet within the leaf times
     /// [`WIDTH`] plus lane, distance).
     fn closest(
+        self,
         leaf: &[Stored],
         r: &PacketRay,
         ray: &Ray,
@@ -320,7 +321,7 @@ pub trait LeafTest {
     ) -> Option<(usize, f32)>;
 
     /// Whether `ray` meets any primitive of `leaf` within `[ray.tmin, ray.tmax]`.
-    fn any(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool;
+    fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool;
 }
 
 /// One packet after the other.
@@ -355,6 +356,7 @@ fn any_in_turn(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> 
 impl LeafTest for super::bvh::isa::Portable {
     #[inline(always)]
     fn closest(
+        self,
         leaf: &[Stored],
         r: &PacketRay,
         ray: &Ray,
@@ -365,7 +367,7 @@ impl LeafTest for super::bvh::isa::Portable {
     }
 
     #[inline(always)]
-    fn any(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+    fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
         any_in_turn(leaf, r, ray, spheres)
     }
 }
@@ -373,7 +375,7 @@ impl LeafTest for super::bvh::isa::Portable {
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::*;
-    use crate::build::bvh::isa::Avx2;
+    use crate::accel::bvh::isa::Avx2;
     use std::arch::x86_64::*;
 
     /// Eight lanes: four of packet `a`, then four of `b`.
@@ -382,23 +384,25 @@ mod avx2 {
     /// `a`'s and `b`'s lane vectors side by side.
     #[inline(always)]
     fn join(a: &Lanes3, b: &Lanes3) -> Lanes8 {
-        // SAFETY: register operations; the callers of `Avx2` guarantee AVX2 (`bvh::isa`).
+        // SAFETY: register operations; the functions of this module run only inside the methods of an `Avx2` token, which exists only where the processor has AVX2.
         std::array::from_fn(|axis| unsafe { _mm256_set_m128(b[axis].into(), a[axis].into()) })
     }
 
-    // SAFETY (all below): register arithmetic only, under the same guarantee.
     #[inline(always)]
     fn sub(a: &Lanes8, b: &Lanes8) -> Lanes8 {
+        // SAFETY: register arithmetic, as in `join`.
         std::array::from_fn(|i| unsafe { _mm256_sub_ps(a[i], b[i]) })
     }
 
     #[inline(always)]
     fn mul(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: register arithmetic, as in `join`.
         unsafe { _mm256_mul_ps(a, b) }
     }
 
     #[inline(always)]
     fn msub(a: __m256, b: __m256, c: __m256, d: __m256) -> __m256 {
+        // SAFETY: register arithmetic, as in `join`.
         unsafe { _mm256_sub_ps(_mm256_mul_ps(a, b), _mm256_mul_ps(c, d)) }
     }
 
@@ -415,6 +419,7 @@ mod avx2 {
     /// As `packet::dot`: (x + y) + z.
     #[inline(always)]
     fn dot(a: &Lanes8, b: &Lanes8) -> __m256 {
+        // SAFETY: register arithmetic, as in `join`.
         unsafe {
             _mm256_add_ps(
                 _mm256_add_ps(mul(a[0], b[0]), mul(a[1], b[1])),
@@ -425,6 +430,7 @@ mod avx2 {
 
     #[inline(always)]
     fn splat3(v: Vec3A) -> Lanes8 {
+        // SAFETY: register operations, as in `join`.
         [v.x, v.y, v.z].map(|x| unsafe { _mm256_set1_ps(x) })
     }
 
@@ -437,6 +443,7 @@ mod avx2 {
         let c = sub(&v0, &origin);
         let q = cross(&dir, &c);
         let n = join(&a.n, &b.n);
+        // SAFETY: register arithmetic, as in `join`.
         unsafe {
             let one = _mm256_set1_ps(1.0);
             let zero = _mm256_setzero_ps();
@@ -476,6 +483,7 @@ mod avx2 {
     impl LeafTest for Avx2 {
         #[inline(always)]
         fn closest(
+            self,
             leaf: &[Stored],
             r: &PacketRay,
             ray: &Ray,
@@ -489,6 +497,7 @@ mod avx2 {
                 return closest_in_turn(leaf, r, ray, tmax, spheres);
             }
             let t = distances(&a.packet, &b.packet, ray, tmax);
+            // SAFETY: register arithmetic; `self` is the token that proves AVX2.
             unsafe {
                 let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(tmax)));
                 if hit == 0 {
@@ -505,10 +514,11 @@ mod avx2 {
         }
 
         #[inline(always)]
-        fn any(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+        fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
             match leaf {
                 [a, b] if triangles_only(&a.packet, &b.packet) => {
                     let t = distances(&a.packet, &b.packet, ray, ray.tmax);
+                    // SAFETY: register arithmetic; `self` is the token that proves AVX2.
                     unsafe {
                         let inf = _mm256_set1_ps(f32::INFINITY);
                         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, inf)) != 0
@@ -536,7 +546,7 @@ pub const NO_SPHERES: Spheres = Spheres {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::primitives::intersect_triangle;
+    use crate::accel::primitives::intersect_triangle;
     use rand::rngs::StdRng;
     use rand::{Rng, SeedableRng};
 
@@ -677,15 +687,15 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn avx2_leaf(
+        avx2: crate::accel::bvh::isa::Avx2,
         leaf: &[Stored],
         r: &PacketRay,
         ray: &Ray,
         spheres: &Spheres,
     ) -> (Option<(usize, f32)>, bool) {
-        use crate::build::bvh::isa::Avx2;
         (
-            <Avx2 as LeafTest>::closest(leaf, r, ray, ray.tmax, spheres),
-            <Avx2 as LeafTest>::any(leaf, r, ray, spheres),
+            avx2.closest(leaf, r, ray, ray.tmax, spheres),
+            avx2.any(leaf, r, ray, spheres),
         )
     }
 
@@ -695,9 +705,9 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn avx2_two_packet_leaves_match_the_packets_in_turn() {
-        if !std::arch::is_x86_feature_detected!("avx2") {
+        let Some(avx2) = crate::accel::bvh::isa::Avx2::detect() else {
             return;
-        }
+        };
         let centers = [Vec3A::new(1.5, 1.5, 1.5)];
         let radii = [0.4];
         let spheres = Spheres {
@@ -746,12 +756,12 @@ mod tests {
                     _ => p3(3.0),
                 };
                 let tmax = [f32::INFINITY, 4.0][k % 2];
-                let ray = crate::build::bvh::ray(origin, target - origin, 0.0, tmax);
+                let ray = crate::accel::bvh::ray(origin, target - origin, 0.0, tmax);
                 let pr = PacketRay::new(&ray);
                 let expected = closest_in_turn(&leaf, &pr, &ray, ray.tmax, &spheres);
                 let expected_any = any_in_turn(&leaf, &pr, &ray, &spheres);
-                // SAFETY: the processor has AVX2, checked at the top.
-                let (found, found_any) = unsafe { avx2_leaf(&leaf, &pr, &ray, &spheres) };
+                // SAFETY: the token exists only where the processor has AVX2.
+                let (found, found_any) = unsafe { avx2_leaf(avx2, &leaf, &pr, &ray, &spheres) };
                 assert_eq!(found, expected, "round {round}, ray {k}");
                 assert_eq!(found_any, expected_any, "round {round}, ray {k}");
                 hits += usize::from(expected.is_some());

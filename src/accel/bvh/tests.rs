@@ -1,5 +1,5 @@
 use super::*;
-use crate::build::primitives::{intersect_triangle, occludes_triangle};
+use crate::accel::primitives::{intersect_triangle, occludes_triangle};
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
@@ -73,40 +73,37 @@ fn leaf_any(tris: &[[Vec3A; 3]]) -> impl FnMut(&Ray, u32, u32) -> bool + '_ {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn closest_avx2(bvh: &Bvh, ray: &Ray, tris: &[[Vec3A; 3]]) -> Option<(u32, f32)> {
-    bvh.closest::<isa::Avx2>(ray, leaf_closest(tris))
+fn closest_avx2(avx2: isa::Avx2, bvh: &Bvh, ray: &Ray, tris: &[[Vec3A; 3]]) -> Option<(u32, f32)> {
+    bvh.closest(avx2, ray, leaf_closest(tris))
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn any_avx2(bvh: &Bvh, ray: &Ray, tris: &[[Vec3A; 3]]) -> bool {
-    bvh.any::<isa::Avx2>(ray, leaf_any(tris))
-}
-
-#[cfg(target_arch = "x86_64")]
-fn has_avx2() -> bool {
-    std::arch::is_x86_feature_detected!("avx2")
+fn any_avx2(avx2: isa::Avx2, bvh: &Bvh, ray: &Ray, tris: &[[Vec3A; 3]]) -> bool {
+    bvh.any(avx2, ray, leaf_any(tris))
 }
 
 /// The closest hit by the portable node test; where the processor has AVX2, the AVX2 node
 /// test must find exactly the same.
 fn closest(bvh: &Bvh, ray: &Ray, tris: &[[Vec3A; 3]]) -> Option<(u32, f32)> {
-    let portable = bvh.closest::<isa::Portable>(ray, leaf_closest(tris));
+    let portable = bvh.closest(isa::Portable, ray, leaf_closest(tris));
     #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
-        // SAFETY: the processor has AVX2, checked just above.
-        assert_eq!(unsafe { closest_avx2(bvh, ray, tris) }, portable, "{ray:?}");
+    if let Some(avx2) = isa::Avx2::detect() {
+        // SAFETY: the token exists only where the processor has AVX2.
+        let found = unsafe { closest_avx2(avx2, bvh, ray, tris) };
+        assert_eq!(found, portable, "{ray:?}");
     }
     portable
 }
 
 /// Any hit, likewise under both node tests.
 fn any(bvh: &Bvh, ray: &Ray, tris: &[[Vec3A; 3]]) -> bool {
-    let portable = bvh.any::<isa::Portable>(ray, leaf_any(tris));
+    let portable = bvh.any(isa::Portable, ray, leaf_any(tris));
     #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
+    if let Some(avx2) = isa::Avx2::detect() {
         // SAFETY: as in `closest`.
-        assert_eq!(unsafe { any_avx2(bvh, ray, tris) }, portable, "{ray:?}");
+        let found = unsafe { any_avx2(avx2, bvh, ray, tris) };
+        assert_eq!(found, portable, "{ray:?}");
     }
     portable
 }
@@ -213,7 +210,7 @@ fn numbered_leaves_index_their_runs_of_the_order() {
     }
     assert_eq!(next as usize, tris.len());
     for ray in &random_rays(1000, 22) {
-        let numbered = bvh.closest::<isa::Portable>(ray, |r, leaf, count| {
+        let numbered = bvh.closest(isa::Portable, ray, |r, leaf, count| {
             let (first, n) = leaves[leaf as usize];
             assert_eq!(n, count);
             leaf_closest(&ordered)(r, first, n)

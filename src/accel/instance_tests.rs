@@ -4,6 +4,7 @@
 
 use super::*;
 use crate::scene::parse_scene;
+use crate::scene::RenderScene;
 use raylab_integrators::{Ray, Sampler, Scene};
 use std::fmt::Write as _;
 use std::path::Path;

@@ -4,9 +4,11 @@
 //! the same order, so both give the same masks and distances, bit for bit, and images do not
 //! depend on the processor.
 //!
-//! Traversal is generic over [`Isa`]; the scene calls the AVX2 instance only from functions
-//! compiled with AVX2 enabled, after checking at run time that the processor has it
-//! (`RenderScene::intersect`).
+//! Traversal is generic over [`Isa`] and takes an instruction set as a value. [`Avx2`] is a
+//! capability token: the only way to make one is [`Avx2::detect`], which returns one only
+//! where the processor has AVX2, so no safe code can run AVX instructions on a processor
+//! without them. The accelerator calls it from functions compiled with AVX2 enabled, so that
+//! the node test inlines into one AVX instruction stream (`WideBvh::closest`).
 
 use super::{Node, Plane, LANES};
 use glam::Vec4;
@@ -22,11 +24,11 @@ pub trait Isa: Copy {
     /// A ray prepared for box tests.
     type BoxRay;
 
-    fn prepare(ray: &Ray) -> Self::BoxRay;
+    fn prepare(self, ray: &Ray) -> Self::BoxRay;
 
     /// Which of the node's boxes the ray meets within `[tmin, tmax]` (bit per child), and
     /// each box's entry distance.
-    fn hits(r: &Self::BoxRay, n: &Node, tmin: f32, tmax: f32) -> (u32, Plane);
+    fn hits(self, r: &Self::BoxRay, n: &Node, tmin: f32, tmax: f32) -> (u32, Plane);
 }
 
 /// For each axis, which plane set (minima 0 or maxima 1) a ray meets first.
@@ -61,7 +63,7 @@ impl Isa for Portable {
     type BoxRay = PortableRay;
 
     #[inline(always)]
-    fn prepare(ray: &Ray) -> PortableRay {
+    fn prepare(self, ray: &Ray) -> PortableRay {
         // obvhs's rays carry a finite inverse direction (a zero component's is huge), so
         // (plane - origin) * inverse is never 0 * inf = NaN.
         PortableRay {
@@ -72,7 +74,7 @@ impl Isa for Portable {
     }
 
     #[inline(always)]
-    fn hits(r: &PortableRay, n: &Node, tmin: f32, tmax: f32) -> (u32, Plane) {
+    fn hits(self, r: &PortableRay, n: &Node, tmin: f32, tmax: f32) -> (u32, Plane) {
         let mut mask = 0;
         let mut entries = [0.0; LANES];
         for half in 0..LANES / 4 {
@@ -91,15 +93,36 @@ impl Isa for Portable {
 #[cfg(target_arch = "x86_64")]
 pub use avx2::Avx2;
 
+/// No AVX2 off x86-64: the token cannot exist.
+#[cfg(not(target_arch = "x86_64"))]
+#[derive(Clone, Copy, Debug)]
+pub enum Avx2 {}
+
+#[cfg(not(target_arch = "x86_64"))]
+impl Avx2 {
+    pub fn detect() -> Option<Avx2> {
+        None
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::*;
     use std::arch::x86_64::*;
 
-    /// One eight-lane AVX vector per plane. Only for code compiled with AVX2 enabled and run
-    /// where the processor has it.
-    #[derive(Clone, Copy)]
-    pub struct Avx2;
+    /// The capability to run AVX2 instructions, and the instruction set that tests a node's
+    /// boxes as one eight-lane AVX vector per plane. Only [`Avx2::detect`] makes one.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Avx2 {
+        _private: (),
+    }
+
+    impl Avx2 {
+        /// The token, where the processor has AVX2.
+        pub fn detect() -> Option<Avx2> {
+            std::arch::is_x86_feature_detected!("avx2").then_some(Avx2 { _private: () })
+        }
+    }
 
     pub struct Avx2Ray {
         origin: [__m256; 3],
@@ -111,7 +134,8 @@ mod avx2 {
     #[inline(always)]
     fn load(p: &Plane) -> __m256 {
         // SAFETY: `p` is eight readable floats; the load has no alignment requirement. The
-        // instruction needs AVX, which the callers of `Avx2` guarantee (module docs).
+        // instruction needs AVX: only methods of an `Avx2` token, which exists only where the
+        // processor has AVX2, reach this function.
         unsafe { _mm256_loadu_ps(p.as_ptr()) }
     }
 
@@ -133,8 +157,8 @@ mod avx2 {
         type BoxRay = Avx2Ray;
 
         #[inline(always)]
-        fn prepare(ray: &Ray) -> Avx2Ray {
-            // SAFETY: splatting needs AVX, which the callers of `Avx2` guarantee.
+        fn prepare(self, ray: &Ray) -> Avx2Ray {
+            // SAFETY: splatting needs AVX; `self` is the token that proves the processor has it.
             let splat = |v: f32| unsafe { _mm256_set1_ps(v) };
             Avx2Ray {
                 origin: ray.origin.to_array().map(splat),
@@ -144,9 +168,9 @@ mod avx2 {
         }
 
         #[inline(always)]
-        fn hits(r: &Avx2Ray, n: &Node, tmin: f32, tmax: f32) -> (u32, Plane) {
-            // SAFETY: AVX arithmetic on values held in registers; the callers of `Avx2`
-            // guarantee the processor has AVX2.
+        fn hits(self, r: &Avx2Ray, n: &Node, tmin: f32, tmax: f32) -> (u32, Plane) {
+            // SAFETY: AVX arithmetic on values held in registers; `self` is the token that
+            // proves the processor has AVX2.
             unsafe {
                 let (nx, fx) = slab(r, n, 0);
                 let (ny, fy) = slab(r, n, 1);

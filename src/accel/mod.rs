@@ -1,0 +1,460 @@
+//! The accelerator: raylab's own BVH over the scene's primitives, and every SIMD routine and
+//! `unsafe` block of the project.
+//!
+//! It takes geometry as plain data ([`Input`]: triangles, spheres, mesh assets and their
+//! instances, each primitive with a material and light index to report) and answers closest
+//! hits and occlusion. Triangles and spheres share one 8-wide BVH ([`bvh`]); the primitives
+//! are laid out in [`packet::Packet`]s, one or two per BVH leaf (spheres' centres and radii in
+//! arrays of their own). Instances of mesh assets are not flattened: they get a two-level BVH
+//! of their own ([`instances`]), traced after the flat BVH with the ray shortened to its hit,
+//! and only when the scene has any. Traversal runs an AVX2 build where the processor has it
+//! (chosen at run time through the [`isa::Avx2`] capability token), with the same bits as the
+//! portable one. Flattening the ECS world into this input is the scene's side
+//! (`crate::scene::flatten`).
+
+mod bvh;
+mod instances;
+mod packet;
+mod primitives;
+
+use arrayvec::ArrayVec;
+use bvh::{isa, isa::Isa, Bvh};
+use glam::{Affine3A, Vec3A};
+use instances::InstanceSet;
+use obvhs::aabb::Aabb;
+use packet::{Lane, LeafTest, Packet, PacketRay, Spheres, Stored, NONE};
+use raylab_integrators::{Hit, Ray};
+use rayon::prelude::*;
+
+/// Triangles in their own space, with optional per-triangle vertex normals (smooth shading)
+/// and their bounds (min, max).
+#[derive(Clone, Copy, Debug)]
+pub struct Mesh<'a> {
+    pub triangles: &'a [[Vec3A; 3]],
+    pub normals: Option<&'a [[Vec3A; 3]]>,
+    pub bounds: (Vec3A, Vec3A),
+}
+
+/// The geometry of one shape.
+#[derive(Clone, Copy, Debug)]
+pub enum Geometry<'a> {
+    /// World-space triangles (their `bounds` are not used).
+    Triangles(Mesh<'a>),
+    Sphere {
+        center: Vec3A,
+        radius: f32,
+    },
+}
+
+/// Which light a shape's primitives report when hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShapeLights {
+    None,
+    /// One light for the whole shape (a sphere, a quad).
+    Whole(u32),
+    /// Light `first + i` for triangle `i` (a mesh emitter).
+    PerTriangle(u32),
+}
+
+/// One shape of the flat (not instanced) geometry.
+#[derive(Clone, Copy, Debug)]
+pub struct Shape<'a> {
+    pub geometry: Geometry<'a>,
+    pub material: u32,
+    pub lights: ShapeLights,
+}
+
+/// One placement of mesh asset `mesh`.
+#[derive(Clone, Copy, Debug)]
+pub struct InstanceDesc {
+    pub mesh: u32,
+    pub material: u32,
+    pub local_to_world: Affine3A,
+}
+
+/// Everything the accelerator is built over.
+#[derive(Clone, Debug, Default)]
+pub struct Input<'a> {
+    pub shapes: Vec<Shape<'a>>,
+    /// Mesh assets, in the order instances refer to them.
+    pub meshes: Vec<Mesh<'a>>,
+    pub instances: Vec<InstanceDesc>,
+}
+
+/// The eight corners of the box `(min, max)`.
+pub fn box_corners((min, max): (Vec3A, Vec3A)) -> [Vec3A; 8] {
+    std::array::from_fn(|i| {
+        Vec3A::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    })
+}
+
+/// Counts of what the accelerator holds, for reports.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AccelStats {
+    pub triangles: usize,
+    pub spheres: usize,
+    pub bvh_nodes: usize,
+    /// Leaves of the flat geometry's BVH.
+    pub bvh_leaves: usize,
+    /// Instances of mesh assets, the triangles of those assets (each once) and the triangles
+    /// the instances place (each asset once per instance).
+    pub instances: usize,
+    pub instanced_triangles: usize,
+    pub placed_triangles: usize,
+}
+
+/// raylab's own BVH over triangles and spheres, and the instances' two-level BVH.
+pub struct WideBvh {
+    pub(crate) bvh: Bvh,
+    /// Per packet of a leaf's primitives (one or two per leaf): the packet and its lane data,
+    /// side by side.
+    pub(crate) packets: Vec<Stored>,
+    /// Per-vertex normals of the triangles that have them ([`packet::LaneData::smooth`]).
+    pub(crate) smooth_normals: Vec<[Vec3A; 3]>,
+    // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
+    pub(crate) sph_center: Vec<Vec3A>,
+    pub(crate) sph_radius: Vec<f32>,
+    /// Instanced meshes (a two-level BVH); empty in most scenes.
+    instances: InstanceSet,
+    /// Bounds of everything, or `None` without geometry.
+    bounds: Option<(Vec3A, Vec3A)>,
+    /// The AVX2 build of the traversal, where the processor has AVX2.
+    pub(crate) avx2: Option<isa::Avx2>,
+    pub stats: AccelStats,
+}
+
+/// One primitive before reordering: a reference into the input's shapes (12 bytes, so that a
+/// million-triangle mesh is not copied before the BVH is built).
+#[derive(Clone, Copy)]
+struct Prim {
+    /// Index into the input's shapes.
+    shape: u32,
+    /// Triangle index within the shape (0 for a sphere).
+    index: u32,
+    light: u32,
+}
+
+impl Prim {
+    fn aabb(self, shapes: &[Shape]) -> Aabb {
+        match shapes[self.shape as usize].geometry {
+            Geometry::Triangles(mesh) => Aabb::from_points(&mesh.triangles[self.index as usize]),
+            Geometry::Sphere { center, radius } => {
+                Aabb::new(center - Vec3A::splat(radius), center + Vec3A::splat(radius))
+            }
+        }
+    }
+}
+
+impl WideBvh {
+    /// Builds the BVHs over `input` (in parallel on rayon's current pool, with the same result
+    /// at any thread count).
+    pub fn build(input: &Input) -> WideBvh {
+        let shapes = &input.shapes;
+        let count = |g: &Geometry| match g {
+            Geometry::Triangles(mesh) => mesh.triangles.len(),
+            Geometry::Sphere { .. } => 1,
+        };
+        let mut prims: Vec<Prim> =
+            Vec::with_capacity(shapes.iter().map(|s| count(&s.geometry)).sum());
+        for (k, shape) in shapes.iter().enumerate() {
+            prims.extend((0..count(&shape.geometry)).map(|i| Prim {
+                shape: k as u32,
+                index: i as u32,
+                light: match shape.lights {
+                    ShapeLights::None => NONE,
+                    ShapeLights::Whole(first) => first,
+                    ShapeLights::PerTriangle(first) => first + i as u32,
+                },
+            }));
+        }
+
+        let instances = InstanceSet::build(&input.meshes, &input.instances);
+        // BVH over every primitive's box, for leaves that test a packet at a time; then one or
+        // two packets per leaf, the leaves numbered in the BVH's primitive order.
+        let (mut bvh, order) = Bvh::build::<bvh::Packets>(prims.len(), |i| prims[i].aabb(shapes));
+        let leaves = bvh.number_leaves(packet::packets_for);
+        let bounds = match bvh.bounds() {
+            Some(b) => instances.bounds.union(&b),
+            None => instances.bounds,
+        };
+
+        // Each position of the BVH's order: its index among the smooth triangles or among the
+        // spheres (a running count, cheap), for the lanes to refer to.
+        let mut aux = Vec::with_capacity(order.len());
+        let (mut smooth, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
+        for &original in &order {
+            let p = prims[original as usize];
+            aux.push(match shapes[p.shape as usize].geometry {
+                Geometry::Triangles(Mesh {
+                    normals: Some(_), ..
+                }) => {
+                    smooth += 1;
+                    smooth - 1
+                }
+                Geometry::Triangles(Mesh { normals: None, .. }) => NONE,
+                Geometry::Sphere { center, radius } => {
+                    sph_center.push(center);
+                    sph_radius.push(radius);
+                    sph_center.len() as u32 - 1
+                }
+            });
+        }
+        // Then, in parallel and in order, the smooth normals and the packets.
+        let smooth_normals: Vec<[Vec3A; 3]> = order
+            .par_iter()
+            .filter_map(|&original| {
+                let p = prims[original as usize];
+                match shapes[p.shape as usize].geometry {
+                    Geometry::Triangles(Mesh {
+                        normals: Some(n), ..
+                    }) => Some(n[p.index as usize]),
+                    _ => None,
+                }
+            })
+            .collect();
+        let lane = |k: u32| {
+            let p = prims[order[k as usize] as usize];
+            let shape = &shapes[p.shape as usize];
+            match shape.geometry {
+                Geometry::Triangles(mesh) => Lane::Triangle {
+                    corners: mesh.triangles[p.index as usize],
+                    material: shape.material,
+                    light: p.light,
+                    smooth: aux[k as usize],
+                },
+                Geometry::Sphere { .. } => Lane::Sphere {
+                    index: aux[k as usize],
+                    material: shape.material,
+                    light: p.light,
+                },
+            }
+        };
+        let runs: Vec<(u32, u32)> = leaves
+            .iter()
+            .flat_map(|&(first, count)| packet::runs(first, count))
+            .collect();
+        let packets: Vec<Stored> = runs
+            .par_iter()
+            .map(|&(first, count)| {
+                let lanes: ArrayVec<Lane, { packet::WIDTH }> =
+                    (first..first + count).map(lane).collect();
+                let (packet, data) = Packet::new(&lanes);
+                Stored { packet, data }
+            })
+            .collect();
+        let stats = AccelStats {
+            triangles: prims.len() - sph_center.len(),
+            spheres: sph_center.len(),
+            bvh_nodes: bvh.node_count() + instances.bvh_nodes(),
+            bvh_leaves: leaves.len(),
+            instances: instances.len(),
+            instanced_triangles: instances.unique_triangles(),
+            placed_triangles: instances.placed_triangles(),
+        };
+        WideBvh {
+            bvh,
+            packets,
+            smooth_normals,
+            sph_center,
+            sph_radius,
+            instances,
+            bounds: bounds.valid().then_some((bounds.min, bounds.max)),
+            avx2: isa::Avx2::detect(),
+            stats,
+        }
+    }
+
+    /// Bounds (min, max) of all geometry, or `None` when there is none.
+    pub fn bounds(&self) -> Option<(Vec3A, Vec3A)> {
+        self.bounds
+    }
+
+    /// Bytes held by the geometry, its per-primitive data and the BVHs (not the materials or
+    /// lights): what a benchmark reports per triangle. Each instanced mesh counts once.
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        let v = |n: usize, each: usize| n * each;
+        self.instances.memory_bytes()
+            + v(self.packets.capacity(), size_of::<Stored>())
+            + v(self.smooth_normals.capacity(), size_of::<[Vec3A; 3]>())
+            + v(self.sph_center.capacity(), size_of::<Vec3A>())
+            + v(self.sph_radius.capacity(), 4)
+            + self.bvh.memory_bytes()
+    }
+
+    fn sphere_geometry(&self) -> Spheres<'_> {
+        Spheres {
+            center: &self.sph_center,
+            radius: &self.sph_radius,
+        }
+    }
+
+    fn to_bvh_ray(ray: &Ray) -> Option<obvhs::ray::Ray> {
+        (ray.origin.is_finite() && ray.dir.is_finite() && !ray.tmax.is_nan())
+            .then(|| bvh::ray(ray.origin, ray.dir, 0.0, ray.tmax))
+    }
+
+    /// The surface record for lane `id % WIDTH` of packet `id / WIDTH`, hit at distance `t`.
+    fn hit_record(&self, ray: &Ray, id: u32, t: f32) -> Hit {
+        let (p, lane) = (id as usize / packet::WIDTH, id as usize % packet::WIDTH);
+        let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
+        if let Some(i) = s.sphere_index(lane, data) {
+            let (c, r) = (self.sph_center[i], self.sph_radius[i]);
+            let n = (ray.at(t) - c).normalize();
+            Hit {
+                t,
+                // Re-project onto the surface: the ray's point carries the rounding of t.
+                p: c + n * r,
+                ng: n,
+                ns: n,
+                material: data.material(lane),
+                light: data.light(lane),
+            }
+        } else {
+            let ng = s.normal(lane);
+            let ns = match data.smooth(lane) {
+                None => ng,
+                Some(k) => {
+                    let (v0, a, b) = s.edges(lane);
+                    let b = barycentrics(v0, a, b, ray.at(t));
+                    let n = self.smooth_normals[k];
+                    let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
+                    if s == Vec3A::ZERO {
+                        ng
+                    } else if s.dot(ng) < 0.0 {
+                        -s
+                    } else {
+                        s
+                    }
+                }
+            };
+            Hit {
+                t,
+                p: ray.at(t),
+                ng,
+                ns,
+                material: data.material(lane),
+                light: data.light(lane),
+            }
+        }
+    }
+}
+
+/// Barycentric weights of `p` (on the triangle's plane) for v0, v1, v2, from the triangle's
+/// `v0` and edges `e1 = v1 - v0`, `e2 = v2 - v0`.
+fn barycentrics(v0: Vec3A, e1: Vec3A, e2: Vec3A, p: Vec3A) -> Vec3A {
+    let d = p - v0;
+    let n = e1.cross(e2);
+    let inv = 1.0 / n.length_squared();
+    let b1 = d.cross(e2).dot(n) * inv;
+    let b2 = e1.cross(d).dot(n) * inv;
+    Vec3A::new(1.0 - b1 - b2, b1, b2)
+}
+
+/// The traversal built for AVX2: the same functions, inlined into these two and compiled
+/// with AVX2 enabled, with the BVH's eight-lane box tests as single AVX operations
+/// ([`bvh::isa`]). Both compute exactly what the portable build does.
+#[cfg(target_arch = "x86_64")]
+impl WideBvh {
+    #[target_feature(enable = "avx2")]
+    fn closest_hit_avx2(&self, avx2: isa::Avx2, ray: &Ray) -> Option<Hit> {
+        self.closest_hit(avx2, ray)
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn any_hit_avx2(&self, avx2: isa::Avx2, ray: &Ray) -> bool {
+        self.any_hit(avx2, ray)
+    }
+}
+
+impl WideBvh {
+    #[inline(always)]
+    fn closest_hit<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> Option<Hit> {
+        let bvh_ray = Self::to_bvh_ray(ray)?;
+        let (lanes, spheres) = (PacketRay::new(&bvh_ray), self.sphere_geometry());
+        let flat = self.bvh.closest(
+            isa,
+            &bvh_ray,
+            #[inline(always)]
+            |r, first, count| {
+                let leaf =
+                    &self.packets[first as usize..(first + packet::packets_for(count)) as usize];
+                let (k, t) = isa.closest(leaf, &lanes, r, r.tmax, &spheres)?;
+                Some((first * packet::WIDTH as u32 + k as u32, t))
+            },
+        );
+        if !self.instances.is_empty() {
+            // Instances only count nearer than the flat geometry's hit.
+            let mut r = bvh_ray;
+            if let Some((_, t)) = flat {
+                r.tmax = t;
+            }
+            if let Some((slot, prim, t)) = self.instances.intersect(isa, &r) {
+                return Some(
+                    self.instances
+                        .hit_record(ray.origin, ray.dir, slot, prim, t),
+                );
+            }
+        }
+        flat.map(|(id, t)| self.hit_record(ray, id, t))
+    }
+
+    #[inline(always)]
+    fn any_hit<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> bool {
+        match Self::to_bvh_ray(ray) {
+            Some(r) => {
+                let (lanes, spheres) = (PacketRay::new(&r), self.sphere_geometry());
+                self.bvh.any(
+                    isa,
+                    &r,
+                    #[inline(always)]
+                    |r, first, count| {
+                        let end = first + packet::packets_for(count);
+                        isa.any(
+                            &self.packets[first as usize..end as usize],
+                            &lanes,
+                            r,
+                            &spheres,
+                        )
+                    },
+                ) || (!self.instances.is_empty() && self.instances.occluded(isa, &r))
+            }
+            None => false,
+        }
+    }
+}
+
+impl WideBvh {
+    /// The closest surface hit by `ray` with `t < ray.tmax`.
+    #[inline]
+    pub fn closest(&self, ray: &Ray) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.avx2 {
+            // SAFETY: the function is compiled for AVX2, and the token exists only where the
+            // processor has it (`Avx2::detect`).
+            return unsafe { self.closest_hit_avx2(avx2, ray) };
+        }
+        self.closest_hit(isa::Portable, ray)
+    }
+
+    /// True if any surface lies on `ray` with `t < ray.tmax`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.avx2 {
+            // SAFETY: as in `closest`.
+            return unsafe { self.any_hit_avx2(avx2, ray) };
+        }
+        self.any_hit(isa::Portable, ray)
+    }
+}
+
+#[cfg(test)]
+mod tests;
+
+#[cfg(test)]
+mod instance_tests;

@@ -1,0 +1,238 @@
+//! Flattening: the ECS world becomes the render scene. Materials and lights go to their
+//! tables (one light per emitting primitive, or per quad, in entity order); the shapes and
+//! instances become the accelerator's input ([`crate::accel::Input`]) and the accelerator is
+//! built over them. The result implements the integrators' [`Scene`] trait and is immutable
+//! and `Sync`.
+
+use super::components::{Instanced, MaterialRef, Name, Transform, WorldShape};
+use super::{systems, LoadedScene};
+use crate::accel::{self, Geometry, InstanceDesc, Mesh, Shape, ShapeLights, WideBvh};
+use glam::Vec3A;
+use hecs::Entity;
+use obvhs::triangle::Triangle;
+use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// Counts and timings of a build, for `raylab validate` and reports.
+#[derive(Clone, Debug, Default)]
+pub struct BuildStats {
+    pub entities: usize,
+    pub triangles: usize,
+    pub spheres: usize,
+    /// Entries in the light table (a quad light is one, a mesh light one per triangle).
+    pub lights: usize,
+    /// Entities that emit.
+    pub emitters: usize,
+    pub bvh_nodes: usize,
+    /// Leaves of the flat scene's BVH.
+    pub bvh_leaves: usize,
+    /// Instances of mesh assets, the triangles of those assets (each once) and the triangles
+    /// the instances place (each asset once per instance).
+    pub instances: usize,
+    pub instanced_triangles: usize,
+    pub placed_triangles: usize,
+    pub build_time: Duration,
+}
+
+/// The flattened, accelerated scene that rendering reads.
+pub struct RenderScene {
+    pub(crate) accel: WideBvh,
+    materials: Vec<Material>,
+    pub(crate) lights: LightTable,
+    bounds: (Vec3A, Vec3A),
+    pub stats: BuildStats,
+}
+
+impl RenderScene {
+    /// [`RenderScene::build`] on `threads` worker threads (every core when `None`), so that
+    /// `--threads` bounds the build as it bounds the render that follows.
+    pub fn build_on_threads(
+        scene: &LoadedScene,
+        threads: Option<usize>,
+    ) -> anyhow::Result<RenderScene> {
+        Ok(match threads {
+            None => Self::build(scene),
+            Some(n) => rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| anyhow::anyhow!("cannot start {n} worker threads: {e}"))?
+                .install(|| Self::build(scene)),
+        })
+    }
+
+    /// Builds the render scene from a loaded world. The world must have been validated and
+    /// baked (as [`crate::scene::load_scene`] does) and hold at least one shape.
+    pub fn build(scene: &LoadedScene) -> RenderScene {
+        let start = Instant::now();
+        let world = &scene.world;
+
+        // Lights: one table entry per emitting primitive (or quad), in entity order.
+        let emitters = systems::collect_emitters(world);
+        let mut lights: Vec<Light> = Vec::new();
+        // Entity -> (first light, count).
+        let mut light_of: HashMap<Entity, (u32, usize)> = HashMap::new();
+        for (entity, ls) in &emitters {
+            light_of.insert(*entity, (lights.len() as u32, ls.len()));
+            lights.extend(ls.iter().cloned());
+        }
+
+        // The accelerator's input: shapes and instances in entity order.
+        let mut query = world.query::<(Entity, &WorldShape, &MaterialRef)>();
+        let mut shaped: Vec<(Entity, &WorldShape, &MaterialRef)> = query.iter().collect();
+        shaped.sort_by_key(|(e, ..)| e.id());
+        let shapes = shaped
+            .iter()
+            .map(|(entity, shape, material)| Shape {
+                geometry: match shape {
+                    WorldShape::Triangles {
+                        triangles, normals, ..
+                    } => Geometry::Triangles(Mesh {
+                        triangles,
+                        normals: normals.as_deref(),
+                        bounds: (Vec3A::ZERO, Vec3A::ZERO),
+                    }),
+                    WorldShape::Sphere { center, radius } => Geometry::Sphere {
+                        center: *center,
+                        radius: *radius,
+                    },
+                },
+                material: material.0,
+                // One light for the whole entity (a sphere, a quad), or one per triangle.
+                lights: match light_of.get(entity) {
+                    None => ShapeLights::None,
+                    Some(&(first, 1)) => ShapeLights::Whole(first),
+                    Some(&(first, _)) => ShapeLights::PerTriangle(first),
+                },
+            })
+            .collect();
+        let mut instances: Vec<(Entity, InstanceDesc)> = world
+            .query::<(Entity, &Instanced, &MaterialRef, &Transform)>()
+            .iter()
+            .map(|(e, inst, m, t)| {
+                let desc = InstanceDesc {
+                    mesh: inst.mesh,
+                    material: m.0,
+                    local_to_world: t.matrix(),
+                };
+                (e, desc)
+            })
+            .collect();
+        instances.sort_by_key(|(e, _)| e.id());
+        let input = accel::Input {
+            shapes,
+            meshes: scene
+                .meshes
+                .iter()
+                .map(|m| Mesh {
+                    triangles: &m.triangles,
+                    normals: m.normals.as_deref(),
+                    bounds: m.bounds,
+                })
+                .collect(),
+            instances: instances.into_iter().map(|(_, d)| d).collect(),
+        };
+        let accel = WideBvh::build(&input);
+
+        // A scene without geometry: a point at the origin.
+        let bounds = accel.bounds().unwrap_or((Vec3A::ZERO, Vec3A::ZERO));
+        let radius = 0.5 * (bounds.1 - bounds.0).length();
+        if let Some(env) = scene.environment {
+            lights.push(Light::Environment { radiance: env });
+        }
+        let lights = LightTable::new(lights, radius);
+        let a = accel.stats;
+        let stats = BuildStats {
+            entities: world.len() as usize,
+            triangles: a.triangles,
+            spheres: a.spheres,
+            lights: lights.len(),
+            emitters: emitters.len() + usize::from(scene.environment.is_some()),
+            bvh_nodes: a.bvh_nodes,
+            bvh_leaves: a.bvh_leaves,
+            instances: a.instances,
+            instanced_triangles: a.instanced_triangles,
+            placed_triangles: a.placed_triangles,
+            build_time: start.elapsed(),
+        };
+        RenderScene {
+            accel,
+            materials: scene.materials.clone(),
+            lights,
+            bounds,
+            stats,
+        }
+    }
+
+    /// Bytes held by the geometry, its per-primitive data and the BVHs (not the materials or
+    /// lights): what a benchmark reports per triangle. Each instanced mesh counts once.
+    pub fn memory_bytes(&self) -> usize {
+        self.accel.memory_bytes()
+    }
+}
+
+impl Scene for RenderScene {
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.accel.closest(ray)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.accel.occluded(ray)
+    }
+
+    fn material(&self, id: u32) -> &Material {
+        &self.materials[id as usize]
+    }
+
+    fn lights(&self) -> &LightTable {
+        &self.lights
+    }
+
+    fn bounds(&self) -> (Vec3A, Vec3A) {
+        self.bounds
+    }
+}
+
+/// The flat (not instanced) triangles of a loaded scene, exactly as the build places them,
+/// in entity order: the geometry `raylab bench` dumps and gives Embree.
+pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
+    let mut shapes: Vec<(Entity, &WorldShape)> = Vec::new();
+    let mut query = scene.world.query::<(Entity, &WorldShape)>();
+    shapes.extend(query.iter());
+    shapes.sort_by_key(|(e, _)| e.id());
+    shapes
+        .iter()
+        .flat_map(|(_, shape)| match shape {
+            WorldShape::Triangles { triangles, .. } => triangles.as_slice(),
+            WorldShape::Sphere { .. } => &[],
+        })
+        .map(|&[v0, v1, v2]| Triangle { v0, v1, v2 })
+        .collect()
+}
+
+/// The spheres of a loaded scene as (centre, radius), in entity order.
+pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
+    let mut spheres: Vec<(u32, Vec3A, f32)> = scene
+        .world
+        .query::<(Entity, &WorldShape)>()
+        .iter()
+        .filter_map(|(e, shape)| match shape {
+            WorldShape::Sphere { center, radius } => Some((e.id(), *center, *radius)),
+            WorldShape::Triangles { .. } => None,
+        })
+        .collect();
+    spheres.sort_by_key(|s| s.0);
+    spheres.into_iter().map(|(_, c, r)| (c, r)).collect()
+}
+
+/// Names of the entities that emit, for reports.
+pub fn emitter_names(scene: &LoadedScene) -> Vec<String> {
+    let mut q = scene
+        .world
+        .query::<(Entity, &Name, &super::components::Emitter)>();
+    let mut v: Vec<_> = q.iter().map(|(e, n, _)| (e.id(), n.0.clone())).collect();
+    v.sort();
+    v.into_iter().map(|(_, n)| n).collect()
+}
