@@ -3,6 +3,7 @@
 //! and the same occlusion; and 100 instances must cost about the memory of one.
 
 use super::*;
+use crate::accel::AccelKind;
 use crate::scene::parse_scene;
 use crate::scene::RenderScene;
 use raylab_integrators::{Ray, Sampler, Scene};
@@ -112,6 +113,68 @@ fn instances_hit_exactly_what_their_flattened_copies_hit() {
 }
 
 #[test]
+fn the_obvhs_backend_hits_what_raylabs_bvh_hits_through_instances() {
+    // Both test the same triangles with the same routines and move rays into instance space
+    // alike: the same hits, bit for bit, and the same occlusion, but for rays that only the
+    // BVHs' boxes decide (obvhs quantises its boxes: a ray starting 7e-5 above the floor's
+    // flat box misses it there).
+    let loaded = parse_scene(&scene_text(24, 2, true, 5), Path::new("instances.ron")).unwrap();
+    let ours = RenderScene::build(&loaded);
+    let obvhs = RenderScene::build_with(&loaded, AccelKind::Obvhs);
+    assert_eq!(obvhs.accel_kind(), AccelKind::Obvhs);
+    let (a, b) = (&ours.stats, &obvhs.stats);
+    assert_eq!(
+        (
+            a.triangles,
+            a.spheres,
+            a.instances,
+            a.placed_triangles,
+            a.instanced_triangles
+        ),
+        (
+            b.triangles,
+            b.spheres,
+            b.instances,
+            b.placed_triangles,
+            b.instanced_triangles
+        )
+    );
+    assert_eq!(ours.bounds(), obvhs.bounds());
+    let mut sampler = Sampler::new(23, 0, 0);
+    let (mut hits, mut instance_hits, mut mismatches) = (0, 0, 0);
+    let rays = 20_000;
+    for i in 0..rays {
+        let origin =
+            Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 14.0 - 7.0;
+        let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
+        let tmax = [f32::INFINITY, sampler.next_1d() * 6.0][i % 2];
+        let ray = Ray { origin, dir, tmax };
+        let (x, y) = (ours.intersect(&ray), obvhs.intersect(&ray));
+        match (x, y) {
+            (None, None) => {}
+            (Some(x), Some(y)) => {
+                assert_eq!(
+                    (x.t.to_bits(), x.p, x.ng, x.ns, x.material, x.light),
+                    (y.t.to_bits(), y.p, y.ng, y.ns, y.material, y.light),
+                    "ray {i}"
+                );
+                hits += 1;
+                // Neither on the floor (z = -1) nor on the orb (radius 0.7 at z = 3): an instance.
+                let on_orb = ((x.p - Vec3A::new(0.0, 0.0, 3.0)).length() - 0.7).abs() < 1e-3;
+                instance_hits += usize::from((x.p.z + 1.0).abs() > 1e-4 && !on_orb);
+            }
+            _ => mismatches += 1,
+        }
+        mismatches += usize::from(ours.occluded(&ray) != obvhs.occluded(&ray));
+    }
+    assert!(mismatches <= rays / 2000, "{mismatches} mismatches");
+    assert!(
+        hits > 4000 && instance_hits > 500,
+        "{hits} hits, {instance_hits} on instances"
+    );
+}
+
+#[test]
 fn a_hundred_instances_cost_about_one_copy_of_the_mesh() {
     // 20,480 triangles a ball.
     let mesh = |n: usize| {
@@ -147,7 +210,9 @@ fn a_hundred_instances_cost_about_one_copy_of_the_mesh() {
 #[test]
 fn the_instance_build_does_not_depend_on_the_thread_count() {
     let loaded = parse_scene(&scene_text(40, 3, true, 9), Path::new("instances.ron")).unwrap();
-    let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
+    let build = |threads: usize| {
+        RenderScene::build_on_threads(&loaded, AccelKind::Raylab, Some(threads)).unwrap()
+    };
     let (a, b) = (build(1), build(2));
     let mut sampler = Sampler::new(3, 0, 0);
     for _ in 0..2000 {

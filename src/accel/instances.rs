@@ -267,14 +267,7 @@ impl InstanceSet {
                 // Each vertex normal to world space, then interpolated: as the flattened build
                 // does, so an instance shades like its flattened copy under non-uniform scales.
                 let n = normals.map(|n| (normal_matrix * n).normalize_or_zero());
-                let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
-                if s == Vec3A::ZERO {
-                    ng
-                } else if s.dot(ng) < 0.0 {
-                    -s
-                } else {
-                    s
-                }
+                super::shading_normal(ng, b, n)
             }
         };
         Hit {

@@ -14,8 +14,11 @@
 
 mod bvh;
 mod instances;
+mod obvhs_backend;
 mod packet;
 mod primitives;
+
+pub use obvhs_backend::ObvhsBvh;
 
 use arrayvec::ArrayVec;
 use bvh::{isa, isa::Isa, Bvh};
@@ -105,6 +108,118 @@ pub struct AccelStats {
     pub instances: usize,
     pub instanced_triangles: usize,
     pub placed_triangles: usize,
+}
+
+/// What an accelerator answers: closest hits and occlusion over the geometry it was built over.
+pub trait Accelerator: Sync {
+    /// The closest surface hit by `ray` with `t < ray.tmax`.
+    fn closest(&self, ray: &Ray) -> Option<Hit>;
+    /// True if any surface lies on `ray` with `t < ray.tmax`.
+    fn occluded(&self, ray: &Ray) -> bool;
+    /// Bounds (min, max) of all geometry, or `None` when there is none.
+    fn bounds(&self) -> Option<(Vec3A, Vec3A)>;
+    fn stats(&self) -> AccelStats;
+    /// Bytes held by the geometry, its per-primitive data and the BVHs.
+    fn memory_bytes(&self) -> usize;
+}
+
+/// The accelerators raylab offers (`--accel`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AccelKind {
+    /// raylab's own 8-wide BVH with packet leaves ([`WideBvh`]).
+    #[default]
+    Raylab,
+    /// The obvhs crate's CWBVH ([`ObvhsBvh`]).
+    Obvhs,
+}
+
+/// The accelerators by name, as `--accel` takes them.
+pub const ACCEL_NAMES: [&str; 2] = ["raylab", "obvhs"];
+
+impl std::str::FromStr for AccelKind {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<AccelKind, String> {
+        match name {
+            "raylab" => Ok(AccelKind::Raylab),
+            "obvhs" => Ok(AccelKind::Obvhs),
+            _ => Err(format!(
+                "unknown accelerator `{name}`; valid accelerators: {}",
+                ACCEL_NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for AccelKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            AccelKind::Raylab => "raylab",
+            AccelKind::Obvhs => "obvhs",
+        })
+    }
+}
+
+/// One accelerator of either kind: dispatched by a match, not a second virtual call per ray.
+pub enum Accel {
+    Raylab(WideBvh),
+    Obvhs(ObvhsBvh),
+}
+
+impl Accel {
+    /// Builds the accelerator of kind `kind` over `input`.
+    pub fn build(kind: AccelKind, input: &Input) -> Accel {
+        match kind {
+            AccelKind::Raylab => Accel::Raylab(WideBvh::build(input)),
+            AccelKind::Obvhs => Accel::Obvhs(ObvhsBvh::build(input)),
+        }
+    }
+
+    pub fn kind(&self) -> AccelKind {
+        match self {
+            Accel::Raylab(_) => AccelKind::Raylab,
+            Accel::Obvhs(_) => AccelKind::Obvhs,
+        }
+    }
+}
+
+impl Accelerator for Accel {
+    #[inline]
+    fn closest(&self, ray: &Ray) -> Option<Hit> {
+        match self {
+            Accel::Raylab(a) => a.closest(ray),
+            Accel::Obvhs(a) => a.closest(ray),
+        }
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        match self {
+            Accel::Raylab(a) => a.occluded(ray),
+            Accel::Obvhs(a) => a.occluded(ray),
+        }
+    }
+
+    fn bounds(&self) -> Option<(Vec3A, Vec3A)> {
+        match self {
+            Accel::Raylab(a) => a.bounds(),
+            Accel::Obvhs(a) => a.bounds(),
+        }
+    }
+
+    fn stats(&self) -> AccelStats {
+        match self {
+            Accel::Raylab(a) => a.stats,
+            Accel::Obvhs(a) => a.stats,
+        }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        match self {
+            Accel::Raylab(a) => a.memory_bytes(),
+            Accel::Obvhs(a) => a.memory_bytes(),
+        }
+    }
 }
 
 /// raylab's own BVH over triangles and spheres, and the instances' two-level BVH.
@@ -304,32 +419,18 @@ impl WideBvh {
         let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
         if let Some(i) = s.sphere_index(lane, data) {
             let (c, r) = (self.sph_center[i], self.sph_radius[i]);
-            let n = (ray.at(t) - c).normalize();
-            Hit {
-                t,
-                // Re-project onto the surface: the ray's point carries the rounding of t.
-                p: c + n * r,
-                ng: n,
-                ns: n,
-                material: data.material(lane),
-                light: data.light(lane),
-            }
+            sphere_hit(ray, t, c, r, data.material(lane), data.light(lane))
         } else {
             let ng = s.normal(lane);
             let ns = match data.smooth(lane) {
                 None => ng,
                 Some(k) => {
                     let (v0, a, b) = s.edges(lane);
-                    let b = barycentrics(v0, a, b, ray.at(t));
-                    let n = self.smooth_normals[k];
-                    let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
-                    if s == Vec3A::ZERO {
-                        ng
-                    } else if s.dot(ng) < 0.0 {
-                        -s
-                    } else {
-                        s
-                    }
+                    shading_normal(
+                        ng,
+                        barycentrics(v0, a, b, ray.at(t)),
+                        self.smooth_normals[k],
+                    )
                 }
             };
             Hit {
@@ -341,6 +442,35 @@ impl WideBvh {
                 light: data.light(lane),
             }
         }
+    }
+}
+
+/// The surface record of a sphere hit at distance `t` along `ray`: the point re-projected onto
+/// the surface (the ray's point carries the rounding of t), the outward normal.
+#[inline]
+fn sphere_hit(ray: &Ray, t: f32, c: Vec3A, r: f32, material: u32, light: Option<u32>) -> Hit {
+    let n = (ray.at(t) - c).normalize();
+    Hit {
+        t,
+        p: c + n * r,
+        ng: n,
+        ns: n,
+        material,
+        light,
+    }
+}
+
+/// The shading normal at barycentric weights `b` from the vertex normals `n`, turned to the
+/// side of the geometric normal `ng` (`ng` itself where the interpolation vanishes).
+#[inline]
+fn shading_normal(ng: Vec3A, b: Vec3A, n: [Vec3A; 3]) -> Vec3A {
+    let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
+    if s == Vec3A::ZERO {
+        ng
+    } else if s.dot(ng) < 0.0 {
+        -s
+    } else {
+        s
     }
 }
 

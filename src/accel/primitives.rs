@@ -11,8 +11,8 @@ use obvhs::ray::Ray;
 /// with one difference: a barycentric coordinate of -0.0 counts as inside. obvhs tests the
 /// three sign bits at once, so a ray exactly on an edge shared by two triangles (a camera ray
 /// along the diagonal of a quad, an axis-aligned ray along a box's seam) missed both and
-/// leaked through; here it hits one of them, as in Embree.
-#[cfg(test)]
+/// leaked through; here it hits one of them, as in Embree. The obvhs backend tests triangles
+/// with it.
 pub fn intersect_triangle(tri: &[Vec3A; 3], ray: &Ray) -> f32 {
     moller_trumbore::<false>(tri, ray)
 }
@@ -20,12 +20,11 @@ pub fn intersect_triangle(tri: &[Vec3A; 3], ray: &Ray) -> f32 {
 /// The same distance with the inside test as one check of three sign bits (after turning
 /// -0.0 into +0.0), without branches: what raylab's occlusion queries used before packets.
 /// It accepts and rejects the same points as [`intersect_triangle`].
-#[cfg(test)]
 pub fn occludes_triangle(tri: &[Vec3A; 3], ray: &Ray) -> f32 {
     moller_trumbore::<true>(tri, ray)
 }
 
-#[cfg(test)]
+#[inline(always)]
 fn moller_trumbore<const BRANCH_FREE: bool>(tri: &[Vec3A; 3], ray: &Ray) -> f32 {
     let [v0, v1, v2] = *tri;
     let e1 = v0 - v1;

@@ -1,6 +1,7 @@
 //! The build step against brute force: thousands of random rays, closest hit and occlusion.
 
 use super::*;
+use crate::accel::AccelKind;
 use crate::scene::components::WorldShape;
 use crate::scene::parse_scene;
 use crate::scene::RenderScene;
@@ -10,6 +11,14 @@ use raylab_integrators::Light;
 use raylab_integrators::{Ray, Sampler, Scene};
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// The scene's accelerator, which these tests build as raylab's own.
+fn wide(scene: &RenderScene) -> &WideBvh {
+    match &scene.accel {
+        Accel::Raylab(w) => w,
+        Accel::Obvhs(_) => unreachable!("built with RenderScene::build"),
+    }
+}
 
 /// A scene of random triangles (one mesh) and spheres, as RON text.
 fn random_scene(triangles: usize, spheres: usize, seed: u64) -> String {
@@ -72,7 +81,17 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
     let loaded = parse_scene(&random_scene(3000, 40, 7), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
     let mut portable = RenderScene::build(&loaded);
-    portable.accel.avx2 = None;
+    match &mut portable.accel {
+        Accel::Raylab(w) => w.avx2 = None,
+        Accel::Obvhs(_) => unreachable!(),
+    }
+    // The obvhs backend tests the same primitives with the same routines: the same hits.
+    let obvhs = RenderScene::build_with(&loaded, AccelKind::Obvhs);
+    assert_eq!(
+        (obvhs.stats.triangles, obvhs.stats.spheres),
+        (scene.stats.triangles, scene.stats.spheres)
+    );
+    assert_eq!(obvhs.bounds(), scene.bounds());
     let baked_triangles: usize = loaded
         .world
         .query::<&WorldShape>()
@@ -114,6 +133,8 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
             "ray {i}: builds differ"
         );
         assert_eq!(portable.occluded(&ray), scene.occluded(&ray), "ray {i}");
+        assert!(same(&obvhs.intersect(&ray), &got), "ray {i}: obvhs differs");
+        assert_eq!(obvhs.occluded(&ray), scene.occluded(&ray), "ray {i}: obvhs");
         match (expected, got) {
             (None, None) => {}
             (Some((t, p)), Some(h)) => {
@@ -152,7 +173,7 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
                 match scene.lights.get(light) {
                     Light::Sphere { center, radius, .. } => assert_eq!(
                         (*center, *radius),
-                        (scene.accel.sph_center[i], scene.accel.sph_radius[i])
+                        (wide(&scene).sph_center[i], wide(&scene).sph_radius[i])
                     ),
                     other => panic!("{other:?}"),
                 }
@@ -166,8 +187,7 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
 
 /// Every packet lane that holds a primitive, with its packet and lane data.
 fn used_lanes(scene: &RenderScene) -> impl Iterator<Item = (&Packet, &LaneData, usize)> {
-    scene
-        .accel
+    wide(scene)
         .packets
         .iter()
         .flat_map(|s| (0..packet::WIDTH).map(move |lane| (&s.packet, &s.data, lane)))
@@ -241,7 +261,7 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
                 smooth += 1;
                 let x = i as f32 * 0.1;
                 let expected = Vec3A::new(0.0, x, 1.0).normalize();
-                assert!(scene.accel.smooth_normals[k][1].abs_diff_eq(expected, 1e-6));
+                assert!(wide(&scene).smooth_normals[k][1].abs_diff_eq(expected, 1e-6));
             }
             None => assert_ne!(mesh, 2),
         }
@@ -254,15 +274,17 @@ fn the_build_does_not_depend_on_the_thread_count() {
     // The BVH is built in parallel on the current rayon pool (--threads sets it): the BVH and the
     // primitive order must come out the same on 1 and 2 threads (the images rely on it).
     let loaded = parse_scene(&random_scene(5000, 30, 11), Path::new("random.ron")).unwrap();
-    let build = |threads: usize| RenderScene::build_on_threads(&loaded, Some(threads)).unwrap();
+    let build = |threads: usize| {
+        RenderScene::build_on_threads(&loaded, AccelKind::Raylab, Some(threads)).unwrap()
+    };
     let (a, b) = (build(1), build(2));
-    assert_eq!(a.accel.bvh, b.accel.bvh);
+    assert_eq!(wide(&a).bvh, wide(&b).bvh);
     // Compared bit for bit: a sphere's lane holds NaNs.
     let bits = |s: &RenderScene| -> Vec<Vec<u32>> {
-        s.accel.packets.iter().map(|p| p.packet.to_bits()).collect()
+        wide(s).packets.iter().map(|p| p.packet.to_bits()).collect()
     };
     assert_eq!(bits(&a), bits(&b));
     let data =
-        |s: &RenderScene| -> Vec<LaneData> { s.accel.packets.iter().map(|p| p.data).collect() };
+        |s: &RenderScene| -> Vec<LaneData> { wide(s).packets.iter().map(|p| p.data).collect() };
     assert_eq!(data(&a), data(&b));
 }

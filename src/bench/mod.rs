@@ -18,6 +18,7 @@
 #[cfg(feature = "embree")]
 mod embree;
 
+use crate::accel::AccelKind;
 use crate::render::{self, RenderSettings};
 use crate::scene::RenderScene;
 use crate::scene::{parse_scene, Camera, LoadedScene};
@@ -42,6 +43,8 @@ pub struct BenchOptions {
     pub dump: Option<PathBuf>,
     /// Also run the Embree comparison (`embree` feature only; see `embree.rs`).
     pub embree: bool,
+    /// Also build and trace every case with the obvhs backend.
+    pub obvhs: bool,
     /// The cases to run, by name ([`CASES`]); all when empty.
     pub cases: Vec<String>,
     /// Embree comparison: rounds of raylab and Embree measured in turn, of which the medians
@@ -261,6 +264,48 @@ fn dump(dir: &Path, case: &Case, coherent: &[Ray], incoherent: &[Ray]) -> Result
 }
 
 /// Runs every case and returns the report as text (also printed as it goes).
+/// The obvhs backend on the same case and rays: its build and memory, and per ray kind and
+/// thread count its rates with the raylab/obvhs ratios (measured right after raylab's).
+fn compare_obvhs(
+    case: &Case,
+    rays: &[(&str, &Vec<Ray>)],
+    threads: &[usize],
+    say: &mut dyn FnMut(String),
+) -> Result<()> {
+    let start = Instant::now();
+    let obvhs = RenderScene::build_with(case.source()?, AccelKind::Obvhs);
+    let build = start.elapsed();
+    let tris = case.stored_triangles().max(1);
+    say(format!(
+        "{:<14} obvhs build {:.1} ms (raylab/obvhs time {:.2}), geometry + BVH {:.1} MB ({:.0} bytes/triangle)",
+        case.name,
+        build.as_secs_f64() * 1e3,
+        case.build_time.as_secs_f64() / build.as_secs_f64().max(1e-9),
+        obvhs.memory_bytes() as f64 / 1e6,
+        obvhs.memory_bytes() as f64 / tris as f64
+    ));
+    let ours = &case.scene;
+    for (kind, rays) in rays {
+        for &t in threads {
+            let (c0, _) = rays_per_second(rays, t, &|r| ours.intersect(r).is_some())?;
+            let (c1, _) = rays_per_second(rays, t, &|r| obvhs.intersect(r).is_some())?;
+            let (o0, _) = rays_per_second(rays, t, &|r| ours.occluded(r))?;
+            let (o1, _) = rays_per_second(rays, t, &|r| obvhs.occluded(r))?;
+            say(format!(
+                "{:<14} obvhs {:>10} {:>2} threads: closest {:.2} M/s (raylab/obvhs {:.2}), occlusion {:.2} M/s (raylab/obvhs {:.2})",
+                case.name,
+                kind,
+                t,
+                c1 / 1e6,
+                c0 / c1,
+                o1 / 1e6,
+                o0 / o1
+            ));
+        }
+    }
+    Ok(())
+}
+
 pub fn run(opts: &BenchOptions) -> Result<String> {
     let mut out = String::new();
     let mut say = |line: String| {
@@ -284,7 +329,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
     ));
     #[cfg(feature = "embree")]
     let mut embree_header = opts.embree.then(|| embree::header(opts.rounds));
-    let keep = opts.embree || opts.dump.is_some();
+    let keep = opts.embree || opts.obvhs || opts.dump.is_some();
     // In the order of CASES, whose names they are given.
     let cases: Vec<Box<dyn Fn(&'static str) -> Result<Case>>> = vec![
         Box::new(|name| {
@@ -310,7 +355,7 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                 name,
                 "scenes/instances.ron",
                 include_str!("../../scenes/instances.ron"),
-                opts.embree,
+                opts.embree || opts.obvhs,
             )
         }),
     ];
@@ -381,6 +426,14 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
                 s.bvh_leaves,
                 (s.triangles + s.spheres) as f64 / s.bvh_leaves as f64
             ));
+        }
+        if opts.obvhs {
+            compare_obvhs(
+                &case,
+                &[("coherent", &coherent), ("incoherent", &incoherent)],
+                &opts.threads,
+                &mut say,
+            )?;
         }
         if case.shade {
             let mut integrator = raylab_integrators::find("path")?.instantiate(&[])?;

@@ -104,6 +104,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         note: args.note.clone(),
         region,
         filter: args.filter,
+        accel: args.accel,
     };
     compare::run(&opts)?;
     eprintln!("wrote {}", args.output.join("index.html").display());

@@ -35,6 +35,7 @@ struct Common<'a> {
     size: Option<&'a str>,
     exposure: f32,
     filter: Option<raylab_integrators::Filter>,
+    accel: crate::accel::AccelKind,
 }
 
 /// The [`Common`] flags of a [`RenderArgs`] or a [`ServeArgs`] (same names, two structs).
@@ -50,6 +51,7 @@ macro_rules! common {
             size: $args.size.as_deref(),
             exposure: $args.exposure,
             filter: $args.filter,
+            accel: $args.accel,
         }
     };
 }
@@ -84,6 +86,7 @@ fn settings(c: &Common, interval: Duration) -> Result<(LiveSettings, live::Selec
             seed: c.seed,
             threads: c.threads,
             filter: c.filter,
+            accel: c.accel,
             image_interval: interval,
         },
         selection,

@@ -68,6 +68,10 @@ pub struct RenderArgs {
     /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
+    /// Accelerator: raylab (its own 8-wide BVH, the default) or obvhs (the obvhs crate's
+    /// CWBVH). Images agree up to rounding at primitive edges.
+    #[arg(long, value_name = "NAME", default_value = "raylab", value_parser = parse_accel)]
+    pub accel: crate::accel::AccelKind,
     /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
     /// radius 2); default: the scene's `render.filter`, else box.
     #[arg(long, value_name = "NAME", value_parser = parse_filter)]
@@ -132,6 +136,10 @@ pub struct ServeArgs {
     /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
+    /// Accelerator: raylab (its own 8-wide BVH, the default) or obvhs (the obvhs crate's
+    /// CWBVH). Images agree up to rounding at primitive edges.
+    #[arg(long, value_name = "NAME", default_value = "raylab", value_parser = parse_accel)]
+    pub accel: crate::accel::AccelKind,
     /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
     /// radius 2); default: the scene's `render.filter`, else box.
     #[arg(long, value_name = "NAME", value_parser = parse_filter)]
@@ -181,6 +189,10 @@ pub struct CompareArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Accelerator: raylab (its own 8-wide BVH, the default) or obvhs (the obvhs crate's
+    /// CWBVH). Images agree up to rounding at primitive edges.
+    #[arg(long, value_name = "NAME", default_value = "raylab", value_parser = parse_accel)]
+    pub accel: crate::accel::AccelKind,
     /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
     /// radius 2); default: the scene's `render.filter`, else box.
     #[arg(long, value_name = "NAME", value_parser = parse_filter)]
@@ -218,6 +230,10 @@ pub struct BenchArgs {
     /// times, memory and hit agreement (needs a build with `--features embree`).
     #[arg(long)]
     pub embree: bool,
+    /// Also build every case with the obvhs backend (`--accel obvhs`) and print its build
+    /// time, memory and rates beside raylab's, with the raylab/obvhs ratios.
+    #[arg(long)]
+    pub obvhs: bool,
     /// Run only these cases (comma-separated; default: all).
     #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(crate::bench::CASES))]
     pub case: Vec<String>,
@@ -315,6 +331,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 threads,
                 dump: args.dump.clone(),
                 embree: args.embree,
+                obvhs: args.obvhs,
                 cases: args.case.clone(),
                 rounds: args.rounds as usize,
             })?;
@@ -325,5 +342,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
 
 /// `--filter NAME`.
 fn parse_filter(name: &str) -> Result<raylab_integrators::Filter, String> {
+    name.parse()
+}
+
+/// `--accel NAME`.
+fn parse_accel(name: &str) -> Result<crate::accel::AccelKind, String> {
     name.parse()
 }

@@ -108,7 +108,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let seed = args.seed.unwrap_or(loaded.render.seed);
 
     render::check_memory(camera.width, camera.height)?;
-    let built = RenderScene::build_on_threads(&loaded, args.threads)?;
+    let built = RenderScene::build_on_threads(&loaded, args.accel, args.threads)?;
     let settings = RenderSettings {
         spp,
         seed,
@@ -125,12 +125,13 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             let scene_bytes = crate::scene::references::scene_content(&args.scene)
                 .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
             let settings_text = format!(
-                "{} {:?} spp={spp:?} seed={seed} {}x{} filter={} v{}",
+                "{} {:?} spp={spp:?} seed={seed} {}x{} filter={} accel={} v{}",
                 entry.name,
                 params,
                 camera.width,
                 camera.height,
                 settings.filter,
+                args.accel,
                 env!("CARGO_PKG_VERSION")
             );
             checkpoint::stable_hash(&[&scene_bytes, settings_text.as_bytes()])

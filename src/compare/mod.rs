@@ -65,6 +65,8 @@ pub struct CompareOptions {
     pub note: Option<String>,
     /// A pixel rectangle measured on its own as well (a caustic, a shadow).
     pub region: Option<Region>,
+    /// The accelerator every render is traced with.
+    pub accel: crate::accel::AccelKind,
     /// Pixel reconstruction filter for every render and the reference; `None`: the scene's.
     pub filter: Option<raylab_integrators::Filter>,
 }
@@ -325,7 +327,7 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
             );
         }
     }
-    let built = RenderScene::build_on_threads(&loaded, opts.threads)?;
+    let built = RenderScene::build_on_threads(&loaded, opts.accel, opts.threads)?;
     let (reference, reference_what) = reference(opts, &built, &camera)?;
     output::write_image(
         &opts.out_dir.join("reference.exr"),

@@ -77,6 +77,8 @@ pub struct LiveSettings {
     /// Seed overriding the scene's.
     pub seed: Option<u64>,
     pub threads: Option<usize>,
+    /// The accelerator renders are traced with.
+    pub accel: crate::accel::AccelKind,
     /// Pixel reconstruction filter overriding the scene's.
     pub filter: Option<raylab_integrators::Filter>,
     /// Shortest time between two images handed to the observer (the first pass and the last
@@ -255,7 +257,7 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
         None => loaded.camera.clone(),
     };
     render::check_memory(camera.width, camera.height)?;
-    let built = RenderScene::build_on_threads(&loaded, settings.threads)?;
+    let built = RenderScene::build_on_threads(&loaded, settings.accel, settings.threads)?;
     let info = RenderInfo {
         integrator: entry.name,
         params: param_values(entry, &params),

@@ -6,7 +6,9 @@
 
 use super::components::{Instanced, MaterialRef, Name, Transform, WorldShape};
 use super::{systems, LoadedScene};
-use crate::accel::{self, Geometry, InstanceDesc, Mesh, Shape, ShapeLights, WideBvh};
+use crate::accel::{
+    self, Accel, AccelKind, Accelerator, Geometry, InstanceDesc, Mesh, Shape, ShapeLights,
+};
 use glam::Vec3A;
 use hecs::Entity;
 use obvhs::triangle::Triangle;
@@ -37,7 +39,7 @@ pub struct BuildStats {
 
 /// The flattened, accelerated scene that rendering reads.
 pub struct RenderScene {
-    pub(crate) accel: WideBvh,
+    pub(crate) accel: Accel,
     materials: Vec<Material>,
     pub(crate) lights: LightTable,
     bounds: (Vec3A, Vec3A),
@@ -45,25 +47,31 @@ pub struct RenderScene {
 }
 
 impl RenderScene {
-    /// [`RenderScene::build`] on `threads` worker threads (every core when `None`), so that
-    /// `--threads` bounds the build as it bounds the render that follows.
+    /// [`RenderScene::build_with`] on `threads` worker threads (every core when `None`), so
+    /// that `--threads` bounds the build as it bounds the render that follows.
     pub fn build_on_threads(
         scene: &LoadedScene,
+        kind: AccelKind,
         threads: Option<usize>,
     ) -> anyhow::Result<RenderScene> {
         Ok(match threads {
-            None => Self::build(scene),
+            None => Self::build_with(scene, kind),
             Some(n) => rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
                 .map_err(|e| anyhow::anyhow!("cannot start {n} worker threads: {e}"))?
-                .install(|| Self::build(scene)),
+                .install(|| Self::build_with(scene, kind)),
         })
     }
 
-    /// Builds the render scene from a loaded world. The world must have been validated and
-    /// baked (as [`crate::scene::load_scene`] does) and hold at least one shape.
+    /// [`RenderScene::build_with`] raylab's own accelerator.
     pub fn build(scene: &LoadedScene) -> RenderScene {
+        Self::build_with(scene, AccelKind::Raylab)
+    }
+
+    /// Builds the render scene from a loaded world over an accelerator of kind `kind`. The
+    /// world must have been validated and baked (as [`crate::scene::load_scene`] does).
+    pub fn build_with(scene: &LoadedScene, kind: AccelKind) -> RenderScene {
         let start = Instant::now();
         let world = &scene.world;
 
@@ -132,7 +140,7 @@ impl RenderScene {
                 .collect(),
             instances: instances.into_iter().map(|(_, d)| d).collect(),
         };
-        let accel = WideBvh::build(&input);
+        let accel = Accel::build(kind, &input);
 
         // A scene without geometry: a point at the origin.
         let bounds = accel.bounds().unwrap_or((Vec3A::ZERO, Vec3A::ZERO));
@@ -141,7 +149,7 @@ impl RenderScene {
             lights.push(Light::Environment { radiance: env });
         }
         let lights = LightTable::new(lights, radius);
-        let a = accel.stats;
+        let a = accel.stats();
         let stats = BuildStats {
             entities: world.len() as usize,
             triangles: a.triangles,
@@ -168,6 +176,11 @@ impl RenderScene {
     /// lights): what a benchmark reports per triangle. Each instanced mesh counts once.
     pub fn memory_bytes(&self) -> usize {
         self.accel.memory_bytes()
+    }
+
+    /// Which accelerator the scene was built over.
+    pub fn accel_kind(&self) -> AccelKind {
+        self.accel.kind()
     }
 }
 

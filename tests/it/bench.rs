@@ -129,3 +129,46 @@ fn rounds_must_be_at_least_one() {
     assert!(err.contains("--rounds"), "{err}");
     assert!(o.stdout.is_empty());
 }
+
+/// `--obvhs` builds every case with the obvhs backend too and prints its rates beside raylab's.
+#[test]
+fn bench_compares_the_obvhs_backend_side_by_side() {
+    let o = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args([
+            "bench",
+            "--rays",
+            "3000",
+            "--threads",
+            "1",
+            "--case",
+            "cornell-box,instances",
+            "--obvhs",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for case in ["cornell-box", "instances"] {
+        assert!(
+            text.lines()
+                .any(|l| l.starts_with(case) && l.contains("obvhs build")),
+            "{text}"
+        );
+        for kind in ["coherent", "incoherent"] {
+            let line = text
+                .lines()
+                .find(|l| l.starts_with(case) && l.contains(" obvhs ") && l.contains(kind))
+                .unwrap_or_else(|| panic!("{case} {kind}: no obvhs line\n{text}"));
+            // Two positive ratios on the line.
+            let ratios: Vec<f64> = line
+                .split("raylab/obvhs ")
+                .skip(1)
+                .map(|r| r[..r.find(')').unwrap()].parse().unwrap())
+                .collect();
+            assert!(
+                ratios.len() == 2 && ratios.iter().all(|r| *r > 0.0),
+                "{line}"
+            );
+        }
+    }
+}
