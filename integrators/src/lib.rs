@@ -38,7 +38,7 @@ pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
 pub use geometry::{Frame, Hit, Ray};
 pub use integrator::{Integrator, PixelSample, RayCounters, RayIntegrator, Splats, Tracer};
-pub use light::{EmissionSample, Light, LightSample, LightTable};
+pub use light::{LeSample, Light, LightSample, LightTable};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};
 pub use sampler::Sampler;
 pub use scene::Scene;

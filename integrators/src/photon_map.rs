@@ -2,7 +2,7 @@
 //! point to estimate the radiance it reflects. Shared by the `photon` and `sppm` integrators.
 //!
 //! * **Emission.** A light is picked in proportion to its power ([`crate::LightTable`]), a ray
-//!   leaves it by [`crate::Light::sample_emission`], and the photon carries
+//!   leaves it by [`crate::Light::sample_le`], and the photon carries
 //!   `Le cos / (pdf_pos pdf_dir pmf N)` watts per channel for `N` emitted photons, so the
 //!   stored powers are an unbiased estimate of the flux arriving at surfaces.
 //! * **Scattering.** BSDF sampling with importance-transport weights
@@ -126,7 +126,7 @@ fn trace_one(
     let Some(emission) = scene
         .lights()
         .get(index)
-        .sample_emission(u_pos, u_dir, u_side, center, radius)
+        .sample_le(u_pos, u_dir, u_side, center, radius)
     else {
         return;
     };
@@ -471,7 +471,7 @@ mod tests {
             .lights()
             .iter()
             .map(|l| match l {
-                crate::Light::Triangle { area, .. } => *area as f64,
+                crate::Light::Planar(l) => l.area as f64,
                 _ => 0.0,
             })
             .sum();

@@ -7,6 +7,7 @@ use crate::scene::parse_scene;
 use crate::scene::RenderScene;
 use glam::Vec3A;
 use packet::LaneData;
+use raylab_integrators::light::{Planar, SphereLight};
 use raylab_integrators::Light;
 use raylab_integrators::{Ray, Sampler, Scene};
 use std::fmt::Write as _;
@@ -171,7 +172,7 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
                 let light = d.light(lane).expect("every sphere emits");
                 sphere_lights.push(light);
                 match scene.lights.get(light) {
-                    Light::Sphere { center, radius, .. } => assert_eq!(
+                    Light::Sphere(SphereLight { center, radius, .. }) => assert_eq!(
                         (*center, *radius),
                         (wide(&scene).sph_center[i], wide(&scene).sph_radius[i])
                     ),
@@ -249,7 +250,7 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
                 assert_eq!(mesh, 1);
                 lit += 1;
                 match scene.lights.get(l) {
-                    Light::Triangle { p0, .. } => assert_eq!(*p0, v0),
+                    Light::Planar(Planar { p0, .. }) => assert_eq!(*p0, v0),
                     other => panic!("{other:?}"),
                 }
             }

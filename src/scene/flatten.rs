@@ -146,7 +146,7 @@ impl RenderScene {
         let bounds = accel.bounds().unwrap_or((Vec3A::ZERO, Vec3A::ZERO));
         let radius = 0.5 * (bounds.1 - bounds.0).length();
         if let Some(env) = scene.environment {
-            lights.push(Light::Environment { radiance: env });
+            lights.push(Light::environment(env));
         }
         let lights = LightTable::new(lights, radius);
         let a = accel.stats();

@@ -479,17 +479,10 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
         .filter_map(|(entity, emitter, transform, shape)| {
             let lights = match (*emitter, shape) {
                 (Emitter::Point { intensity }, _) => {
-                    vec![Light::Point {
-                        position: transform.translate.into(),
-                        intensity,
-                    }]
+                    vec![Light::point(transform.translate.into(), intensity)]
                 }
                 (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
-                    vec![Light::Sphere {
-                        center: *center,
-                        radius: *radius,
-                        radiance,
-                    }]
+                    vec![Light::sphere(*center, *radius, radiance)]
                 }
                 (
                     Emitter::Area {

@@ -5,6 +5,7 @@ use super::systems::{bake_shape, bake_transforms, collect_emitters, validate};
 use super::{parse_scene, SceneError};
 use glam::{Vec3, Vec3A};
 use hecs::{Entity, World};
+use raylab_integrators::light::{PlanarShape, PointLight, SphereLight};
 use raylab_integrators::{Light, Rgb};
 use std::path::Path;
 
@@ -190,15 +191,15 @@ fn collect_emitters_makes_one_light_per_sphere_quad_triangle_and_point() {
     let lights = collect_emitters(&s.world);
     let counts: Vec<usize> = lights.iter().map(|(_, l)| l.len()).collect();
     assert_eq!(counts, vec![1, 1, 4, 1]);
-    assert!(matches!(lights[0].1[0], Light::Sphere { radius, .. } if radius == 1.0));
+    assert!(matches!(lights[0].1[0], Light::Sphere(SphereLight { radius, .. }) if radius == 1.0));
     match &lights[1].1[0] {
-        Light::Parallelogram {
-            area, two_sided, ..
-        } => assert!((*area - 2.0).abs() < 1e-6 && *two_sided),
+        Light::Planar(l) => assert!(
+            l.shape == PlanarShape::Parallelogram && (l.area - 2.0).abs() < 1e-6 && l.two_sided
+        ),
         other => panic!("{other:?}"),
     }
     assert!(
-        matches!(lights[3].1[0], Light::Point { position, .. } if position == Vec3A::new(0.0, 4.0, 0.0))
+        matches!(lights[3].1[0], Light::Point(PointLight { position, .. }) if position == Vec3A::new(0.0, 4.0, 0.0))
     );
 }
 

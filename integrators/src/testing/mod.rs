@@ -212,10 +212,7 @@ pub fn point_in_sphere(a: f32) -> TestScene {
         }],
         materials: vec![lambert(a)],
         lights: LightTable::new(
-            vec![Light::Point {
-                position: Vec3A::ZERO,
-                intensity: Rgb::splat(std::f32::consts::PI),
-            }],
+            vec![Light::point(Vec3A::ZERO, Rgb::splat(std::f32::consts::PI))],
             1.0,
         ),
         camera: Probe::Omni(Vec3A::ZERO),
@@ -232,12 +229,7 @@ pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
             material: 0,
         }],
         materials: vec![lambert(a)],
-        lights: LightTable::new(
-            vec![Light::Environment {
-                radiance: Rgb::splat(sky),
-            }],
-            1.0,
-        ),
+        lights: LightTable::new(vec![Light::environment(Rgb::splat(sky))], 1.0),
         camera: Probe::AtSphere {
             eye: Vec3A::new(0.0, 0.0, 5.0),
             center: Vec3A::ZERO,
@@ -442,11 +434,7 @@ pub fn floor_under_sphere_light(a: f32, l: f32, r: f32, d: f32) -> TestScene {
         ],
         materials: vec![lambert(a), lambert(0.0)],
         lights: LightTable::new(
-            vec![Light::Sphere {
-                center: Vec3A::new(0.0, 0.0, d),
-                radius: r,
-                radiance: Rgb::splat(l),
-            }],
+            vec![Light::sphere(Vec3A::new(0.0, 0.0, d), r, Rgb::splat(l))],
             s,
         ),
         // From the side, at the point under the sphere.
