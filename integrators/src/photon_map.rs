@@ -21,10 +21,12 @@
 //! [`Sampler`] seeded from (seed, stream, photon index), and blocks are concatenated in order,
 //! so a map is the same whatever the thread count.
 
+use crate::bsdf::TransportMode;
 use crate::integrator::{
-    continue_path, emitted_at, escaped, russian_roulette, stays_on_viewer_side, MAX_SURVIVAL,
+    continue_path, emitted_at, escaped, russian_roulette, stays_on_viewer_side, ShadingPoint,
+    MAX_SURVIVAL,
 };
-use crate::{luminance, Hit, Material, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
+use crate::{luminance, Hit, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -167,46 +169,27 @@ fn trace_one(
             return;
         }
         // Scatter: BSDF sample, importance weight, shading-normal correction.
-        let Some(next) = scatter(&hit, material, ray.dir, beta, sampler) else {
+        let sp = ShadingPoint::new(&hit, ray.dir, scene);
+        let Some(s) = sp.sample(
+            sampler.next_1d(),
+            sampler.next_2d(),
+            TransportMode::Importance,
+        ) else {
             return;
         };
+        let next = s.throughput(beta);
+        if !(next.is_finite() && next != Rgb::ZERO) {
+            return;
+        }
         // Russian roulette, keeping the photon's power about constant.
-        let survive = (luminance(next.1) / luminance(beta)).min(MAX_SURVIVAL);
+        let survive = (luminance(next) / luminance(beta)).min(MAX_SURVIVAL);
         if survive.is_nan() || sampler.next_1d() >= survive {
             return;
         }
-        beta = next.1 / survive;
-        ray = hit.spawn_ray(next.0);
+        beta = next / survive;
+        ray = hit.spawn_ray(s.wi);
         bounces += 1;
     }
-}
-
-/// A photon arriving along `dir` at `hit` leaves in a sampled direction: the direction and the
-/// new throughput, or `None` if it is absorbed.
-#[inline]
-fn scatter(
-    hit: &Hit,
-    material: &Material,
-    dir: Vec3A,
-    beta: Rgb,
-    sampler: &mut Sampler,
-) -> Option<(Vec3A, Rgb)> {
-    let frame = hit.frame();
-    let wo = frame.to_local(-dir);
-    let bs = material.sample(wo, sampler.next_1d(), sampler.next_2d())?;
-    let wi = frame.to_world(bs.wi);
-    if !stays_on_viewer_side(material, hit.ng, -dir, wi) {
-        return None;
-    }
-    // Veach's adjoint correction for shading normals (thesis, eq. 5.19): the BSDF was written
-    // for radiance; for importance the cosines at the geometric normal swap roles.
-    let denom = (-dir).dot(hit.ng).abs() * wi.dot(hit.ns).abs();
-    if denom <= 0.0 {
-        return None;
-    }
-    let correction = (-dir).dot(hit.ns).abs() * wi.dot(hit.ng).abs() / denom;
-    let beta = beta * material.importance_weight(wo, &bs) * correction;
-    (beta.is_finite() && beta != Rgb::ZERO).then_some((wi, beta))
 }
 
 /// A path followed through specular bounces to its first non-specular surface.
@@ -235,6 +218,8 @@ pub fn land(
     let mut l = emission;
     let mut beta = Rgb::ONE;
     let mut bounces = 0u32;
+    // Product of eta^2 over the path's refractions.
+    let mut eta_scale = 1.0f32;
     loop {
         let hit = if bounces == 0 && first_is_camera {
             tracer.camera(&ray)
@@ -262,13 +247,14 @@ pub fn land(
         if bounces >= max_bounces {
             return None;
         }
-        let frame = hit.frame();
-        let wo = frame.to_local(-ray.dir);
-        let (next, _) = continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)?;
+        let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
+        let (next, bs) = continue_path(&sp, &mut beta, sampler)?;
+        eta_scale *= bs.eta * bs.eta;
         ray = next;
         bounces += 1;
         if bounces >= rr_depth {
-            beta /= russian_roulette(beta, sampler)?;
+            // On the throughput without refraction's compression of radiance.
+            beta /= russian_roulette(beta * eta_scale, sampler)?;
         }
     }
 }
@@ -396,14 +382,8 @@ impl PhotonMap {
     /// Radiance reflected at `hit` towards `wo` (local frame of `frame`) by the photons near it
     /// that `accept` admits: `sum f(wo, wi) Phi / (pi r^2)`.
     #[inline]
-    pub fn radiance(
-        &self,
-        hit: &Hit,
-        frame: &crate::Frame,
-        wo: Vec3A,
-        material: &Material,
-        accept: impl Fn(&Photon) -> bool,
-    ) -> Rgb {
+    pub fn radiance(&self, sp: &ShadingPoint, accept: impl Fn(&Photon) -> bool) -> Rgb {
+        let (frame, wo, material, hit) = (&sp.frame, sp.wo, sp.material, &sp.hit);
         let wo_world = frame.to_world(wo);
         let mut sum = Rgb::ZERO;
         self.for_each_near(hit.p, |ph| {
@@ -498,8 +478,8 @@ mod tests {
             material: 0,
             light: None,
         };
-        let frame = hit.frame();
-        let l = map.radiance(&hit, &frame, Vec3A::Z, scene.material(0), |_| true);
+        let sp = ShadingPoint::new(&hit, -Vec3A::Z, &scene);
+        let l = map.radiance(&sp, |_| true);
         assert!((l.y - 0.125).abs() < 0.125 * 0.05, "{l:?}");
     }
 

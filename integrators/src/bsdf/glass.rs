@@ -74,6 +74,7 @@ impl Bxdf for Glass {
                 f: self.tint * (fresnel / wi.z.abs()),
                 pdf: fresnel,
                 specular: true,
+                eta: 1.0,
             });
         }
         let transmit = 1.0 - fresnel;
@@ -102,6 +103,7 @@ impl Bxdf for Glass {
             f: self.tint * (transmit / (cos_t * eta * eta)),
             pdf: transmit,
             specular: true,
+            eta,
         })
     }
 

@@ -31,6 +31,7 @@ impl Bxdf for Lambert {
             f: self.albedo * FRAC_1_PI,
             pdf,
             specular: false,
+            eta: 1.0,
         })
     }
 

@@ -28,6 +28,7 @@ impl Bxdf for Mirror {
             f: self.tint / wi.z,
             pdf: 1.0,
             specular: true,
+            eta: 1.0,
         })
     }
 

@@ -32,6 +32,19 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// True when the sampled lobe is a Dirac delta (mirror reflection or refraction).
     pub specular: bool,
+    /// Relative index of refraction of the sampled lobe: the IOR of the side `wi` lies on over
+    /// that of `wo`'s side for a refraction, 1 for reflection. A camera path's throughput
+    /// carries `1 / eta^2` per refraction (radiance is compressed); Russian roulette undoes it.
+    pub eta: f32,
+}
+
+/// What a path carries, which decides how refraction scales it (pbrt-v4's `TransportMode`):
+/// radiance towards the camera is compressed by `1 / eta^2` on refraction; importance (power,
+/// carried by photons and light paths) is not.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    Radiance,
+    Importance,
 }
 
 impl BsdfSample {
@@ -149,15 +162,16 @@ impl Material {
         }
     }
 
-    /// Throughput weight of sample `s` (drawn with [`Material::sample`] at `wo`) for a particle
-    /// that carries power away from the lights (a photon), rather than radiance towards the
-    /// camera: pbrt-v4's `TransportMode::Importance`. The BSDFs are symmetric except for
-    /// refraction, which compresses radiance by `1/eta^2` but conserves power, so the weight of
-    /// a refracted photon is `eta^2` times the radiance weight.
+    /// Throughput weight of sample `s` (drawn with [`Material::sample`] at `wo`) in transport
+    /// mode `mode`. The BSDFs are symmetric except for refraction, which compresses radiance
+    /// by `1/eta^2` but conserves power, so for importance the weight of a refraction is
+    /// `eta^2` times the radiance weight.
     #[inline]
-    pub fn importance_weight(&self, wo: Vec3A, s: &BsdfSample) -> Rgb {
-        match self {
-            Material::Glass(g) if s.specular && wo.z * s.wi.z < 0.0 => {
+    pub fn sample_weight(&self, wo: Vec3A, s: &BsdfSample, mode: TransportMode) -> Rgb {
+        match (self, mode) {
+            (Material::Glass(g), TransportMode::Importance)
+                if s.specular && wo.z * s.wi.z < 0.0 =>
+            {
                 let eta = if wo.z > 0.0 { g.ior } else { 1.0 / g.ior };
                 s.weight() * (eta * eta)
             }
@@ -254,7 +268,7 @@ mod tests {
             let (mut importance, mut radiance) = (0.0f64, 0.0f64);
             for _ in 0..n {
                 let b = glass.sample(wo, s.next_1d(), s.next_2d()).expect("a lobe");
-                importance += glass.importance_weight(wo, &b).x as f64;
+                importance += glass.sample_weight(wo, &b, TransportMode::Importance).x as f64;
                 radiance += b.weight().x as f64;
             }
             let (importance, radiance) = (importance / n as f64, radiance / n as f64);

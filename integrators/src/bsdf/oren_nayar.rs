@@ -99,6 +99,7 @@ impl Bxdf for OrenNayar {
             f: self.eval(wo, wi),
             pdf,
             specular: false,
+            eta: 1.0,
         })
     }
 

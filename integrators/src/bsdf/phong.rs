@@ -155,6 +155,7 @@ impl Bxdf for Phong {
             f: self.eval(wo, wi),
             pdf,
             specular: false,
+            eta: 1.0,
         })
     }
 

@@ -14,10 +14,11 @@
 //! **Cost** grows like `branching^(depth - 1)` rays per camera sample: that is the point.
 //! **Bias**: truncation only (paths longer than `depth` are missing); unbiased below it.
 
-use crate::integrator::{emitted_at, escaped, stays_on_viewer_side, RayIntegrator, Tracer};
+use crate::bsdf::TransportMode::Radiance;
+use crate::integrator::{emitted_at, escaped, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
-use crate::{Frame, Hit, Material, Ray, Rgb, Sampler};
-use glam::{Vec2, Vec3A};
+use crate::{Hit, Ray, Rgb, Sampler};
+use glam::Vec2;
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "fixed-depth",
@@ -65,21 +66,14 @@ struct FixedDepth {
 }
 
 impl FixedDepth {
-    /// Direct light at `hit` from every light, `shadow_grid^2` stratified samples each.
-    fn direct(
-        &self,
-        hit: &Hit,
-        frame: &Frame,
-        wo: Vec3A,
-        material: &Material,
-        tracer: &mut Tracer,
-        sampler: &mut Sampler,
-    ) -> Rgb {
+    /// Direct light at the shading point from every light, `shadow_grid^2` stratified
+    /// samples each.
+    fn direct(&self, sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         let mut l = Rgb::ZERO;
         let lights = tracer.scene.lights();
         for (index, light) in lights.lights().iter().enumerate() {
             // A flat or convex emitter cannot light itself.
-            if hit.light == Some(index as u32) {
+            if sp.hit.light == Some(index as u32) {
                 continue;
             }
             let n = if light.is_delta() {
@@ -91,19 +85,8 @@ impl FixedDepth {
             for j in 0..n {
                 for i in 0..n {
                     let u = (Vec2::new(i as f32, j as f32) + sampler.next_2d()) / n as f32;
-                    let Some(ls) = light.sample_li(hit.p, u) else {
-                        continue;
-                    };
-                    if !stays_on_viewer_side(material, hit.ng, frame.to_world(wo), ls.wi) {
-                        continue;
-                    }
-                    let wi = frame.to_local(ls.wi);
-                    let f = material.eval(wo, wi);
-                    if f == Rgb::ZERO || ls.pdf <= 0.0 {
-                        continue;
-                    }
-                    if tracer.unoccluded(hit, &ls) {
-                        sum += f * ls.radiance * (wi.z.abs() / ls.pdf);
+                    if let Some((ls, f, cos)) = sp.connect_light(index as u32, u, tracer) {
+                        sum += f * ls.radiance * (cos / ls.pdf);
                     }
                 }
             }
@@ -133,18 +116,13 @@ impl FixedDepth {
             return l;
         }
         let material = tracer.scene.material(hit.material);
-        let frame = hit.frame();
-        let wo = frame.to_local(-ray.dir);
+        let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
 
         // Specular surfaces: one continuation ray, emission at its end counts.
         if material.is_specular() {
-            if let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) {
-                let wi = frame.to_world(bs.wi);
-                if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
-                    return l;
-                }
-                let next = hit.spawn_ray(wi);
-                l += bs.weight()
+            if let Some(s) = sp.sample(sampler.next_1d(), sampler.next_2d(), Radiance) {
+                let next = hit.spawn_ray(s.wi);
+                l += s.weight
                     * match tracer.extend(&next) {
                         Some(h) => self.shade(&next, &h, bounces + 1, true, tracer, sampler),
                         None => escaped(tracer.scene, &next),
@@ -154,25 +132,21 @@ impl FixedDepth {
         }
 
         // Direct light by NxN shadow rays per light.
-        l += self.direct(hit, &frame, wo, material, tracer, sampler);
+        l += self.direct(&sp, tracer, sampler);
 
         // Indirect light: `branching` hemisphere rays, only if their hits can still add a
         // scattering event (direct light there is depth bounces + 2).
         if bounces + 2 <= self.depth && self.branching > 0 {
             let mut sum = Rgb::ZERO;
             for _ in 0..self.branching {
-                let Some(bs) = material.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
+                let Some(s) = sp.sample(sampler.next_1d(), sampler.next_2d(), Radiance) else {
                     continue;
                 };
-                let wi = frame.to_world(bs.wi);
-                if !stays_on_viewer_side(material, hit.ng, -ray.dir, wi) {
-                    continue;
-                }
-                let next = hit.spawn_ray(wi);
+                let next = hit.spawn_ray(s.wi);
                 // Misses carry no light here: the environment was sampled as direct light.
                 if let Some(h) = tracer.extend(&next) {
-                    sum += bs.weight()
-                        * self.shade(&next, &h, bounces + 1, bs.specular, tracer, sampler);
+                    sum += s.weight
+                        * self.shade(&next, &h, bounces + 1, s.bsdf.specular, tracer, sampler);
                 }
             }
             l += sum / self.branching as f32;

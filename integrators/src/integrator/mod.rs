@@ -2,6 +2,7 @@
 //! ([`registry`]) and the integrators, one file each.
 
 pub mod registry;
+pub mod shading;
 
 mod albedo_view;
 mod depth_view;
@@ -12,6 +13,8 @@ mod photon;
 mod russian_roulette;
 mod sppm;
 mod whitted;
+
+pub use shading::{Scatter, ShadingPoint};
 
 use crate::light::LightSample;
 use crate::{Camera, Hit, Ray, Rgb, Sampler, Scene};
@@ -249,51 +252,34 @@ pub fn stays_on_viewer_side(
 }
 
 /// Next-event estimation with one light chosen in proportion to power: the radiance
-/// reflected at `hit` towards `wo` from one sample on that light, divided by both
+/// reflected at the shading point towards `wo` from one sample on that light, divided by both
 /// probabilities. With `mis`, the sample is weighted by the power heuristic against BSDF
 /// sampling (the caller must then weight emitters hit by BSDF samples with
 /// [`mis_weight_for_hit`]).
 pub fn sample_one_light(
-    hit: &Hit,
-    frame: &crate::Frame,
-    wo: glam::Vec3A,
-    material: &crate::Material,
+    sp: &ShadingPoint,
     mis: bool,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Rgb {
-    let lights = tracer.scene.lights();
     let u_light = sampler.next_1d();
     let u = sampler.next_2d();
-    let Some((index, pmf)) = lights.sample(u_light) else {
+    let Some((index, pmf)) = tracer.scene.lights().sample(u_light) else {
         return Rgb::ZERO;
     };
-    // A flat or convex emitter cannot light itself: skip it exactly rather than leave
-    // rounding to produce a grazing sample of its own plane.
-    if hit.light == Some(index) {
-        return Rgb::ZERO;
-    }
-    let Some(ls) = lights.get(index).sample_li(hit.p, u) else {
+    let Some((ls, f, cos)) = sp.connect_light(index, u, tracer) else {
         return Rgb::ZERO;
     };
-    if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
-        return Rgb::ZERO;
-    }
-    if !stays_on_viewer_side(material, hit.ng, frame.to_world(wo), ls.wi) {
-        return Rgb::ZERO;
-    }
-    let wi = frame.to_local(ls.wi);
-    let f = material.eval(wo, wi);
-    if f == Rgb::ZERO || !tracer.unoccluded(hit, &ls) {
-        return Rgb::ZERO;
-    }
     let light_pdf = pmf * ls.pdf;
     let weight = if mis && !ls.delta {
-        crate::sampling::power_heuristic(light_pdf, material.pdf(wo, wi))
+        crate::sampling::power_heuristic(
+            light_pdf,
+            sp.material.pdf(sp.wo, sp.frame.to_local(ls.wi)),
+        )
     } else {
         1.0
     };
-    f * ls.radiance * (wi.z.abs() * weight / light_pdf)
+    f * ls.radiance * (cos * weight / light_pdf)
 }
 
 /// MIS weight of emission found by a BSDF-sampled ray (density `bsdf_pdf`) leaving `from`
@@ -324,35 +310,33 @@ pub fn mis_weight_for_hit(
 /// 20 more bounces on average, so every estimate terminates (as in Mitsuba 3).
 pub const MAX_SURVIVAL: f32 = 0.95;
 
-/// One BSDF-sampled continuation of a path at `hit` (`wo` in the shading frame, `incoming` the
-/// direction of the ray that arrived): multiplies the throughput `beta` by the sample's weight
-/// and returns the next ray and the sample. `None` ends the path: no sample, no throughput left
-/// (pure emitters are black), or a direction that would cross an opaque surface.
+/// One BSDF-sampled continuation of a camera path at the shading point: multiplies the
+/// throughput `beta` by the sample's weight and returns the next ray and the sample. `None`
+/// ends the path: no sample, no throughput left (pure emitters are black), or a direction that
+/// would cross an opaque surface.
 #[inline]
 pub fn continue_path(
-    hit: &Hit,
-    frame: &crate::Frame,
-    wo: glam::Vec3A,
-    incoming: glam::Vec3A,
-    material: &crate::Material,
+    sp: &ShadingPoint,
     beta: &mut Rgb,
     sampler: &mut Sampler,
 ) -> Option<(Ray, crate::BsdfSample)> {
-    let bs = material.sample(wo, sampler.next_1d(), sampler.next_2d())?;
-    *beta *= bs.weight();
+    let s = sp.sample(
+        sampler.next_1d(),
+        sampler.next_2d(),
+        crate::bsdf::TransportMode::Radiance,
+    )?;
+    *beta = s.throughput(*beta);
     if *beta == Rgb::ZERO {
         return None;
     }
-    let wi = frame.to_world(bs.wi);
-    if !stays_on_viewer_side(material, hit.ng, -incoming, wi) {
-        return None;
-    }
-    Some((hit.spawn_ray(wi), bs))
+    Some((sp.hit.spawn_ray(s.wi), s.bsdf))
 }
 
 /// Russian roulette on the path throughput `beta`: survives with probability
 /// `min(0.95, max component of beta)`; returns the probability to divide `beta` by, or `None`
-/// when the path ends. Unbiased: E[beta'] = beta.
+/// when the path ends. Unbiased: E[beta'] = beta. Camera paths pass their throughput times
+/// the product of `eta^2` over their refractions (pbrt-v4's and Mitsuba 3's `rrBeta`), so that
+/// the `1 / eta^2` compression of radiance inside glass does not end paths early.
 #[inline]
 pub fn russian_roulette(beta: Rgb, sampler: &mut Sampler) -> Option<f32> {
     let survive = beta.max_element().min(MAX_SURVIVAL);

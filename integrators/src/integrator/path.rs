@@ -13,7 +13,7 @@
 
 use crate::integrator::{
     continue_path, emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light,
-    RayIntegrator, Tracer,
+    RayIntegrator, ShadingPoint, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -58,6 +58,8 @@ impl RayIntegrator for PathTracer {
         let mut prev_pdf = 0.0f32;
         let mut prev_p = Vec3A::ZERO;
         let mut bounces = 0u32;
+        // Product of eta^2 over the path's refractions.
+        let mut eta_scale = 1.0f32;
         loop {
             // Trace the next segment.
             let hit = if bounces == 0 {
@@ -93,27 +95,25 @@ impl RayIntegrator for PathTracer {
             if bounces >= self.max_depth {
                 break;
             }
-            let material = tracer.scene.material(hit.material);
-            let frame = hit.frame();
-            let wo = frame.to_local(-ray.dir);
+            let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
             // Next-event estimation, MIS-weighted.
-            if !material.is_specular() {
-                l += beta * sample_one_light(&hit, &frame, wo, material, true, tracer, sampler);
+            if !sp.material.is_specular() {
+                l += beta * sample_one_light(&sp, true, tracer, sampler);
             }
             // BSDF sampling for the next segment.
-            let Some((next, bs)) =
-                continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)
-            else {
+            let Some((next, bs)) = continue_path(&sp, &mut beta, sampler) else {
                 break;
             };
+            eta_scale *= bs.eta * bs.eta;
             specular = bs.specular;
             prev_pdf = bs.pdf;
             prev_p = hit.p;
             ray = next;
             bounces += 1;
-            // Russian roulette.
+            // Russian roulette, on the throughput without the compression of radiance by
+            // refraction.
             if bounces >= self.rr_depth {
-                match russian_roulette(beta, sampler) {
+                match russian_roulette(beta * eta_scale, sampler) {
                     Some(p) => beta /= p,
                     None => break,
                 }

@@ -24,7 +24,7 @@
 //! **Bias**: density estimation blurs light over the gather radii and does not vanish with
 //! more passes (use `sppm` for a consistent estimate); truncation with a finite `max-depth`.
 
-use crate::integrator::{continue_path, sample_one_light, RayIntegrator, Tracer};
+use crate::integrator::{continue_path, sample_one_light, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
@@ -166,25 +166,23 @@ impl RayIntegrator for PhotonMapping {
         if depth >= self.max_depth {
             return l;
         }
-        let material = tracer.scene.material(x.hit.material);
-        let frame = x.hit.frame();
-        let wo = frame.to_local(-x.ray.dir);
+        let sp = ShadingPoint::new(&x.hit, x.ray.dir, tracer.scene);
         // Direct light by next-event estimation.
-        l += x.beta * sample_one_light(&x.hit, &frame, wo, material, false, tracer, sampler);
+        l += x.beta * sample_one_light(&sp, false, tracer, sampler);
         // Caustics from the caustic map: photons that landed after b >= 1 specular bounces
         // make paths of depth depth + 1 + b.
         let photon_budget = self.max_depth.saturating_sub(depth + 1);
         l += x.beta
-            * maps.caustic.radiance(&x.hit, &frame, wo, material, |p| {
-                (p.bounces as u32) <= photon_budget
-            });
+            * maps
+                .caustic
+                .radiance(&sp, |p| (p.bounces as u32) <= photon_budget);
         if photon_budget == 0 {
             return l;
         }
         if self.gather == 0 {
             // The global map at x, without what the two terms above already count.
             l += x.beta
-                * maps.global.radiance(&x.hit, &frame, wo, material, |p| {
+                * maps.global.radiance(&sp, |p| {
                     p.bounces >= 1 && !p.caustic && (p.bounces as u32) <= photon_budget
                 });
             return l;
@@ -194,15 +192,7 @@ impl RayIntegrator for PhotonMapping {
         let mut gathered = Rgb::ZERO;
         for _ in 0..self.gather {
             let mut weight = Rgb::ONE;
-            let Some((ray, _)) = continue_path(
-                &x.hit,
-                &frame,
-                wo,
-                x.ray.dir,
-                material,
-                &mut weight,
-                sampler,
-            ) else {
+            let Some((ray, _)) = continue_path(&sp, &mut weight, sampler) else {
                 continue;
             };
             let budget = self.max_depth.saturating_sub(depth + 2);
@@ -214,16 +204,12 @@ impl RayIntegrator for PhotonMapping {
             let Some(photon_budget) = budget.checked_sub(y.bounces) else {
                 continue;
             };
-            let y_material = tracer.scene.material(y.hit.material);
-            let y_frame = y.hit.frame();
-            let y_wo = y_frame.to_local(-y.ray.dir);
+            let y_sp = ShadingPoint::new(&y.hit, y.ray.dir, tracer.scene);
             gathered += weight
                 * y.beta
                 * maps
                     .global
-                    .radiance(&y.hit, &y_frame, y_wo, y_material, |p| {
-                        (p.bounces as u32) <= photon_budget
-                    });
+                    .radiance(&y_sp, |p| (p.bounces as u32) <= photon_budget);
         }
         l + x.beta * gathered / self.gather as f32
     }

@@ -13,7 +13,8 @@
 //! otherwise.
 
 use crate::integrator::{
-    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, RayIntegrator, Tracer,
+    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, RayIntegrator,
+    ShadingPoint, Tracer,
 };
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, Rgb, Sampler};
@@ -60,6 +61,8 @@ impl RayIntegrator for RussianRouletteTracer {
         let mut ray = *camera_ray;
         let mut count_emission = true;
         let mut bounces = 0u32;
+        // Product of eta^2 over the path's refractions.
+        let mut eta_scale = 1.0f32;
         loop {
             // Trace: the camera ray, then continuation rays.
             let hit = if bounces == 0 {
@@ -80,25 +83,23 @@ impl RayIntegrator for RussianRouletteTracer {
             if bounces >= self.max_depth {
                 break;
             }
-            let material = tracer.scene.material(hit.material);
-            let frame = hit.frame();
-            let wo = frame.to_local(-ray.dir);
+            let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
             // Direct light: one light, one shadow ray.
-            if !material.is_specular() {
-                l += beta * sample_one_light(&hit, &frame, wo, material, false, tracer, sampler);
+            if !sp.material.is_specular() {
+                l += beta * sample_one_light(&sp, false, tracer, sampler);
             }
             // Continuation: one BSDF-sampled ray.
-            let Some((next, bs)) =
-                continue_path(&hit, &frame, wo, ray.dir, material, &mut beta, sampler)
-            else {
+            let Some((next, bs)) = continue_path(&sp, &mut beta, sampler) else {
                 break;
             };
+            eta_scale *= bs.eta * bs.eta;
             count_emission = bs.specular;
             ray = next;
             bounces += 1;
-            // Russian roulette on the throughput.
+            // Russian roulette on the throughput (without refraction's compression of
+            // radiance).
             if bounces >= self.rr_depth {
-                match russian_roulette(beta, sampler) {
+                match russian_roulette(beta * eta_scale, sampler) {
                     Some(p) => beta /= p,
                     None => break,
                 }

@@ -21,7 +21,7 @@
 //! **Bias**: a blur of radius `r_i` in pass `i`, vanishing as passes grow (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
-use crate::integrator::{sample_one_light, RayIntegrator, Tracer};
+use crate::integrator::{sample_one_light, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
@@ -146,19 +146,17 @@ impl RayIntegrator for Sppm {
         if x.bounces >= self.max_depth {
             return l;
         }
-        let material = tracer.scene.material(x.hit.material);
-        let frame = x.hit.frame();
-        let wo = frame.to_local(-x.ray.dir);
+        let sp = ShadingPoint::new(&x.hit, x.ray.dir, tracer.scene);
         // Direct light by next-event estimation (no BSDF sample looks for emitters here, so
         // no MIS) ...
-        l += x.beta * sample_one_light(&x.hit, &frame, wo, material, false, tracer, sampler);
+        l += x.beta * sample_one_light(&sp, false, tracer, sampler);
         // ... and everything else from this pass's photons, within the depth limit: a photon
         // that landed after b bounces makes a path of depth x.bounces + 1 + b.
         let max_photon_bounces = self.max_depth.saturating_sub(x.bounces + 1);
         l += x.beta
-            * self.map.radiance(&x.hit, &frame, wo, material, |p| {
-                (p.bounces as u32) <= max_photon_bounces
-            });
+            * self
+                .map
+                .radiance(&sp, |p| (p.bounces as u32) <= max_photon_bounces);
         l
     }
 }

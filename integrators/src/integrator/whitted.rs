@@ -12,9 +12,7 @@
 //! **Bias**: no indirect light at non-specular surfaces (no colour bleeding); the result is
 //! the truncated series `Le + direct`. Unbiased for that truncated quantity.
 
-use crate::integrator::{
-    emitted_at, escaped, specular_lobes, stays_on_viewer_side, RayIntegrator, Tracer,
-};
+use crate::integrator::{emitted_at, escaped, specular_lobes, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Hit, Ray, Rgb, Sampler};
 
@@ -57,13 +55,12 @@ impl Whitted {
             return l;
         }
         let material = tracer.scene.material(hit.material);
-        let frame = hit.frame();
-        let wo = frame.to_local(-ray.dir);
+        let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
 
         if material.is_specular() {
             // Specular recursion: follow every lobe (mirror; glass reflection and refraction).
-            for (wi, weight) in specular_lobes(material, wo).into_iter().flatten() {
-                let next = hit.spawn_ray(frame.to_world(wi));
+            for (wi, weight) in specular_lobes(material, sp.wo).into_iter().flatten() {
+                let next = hit.spawn_ray(sp.frame.to_world(wi));
                 l += weight
                     * match tracer.extend(&next) {
                         Some(h) => self.shade(&next, &h, bounces + 1, tracer, sampler),
@@ -74,25 +71,13 @@ impl Whitted {
         }
 
         // Direct light: one shadow ray to every light.
-        let lights = tracer.scene.lights();
-        for (index, light) in lights.lights().iter().enumerate() {
+        for index in 0..tracer.scene.lights().len() as u32 {
             // A flat or convex emitter cannot light itself.
-            if hit.light == Some(index as u32) {
+            if hit.light == Some(index) {
                 continue;
             }
-            let Some(ls) = light.sample_li(hit.p, sampler.next_2d()) else {
-                continue;
-            };
-            if !stays_on_viewer_side(material, hit.ng, -ray.dir, ls.wi) {
-                continue;
-            }
-            let wi = frame.to_local(ls.wi);
-            let f = material.eval(wo, wi);
-            if f == Rgb::ZERO || ls.pdf <= 0.0 {
-                continue;
-            }
-            if tracer.unoccluded(hit, &ls) {
-                l += f * ls.radiance * (wi.z.abs() / ls.pdf);
+            if let Some((ls, f, cos)) = sp.connect_light(index, sampler.next_2d(), tracer) {
+                l += f * ls.radiance * (cos / ls.pdf);
             }
         }
         l

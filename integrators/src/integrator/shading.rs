@@ -1,0 +1,201 @@
+//! The shading point: what every integrator builds once per surface hit (the hit, its shading
+//! frame, the direction back along the path, the material), and the two things done there:
+//! scattering (one BSDF sample, in either transport mode) and connecting to a light sample
+//! (the one direct-lighting routine every light-sampling integrator shares).
+
+use super::{stays_on_viewer_side, Tracer};
+use crate::bsdf::{BsdfSample, TransportMode};
+use crate::light::LightSample;
+use crate::{Frame, Hit, Material, Rgb, Scene};
+use glam::{Vec2, Vec3A};
+
+/// A surface hit, ready to shade.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadingPoint<'a> {
+    pub hit: Hit,
+    /// The shading frame (`z` = the shading normal).
+    pub frame: Frame,
+    /// Unit direction back along the arriving ray, in the shading frame.
+    pub wo: Vec3A,
+    /// The same direction in world space (exactly the negated ray direction).
+    pub wo_world: Vec3A,
+    pub material: &'a Material,
+}
+
+/// One BSDF sample at a shading point, in world space, with the factors a path's throughput
+/// takes from it.
+#[derive(Clone, Copy, Debug)]
+pub struct Scatter {
+    /// The sampled direction, world space.
+    pub wi: Vec3A,
+    pub bsdf: BsdfSample,
+    /// `f |cos| / pdf` for the transport mode (`eta^2` times more on refraction for
+    /// importance).
+    pub weight: Rgb,
+    /// Veach's adjoint correction for shading normals (thesis, eq. 5.19) in importance mode:
+    /// `|wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)`; 1 for radiance.
+    pub correction: f32,
+}
+
+impl Scatter {
+    /// The throughput after this scattering event.
+    #[inline]
+    pub fn throughput(&self, beta: Rgb) -> Rgb {
+        beta * self.weight * self.correction
+    }
+}
+
+impl<'a> ShadingPoint<'a> {
+    /// The shading point of `hit`, reached by a ray of direction `dir`.
+    #[inline]
+    pub fn new(hit: &Hit, dir: Vec3A, scene: &'a dyn Scene) -> ShadingPoint<'a> {
+        let frame = hit.frame();
+        ShadingPoint {
+            hit: *hit,
+            frame,
+            wo: frame.to_local(-dir),
+            wo_world: -dir,
+            material: scene.material(hit.material),
+        }
+    }
+
+    /// Samples the BSDF (`u_lobe` picks a lobe, `u` places the direction) for a path carrying
+    /// `mode`. `None` when the material returns no sample, the direction would cross an opaque
+    /// surface (shading normals can put it on the viewer's side of the shading frame yet
+    /// behind the geometry), or, for importance, the correction is undefined (grazing).
+    #[inline]
+    pub fn sample(&self, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<Scatter> {
+        let bs = self.material.sample(self.wo, u_lobe, u)?;
+        let wi = self.frame.to_world(bs.wi);
+        if !stays_on_viewer_side(self.material, self.hit.ng, self.wo_world, wi) {
+            return None;
+        }
+        let correction = match mode {
+            TransportMode::Radiance => 1.0,
+            TransportMode::Importance => {
+                let (wo, hit) = (self.wo_world, &self.hit);
+                let denom = wo.dot(hit.ng).abs() * wi.dot(hit.ns).abs();
+                if denom <= 0.0 {
+                    return None;
+                }
+                wo.dot(hit.ns).abs() * wi.dot(hit.ng).abs() / denom
+            }
+        };
+        Some(Scatter {
+            wi,
+            bsdf: bs,
+            weight: self.material.sample_weight(self.wo, &bs, mode),
+            correction,
+        })
+    }
+
+    /// Connects the shading point to one sample of light `index` (`u` places it): the sample,
+    /// the BSDF value towards it and `|cos|` at the shading point. `None` when the connection
+    /// carries nothing (the emitter the point lies on, no sample, black, across an opaque
+    /// surface, a zero BSDF) or is blocked; the shadow ray is cast last, and counted.
+    #[inline]
+    pub fn connect_light(
+        &self,
+        index: u32,
+        u: Vec2,
+        tracer: &mut Tracer,
+    ) -> Option<(LightSample, Rgb, f32)> {
+        // A flat or convex emitter cannot light itself: skip it exactly rather than leave
+        // rounding to produce a grazing sample of its own plane.
+        if self.hit.light == Some(index) {
+            return None;
+        }
+        let ls = tracer.scene.lights().get(index).sample_li(self.hit.p, u)?;
+        if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+            return None;
+        }
+        if !stays_on_viewer_side(
+            self.material,
+            self.hit.ng,
+            self.frame.to_world(self.wo),
+            ls.wi,
+        ) {
+            return None;
+        }
+        let wi = self.frame.to_local(ls.wi);
+        let f = self.material.eval(self.wo, wi);
+        if f == Rgb::ZERO || !tracer.unoccluded(&self.hit, &ls) {
+            return None;
+        }
+        Some((ls, f, wi.z.abs()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::{Glass, Lambert};
+    use crate::testing::furnace_sphere;
+
+    fn hit(ns: Vec3A) -> Hit {
+        Hit {
+            t: 1.0,
+            p: Vec3A::ZERO,
+            ng: Vec3A::Z,
+            ns,
+            material: 0,
+            light: None,
+        }
+    }
+
+    #[test]
+    fn refraction_reports_its_eta_and_importance_keeps_the_power_radiance_loses() {
+        let scene = furnace_sphere(0.5, 1.0);
+        let glass = Material::Glass(Glass {
+            ior: 1.5,
+            tint: Rgb::ONE,
+        });
+        let dir = Vec3A::new(0.3, 0.0, -1.0).normalize();
+        let mut sp = ShadingPoint::new(&hit(Vec3A::Z), dir, &scene);
+        sp.material = &glass;
+        // u_lobe near 1 picks refraction (Fresnel reflectance is a few percent here).
+        let r = sp
+            .sample(0.999, Vec2::ZERO, TransportMode::Radiance)
+            .unwrap();
+        let i = sp
+            .sample(0.999, Vec2::ZERO, TransportMode::Importance)
+            .unwrap();
+        assert!(r.wi.z < 0.0 && r.bsdf.eta == 1.5 && r.correction == 1.0);
+        assert!((i.weight.x / r.weight.x - 2.25).abs() < 1e-5, "{i:?} {r:?}");
+        // Reflection: eta 1, the same weight in both modes.
+        let r = sp.sample(0.0, Vec2::ZERO, TransportMode::Radiance).unwrap();
+        let i = sp
+            .sample(0.0, Vec2::ZERO, TransportMode::Importance)
+            .unwrap();
+        assert!(r.bsdf.eta == 1.0 && r.weight == i.weight);
+        // From inside, the relative IOR is the inverse.
+        let mut inside = ShadingPoint::new(&hit(Vec3A::Z), -dir, &scene);
+        inside.material = &glass;
+        let t = inside
+            .sample(0.999, Vec2::ZERO, TransportMode::Radiance)
+            .unwrap();
+        assert!((t.bsdf.eta - 1.0 / 1.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn importance_carries_veachs_shading_normal_correction() {
+        let scene = furnace_sphere(0.5, 1.0);
+        let lambert = Material::Lambert(Lambert {
+            albedo: Rgb::splat(0.5),
+        });
+        let ns = Vec3A::new(0.3, 0.0, 1.0).normalize();
+        let dir = Vec3A::new(-0.5, 0.2, -1.0).normalize();
+        let mut sp = ShadingPoint::new(&hit(ns), dir, &scene);
+        sp.material = &lambert;
+        let u = Vec2::new(0.3, 0.7);
+        let r = sp.sample(0.5, u, TransportMode::Radiance).unwrap();
+        let i = sp.sample(0.5, u, TransportMode::Importance).unwrap();
+        let (wo, wi, ng) = (-dir, i.wi, Vec3A::Z);
+        let expected = wo.dot(ns).abs() * wi.dot(ng).abs() / (wo.dot(ng).abs() * wi.dot(ns).abs());
+        assert_eq!(r.wi, i.wi);
+        assert!((i.correction - expected).abs() < 1e-6 && (expected - 1.0).abs() > 0.01);
+        assert_eq!(r.weight, i.weight);
+        // Paths from the camera are unaffected: the throughput is beta times the weight.
+        assert_eq!(r.throughput(Rgb::ONE), r.weight);
+    }
+}
