@@ -138,7 +138,7 @@ fn trace_one(
     let mut bounces = 0u32;
     loop {
         // Find the next landing.
-        let Some(hit) = tracer.extend(&ray) else {
+        let Some(hit) = tracer.light(&ray) else {
             return;
         };
         let material = scene.material(hit.material);

@@ -210,7 +210,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         let secs = stats.elapsed.as_secs_f64();
         let mean = film.mean();
         eprintln!(
-            "{}: {} {} | {}x{} {} spp | {:.2} s, {} threads | {:.3} M samples/s | {:.2} M rays/s (camera {}, extension {}, shadow {}) | mean radiance ({:.4}, {:.4}, {:.4}) | wrote {}",
+            "{}: {} {} | {}x{} {} spp | {:.2} s, {} threads | {:.3} M samples/s | {:.2} M rays/s (camera {}, extension {}, shadow {}, light {}, connection {}) | mean radiance ({:.4}, {:.4}, {:.4}) | wrote {}",
             args.scene.display(),
             entry.name,
             params.describe(entry.params),
@@ -224,6 +224,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             stats.rays.camera,
             stats.rays.extension,
             stats.rays.shadow,
+            stats.rays.light,
+            stats.rays.connection,
             mean.x,
             mean.y,
             mean.z,

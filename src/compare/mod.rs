@@ -99,6 +99,8 @@ pub struct Row {
     pub rays_camera: u64,
     pub rays_extension: u64,
     pub rays_shadow: u64,
+    pub rays_light: u64,
+    pub rays_connection: u64,
     pub rays_per_s: f64,
     pub samples_per_s: f64,
     pub mean: [f32; 3],
@@ -380,6 +382,8 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
             rays_camera: stats.rays.camera,
             rays_extension: stats.rays.extension,
             rays_shadow: stats.rays.shadow,
+            rays_light: stats.rays.light,
+            rays_connection: stats.rays.connection,
             rays_per_s: stats.rays_per_second(),
             samples_per_s: stats.samples_per_second(),
             mean: mean.to_array(),
@@ -431,12 +435,12 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
         serde_json::to_string_pretty(report).map_err(|e| anyhow!("cannot encode metrics: {e}"))?;
     write_text(&dir.join("metrics.json"), &json)?;
     let mut csv = String::from(
-        "label,integrator,params,swept_param,swept_value,spp,time_s,rays_camera,rays_extension,rays_shadow,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,rmse,rel_mse,psnr,flip,region_rmse,region_rel_mse,region_psnr,region_flip\n",
+        "label,integrator,params,swept_param,swept_value,spp,time_s,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,rmse,rel_mse,psnr,flip,region_rmse,region_rel_mse,region_psnr,region_flip\n",
     );
     for r in &report.rows {
         let _ = writeln!(
             csv,
-            "{},{},\"{}\",{},{},{},{:.4},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.6},{}",
+            "{},{},\"{}\",{},{},{},{:.4},{},{},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.6},{}",
             r.label,
             r.integrator,
             r.params,
@@ -447,6 +451,8 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
             r.rays_camera,
             r.rays_extension,
             r.rays_shadow,
+            r.rays_light,
+            r.rays_connection,
             r.rays_per_s,
             r.samples_per_s,
             r.mean[0],

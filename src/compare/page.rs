@@ -61,7 +61,7 @@ pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()>
 
     let mut table = String::from(
         "<table id=\"metrics\"><thead><tr><th>render</th><th>parameters</th><th>spp</th><th>time (s)</th>\
-         <th>rays (camera / extension / shadow)</th><th>M rays/s</th><th>mean radiance</th>\
+         <th>rays (camera / extension / shadow / light / connection)</th><th>M rays/s</th><th>mean radiance</th>\
          <th>RMSE</th><th>relMSE</th><th>PSNR (dB)</th><th>FLIP</th>",
     );
     if let Some(region) = report.region {
@@ -74,7 +74,7 @@ pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()>
     for r in &report.rows {
         let _ = write!(
             table,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{} / {} / {}</td><td>{:.2}</td>\
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{} / {} / {} / {} / {}</td><td>{:.2}</td>\
              <td>{:.4}, {:.4}, {:.4}</td><td>{:.5}</td><td>{:.5}</td><td>{}</td><td>{:.4}</td>",
             escape(&r.label),
             escape(&r.params),
@@ -83,6 +83,8 @@ pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()>
             r.rays_camera,
             r.rays_extension,
             r.rays_shadow,
+            r.rays_light,
+            r.rays_connection,
             r.rays_per_s / 1e6,
             r.mean[0],
             r.mean[1],

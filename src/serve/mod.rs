@@ -138,6 +138,8 @@ impl Shared {
                     "camera": st.stats.rays.camera,
                     "extension": st.stats.rays.extension,
                     "shadow": st.stats.rays.shadow,
+                    "light": st.stats.rays.light,
+                    "connection": st.stats.rays.connection,
                 },
                 "dropped": st.stats.dropped,
             })

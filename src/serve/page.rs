@@ -116,7 +116,7 @@ function showStats(r) {
     ["time (s)", fmt(r.elapsed_s, 2)],
     ["M samples/s", fmt(r.samples_per_s / 1e6, 3)],
     ["M rays/s", fmt(r.rays_per_s / 1e6, 2)],
-    ["rays (camera / extension / shadow)", `${r.rays.camera} / ${r.rays.extension} / ${r.rays.shadow}`],
+    ["rays (camera / extension / shadow / light / connection)", `${r.rays.camera} / ${r.rays.extension} / ${r.rays.shadow} / ${r.rays.light} / ${r.rays.connection}`],
   ];
   if (r.dropped > 0) rows.push(["dropped samples", `${r.dropped}`]);
   const body = $("stats").tBodies[0];

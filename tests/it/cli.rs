@@ -383,3 +383,37 @@ fn the_readmes_integrator_table_is_the_registry() {
         .collect();
     assert_eq!(rows, registry, "README.md's integrator table");
 }
+
+#[test]
+fn photon_rays_are_counted_as_light_rays() {
+    // The summary counts rays by kind; photons are traced from the lights.
+    let dir = tmp();
+    let count = |integrator: &str, kind: &str| -> u64 {
+        let out = dir.path().join(format!("{integrator}.exr"));
+        let o = raylab(&[
+            "render",
+            CORNELL,
+            "-i",
+            integrator,
+            "--spp",
+            "2",
+            "--size",
+            "24x24",
+            "-o",
+            s(&out),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let e = stderr(&o);
+        let at = e.find(&format!("{kind} ")).unwrap_or_else(|| panic!("{e}"));
+        e[at + kind.len() + 1..]
+            .split(|c: char| !c.is_ascii_digit())
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert!(count("sppm", "light") > 1000);
+    assert_eq!(count("path", "light"), 0);
+    assert_eq!(count("path", "connection"), 0);
+    assert!(count("path", "extension") > 0);
+}

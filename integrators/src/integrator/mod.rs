@@ -24,20 +24,29 @@ use glam::Vec2;
 /// reported the same way for all of them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RayCounters {
+    /// Primary rays from the camera.
     pub camera: u64,
+    /// Rays that extend or branch a camera path.
     pub extension: u64,
+    /// Occlusion tests towards light samples (next-event estimation).
     pub shadow: u64,
+    /// Rays that extend a path from a light (photons, light paths).
+    pub light: u64,
+    /// Occlusion tests between two path vertices (light-path and bidirectional connections).
+    pub connection: u64,
 }
 
 impl RayCounters {
     pub fn total(&self) -> u64 {
-        self.camera + self.extension + self.shadow
+        self.camera + self.extension + self.shadow + self.light + self.connection
     }
 
     pub fn add(&mut self, other: &RayCounters) {
         self.camera += other.camera;
         self.extension += other.extension;
         self.shadow += other.shadow;
+        self.light += other.light;
+        self.connection += other.connection;
     }
 }
 
@@ -67,6 +76,21 @@ impl<'a> Tracer<'a> {
     pub fn extend(&mut self, ray: &Ray) -> Option<Hit> {
         self.counters.extension += 1;
         self.scene.intersect(ray)
+    }
+
+    /// Traces a ray that extends a path from a light (a photon, a light path).
+    #[inline]
+    pub fn light(&mut self, ray: &Ray) -> Option<Hit> {
+        self.counters.light += 1;
+        self.scene.intersect(ray)
+    }
+
+    /// True if nothing blocks the segment from the surface at `hit` to the point `to` (a
+    /// connection between two path vertices, or from a vertex to the lens).
+    #[inline]
+    pub fn connected(&mut self, hit: &Hit, to: glam::Vec3A) -> bool {
+        self.counters.connection += 1;
+        !self.scene.occluded(&hit.spawn_ray_to(to))
     }
 
     /// Casts a shadow ray from `hit` towards a light sample; true if nothing blocks it.

@@ -15,7 +15,7 @@ use crate::integrator::{
     continue_path, emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light,
     RayIntegrator, ShadingPoint, Tracer,
 };
-use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::registry::{IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Ray, Rgb, Sampler};
 use glam::Vec3A;
 
@@ -23,22 +23,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "path",
     summary: "path tracing: next-event estimation + BSDF sampling with MIS (power heuristic), Russian roulette",
     params: &[
-        ParamSpec {
-            name: "max-depth",
-            kind: ParamKind::Depth,
-            default: f64::INFINITY,
-            min: 0.0,
-            max: f64::INFINITY,
-            doc: "scattering events per path (unlimited = unbiased)",
-        },
-        ParamSpec {
-            name: "rr-depth",
-            kind: ParamKind::Int,
-            default: 3.0,
-            min: 0.0,
-            max: 1e6,
-            doc: "scattering events before Russian roulette starts",
-        },
+        MAX_DEPTH,
+        RR_DEPTH,
     ],
     build: |p: &Params| Box::new(PathTracer { max_depth: p.get_depth("max-depth"), rr_depth: p.get_u32("rr-depth") }),
 };

@@ -26,7 +26,7 @@
 
 use crate::integrator::{continue_path, sample_one_light, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
-use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -73,14 +73,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             max: 1e5,
             doc: "final-gather rays per camera sample (0 = read the global map directly)",
         },
-        ParamSpec {
-            name: "max-depth",
-            kind: ParamKind::Depth,
-            default: f64::INFINITY,
-            min: 0.0,
-            max: f64::INFINITY,
-            doc: "scattering events per path, camera and photon sides together",
-        },
+        MAX_DEPTH.with_doc("scattering events per path, camera and photon sides together"),
     ],
     build: |p: &Params| {
         Box::new(PhotonMapping {

@@ -27,7 +27,43 @@ pub struct ParamSpec {
     pub doc: &'static str,
 }
 
+/// `max-depth` as every integrator that bounds its paths declares it (unlimited by default;
+/// adjust one field with the `with_` methods).
+pub const MAX_DEPTH: ParamSpec = ParamSpec {
+    name: "max-depth",
+    kind: ParamKind::Depth,
+    default: f64::INFINITY,
+    min: 0.0,
+    max: f64::INFINITY,
+    doc: "scattering events per path (unlimited = unbiased)",
+};
+
+/// `rr-depth` as every integrator that plays Russian roulette declares it.
+pub const RR_DEPTH: ParamSpec = ParamSpec {
+    name: "rr-depth",
+    kind: ParamKind::Int,
+    default: 3.0,
+    min: 0.0,
+    max: 1e6,
+    doc: "scattering events before Russian roulette starts",
+};
+
 impl ParamSpec {
+    /// The same parameter with another default.
+    pub const fn with_default(self, default: f64) -> ParamSpec {
+        ParamSpec { default, ..self }
+    }
+
+    /// The same parameter with another largest value.
+    pub const fn with_max(self, max: f64) -> ParamSpec {
+        ParamSpec { max, ..self }
+    }
+
+    /// The same parameter with another description.
+    pub const fn with_doc(self, doc: &'static str) -> ParamSpec {
+        ParamSpec { doc, ..self }
+    }
+
     /// The default as a user would type it.
     pub fn default_text(&self) -> String {
         format_value(self.kind, self.default)

@@ -16,31 +16,14 @@ use crate::integrator::{
     continue_path, emitted_at, escaped, russian_roulette, sample_one_light, RayIntegrator,
     ShadingPoint, Tracer,
 };
-use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::registry::{IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "russian-roulette",
     summary:
         "one continuation ray per hit, direct light by one shadow ray, Russian roulette (no MIS)",
-    params: &[
-        ParamSpec {
-            name: "rr-depth",
-            kind: ParamKind::Int,
-            default: 3.0,
-            min: 0.0,
-            max: 1e6,
-            doc: "scattering events before Russian roulette starts",
-        },
-        ParamSpec {
-            name: "max-depth",
-            kind: ParamKind::Depth,
-            default: f64::INFINITY,
-            min: 0.0,
-            max: f64::INFINITY,
-            doc: "scattering events per path (unlimited = unbiased)",
-        },
-    ],
+    params: &[RR_DEPTH, MAX_DEPTH],
     build: |p: &Params| {
         Box::new(RussianRouletteTracer {
             rr_depth: p.get_u32("rr-depth"),

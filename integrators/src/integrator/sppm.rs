@@ -23,7 +23,7 @@
 
 use crate::integrator::{sample_one_light, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
-use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -54,22 +54,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             max: 1.0,
             doc: "radius reduction: r^2 shrinks by (i + alpha) / (i + 1) per pass",
         },
-        ParamSpec {
-            name: "max-depth",
-            kind: ParamKind::Depth,
-            default: f64::INFINITY,
-            min: 0.0,
-            max: f64::INFINITY,
-            doc: "scattering events per path, camera and photon sides together",
-        },
-        ParamSpec {
-            name: "rr-depth",
-            kind: ParamKind::Int,
-            default: 3.0,
-            min: 0.0,
-            max: 1e6,
-            doc: "specular bounces of a camera path before Russian roulette starts",
-        },
+        MAX_DEPTH.with_doc("scattering events per path, camera and photon sides together"),
+        RR_DEPTH.with_doc("specular bounces of a camera path before Russian roulette starts"),
     ],
     build: |p: &Params| {
         Box::new(Sppm {

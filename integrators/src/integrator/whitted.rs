@@ -13,21 +13,15 @@
 //! the truncated series `Le + direct`. Unbiased for that truncated quantity.
 
 use crate::integrator::{emitted_at, escaped, specular_lobes, RayIntegrator, ShadingPoint, Tracer};
-use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::registry::{IntegratorEntry, Params, MAX_DEPTH};
 use crate::{Hit, Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "whitted",
     summary: "Whitted ray tracing: direct light with shadow rays, mirror and glass recursion",
-    params: &[ParamSpec {
-        name: "max-depth",
-        kind: ParamKind::Depth,
-        default: 5.0,
-        min: 0.0,
-        max: 32.0,
-        doc:
-            "scattering events per path, specular ones included (glass doubles the rays per level)",
-    }],
+    params: &[MAX_DEPTH.with_default(5.0).with_max(32.0).with_doc(
+        "scattering events per path, specular ones included (glass doubles the rays per level)",
+    )],
     build: |p: &Params| {
         Box::new(Whitted {
             max_depth: p.get_depth("max-depth"),
