@@ -15,6 +15,6 @@ pub mod live;
 pub mod output;
 pub mod render;
 pub mod scene;
-pub mod serve;
+pub mod system;
 
 pub use raylab_integrators as integrators;

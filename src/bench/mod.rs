@@ -22,6 +22,8 @@ use crate::accel::AccelKind;
 use crate::render::{self, RenderSettings};
 use crate::scene::RenderScene;
 use crate::scene::{parse_scene, Camera, LoadedScene};
+pub use crate::system::peak_rss;
+use crate::system::{reset_peak_rss, resident_bytes};
 use anyhow::{Context, Result};
 use glam::Vec3A;
 use raylab_integrators::sampling::uniform_sphere;
@@ -190,35 +192,6 @@ fn rays_per_second(
         best = best.min(start.elapsed().as_secs_f64() / f64::from(passes));
     }
     Ok((rays.len() as f64 / best, hits))
-}
-
-/// Peak resident memory of this process, in bytes (Linux; 0 elsewhere).
-pub fn peak_rss() -> u64 {
-    process_status("VmHWM:")
-}
-
-/// Resident memory of this process now, in bytes (Linux; 0 elsewhere).
-fn resident_bytes() -> u64 {
-    process_status("VmRSS:")
-}
-
-/// A memory figure of /proc/self/status, in bytes (0 where there is none).
-fn process_status(key: &str) -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with(key))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<u64>().ok())
-        })
-        .map_or(0, |kb| kb * 1024)
-}
-
-/// Resets the peak resident memory to the current one (Linux's `clear_refs` 5), so that a
-/// later [`peak_rss`] tells the peak of what ran in between. False where that is not possible.
-fn reset_peak_rss() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> Result<()> {

@@ -6,10 +6,10 @@
 
 use super::render_cmd::{parse_param, parse_size};
 use super::{RenderArgs, ServeArgs};
+use crate::live::serve;
 use crate::live::{self, watch::SceneWatcher, Control, Ended, LiveSettings, Observer, RenderInfo};
 use crate::output::{self, DisplaySettings};
 use crate::render::{Film, RenderStats};
-use crate::serve;
 use anyhow::{bail, Context, Result};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};

@@ -7,6 +7,7 @@
 //! new [`Selection`], Ctrl-C for the end. Any of these stops the render in progress at the end
 //! of its current pass.
 
+pub mod serve;
 pub mod watch;
 
 use crate::render::{self, Accumulation, Film, RenderSettings, RenderStats};

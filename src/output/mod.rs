@@ -3,11 +3,12 @@
 //! failure never leaves a partial file and an old file survives intact.
 
 pub mod atomic;
+pub mod film;
 pub mod tonemap;
 
-use crate::render::Film;
 use anyhow::{bail, Context, Result};
 use atomic::parent_dir;
+pub use film::Film;
 use image::{ImageFormat, Rgb32FImage, RgbImage};
 use std::io::{BufWriter, Write};
 use std::path::Path;

@@ -18,18 +18,7 @@ use std::path::Path;
 const MAGIC: &[u8; 8] = b"RAYLABCK";
 const VERSION: u32 = 2;
 
-/// FNV-1a, 64 bits: a hash that is stable across builds and platforms (unlike std's).
-pub fn stable_hash(parts: &[&[u8]]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for part in parts {
-        // Length-prefix each part so that ("ab", "c") and ("a", "bc") differ.
-        for b in (part.len() as u64).to_le_bytes().iter().chain(part.iter()) {
-            h ^= *b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    }
-    h
-}
+pub use crate::scene::references::stable_hash;
 
 /// Serialises `acc` with the settings hash `hash`.
 pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
@@ -168,7 +157,7 @@ mod tests {
             y: 5,
             sample: 1,
         });
-        let mut pass = crate::render::film::PassPixel::default();
+        let mut pass = crate::render::accumulator::PassPixel::default();
         pass.add(glam::Vec3A::new(1.0, 2.0, 3.0), 0.5);
         pass.splat = glam::DVec3::new(0.25, 0.0, 4.0);
         acc.tiles[1].pixels[7].close_pass(&pass);

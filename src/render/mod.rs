@@ -14,14 +14,14 @@
 //! passes the loop checks whether to stop (Ctrl-C, time budget) and hands the accumulated
 //! state to a callback (checkpoints, progressive output).
 
+mod accumulator;
 pub mod checkpoint;
-pub mod film;
 
-pub use film::Film;
+pub use crate::output::Film;
 pub use raylab_integrators::Filter;
 
 use crate::scene::Camera;
-use film::{PassPixel, PixelAccumulator};
+use accumulator::{PassPixel, PixelAccumulator};
 use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
 use raylab_integrators::{Integrator, PixelSample, RayCounters, Sampler, Scene, Splats, Tracer};
@@ -115,14 +115,7 @@ pub fn memory_needed(width: u32, height: u32) -> u64 {
 /// absurd resolution is an error before anything is allocated, not an abort.
 pub fn check_memory(width: u32, height: u32) -> anyhow::Result<()> {
     let needed = memory_needed(width, height);
-    let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|m| {
-        m.lines()
-            .find(|l| l.starts_with("MemAvailable:"))
-            .and_then(|l| l.split_whitespace().nth(1))
-            .and_then(|kb| kb.parse::<u64>().ok())
-            .map(|kb| kb * 1024)
-    });
-    if let Some(available) = available {
+    if let Some(available) = crate::system::memory_available() {
         if needed > available {
             anyhow::bail!(
                 "a {width}x{height} image needs {:.1} GiB of memory, only {:.1} GiB is available",

@@ -3,8 +3,20 @@
 
 use super::load::parse_scene_file;
 use super::schema::ShapeDesc;
-use crate::render::checkpoint::stable_hash;
 use std::path::{Path, PathBuf};
+
+/// FNV-1a, 64 bits: a hash that is stable across builds and platforms (unlike std's).
+pub fn stable_hash(parts: &[&[u8]]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for part in parts {
+        // Length-prefix each part so that ("ab", "c") and ("a", "bc") differ.
+        for b in (part.len() as u64).to_le_bytes().iter().chain(part.iter()) {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    h
+}
 
 /// The bytes that determine what `scene` renders: its own text, then a hash of the contents
 /// of every file it refers to, in the order the text names them (a marker for a file that

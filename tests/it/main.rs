@@ -3,6 +3,7 @@
 //! real binary.
 
 mod agreement;
+mod architecture;
 mod assets;
 mod bench;
 #[cfg(feature = "embree")]

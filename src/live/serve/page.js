@@ -1,51 +1,3 @@
-//! The page `raylab serve` shows: one self-contained HTML file (inline CSS and script, no
-//! network but its own server). It long-polls `/state`, swaps the image when a new one
-//! arrives, shows the render statistics and the load error, and offers a menu of the
-//! integrators and their parameters (built from `/integrators`) that posts to `/settings`.
-//!
-//! Opening it with `#selftest=NAME` makes it test itself: once the first image is shown it
-//! switches the menu to integrator NAME, waits for an image rendered by NAME to arrive and
-//! load, and puts the verdict in the title (`selftest: ok` or `selftest: FAIL: why`) and in
-//! `#verdict`; the headless-Chromium test reads it. It then stops polling.
-
-/// The page.
-pub const PAGE: &str = r##"<!doctype html>
-<html lang="en"><head><meta charset="utf-8">
-<title>raylab serve</title>
-<link rel="icon" href="data:,">
-<style>
-body { font: 14px/1.4 system-ui, sans-serif; margin: 1.5em; color: #222; background: #fafafa; }
-h1 { font-size: 1.3em; }
-#error { background: #fde8e8; border: 1px solid #d33; color: #900; padding: 0.6em 0.8em; white-space: pre-wrap; font-family: monospace; }
-.layout { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
-#image { image-rendering: pixelated; min-width: 256px; background: #333; display: block; }
-figcaption { font-size: 0.9em; color: #555; }
-form label { display: block; margin: 0.3em 0; }
-form small { color: #666; }
-.bad { color: #b00; }
-table { border-collapse: collapse; }
-th, td { border: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }
-th { text-align: left; }
-</style></head>
-<body>
-<h1>raylab serve: <span id="scene"></span></h1>
-<div id="error" hidden></div>
-<div class="layout">
-  <figure><img id="image" alt="the render so far"><figcaption id="caption">waiting for the first image</figcaption></figure>
-  <div>
-    <form id="settings">
-      <label>integrator <select id="integrator"></select></label>
-      <p id="summary"></p>
-      <div id="params"></div>
-      <button type="submit">apply parameters</button>
-      <p id="settings-error" class="bad"></p>
-    </form>
-    <table id="stats"><tbody></tbody></table>
-    <p id="status"></p>
-  </div>
-</div>
-<p id="verdict"></p>
-<script>
 "use strict";
 const $ = (id) => document.getElementById(id);
 const selftest = (location.hash.match(/^#selftest=([A-Za-z0-9_-]+)$/) || [])[1];
@@ -233,6 +185,3 @@ async function main() {
 }
 
 main();
-</script>
-</body></html>
-"##;

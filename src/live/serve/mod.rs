@@ -22,7 +22,7 @@
 
 pub mod page;
 
-use crate::live::{Control, Ended, Observer, RenderInfo, Selection};
+use super::{Control, Ended, Observer, RenderInfo, Selection};
 use crate::output::{self, DisplaySettings};
 use crate::render::{Film, RenderStats};
 use anyhow::{anyhow, Result};
@@ -454,7 +454,7 @@ impl Context {
             ("/", true) => Reply {
                 status: 200,
                 content_type: "text/html; charset=utf-8",
-                body: Arc::new(page::PAGE.as_bytes().to_vec()),
+                body: Arc::new(page::page().as_bytes().to_vec()),
             },
             ("/image.png", true) => match &self.shared.lock().image {
                 Some(i) => Reply {
