@@ -152,6 +152,15 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     // Ctrl-C: the first finishes the pass and writes the image, the second stops at once.
     install_interrupt_handler();
     let stop = || INTERRUPTS.load(Ordering::SeqCst) > 0;
+    if !args.quiet {
+        let target = settings
+            .spp
+            .map_or_else(|| "open-ended".to_string(), |n| format!("{n} spp"));
+        eprintln!(
+            "rendering {}x{} with {}, {target} (Ctrl-C finishes the pass and writes the image)",
+            camera.width, camera.height, entry.name
+        );
+    }
     // Checkpoints: at most every few seconds while rendering, and once at the end.
     let mut last_save: Option<Instant> = None;
     let mut after_pass = |acc: &Accumulation| -> Result<()> {

@@ -1,7 +1,8 @@
 //! Rendering in passes: time budgets, Ctrl-C, checkpoint and resume, determinism.
 
+use crate::common::Running;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 fn raylab(args: &[&str]) -> Output {
@@ -196,20 +197,14 @@ fn time_budget_stops_an_open_ended_render() {
 }
 
 #[cfg(unix)]
-fn interrupt(pid: u32) {
-    Command::new("kill")
-        .args(["-INT", &pid.to_string()])
-        .status()
-        .unwrap();
-}
-
-#[cfg(unix)]
 #[test]
 fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
     let dir = tempfile::tempdir().unwrap();
-    let spawn = |out: &Path, integrator: &str, size: &str| {
-        Command::new(env!("CARGO_BIN_EXE_raylab"))
-            .args([
+    // Signals are sent once raylab says it is rendering (its handler is installed by then),
+    // not after a guessed delay.
+    let start = |out: &Path, integrator: &str, size: &str, log: &str| {
+        let r = Running::start(
+            &[
                 "render",
                 CORNELL,
                 "-i",
@@ -220,39 +215,40 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
                 "100000",
                 "-o",
                 s(out),
-                "-q",
-            ])
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap()
+            ],
+            &dir.path().join(log),
+            false,
+        );
+        r.wait_stderr("the start line", |e| e.contains("rendering "));
+        r
     };
     // One Ctrl-C: the current pass ends and the image is written with what it has.
     let out = dir.path().join("once.png");
-    let child = spawn(&out, "path", "128x128");
-    std::thread::sleep(Duration::from_millis(1500));
-    interrupt(child.id());
-    let o = child.wait_with_output().unwrap();
-    let e = stderr(&o);
-    assert!(o.status.success(), "{e}");
+    let r = start(&out, "path", "128x128", "once.log");
+    let status = r.interrupt();
+    let e = std::fs::read_to_string(dir.path().join("once.log")).unwrap();
+    assert!(status.success(), "{e}");
     assert!(
         e.contains("interrupted: wrote the image with") && e.contains("of 100000"),
         "{e}"
     );
     assert!(out.exists());
 
-    // Two: stop at once, nothing written.
-    // (fixed-depth's passes take seconds here, so the second signal, sent apart from the
-    // first, arrives before the pass ends.)
+    // Two: stop at once, nothing written. (fixed-depth's passes take seconds here, so the
+    // second signal, sent once the first is acknowledged, arrives before the pass ends.)
     let out = dir.path().join("twice.png");
-    let child = spawn(&out, "fixed-depth", "768x768");
-    std::thread::sleep(Duration::from_millis(1500));
-    interrupt(child.id());
-    // Apart: two SIGINTs sent back to back can merge into one pending signal.
-    std::thread::sleep(Duration::from_millis(300));
-    interrupt(child.id());
-    let o = child.wait_with_output().unwrap();
-    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    let r = start(&out, "fixed-depth", "768x768", "twice.log");
+    r.signal_interrupt();
+    r.wait_stderr("the first interrupt's message", |e| {
+        e.contains("interrupt: finishing this pass")
+    });
+    let status = r.interrupt();
+    assert_eq!(
+        status.code(),
+        Some(130),
+        "{}",
+        std::fs::read_to_string(dir.path().join("twice.log")).unwrap()
+    );
     assert!(!out.exists());
 }
 

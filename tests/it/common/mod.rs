@@ -52,11 +52,16 @@ impl Running {
         }
     }
 
-    /// Sends SIGINT (Ctrl-C) and waits for the exit.
-    pub fn interrupt(mut self) -> ExitStatus {
+    /// Sends SIGINT (Ctrl-C) without waiting.
+    pub fn signal_interrupt(&self) {
         let pid = self.child.id().to_string();
         let ok = Command::new("kill").args(["-INT", &pid]).status().unwrap();
         assert!(ok.success());
+    }
+
+    /// Sends SIGINT (Ctrl-C) and waits for the exit.
+    pub fn interrupt(mut self) -> ExitStatus {
+        self.signal_interrupt();
         let end = Instant::now() + TIMEOUT;
         loop {
             if let Some(status) = self.child.try_wait().unwrap() {
