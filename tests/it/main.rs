@@ -12,6 +12,7 @@ mod cli;
 mod common;
 mod compare;
 mod corpus;
+mod new_integrator;
 mod passes;
 mod photons;
 mod proptest_loader;

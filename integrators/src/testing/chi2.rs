@@ -32,16 +32,16 @@ use std::f64::consts::PI;
 /// Number of chi-square tests in the suite (for the Šidák correction). Keep in sync with the
 /// `#[test]`s that call [`assert_chi2`] and [`assert_chi2_discrete`]:
 /// sampling.rs 3, lambert.rs 1, oren_nayar.rs 4, phong.rs 6, light.rs 9.
-pub(crate) const CHI2_TESTS: u32 = 23;
+pub const CHI2_TESTS: u32 = 23;
 /// Family-wise significance level of the suite.
-pub(crate) const SIGNIFICANCE: f64 = 0.01;
+pub const SIGNIFICANCE: f64 = 0.01;
 /// Default number of samples per test.
-pub(crate) const SAMPLES: usize = 1_000_000;
+pub const SAMPLES: usize = 1_000_000;
 /// Cells expecting fewer samples than this are pooled.
 const MIN_EXPECTED: f64 = 5.0;
 
 /// The per-test significance threshold after the Šidák correction.
-pub(crate) fn per_test_threshold() -> f64 {
+pub fn per_test_threshold() -> f64 {
     1.0 - (1.0 - SIGNIFICANCE).powf(1.0 / CHI2_TESTS as f64)
 }
 
@@ -49,7 +49,7 @@ pub(crate) fn per_test_threshold() -> f64 {
 // Special functions.
 
 /// `ln(Gamma(x))` for `x > 0` (Lanczos, g = 7, n = 9; ~15 digits).
-pub(crate) fn ln_gamma(x: f64) -> f64 {
+pub fn ln_gamma(x: f64) -> f64 {
     const C: [f64; 9] = [
         0.999_999_999_999_809_9,
         676.520_368_121_885_1,
@@ -75,7 +75,7 @@ pub(crate) fn ln_gamma(x: f64) -> f64 {
 }
 
 /// Regularised upper incomplete gamma function `Q(a, x) = Gamma(a, x) / Gamma(a)`.
-pub(crate) fn gamma_q(a: f64, x: f64) -> f64 {
+pub fn gamma_q(a: f64, x: f64) -> f64 {
     assert!(a > 0.0 && x >= 0.0, "gamma_q({a}, {x})");
     if x == 0.0 {
         return 1.0;
@@ -125,7 +125,7 @@ pub(crate) fn gamma_q(a: f64, x: f64) -> f64 {
 
 /// Survival function of the chi-square distribution: `P(X >= x)` for `dof` degrees of
 /// freedom.
-pub(crate) fn chi2_sf(x: f64, dof: usize) -> f64 {
+pub fn chi2_sf(x: f64, dof: usize) -> f64 {
     if dof == 0 {
         return 1.0;
     }
@@ -137,7 +137,7 @@ pub(crate) fn chi2_sf(x: f64, dof: usize) -> f64 {
 
 /// Result of one chi-square test.
 #[derive(Clone, Debug)]
-pub(crate) struct Chi2Outcome {
+pub struct Chi2Outcome {
     /// Pearson's statistic.
     pub statistic: f64,
     /// Degrees of freedom (cells after pooling, minus one).
@@ -153,7 +153,7 @@ pub(crate) struct Chi2Outcome {
 /// Pearson's chi-square of `observed` against `expected` counts, pooling cells that expect
 /// fewer than 5 samples (pbrt's procedure). `Err` if a cell expecting nothing received more
 /// than `1e-5 total` samples.
-pub(crate) fn chi2_statistic(
+pub fn chi2_statistic(
     observed: &[u64],
     expected: &[f64],
     total: usize,
@@ -190,12 +190,7 @@ pub(crate) fn chi2_statistic(
 }
 
 /// Runs [`chi2_statistic`] on a discrete distribution and panics if it is rejected.
-pub(crate) fn assert_chi2_discrete(
-    name: &str,
-    observed: &[u64],
-    expected: &[f64],
-    total: usize,
-) -> f64 {
+pub fn assert_chi2_discrete(name: &str, observed: &[u64], expected: &[f64], total: usize) -> f64 {
     let (chi2, dof, p) =
         chi2_statistic(observed, expected, total).unwrap_or_else(|e| panic!("chi2 {name}: {e}"));
     println!("chi2 {name}: statistic {chi2:.1}, dof {dof}, p = {p:.4}");
@@ -216,7 +211,7 @@ pub(crate) fn assert_chi2_discrete(
 /// cells on or next to a jump of the density to or from zero are integrated again with
 /// `REFINE` times more nodes per side (polygon edges, sharp corners).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Grid {
+pub struct Grid {
     axis: DVec3,
     s: DVec3,
     t: DVec3,
@@ -512,7 +507,7 @@ impl Grid {
 /// numbers; `None` is a rejected sample) over `grid` and runs Pearson's test against `pdf`
 /// (a solid-angle density over the whole sphere). Prints the outcome; panics if the sampler
 /// is rejected or returns a non-unit direction.
-pub(crate) fn assert_chi2(
+pub fn assert_chi2(
     name: &str,
     grid: &Grid,
     samples: usize,
@@ -537,7 +532,7 @@ pub(crate) fn assert_chi2(
 
 /// [`assert_chi2`] without the assertion: `Err` only for a cell expecting nothing that
 /// received samples, or a malformed sample.
-pub(crate) fn run_chi2(
+pub fn run_chi2(
     grid: &Grid,
     samples: usize,
     seed: u64,
@@ -597,7 +592,7 @@ pub(crate) fn run_chi2(
 /// Draws `samples` samples of `bxdf` for `wo` and checks each against `eval` and `pdf`: the
 /// sample's `pdf` must equal `pdf(wo, wi)` and its `f` must equal `eval(wo, wi)` (relative
 /// tolerance 1e-4), `wi` must be a unit vector and the lobe must not claim to be specular.
-pub(crate) fn check_sample_matches_eval<B: Bxdf>(bxdf: &B, wo: Vec3A, samples: usize, seed: u64) {
+pub fn check_sample_matches_eval<B: Bxdf>(bxdf: &B, wo: Vec3A, samples: usize, seed: u64) {
     let close = |a: f32, b: f32| (a - b).abs() <= 1e-4 * a.abs().max(b.abs()) + 1e-7;
     let mut s = Sampler::new(seed, 0, 0);
     let mut accepted = 0;
@@ -640,7 +635,7 @@ pub(crate) fn check_sample_matches_eval<B: Bxdf>(bxdf: &B, wo: Vec3A, samples: u
 /// Monte Carlo estimate of the directional albedo `integral f(wo, wi) cos(theta_i) dwi` with
 /// `bxdf`'s own sampling (rejected samples count as zero): the mean and its standard error,
 /// per channel.
-pub(crate) fn directional_albedo<B: Bxdf>(
+pub fn directional_albedo<B: Bxdf>(
     bxdf: &B,
     wo: Vec3A,
     samples: usize,
@@ -664,7 +659,7 @@ pub(crate) fn directional_albedo<B: Bxdf>(
 
 /// Asserts that the directional albedo for `wo` does not exceed `bound` in any channel, up to
 /// 4.5 standard errors. Returns the estimate.
-pub(crate) fn assert_energy_conserving<B: Bxdf>(
+pub fn assert_energy_conserving<B: Bxdf>(
     name: &str,
     bxdf: &B,
     wo: Vec3A,
@@ -687,7 +682,7 @@ pub(crate) fn assert_energy_conserving<B: Bxdf>(
 }
 
 /// A unit direction at polar angle `theta_deg` from `+z` and azimuth `phi_deg`.
-pub(crate) fn dir(theta_deg: f32, phi_deg: f32) -> Vec3A {
+pub fn dir(theta_deg: f32, phi_deg: f32) -> Vec3A {
     let (st, ct) = theta_deg.to_radians().sin_cos();
     let (sp, cp) = phi_deg.to_radians().sin_cos();
     Vec3A::new(st * cp, st * sp, ct)
