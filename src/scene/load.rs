@@ -5,7 +5,7 @@ use super::error::{finite, SceneError};
 use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
 use super::{assets, file_materials, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
-use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
+use raylab_integrators::bsdf::{checks, Glass, Lambert, Mirror, OrenNayar, Phong};
 use raylab_integrators::Camera;
 use raylab_integrators::{registry, Material, Rgb};
 use ron::extensions::Extensions;
@@ -64,72 +64,19 @@ fn v3(a: [f32; 3]) -> Vec3A {
     Vec3A::from_array(a)
 }
 
-fn rgb(what: &str, a: [f32; 3]) -> Result<Rgb, String> {
-    finite(what, &a)?;
-    if a.iter().any(|c| *c < 0.0) {
-        return Err(format!("{what} must not be negative, got {a:?}"));
-    }
-    Ok(v3(a))
-}
-
-fn reflectance(what: &str, a: [f32; 3]) -> Result<Rgb, String> {
-    let c = rgb(what, a)?;
-    if c.max_element() > 1.0 {
-        return Err(format!(
-            "{what} must be in [0, 1] (a reflectance), got {a:?}"
-        ));
-    }
-    Ok(c)
-}
-
-/// Turns a material description into a material, checking its parameters.
+/// Turns a material description into a material; the material's constructor checks its
+/// parameters.
 pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
-    Ok(match desc {
-        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert {
-            albedo: reflectance("albedo", *albedo)?,
-        }),
+    Ok(match *desc {
+        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert::new(v3(albedo))?),
         MaterialDesc::OrenNayar { albedo, sigma } => {
-            finite("sigma", &[*sigma])?;
-            if !(0.0..=90.0).contains(sigma) {
-                return Err(format!(
-                    "sigma is in degrees and must be in [0, 90], got {sigma}"
-                ));
-            }
-            Material::OrenNayar(OrenNayar::new(reflectance("albedo", *albedo)?, *sigma))
+            Material::OrenNayar(OrenNayar::checked(v3(albedo), sigma)?)
         }
         MaterialDesc::Phong { kd, ks, exponent } => {
-            let (kd, ks) = (reflectance("kd", *kd)?, reflectance("ks", *ks)?);
-            if (kd + ks).max_element() > 1.0 + 1e-6 {
-                return Err(format!(
-                    "kd + ks must be <= 1 per channel to conserve energy, got {:?}",
-                    (kd + ks).to_array()
-                ));
-            }
-            finite("exponent", &[*exponent])?;
-            // Beyond ~1e5 cos^n underflows in f32 and sampling no longer matches the density:
-            // use Mirror for a perfect reflector.
-            if !(0.0..=1e5).contains(exponent) {
-                return Err(format!("exponent must be in [0, 1e5] (use Mirror for a perfect reflector), got {exponent}"));
-            }
-            Material::Phong(Phong {
-                kd,
-                ks,
-                exponent: *exponent,
-            })
+            Material::Phong(Phong::new(v3(kd), v3(ks), exponent)?)
         }
-        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror {
-            tint: reflectance("tint", *tint)?,
-        }),
-        MaterialDesc::Glass { ior, tint } => {
-            finite("ior", &[*ior])?;
-            if *ior < 1.0 || *ior > 4.0 {
-                return Err(format!("ior must be in [1, 4], got {ior}"));
-            }
-            Material::Glass(Glass {
-                ior: *ior,
-                tint: reflectance("tint", *tint)?,
-            })
-        }
+        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror::new(v3(tint))?),
+        MaterialDesc::Glass { ior, tint } => Material::Glass(Glass::new(ior, v3(tint))?),
     })
 }
 
@@ -376,10 +323,14 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
     })?;
 
     let environment = match file.environment {
-        Some(e) => Some(rgb("environment", e).map_err(|message| SceneError::Scene {
-            path: path_buf.clone(),
-            message,
-        })?),
+        Some(e) => {
+            Some(
+                checks::colour("environment", v3(e)).map_err(|message| SceneError::Scene {
+                    path: path_buf.clone(),
+                    message,
+                })?,
+            )
+        }
         None => None,
     };
 

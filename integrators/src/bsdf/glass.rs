@@ -53,6 +53,21 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)
 }
 
+impl Glass {
+    /// Glass of index of refraction `ior` (in `[1, 4]`) relative to the outside, tinted by
+    /// `tint` (each channel in `[0, 1]`).
+    pub fn new(ior: f32, tint: Rgb) -> Result<Glass, String> {
+        super::checks::finite("ior", &[ior])?;
+        if !(1.0..=4.0).contains(&ior) {
+            return Err(format!("ior must be in [1, 4], got {ior}"));
+        }
+        Ok(Glass {
+            ior,
+            tint: super::checks::reflectance("tint", tint)?,
+        })
+    }
+}
+
 impl Bxdf for Glass {
     fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
         Rgb::ZERO

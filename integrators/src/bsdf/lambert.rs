@@ -11,6 +11,15 @@ pub struct Lambert {
     pub albedo: Rgb,
 }
 
+impl Lambert {
+    /// A Lambertian reflector of reflectance `albedo` (each channel in `[0, 1]`).
+    pub fn new(albedo: Rgb) -> Result<Lambert, String> {
+        Ok(Lambert {
+            albedo: super::checks::reflectance("albedo", albedo)?,
+        })
+    }
+}
+
 impl Bxdf for Lambert {
     fn eval(&self, _wo: Vec3A, wi: Vec3A) -> Rgb {
         if wi.z <= 0.0 {

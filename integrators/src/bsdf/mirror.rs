@@ -9,6 +9,15 @@ pub struct Mirror {
     pub tint: Rgb,
 }
 
+impl Mirror {
+    /// A perfect mirror tinted by `tint` (each channel in `[0, 1]`).
+    pub fn new(tint: Rgb) -> Result<Mirror, String> {
+        Ok(Mirror {
+            tint: super::checks::reflectance("tint", tint)?,
+        })
+    }
+}
+
 impl Bxdf for Mirror {
     fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
         Rgb::ZERO

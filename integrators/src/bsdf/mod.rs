@@ -5,6 +5,7 @@
 //! directions into the upper hemisphere before calling them, so each model only sees
 //! `wo.z >= 0`. Glass sees the true side: `wo.z > 0` means the ray arrives from outside.
 
+pub mod checks;
 mod glass;
 mod lambert;
 mod mirror;

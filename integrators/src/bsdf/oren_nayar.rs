@@ -65,6 +65,20 @@ pub struct OrenNayar {
 impl OrenNayar {
     /// `sigma_degrees`: facet slope standard deviation in degrees (the scene format's unit);
     /// it is stored in radians in [`OrenNayar::sigma`].
+    /// Oren–Nayar of reflectance `albedo` (in `[0, 1]`) and roughness `sigma_degrees` (the
+    /// standard deviation of the facet angle, in `[0, 90]` degrees).
+    pub fn checked(albedo: Rgb, sigma_degrees: f32) -> Result<Self, String> {
+        super::checks::finite("sigma", &[sigma_degrees])?;
+        if !(0.0..=90.0).contains(&sigma_degrees) {
+            return Err(format!(
+                "sigma is in degrees and must be in [0, 90], got {sigma_degrees}"
+            ));
+        }
+        let albedo = super::checks::reflectance("albedo", albedo)?;
+        Ok(Self::new(albedo, sigma_degrees))
+    }
+
+    /// [`OrenNayar::checked`] without the checks, for parameters known to be valid.
     pub fn new(albedo: Rgb, sigma_degrees: f32) -> Self {
         let sigma = sigma_degrees.to_radians();
         let s2 = sigma * sigma;

@@ -108,6 +108,29 @@ impl Phong {
     }
 }
 
+impl Phong {
+    /// Energy-conserving Phong: diffuse `kd` and specular `ks` reflectances with
+    /// `kd + ks <= 1` per channel, and a lobe `exponent` in `[0, 1e5]` (beyond that `cos^n`
+    /// underflows in f32 and sampling no longer matches the density: use a mirror).
+    pub fn new(kd: Rgb, ks: Rgb, exponent: f32) -> Result<Phong, String> {
+        use super::checks::{finite, reflectance};
+        let (kd, ks) = (reflectance("kd", kd)?, reflectance("ks", ks)?);
+        if (kd + ks).max_element() > 1.0 + 1e-6 {
+            return Err(format!(
+                "kd + ks must be <= 1 per channel to conserve energy, got {:?}",
+                (kd + ks).to_array()
+            ));
+        }
+        finite("exponent", &[exponent])?;
+        if !(0.0..=1e5).contains(&exponent) {
+            return Err(format!(
+                "exponent must be in [0, 1e5] (use Mirror for a perfect reflector), got {exponent}"
+            ));
+        }
+        Ok(Phong { kd, ks, exponent })
+    }
+}
+
 impl Bxdf for Phong {
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         if wi.z <= 0.0 || wo.z < 0.0 {
