@@ -8,7 +8,7 @@
 use raylab_integrators::integrator::{
     emitted_at, escaped, sample_one_light, RayIntegrator, ShadingPoint, Tracer,
 };
-use raylab_integrators::registry::{IntegratorEntry, Params};
+use raylab_integrators::registry::{expect, Analytic, IntegratorEntry, Params};
 use raylab_integrators::{Ray, Rgb, Sampler};
 
 /// The registry entry: name, summary, parameters, constructor. In the crate, one line in
@@ -18,6 +18,15 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     summary: "emission plus one light sample at the first hit (no indirect light)",
     params: &[],
     build: |_: &Params| Box::new(Direct),
+    // What it gives on the testing kit's analytic scenes, which the suite checks for every
+    // registry entry: Le (1 + a) in the furnace, the point light's direct half, and the sky
+    // seen in one bounce.
+    analytic: Some(Analytic {
+        params: &[],
+        furnace: expect(1.5, 40, 100),
+        point_in_sphere: expect(0.5, 10, 10),
+        sphere_under_sky: expect(1.2, 40, 400),
+    }),
 };
 
 struct Direct;

@@ -10,6 +10,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     summary: "debug view: material base colour at the first hit, emitters in their radiance",
     params: &[],
     build: |_: &Params| Box::new(AlbedoView),
+    analytic: None,
 };
 
 struct AlbedoView;

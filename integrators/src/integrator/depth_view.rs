@@ -10,6 +10,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     summary: "debug view: distance to the first hit / scene bounds diagonal, as grey",
     params: &[],
     build: |_: &Params| Box::new(DepthView),
+    analytic: None,
 };
 
 struct DepthView;

@@ -368,6 +368,9 @@ pub fn russian_roulette(beta: Rgb, sampler: &mut Sampler) -> Option<f32> {
 }
 
 #[cfg(test)]
+mod analytic_tests;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::bsdf::{Glass, Mirror};

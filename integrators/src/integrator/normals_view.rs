@@ -10,6 +10,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     summary: "debug view: shading normal at the first hit as colour (n * 0.5 + 0.5)",
     params: &[],
     build: |_: &Params| Box::new(NormalsView),
+    analytic: None,
 };
 
 struct NormalsView;

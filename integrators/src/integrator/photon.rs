@@ -86,6 +86,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             maps: None,
         })
     },
+    analytic: None,
 };
 
 /// Specular bounces a camera or gather path follows before Russian roulette may end it.

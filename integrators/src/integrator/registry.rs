@@ -160,6 +160,44 @@ pub struct IntegratorEntry {
     pub summary: &'static str,
     pub params: &'static [ParamSpec],
     pub build: fn(&Params) -> Box<dyn Integrator>,
+    /// What it must give on the testing kit's analytic scenes (`None`: debug views, and
+    /// integrators whose estimates are not independent between passes, tested on their own).
+    pub analytic: Option<Analytic>,
+}
+
+/// What an integrator gives, with `params`, on the testing kit's analytic scenes: each
+/// expectation is the exact answer, or the truncated series its depth limit leaves (`None`
+/// where the scene says nothing about it). `integrator/analytic_tests.rs` checks every entry
+/// that declares one.
+#[derive(Clone, Copy, Debug)]
+pub struct Analytic {
+    pub params: &'static [(&'static str, &'static str)],
+    /// Inside a closed sphere of albedo 0.5 emitting 1 (`furnace_sphere(0.5, 1)`):
+    /// `sum_{k <= depth} 0.5^k`, 2 when unbounded.
+    pub furnace: Option<Expect>,
+    /// A point light of intensity pi in a unit sphere of albedo 0.5 (`point_in_sphere(0.5)`):
+    /// 0.5 of direct light, 0.25 more per bounce, 1 in all.
+    pub point_in_sphere: Option<Expect>,
+    /// A convex ball of albedo 0.6 under a sky of 2 (`sphere_under_sky(0.6, 2)`): 1.2.
+    pub sphere_under_sky: Option<Expect>,
+}
+
+/// An expected mean radiance, checked by a t-test over `passes` passes of `per_pass` probe
+/// rays (enough for the standard error to reveal a 5% bias).
+#[derive(Clone, Copy, Debug)]
+pub struct Expect {
+    pub value: f32,
+    pub passes: u32,
+    pub per_pass: u32,
+}
+
+/// `Some(Expect { value, passes, per_pass })`.
+pub const fn expect(value: f32, passes: u32, per_pass: u32) -> Option<Expect> {
+    Some(Expect {
+        value,
+        passes,
+        per_pass,
+    })
 }
 
 /// What is wrong with an integrator name or parameter.

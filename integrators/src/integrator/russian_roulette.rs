@@ -16,7 +16,7 @@ use crate::integrator::{
     continue_path, emitted_at, escaped, russian_roulette, sample_one_light, RayIntegrator,
     ShadingPoint, Tracer,
 };
-use crate::registry::{IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
+use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -30,6 +30,12 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             max_depth: p.get_depth("max-depth"),
         })
     },
+    analytic: Some(Analytic {
+        params: &[],
+        furnace: expect(2.0, 50, 1000),
+        point_in_sphere: expect(1.0, 40, 500),
+        sphere_under_sky: expect(1.2, 40, 500),
+    }),
 };
 
 struct RussianRouletteTracer {
@@ -95,36 +101,6 @@ impl RayIntegrator for RussianRouletteTracer {
 #[cfg(test)]
 mod tests {
     use crate::testing::*;
-
-    #[test]
-    fn furnace_converges_to_le_over_one_minus_albedo() {
-        for (a, expected) in [(0.5, 2.0), (0.8, 5.0)] {
-            let scene = furnace_sphere(a, 1.0);
-            expect_mean("russian-roulette", &[], &scene, expected, 50000);
-        }
-    }
-
-    #[test]
-    fn point_light_in_a_sphere_gives_one() {
-        expect_mean(
-            "russian-roulette",
-            &[("rr-depth", "1")],
-            &point_in_sphere(0.5),
-            1.0,
-            20000,
-        );
-    }
-
-    #[test]
-    fn convex_sphere_under_environment() {
-        expect_mean(
-            "russian-roulette",
-            &[],
-            &sphere_under_sky(0.6, 2.0),
-            1.2,
-            20000,
-        );
-    }
 
     #[test]
     fn paths_end_inside_a_closed_mirror() {
