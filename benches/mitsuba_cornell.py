@@ -16,6 +16,7 @@ threads the machine has.
     apt-get install libllvm19          # for llvm_ad_rgb (libLLVM 15 crashes it)
     cargo build --release
     python3 benches/mitsuba_cornell.py [--spp 256] [--variants scalar_rgb,llvm_ad_rgb] [--repeat 2]
+        [--raylab OLD_BINARY,target/release/raylab]   # several binaries: each measured in turn
 
 Each round measures raylab, then every variant, then raylab again, so that the ratios compare
 renders made minutes apart on the same (shared, noisy) machine. llvm_ad_rgb needs
@@ -56,8 +57,7 @@ def mitsuba(variant, spp):
     return 256 * 256 * spp / seconds, img.reshape(-1, 3).mean(0)
 
 
-def raylab(spp):
-    exe = ROOT / "target" / "release" / "raylab"
+def raylab(spp, exe):
     out = ROOT / "out" / "bench-cornell.exr"
     out.parent.mkdir(exist_ok=True)
     r = subprocess.run(
@@ -76,22 +76,28 @@ def main():
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb")
     ap.add_argument("--repeat", type=int, default=1, help="rounds to run")
+    ap.add_argument("--raylab", default="target/release/raylab",
+                    help="raylab binaries to measure in turn, comma-separated (old and new, say)")
     args = ap.parse_args()
     for round_ in range(args.repeat):
-        before, our_mean = raylab(args.spp)
+        exes = [pathlib.Path(e).resolve() for e in args.raylab.split(",")]
+        before = {e: raylab(args.spp, e) for e in exes}
         theirs = {}
         for variant in args.variants.split(","):
             try:
                 theirs[variant] = mitsuba(variant, args.spp)
             except Exception as e:  # a variant that cannot load (no LLVM) is reported, not fatal
                 print(f"mitsuba {variant}: not measured ({e})")
-        after, _ = raylab(args.spp)
-        ours = (before + after) / 2
+        after = {e: raylab(args.spp, e) for e in reversed(exes)}
         print(f"round {round_ + 1}: 256x256, {args.spp} spp, max_depth {MAX_DEPTH} rr_depth {RR_DEPTH}"
               f" (raylab {' '.join(RAYLAB_PARAMS[1::2])})")
-        print(f"  raylab path            {ours / 1e6:8.3f} M samples/s (before {before / 1e6:.3f}, after {after / 1e6:.3f})  mean {tuple(round(v, 4) for v in our_mean)}")
-        for variant, (rate, mean) in theirs.items():
-            print(f"  mitsuba {variant:<14} {rate / 1e6:8.3f} M samples/s  mean {tuple(round(float(v), 4) for v in mean)}  raylab/mitsuba {ours / rate:5.2f}x")
+        for e in exes:
+            ours = (before[e][0] + after[e][0]) / 2
+            our_mean = before[e][1]
+            name = e.name if len(exes) == 1 else str(e)
+            print(f"  raylab path {name}: {ours / 1e6:8.3f} M samples/s (before {before[e][0] / 1e6:.3f}, after {after[e][0] / 1e6:.3f})  mean {tuple(round(v, 4) for v in our_mean)}")
+            for variant, (rate, mean) in theirs.items():
+                print(f"    against mitsuba {variant:<14} {rate / 1e6:8.3f} M samples/s  mean {tuple(round(float(v), 4) for v in mean)}  raylab/mitsuba {ours / rate:5.2f}x")
     return 0
 
 
