@@ -103,8 +103,8 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         progress: !args.quiet,
         note: args.note.clone(),
         region,
-        filter: args.filter,
-        accel: args.accel,
+        filter: args.trace.filter,
+        accel: args.trace.accel,
     };
     compare::run(&opts)?;
     eprintln!("wrote {}", args.output.join("index.html").display());

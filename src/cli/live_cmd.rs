@@ -5,14 +5,14 @@
 //! writes that last image) and exits 0, a second exits 130 at once.
 
 use super::render_cmd::{parse_param, parse_size};
-use super::{RenderArgs, ServeArgs};
+use super::{RenderArgs, ServeArgs, SessionArgs};
 use crate::live::serve;
 use crate::live::{self, watch::SceneWatcher, Control, Ended, LiveSettings, Observer, RenderInfo};
 use crate::output::{self, DisplaySettings};
 use crate::render::{Film, RenderStats};
 use anyhow::{bail, Context, Result};
 use std::io::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -24,39 +24,8 @@ const FILE_INTERVAL: Duration = Duration::from_millis(500);
 /// Shortest time between two images for the page.
 const PAGE_INTERVAL: Duration = Duration::from_millis(200);
 
-/// The flags both commands share, checked.
-struct Common<'a> {
-    scene: &'a Path,
-    integrator: Option<&'a String>,
-    params: &'a [String],
-    spp: Option<u32>,
-    seed: Option<u64>,
-    threads: Option<usize>,
-    size: Option<&'a str>,
-    exposure: f32,
-    filter: Option<raylab_integrators::Filter>,
-    accel: crate::accel::AccelKind,
-}
-
-/// The [`Common`] flags of a [`RenderArgs`] or a [`ServeArgs`] (same names, two structs).
-macro_rules! common {
-    ($args:expr) => {
-        Common {
-            scene: &$args.scene,
-            integrator: $args.integrator.as_ref(),
-            params: &$args.params,
-            spp: $args.spp,
-            seed: $args.seed,
-            threads: $args.threads,
-            size: $args.size.as_deref(),
-            exposure: $args.exposure,
-            filter: $args.filter,
-            accel: $args.accel,
-        }
-    };
-}
-
-fn settings(c: &Common, interval: Duration) -> Result<(LiveSettings, live::Selection)> {
+/// The live session the shared flags ask for, checked.
+fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::Selection)> {
     if c.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
@@ -70,7 +39,7 @@ fn settings(c: &Common, interval: Duration) -> Result<(LiveSettings, live::Selec
         bail!("{}: no such scene file", c.scene.display());
     }
     let selection = live::Selection {
-        integrator: c.integrator.cloned(),
+        integrator: c.integrator.clone(),
         params: c
             .params
             .iter()
@@ -80,13 +49,13 @@ fn settings(c: &Common, interval: Duration) -> Result<(LiveSettings, live::Selec
     selection.check()?;
     Ok((
         LiveSettings {
-            scene: c.scene.to_path_buf(),
-            size: c.size.map(parse_size).transpose()?,
+            scene: c.scene.clone(),
+            size: c.size.as_deref().map(parse_size).transpose()?,
             spp: c.spp,
             seed: c.seed,
             threads: c.threads,
-            filter: c.filter,
-            accel: c.accel,
+            filter: c.trace.filter,
+            accel: c.trace.accel,
             image_interval: interval,
         },
         selection,
@@ -191,26 +160,26 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
     let output_path = args
         .output
         .clone()
-        .unwrap_or_else(|| super::render_cmd::default_output(&args.scene));
+        .unwrap_or_else(|| super::render_cmd::default_output(&args.session.scene));
     output::check_output_path(&output_path)?;
-    let (settings, selection) = settings(&common!(args), FILE_INTERVAL)?;
+    let (settings, selection) = settings(&args.session, FILE_INTERVAL)?;
     let control = Arc::new(Control::new());
     install_interrupt_handler(Arc::clone(&control));
-    let watcher = SceneWatcher::start(&args.scene, Arc::clone(&control))?;
-    if !args.quiet {
+    let watcher = SceneWatcher::start(&args.session.scene, Arc::clone(&control))?;
+    if !args.session.quiet {
         eprintln!(
             "watching {} and the files it names; Ctrl-C to stop",
-            args.scene.display()
+            args.session.scene.display()
         );
     }
     let mut observer = FileObserver {
-        scene: args.scene.clone(),
+        scene: args.session.scene.clone(),
         output: output_path,
         display: DisplaySettings {
-            exposure: args.exposure,
-            tonemap: args.tonemap,
+            exposure: args.session.exposure,
+            tonemap: args.session.tonemap,
         },
-        quiet: args.quiet,
+        quiet: args.session.quiet,
         wrote: false,
     };
     live::run(
@@ -225,9 +194,9 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
 
 /// `raylab serve SCENE`.
 pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
-    let (settings, selection) = settings(&common!(args), PAGE_INTERVAL)?;
+    let (settings, selection) = settings(&args.session, PAGE_INTERVAL)?;
     let control = Arc::new(Control::new());
-    let shared = serve::Shared::new(&args.scene.display().to_string(), selection.clone());
+    let shared = serve::Shared::new(&args.session.scene.display().to_string(), selection.clone());
     let server = serve::Server::bind(
         &args.host,
         args.port,
@@ -241,14 +210,14 @@ pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
         );
     }
     install_interrupt_handler(Arc::clone(&control));
-    let watcher = SceneWatcher::start(&args.scene, Arc::clone(&control))?;
+    let watcher = SceneWatcher::start(&args.session.scene, Arc::clone(&control))?;
     let display = DisplaySettings {
-        exposure: args.exposure,
-        tonemap: args.tonemap,
+        exposure: args.session.exposure,
+        tonemap: args.session.tonemap,
     };
     let session = {
         let control = Arc::clone(&control);
-        let quiet = args.quiet;
+        let quiet = args.session.quiet;
         std::thread::Builder::new()
             .name("raylab-session".into())
             .spawn(move || {

@@ -46,28 +46,9 @@ pub enum Command {
     },
 }
 
+/// How rays are traced and pixels reconstructed: flags of `render`, `serve` and `compare`.
 #[derive(clap::Args, Debug, Clone)]
-pub struct RenderArgs {
-    /// Scene file (RON).
-    pub scene: PathBuf,
-    /// Integrator (see `raylab integrators`); default: the scene's, else `path`.
-    #[arg(short, long)]
-    pub integrator: Option<String>,
-    /// Integrator parameter as NAME=VALUE; repeat for several.
-    #[arg(short = 'p', long = "param", value_name = "NAME=VALUE")]
-    pub params: Vec<String>,
-    /// Samples per pixel (stratified on an NxN grid when a square).
-    #[arg(long, allow_negative_numbers = true)]
-    pub spp: Option<u32>,
-    /// Random seed.
-    #[arg(long, allow_negative_numbers = true)]
-    pub seed: Option<u64>,
-    /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long, allow_negative_numbers = true)]
-    pub threads: Option<usize>,
-    /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
-    #[arg(long, value_name = "WxH")]
-    pub size: Option<String>,
+pub struct TraceArgs {
     /// Accelerator: raylab (its own 8-wide BVH, the default) or obvhs (the obvhs crate's
     /// CWBVH). Images agree up to rounding at primitive edges.
     #[arg(long, value_name = "NAME", default_value = "raylab", value_parser = parse_accel)]
@@ -76,15 +57,54 @@ pub struct RenderArgs {
     /// radius 2); default: the scene's `render.filter`, else box.
     #[arg(long, value_name = "NAME", value_parser = parse_filter)]
     pub filter: Option<raylab_integrators::Filter>,
+}
+
+/// What `render` (and its `--watch`) and `serve` share: the scene, what renders it, and how
+/// the image is shown.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SessionArgs {
+    /// Scene file (RON).
+    pub scene: PathBuf,
+    /// Integrator (see `raylab integrators`); default: the scene's, else `path`.
+    #[arg(short, long)]
+    pub integrator: Option<String>,
+    /// Integrator parameter as NAME=VALUE; repeat for several.
+    #[arg(short = 'p', long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Samples per pixel, stratified on an NxN grid when a square. `render` stops there
+    /// (default: the scene's, or open-ended with --time); `serve` and `--watch` stop each
+    /// render there (default: refine until the next change).
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<u32>,
+    /// Random seed (default: the scene's).
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+    /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    #[command(flatten)]
+    pub trace: TraceArgs,
+    /// Exposure in stops for the PNG or the page's image (each +1 doubles the brightness).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Tone curve for the PNG or the page's image.
+    #[arg(long, value_enum, default_value_t = Tonemap::Clamp)]
+    pub tonemap: Tonemap,
+    /// No progress bar and no summary line (`serve`: no line per render).
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub session: SessionArgs,
     /// Output file: .png or .exr (default: the scene's name with .png, in the current folder).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Exposure in stops for the PNG (each +1 doubles the brightness).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub exposure: f32,
-    /// Tone curve for the PNG.
-    #[arg(long, value_enum, default_value_t = Tonemap::Clamp)]
-    pub tonemap: Tonemap,
     /// Stop after this many seconds (at the end of the pass that passes it) and write the
     /// image. Without --spp the render is open-ended.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
@@ -95,9 +115,6 @@ pub struct RenderArgs {
     /// Continue from --checkpoint FILE (refused if the scene or settings changed).
     #[arg(long)]
     pub resume: bool,
-    /// No progress bar and no summary line.
-    #[arg(short, long)]
-    pub quiet: bool,
     /// Keep going: watch the scene file and the files it names (meshes) and render again on
     /// every save, rewriting the output (atomically, at most twice a second) as passes
     /// complete.
@@ -109,50 +126,14 @@ pub struct RenderArgs {
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct ServeArgs {
-    /// Scene file (RON).
-    pub scene: PathBuf,
+    #[command(flatten)]
+    pub session: SessionArgs,
     /// Port to listen on; 0 picks a free one. The address is printed on stdout.
     #[arg(long, default_value_t = 8765)]
     pub port: u16,
     /// Address to listen on. The default, loopback, keeps the page to this machine.
     #[arg(long, default_value = "127.0.0.1")]
     pub host: String,
-    /// Integrator to start with (see `raylab integrators`); default: the scene's.
-    #[arg(short, long)]
-    pub integrator: Option<String>,
-    /// Integrator parameter as NAME=VALUE; repeat for several.
-    #[arg(short = 'p', long = "param", value_name = "NAME=VALUE")]
-    pub params: Vec<String>,
-    /// Stop each render at this many samples per pixel (default: refine until the next
-    /// change).
-    #[arg(long, allow_negative_numbers = true)]
-    pub spp: Option<u32>,
-    /// Random seed (default: the scene's).
-    #[arg(long, allow_negative_numbers = true)]
-    pub seed: Option<u64>,
-    /// Worker threads (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
-    pub threads: Option<usize>,
-    /// Image size WIDTHxHEIGHT, overriding the scene's resolution.
-    #[arg(long, value_name = "WxH")]
-    pub size: Option<String>,
-    /// Accelerator: raylab (its own 8-wide BVH, the default) or obvhs (the obvhs crate's
-    /// CWBVH). Images agree up to rounding at primitive edges.
-    #[arg(long, value_name = "NAME", default_value = "raylab", value_parser = parse_accel)]
-    pub accel: crate::accel::AccelKind,
-    /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
-    /// radius 2); default: the scene's `render.filter`, else box.
-    #[arg(long, value_name = "NAME", value_parser = parse_filter)]
-    pub filter: Option<raylab_integrators::Filter>,
-    /// Exposure in stops for the shown image.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub exposure: f32,
-    /// Tone curve for the shown image.
-    #[arg(long, value_enum, default_value_t = Tonemap::Clamp)]
-    pub tonemap: Tonemap,
-    /// No line per render on stderr.
-    #[arg(short, long)]
-    pub quiet: bool,
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -189,14 +170,8 @@ pub struct CompareArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Accelerator: raylab (its own 8-wide BVH, the default) or obvhs (the obvhs crate's
-    /// CWBVH). Images agree up to rounding at primitive edges.
-    #[arg(long, value_name = "NAME", default_value = "raylab", value_parser = parse_accel)]
-    pub accel: crate::accel::AccelKind,
-    /// Pixel reconstruction filter: box, tent or gaussian (Mitsuba 3's default: stddev 0.5,
-    /// radius 2); default: the scene's `render.filter`, else box.
-    #[arg(long, value_name = "NAME", value_parser = parse_filter)]
-    pub filter: Option<raylab_integrators::Filter>,
+    #[command(flatten)]
+    pub trace: TraceArgs,
     /// Output folder (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,

@@ -53,12 +53,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let output_path = args
         .output
         .clone()
-        .unwrap_or_else(|| default_output(&args.scene));
+        .unwrap_or_else(|| default_output(&args.session.scene));
     output::check_output_path(&output_path)?;
-    if args.spp == Some(0) {
+    if args.session.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
-    if args.threads == Some(0) {
+    if args.session.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
     if let Some(t) = args.time {
@@ -74,56 +74,63 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             output::check_writable_folder(c)?;
         }
     }
-    if !args.exposure.is_finite() {
+    if !args.session.exposure.is_finite() {
         bail!("--exposure must be finite");
     }
-    let size = args.size.as_deref().map(parse_size).transpose()?;
+    let size = args.session.size.as_deref().map(parse_size).transpose()?;
     let cli_params = args
+        .session
         .params
         .iter()
         .map(|p| parse_param(p))
         .collect::<Result<Vec<_>>>()?;
 
-    let loaded = scene::load_scene(&args.scene)?;
+    let loaded = scene::load_scene(&args.session.scene)?;
     for w in &loaded.warnings {
-        eprintln!("warning: {}: {w}", args.scene.display());
+        eprintln!("warning: {}: {w}", args.session.scene.display());
     }
     // Scene parameters apply only to the scene's own integrator; the command line wins.
     let (entry, params) =
-        crate::live::choose_integrator(&loaded, args.integrator.as_deref(), &cli_params)?;
+        crate::live::choose_integrator(&loaded, args.session.integrator.as_deref(), &cli_params)?;
     let mut integrator = (entry.build)(&params);
     // Target: --spp, else open-ended under --time, else the scene's spp.
-    let spp = match (args.spp, args.time) {
+    let spp = match (args.session.spp, args.time) {
         (Some(n), _) => Some(n),
         (None, Some(_)) => None,
         (None, None) => Some(loaded.render.spp),
     };
     if spp == Some(0) {
-        bail!("{}: render.spp must be at least 1", args.scene.display());
+        bail!(
+            "{}: render.spp must be at least 1",
+            args.session.scene.display()
+        );
     }
     let camera = match size {
         Some((w, h)) => loaded.camera.with_resolution(w, h),
         None => loaded.camera.clone(),
     };
-    let seed = args.seed.unwrap_or(loaded.render.seed);
+    let seed = args.session.seed.unwrap_or(loaded.render.seed);
 
     render::check_memory(camera.width, camera.height)?;
-    let built = RenderScene::build_on_threads(&loaded, args.accel, args.threads)?;
+    let built =
+        RenderScene::build_on_threads(&loaded, args.session.trace.accel, args.session.threads)?;
     let settings = RenderSettings {
         spp,
         seed,
-        threads: args.threads,
-        progress: !args.quiet,
+        threads: args.session.threads,
+        progress: !args.session.quiet,
         time_budget: args.time.map(Duration::from_secs_f64),
-        filter: args.filter.unwrap_or(loaded.render.filter),
+        filter: args.session.trace.filter.unwrap_or(loaded.render.filter),
     };
 
     // Checkpoints are tied to everything that determines the image: the settings, the scene
     // file and the mesh files it names (read and hashed only when there is a checkpoint).
     let hash = match &args.checkpoint {
         Some(_) => {
-            let scene_bytes = crate::scene::references::scene_content(&args.scene)
-                .with_context(|| format!("{}: cannot read scene file", args.scene.display()))?;
+            let scene_bytes = crate::scene::references::scene_content(&args.session.scene)
+                .with_context(|| {
+                    format!("{}: cannot read scene file", args.session.scene.display())
+                })?;
             let settings_text = format!(
                 "{} {:?} spp={spp:?} seed={seed} {}x{} filter={} accel={} v{}",
                 entry.name,
@@ -131,7 +138,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
                 camera.width,
                 camera.height,
                 settings.filter,
-                args.accel,
+                args.session.trace.accel,
                 env!("CARGO_PKG_VERSION")
             );
             checkpoint::stable_hash(&[&scene_bytes, settings_text.as_bytes()])
@@ -141,7 +148,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let mut acc = match (&args.checkpoint, args.resume) {
         (Some(path), true) => {
             let acc = checkpoint::load(path, hash, camera.width, camera.height)?;
-            if !args.quiet {
+            if !args.session.quiet {
                 eprintln!("resuming from {} at {} spp", path.display(), acc.spp_done);
             }
             acc
@@ -152,7 +159,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     // Ctrl-C: the first finishes the pass and writes the image, the second stops at once.
     install_interrupt_handler();
     let stop = || INTERRUPTS.load(Ordering::SeqCst) > 0;
-    if !args.quiet {
+    if !args.session.quiet {
         let target = settings
             .spp
             .map_or_else(|| "open-ended".to_string(), |n| format!("{n} spp"));
@@ -192,8 +199,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         &output_path,
         &film,
         DisplaySettings {
-            exposure: args.exposure,
-            tonemap: args.tonemap,
+            exposure: args.session.exposure,
+            tonemap: args.session.tonemap,
         },
     )?;
 
@@ -215,12 +222,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             stats.dropped, first.x, first.y, first.sample
         );
     }
-    if !args.quiet {
+    if !args.session.quiet {
         let secs = stats.elapsed.as_secs_f64();
         let mean = film.mean();
         eprintln!(
             "{}: {} {} | {}x{} {} spp | {:.2} s, {} threads | {:.3} M samples/s | {:.2} M rays/s (camera {}, extension {}, shadow {}, light {}, connection {}) | mean radiance ({:.4}, {:.4}, {:.4}) | wrote {}",
-            args.scene.display(),
+            args.session.scene.display(),
             entry.name,
             params.describe(entry.params),
             camera.width,
