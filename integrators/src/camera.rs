@@ -138,13 +138,7 @@ impl Camera {
             up,
             tan_half_fov,
         };
-        Camera {
-            eye,
-            width: size.0,
-            height: size.1,
-            film: Self::film_of(eye, &view, size),
-            view,
-        }
+        Camera::new(eye, view, size)
     }
 
     /// A camera at `eye` looking through the parallelogram `top_left, top_right, bottom_left`.
@@ -160,6 +154,10 @@ impl Camera {
             right_edge: top_right - top_left,
             down_edge: bottom_left - top_left,
         };
+        Camera::new(eye, view, size)
+    }
+
+    fn new(eye: Vec3A, view: View, size: (u32, u32)) -> Self {
         Camera {
             eye,
             width: size.0,
@@ -197,12 +195,7 @@ impl Camera {
 
     /// The same view at another resolution (a look-at camera keeps its vertical field of view).
     pub fn with_resolution(&self, width: u32, height: u32) -> Self {
-        Camera {
-            width,
-            height,
-            film: Self::film_of(self.eye, &self.view, (width, height)),
-            ..self.clone()
-        }
+        Camera::new(self.eye, self.view.clone(), (width, height))
     }
 
     /// The primary ray through film position `(x, y)` in pixels, `(0, 0)` the top-left corner.

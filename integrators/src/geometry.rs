@@ -48,6 +48,34 @@ const RELATIVE_OFFSET: f32 = 2e-5;
 const ABSOLUTE_OFFSET: f32 = 1e-5;
 
 impl Hit {
+    /// The hit of `ray` on a sphere at distance `t`: the point re-projected onto the surface
+    /// (the ray's point carries the rounding of `t`), the outward normal.
+    #[inline]
+    pub fn on_sphere(
+        ray: &Ray,
+        t: f32,
+        center: Vec3A,
+        radius: f32,
+        material: u32,
+        light: Option<u32>,
+    ) -> Hit {
+        let n = (ray.at(t) - center).normalize();
+        Hit::new(t, center + n * radius, n, material, light)
+    }
+
+    /// A hit whose shading normal is its geometric normal `n`.
+    #[inline]
+    pub fn new(t: f32, p: Vec3A, n: Vec3A, material: u32, light: Option<u32>) -> Hit {
+        Hit {
+            t,
+            p,
+            ng: n,
+            ns: n,
+            material,
+            light,
+        }
+    }
+
     /// The hit position pushed off the surface along the geometric normal, on the side of `dir`.
     /// This is the cure for the report's "shadow acne" (section 2.7), scaled to the scene.
     #[inline]
@@ -188,14 +216,7 @@ mod tests {
 
     #[test]
     fn shadow_rays_stop_short_of_the_target() {
-        let hit = Hit {
-            t: 1.0,
-            p: Vec3A::ZERO,
-            ng: Vec3A::Z,
-            ns: Vec3A::Z,
-            material: 0,
-            light: None,
-        };
+        let hit = Hit::new(1.0, Vec3A::ZERO, Vec3A::Z, 0, None);
         let r = hit.spawn_ray_to(Vec3A::new(0.0, 0.0, 2.0));
         assert!(r.origin.z > 0.0 && r.tmax < 2.0 && r.tmax > 1.99);
         let below = hit.spawn_ray(-Vec3A::Z);

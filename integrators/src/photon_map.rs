@@ -23,8 +23,7 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    continue_path, emitted_at, escaped, russian_roulette, stays_on_viewer_side, ShadingPoint,
-    MAX_SURVIVAL,
+    emitted_at, escaped, stays_on_viewer_side, PathState, ShadingPoint, MAX_SURVIVAL,
 };
 use crate::{luminance, Hit, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
 use glam::{Vec3, Vec3A};
@@ -207,7 +206,7 @@ pub struct Landing {
 /// `rr_depth` on) to a non-specular surface: where photon integrators gather. With
 /// `emission`, adds the emission met on the way (and escaping radiance) to it.
 pub fn land(
-    mut ray: Ray,
+    ray: Ray,
     first_is_camera: bool,
     max_bounces: u32,
     rr_depth: u32,
@@ -216,45 +215,36 @@ pub fn land(
     sampler: &mut Sampler,
 ) -> Option<Landing> {
     let mut l = emission;
-    let mut beta = Rgb::ONE;
-    let mut bounces = 0u32;
-    // Product of eta^2 over the path's refractions.
-    let mut eta_scale = 1.0f32;
+    let mut path = if first_is_camera {
+        PathState::from_camera(ray)
+    } else {
+        PathState::from_surface(ray)
+    };
     loop {
-        let hit = if bounces == 0 && first_is_camera {
-            tracer.camera(&ray)
-        } else {
-            tracer.extend(&ray)
-        };
-        let Some(hit) = hit else {
+        let Some(hit) = path.trace(tracer) else {
             if let Some(l) = l.as_deref_mut() {
-                *l += beta * escaped(tracer.scene, &ray);
+                *l += path.beta * escaped(tracer.scene, &path.ray);
             }
             return None;
         };
         if let Some(l) = l.as_deref_mut() {
-            *l += beta * emitted_at(tracer.scene, &hit, &ray);
+            *l += path.beta * emitted_at(tracer.scene, &hit, &path.ray);
         }
         let material = tracer.scene.material(hit.material);
         if !material.is_specular() {
             return Some(Landing {
                 hit,
-                ray,
-                beta,
-                bounces,
+                ray: path.ray,
+                beta: path.beta,
+                bounces: path.bounces,
             });
         }
-        if bounces >= max_bounces {
+        if path.bounces >= max_bounces {
             return None;
         }
-        let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
-        let (next, bs) = continue_path(&sp, &mut beta, sampler)?;
-        eta_scale *= bs.eta * bs.eta;
-        ray = next;
-        bounces += 1;
-        if bounces >= rr_depth {
-            // On the throughput without refraction's compression of radiance.
-            beta /= russian_roulette(beta * eta_scale, sampler)?;
+        let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+        if !path.scatter(&sp, rr_depth, sampler) {
+            return None;
         }
     }
 }
@@ -470,14 +460,7 @@ mod tests {
         // About 5,500 photons within r = 0.15: a 1.3% standard error; the irradiance falls
         // by 1% from the centre to the disk's edge.
         let map = PhotonMap::build(photons, 0.15);
-        let hit = Hit {
-            t: 1.0,
-            p: Vec3A::ZERO,
-            ng: Vec3A::Z,
-            ns: Vec3A::Z,
-            material: 0,
-            light: None,
-        };
+        let hit = Hit::new(1.0, Vec3A::ZERO, Vec3A::Z, 0, None);
         let sp = ShadingPoint::new(&hit, -Vec3A::Z, &scene);
         let l = map.radiance(&sp, |_| true);
         assert!((l.y - 0.125).abs() < 0.125 * 0.05, "{l:?}");

@@ -419,7 +419,7 @@ impl WideBvh {
         let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
         if let Some(i) = s.sphere_index(lane, data) {
             let (c, r) = (self.sph_center[i], self.sph_radius[i]);
-            sphere_hit(ray, t, c, r, data.material(lane), data.light(lane))
+            Hit::on_sphere(ray, t, c, r, data.material(lane), data.light(lane))
         } else {
             let ng = s.normal(lane);
             let ns = match data.smooth(lane) {
@@ -442,21 +442,6 @@ impl WideBvh {
                 light: data.light(lane),
             }
         }
-    }
-}
-
-/// The surface record of a sphere hit at distance `t` along `ray`: the point re-projected onto
-/// the surface (the ray's point carries the rounding of t), the outward normal.
-#[inline]
-fn sphere_hit(ray: &Ray, t: f32, c: Vec3A, r: f32, material: u32, light: Option<u32>) -> Hit {
-    let n = (ray.at(t) - c).normalize();
-    Hit {
-        t,
-        p: c + n * r,
-        ng: n,
-        ns: n,
-        material,
-        light,
     }
 }
 

@@ -11,8 +11,7 @@
 
 use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle};
 use super::{
-    barycentrics, box_corners, bvh, shading_normal, sphere_hit, AccelStats, Geometry, Input,
-    ShapeLights,
+    barycentrics, box_corners, bvh, shading_normal, AccelStats, Geometry, Input, ShapeLights,
 };
 use glam::{Affine3A, Vec3A};
 use obvhs::aabb::Aabb;
@@ -341,7 +340,7 @@ impl ObvhsBvh {
                 radius,
                 material,
                 light: l,
-            } => sphere_hit(ray, t, center, radius, material, light(l)),
+            } => Hit::on_sphere(ray, t, center, radius, material, light(l)),
             Prim::Triangle {
                 corners: [v0, v1, v2],
                 smooth,

@@ -1,7 +1,7 @@
 //! Lambertian diffuse reflection: `f = albedo / pi`.
 
 use super::{BsdfSample, Bxdf};
-use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
+use crate::sampling::cosine_hemisphere_pdf;
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
@@ -33,15 +33,7 @@ impl Bxdf for Lambert {
     }
 
     fn sample(&self, _wo: Vec3A, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        let wi = cosine_hemisphere(u);
-        let pdf = cosine_hemisphere_pdf(wi.z);
-        (pdf > 0.0).then(|| BsdfSample {
-            wi,
-            f: self.albedo * FRAC_1_PI,
-            pdf,
-            specular: false,
-            eta: 1.0,
-        })
+        BsdfSample::cosine_weighted(u, |_| self.albedo * FRAC_1_PI)
     }
 
     fn albedo(&self) -> Rgb {

@@ -49,6 +49,27 @@ pub enum TransportMode {
 }
 
 impl BsdfSample {
+    /// A sample of a lobe that is not a delta, in reflection (`eta` 1).
+    #[inline]
+    pub fn reflection(wi: Vec3A, f: Rgb, pdf: f32) -> BsdfSample {
+        BsdfSample {
+            wi,
+            f,
+            pdf,
+            specular: false,
+            eta: 1.0,
+        }
+    }
+
+    /// A cosine-weighted direction of the upper hemisphere with BSDF value `f(wi)`: how
+    /// diffuse lobes sample. `None` where the density vanishes (the horizon).
+    #[inline]
+    pub fn cosine_weighted(u: Vec2, f: impl FnOnce(Vec3A) -> Rgb) -> Option<BsdfSample> {
+        let wi = crate::sampling::cosine_hemisphere(u);
+        let pdf = crate::sampling::cosine_hemisphere_pdf(wi.z);
+        (pdf > 0.0).then(|| BsdfSample::reflection(wi, f(wi), pdf))
+    }
+
     /// Throughput weight `f * |cos(wi)| / pdf`.
     #[inline]
     pub fn weight(&self) -> Rgb {

@@ -46,7 +46,7 @@
 //! Sampling is cosine-weighted over the hemisphere (`pdf = cos(theta_i) / pi`).
 
 use super::{BsdfSample, Bxdf};
-use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
+use crate::sampling::cosine_hemisphere_pdf;
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
@@ -106,15 +106,7 @@ impl Bxdf for OrenNayar {
     }
 
     fn sample(&self, wo: Vec3A, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        let wi = cosine_hemisphere(u);
-        let pdf = cosine_hemisphere_pdf(wi.z);
-        (pdf > 0.0).then(|| BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-            specular: false,
-            eta: 1.0,
-        })
+        BsdfSample::cosine_weighted(u, |wi| self.eval(wo, wi))
     }
 
     fn albedo(&self) -> Rgb {

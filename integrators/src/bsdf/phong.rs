@@ -173,13 +173,7 @@ impl Bxdf for Phong {
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        Some(BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-            specular: false,
-            eta: 1.0,
-        })
+        Some(BsdfSample::reflection(wi, self.eval(wo, wi), pdf))
     }
 
     fn albedo(&self) -> Rgb {

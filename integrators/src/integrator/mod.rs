@@ -9,11 +9,13 @@ mod depth_view;
 mod fixed_depth;
 mod normals_view;
 mod path;
+mod path_state;
 mod photon;
 mod russian_roulette;
 mod sppm;
 mod whitted;
 
+pub use path_state::PathState;
 pub use shading::{Scatter, ShadingPoint};
 
 use crate::light::LightSample;

@@ -12,12 +12,10 @@
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::integrator::{
-    continue_path, emitted_at, escaped, mis_weight_for_hit, russian_roulette, sample_one_light,
-    RayIntegrator, ShadingPoint, Tracer,
+    emitted_at, escaped, sample_one_light, PathState, RayIntegrator, ShadingPoint, Tracer,
 };
 use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Ray, Rgb, Sampler};
-use glam::Vec3A;
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "path",
@@ -43,72 +41,35 @@ struct PathTracer {
 impl RayIntegrator for PathTracer {
     fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut ray = *camera_ray;
-        // State of the previous vertex, for weighting emitters the BSDF sample finds.
-        let mut specular = true;
-        let mut prev_pdf = 0.0f32;
-        let mut prev_p = Vec3A::ZERO;
-        let mut bounces = 0u32;
-        // Product of eta^2 over the path's refractions.
-        let mut eta_scale = 1.0f32;
+        let mut path = PathState::from_camera(*camera_ray);
         loop {
             // Trace the next segment.
-            let hit = if bounces == 0 {
-                tracer.camera(&ray)
-            } else {
-                tracer.extend(&ray)
-            };
-            let Some(hit) = hit else {
+            let Some(hit) = path.trace(tracer) else {
                 // Escaped: environment light, MIS-weighted unless seen through specular.
-                let le = escaped(tracer.scene, &ray);
+                let le = escaped(tracer.scene, &path.ray);
                 if le != Rgb::ZERO {
-                    let w = if specular {
-                        1.0
-                    } else {
-                        mis_weight_for_hit(tracer.scene, prev_p, &ray, None, prev_pdf)
-                    };
-                    l += beta * le * w;
+                    l += path.beta * le * path.emission_weight(tracer, None);
                 }
                 break;
             };
             // Emission found by the BSDF sample (or the camera).
             if hit.light.is_some() {
-                let le = emitted_at(tracer.scene, &hit, &ray);
+                let le = emitted_at(tracer.scene, &hit, &path.ray);
                 if le != Rgb::ZERO {
-                    let w = if specular {
-                        1.0
-                    } else {
-                        mis_weight_for_hit(tracer.scene, prev_p, &ray, Some(&hit), prev_pdf)
-                    };
-                    l += beta * le * w;
+                    l += path.beta * le * path.emission_weight(tracer, Some(&hit));
                 }
             }
-            if bounces >= self.max_depth {
+            if path.bounces >= self.max_depth {
                 break;
             }
-            let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
+            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
             // Next-event estimation, MIS-weighted.
             if !sp.material.is_specular() {
-                l += beta * sample_one_light(&sp, true, tracer, sampler);
+                l += path.beta * sample_one_light(&sp, true, tracer, sampler);
             }
-            // BSDF sampling for the next segment.
-            let Some((next, bs)) = continue_path(&sp, &mut beta, sampler) else {
+            // BSDF sampling for the next segment, then Russian roulette.
+            if !path.scatter(&sp, self.rr_depth, sampler) {
                 break;
-            };
-            eta_scale *= bs.eta * bs.eta;
-            specular = bs.specular;
-            prev_pdf = bs.pdf;
-            prev_p = hit.p;
-            ray = next;
-            bounces += 1;
-            // Russian roulette, on the throughput without the compression of radiance by
-            // refraction.
-            if bounces >= self.rr_depth {
-                match russian_roulette(beta * eta_scale, sampler) {
-                    Some(p) => beta /= p,
-                    None => break,
-                }
             }
         }
         l

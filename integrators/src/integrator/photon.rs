@@ -26,45 +26,29 @@
 
 use crate::integrator::{continue_path, sample_one_light, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
-use crate::registry::{IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH};
+use crate::registry::{
+    IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
+};
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "photon",
     summary: "photon mapping: caustic map + global map with final gathering (Jensen 1996); biased",
     params: &[
-        ParamSpec {
-            name: "photons",
-            kind: ParamKind::Int,
-            default: 200_000.0,
-            min: 0.0,
-            max: 1e9,
-            doc: "photons emitted for the global map",
-        },
-        ParamSpec {
-            name: "caustic-photons",
-            kind: ParamKind::Int,
-            default: 1_000_000.0,
-            min: 0.0,
-            max: 1e9,
-            doc: "photons emitted for the caustic map (only L S+ D landings are kept)",
-        },
-        ParamSpec {
-            name: "radius",
-            kind: ParamKind::Float,
-            default: 0.0,
-            min: 0.0,
-            max: 1e7,
-            doc: "caustic gather radius, scene units (0 = 0.5% of the bounding-box diagonal)",
-        },
-        ParamSpec {
-            name: "global-radius",
-            kind: ParamKind::Float,
-            default: 0.0,
-            min: 0.0,
-            max: 1e7,
-            doc: "global-map gather radius, scene units (0 = 1% of the bounding-box diagonal)",
-        },
+        PHOTONS
+            .with_min(0.0)
+            .with_default(200_000.0)
+            .with_doc("photons emitted for the global map"),
+        PHOTONS
+            .with_name("caustic-photons")
+            .with_min(0.0)
+            .with_default(1_000_000.0)
+            .with_doc("photons emitted for the caustic map (only L S+ D landings are kept)"),
+        GATHER_RADIUS
+            .with_doc("caustic gather radius, scene units (0 = 0.5% of the bounding-box diagonal)"),
+        GATHER_RADIUS.with_name("global-radius").with_doc(
+            "global-map gather radius, scene units (0 = 1% of the bounding-box diagonal)",
+        ),
         ParamSpec {
             name: "gather",
             kind: ParamKind::Int,

@@ -48,7 +48,38 @@ pub const RR_DEPTH: ParamSpec = ParamSpec {
     doc: "scattering events before Russian roulette starts",
 };
 
+/// A photon count, as the photon-mapping integrators declare it.
+pub const PHOTONS: ParamSpec = ParamSpec {
+    name: "photons",
+    kind: ParamKind::Int,
+    default: 100_000.0,
+    min: 1.0,
+    max: 1e9,
+    doc: "photons traced per pass",
+};
+
+/// A gather radius in scene units, 0 for one chosen from the scene's size, as the
+/// photon-mapping integrators declare it.
+pub const GATHER_RADIUS: ParamSpec = ParamSpec {
+    name: "radius",
+    kind: ParamKind::Float,
+    default: 0.0,
+    min: 0.0,
+    max: 1e7,
+    doc: "gather radius, scene units (0 = 1% of the bounding-box diagonal)",
+};
+
 impl ParamSpec {
+    /// The same parameter under another name.
+    pub const fn with_name(self, name: &'static str) -> ParamSpec {
+        ParamSpec { name, ..self }
+    }
+
+    /// The same parameter with another smallest value.
+    pub const fn with_min(self, min: f64) -> ParamSpec {
+        ParamSpec { min, ..self }
+    }
+
     /// The same parameter with another default.
     pub const fn with_default(self, default: f64) -> ParamSpec {
         ParamSpec { default, ..self }

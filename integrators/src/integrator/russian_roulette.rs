@@ -13,8 +13,7 @@
 //! otherwise.
 
 use crate::integrator::{
-    continue_path, emitted_at, escaped, russian_roulette, sample_one_light, RayIntegrator,
-    ShadingPoint, Tracer,
+    emitted_at, escaped, sample_one_light, PathState, RayIntegrator, ShadingPoint, Tracer,
 };
 use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Ray, Rgb, Sampler};
@@ -46,52 +45,31 @@ struct RussianRouletteTracer {
 impl RayIntegrator for RussianRouletteTracer {
     fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut ray = *camera_ray;
-        let mut count_emission = true;
-        let mut bounces = 0u32;
-        // Product of eta^2 over the path's refractions.
-        let mut eta_scale = 1.0f32;
+        let mut path = PathState::from_camera(*camera_ray);
         loop {
-            // Trace: the camera ray, then continuation rays.
-            let hit = if bounces == 0 {
-                tracer.camera(&ray)
-            } else {
-                tracer.extend(&ray)
-            };
-            let Some(hit) = hit else {
-                if count_emission {
-                    l += beta * escaped(tracer.scene, &ray);
+            // Trace: the camera ray, then continuation rays. Emission counts only when
+            // direct-light sampling could not have found it: seen directly or through
+            // specular bounces.
+            let Some(hit) = path.trace(tracer) else {
+                if path.specular {
+                    l += path.beta * escaped(tracer.scene, &path.ray);
                 }
                 break;
             };
-            // Emission, when direct-light sampling could not have found it.
-            if count_emission {
-                l += beta * emitted_at(tracer.scene, &hit, &ray);
+            if path.specular {
+                l += path.beta * emitted_at(tracer.scene, &hit, &path.ray);
             }
-            if bounces >= self.max_depth {
+            if path.bounces >= self.max_depth {
                 break;
             }
-            let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
+            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
             // Direct light: one light, one shadow ray.
             if !sp.material.is_specular() {
-                l += beta * sample_one_light(&sp, false, tracer, sampler);
+                l += path.beta * sample_one_light(&sp, false, tracer, sampler);
             }
-            // Continuation: one BSDF-sampled ray.
-            let Some((next, bs)) = continue_path(&sp, &mut beta, sampler) else {
+            // Continuation: one BSDF-sampled ray, then Russian roulette.
+            if !path.scatter(&sp, self.rr_depth, sampler) {
                 break;
-            };
-            eta_scale *= bs.eta * bs.eta;
-            count_emission = bs.specular;
-            ray = next;
-            bounces += 1;
-            // Russian roulette on the throughput (without refraction's compression of
-            // radiance).
-            if bounces >= self.rr_depth {
-                match russian_roulette(beta * eta_scale, sampler) {
-                    Some(p) => beta /= p,
-                    None => break,
-                }
             }
         }
         l

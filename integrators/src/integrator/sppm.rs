@@ -24,7 +24,8 @@
 use crate::integrator::{sample_one_light, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
+    PHOTONS, RR_DEPTH,
 };
 use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
 
@@ -32,22 +33,9 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "sppm",
     summary: "stochastic progressive photon mapping: photons per pass, shrinking radius, consistent; strong on caustics",
     params: &[
-        ParamSpec {
-            name: "photons",
-            kind: ParamKind::Int,
-            default: 100_000.0,
-            min: 1.0,
-            max: 1e9,
-            doc: "photons traced per pass",
-        },
-        ParamSpec {
-            name: "radius",
-            kind: ParamKind::Float,
-            default: 0.0,
-            min: 0.0,
-            max: 1e7,
-            doc: "first gather radius, scene units (0 = 1% of the bounding-box diagonal)",
-        },
+        PHOTONS,
+        GATHER_RADIUS
+            .with_doc("first gather radius, scene units (0 = 1% of the bounding-box diagonal)"),
         ParamSpec {
             name: "alpha",
             kind: ParamKind::Float,

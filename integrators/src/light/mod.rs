@@ -73,6 +73,35 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+impl LightSample {
+    /// The point `q` of a surface light, sampled from `p` with solid-angle density
+    /// `pdf(wi, dist^2)`; `None` where `p` and `q` coincide or the density vanishes.
+    #[inline]
+    pub fn on_surface(
+        p: Vec3A,
+        q: Vec3A,
+        radiance: Rgb,
+        pdf: impl FnOnce(Vec3A, f32) -> f32,
+    ) -> Option<LightSample> {
+        let d = q - p;
+        let dist2 = d.length_squared();
+        if !(dist2 > 0.0 && dist2.is_finite()) {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let pdf = pdf(wi, dist2);
+        (pdf > 0.0).then_some(LightSample {
+            wi,
+            point: q,
+            dist,
+            radiance,
+            pdf,
+            delta: false,
+        })
+    }
+}
+
 /// A ray leaving an emitter ([`Light::sample_le`]): pbrt-v4's `LightLeSample`.
 #[derive(Clone, Copy, Debug)]
 pub struct LeSample {

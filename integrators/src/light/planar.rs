@@ -105,22 +105,8 @@ impl Planar {
     }
 
     pub fn sample_li(&self, p: Vec3A, u: Vec2) -> Option<LightSample> {
-        let q = self.point(u);
-        let d = q - p;
-        let dist2 = d.length_squared();
-        if !(dist2 > 0.0 && dist2.is_finite()) {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = d / dist;
-        let pdf = planar_pdf(dist2, self.n.dot(-wi), self.area, self.two_sided);
-        (pdf > 0.0).then_some(LightSample {
-            wi,
-            point: q,
-            dist,
-            radiance: self.radiance,
-            pdf,
-            delta: false,
+        LightSample::on_surface(p, self.point(u), self.radiance, |wi, dist2| {
+            planar_pdf(dist2, self.n.dot(-wi), self.area, self.two_sided)
         })
     }
 

@@ -87,24 +87,13 @@ pub(super) fn sphere_sample(
 impl SphereLight {
     pub fn sample_li(&self, p: Vec3A, u: Vec2) -> Option<LightSample> {
         let (q, n, pdf) = sphere_sample(self.center, self.radius, p, u)?;
-        let d = q - p;
-        let dist2 = d.length_squared();
-        if dist2.is_nan() || dist2 <= 0.0 {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = d / dist;
         // The sphere emits outwards only: nothing reaches points inside it.
-        if n.dot(-wi) <= 0.0 {
-            return None;
-        }
-        Some(LightSample {
-            wi,
-            point: q,
-            dist,
-            radiance: self.radiance,
-            pdf,
-            delta: false,
+        LightSample::on_surface(p, q, self.radiance, |wi, _| {
+            if n.dot(-wi) > 0.0 {
+                pdf
+            } else {
+                0.0
+            }
         })
     }
 

@@ -85,54 +85,26 @@ impl Scene for TestScene {
         for s in &self.surfaces {
             let tmax = best.map_or(ray.tmax, |h| h.t);
             let r = Ray { tmax, ..*ray };
-            match s {
-                Surface::Triangle { v, light } => {
-                    if let Some(t) = intersect_triangle(v, &r) {
-                        let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
-                        best = Some(Hit {
-                            t,
-                            p: ray.at(t),
-                            ng: n,
-                            ns: n,
-                            material: 0,
-                            light: *light,
-                        });
-                    }
-                }
+            let hit = match *s {
+                Surface::Triangle { v, light } => intersect_triangle(&v, &r).map(|t| {
+                    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+                    Hit::new(t, ray.at(t), n, 0, light)
+                }),
                 Surface::Sphere {
                     center,
                     radius,
                     material,
-                } => {
-                    if let Some(t) = intersect_sphere(*center, *radius, &r) {
-                        let n = (ray.at(t) - *center).normalize();
-                        best = Some(Hit {
-                            t,
-                            p: *center + n * *radius,
-                            ng: n,
-                            ns: n,
-                            material: *material,
-                            light: None,
-                        });
-                    }
-                }
+                } => intersect_sphere(center, radius, &r)
+                    .map(|t| Hit::on_sphere(&r, t, center, radius, material, None)),
                 Surface::SphereLight {
                     center,
                     radius,
                     light,
-                } => {
-                    if let Some(t) = intersect_sphere(*center, *radius, &r) {
-                        let n = (ray.at(t) - *center).normalize();
-                        best = Some(Hit {
-                            t,
-                            p: *center + n * *radius,
-                            ng: n,
-                            ns: n,
-                            material: 1,
-                            light: Some(*light),
-                        });
-                    }
-                }
+                } => intersect_sphere(center, radius, &r)
+                    .map(|t| Hit::on_sphere(&r, t, center, radius, 1, Some(light))),
+            };
+            if hit.is_some() {
+                best = hit;
             }
         }
         best

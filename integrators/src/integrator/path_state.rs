@@ -1,0 +1,100 @@
+//! A path walked from the camera one scattering event at a time: the state the unidirectional
+//! tracers (`path`, `russian-roulette`, the photon gathers) share, so that each keeps only what
+//! differs between them, how it counts the emitters it meets.
+
+use crate::integrator::{
+    continue_path, mis_weight_for_hit, russian_roulette, ShadingPoint, Tracer,
+};
+use crate::{Hit, Ray, Rgb, Sampler};
+use glam::Vec3A;
+
+/// The walk's state between two segments.
+pub struct PathState {
+    /// The ray to trace next.
+    pub ray: Ray,
+    /// Throughput from the path's start to `ray`'s origin (BSDF weights over densities,
+    /// divided by the roulette's survival probabilities).
+    pub beta: Rgb,
+    /// Scattering events so far.
+    pub bounces: u32,
+    /// Whether `ray` left a specular scattering event, or is the walk's first ray.
+    pub specular: bool,
+    /// Solid-angle density with which the BSDF chose `ray` (0 for the first ray).
+    pub pdf: f32,
+    /// The scattering point `ray` leaves (before the offset that keeps it off the surface).
+    pub from: Vec3A,
+    /// Product of eta^2 over the path's refractions: roulette plays on `beta * eta_scale`, the
+    /// throughput without refraction's compression of radiance (pbrt-v4's and Mitsuba 3's
+    /// `rrBeta`).
+    eta_scale: f32,
+    /// Whether the first ray is a camera ray (counted as one).
+    from_camera: bool,
+}
+
+impl PathState {
+    /// A walk that starts with the camera ray `ray`.
+    pub fn from_camera(ray: Ray) -> PathState {
+        PathState {
+            ray,
+            beta: Rgb::ONE,
+            bounces: 0,
+            specular: true,
+            pdf: 0.0,
+            from: ray.origin,
+            eta_scale: 1.0,
+            from_camera: true,
+        }
+    }
+
+    /// A walk that starts with `ray`, leaving a surface (a final-gather ray).
+    pub fn from_surface(ray: Ray) -> PathState {
+        PathState {
+            from_camera: false,
+            ..PathState::from_camera(ray)
+        }
+    }
+
+    /// Traces the next segment: the camera ray first, then extension rays.
+    #[inline]
+    pub fn trace(&self, tracer: &mut Tracer) -> Option<Hit> {
+        if self.bounces == 0 && self.from_camera {
+            tracer.camera(&self.ray)
+        } else {
+            tracer.extend(&self.ray)
+        }
+    }
+
+    /// MIS weight of emission the walk's ray finds at `hit` (or on escaping, with `None`)
+    /// against next-event estimation from the previous vertex: 1 after a specular bounce and
+    /// for the first ray, which light sampling cannot reproduce.
+    #[inline]
+    pub fn emission_weight(&self, tracer: &Tracer, hit: Option<&Hit>) -> f32 {
+        if self.specular {
+            1.0
+        } else {
+            mis_weight_for_hit(tracer.scene, self.from, &self.ray, hit, self.pdf)
+        }
+    }
+
+    /// Samples the BSDF at `sp` for the next segment, then, from `rr_depth` scattering events
+    /// on, plays Russian roulette. `false` ends the walk.
+    #[inline]
+    pub fn scatter(&mut self, sp: &ShadingPoint, rr_depth: u32, sampler: &mut Sampler) -> bool {
+        let Some((next, bs)) = continue_path(sp, &mut self.beta, sampler) else {
+            return false;
+        };
+        self.eta_scale *= bs.eta * bs.eta;
+        self.specular = bs.specular;
+        self.pdf = bs.pdf;
+        self.from = sp.hit.p;
+        self.ray = next;
+        self.bounces += 1;
+        if self.bounces >= rr_depth {
+            match russian_roulette(self.beta * self.eta_scale, sampler) {
+                Some(p) => self.beta /= p,
+                None => return false,
+            }
+        }
+        true
+    }
+}
