@@ -8,14 +8,8 @@
 # Writes the pages into out/pages/caustics/vs-sppm and out/pages/caustics/vs-path (git ignores
 # out/; docs/integrators.md shows the table and the vs-sppm mosaic).
 # Usage: scripts/caustics_figure.sh
-set -euo pipefail
-cd "$(dirname "$0")/.."
-cargo build --release --quiet
-R=./target/release/raylab
-S=scenes/caustics.ron
-O=out/pages/caustics
+. "$(dirname "$0")/figure_setup.sh" scenes/caustics.ron out/pages/caustics
 REGION=60,115,70,35
-mkdir -p "$O"
 [ -f $O/sppm-4096.exr ] || $R render $S -i sppm --spp 4096 -o $O/sppm-4096.exr -q
 $R compare $S -i path -i sppm -i photon --time 10 --reference $O/sppm-4096.exr --region $REGION \
   -o $O/vs-sppm -q --note "Equal time, 10 s each. Reference: sppm, 4096 passes. Region: the glass ball's caustic, $REGION."

@@ -6,13 +6,7 @@
 # FLIP, ...) under out/pages/equal-quality (git ignores out/), and the script prints the table
 # that docs/performance.md shows. About 3 minutes on 2 cores.
 # Usage: scripts/equal_quality.sh
-set -euo pipefail
-cd "$(dirname "$0")/.."
-cargo build --release --quiet
-R=./target/release/raylab
-S=scenes/report_room.ron
-O=out/pages/equal-quality
-mkdir -p "$O"
+. "$(dirname "$0")/figure_setup.sh" scenes/report_room.ron out/pages/equal-quality
 $R compare $S -i fixed-depth --spp 4 -o $O/fixed-depth -q \
   --note "The report's fixed-depth defaults: 4 spp, depth 2, branching 20, 7x7 shadow rays."
 for spp in 1 8 16 32; do

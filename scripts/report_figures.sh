@@ -3,13 +3,7 @@
 # comparison in out/pages/report/ (equal-time, shadow-grid, depth, branching; git ignores
 # out/). docs/report.md shows their tables, mosaics and sweep plots.
 # Takes about 6 minutes on 2 cores. Usage: scripts/report_figures.sh
-set -euo pipefail
-cd "$(dirname "$0")/.."
-cargo build --release --quiet
-R=./target/release/raylab
-S=scenes/report_room.ron
-O=out/pages/report
-mkdir -p "$O"
+. "$(dirname "$0")/figure_setup.sh" scenes/report_room.ron out/pages/report
 
 # The four integrators at equal time (8 s each), 400x400, against a 1024-spp path reference.
 $R compare $S -i whitted -i fixed-depth -i russian-roulette -i path --time 8 -o $O/equal-time -q

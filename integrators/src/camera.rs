@@ -41,20 +41,41 @@ pub struct Camera {
 
 #[derive(Clone, Debug, PartialEq)]
 enum View {
-    /// Image plane at unit distance along `forward`; `tan_half_fov` fixes its height and the
-    /// aspect ratio of the resolution its width.
-    LookAt {
-        forward: Vec3A,
-        right: Vec3A,
-        up: Vec3A,
-        tan_half_fov: f32,
-    },
+    LookAt(LookAt),
     /// A fixed parallelogram in world space (the report's camera).
     Plane {
         top_left: Vec3A,
         right_edge: Vec3A,
         down_edge: Vec3A,
     },
+}
+
+/// Image plane at unit distance along `forward`; `tan_half_fov` fixes its height and the
+/// aspect ratio of the resolution its width.
+#[derive(Clone, Debug, PartialEq)]
+struct LookAt {
+    forward: Vec3A,
+    right: Vec3A,
+    up: Vec3A,
+    tan_half_fov: f32,
+}
+
+impl LookAt {
+    /// Half the film's width and height as vectors, for an image of aspect ratio `aspect`.
+    fn half_extent(&self, aspect: f32) -> (Vec3A, Vec3A) {
+        (
+            self.right * (self.tan_half_fov * aspect),
+            self.up * self.tan_half_fov,
+        )
+    }
+
+    /// Direction (not normalised) towards the film position `(u, v)` in `[0, 1]^2`.
+    #[inline]
+    fn dir(&self, u: f32, v: f32, aspect: f32) -> Vec3A {
+        self.forward
+            + self.right * ((2.0 * u - 1.0) * self.tan_half_fov * aspect)
+            + self.up * ((1.0 - 2.0 * v) * self.tan_half_fov)
+    }
 }
 
 /// The film parallelogram both views share, with what importance needs precomputed.
@@ -132,12 +153,12 @@ impl Camera {
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         let tan_half_fov = (0.5 * fov_degrees).to_radians().tan();
-        let view = View::LookAt {
+        let view = View::LookAt(LookAt {
             forward,
             right,
             up,
             tan_half_fov,
-        };
+        });
         Camera::new(eye, view, size)
     }
 
@@ -169,18 +190,11 @@ impl Camera {
 
     fn film_of(eye: Vec3A, view: &View, (width, height): (u32, u32)) -> FilmPlane {
         match *view {
-            View::LookAt {
-                forward,
-                right,
-                up,
-                tan_half_fov,
-            } => {
-                let aspect = width as f32 / height as f32;
-                let half_w = right * (tan_half_fov * aspect);
-                let half_h = up * tan_half_fov;
+            View::LookAt(ref look) => {
+                let (half_w, half_h) = look.half_extent(width as f32 / height as f32);
                 FilmPlane::new(
                     eye,
-                    eye + forward - half_w + half_h,
+                    eye + look.forward - half_w + half_h,
                     half_w * 2.0,
                     -half_h * 2.0,
                 )
@@ -204,17 +218,7 @@ impl Camera {
         let u = x / self.width as f32;
         let v = y / self.height as f32;
         let dir = match &self.view {
-            View::LookAt {
-                forward,
-                right,
-                up,
-                tan_half_fov,
-            } => {
-                let aspect = self.width as f32 / self.height as f32;
-                *forward
-                    + *right * ((2.0 * u - 1.0) * tan_half_fov * aspect)
-                    + *up * ((1.0 - 2.0 * v) * tan_half_fov)
-            }
+            View::LookAt(look) => look.dir(u, v, self.width as f32 / self.height as f32),
             View::Plane {
                 top_left,
                 right_edge,

@@ -182,13 +182,7 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
         quiet: args.session.quiet,
         wrote: false,
     };
-    live::run(
-        &settings,
-        selection,
-        &control,
-        Some(&watcher),
-        &mut observer,
-    );
+    live::run(&settings, selection, &control, &watcher, &mut observer);
     Ok(ExitCode::SUCCESS)
 }
 
@@ -222,13 +216,7 @@ pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
             .name("raylab-session".into())
             .spawn(move || {
                 let mut observer = serve::PageObserver::new(shared, display, quiet);
-                live::run(
-                    &settings,
-                    selection,
-                    &control,
-                    Some(&watcher),
-                    &mut observer,
-                );
+                live::run(&settings, selection, &control, &watcher, &mut observer);
             })
             .context("cannot start the render thread")?
     };

@@ -2,7 +2,9 @@
 
 use super::RenderArgs;
 use crate::output::{self, DisplaySettings};
-use crate::render::{self, checkpoint, Accumulation, RenderSettings, StopReason};
+use crate::render::{
+    self, checkpoint, Accumulation, Dropped, RenderSettings, RenderStats, StopReason,
+};
 use crate::scene::RenderScene;
 use crate::scene::{self, load::check_size};
 use anyhow::{anyhow, bail, Context, Result};
@@ -170,7 +172,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     }
     // Checkpoints: at most every few seconds while rendering, and once at the end.
     let mut last_save: Option<Instant> = None;
-    let mut after_pass = |acc: &Accumulation| -> Result<()> {
+    let mut after_pass = |acc: &Accumulation, _: &RenderStats| -> Result<()> {
         if let Some(path) = &args.checkpoint {
             if last_save.is_none_or(|t| t.elapsed() >= CHECKPOINT_INTERVAL) {
                 checkpoint::save(path, acc, hash)?;
@@ -215,11 +217,14 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         }
         _ => {}
     }
-    if stats.dropped > 0 {
-        let first = stats.first_dropped.expect("a dropped sample was recorded");
+    if let Dropped {
+        count,
+        first: Some(first),
+    } = stats.dropped
+    {
         eprintln!(
             "warning: dropped {} non-finite sample(s); first at pixel ({}, {}) sample {}",
-            stats.dropped, first.x, first.y, first.sample
+            count, first.x, first.y, first.sample
         );
     }
     if !args.session.quiet {

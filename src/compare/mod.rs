@@ -111,6 +111,21 @@ pub struct Row {
     pub region: Option<Metrics>,
 }
 
+impl Row {
+    /// The ray counts (camera, extension, shadow, light, connection) joined by `sep`.
+    pub fn rays_joined(&self, sep: &str) -> String {
+        [
+            self.rays_camera,
+            self.rays_extension,
+            self.rays_shadow,
+            self.rays_light,
+            self.rays_connection,
+        ]
+        .map(|n| n.to_string())
+        .join(sep)
+    }
+}
+
 /// The whole comparison, as written to `metrics.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
@@ -213,7 +228,7 @@ fn render_one(
         &settings,
         &mut acc,
         &|| false,
-        &mut |_| Ok(()),
+        &mut |_, _| Ok(()),
     )?;
     Ok((acc.film(), stats, params.describe(entry.params)))
 }
@@ -440,7 +455,7 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
     for r in &report.rows {
         let _ = writeln!(
             csv,
-            "{},{},\"{}\",{},{},{},{:.4},{},{},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.6},{}",
+            "{},{},\"{}\",{},{},{},{:.4},{},{:.0},{:.0},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.6},{}",
             r.label,
             r.integrator,
             r.params,
@@ -448,11 +463,7 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
             r.swept_value.as_deref().unwrap_or(""),
             r.spp,
             r.time_s,
-            r.rays_camera,
-            r.rays_extension,
-            r.rays_shadow,
-            r.rays_light,
-            r.rays_connection,
+            r.rays_joined(","),
             r.rays_per_s,
             r.samples_per_s,
             r.mean[0],

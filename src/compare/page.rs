@@ -74,17 +74,13 @@ pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()>
     for r in &report.rows {
         let _ = write!(
             table,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{} / {} / {} / {} / {}</td><td>{:.2}</td>\
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{:.2}</td>\
              <td>{:.4}, {:.4}, {:.4}</td><td>{:.5}</td><td>{:.5}</td><td>{}</td><td>{:.4}</td>",
             escape(&r.label),
             escape(&r.params),
             r.spp,
             r.time_s,
-            r.rays_camera,
-            r.rays_extension,
-            r.rays_shadow,
-            r.rays_light,
-            r.rays_connection,
+            r.rays_joined(" / "),
             r.rays_per_s / 1e6,
             r.mean[0],
             r.mean[1],

@@ -296,7 +296,7 @@ fn render_job(job: Job, interval: Duration, control: &Control, observer: &mut dy
     let mut last_image: Option<Instant> = None;
     let mut shown_spp = 0;
     let stop = || control.interrupted();
-    let result = render::render_passes_with_stats(
+    let result = render::render_passes(
         &built,
         &camera,
         integrator.as_mut(),
@@ -331,12 +331,12 @@ fn render_job(job: Job, interval: Duration, control: &Control, observer: &mut dy
 }
 
 /// Runs a live session until [`Control::quit`]: load, render, wait for a request, repeat.
-/// `watcher`, if any, is told the files the scene names after every load.
+/// `watcher` is told the files the scene names after every load.
 pub fn run(
     settings: &LiveSettings,
     mut selection: Selection,
     control: &Control,
-    watcher: Option<&watch::SceneWatcher>,
+    watcher: &watch::SceneWatcher,
     observer: &mut dyn Observer,
 ) {
     loop {
@@ -347,12 +347,10 @@ pub fn run(
         if let Some(s) = pending.selection {
             selection = s;
         }
-        if let Some(w) = watcher {
-            // Unparsable: keep watching what the last good version named.
-            if let Some(files) = scene::references::referenced_files(&settings.scene) {
-                if let Err(e) = w.track(&files) {
-                    eprintln!("warning: {e:#}");
-                }
+        // Unparsable: keep watching what the last good version named.
+        if let Some(files) = scene::references::referenced_files(&settings.scene) {
+            if let Err(e) = watcher.track(&files) {
+                eprintln!("warning: {e:#}");
             }
         }
         match prepare(settings, &selection) {

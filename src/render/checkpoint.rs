@@ -30,13 +30,13 @@ pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
     out.extend_from_slice(&acc.width.to_le_bytes());
     out.extend_from_slice(&acc.height.to_le_bytes());
     out.extend_from_slice(&acc.spp_done.to_le_bytes());
-    out.extend_from_slice(&acc.dropped.to_le_bytes());
-    let bad = acc.first_dropped.unwrap_or(BadSample {
+    out.extend_from_slice(&acc.dropped.count.to_le_bytes());
+    let bad = acc.dropped.first.unwrap_or(BadSample {
         x: 0,
         y: 0,
         sample: 0,
     });
-    out.push(acc.first_dropped.is_some() as u8);
+    out.push(acc.dropped.first.is_some() as u8);
     for v in [bad.x, bad.y, bad.sample] {
         out.extend_from_slice(&v.to_le_bytes());
     }
@@ -102,14 +102,14 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
     }
     let mut acc = Accumulation::new(width, height);
     acc.spp_done = r.u32()?;
-    acc.dropped = r.u64()?;
+    acc.dropped.count = r.u64()?;
     let has_bad = r.take::<1>()?[0] != 0;
     let bad = BadSample {
         x: r.u32()?,
         y: r.u32()?,
         sample: r.u32()?,
     };
-    acc.first_dropped = has_bad.then_some(bad);
+    acc.dropped.first = has_bad.then_some(bad);
     for t in &mut acc.tiles {
         for p in &mut t.pixels {
             p.sum = r.dvec3()?;
@@ -151,8 +151,8 @@ mod tests {
     fn round_trips_and_refuses_other_settings_or_damage() {
         let mut acc = Accumulation::new(20, 17);
         acc.spp_done = 3;
-        acc.dropped = 2;
-        acc.first_dropped = Some(BadSample {
+        acc.dropped.count = 2;
+        acc.dropped.first = Some(BadSample {
             x: 4,
             y: 5,
             sample: 1,
@@ -165,10 +165,7 @@ mod tests {
         let back = decode(&bytes, 42, 20, 17).unwrap();
         assert_eq!(back.film(), acc.film());
         assert_eq!(back.tiles[1].pixels[7], acc.tiles[1].pixels[7]);
-        assert_eq!(
-            (back.spp_done, back.dropped, back.first_dropped),
-            (3, 2, acc.first_dropped)
-        );
+        assert_eq!((back.spp_done, back.dropped), (3, acc.dropped));
         assert!(decode(&bytes, 43, 20, 17)
             .unwrap_err()
             .to_string()

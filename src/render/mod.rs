@@ -70,6 +70,35 @@ pub struct BadSample {
     pub sample: u32,
 }
 
+/// Samples dropped because their estimate (or a splat) was NaN or infinite: they count as
+/// black, and the first in raster order is reported.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Dropped {
+    pub count: u64,
+    pub first: Option<BadSample>,
+}
+
+impl Dropped {
+    /// Counts a dropped sample.
+    fn note(&mut self, bad: BadSample) {
+        self.count += 1;
+        self.first.get_or_insert(bad);
+    }
+
+    /// Adds `other`'s, keeping the first in raster order whatever order they come in.
+    fn add(&mut self, other: Dropped) {
+        self.count += other.count;
+        self.first = match (self.first, other.first) {
+            (Some(a), Some(b)) => Some(if (b.y, b.x, b.sample) < (a.y, a.x, a.sample) {
+                b
+            } else {
+                a
+            }),
+            (a, b) => a.or(b),
+        };
+    }
+}
+
 /// What a render cost (this run only: a resumed render counts from where it resumed).
 #[derive(Clone, Debug, Default)]
 pub struct RenderStats {
@@ -77,9 +106,8 @@ pub struct RenderStats {
     /// Camera samples taken in this run.
     pub samples: u64,
     pub rays: RayCounters,
-    /// Samples dropped because they were NaN or infinite (over the whole render).
-    pub dropped: u64,
-    pub first_dropped: Option<BadSample>,
+    /// Over the whole render.
+    pub dropped: Dropped,
     pub threads: usize,
     /// Samples per pixel reached, over the whole render.
     pub spp_done: u32,
@@ -217,8 +245,7 @@ pub struct Accumulation {
     pub tiles: Vec<TileAccumulator>,
     /// Samples taken in every pixel so far.
     pub spp_done: u32,
-    pub dropped: u64,
-    pub first_dropped: Option<BadSample>,
+    pub dropped: Dropped,
     /// Per tile, the pass in progress (empty between passes).
     scratch: Vec<TileScratch>,
 }
@@ -244,8 +271,7 @@ impl Accumulation {
             height,
             tiles,
             spp_done: 0,
-            dropped: 0,
-            first_dropped: None,
+            dropped: Dropped::default(),
             scratch: Vec::new(),
         }
     }
@@ -311,26 +337,12 @@ impl Accumulation {
         }
         film
     }
-
-    fn note_dropped(&mut self, bad: Option<BadSample>, count: u64) {
-        self.dropped += count;
-        // The first in raster order, whatever the tile order.
-        self.first_dropped = match (self.first_dropped, bad) {
-            (Some(a), Some(b)) => Some(if (b.y, b.x, b.sample) < (a.y, a.x, a.sample) {
-                b
-            } else {
-                a
-            }),
-            (a, b) => a.or(b),
-        };
-    }
 }
 
 /// What one tile's pass produced besides its pixels.
 struct TilePass {
     rays: RayCounters,
-    dropped: u64,
-    first_dropped: Option<BadSample>,
+    dropped: Dropped,
 }
 
 /// Takes sample number `pass` of every pixel of `tile`, into the tile's scratch.
@@ -347,8 +359,7 @@ fn render_tile_pass(
     let mut tracer = Tracer::new(scene);
     let mut out = TilePass {
         rays: RayCounters::default(),
-        dropped: 0,
-        first_dropped: None,
+        dropped: Dropped::default(),
     };
     scratch.pass.resize(tile.pixels.len(), PassPixel::default());
     for j in 0..tile.h {
@@ -380,9 +391,7 @@ fn render_tile_pass(
             if !(l.is_finite() && splats_finite) {
                 scratch.splats.truncate(splats_before);
                 l = Vec3A::ZERO;
-                out.dropped += 1;
-                out.first_dropped
-                    .get_or_insert(BadSample { x, y, sample: pass });
+                out.dropped.note(BadSample { x, y, sample: pass });
             }
             // The estimate, shared between the pixels around its film position.
             if settings.filter == Filter::Box {
@@ -439,31 +448,10 @@ fn progress_bar(settings: &RenderSettings, start_spp: u32, tiles: usize) -> Prog
 }
 
 /// Renders pass after pass into `acc` until `settings.spp` is reached, `stop()` returns
-/// true, or the time budget is spent. After each pass `after_pass` sees the accumulation
-/// (for checkpoints); an error from it ends the render.
+/// true, or the time budget is spent. After each pass `after_pass` sees the accumulation (for
+/// checkpoints) and the statistics so far (elapsed time, samples, rays, spp: for live
+/// displays); an error from it ends the render.
 pub fn render_passes(
-    scene: &dyn Scene,
-    camera: &Camera,
-    integrator: &mut dyn Integrator,
-    settings: &RenderSettings,
-    acc: &mut Accumulation,
-    stop: &dyn Fn() -> bool,
-    after_pass: &mut dyn FnMut(&Accumulation) -> anyhow::Result<()>,
-) -> anyhow::Result<RenderStats> {
-    render_passes_with_stats(
-        scene,
-        camera,
-        integrator,
-        settings,
-        acc,
-        stop,
-        &mut |acc, _| after_pass(acc),
-    )
-}
-
-/// [`render_passes`] whose callback also sees the statistics so far (elapsed time, samples,
-/// rays, spp), for live displays of samples and rays per second.
-pub fn render_passes_with_stats(
     scene: &dyn Scene,
     camera: &Camera,
     integrator: &mut dyn Integrator,
@@ -525,7 +513,7 @@ pub fn render_passes_with_stats(
         acc.spp_done += 1;
         for r in results {
             stats.rays.add(&r.rays);
-            acc.note_dropped(r.first_dropped, r.dropped);
+            acc.dropped.add(r.dropped);
         }
         stats.samples += acc.width as u64 * acc.height as u64;
         if settings.spp.is_none() {
@@ -542,7 +530,6 @@ pub fn render_passes_with_stats(
     stats.elapsed = start.elapsed();
     stats.spp_done = acc.spp_done;
     stats.dropped = acc.dropped;
-    stats.first_dropped = acc.first_dropped;
     Ok(stats)
 }
 
@@ -561,7 +548,7 @@ pub fn render(
         settings,
         &mut acc,
         &|| false,
-        &mut |_| Ok(()),
+        &mut |_, _| Ok(()),
     )?;
     Ok((acc.film(), stats))
 }
@@ -616,7 +603,7 @@ mod tests {
         let (film, stats) = render(&s, &cam, &mut One, &settings(5, 2)).unwrap();
         assert_eq!(stats.samples, 20 * 10 * 5);
         assert_eq!(stats.rays.camera, 1000);
-        assert_eq!(stats.dropped, 0);
+        assert_eq!(stats.dropped.count, 0);
         assert!(film.pixels.iter().all(|p| *p == glam::Vec3::ONE));
         assert!(film.variance.iter().all(|v| *v == glam::Vec3::ZERO));
     }
@@ -626,11 +613,11 @@ mod tests {
         let (s, cam) = scene();
         let (film, stats) = render(&s, &cam, &mut Poisoned, &settings(4, 2)).unwrap();
         assert!(
-            stats.dropped > 0 && stats.dropped < 800,
+            stats.dropped.count > 0 && stats.dropped.count < 800,
             "{}",
-            stats.dropped
+            stats.dropped.count
         );
-        let first = stats.first_dropped.unwrap();
+        let first = stats.dropped.first.unwrap();
         // The first in raster order is on the top row, right of centre.
         assert_eq!(first.y, 0);
         assert!(first.x > 10);
@@ -639,13 +626,17 @@ mod tests {
         assert_eq!(film.pixels[19], glam::Vec3::ZERO);
     }
 
+    fn path_tracer() -> Box<dyn Integrator> {
+        raylab_integrators::find("path")
+            .unwrap()
+            .instantiate(&[])
+            .unwrap()
+    }
+
     #[test]
     fn image_does_not_depend_on_thread_count() {
         let (s, cam) = scene();
-        let mut path = raylab_integrators::find("path")
-            .unwrap()
-            .instantiate(&[])
-            .unwrap();
+        let mut path = path_tracer();
         let (a, _) = render(&s, &cam, path.as_mut(), &settings(3, 1)).unwrap();
         let (b, _) = render(&s, &cam, path.as_mut(), &settings(3, 2)).unwrap();
         let (c, _) = render(&s, &cam, path.as_mut(), &settings(3, 5)).unwrap();
@@ -705,10 +696,7 @@ mod tests {
     #[test]
     fn wider_filters_blur_and_stay_independent_of_the_thread_count() {
         let (s, cam) = scene();
-        let mut path = raylab_integrators::find("path")
-            .unwrap()
-            .instantiate(&[])
-            .unwrap();
+        let mut path = path_tracer();
         let (boxed, _) = render(&s, &cam, path.as_mut(), &with_filter(4, 2, "box")).unwrap();
         for filter in ["tent", "gaussian"] {
             let (a, _) = render(&s, &cam, path.as_mut(), &with_filter(4, 1, filter)).unwrap();
@@ -761,7 +749,7 @@ mod tests {
                     &settings,
                     acc,
                     &|| false,
-                    &mut |_| Ok(()),
+                    &mut |_, _| Ok(()),
                 )
                 .unwrap();
             };

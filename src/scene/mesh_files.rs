@@ -27,7 +27,7 @@ pub struct FileMaterial {
 }
 
 /// A mesh read from a file, in the file's space.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct FileMesh {
     pub positions: Vec<Vec3A>,
     pub indices: Vec<[u32; 3]>,
@@ -214,13 +214,7 @@ pub fn load_obj(file: &Path, need_materials: bool) -> Result<FileMesh, String> {
     let default_material = materials.len() as u32;
     let mut uses_default = false;
 
-    let mut mesh = FileMesh {
-        positions: Vec::new(),
-        indices: Vec::new(),
-        normals: None,
-        triangle_material: Vec::new(),
-        materials: Vec::new(),
-    };
+    let mut mesh = FileMesh::default();
     let mut normals: Vec<Vec3A> = Vec::new();
     let all_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
     for m in &models {
@@ -259,18 +253,8 @@ pub fn load_obj(file: &Path, need_materials: bool) -> Result<FileMesh, String> {
             mesh.triangle_material.push(material);
         }
     }
-    if uses_default {
-        materials.push(FileMaterial {
-            name: "default".into(),
-            albedo: OBJ_DEFAULT_ALBEDO,
-            emission: None,
-            two_sided: false,
-        });
-    }
-    mesh.materials = materials;
-    mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
-    check_mesh("OBJ", file, &mesh)?;
-    Ok(mesh)
+    let default = uses_default.then_some(OBJ_DEFAULT_ALBEDO);
+    finish_mesh("OBJ", file, mesh, materials, default, normals, all_normals)
 }
 
 /// Loads the triangles of a glTF file's default scene (or its first) as one mesh, each mesh
@@ -316,13 +300,7 @@ pub fn load_gltf(file: &Path) -> Result<FileMesh, String> {
     let default_material = materials.len() as u32;
     let mut uses_default = false;
 
-    let mut mesh = FileMesh {
-        positions: Vec::new(),
-        indices: Vec::new(),
-        normals: None,
-        triangle_material: Vec::new(),
-        materials: Vec::new(),
-    };
+    let mut mesh = FileMesh::default();
     let mut normals = Vec::new();
     let mut all_normals = true;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
@@ -408,17 +386,33 @@ pub fn load_gltf(file: &Path) -> Result<FileMesh, String> {
         }
         stack.extend(node.children().map(|c| (c, world)));
     }
-    if uses_default {
+    let default = uses_default.then_some([1.0; 3]);
+    finish_mesh("glTF", file, mesh, materials, default, normals, all_normals)
+}
+
+/// Completes a mesh read from `file`: its materials, with a default one of albedo `default`
+/// appended when some triangle has none; the vertex normals, kept when every vertex has one;
+/// then the checks every mesh file passes.
+fn finish_mesh(
+    format: &str,
+    file: &Path,
+    mut mesh: FileMesh,
+    mut materials: Vec<FileMaterial>,
+    default: Option<[f32; 3]>,
+    normals: Vec<Vec3A>,
+    all_normals: bool,
+) -> Result<FileMesh, String> {
+    if let Some(albedo) = default {
         materials.push(FileMaterial {
             name: "default".into(),
-            albedo: [1.0; 3],
+            albedo,
             emission: None,
             two_sided: false,
         });
     }
     mesh.materials = materials;
     mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
-    check_mesh("glTF", file, &mesh)?;
+    check_mesh(format, file, &mesh)?;
     Ok(mesh)
 }
 

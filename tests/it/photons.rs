@@ -56,7 +56,7 @@ fn run(
         &RenderSettings::fixed(passes, 3, None),
         &mut acc,
         &|| false,
-        &mut |acc| {
+        &mut |acc, _| {
             let film = acc.film();
             let m = film.mean();
             let n = acc.spp_done as f64;

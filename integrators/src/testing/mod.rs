@@ -29,6 +29,13 @@ enum Surface {
     },
 }
 
+/// The unit sphere at the origin, of material 0.
+const UNIT_SPHERE: Surface = Surface::Sphere {
+    center: Vec3A::ZERO,
+    radius: 1.0,
+    material: 0,
+};
+
 /// Where the probe rays that stand in for camera rays start and where they go.
 pub enum Probe {
     /// From a point in uniformly random directions.
@@ -177,11 +184,7 @@ pub fn furnace_sphere(a: f32, le: f32) -> TestScene {
 /// sphere is diffuse with albedo `a`. Radiance on the sphere: `a / (1 - a)` (1 for a = 0.5).
 pub fn point_in_sphere(a: f32) -> TestScene {
     TestScene {
-        surfaces: vec![Surface::Sphere {
-            center: Vec3A::ZERO,
-            radius: 1.0,
-            material: 0,
-        }],
+        surfaces: vec![UNIT_SPHERE],
         materials: vec![lambert(a)],
         lights: LightTable::new(
             vec![Light::point(Vec3A::ZERO, Rgb::splat(std::f32::consts::PI))],
@@ -195,11 +198,7 @@ pub fn point_in_sphere(a: f32) -> TestScene {
 /// its radiance is `a * sky`.
 pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
     TestScene {
-        surfaces: vec![Surface::Sphere {
-            center: Vec3A::ZERO,
-            radius: 1.0,
-            material: 0,
-        }],
+        surfaces: vec![UNIT_SPHERE],
         materials: vec![lambert(a)],
         lights: LightTable::new(vec![Light::environment(Rgb::splat(sky))], 1.0),
         camera: Probe::AtSphere {
@@ -363,11 +362,7 @@ pub fn expect_mean_passes(
 /// its full throughput forever unless the integrator ends it. Radiance is 0.
 pub fn inside_a_mirror() -> TestScene {
     TestScene {
-        surfaces: vec![Surface::Sphere {
-            center: Vec3A::ZERO,
-            radius: 1.0,
-            material: 0,
-        }],
+        surfaces: vec![UNIT_SPHERE],
         materials: vec![Material::Mirror(crate::bsdf::Mirror { tint: Rgb::ONE })],
         lights: LightTable::new(Vec::new(), 1.0),
         camera: Probe::Omni(Vec3A::new(0.2, 0.1, 0.0)),

@@ -141,7 +141,7 @@ impl Shared {
                     "light": st.stats.rays.light,
                     "connection": st.stats.rays.connection,
                 },
-                "dropped": st.stats.dropped,
+                "dropped": st.stats.dropped.count,
             })
         });
         let image = s.image.as_ref().map(|i| {
