@@ -3,6 +3,7 @@
 use super::{CompareArgs, DiffArgs, Metric};
 use crate::compare::{self, metrics, Budget, CompareOptions, ReferenceSpec, Region};
 use crate::output;
+use crate::output::plan::FilePlan;
 use anyhow::{anyhow, bail, Result};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -122,6 +123,27 @@ fn parse_region(text: &str) -> Result<Region> {
 }
 
 pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
+    // Everything that can be refused before reading the images.
+    if let Some(t) = args.tolerance {
+        if !t.is_finite() || (t < 0.0 && args.metric != Metric::Psnr) {
+            bail!("--tolerance must be a finite number, at least 0 (for PSNR, any finite dB)");
+        }
+    }
+    if let Some(path) = &args.output {
+        let png = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !png {
+            bail!("{}: the error map is a PNG; name it .png", path.display());
+        }
+        output::check_writable_folder(path)?;
+        output::atomic::check_replaceable(path)?;
+        let mut plan = FilePlan::new();
+        plan.input("image A", &args.a)?
+            .input("image B", &args.b)?
+            .output("the error map", path)?
+            .check()?;
+    }
     let a = output::read_image(&args.a)?;
     let b = output::read_image(&args.b)?;
     let (m, map) = metrics::compare(&a, &b)
@@ -144,9 +166,6 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     println!("mean A  ({:.5}, {:.5}, {:.5})", ma.x, ma.y, ma.z);
     println!("mean B  ({:.5}, {:.5}, {:.5})", mb.x, mb.y, mb.z);
     if let Some(t) = args.tolerance {
-        if !t.is_finite() {
-            bail!("--tolerance must be finite");
-        }
         let (value, exceeded) = match args.metric {
             Metric::Rmse => (m.rmse, m.rmse > t),
             Metric::RelMse => (m.rel_mse, m.rel_mse > t),

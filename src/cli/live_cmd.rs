@@ -62,22 +62,23 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
     ))
 }
 
-/// Ctrl-C: the first asks the session to stop, the second exits 130 at once.
+/// Ctrl-C, SIGTERM or SIGHUP: the first asks the session to stop, the second exits 130 at
+/// once.
 fn install_interrupt_handler(control: Arc<Control>) {
     let presses = AtomicUsize::new(0);
     let installed = ctrlc::set_handler(move || {
         if presses.fetch_add(1, Ordering::SeqCst) == 0 {
-            eprintln!("\ninterrupt: stopping after this pass (Ctrl-C again to stop at once)");
+            note!("\ninterrupt: stopping after this pass (Ctrl-C again to stop at once)");
             control.quit();
         } else {
-            eprintln!("\ninterrupt: stopped");
+            note!("\ninterrupt: stopped");
             // Exiting skips destructors: remove a half-written image or checkpoint first.
             crate::output::atomic::remove_unfinished();
             std::process::exit(130);
         }
     });
     if let Err(e) = installed {
-        eprintln!("warning: cannot catch Ctrl-C: {e}");
+        note!("warning: cannot catch Ctrl-C: {e}");
     }
 }
 
@@ -98,7 +99,7 @@ impl Observer for FileObserver {
                 Some(n) => format!("to {n} spp"),
                 None => "until the next change or Ctrl-C".to_string(),
             };
-            eprintln!(
+            note!(
                 "rendering {}: {} {} | {}x{} | {until}",
                 self.scene.display(),
                 info.integrator,
@@ -112,7 +113,7 @@ impl Observer for FileObserver {
     fn image(&mut self, film: &Film, _info: &RenderInfo, _stats: &RenderStats) {
         match output::write_image(&self.output, film, self.display) {
             Ok(()) => self.wrote = true,
-            Err(e) => eprintln!("error: {e:#}"),
+            Err(e) => note!("error: {e:#}"),
         }
     }
 
@@ -125,7 +126,7 @@ impl Observer for FileObserver {
             Ended::Finished => "done",
             _ => "stopped",
         };
-        eprintln!(
+        note!(
             "{what}: {} {} | {}x{} {} spp | {:.2} s | {:.3} M samples/s | {:.2} M rays/s | wrote {}",
             info.integrator,
             info.describe_params(),
@@ -140,14 +141,14 @@ impl Observer for FileObserver {
     }
 
     fn load_failed(&mut self, message: &str) {
-        eprintln!("error: {message}");
+        note!("error: {message}");
         if self.wrote {
-            eprintln!(
+            note!(
                 "keeping {} as it was; save the file again to retry",
                 self.output.display()
             );
         } else {
-            eprintln!("no image yet; save the file again to retry");
+            note!("no image yet; save the file again to retry");
         }
     }
 }
@@ -162,12 +163,14 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| super::render_cmd::default_output(&args.session.scene));
     output::check_output_path(&output_path)?;
+    let mut plan = crate::render::scene_inputs(&args.session.scene)?;
+    plan.output("the image", &output_path)?.check()?;
     let (settings, selection) = settings(&args.session, FILE_INTERVAL)?;
     let control = Arc::new(Control::new());
     install_interrupt_handler(Arc::clone(&control));
     let watcher = SceneWatcher::start(&args.session.scene, Arc::clone(&control))?;
     if !args.session.quiet {
-        eprintln!(
+        note!(
             "watching {} and the files it names; Ctrl-C to stop",
             args.session.scene.display()
         );
@@ -198,7 +201,7 @@ pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
         Arc::clone(&control),
     )?;
     if !server.addr().ip().is_loopback() {
-        eprintln!(
+        note!(
             "warning: serving on {}, reachable from other machines: anyone who can reach it can see the render and change its settings",
             server.addr()
         );

@@ -1,6 +1,16 @@
 //! Command-line interface: parses flags, calls into the library, prints, and maps errors to
 //! exit codes (0 ok, 1 "differs", 2 error).
 
+#[macro_use]
+mod messages {
+    /// `eprintln!` that ignores a failure to print (see [`super::note`]).
+    macro_rules! note {
+        ($($arg:tt)*) => {
+            $crate::cli::note(&format!($($arg)*))
+        };
+    }
+}
+
 mod compare_cmd;
 mod live_cmd;
 mod render_cmd;
@@ -241,7 +251,7 @@ pub struct DiffArgs {
     #[arg(long, value_enum, default_value_t = Metric::Flip)]
     pub metric: Metric,
     /// Exit with 1 when the metric is beyond this (for PSNR: below it).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub tolerance: Option<f64>,
 }
 
@@ -313,6 +323,13 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// Prints a line on stderr, ignoring a failure: after SIGHUP the terminal may be gone, and a
+/// message that cannot be shown must not stop the image from being written.
+pub(crate) fn note(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
 }
 
 /// `--filter NAME`.

@@ -74,8 +74,16 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     if let Some(c) = &args.checkpoint {
         if !args.resume {
             output::check_writable_folder(c)?;
+            output::atomic::check_replaceable(c)?;
         }
     }
+    // No output may be an input or another output: the scene, the files it names.
+    let mut plan = render::scene_inputs(&args.session.scene)?;
+    plan.output("the image", &output_path)?;
+    if let Some(c) = &args.checkpoint {
+        plan.output("the checkpoint", c)?;
+    }
+    plan.check()?;
     if !args.session.exposure.is_finite() {
         bail!("--exposure must be finite");
     }
@@ -89,7 +97,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
 
     let loaded = scene::load_scene(&args.session.scene)?;
     for w in &loaded.warnings {
-        eprintln!("warning: {}: {w}", args.session.scene.display());
+        note!("warning: {}: {w}", args.session.scene.display());
     }
     // Scene parameters apply only to the scene's own integrator; the command line wins.
     let (entry, params) =
@@ -151,7 +159,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         (Some(path), true) => {
             let acc = checkpoint::load(path, hash, camera.width, camera.height)?;
             if !args.session.quiet {
-                eprintln!("resuming from {} at {} spp", path.display(), acc.spp_done);
+                note!("resuming from {} at {} spp", path.display(), acc.spp_done);
             }
             acc
         }
@@ -165,9 +173,11 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         let target = settings
             .spp
             .map_or_else(|| "open-ended".to_string(), |n| format!("{n} spp"));
-        eprintln!(
+        note!(
             "rendering {}x{} with {}, {target} (Ctrl-C finishes the pass and writes the image)",
-            camera.width, camera.height, entry.name
+            camera.width,
+            camera.height,
+            entry.name
         );
     }
     // Checkpoints: at most every few seconds while rendering, and once at the end.
@@ -207,13 +217,13 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     )?;
 
     match stats.stopped {
-        Some(StopReason::Interrupted) => eprintln!(
+        Some(StopReason::Interrupted) => note!(
             "interrupted: wrote the image with {} spp{}",
             acc.spp_done,
             spp.map_or(String::new(), |n| format!(" of {n}"))
         ),
         Some(StopReason::TimeBudget) => {
-            eprintln!("time budget spent: {} spp", acc.spp_done)
+            note!("time budget spent: {} spp", acc.spp_done)
         }
         _ => {}
     }
@@ -222,15 +232,18 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         first: Some(first),
     } = stats.dropped
     {
-        eprintln!(
+        note!(
             "warning: dropped {} non-finite sample(s); first at pixel ({}, {}) sample {}",
-            count, first.x, first.y, first.sample
+            count,
+            first.x,
+            first.y,
+            first.sample
         );
     }
     if !args.session.quiet {
         let secs = stats.elapsed.as_secs_f64();
         let mean = film.mean();
-        eprintln!(
+        note!(
             "{}: {} {} | {}x{} {} spp | {:.2} s, {} threads | {:.3} M samples/s | {:.2} M rays/s (camera {}, extension {}, shadow {}, light {}, connection {}) | mean radiance ({:.4}, {:.4}, {:.4}) | wrote {}",
             args.session.scene.display(),
             entry.name,
@@ -256,16 +269,17 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Ctrl-C presses so far.
+/// Interrupts so far: Ctrl-C (SIGINT), SIGTERM (a timeout, a batch scheduler's preemption,
+/// `docker stop`) and SIGHUP (a closed terminal or ssh session) alike.
 static INTERRUPTS: AtomicUsize = AtomicUsize::new(0);
 
 fn install_interrupt_handler() {
     // Fails only if a handler is already installed (a second render in one process).
     let _ = ctrlc::set_handler(|| {
         if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
-            eprintln!("\ninterrupt: finishing this pass, then writing the image (Ctrl-C again to stop at once)");
+            note!("\ninterrupt: finishing this pass, then writing the image (Ctrl-C again to stop at once)");
         } else {
-            eprintln!("\ninterrupt: stopped, nothing written");
+            note!("\ninterrupt: stopped, nothing written");
             // Exiting skips destructors: remove a half-written image or checkpoint first.
             crate::output::atomic::remove_unfinished();
             std::process::exit(130);
@@ -276,7 +290,7 @@ fn install_interrupt_handler() {
 pub fn validate(path: &Path) -> Result<ExitCode> {
     let loaded = scene::load_scene(path)?;
     for w in &loaded.warnings {
-        eprintln!("warning: {}: {w}", path.display());
+        note!("warning: {}: {w}", path.display());
     }
     let built = RenderScene::build(&loaded);
     let s = &built.stats;

@@ -307,9 +307,57 @@ fn reference(
     }
 }
 
-/// Runs the comparison and writes everything into `opts.out_dir`.
+/// The files a comparison writes into `opts.out_dir`, with their roles.
+fn output_files(opts: &CompareOptions) -> Vec<(String, PathBuf)> {
+    let dir = &opts.out_dir;
+    let mut files = vec![
+        (
+            "the reference's copy".to_string(),
+            dir.join("reference.exr"),
+        ),
+        (
+            "the reference's picture".to_string(),
+            dir.join("reference.png"),
+        ),
+    ];
+    for c in &opts.contestants {
+        for suffix in [".exr", ".png", "-error.png"] {
+            let name = format!("{}{suffix}", c.label);
+            files.push((format!("the comparison's {name}"), dir.join(name)));
+        }
+    }
+    let mut pages = vec!["metrics.json", "metrics.csv", "mosaic.png", "index.html"];
+    if opts.contestants.iter().any(|c| c.swept.is_some()) {
+        pages.extend(["sweep.svg", "sweep.png"]);
+    }
+    for name in pages {
+        files.push((format!("the comparison's {name}"), dir.join(name)));
+    }
+    files
+}
+
+/// Runs the comparison and writes everything into `opts.out_dir` (created if missing, and
+/// removed again if the comparison fails before writing anything there).
 pub fn run(opts: &CompareOptions) -> Result<Report> {
-    if !opts.out_dir.is_dir() {
+    if opts.out_dir.exists() && !opts.out_dir.is_dir() {
+        bail!(
+            "{}: the output folder is a file, not a folder",
+            opts.out_dir.display()
+        );
+    }
+    // No output may be an input (the scene, its meshes, the reference image).
+    let mut plan = crate::render::scene_inputs(&opts.scene)?;
+    if let ReferenceSpec::File(f) = &opts.reference {
+        if f.exists() {
+            plan.input("the reference image", f)?;
+        }
+    }
+    for (role, file) in output_files(opts) {
+        plan.output(&role, &file)?;
+    }
+    plan.check()?;
+    let created = !opts.out_dir.exists();
+    if created {
         std::fs::create_dir_all(&opts.out_dir).with_context(|| {
             format!(
                 "{}: cannot create the output folder",
@@ -317,6 +365,15 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
             )
         })?;
     }
+    let result = run_into(opts);
+    if result.is_err() && created {
+        // Only an empty folder goes: what a failed run wrote stays for inspection.
+        let _ = std::fs::remove_dir(&opts.out_dir);
+    }
+    result
+}
+
+fn run_into(opts: &CompareOptions) -> Result<Report> {
     output::check_writable_folder(&opts.out_dir.join("index.html"))?;
     let loaded = load_scene(&opts.scene)?;
     for w in &loaded.warnings {

@@ -2,8 +2,13 @@
 //! reader ever sees a partly written file. The temporary files being written are registered,
 //! so that a second Ctrl-C, which exits at once without running destructors, can remove them
 //! first ([`remove_unfinished`]) rather than leave them beside the output.
+//!
+//! The replace respects what it replaces, as `cp` does: a symbolic link is written through
+//! (its target is replaced, the link stays), the existing file's permissions are kept (a
+//! private render stays private), and a write-protected file or anything that is not a
+//! regular file (a folder, a device, a pipe) is refused.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -44,6 +49,63 @@ pub fn parent_dir(path: &Path) -> &Path {
     }
 }
 
+/// Links a path may go through before it is taken for a loop (Linux's own limit).
+const MAX_LINKS: usize = 40;
+
+/// `path` with every symbolic link at its end followed: the file a write through it reaches
+/// (which need not exist yet, for a dangling link).
+pub fn through_links(path: &Path) -> Result<PathBuf> {
+    let mut p = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let target = std::fs::read_link(&p)
+                    .with_context(|| format!("{}: cannot read the link", p.display()))?;
+                p = parent_dir(&p).join(target);
+            }
+            _ => return Ok(p),
+        }
+    }
+    bail!("{}: too many levels of symbolic links", path.display())
+}
+
+/// What an atomic write of `path` will replace: `None` for a new file, else the existing
+/// file's permissions. Refuses what `cp` would not overwrite (a file this user may not write)
+/// and what is not a regular file.
+pub fn check_replaceable(path: &Path) -> Result<Option<std::fs::Permissions>> {
+    let target = through_links(path)?;
+    let meta = match std::fs::metadata(&target) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e).with_context(|| format!("{}: cannot inspect it", path.display())),
+    };
+    if meta.is_dir() {
+        bail!("{}: is a folder, not a file", path.display());
+    }
+    if !meta.is_file() {
+        bail!(
+            "{}: is not a regular file (a device, pipe or socket); refusing to replace it",
+            path.display()
+        );
+    }
+    // Write-protected: no write permission at all (which even root, who may write anything,
+    // is taken to respect), or none for this user: opening for writing without truncating
+    // changes nothing and asks the system the question `cp` asks.
+    let denied = |e: std::io::Error| e.kind() == std::io::ErrorKind::PermissionDenied;
+    if meta.permissions().readonly()
+        || std::fs::OpenOptions::new()
+            .write(true)
+            .open(&target)
+            .is_err_and(denied)
+    {
+        bail!(
+            "{}: is write-protected; refusing to replace it (make it writable or remove it first)",
+            path.display()
+        );
+    }
+    Ok(Some(meta.permissions()))
+}
+
 /// A temporary file in `path`'s folder, with the permissions of any new file (0666 less the
 /// umask): tempfile's default, 0600, would make every image and checkpoint private.
 fn temporary_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
@@ -56,23 +118,33 @@ fn temporary_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     builder.tempfile_in(parent_dir(path))
 }
 
-/// Writes `path` atomically: `write` fills a temporary file beside it, which then replaces
-/// `path`. On any error `path` is untouched and the temporary file is removed. Errors from
-/// `write` are returned as they are.
+/// Writes `path` atomically: `write` fills a temporary file beside it (beside the target, for
+/// a symbolic link), which then replaces it with the old file's permissions. On any error
+/// `path` is untouched and the temporary file is removed. Errors from `write` are returned as
+/// they are.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut std::fs::File) -> Result<()>,
 ) -> Result<()> {
-    let (mut tmp, _registered) = Registered::create_beside(path).with_context(|| {
+    let existing = check_replaceable(path)?;
+    let target = through_links(path)?;
+    let (mut tmp, _registered) = Registered::create_beside(&target).with_context(|| {
         format!(
             "{}: cannot create a temporary file beside it",
             path.display()
         )
     })?;
+    if let Some(permissions) = existing {
+        tmp.as_file()
+            .set_permissions(permissions)
+            .with_context(|| format!("{}: cannot keep its permissions", path.display()))?;
+    }
     // (The caller's errors carry its own context: "cannot encode the image", ...)
     write(tmp.as_file_mut())?;
-    tmp.as_file().sync_all().ok();
-    tmp.persist(path)
+    tmp.as_file()
+        .sync_all()
+        .with_context(|| format!("{}: cannot write (is the disk full?)", path.display()))?;
+    tmp.persist(&target)
         .map_err(|e| e.error)
         .with_context(|| format!("{}: cannot move it into place", path.display()))?;
     Ok(())

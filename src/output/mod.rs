@@ -4,6 +4,7 @@
 
 pub mod atomic;
 pub mod film;
+pub mod plan;
 pub mod tonemap;
 
 use anyhow::{bail, Context, Result};
@@ -31,6 +32,12 @@ pub struct DisplaySettings {
 
 /// Checks an output path before rendering: a known extension and an existing, writable folder.
 pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
+    if path.is_dir() {
+        bail!(
+            "{}: is a folder; give a file name ending in .png or .exr",
+            path.display()
+        );
+    }
     let format = match path
         .extension()
         .and_then(|e| e.to_str())
@@ -44,12 +51,15 @@ pub fn check_output_path(path: &Path) -> Result<OutputFormat> {
         ),
     };
     check_writable_folder(path)?;
+    atomic::check_replaceable(path)?;
     Ok(format)
 }
 
-/// Checks that the folder `path` would be written in exists and takes new files.
+/// Checks that the folder `path` would be written in (its target's, for a symbolic link)
+/// exists and takes new files.
 pub fn check_writable_folder(path: &Path) -> Result<()> {
-    let dir = parent_dir(path);
+    let target = atomic::through_links(path)?;
+    let dir = parent_dir(&target);
     if dir.exists() && !dir.is_dir() {
         bail!("{}: `{}` is not a folder", path.display(), dir.display());
     }

@@ -20,6 +20,7 @@ pub mod checkpoint;
 pub use crate::output::Film;
 pub use raylab_integrators::Filter;
 
+use crate::output::plan::FilePlan;
 use crate::scene::Camera;
 use accumulator::{PassPixel, PixelAccumulator};
 use glam::{DVec3, Vec2, Vec3A};
@@ -531,6 +532,21 @@ pub fn render_passes(
     stats.spp_done = acc.spp_done;
     stats.dropped = acc.dropped;
     Ok(stats)
+}
+
+/// The files rendering `scene` reads, as the inputs of a [`FilePlan`]: the scene file and the
+/// files it names (meshes). The caller adds its outputs and checks the plan.
+pub fn scene_inputs(scene: &std::path::Path) -> anyhow::Result<FilePlan> {
+    let mut plan = FilePlan::new();
+    if scene.exists() {
+        plan.input("the scene", scene)?;
+    }
+    for file in crate::scene::references::referenced_files(scene).unwrap_or_default() {
+        if file.exists() {
+            plan.input("a file the scene names", &file)?;
+        }
+    }
+    Ok(plan)
 }
 
 /// Renders `scene` through `camera` with `integrator` to completion.

@@ -12,6 +12,7 @@ mod cli;
 mod common;
 mod compare;
 mod corpus;
+mod files;
 mod new_integrator;
 mod passes;
 mod photons;

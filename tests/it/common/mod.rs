@@ -54,14 +54,27 @@ impl Running {
 
     /// Sends SIGINT (Ctrl-C) without waiting.
     pub fn signal_interrupt(&self) {
+        self.signal("INT");
+    }
+
+    /// Sends the signal `name` ("INT", "TERM", "HUP") without waiting.
+    pub fn signal(&self, name: &str) {
         let pid = self.child.id().to_string();
-        let ok = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+        let ok = Command::new("kill")
+            .args([&format!("-{name}"), &pid])
+            .status()
+            .unwrap();
         assert!(ok.success());
     }
 
     /// Sends SIGINT (Ctrl-C) and waits for the exit.
-    pub fn interrupt(mut self) -> ExitStatus {
-        self.signal_interrupt();
+    pub fn interrupt(self) -> ExitStatus {
+        self.stop_with("INT")
+    }
+
+    /// Sends the signal `name` and waits for the exit.
+    pub fn stop_with(mut self, name: &str) -> ExitStatus {
+        self.signal(name);
         let end = Instant::now() + TIMEOUT;
         loop {
             if let Some(status) = self.child.try_wait().unwrap() {
@@ -69,7 +82,7 @@ impl Running {
             }
             assert!(
                 Instant::now() < end,
-                "still running after Ctrl-C; stderr:\n{}",
+                "still running after SIG{name}; stderr:\n{}",
                 self.stderr()
             );
             std::thread::sleep(Duration::from_millis(20));
@@ -84,6 +97,20 @@ impl Drop for Running {
             let _ = self.child.wait();
         }
     }
+}
+
+/// Runs `raylab ARGS` to its end in the folder `dir`.
+pub fn raylab_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("raylab runs")
+}
+
+/// The repository's file `path`, absolute (for tests that run elsewhere).
+pub fn repo_file(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
 }
 
 /// Polls `f` every 20 ms for up to [`TIMEOUT`].

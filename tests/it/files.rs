@@ -1,0 +1,257 @@
+//! What raylab does to the files around a render: no output may destroy an input or another
+//! output (whatever path names it), a replaced file keeps what it was (permissions, the link
+//! that names it) or is refused, and SIGTERM or SIGHUP save the samples like Ctrl-C.
+
+use crate::common::{raylab_in, repo_file, Running};
+use std::path::Path;
+use std::process::Output;
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Expects exit 2 with a message containing every one of `words`.
+fn refused(o: &Output, words: &[&str]) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    for w in words {
+        assert!(e.contains(w), "`{w}` not in: {e}");
+    }
+}
+
+/// A folder with the Cornell box as `s.ron` and the mesh scene with its assets.
+fn workspace() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(repo_file("scenes/cornell_box.ron"), d.join("s.ron")).unwrap();
+    std::fs::create_dir(d.join("assets")).unwrap();
+    for f in ["assets/pyramid.obj", "assets/panel.gltf", "mesh_files.ron"] {
+        std::fs::copy(repo_file(&format!("scenes/{f}")), d.join(f)).unwrap();
+    }
+    dir
+}
+
+const QUICK: [&str; 5] = ["--spp", "1", "--size", "16x16", "-q"];
+
+fn render(dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["render"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&QUICK);
+    raylab_in(dir, &args)
+}
+
+#[test]
+fn no_output_may_overwrite_the_scene_a_mesh_or_another_output() {
+    let dir = workspace();
+    let d = dir.path();
+    let scene = std::fs::read(d.join("s.ron")).unwrap();
+    let obj = std::fs::read(d.join("assets/pyramid.obj")).unwrap();
+
+    // The checkpoint as the scene, by any spelling.
+    for spelling in ["s.ron", "./s.ron", "assets/../s.ron"] {
+        let o = render(d, &["s.ron", "--checkpoint", spelling, "-o", "a.png"]);
+        refused(&o, &["the checkpoint would overwrite the scene"]);
+    }
+    // The image as a mesh the scene names, through a symbolic link and a hard link.
+    std::os::unix::fs::symlink("assets/pyramid.obj", d.join("link.png")).unwrap();
+    std::fs::hard_link(d.join("assets/pyramid.obj"), d.join("hard.exr")).unwrap();
+    for out in ["link.png", "hard.exr"] {
+        let o = render(d, &["mesh_files.ron", "-o", out]);
+        refused(&o, &["the image would overwrite a file the scene names"]);
+    }
+    // Checkpoint and image in one file: neither could be resumed.
+    let o = render(d, &["s.ron", "--checkpoint", "x.exr", "-o", "./x.exr"]);
+    refused(&o, &["the image and the checkpoint are the same file"]);
+    assert!(!d.join("x.exr").exists());
+    // --watch holds to the same rule.
+    let o = raylab_in(
+        d,
+        &["render", "mesh_files.ron", "--watch", "-o", "link.png"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+
+    assert_eq!(std::fs::read(d.join("s.ron")).unwrap(), scene);
+    assert_eq!(std::fs::read(d.join("assets/pyramid.obj")).unwrap(), obj);
+    // And a legitimate pair still works.
+    let o = render(d, &["s.ron", "--checkpoint", "c.bin", "-o", "a.png"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn diff_never_replaces_its_operands_and_writes_only_png() {
+    let dir = workspace();
+    let d = dir.path();
+    assert!(render(d, &["s.ron", "-o", "a.png"]).status.success());
+    std::fs::copy(d.join("a.png"), d.join("b.png")).unwrap();
+    let a = std::fs::read(d.join("a.png")).unwrap();
+    std::os::unix::fs::symlink("a.png", d.join("l.png")).unwrap();
+    for out in ["a.png", "./b.png", "l.png"] {
+        let o = raylab_in(d, &["diff", "a.png", "b.png", "-o", out]);
+        refused(&o, &["the error map would overwrite image"]);
+    }
+    assert_eq!(std::fs::read(d.join("a.png")).unwrap(), a);
+    let o = raylab_in(d, &["diff", "a.png", "b.png", "-o", "e.jpg"]);
+    refused(&o, &["the error map is a PNG"]);
+    assert!(!d.join("e.jpg").exists());
+    let o = raylab_in(d, &["diff", "a.png", "b.png", "--tolerance", "-1"]);
+    refused(&o, &["--tolerance must be", "at least 0"]);
+    // PSNR's tolerance is a floor in dB: any finite value.
+    let o = raylab_in(
+        d,
+        &[
+            "diff",
+            "a.png",
+            "b.png",
+            "--metric",
+            "psnr",
+            "--tolerance",
+            "-1",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn compare_keeps_its_reference_and_leaves_no_empty_folder() {
+    let dir = workspace();
+    let d = dir.path();
+    std::fs::create_dir(d.join("out")).unwrap();
+    assert!(render(d, &["s.ron", "-o", "out/reference.exr"])
+        .status
+        .success());
+    let reference = std::fs::read(d.join("out/reference.exr")).unwrap();
+    let compare = |out: &str, reference: &str| {
+        raylab_in(
+            d,
+            &[
+                "compare",
+                "s.ron",
+                "-i",
+                "path",
+                "--spp",
+                "1",
+                "--size",
+                "16x16",
+                "-q",
+                "--reference",
+                reference,
+                "-o",
+                out,
+            ],
+        )
+    };
+    let o = compare("out", "out/reference.exr");
+    refused(&o, &["would overwrite the reference image"]);
+    assert_eq!(
+        std::fs::read(d.join("out/reference.exr")).unwrap(),
+        reference
+    );
+    // The same reference, moved out of the way, is fine.
+    std::fs::rename(d.join("out/reference.exr"), d.join("ref.exr")).unwrap();
+    assert!(compare("out", "ref.exr").status.success());
+    // A comparison that fails removes the folder it created, and only an empty one.
+    let o = compare("new", "missing.exr");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!d.join("new").exists());
+    // An output folder that is a file is refused before anything is rendered.
+    let o = compare("s.ron", "ref.exr");
+    refused(&o, &["is a file, not a folder"]);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_replaced_file_keeps_its_permissions_and_link_and_odd_files_are_refused() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = workspace();
+    let d = dir.path();
+    let mode = |p: &str| std::fs::metadata(d.join(p)).unwrap().permissions().mode() & 0o777;
+    assert!(render(d, &["s.ron", "-o", "private.png"]).status.success());
+    std::fs::set_permissions(d.join("private.png"), PermissionsExt::from_mode(0o600)).unwrap();
+    assert!(render(d, &["s.ron", "-o", "private.png", "--seed", "3"])
+        .status
+        .success());
+    assert_eq!(mode("private.png"), 0o600, "a private render stays private");
+
+    // Written through a link: the link stays, its target holds the new image.
+    std::fs::create_dir(d.join("store")).unwrap();
+    std::fs::write(d.join("store/img.png"), b"old").unwrap();
+    std::os::unix::fs::symlink("store/img.png", d.join("img.png")).unwrap();
+    assert!(render(d, &["s.ron", "-o", "img.png"]).status.success());
+    assert!(d
+        .join("img.png")
+        .symlink_metadata()
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert_ne!(std::fs::read(d.join("store/img.png")).unwrap(), b"old");
+    assert!(
+        std::fs::read_dir(d.join("store")).unwrap().count() == 1,
+        "no temporary left beside the target"
+    );
+
+    // Refused before rendering: write-protected, a folder, a pipe.
+    std::fs::write(d.join("ro.png"), b"keep").unwrap();
+    std::fs::set_permissions(d.join("ro.png"), PermissionsExt::from_mode(0o444)).unwrap();
+    refused(&render(d, &["s.ron", "-o", "ro.png"]), &["write-protected"]);
+    assert_eq!(std::fs::read(d.join("ro.png")).unwrap(), b"keep");
+    std::fs::create_dir(d.join("dir.png")).unwrap();
+    refused(&render(d, &["s.ron", "-o", "dir.png"]), &["is a folder"]);
+    let fifo = std::process::Command::new("mkfifo")
+        .arg(d.join("fifo.png"))
+        .status()
+        .unwrap();
+    assert!(fifo.success());
+    refused(
+        &render(d, &["s.ron", "-o", "fifo.png"]),
+        &["not a regular file"],
+    );
+    refused(
+        &render(d, &["s.ron", "-o", "a.png", "--checkpoint", "fifo.png"]),
+        &["not a regular file"],
+    );
+}
+
+/// SIGTERM (a timeout, a scheduler's preemption, `docker stop`) and SIGHUP (a closed
+/// terminal) save the samples so far, image and checkpoint, as the first Ctrl-C does.
+#[test]
+fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
+    let dir = workspace();
+    let d = dir.path();
+    for signal in ["TERM", "HUP"] {
+        let (out, ck) = (
+            d.join(format!("{signal}.png")),
+            d.join(format!("{signal}.ck")),
+        );
+        let r = Running::start(
+            &[
+                "render",
+                repo_file("scenes/cornell_box.ron").to_str().unwrap(),
+                "--size",
+                "64x64",
+                "--spp",
+                "100000",
+                "-o",
+                out.to_str().unwrap(),
+                "--checkpoint",
+                ck.to_str().unwrap(),
+            ],
+            &d.join(format!("{signal}.log")),
+            false,
+        );
+        r.wait_stderr("the start line", |e| e.contains("rendering "));
+        let log = r.stderr.clone();
+        let status = r.stop_with(signal);
+        let e = std::fs::read_to_string(log).unwrap();
+        assert!(status.success(), "SIG{signal}: {e}");
+        assert!(e.contains("interrupted: wrote the image with"), "{e}");
+        assert!(out.exists() && ck.exists(), "SIG{signal}: {e}");
+    }
+    let names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.starts_with(".tmp")),
+        "no temporary file left: {names:?}"
+    );
+}
