@@ -11,6 +11,7 @@ pub mod accel;
 pub mod bench;
 pub mod cli;
 pub mod compare;
+pub mod files;
 pub mod live;
 pub mod output;
 pub mod render;

@@ -78,7 +78,15 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
     };
     let reference = match (&args.reference, args.reference_spp) {
         (Some(_), Some(_)) => bail!("give either --reference or --reference-spp, not both"),
-        (Some(f), None) => ReferenceSpec::File(f.clone()),
+        (Some(f), None) => {
+            if !f.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+                bail!(
+                    "{}: the reference must be an EXR of linear radiance (a PNG is tonemapped and clipped; render the reference with -o NAME.exr)",
+                    f.display()
+                );
+            }
+            ReferenceSpec::File(f.clone())
+        }
         (None, Some(0)) => bail!("--reference-spp must be at least 1"),
         (None, n) => ReferenceSpec::Spp(n.unwrap_or(1024)),
     };
@@ -146,6 +154,22 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     }
     let a = output::read_image(&args.a)?;
     let b = output::read_image(&args.b)?;
+    // NaN and infinity make every metric meaningless (NaN compares as within any
+    // tolerance): a non-finite pixel in either image is a difference in itself.
+    let mut non_finite = false;
+    for (name, path, film) in [("A", &args.a, &a), ("B", &args.b, &b)] {
+        if let Some((count, (x, y))) = film.non_finite() {
+            println!(
+                "non-finite: image {name} ({}) has {count} pixel(s) with NaN or infinite values, the first at ({x}, {y})",
+                path.display()
+            );
+            non_finite = true;
+        }
+    }
+    if non_finite {
+        println!("differs: an image holds values that are not finite");
+        return Ok(ExitCode::from(1));
+    }
     let (m, map) = metrics::compare(&a, &b)
         .map_err(|e| anyhow!("{} vs {}: {e}", args.a.display(), args.b.display()))?;
     if let Some(path) = &args.output {

@@ -45,7 +45,8 @@ pub enum Command {
     Integrators,
     /// Render a scene with several integrators and compare them against a reference.
     Compare(CompareArgs),
-    /// Print the error metrics between two images (EXR or PNG).
+    /// Print the error metrics between two images (EXR or PNG); exit 1 when they are beyond
+    /// --tolerance or either image holds NaN or infinite values.
     Diff(DiffArgs),
     /// Measure rays per second, samples per second, BVH build time and memory.
     Bench(BenchArgs),

@@ -158,6 +158,13 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let mut acc = match (&args.checkpoint, args.resume) {
         (Some(path), true) => {
             let acc = checkpoint::load(path, hash, camera.width, camera.height)?;
+            if let Some(target) = spp.filter(|t| acc.spp_done > *t) {
+                bail!(
+                    "{}: the checkpoint has {} spp, more than the target {target}",
+                    path.display(),
+                    acc.spp_done
+                );
+            }
             if !args.session.quiet {
                 note!("resuming from {} at {} spp", path.display(), acc.spp_done);
             }

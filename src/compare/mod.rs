@@ -252,6 +252,12 @@ fn reference(
                     camera.height
                 );
             }
+            if let Some((count, (x, y))) = film.non_finite() {
+                bail!(
+                    "{}: the reference has {count} pixel(s) with NaN or infinite values, the first at ({x}, {y}); no error can be measured against it",
+                    path.display()
+                );
+            }
             Ok((film, format!("file {}", file_name(path))))
         }
         ReferenceSpec::Spp(spp) => {

@@ -25,6 +25,15 @@ impl Film {
         }
     }
 
+    /// Pixels holding a NaN or an infinite value: how many, and the first in raster order
+    /// as (x, y). An image with any is not a radiance image metrics can be taken of.
+    pub fn non_finite(&self) -> Option<(usize, (u32, u32))> {
+        let first = self.pixels.iter().position(|p| !p.is_finite())?;
+        let count = self.pixels.iter().filter(|p| !p.is_finite()).count();
+        let w = self.width as usize;
+        Some((count, ((first % w) as u32, (first / w) as u32)))
+    }
+
     /// Mean radiance over the whole image, per channel.
     pub fn mean(&self) -> Vec3 {
         let sum = self

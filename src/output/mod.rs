@@ -132,8 +132,14 @@ pub fn read_image(path: &Path) -> Result<Film> {
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
-    let img =
-        image::open(path).with_context(|| format!("{}: cannot read the image", path.display()))?;
+    let cannot = || format!("{}: cannot read the image", path.display());
+    // A regular file of sane size, decoded as its extension says (a pipe would block).
+    let (file, _) =
+        crate::files::open_capped(path, crate::files::MAX_BINARY).with_context(cannot)?;
+    let format = ImageFormat::from_path(path).with_context(cannot)?;
+    let img = image::ImageReader::with_format(std::io::BufReader::new(file), format)
+        .decode()
+        .with_context(cannot)?;
     let (w, h) = (img.width(), img.height());
     let mut film = Film::new(w, h);
     match ext.as_deref() {

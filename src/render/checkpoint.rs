@@ -8,15 +8,21 @@
 //! height `u32`, samples per pixel done `u32`, dropped samples `u64`, first dropped sample
 //! (`u8` present flag, then x, y, sample `u32`), then for every pixel in tile order its running
 //! sums, 13 `f64`: filter-weighted radiance (3), filter weight (1), splats (3), and the batch
-//! means' sums of the passes' estimates (3) and of their squares (3).
+//! means' sums of the passes' estimates (3) and of their squares (3); last, a checksum `u64`
+//! (FNV-1a of everything before it).
+//!
+//! A checkpoint is checked before it is used: the checksum (a damaged or edited file), then
+//! what a render can produce (at least one pass, a dropped-sample record inside the image,
+//! finite sums, non-negative weights), so that a bad file is refused instead of becoming an
+//! image of NaN.
 
 use super::{Accumulation, BadSample};
 use anyhow::{bail, Context, Result};
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"RAYLABCK";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 
 pub use crate::scene::references::stable_hash;
 
@@ -52,6 +58,8 @@ pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
             }
         }
     }
+    let checksum = stable_hash(&[&out]);
+    out.extend_from_slice(&checksum.to_le_bytes());
     out
 }
 
@@ -93,6 +101,14 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
     if version != VERSION {
         bail!("checkpoint version {version}, this raylab reads version {VERSION}");
     }
+    if bytes.len() < 20 {
+        bail!("the file is truncated");
+    }
+    let (body, sum) = bytes.split_at(bytes.len() - 8);
+    if stable_hash(&[body]) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
+        bail!("the file is damaged (its checksum does not match)");
+    }
+    let mut r = Reader { bytes: &body[12..] };
     if r.u64()? != hash {
         bail!("the scene or the render settings changed since the checkpoint was written (integrator, parameters, spp, seed, resolution, the scene file and the mesh files it names must match)");
     }
@@ -122,7 +138,42 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
     if !r.bytes.is_empty() {
         bail!("the file has {} unexpected trailing bytes", r.bytes.len());
     }
+    check(&acc)?;
     Ok(acc)
+}
+
+/// What a render can have produced: at least one pass, dropped samples no more than were
+/// taken and the first of them inside the image and the passes, finite sums, non-negative
+/// weights and squares.
+fn check(acc: &Accumulation) -> Result<()> {
+    if acc.spp_done == 0 || acc.spp_done == u32::MAX {
+        bail!("it records {} passes", acc.spp_done);
+    }
+    let taken = acc.spp_done as u64 * acc.width as u64 * acc.height as u64;
+    if acc.dropped.count > taken {
+        bail!(
+            "it records {} dropped samples of {taken} taken",
+            acc.dropped.count
+        );
+    }
+    if let Some(b) = acc.dropped.first {
+        if b.x >= acc.width || b.y >= acc.height || b.sample >= acc.spp_done {
+            bail!("its first dropped sample lies outside the image or the passes");
+        }
+    }
+    for t in &acc.tiles {
+        for (k, p) in t.pixels.iter().enumerate() {
+            let finite = [p.sum, p.splat, p.batch, p.batch_sq]
+                .iter()
+                .all(|v| v.is_finite())
+                && p.weight.is_finite();
+            if !finite || p.weight < 0.0 || p.batch_sq.min_element() < 0.0 {
+                let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
+                bail!("pixel ({x}, {y}) holds sums no render produces (not finite, or negative weights)");
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Writes a checkpoint atomically (temporary file in the same folder, then rename).
@@ -135,9 +186,10 @@ pub fn save(path: &Path, acc: &Accumulation, hash: u64) -> Result<()> {
 
 /// Reads a checkpoint written by [`save`] for the same settings.
 pub fn load(path: &Path, hash: u64, width: u32, height: u32) -> Result<Accumulation> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_to_end(&mut bytes))
+    // Its size is known from the image's: a larger file is refused unread.
+    let pixels = width as u64 * height as u64;
+    let size = 8 + 4 + 8 + 4 + 4 + 4 + 8 + 1 + 12 + pixels * 13 * 8 + 8;
+    let bytes = crate::files::read_capped(path, size)
         .with_context(|| format!("{}: cannot read the checkpoint", path.display()))?;
     decode(&bytes, hash, width, height)
         .with_context(|| format!("{}: cannot resume", path.display()))
@@ -171,11 +223,47 @@ mod tests {
             .to_string()
             .contains("changed"));
         assert!(decode(&bytes, 42, 20, 18).is_err());
-        assert!(decode(&bytes[..bytes.len() - 1], 42, 20, 17)
-            .unwrap_err()
-            .to_string()
-            .contains("truncated"));
+        for len in [bytes.len() - 1, 19, 12] {
+            let e = decode(&bytes[..len], 42, 20, 17).unwrap_err().to_string();
+            assert!(e.contains("truncated") || e.contains("damaged"), "{e}");
+        }
         assert!(decode(b"garbage!", 42, 20, 17).is_err());
+        // One flipped bit anywhere is found.
+        let mut flipped = bytes.clone();
+        flipped[200] ^= 4;
+        let e = decode(&flipped, 42, 20, 17).unwrap_err().to_string();
+        assert!(e.contains("damaged"), "{e}");
+    }
+
+    /// Files with a valid checksum but contents no render makes: refused, not an image of NaN.
+    #[test]
+    fn refuses_what_no_render_produces() {
+        let valid = || {
+            let mut acc = Accumulation::new(8, 8);
+            acc.spp_done = 2;
+            acc
+        };
+        let cases: [(&str, fn(&mut Accumulation)); 5] = [
+            ("passes", |a| a.spp_done = 0),
+            ("dropped samples", |a| a.dropped.count = 1000),
+            ("outside", |a| {
+                a.dropped.count = 1;
+                a.dropped.first = Some(BadSample {
+                    x: 9,
+                    y: 0,
+                    sample: 0,
+                })
+            }),
+            ("pixel (3, 0)", |a| a.tiles[0].pixels[3].sum.x = f64::NAN),
+            ("negative", |a| a.tiles[0].pixels[9].weight = -1.0),
+        ];
+        assert!(decode(&encode(&valid(), 1), 1, 8, 8).is_ok());
+        for (message, spoil) in cases {
+            let mut acc = valid();
+            spoil(&mut acc);
+            let e = decode(&encode(&acc, 1), 1, 8, 8).unwrap_err().to_string();
+            assert!(e.contains(message), "{message}: {e}");
+        }
     }
 
     #[test]

@@ -18,9 +18,11 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// Reads, parses, spawns, validates and bakes a scene file.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|reason| SceneError::Read {
-        path: path.to_path_buf(),
-        reason,
+    let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT).map_err(|reason| {
+        SceneError::Read {
+            path: path.to_path_buf(),
+            reason,
+        }
     })?;
     parse_scene(&text, path)
 }

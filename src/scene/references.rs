@@ -24,9 +24,9 @@ pub fn stable_hash(parts: &[&[u8]]) -> u64 {
 /// `scenes/x.ron` and `./scenes/x.ron` must hash alike. Hashes that must change when any of
 /// these files changes (checkpoints, `compare`'s cached reference) are taken over this.
 pub fn scene_content(scene: &Path) -> std::io::Result<Vec<u8>> {
-    let mut bytes = std::fs::read(scene)?;
+    let mut bytes = crate::files::read_capped(scene, crate::files::MAX_TEXT)?;
     for file in referenced_files(scene).unwrap_or_default() {
-        match std::fs::read(&file) {
+        match crate::files::read_capped(&file, crate::files::MAX_BINARY) {
             Ok(content) => bytes.extend_from_slice(&stable_hash(&[&content]).to_le_bytes()),
             Err(_) => bytes.extend_from_slice(b"\0unreadable"),
         }
@@ -38,7 +38,7 @@ pub fn scene_content(scene: &Path) -> std::io::Result<Vec<u8>> {
 /// `None` when the scene file cannot be read or parsed (the caller keeps what it had). Files
 /// that are missing are listed all the same: creating them must trigger a reload.
 pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
-    let text = std::fs::read_to_string(scene).ok()?;
+    let text = crate::files::read_text_capped(scene, crate::files::MAX_TEXT).ok()?;
     let file = parse_scene_file(&text, scene).ok()?;
     let dir = folder_of(scene);
     let mut files: Vec<PathBuf> = Vec::new();
@@ -86,7 +86,7 @@ fn folder_of(path: &Path) -> &Path {
 
 /// The material libraries (`mtllib` lines) an OBJ file names; none if it cannot be read.
 fn obj_mtllibs(path: &Path) -> Vec<String> {
-    let Ok(text) = std::fs::read_to_string(path) else {
+    let Ok(text) = crate::files::read_text_capped(path, crate::files::MAX_BINARY) else {
         return Vec::new();
     };
     text.lines()
@@ -100,7 +100,7 @@ fn obj_mtllibs(path: &Path) -> Vec<String> {
 /// The external (not `data:`) buffer and image URIs of a `.gltf` JSON file; none for a
 /// binary `.glb` or a file that cannot be read.
 fn gltf_uris(path: &Path) -> Vec<String> {
-    let Ok(text) = std::fs::read_to_string(path) else {
+    let Ok(text) = crate::files::read_text_capped(path, crate::files::MAX_TEXT) else {
         return Vec::new();
     };
     let Ok(json) = serde_json::from_str::<serde_json::Value>(&text) else {

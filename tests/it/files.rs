@@ -255,3 +255,109 @@ fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
         "no temporary file left: {names:?}"
     );
 }
+
+/// One NaN pixel, or an image of infinity, is a difference whatever the tolerance, reported
+/// with its count and first pixel; a reference with either is refused.
+#[test]
+fn non_finite_pixels_are_differences_and_bad_references() {
+    use raylab::output::{write_image, DisplaySettings, Film};
+    let dir = workspace();
+    let d = dir.path();
+    let write = |name: &str, f: &dyn Fn(usize) -> f32| {
+        let mut film = Film::new(16, 16);
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            *p = glam::Vec3::splat(f(i));
+        }
+        write_image(&d.join(name), &film, DisplaySettings::default()).unwrap();
+    };
+    write("black.exr", &|_| 0.0);
+    write("one-nan.exr", &|i| if i == 37 { f32::NAN } else { 0.0 });
+    write("inf.exr", &|_| f32::INFINITY);
+    for (a, count, first) in [("one-nan.exr", 1, "(5, 2)"), ("inf.exr", 256, "(0, 0)")] {
+        let o = raylab_in(d, &["diff", a, "black.exr", "--tolerance", "1e9"]);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert_eq!(o.status.code(), Some(1), "{out}");
+        assert!(
+            out.contains(&format!(
+                "{count} pixel(s) with NaN or infinite values, the first at {first}"
+            )),
+            "{out}"
+        );
+    }
+    let o = raylab_in(
+        d,
+        &[
+            "compare",
+            "s.ron",
+            "-i",
+            "path",
+            "--spp",
+            "1",
+            "--size",
+            "16x16",
+            "-q",
+            "--reference",
+            "one-nan.exr",
+            "-o",
+            "cmp",
+        ],
+    );
+    refused(&o, &["the reference has 1 pixel(s) with NaN"]);
+    // A PNG is no radiance reference.
+    assert!(render(d, &["s.ron", "-o", "r.png"]).status.success());
+    let o = raylab_in(
+        d,
+        &[
+            "compare",
+            "s.ron",
+            "-i",
+            "path",
+            "--reference",
+            "r.png",
+            "-o",
+            "cmp",
+        ],
+    );
+    refused(&o, &["must be an EXR"]);
+}
+
+/// A checkpoint is checked before it is used: damage, a pipe, more passes than the target.
+#[test]
+fn damaged_or_odd_checkpoints_are_refused() {
+    let dir = workspace();
+    let d = dir.path();
+    let with_ck = |spp: &str, resume: bool| {
+        let mut args = vec![
+            "render",
+            "s.ron",
+            "--spp",
+            spp,
+            "--size",
+            "16x16",
+            "-q",
+            "-o",
+            "a.png",
+            "--checkpoint",
+            "c.bin",
+        ];
+        if resume {
+            args.push("--resume");
+        }
+        raylab_in(d, &args)
+    };
+    assert!(with_ck("2", false).status.success());
+    let good = std::fs::read(d.join("c.bin")).unwrap();
+    let mut bad = good.clone();
+    bad[100] ^= 1;
+    std::fs::write(d.join("c.bin"), &bad).unwrap();
+    refused(&with_ck("2", true), &["cannot resume", "damaged"]);
+    std::fs::write(d.join("c.bin"), [&good[..], b"tail"].concat()).unwrap();
+    refused(&with_ck("2", true), &["more than the"]);
+    std::fs::remove_file(d.join("c.bin")).unwrap();
+    let fifo = std::process::Command::new("mkfifo")
+        .arg(d.join("c.bin"))
+        .status()
+        .unwrap();
+    assert!(fifo.success());
+    refused(&with_ck("2", true), &["not a regular file"]);
+}
