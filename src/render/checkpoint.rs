@@ -243,7 +243,8 @@ mod tests {
             acc.spp_done = 2;
             acc
         };
-        let cases: [(&str, fn(&mut Accumulation)); 5] = [
+        type Spoil = fn(&mut Accumulation);
+        let cases: [(&str, Spoil); 5] = [
             ("passes", |a| a.spp_done = 0),
             ("dropped samples", |a| a.dropped.count = 1000),
             ("outside", |a| {
