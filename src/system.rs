@@ -17,6 +17,64 @@ pub fn memory_available() -> Option<u64> {
     proc_kb("/proc/meminfo", "MemAvailable:")
 }
 
+/// The tightest bound on what this process may still allocate, in bytes, and what sets it:
+/// the system's available memory (`MemAvailable`), the cgroup's limit (`memory.max` less
+/// `memory.current`, as a container or a batch job sets it) and the address-space limit
+/// (`ulimit -v`, less what the process has mapped). `None` where none is known.
+pub fn memory_limit() -> Option<(u64, &'static str)> {
+    let mut limits = Vec::new();
+    if let Some(a) = memory_available() {
+        limits.push((a, "available on this machine"));
+    }
+    if let Some(c) = cgroup_room() {
+        limits.push((c, "left under the cgroup's memory limit"));
+    }
+    if let Some(v) = address_space_room() {
+        limits.push((v, "left under the address-space limit (ulimit -v)"));
+    }
+    limits.into_iter().min_by_key(|(bytes, _)| *bytes)
+}
+
+/// The cgroup's memory limit less its usage (cgroup v2, else v1), if it has a limit.
+fn cgroup_room() -> Option<u64> {
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    let number = |t: Option<String>| t.and_then(|t| t.trim().parse::<u64>().ok());
+    // v2: "0::/path" in /proc/self/cgroup names the group under /sys/fs/cgroup.
+    if let Some(path) = read("/proc/self/cgroup").and_then(|t| {
+        t.lines()
+            .find_map(|l| l.strip_prefix("0::").map(str::to_string))
+    }) {
+        let dir = format!("/sys/fs/cgroup{}", path.trim_end_matches('/'));
+        if let Some(max) = number(read(&format!("{dir}/memory.max"))) {
+            let used = number(read(&format!("{dir}/memory.current"))).unwrap_or(0);
+            return Some(max.saturating_sub(used));
+        }
+    }
+    // v1: a limit near u64::MAX means none.
+    let max = number(read("/sys/fs/cgroup/memory/memory.limit_in_bytes"))?;
+    if max >= 1 << 60 {
+        return None;
+    }
+    let used = number(read("/sys/fs/cgroup/memory/memory.usage_in_bytes")).unwrap_or(0);
+    Some(max.saturating_sub(used))
+}
+
+/// The soft address-space limit less the address space mapped now, if there is a limit.
+fn address_space_room() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    let soft: u64 = line
+        .trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    let mapped = proc_kb("/proc/self/status", "VmSize:").unwrap_or(0);
+    Some(soft.saturating_sub(mapped))
+}
+
 /// Peak resident memory of this process, in bytes (0 where unknown).
 pub fn peak_rss() -> u64 {
     proc_kb("/proc/self/status", "VmHWM:").unwrap_or(0)

@@ -37,7 +37,9 @@ pub use bsdf::{BsdfSample, Material};
 pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
 pub use geometry::{Frame, Hit, Ray};
-pub use integrator::{Integrator, PixelSample, RayCounters, RayIntegrator, Splats, Tracer};
+pub use integrator::{
+    Demand, Integrator, PixelSample, RayCounters, RayIntegrator, Splats, Stop, Tracer,
+};
 pub use light::{LeSample, Light, LightSample, LightTable};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};
 pub use sampler::Sampler;

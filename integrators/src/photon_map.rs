@@ -23,7 +23,7 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    emitted_at, escaped, stays_on_viewer_side, PathState, ShadingPoint, MAX_SURVIVAL,
+    emitted_at, escaped, stays_on_viewer_side, PathState, ShadingPoint, Stop, MAX_SURVIVAL,
 };
 use crate::{luminance, Hit, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
 use glam::{Vec3, Vec3A};
@@ -74,6 +74,7 @@ pub fn trace_photons(
     max_bounces: u32,
     seed: u64,
     stream: u64,
+    stop: Stop,
 ) -> (Vec<Photon>, RayCounters) {
     if scene.lights().is_empty() || count == 0 {
         return (Vec::new(), RayCounters::default());
@@ -85,6 +86,9 @@ pub fn trace_photons(
             let mut tracer = Tracer::new(scene);
             let mut photons = Vec::new();
             for i in b * BLOCK..((b + 1) * BLOCK).min(count) {
+                if stop.requested() {
+                    break;
+                }
                 let mut sampler = Sampler::new(seed ^ PHOTON_SEED, stream, i as u64);
                 trace_one(
                     &mut tracer,
@@ -247,6 +251,12 @@ pub fn land(
             return None;
         }
     }
+}
+
+/// About the memory a map of `photons` emitted photons takes while it is built: one landing
+/// each (scenes of high albedo store several), held twice while sorted into buckets.
+pub fn photon_map_bytes(photons: u64) -> u64 {
+    photons * 2 * std::mem::size_of::<Photon>() as u64
 }
 
 /// Photons in a hashed grid, for gathers of radius up to the one the map was built for.
@@ -434,7 +444,7 @@ mod tests {
         // Inside the closed furnace every photon lands: the first landings carry the emitted
         // power, 2 pi Le A (both sides emit, the outward half escapes: pi Le A lands).
         let scene = furnace_sphere(0.5, 1.0);
-        let (photons, _) = trace_photons(&scene, 200_000, Keep::All, 0, 7, 0);
+        let (photons, _) = trace_photons(&scene, 200_000, Keep::All, 0, 7, 0, Stop::NEVER);
         let first: f64 = photons.iter().map(|p| p.power.y as f64).sum();
         let area: f64 = scene
             .lights()
@@ -456,7 +466,7 @@ mod tests {
     fn density_estimate_matches_the_irradiance_below_a_sphere_light() {
         // Direct landings on the floor below a sphere light: a L (r/d)^2 = 0.125.
         let scene = floor_under_sphere_light(0.5, 4.0, 0.5, 2.0);
-        let (photons, _) = trace_photons(&scene, 1_000_000, Keep::All, 0, 11, 0);
+        let (photons, _) = trace_photons(&scene, 1_000_000, Keep::All, 0, 11, 0, Stop::NEVER);
         // About 5,500 photons within r = 0.15: a 1.3% standard error; the irradiance falls
         // by 1% from the centre to the disk's edge.
         let map = PhotonMap::build(photons, 0.15);
@@ -474,7 +484,9 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| trace_photons(&scene, 3 * BLOCK + 17, Keep::Indirect, 8, 5, 2))
+                .install(|| {
+                    trace_photons(&scene, 3 * BLOCK + 17, Keep::Indirect, 8, 5, 2, Stop::NEVER)
+                })
         };
         let (a, ca) = run(1);
         let (b, cb) = run(3);

@@ -90,9 +90,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         (None, Some(0)) => bail!("--reference-spp must be at least 1"),
         (None, n) => ReferenceSpec::Spp(n.unwrap_or(1024)),
     };
-    if args.threads == Some(0) {
-        bail!("--threads must be at least 1");
-    }
+    super::check_threads(args.threads)?;
     let size = args
         .size
         .as_deref()

@@ -29,9 +29,7 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
     if c.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
-    if c.threads == Some(0) {
-        bail!("--threads must be at least 1");
-    }
+    super::check_threads(c.threads)?;
     if !c.exposure.is_finite() {
         bail!("--exposure must be finite");
     }
@@ -68,7 +66,7 @@ fn install_interrupt_handler(control: Arc<Control>) {
     let presses = AtomicUsize::new(0);
     let installed = ctrlc::set_handler(move || {
         if presses.fetch_add(1, Ordering::SeqCst) == 0 {
-            note!("\ninterrupt: stopping after this pass (Ctrl-C again to stop at once)");
+            note!("\ninterrupt: stopping (Ctrl-C again to stop at once)");
             control.quit();
         } else {
             note!("\ninterrupt: stopped");

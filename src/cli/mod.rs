@@ -116,8 +116,9 @@ pub struct RenderArgs {
     /// Output file: .png or .exr (default: the scene's name with .png, in the current folder).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Stop after this many seconds (at the end of the pass that passes it) and write the
-    /// image. Without --spp the render is open-ended.
+    /// Stop after this many seconds and write the image of the passes done (the pass in
+    /// progress is abandoned; the first pass is always finished, unless still running at ten
+    /// times the budget and ten seconds more). Without --spp the render is open-ended.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Save the render's state to FILE after every pass.
@@ -296,10 +297,11 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     "raylab was built without the `embree` feature: cargo build --release --features embree (needs Debian's libembree-dev)"
                 );
             }
-            if args.rays == 0 || args.subdivisions > 10 || args.threads.contains(&0) {
-                anyhow::bail!(
-                    "bench: --rays must be positive, --subdivisions at most 10, --threads positive"
-                );
+            if args.rays == 0 || args.subdivisions > 10 {
+                anyhow::bail!("bench: --rays must be positive, --subdivisions at most 10");
+            }
+            for n in &args.threads {
+                check_threads(Some(*n))?;
             }
             let threads = if args.threads.is_empty() {
                 let all = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -323,6 +325,23 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             })?;
             Ok(ExitCode::SUCCESS)
         }
+    }
+}
+
+/// Threads per core beyond which more only slow a render down.
+const THREADS_PER_CORE: usize = 8;
+
+/// `--threads N`: at least 1, at most [`THREADS_PER_CORE`] per core (10,000 threads make a
+/// small render take minutes).
+fn check_threads(threads: Option<usize>) -> anyhow::Result<()> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match threads {
+        Some(0) => anyhow::bail!("--threads must be at least 1"),
+        Some(n) if n > cores * THREADS_PER_CORE => anyhow::bail!(
+            "--threads {n}: at most {} on this machine ({THREADS_PER_CORE} per core; more only slow the render down)",
+            cores * THREADS_PER_CORE
+        ),
+        _ => Ok(()),
     }
 }
 

@@ -60,9 +60,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     if args.session.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
-    if args.session.threads == Some(0) {
-        bail!("--threads must be at least 1");
-    }
+    super::check_threads(args.session.threads)?;
     if let Some(t) = args.time {
         if !(t.is_finite() && t > 0.0 && t <= 1e9) {
             bail!("--time must be a positive number of seconds, at most 1e9, got {t}");
@@ -102,7 +100,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     // Scene parameters apply only to the scene's own integrator; the command line wins.
     let (entry, params) =
         crate::live::choose_integrator(&loaded, args.session.integrator.as_deref(), &cli_params)?;
-    let mut integrator = (entry.build)(&params);
+    let mut integrator = entry.build_checked(&params)?;
     // Target: --spp, else open-ended under --time, else the scene's spp.
     let spp = match (args.session.spp, args.time) {
         (Some(n), _) => Some(n),
@@ -121,7 +119,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     };
     let seed = args.session.seed.unwrap_or(loaded.render.seed);
 
-    render::check_memory(camera.width, camera.height)?;
+    render::check_memory(camera.width, camera.height, integrator.demand().memory)?;
     let built =
         RenderScene::build_on_threads(&loaded, args.session.trace.accel, args.session.threads)?;
     let settings = RenderSettings {
@@ -173,7 +171,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         _ => Accumulation::new(camera.width, camera.height),
     };
 
-    // Ctrl-C: the first finishes the pass and writes the image, the second stops at once.
+    // Ctrl-C, SIGTERM, SIGHUP: the first abandons the pass in progress and writes the image
+    // of the passes done, the second stops at once.
     install_interrupt_handler();
     let stop = || INTERRUPTS.load(Ordering::SeqCst) > 0;
     if !args.session.quiet {
@@ -181,7 +180,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             .spp
             .map_or_else(|| "open-ended".to_string(), |n| format!("{n} spp"));
         note!(
-            "rendering {}x{} with {}, {target} (Ctrl-C finishes the pass and writes the image)",
+            "rendering {}x{} with {}, {target} (Ctrl-C writes the image of the passes done)",
             camera.width,
             camera.height,
             entry.name
@@ -284,7 +283,7 @@ fn install_interrupt_handler() {
     // Fails only if a handler is already installed (a second render in one process).
     let _ = ctrlc::set_handler(|| {
         if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
-            note!("\ninterrupt: finishing this pass, then writing the image (Ctrl-C again to stop at once)");
+            note!("\ninterrupt: stopping, writing the image of the passes done (Ctrl-C again to stop at once)");
         } else {
             note!("\ninterrupt: stopped, nothing written");
             // Exiting skips destructors: remove a half-written image or checkpoint first.

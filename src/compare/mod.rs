@@ -204,7 +204,7 @@ fn render_one(
 ) -> Result<(Film, render::RenderStats, String)> {
     let entry = registry::find(&c.integrator)?;
     let params = entry.resolve(&c.params)?;
-    let mut integrator = (entry.build)(&params);
+    let mut integrator = entry.build_checked(&params)?;
     let settings = match budget {
         Budget::Spp(n) => RenderSettings {
             progress: opts.progress,
@@ -394,7 +394,19 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
         Some((w, h)) => loaded.camera.with_resolution(w, h),
         None => loaded.camera.clone(),
     };
-    render::check_memory(camera.width, camera.height)?;
+    // Every contestant's configuration, checked before anything renders: one that cannot
+    // finish a pass, or the most memory any of them holds beside the film.
+    let mut most = 0;
+    for c in &opts.contestants {
+        let entry = registry::find(&c.integrator)?;
+        most = most.max(
+            entry
+                .build_checked(&entry.resolve(&c.params)?)?
+                .demand()
+                .memory,
+        );
+    }
+    render::check_memory(camera.width, camera.height, most)?;
     if let Some(r) = opts.region {
         if Film::new(camera.width, camera.height)
             .crop(r.x, r.y, r.w, r.h)

@@ -93,11 +93,10 @@ where
         .draw()
         .map_err(err)?;
 
-    // Right: time against the swept value (numeric values on a linear axis).
-    let xs: Vec<f64> = rows
-        .iter()
-        .filter_map(|r| r.swept_value.as_deref()?.parse().ok())
-        .collect();
+    // Right: time against the swept value (numeric values on a linear axis; unlimited ones
+    // one step past the largest, labelled).
+    let (x_of, unlimited_at) = axis_positions(&rows);
+    let xs: Vec<f64> = x_of.iter().flatten().copied().collect();
     let (x_min, x_max) = xs
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
@@ -118,6 +117,11 @@ where
     chart
         .configure_mesh()
         .x_desc(param.clone())
+        .x_label_formatter(&|x| match unlimited_at {
+            Some(u) if (x - u).abs() < 1e-9 => "unlimited".to_string(),
+            _ if (x - x.round()).abs() < 1e-9 => format!("{}", x.round()),
+            _ => format!("{x:.2}"),
+        })
         .y_desc("time (s)")
         .light_line_style(WHITE)
         .draw()
@@ -126,8 +130,9 @@ where
         let c = colours[i % colours.len()];
         let pts: Vec<(f64, f64)> = rows
             .iter()
-            .filter(|r| &r.integrator == name)
-            .filter_map(|r| Some((r.swept_value.as_deref()?.parse().ok()?, r.time_s)))
+            .zip(&x_of)
+            .filter(|(r, _)| &r.integrator == name)
+            .filter_map(|(r, x)| Some(((*x)?, r.time_s)))
             .collect();
         chart
             .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
@@ -138,6 +143,47 @@ where
     }
     root.present().map_err(err)?;
     Ok(())
+}
+
+/// Each row's place on the swept-value axis: its number when it is a finite one; an
+/// unlimited value (`inf`, `unlimited`) one step past the largest finite number (the plotting
+/// library cannot draw infinity); `None` for a value that is no number. Also that place, if
+/// some value is unlimited, for its label.
+fn axis_positions(rows: &[&Row]) -> (Vec<Option<f64>>, Option<f64>) {
+    let values: Vec<Option<f64>> = rows
+        .iter()
+        .map(|r| {
+            let v = r.swept_value.as_deref()?.trim();
+            match v.to_ascii_lowercase().as_str() {
+                "unlimited" | "infinite" => Some(f64::INFINITY),
+                _ => v.parse::<f64>().ok().filter(|x| !x.is_nan()),
+            }
+        })
+        .collect();
+    let finite: Vec<f64> = values
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
+    if !values.iter().flatten().any(|x| x.is_infinite()) {
+        return (values, None);
+    }
+    let (lo, hi) = finite
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        });
+    let at = if hi.is_finite() {
+        hi + ((hi - lo) * 0.25).max(1.0)
+    } else {
+        0.0
+    };
+    let placed = values
+        .into_iter()
+        .map(|x| x.map(|x| if x.is_infinite() { at } else { x }))
+        .collect();
+    (placed, Some(at))
 }
 
 /// Writes `sweep.svg` and `sweep.png`; returns the SVG text for the page.

@@ -57,11 +57,13 @@ pub struct Selection {
 }
 
 impl Selection {
-    /// Checks the integrator name and the parameters against the registry. Parameters for
+    /// Checks the integrator name and the parameters against the registry (and that they can
+    /// finish a pass). Parameters for
     /// the scene's own integrator can only be checked once the scene is loaded.
     pub fn check(&self) -> Result<(), ParamError> {
         if let Some(name) = &self.integrator {
-            registry::find(name)?.resolve(&self.params)?;
+            let entry = registry::find(name)?;
+            entry.build_checked(&entry.resolve(&self.params)?)?;
         }
         Ok(())
     }
@@ -257,7 +259,8 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
         Some((w, h)) => loaded.camera.with_resolution(w, h),
         None => loaded.camera.clone(),
     };
-    render::check_memory(camera.width, camera.height)?;
+    let integrator = entry.build_checked(&params)?;
+    render::check_memory(camera.width, camera.height, integrator.demand().memory)?;
     let built = RenderScene::build_on_threads(&loaded, settings.accel, settings.threads)?;
     let info = RenderInfo {
         integrator: entry.name,
@@ -268,7 +271,7 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
     };
     Ok(Job {
         built,
-        integrator: (entry.build)(&params),
+        integrator,
         settings: RenderSettings {
             spp: settings.spp,
             seed: settings.seed.unwrap_or(loaded.render.seed),

@@ -25,7 +25,9 @@ use crate::scene::Camera;
 use accumulator::{PassPixel, PixelAccumulator};
 use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
-use raylab_integrators::{Integrator, PixelSample, RayCounters, Sampler, Scene, Splats, Tracer};
+use raylab_integrators::{
+    Integrator, PixelSample, RayCounters, Sampler, Scene, Splats, Stop, Tracer,
+};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -43,7 +45,8 @@ pub struct RenderSettings {
     pub threads: Option<usize>,
     /// Show a progress bar on stderr (only drawn on a terminal).
     pub progress: bool,
-    /// Stop after the pass during which this much time has passed.
+    /// Stop when this much time has passed, abandoning the pass in progress (the first of a
+    /// render gets ten times as long and ten seconds more, to give an image).
     pub time_budget: Option<Duration>,
     /// The pixel reconstruction filter.
     pub filter: Filter,
@@ -140,16 +143,28 @@ pub fn memory_needed(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * 208
 }
 
-/// Refuses a render whose buffers would not fit in the memory available now (Linux), so an
-/// absurd resolution is an error before anything is allocated, not an abort.
-pub fn check_memory(width: u32, height: u32) -> anyhow::Result<()> {
-    let needed = memory_needed(width, height);
-    if let Some(available) = crate::system::memory_available() {
-        if needed > available {
+/// Refuses a render whose buffers would not fit in the memory this process may still
+/// allocate (Linux: the least of the machine's available memory, the cgroup's limit and
+/// `ulimit -v`), so an absurd resolution or photon count is an error before anything is
+/// allocated, not an abort. `integrator` is the integrator's own demand (photon maps).
+pub fn check_memory(width: u32, height: u32, integrator: u64) -> anyhow::Result<()> {
+    let film = memory_needed(width, height);
+    let needed = film.saturating_add(integrator);
+    if let Some((room, what)) = crate::system::memory_limit() {
+        if needed > room {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+            let maps = if integrator > 0 {
+                format!(
+                    " and its integrator's photon maps about {:.1} GiB",
+                    gib(integrator)
+                )
+            } else {
+                String::new()
+            };
             anyhow::bail!(
-                "a {width}x{height} image needs {:.1} GiB of memory, only {:.1} GiB is available",
-                needed as f64 / (1u64 << 30) as f64,
-                available as f64 / (1u64 << 30) as f64
+                "a {width}x{height} image needs {:.1} GiB of memory{maps}; only {:.1} GiB is {what}",
+                gib(film),
+                gib(room)
             );
         }
     }
@@ -323,6 +338,15 @@ impl Accumulation {
             });
     }
 
+    /// Forgets the pass in progress: what it left in the tiles' scratch.
+    fn abandon_pass(&mut self) {
+        for scratch in &mut self.scratch {
+            scratch.pass.fill(PassPixel::default());
+            scratch.spill.clear();
+            scratch.splats.clear();
+        }
+    }
+
     /// The image so far: the mean of the samples taken (dropped ones count as zero).
     pub fn film(&self) -> Film {
         let mut film = Film::new(self.width, self.height);
@@ -356,14 +380,19 @@ fn render_tile_pass(
     tile: &TileAccumulator,
     scratch: &mut TileScratch,
     pass: u32,
+    stop: Stop,
 ) -> TilePass {
-    let mut tracer = Tracer::new(scene);
+    let mut tracer = Tracer::with_stop(scene, stop);
     let mut out = TilePass {
         rays: RayCounters::default(),
         dropped: Dropped::default(),
     };
     scratch.pass.resize(tile.pixels.len(), PassPixel::default());
     for j in 0..tile.h {
+        // An abandoned pass is thrown away: no need to finish it.
+        if stop.requested() {
+            break;
+        }
         for i in 0..tile.w {
             let (x, y) = (tile.x0 + i, tile.y0 + j);
             let pixel_index = y as u64 * camera.width as u64 + x as u64;
@@ -458,7 +487,7 @@ pub fn render_passes(
     integrator: &mut dyn Integrator,
     settings: &RenderSettings,
     acc: &mut Accumulation,
-    stop: &dyn Fn() -> bool,
+    stop: &(dyn Fn() -> bool + Sync),
     after_pass: &mut dyn FnMut(&Accumulation, &RenderStats) -> anyhow::Result<()>,
 ) -> anyhow::Result<RenderStats> {
     let mut builder = rayon::ThreadPoolBuilder::new();
@@ -484,12 +513,37 @@ pub fn render_passes(
             stats.stopped = Some(StopReason::TimeBudget);
             break;
         }
+        // The pass in progress is abandoned when `stop` asks, or when the time budget is
+        // spent. The first pass of a render gets longer, to give the image the budget
+        // promises: until ten times the budget and ten seconds more (a pass still running
+        // then would take hours). Long work inside the pass checks the same question.
+        let deadline = settings.time_budget.map(|b| {
+            if acc.spp_done == 0 {
+                b * 10 + Duration::from_secs(10)
+            } else {
+                b
+            }
+        });
+        let abandon = || stop() || deadline.is_some_and(|d| start.elapsed() >= d);
+        let abandon_pass = Stop::new(&abandon);
+        let abandoned = |acc: &mut Accumulation, stats: &mut RenderStats| {
+            acc.abandon_pass();
+            stats.stopped = Some(if stop() {
+                StopReason::Interrupted
+            } else {
+                StopReason::TimeBudget
+            });
+        };
         // Work shared by the pass's pixels (photon maps), then one more sample in every
         // pixel, tiles in parallel.
         let pass = acc.spp_done;
-        stats
-            .rays
-            .add(&pool.install(|| integrator.prepare_pass(scene, settings.seed, pass)));
+        stats.rays.add(
+            &pool.install(|| integrator.prepare_pass(scene, settings.seed, pass, abandon_pass)),
+        );
+        if abandon() {
+            abandoned(acc, &mut stats);
+            break;
+        }
         let integrator: &dyn Integrator = integrator;
         if acc.scratch.len() != acc.tiles.len() {
             acc.scratch = vec![TileScratch::default(); acc.tiles.len()];
@@ -499,8 +553,16 @@ pub fn render_passes(
                 .par_iter()
                 .zip(acc.scratch.par_iter_mut())
                 .map(|(tile, scratch)| {
-                    let r =
-                        render_tile_pass(scene, camera, integrator, settings, tile, scratch, pass);
+                    let r = render_tile_pass(
+                        scene,
+                        camera,
+                        integrator,
+                        settings,
+                        tile,
+                        scratch,
+                        pass,
+                        abandon_pass,
+                    );
                     if settings.spp.is_some() {
                         progress.inc(1);
                     }
@@ -508,6 +570,15 @@ pub fn render_passes(
                 })
                 .collect()
         });
+        // Stop requests stay: if one came during the pass, some samples may have been cut
+        // short, and the pass goes.
+        if abandon() {
+            for r in &results {
+                stats.rays.add(&r.rays);
+            }
+            abandoned(acc, &mut stats);
+            break;
+        }
         // Filter weights and splats that crossed tiles, in tile order; then the pass is
         // closed in every pixel.
         pool.install(|| acc.finish_pass(settings.filter));

@@ -318,6 +318,11 @@ fn bad_command_lines_fail_cleanly() {
         &["--threads must be at least 1"],
     );
     expect_failure(
+        &[CORNELL, "--threads", "10000", "-o", o],
+        &out,
+        &["--threads 10000: at most", "per core"],
+    );
+    expect_failure(
         &[CORNELL, "--size", "0x10", "-o", o],
         &out,
         &["at least 1x1"],

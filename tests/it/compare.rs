@@ -319,3 +319,57 @@ fn diff_prints_metrics_and_exits_by_tolerance() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("differ in size"), "{}", stderr(&o));
 }
+
+/// `--sweep max-depth=1,inf` (a documented value) finishes, with the unlimited value drawn
+/// at a labelled place on the plot (the plotting library loops forever on an infinite axis).
+#[test]
+fn a_sweep_to_unlimited_depth_finishes_and_labels_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let reference = dir.path().join("ref.exr");
+    let o = raylab(
+        &[
+            "render",
+            CORNELL,
+            "--size",
+            "24x24",
+            "--spp",
+            "4",
+            "-q",
+            "-o",
+            s(&reference),
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let run = common::Running::start(
+        &[
+            "compare",
+            CORNELL,
+            "-i",
+            "path",
+            "--sweep",
+            "max-depth=1,inf",
+            "--spp",
+            "1",
+            "--size",
+            "24x24",
+            "-q",
+            "--reference",
+            s(&reference),
+            "-o",
+            s(&out),
+        ],
+        &dir.path().join("log"),
+        false,
+    );
+    let mut run = run;
+    assert!(
+        common::eventually(|| matches!(run.child.try_wait(), Ok(Some(_)))),
+        "still running: {}",
+        run.stderr()
+    );
+    assert!(run.child.wait().unwrap().success(), "{}", run.stderr());
+    let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
+    assert!(svg.contains("unlimited"), "the unlimited value is labelled");
+}

@@ -238,7 +238,8 @@ fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
             &d.join(format!("{signal}.log")),
             false,
         );
-        r.wait_stderr("the start line", |e| e.contains("rendering "));
+        // The first pass done (its checkpoint saved), so that there is an image to write.
+        assert!(crate::common::eventually(|| ck.exists()), "{}", r.stderr());
         let log = r.stderr.clone();
         let status = r.stop_with(signal);
         let e = std::fs::read_to_string(log).unwrap();

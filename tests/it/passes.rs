@@ -200,9 +200,13 @@ fn time_budget_stops_an_open_ended_render() {
 #[test]
 fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
     let dir = tempfile::tempdir().unwrap();
-    // Signals are sent once raylab says it is rendering (its handler is installed by then),
-    // not after a guessed delay.
-    let start = |out: &Path, integrator: &str, size: &str, log: &str| {
+    // Signals are sent once the first pass is done (its checkpoint exists), not after a
+    // guessed delay.
+    let start = |name: &str, integrator: &str, size: &str| {
+        let (out, ck) = (
+            dir.path().join(format!("{name}.png")),
+            dir.path().join(name),
+        );
         let r = Running::start(
             &[
                 "render",
@@ -214,17 +218,22 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
                 "--spp",
                 "100000",
                 "-o",
-                s(out),
+                s(&out),
+                "--checkpoint",
+                s(&ck),
             ],
-            &dir.path().join(log),
+            &dir.path().join(format!("{name}.log")),
             false,
         );
-        r.wait_stderr("the start line", |e| e.contains("rendering "));
-        r
+        assert!(
+            crate::common::eventually(|| ck.exists()),
+            "no first pass: {}",
+            r.stderr()
+        );
+        (r, out)
     };
-    // One Ctrl-C: the current pass ends and the image is written with what it has.
-    let out = dir.path().join("once.png");
-    let r = start(&out, "path", "128x128", "once.log");
+    // One Ctrl-C: the pass in progress is abandoned and the image written with the others.
+    let (r, out) = start("once", "path", "128x128");
     let status = r.interrupt();
     let e = std::fs::read_to_string(dir.path().join("once.log")).unwrap();
     assert!(status.success(), "{e}");
@@ -234,15 +243,15 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
     );
     assert!(out.exists());
 
-    // Two: stop at once, nothing written. (fixed-depth's passes take seconds here, so the
-    // second signal, sent once the first is acknowledged, arrives before the pass ends.)
-    let out = dir.path().join("twice.png");
-    let r = start(&out, "fixed-depth", "768x768", "twice.log");
+    // Two (here SIGINT, then SIGTERM, which counts the same): stop at once, exit 130, no
+    // image, and no temporary file of the checkpoint being written when the second came
+    // (at 2048x2048 the checkpoint is 436 MB: its write leaves time for the second signal).
+    let (r, out) = start("twice", "albedo", "2048x2048");
     r.signal_interrupt();
     r.wait_stderr("the first interrupt's message", |e| {
-        e.contains("interrupt: finishing this pass")
+        e.contains("interrupt: stopping")
     });
-    let status = r.interrupt();
+    let status = r.stop_with("TERM");
     assert_eq!(
         status.code(),
         Some(130),
@@ -250,6 +259,14 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
         std::fs::read_to_string(dir.path().join("twice.log")).unwrap()
     );
     assert!(!out.exists());
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.starts_with(".tmp")),
+        "no temporary file left: {names:?}"
+    );
 }
 
 /// A checkpoint is tied to the mesh files the scene names, not only to the scene file: after
@@ -303,4 +320,71 @@ fn editing_a_mesh_file_invalidates_the_checkpoint() {
         stderr(&o)
     );
     assert!(!d.join("after-edit.exr").exists());
+}
+
+/// Passes that take long stop within moments of Ctrl-C: the branching recursion of
+/// `fixed-depth` and the photon tracing of `sppm` check the request as they go. Settings no
+/// pass can finish, or whose photon maps cannot fit in memory, are refused before rendering.
+#[cfg(unix)]
+#[test]
+fn long_passes_stop_at_ctrl_c_and_impossible_ones_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, params) in [
+        ("fixed-depth", ["-p", "depth=5", "-p", "branching=64"]),
+        ("sppm", ["-p", "photons=50000000", "-p", "radius=0.01"]),
+    ] {
+        let out = dir.path().join(format!("{name}.png"));
+        let log = dir.path().join(format!("{name}.log"));
+        let mut args = vec![
+            "render",
+            CORNELL,
+            "-i",
+            name,
+            "--size",
+            "64x64",
+            "-o",
+            s(&out),
+        ];
+        args.extend_from_slice(&params);
+        let r = Running::start(&args, &log, false);
+        r.wait_stderr("the start line", |e| e.contains("rendering "));
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let asked = std::time::Instant::now();
+        let status = r.interrupt();
+        let e = std::fs::read_to_string(&log).unwrap();
+        assert!(
+            asked.elapsed() < std::time::Duration::from_secs(5),
+            "{name} took {:?} to stop: {e}",
+            asked.elapsed()
+        );
+        assert_eq!(status.code(), Some(2), "{e}");
+        assert!(e.contains("stopped before the first pass finished"), "{e}");
+        assert!(!out.exists());
+    }
+    for (params, message) in [
+        (
+            [
+                "-i",
+                "fixed-depth",
+                "-p",
+                "depth=16",
+                "-p",
+                "branching=1024",
+            ],
+            "rays per camera sample",
+        ),
+        (
+            ["-i", "sppm", "-p", "photons=1000000000", "-p", "alpha=0.5"],
+            "photon maps",
+        ),
+    ] {
+        let mut args = vec!["render", CORNELL, "--spp", "1", "-q", "-o"];
+        let out = dir.path().join("never.png");
+        args.push(s(&out));
+        args.extend_from_slice(&params);
+        let o = raylab(&args);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(stderr(&o).contains(message), "{}", stderr(&o));
+        assert!(!out.exists());
+    }
 }

@@ -328,3 +328,39 @@ fn the_page_switches_the_integrator_in_headless_chromium() {
     assert_eq!(s["image"]["integrator"], "whitted");
     assert_eq!(srv.run.interrupt().code(), Some(0));
 }
+
+/// A pass that would take hours (fixed-depth, depth 5, branching 64: 17 million rays per
+/// sample) does not wedge the session: new settings abandon it at once. Settings no pass can
+/// finish are refused with 400.
+#[test]
+fn new_settings_abandon_a_pass_that_would_take_hours() {
+    let (_dir, scene) = scene_copy("cornell_box.ron");
+    let srv = serve(&scene, "4");
+    srv.wait_state("the first image", finished);
+    let r = srv.post(
+        "/settings",
+        "application/json",
+        r#"{"integrator": "fixed-depth", "params": {"depth": "16", "branching": "1024"}}"#,
+    );
+    assert_eq!(r.status, 400, "{}", r.text());
+    assert!(r.text().contains("rays per camera sample"), "{}", r.text());
+    let r = srv.post(
+        "/settings",
+        "application/json",
+        r#"{"integrator": "fixed-depth", "params": {"depth": "5", "branching": "64"}}"#,
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    srv.wait_state("the long pass", |s| {
+        s["render"]["integrator"] == "fixed-depth" && s["render"]["state"] == "rendering"
+    });
+    let r = srv.post(
+        "/settings",
+        "application/json",
+        r#"{"integrator": "whitted"}"#,
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    srv.wait_state("whitted's image", |s| {
+        finished(s) && s["render"]["integrator"] == "whitted"
+    });
+    assert_eq!(srv.run.interrupt().code(), Some(0));
+}

@@ -15,7 +15,7 @@
 //! **Bias**: truncation only (paths longer than `depth` are missing); unbiased below it.
 
 use crate::bsdf::TransportMode::Radiance;
-use crate::integrator::{emitted_at, escaped, RayIntegrator, ShadingPoint, Tracer};
+use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::{Hit, Ray, Rgb, Sampler};
 use glam::Vec2;
@@ -119,7 +119,8 @@ impl FixedDepth {
         } else {
             Rgb::ZERO
         };
-        if bounces >= self.depth {
+        // Past the depth, or abandoned: the branching tree can take hours per sample.
+        if bounces >= self.depth || tracer.stop.requested() {
             return l;
         }
         let material = tracer.scene.material(hit.material);
@@ -163,6 +164,17 @@ impl FixedDepth {
 }
 
 impl RayIntegrator for FixedDepth {
+    fn demand(&self) -> Demand {
+        // The branching tree's rays: sum over its levels of branching^level (shadow rays
+        // come on top, per light).
+        let b = self.branching as f64;
+        let levels = self.depth.saturating_sub(1) as i32;
+        Demand {
+            rays_per_sample: (0..=levels).map(|k| b.powi(k)).sum(),
+            memory: 0,
+        }
+    }
+
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
         match tracer.camera(ray) {
             Some(hit) => self.shade(ray, &hit, 0, true, tracer, sampler),

@@ -52,17 +52,47 @@ impl RayCounters {
     }
 }
 
+/// A request to abandon the work in progress (Ctrl-C, a spent time budget, new settings in a
+/// live session), for long work to check as it goes: photon tracing, branching recursion.
+/// Abandoned work is thrown away, never used, so checking it moves no image.
+#[derive(Clone, Copy)]
+pub struct Stop<'a>(Option<&'a (dyn Fn() -> bool + Sync)>);
+
+impl<'a> Stop<'a> {
+    /// Work that is never abandoned.
+    pub const NEVER: Stop<'static> = Stop(None);
+
+    /// Abandon when `requested()` returns true.
+    pub fn new(requested: &'a (dyn Fn() -> bool + Sync)) -> Stop<'a> {
+        Stop(Some(requested))
+    }
+
+    /// Whether the work in progress should be abandoned now.
+    #[inline]
+    pub fn requested(&self) -> bool {
+        self.0.is_some_and(|f| f())
+    }
+}
+
 /// A scene with ray counters: the only way integrators cast rays.
 pub struct Tracer<'a> {
     pub scene: &'a dyn Scene,
     pub counters: RayCounters,
+    /// Checked by integrators whose samples can take long (see [`Stop`]).
+    pub stop: Stop<'a>,
 }
 
 impl<'a> Tracer<'a> {
     pub fn new(scene: &'a dyn Scene) -> Self {
+        Tracer::with_stop(scene, Stop::NEVER)
+    }
+
+    /// A tracer whose users abandon their work when `stop` asks.
+    pub fn with_stop(scene: &'a dyn Scene, stop: Stop<'a>) -> Self {
         Tracer {
             scene,
             counters: RayCounters::default(),
+            stop,
         }
     }
 
@@ -178,9 +208,21 @@ pub trait Integrator: Send + Sync {
     /// Called before the pass in which every pixel takes sample number `pass`. Whatever it
     /// computes must depend only on (`scene`, `seed`, `pass`), so that images stay the same
     /// whatever the thread count and across a checkpoint and resume. It may use rayon: the
-    /// render loop calls it inside its own thread pool. Returns the rays it cast.
-    fn prepare_pass(&mut self, _scene: &dyn Scene, _seed: u64, _pass: u32) -> RayCounters {
+    /// render loop calls it inside its own thread pool. Long work checks `stop` and may end
+    /// early when it asks (the pass is then abandoned). Returns the rays it cast.
+    fn prepare_pass(
+        &mut self,
+        _scene: &dyn Scene,
+        _seed: u64,
+        _pass: u32,
+        _stop: Stop,
+    ) -> RayCounters {
         RayCounters::default()
+    }
+
+    /// What it demands of the machine, for refusing a configuration that cannot run.
+    fn demand(&self) -> Demand {
+        Demand::default()
     }
 
     /// The integrator as an estimator of radiance along a ray, if it is one (for tests that
@@ -190,6 +232,15 @@ pub trait Integrator: Send + Sync {
     }
 }
 
+/// What an integrator's configuration demands, known before it runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Demand {
+    /// Rays a camera sample casts at the least (a branching tracer's grow combinatorially).
+    pub rays_per_sample: f64,
+    /// Memory it holds during a pass beyond the film (photon maps), bytes, about.
+    pub memory: u64,
+}
+
 /// An integrator that estimates the radiance arriving along a camera ray (Nori's and
 /// pbrt-v4's `RayIntegrator`): the camera ray through the sample's film position, one
 /// estimate, no splats.
@@ -197,8 +248,19 @@ pub trait RayIntegrator: Send + Sync {
     /// One sample of the radiance arriving along `ray` (a camera ray).
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb;
 
+    /// As [`Integrator::demand`].
+    fn demand(&self) -> Demand {
+        Demand::default()
+    }
+
     /// As [`Integrator::prepare_pass`].
-    fn prepare_pass(&mut self, _scene: &dyn Scene, _seed: u64, _pass: u32) -> RayCounters {
+    fn prepare_pass(
+        &mut self,
+        _scene: &dyn Scene,
+        _seed: u64,
+        _pass: u32,
+        _stop: Stop,
+    ) -> RayCounters {
         RayCounters::default()
     }
 }
@@ -217,8 +279,12 @@ impl<T: RayIntegrator> Integrator for T {
         self.radiance(&ray, tracer, sampler)
     }
 
-    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32) -> RayCounters {
-        RayIntegrator::prepare_pass(self, scene, seed, pass)
+    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32, stop: Stop) -> RayCounters {
+        RayIntegrator::prepare_pass(self, scene, seed, pass, stop)
+    }
+
+    fn demand(&self) -> Demand {
+        RayIntegrator::demand(self)
     }
 
     fn as_ray_integrator(&self) -> Option<&dyn RayIntegrator> {

@@ -24,8 +24,10 @@
 //! **Bias**: density estimation blurs light over the gather radii and does not vanish with
 //! more passes (use `sppm` for a consistent estimate); truncation with a finite `max-depth`.
 
-use crate::integrator::{continue_path, sample_one_light, RayIntegrator, ShadingPoint, Tracer};
-use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
+use crate::integrator::{
+    continue_path, sample_one_light, Demand, RayIntegrator, ShadingPoint, Stop, Tracer,
+};
+use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
     IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
 };
@@ -92,7 +94,20 @@ struct Maps {
 }
 
 impl RayIntegrator for PhotonMapping {
-    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, _pass: u32) -> RayCounters {
+    fn demand(&self) -> Demand {
+        Demand {
+            rays_per_sample: 1.0,
+            memory: photon_map_bytes(self.photons as u64 + self.caustic_photons as u64),
+        }
+    }
+
+    fn prepare_pass(
+        &mut self,
+        scene: &dyn Scene,
+        seed: u64,
+        _pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
         if self.maps.is_some() {
             return RayCounters::default();
         }
@@ -112,10 +127,15 @@ impl RayIntegrator for PhotonMapping {
             max_bounces,
             seed,
             0,
+            stop,
         );
         let (global, global_rays) =
-            trace_photons(scene, self.photons, Keep::All, max_bounces, seed, 1);
+            trace_photons(scene, self.photons, Keep::All, max_bounces, seed, 1, stop);
         rays.add(&global_rays);
+        if stop.requested() {
+            // Cut short: not the maps of this seed, and never to be reused.
+            return rays;
+        }
         self.maps = Some(Maps {
             caustic: PhotonMap::build(caustic, pick(self.radius, 0.005)),
             global: PhotonMap::build(global, pick(self.global_radius, 0.01)),

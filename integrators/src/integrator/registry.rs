@@ -247,7 +247,16 @@ pub enum ParamError {
         name: String,
         reason: String,
     },
+    /// Values each in range whose combination no machine can run.
+    TooCostly {
+        integrator: &'static str,
+        reason: String,
+    },
 }
+
+/// The most rays a camera sample may cast: at ten million rays a second, a minute and a half
+/// per sample and thread. More is a configuration that never finishes a pass.
+pub const MAX_RAYS_PER_SAMPLE: f64 = 1e9;
 
 impl fmt::Display for ParamError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -289,6 +298,9 @@ impl fmt::Display for ParamError {
                     "parameter `{name}` of integrator `{integrator}`: {reason}"
                 )
             }
+            ParamError::TooCostly { integrator, reason } => {
+                write!(f, "integrator `{integrator}`: {reason}")
+            }
         }
     }
 }
@@ -328,7 +340,23 @@ impl IntegratorEntry {
         &self,
         given: &[(String, String)],
     ) -> Result<Box<dyn Integrator>, ParamError> {
-        Ok((self.build)(&self.resolve(given)?))
+        self.build_checked(&self.resolve(given)?)
+    }
+
+    /// Builds the integrator from resolved parameters, refusing a combination that cannot
+    /// finish a pass (see [`MAX_RAYS_PER_SAMPLE`]).
+    pub fn build_checked(&self, params: &Params) -> Result<Box<dyn Integrator>, ParamError> {
+        let integrator = (self.build)(params);
+        let rays = integrator.demand().rays_per_sample;
+        if rays > MAX_RAYS_PER_SAMPLE {
+            return Err(ParamError::TooCostly {
+                integrator: self.name,
+                reason: format!(
+                    "these parameters cast about {rays:.1e} rays per camera sample, more than the {MAX_RAYS_PER_SAMPLE:.0e} a pass can finish; lower them"
+                ),
+            });
+        }
+        Ok(integrator)
     }
 }
 

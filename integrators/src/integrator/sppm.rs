@@ -21,8 +21,8 @@
 //! **Bias**: a blur of radius `r_i` in pass `i`, vanishing as passes grow (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
-use crate::integrator::{sample_one_light, RayIntegrator, ShadingPoint, Tracer};
-use crate::photon_map::{auto_radius, land, trace_photons, Keep, PhotonMap};
+use crate::integrator::{sample_one_light, Demand, RayIntegrator, ShadingPoint, Stop, Tracer};
+use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
     PHOTONS, RR_DEPTH,
@@ -87,7 +87,14 @@ fn radius_scale(pass: u32, alpha: f64) -> f32 {
 }
 
 impl RayIntegrator for Sppm {
-    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32) -> RayCounters {
+    fn demand(&self) -> Demand {
+        Demand {
+            rays_per_sample: 1.0,
+            memory: photon_map_bytes(self.photons as u64),
+        }
+    }
+
+    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32, stop: Stop) -> RayCounters {
         // This pass's radius and photons (landings after one bounce or more).
         let r0 = if self.radius > 0.0 {
             self.radius
@@ -105,8 +112,11 @@ impl RayIntegrator for Sppm {
             max_bounces,
             seed,
             pass as u64,
+            stop,
         );
-        self.map = PhotonMap::build(photons, radius);
+        if !stop.requested() {
+            self.map = PhotonMap::build(photons, radius);
+        }
         rays
     }
 

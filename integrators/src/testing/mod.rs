@@ -251,7 +251,7 @@ pub fn estimate_integrator(
     scene: &TestScene,
     n: u32,
 ) -> (f64, f64) {
-    integrator.prepare_pass(scene, 12345, 0);
+    integrator.prepare_pass(scene, 12345, 0, crate::Stop::NEVER);
     let ray_integrator = integrator
         .as_ray_integrator()
         .expect("the analytic scenes probe integrators with rays: implement RayIntegrator");
@@ -324,7 +324,7 @@ pub fn estimate_passes(
     let mut integrator = find(name).unwrap().instantiate(&given).unwrap();
     let mut means = Vec::with_capacity(passes as usize);
     for pass in 0..passes {
-        integrator.prepare_pass(scene, 12345, pass);
+        integrator.prepare_pass(scene, 12345, pass, crate::Stop::NEVER);
         let ray_integrator = as_ray_integrator(name, integrator.as_ref());
         let mut tracer = Tracer::new(scene);
         let mut sum = 0.0f64;
