@@ -91,6 +91,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         (None, n) => ReferenceSpec::Spp(n.unwrap_or(1024)),
     };
     super::check_threads(args.threads)?;
+    super::check_allowed(&args.allow_path)?;
     let size = args
         .size
         .as_deref()
@@ -99,6 +100,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
     let region = args.region.as_deref().map(parse_region).transpose()?;
     let opts = CompareOptions {
         scene: args.scene.clone(),
+        allowed: args.allow_path.clone(),
         contestants,
         budget,
         reference,

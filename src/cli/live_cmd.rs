@@ -30,6 +30,7 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
         bail!("--spp must be at least 1");
     }
     super::check_threads(c.threads)?;
+    super::check_allowed(&c.allow_path)?;
     if !c.exposure.is_finite() {
         bail!("--exposure must be finite");
     }
@@ -48,6 +49,7 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
     Ok((
         LiveSettings {
             scene: c.scene.clone(),
+            allowed: c.allow_path.clone(),
             size: c.size.as_deref().map(parse_size).transpose()?,
             spp: c.spp,
             seed: c.seed,

@@ -54,6 +54,10 @@ pub enum Command {
     Validate {
         /// Scene file (RON).
         scene: PathBuf,
+        /// Let the scene read files under DIR too (repeatable). By default a scene may read
+        /// files (meshes, MTL files, glTF buffers) under its own folder only.
+        #[arg(long = "allow-path", value_name = "DIR")]
+        allow_path: Vec<PathBuf>,
     },
 }
 
@@ -98,6 +102,10 @@ pub struct SessionArgs {
     pub size: Option<String>,
     #[command(flatten)]
     pub trace: TraceArgs,
+    /// Let the scene read files under DIR too (repeatable). By default a scene may read
+    /// files (meshes, MTL files, glTF buffers) under its own folder only.
+    #[arg(long = "allow-path", value_name = "DIR")]
+    pub allow_path: Vec<PathBuf>,
     /// Exposure in stops for the PNG or the page's image (each +1 doubles the brightness).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
@@ -184,6 +192,10 @@ pub struct CompareArgs {
     pub threads: Option<usize>,
     #[command(flatten)]
     pub trace: TraceArgs,
+    /// Let the scene read files under DIR too (repeatable). By default a scene may read
+    /// files (meshes, MTL files, glTF buffers) under its own folder only.
+    #[arg(long = "allow-path", value_name = "DIR")]
+    pub allow_path: Vec<PathBuf>,
     /// Output folder (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -288,7 +300,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             print!("{}", render_cmd::integrators_listing());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Validate { scene } => render_cmd::validate(&scene),
+        Command::Validate { scene, allow_path } => {
+            check_allowed(&allow_path)?;
+            render_cmd::validate(&scene, &allow_path)
+        }
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
         Command::Bench(args) => {
@@ -326,6 +341,16 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// `--allow-path DIR`: each an existing folder.
+fn check_allowed(dirs: &[PathBuf]) -> anyhow::Result<()> {
+    for d in dirs {
+        if !d.is_dir() {
+            anyhow::bail!("--allow-path {}: no such folder", d.display());
+        }
+    }
+    Ok(())
 }
 
 /// Threads per core beyond which more only slow a render down.

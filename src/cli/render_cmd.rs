@@ -61,6 +61,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         bail!("--spp must be at least 1");
     }
     super::check_threads(args.session.threads)?;
+    super::check_allowed(&args.session.allow_path)?;
     if let Some(t) = args.time {
         if !(t.is_finite() && t > 0.0 && t <= 1e9) {
             bail!("--time must be a positive number of seconds, at most 1e9, got {t}");
@@ -93,7 +94,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         .map(|p| parse_param(p))
         .collect::<Result<Vec<_>>>()?;
 
-    let loaded = scene::load_scene(&args.session.scene)?;
+    let loaded = scene::load_scene_with(&args.session.scene, &args.session.allow_path)?;
     for w in &loaded.warnings {
         note!("warning: {}: {w}", args.session.scene.display());
     }
@@ -293,8 +294,8 @@ fn install_interrupt_handler() {
     });
 }
 
-pub fn validate(path: &Path) -> Result<ExitCode> {
-    let loaded = scene::load_scene(path)?;
+pub fn validate(path: &Path, allowed: &[PathBuf]) -> Result<ExitCode> {
+    let loaded = scene::load_scene_with(path, allowed)?;
     for w in &loaded.warnings {
         note!("warning: {}: {w}", path.display());
     }

@@ -9,7 +9,6 @@ mod plot;
 
 use crate::output::{self, DisplaySettings};
 use crate::render::{self, checkpoint::stable_hash, Accumulation, Film, RenderSettings};
-use crate::scene::load_scene;
 use crate::scene::RenderScene;
 use anyhow::{anyhow, bail, Context, Result};
 use metrics::Metrics;
@@ -51,6 +50,8 @@ pub enum ReferenceSpec {
 #[derive(Clone, Debug)]
 pub struct CompareOptions {
     pub scene: PathBuf,
+    /// Folders beside the scene's that it may read files from (`--allow-path`).
+    pub allowed: Vec<PathBuf>,
     pub contestants: Vec<Contestant>,
     pub budget: Budget,
     pub reference: ReferenceSpec,
@@ -381,7 +382,7 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
 
 fn run_into(opts: &CompareOptions) -> Result<Report> {
     output::check_writable_folder(&opts.out_dir.join("index.html"))?;
-    let loaded = load_scene(&opts.scene)?;
+    let loaded = crate::scene::load_scene_with(&opts.scene, &opts.allowed)?;
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", opts.scene.display());
     }

@@ -6,12 +6,12 @@
 //! same `Arc<LocalMesh>`, and the build step gives each asset one BVH. Unused assets are not
 //! loaded (a warning says so). Errors name the entity that asked for the asset, and the asset.
 
+use super::access::SceneFiles;
 use super::components::{Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
 use super::schema::{MeshTable, ShapeDesc};
 use super::systems::{self, EntityError};
 use glam::{Affine3A, Vec3A};
 use hecs::{Entity, World};
-use std::path::Path;
 use std::sync::Arc;
 
 /// The loaded assets (in order of first use) and warnings about them.
@@ -27,7 +27,7 @@ pub struct ResolvedMeshes {
 pub fn resolve_instances(
     world: &mut World,
     table: &MeshTable,
-    scene_dir: &Path,
+    files: &SceneFiles,
 ) -> Result<ResolvedMeshes, EntityError> {
     let mut loaded: Vec<Option<u32>> = vec![None; table.0.len()];
     let mut meshes: Vec<Arc<LocalMesh>> = Vec::new();
@@ -58,7 +58,7 @@ pub fn resolve_instances(
                 Some(id) => id,
                 None => {
                     let (name, desc) = &table.0[index];
-                    let asset = load_asset(name, desc, scene_dir)
+                    let asset = load_asset(name, desc, files)
                         .map_err(|e| fail(format!("mesh `{mesh}`: {e}")))?;
                     if asset.1 > 0 {
                         warnings.push(format!(
@@ -105,7 +105,7 @@ pub fn resolve_instances(
 fn load_asset(
     name: &str,
     desc: &ShapeDesc,
-    scene_dir: &Path,
+    files: &SceneFiles,
 ) -> Result<(LocalMesh, usize), String> {
     match desc {
         ShapeDesc::Sphere { .. } => {
@@ -119,7 +119,7 @@ fn load_asset(
         }
         _ => {}
     }
-    let shape = super::load::shape_from_desc(desc.clone(), scene_dir)?;
+    let shape = super::load::shape_from_desc(desc.clone(), files)?;
     systems::validate_shape(&shape, &Transform::default())?;
     let WorldShape::Triangles {
         triangles, normals, ..

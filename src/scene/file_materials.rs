@@ -7,13 +7,13 @@
 //! times `KHR_materials_emissive_strength`), an area emitter. Every later system (validation,
 //! baking, emitters, the build) then sees ordinary entities.
 
+use super::access::SceneFiles;
 use super::components::{Emitter, Shape};
 use super::load::material_from_desc;
 use super::mesh_files;
 use super::schema::{MaterialDesc, ShapeDesc};
 use glam::Vec3A;
 use raylab_integrators::Material;
-use std::path::Path;
 
 /// The material name that asks for the file's own materials. It cannot name a material of
 /// the scene's table.
@@ -31,15 +31,15 @@ pub struct Part {
 /// Loads the mesh file of `desc` split by material. Errors: a shape that is not a mesh file,
 /// a file that cannot be loaded (an OBJ whose MTL file cannot be, too), a colour that is not
 /// a reflectance.
-pub fn file_parts(desc: &ShapeDesc, scene_dir: &Path) -> Result<Vec<Part>, String> {
+pub fn file_parts(desc: &ShapeDesc, files: &SceneFiles) -> Result<Vec<Part>, String> {
     let (mesh, file) = match desc {
         ShapeDesc::Obj { path } => {
-            let file = scene_dir.join(path);
-            (mesh_files::load_obj(&file, true)?, file)
+            let file = files.named(path)?;
+            (mesh_files::load_obj(&file, true, files)?, file)
         }
         ShapeDesc::Gltf { path } => {
-            let file = scene_dir.join(path);
-            (mesh_files::load_gltf(&file)?, file)
+            let file = files.named(path)?;
+            (mesh_files::load_gltf(&file, files)?, file)
         }
         _ => {
             return Err(format!(

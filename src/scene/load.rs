@@ -1,5 +1,6 @@
 //! Parsing a RON scene file and spawning its entities into a hecs world.
 
+use super::access::SceneFiles;
 use super::components::{Emitter, Instanced, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::error::{finite, SceneError};
 use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
@@ -9,27 +10,43 @@ use raylab_integrators::bsdf::{checks, Glass, Lambert, Mirror, OrenNayar, Phong}
 use raylab_integrators::Camera;
 use raylab_integrators::{registry, Material, Rgb};
 use ron::extensions::Extensions;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Largest image side accepted, and largest pixel count (the film alone would need 24 bytes
 /// per pixel more than this allows).
 pub const MAX_SIDE: u32 = 1 << 16;
 pub const MAX_PIXELS: u64 = 1 << 28;
 
-/// Reads, parses, spawns, validates and bakes a scene file.
+/// Reads, parses, spawns, validates and bakes a scene file, which may read files under its
+/// own folder only.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
+    load_scene_with(path, &[])
+}
+
+/// [`load_scene`] for a scene that may also read files under the folders `allowed`
+/// (`--allow-path`).
+pub fn load_scene_with(path: &Path, allowed: &[PathBuf]) -> Result<LoadedScene, SceneError> {
     let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT).map_err(|reason| {
         SceneError::Read {
             path: path.to_path_buf(),
             reason,
         }
     })?;
-    parse_scene(&text, path)
+    build_world(
+        parse_scene_file(&text, path)?,
+        path,
+        &SceneFiles::new(path, allowed),
+    )
 }
 
-/// Parses scene text; `path` is used in messages and to resolve relative files.
+/// Parses scene text; `path` is used in messages and to resolve relative files (under its
+/// folder).
 pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
-    build_world(parse_scene_file(text, path)?, path)
+    build_world(
+        parse_scene_file(text, path)?,
+        path,
+        &SceneFiles::new(path, &[]),
+    )
 }
 
 /// Parses scene text into its schema, without loading any file it names or checking values;
@@ -208,10 +225,14 @@ fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A;
     })
 }
 
-pub(crate) fn shape_from_desc(desc: ShapeDesc, scene_dir: &Path) -> Result<Shape, String> {
+pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Shape, String> {
     Ok(match desc {
-        ShapeDesc::Gltf { path } => mesh_files::load_gltf(&scene_dir.join(path))?.into_shape(),
-        ShapeDesc::Obj { path } => mesh_files::load_obj(&scene_dir.join(path), false)?.into_shape(),
+        ShapeDesc::Gltf { path } => {
+            mesh_files::load_gltf(&files.named(&path)?, files)?.into_shape()
+        }
+        ShapeDesc::Obj { path } => {
+            mesh_files::load_obj(&files.named(&path)?, false, files)?.into_shape()
+        }
         ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),
@@ -254,7 +275,7 @@ fn spawn_file_parts(
     has_emitter: bool,
     name: String,
     transform: Transform,
-    path: &Path,
+    files: &SceneFiles,
 ) -> Result<(), (String, String)> {
     let fail = |m: String| (name.clone(), m);
     if has_emitter {
@@ -273,8 +294,7 @@ fn spawn_file_parts(
             file_materials::FROM_FILE
         )));
     }
-    let scene_dir = path.parent().unwrap_or(Path::new("."));
-    for part in file_materials::file_parts(shape, scene_dir).map_err(fail)? {
+    for part in file_materials::file_parts(shape, files).map_err(fail)? {
         materials.push(part.material);
         let entity = world.spawn((
             Name(format!("{name}/{}", part.name)),
@@ -291,7 +311,11 @@ fn spawn_file_parts(
     Ok(())
 }
 
-fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> {
+fn build_world(
+    file: SceneFile,
+    path: &Path,
+    files: &SceneFiles,
+) -> Result<LoadedScene, SceneError> {
     let path_buf = path.to_path_buf();
 
     // Materials: the table entities refer to by name.
@@ -367,7 +391,7 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
                 e.emitter.is_some(),
                 name,
                 transform,
-                path,
+                files,
             )
             .map_err(|(entity, message)| SceneError::Entity {
                 path: path_buf.clone(),
@@ -413,10 +437,9 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
                 intensity: v3(intensity),
             },
         });
-        let scene_dir = path.parent().unwrap_or(Path::new("."));
         let shape = e
             .shape
-            .map(|d| shape_from_desc(d, scene_dir))
+            .map(|d| shape_from_desc(d, files))
             .transpose()
             .map_err(&entity_error)?;
         let entity = world.spawn((Name(name), transform));
@@ -445,9 +468,8 @@ fn build_world(file: SceneFile, path: &Path) -> Result<LoadedScene, SceneError> 
     };
     systems::validate(&world).map_err(entity_error)?;
     let mut warnings = systems::bake_transforms(&mut world).map_err(entity_error)?;
-    let scene_dir = path.parent().unwrap_or(Path::new("."));
     let resolved =
-        assets::resolve_instances(&mut world, &file.meshes, scene_dir).map_err(entity_error)?;
+        assets::resolve_instances(&mut world, &file.meshes, files).map_err(entity_error)?;
     warnings.extend(resolved.warnings);
     let has_geometry = world.query::<&WorldShape>().iter().any(|_| true)
         || world.query::<&Instanced>().iter().any(|_| true);

@@ -7,6 +7,7 @@
 //! becomes an error naming the file, and everything they return is checked here (indices in
 //! range, finite positions, at least one triangle, no cycle in a glTF node graph).
 
+use super::access::{relative_uri, SceneFiles};
 use super::components::Shape;
 use glam::{Mat3, Mat4, Vec3, Vec3A};
 use std::panic::UnwindSafe;
@@ -115,17 +116,12 @@ fn guarded<T>(
     })
 }
 
-/// Refuses what is not a readable file before a parser sees it.
-fn check_file(kind: &str, file: &Path) -> Result<(), String> {
-    let meta = std::fs::metadata(file)
-        .map_err(|e| format!("cannot load {kind} file `{}`: {e}", file.display()))?;
-    if meta.is_dir() {
-        return Err(format!(
-            "cannot load {kind} file `{}`: it is a directory",
-            file.display()
-        ));
+/// The folder `file` lies in ("." for a bare name): where the files it names are.
+fn parent_of(file: &Path) -> &Path {
+    match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
     }
-    Ok(())
 }
 
 /// Every position and normal finite, at least one triangle.
@@ -175,28 +171,52 @@ pub const OBJ_DEFAULT_ALBEDO: [f32; 3] = [0.8, 0.8, 0.8];
 /// Loads an OBJ file as one mesh (all its objects), with normals when every object has them,
 /// and the diffuse (`Kd`) and emitted (`Ke`) colours of its MTL materials. A missing or bad
 /// MTL file is an error only if `need_materials`.
-pub fn load_obj(file: &Path, need_materials: bool) -> Result<FileMesh, String> {
-    check_file("OBJ", file)?;
+pub fn load_obj(file: &Path, need_materials: bool, files: &SceneFiles) -> Result<FileMesh, String> {
+    let text = crate::files::read_capped(file, crate::files::MAX_BINARY)
+        .map_err(|e| format!("cannot load OBJ file `{}`: {e}", file.display()))?;
+    let text = text.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&text);
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
-    let (models, materials) =
-        guarded("OBJ", file, || tobj::load_obj(file, &options))?.map_err(|e| {
-            let hint = match e {
-                tobj::LoadError::ReadError => " (is it a text OBJ file?)",
-                _ => "",
-            };
-            format!("cannot load OBJ file `{}`: {e}{hint}", file.display())
-        })?;
+    // MTL files: relative to the OBJ, under the folders the scene may read, read by us (tobj
+    // would open any path). Why one could not be read is kept for the message.
+    let mtl_error = std::cell::RefCell::new(None::<String>);
+    let load_mtl = |name: &Path| {
+        let path = parent_of(file).join(name);
+        let read = files.check(&path, &name.to_string_lossy()).and_then(|()| {
+            crate::files::read_capped(&path, crate::files::MAX_TEXT)
+                .map_err(|e| format!("`{}`: {e}", path.display()))
+        });
+        match read {
+            Ok(bytes) => tobj::load_mtl_buf(&mut &bytes[..]),
+            Err(e) => {
+                *mtl_error.borrow_mut() = Some(e);
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        }
+    };
+    let (models, materials) = guarded(
+        "OBJ",
+        file,
+        std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut &text[..], &options, load_mtl)),
+    )?
+    .map_err(|e| {
+        let hint = match e {
+            tobj::LoadError::ReadError => " (is it a text OBJ file?)",
+            _ => "",
+        };
+        format!("cannot load OBJ file `{}`: {e}{hint}", file.display())
+    })?;
     let file_materials = match materials {
         Ok(m) => m,
         Err(e) if need_materials => {
+            let why = mtl_error.take().unwrap_or_else(|| e.to_string());
             return Err(format!(
-            "OBJ file `{}`: cannot load its MTL materials (its `mtllib` file, relative to it): {e}",
-            file.display()
-        ))
+                "OBJ file `{}`: cannot load its MTL materials (its `mtllib` file, relative to it): {why}",
+                file.display()
+            ));
         }
         Err(_) => Vec::new(),
     };
@@ -260,15 +280,40 @@ pub fn load_obj(file: &Path, need_materials: bool) -> Result<FileMesh, String> {
 /// Loads the triangles of a glTF file's default scene (or its first) as one mesh, each mesh
 /// placed by its node's world transform; normals when every primitive has them; the base
 /// colour and emission of each primitive's material.
-pub fn load_gltf(file: &Path) -> Result<FileMesh, String> {
-    check_file("glTF", file)?;
-    let (document, buffers) = guarded("glTF", file, || {
-        gltf::Gltf::open(file).map(|g| {
-            let buffers = gltf::import_buffers(&g.document, file.parent(), g.blob.clone());
-            (g.document, buffers)
-        })
-    })?
-    .map_err(|e| format!("cannot load glTF file `{}`: {e}", file.display()))?;
+pub fn load_gltf(file: &Path, files: &SceneFiles) -> Result<FileMesh, String> {
+    let cannot =
+        |e: &dyn std::fmt::Display| format!("cannot load glTF file `{}`: {e}", file.display());
+    let bytes =
+        crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(&e))?;
+    // A GLB's header states its length: one beyond the file is damage (or a lie).
+    if let Some(claimed) = bytes
+        .strip_prefix(b"glTF")
+        .and_then(|rest| rest.get(4..8))
+        .map(|l| u32::from_le_bytes(l.try_into().expect("4 bytes")) as usize)
+    {
+        if claimed > bytes.len() {
+            return Err(cannot(&format!(
+                "its GLB header claims {claimed} bytes, the file has {}",
+                bytes.len()
+            )));
+        }
+    }
+    let gltf = guarded("glTF", file, || gltf::Gltf::from_slice(&bytes))?.map_err(|e| cannot(&e))?;
+    let document = &gltf.document;
+    // Buffers: embedded, data: URIs, or relative paths under the folders the scene may read.
+    for buffer in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+            if let Some(relative) = relative_uri(uri).map_err(|e| cannot(&e))? {
+                let path = parent_of(file).join(relative);
+                files.check(&path, uri).map_err(|e| cannot(&e))?;
+                crate::files::open_capped(&path, crate::files::MAX_BINARY)
+                    .map_err(|e| cannot(&format!("buffer `{uri}`: {e}")))?;
+            }
+        }
+    }
+    let buffers = guarded("glTF", file, || {
+        gltf::import_buffers(document, Some(parent_of(file)), gltf.blob.clone())
+    })?;
     let buffers = buffers.map_err(|e| {
         let uris: Vec<String> = document
             .buffers()
@@ -287,6 +332,67 @@ pub fn load_gltf(file: &Path) -> Result<FileMesh, String> {
             }
         )
     })?;
+    check_gltf_accessors(file, document)?;
+    // The reader is third-party code on user data too.
+    guarded(
+        "glTF",
+        file,
+        std::panic::AssertUnwindSafe(|| read_gltf_scene(file, document, &buffers)),
+    )?
+}
+
+/// Every primitive's accessors of the types raylab reads: positions and normals as three
+/// floats, indices as unsigned integers (the glTF crate's reader panics on others).
+fn check_gltf_accessors(file: &Path, document: &gltf::Document) -> Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    for mesh in document.meshes() {
+        for primitive in mesh.primitives() {
+            let at = format!(
+                "glTF file `{}`: mesh {} primitive {}",
+                file.display(),
+                mesh.index(),
+                primitive.index()
+            );
+            for (semantic, accessor) in primitive.attributes() {
+                let name = match semantic {
+                    gltf::Semantic::Positions => "POSITION",
+                    gltf::Semantic::Normals => "NORMAL",
+                    _ => continue,
+                };
+                if (accessor.data_type(), accessor.dimensions())
+                    != (DataType::F32, Dimensions::Vec3)
+                {
+                    return Err(format!(
+                        "{at}: its {name} accessor holds {:?} {:?}, not three floats (VEC3 FLOAT)",
+                        accessor.dimensions(),
+                        accessor.data_type()
+                    ));
+                }
+            }
+            if let Some(indices) = primitive.indices() {
+                let unsigned = matches!(
+                    indices.data_type(),
+                    DataType::U8 | DataType::U16 | DataType::U32
+                );
+                if !unsigned || indices.dimensions() != Dimensions::Scalar {
+                    return Err(format!(
+                        "{at}: its indices accessor holds {:?} {:?}, not unsigned integers (SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT)",
+                        indices.dimensions(),
+                        indices.data_type()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The triangles of a glTF document's default scene (or its first), as [`load_gltf`] says.
+fn read_gltf_scene(
+    file: &Path,
+    document: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+) -> Result<FileMesh, String> {
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -303,6 +409,27 @@ pub fn load_gltf(file: &Path) -> Result<FileMesh, String> {
     let mut mesh = FileMesh::default();
     let mut normals = Vec::new();
     let mut all_normals = true;
+    // What flattening every node's mesh will make (a node graph can place one mesh
+    // thousands of times), checked against memory before anything is read.
+    let mut triangles = 0u64;
+    let mut pending: Vec<gltf::Node> = scene.nodes().collect();
+    let mut visits_left = document.nodes().len();
+    while let Some(node) = pending.pop() {
+        if visits_left == 0 {
+            break; // a cycle: the walk below reports it
+        }
+        visits_left -= 1;
+        for primitive in node.mesh().iter().flat_map(|m| m.primitives()) {
+            let vertices = primitive
+                .get(&gltf::Semantic::Positions)
+                .map_or(0, |a| a.count());
+            let corners = primitive.indices().map_or(vertices, |a| a.count());
+            triangles += corners as u64 / 3;
+        }
+        pending.extend(node.children());
+    }
+    super::systems::check_triangle_memory(triangles)
+        .map_err(|e| format!("glTF file `{}`: its scene's {e}", file.display()))?;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     // A valid file is a forest: each node is reached once. More visits mean a cycle.
     let mut visits_left = document.nodes().len();

@@ -1,6 +1,7 @@
 //! Scenes: the RON schema, loading into a hecs world, the ECS systems, and flattening the
 //! world into the render scene.
 
+pub mod access;
 pub mod assets;
 pub mod components;
 pub mod error;
@@ -15,7 +16,7 @@ pub mod systems;
 
 pub use error::SceneError;
 pub use flatten::RenderScene;
-pub use load::{load_scene, parse_scene};
+pub use load::{load_scene, load_scene_with, parse_scene};
 pub use raylab_integrators::Camera;
 
 use raylab_integrators::{Material, Rgb};

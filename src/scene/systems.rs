@@ -203,6 +203,38 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
     Ok(())
 }
 
+/// Memory a triangle takes at the peak, from loading to the built BVH (world triangles,
+/// normals, the flattened arrays and the build), in bytes: about.
+pub const BYTES_PER_TRIANGLE: u64 = 200;
+
+/// Refuses a scene of `triangles` triangles whose memory would exceed what this process may
+/// still allocate (the machine's available memory, the cgroup's limit, `ulimit -v`): an
+/// error before the allocation, not an abort in it.
+pub fn check_triangle_memory(triangles: u64) -> Result<(), String> {
+    let needed = triangles.saturating_mul(BYTES_PER_TRIANGLE);
+    match crate::system::memory_limit() {
+        Some((room, what)) if needed > room => Err(format!(
+            "{triangles} triangles need about {:.1} GiB of memory; only {:.1} GiB is {what}",
+            needed as f64 / (1u64 << 30) as f64,
+            room as f64 / (1u64 << 30) as f64
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Triangles a shape will make, known before making them.
+fn triangle_count(shape: &Shape) -> u64 {
+    match shape {
+        Shape::Sphere { .. } | Shape::Instance { .. } => 0,
+        Shape::Icosphere { subdivisions, .. } => 20 * 4u64.pow((*subdivisions).min(31)),
+        Shape::Triangle(_) => 1,
+        Shape::Quad(_) => 2,
+        Shape::Tetrahedron(_) => 4,
+        Shape::Box { .. } => 12,
+        Shape::Mesh { indices, .. } => indices.len() as u64,
+    }
+}
+
 /// Local-space triangles of a shape, with outward (or right-handed) winding.
 /// Largest icosphere subdivision level: 20 * 4^10 = 21 M triangles.
 pub const MAX_SUBDIVISIONS: u32 = 10;
@@ -346,6 +378,18 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
         let mut query = world.query::<(Entity, &Name, &Transform, &Shape, Option<&Emitter>)>();
         let mut items: Vec<_> = query.iter().collect();
         items.sort_by_key(|(e, ..)| e.id());
+        // The scene's triangles, checked against memory before any shape is made: the
+        // first entity past what fits is named.
+        let mut triangles_so_far = 0u64;
+        for (_, name, _, shape, _) in &items {
+            triangles_so_far += triangle_count(shape);
+            check_triangle_memory(triangles_so_far).map_err(|e| {
+                (
+                    name.0.clone(),
+                    format!("the scene's triangles up to this entity: {e}"),
+                )
+            })?;
+        }
         for (entity, name, transform, shape, emitter) in items {
             if matches!(shape, Shape::Instance { .. }) {
                 continue;

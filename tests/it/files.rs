@@ -362,3 +362,121 @@ fn damaged_or_odd_checkpoints_are_refused() {
     assert!(fifo.success());
     refused(&with_ck("2", true), &["not a regular file"]);
 }
+
+/// A scene reads files under its own folder only, unless `--allow-path` trusts another; a
+/// pipe or a device is never read (it would block or never end), whatever the folder.
+#[cfg(unix)]
+#[test]
+fn scenes_read_only_regular_files_under_allowed_folders() {
+    let dir = workspace();
+    let d = dir.path();
+    std::fs::create_dir(d.join("scene")).unwrap();
+    let panel = |path: &str| {
+        format!(
+            r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (8, 8)),
+materials: {{"white": Lambert(albedo: (0.5, 0.5, 0.5))}},
+entities: [(name: "panel", shape: Obj(path: "{path}"), material: "white")])"#
+        )
+    };
+    std::fs::write(d.join("scene/outside.ron"), panel("../assets/pyramid.obj")).unwrap();
+    let o = raylab_in(d, &["validate", "scene/outside.ron"]);
+    refused(&o, &["outside the scene's folder", "--allow-path"]);
+    let o = raylab_in(
+        d,
+        &["validate", "scene/outside.ron", "--allow-path", "assets"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(
+        d,
+        &["scene/outside.ron", "--allow-path", "assets", "-o", "a.png"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = raylab_in(
+        d,
+        &["validate", "scene/outside.ron", "--allow-path", "nowhere"],
+    );
+    refused(&o, &["--allow-path nowhere: no such folder"]);
+
+    // A device as a mesh, even in a trusted folder; a pipe as the scene.
+    std::fs::write(d.join("scene/zero.ron"), panel("/dev/zero")).unwrap();
+    let o = raylab_in(d, &["validate", "scene/zero.ron", "--allow-path", "/dev"]);
+    refused(&o, &["/dev/zero", "not a regular file"]);
+    let fifo = std::process::Command::new("mkfifo")
+        .arg(d.join("pipe.ron"))
+        .status()
+        .unwrap();
+    assert!(fifo.success());
+    refused(
+        &render(d, &["pipe.ron", "-o", "p.png"]),
+        &["not a regular file"],
+    );
+}
+
+/// A glTF whose node graph places one mesh 200,000 times (400 million triangles) is refused
+/// for the memory it would need, before anything is flattened.
+#[test]
+fn a_gltf_that_places_a_mesh_too_often_is_refused_for_memory() {
+    use std::fmt::Write as _;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // One mesh of 2,000 triangles (unindexed), placed by 200,000 nodes.
+    let mut data = Vec::new();
+    for t in 0..2000u32 {
+        for (x, y) in [(0.0f32, 0.0f32), (1.0, 0.0), (0.0, 1.0)] {
+            for v in [x + t as f32, y, 0.0] {
+                data.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    let b64 = base64_encode(&data);
+    let mut nodes = String::new();
+    for i in 0..200_000 {
+        let _ = write!(nodes, "{}{{\"mesh\":0}}", if i > 0 { "," } else { "" });
+    }
+    let roots: Vec<String> = (0..200_000).map(|i| i.to_string()).collect();
+    let gltf = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[{}]}}],"nodes":[{nodes}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{b64}"}}],
+"bufferViews":[{{"buffer":0,"byteLength":{}}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":6000,"type":"VEC3","min":[0,0,0],"max":[2000,1,0]}}]}}"#,
+        roots.join(","),
+        data.len(),
+        data.len()
+    );
+    std::fs::write(d.join("many.gltf"), gltf).unwrap();
+    std::fs::write(
+        d.join("s.ron"),
+        r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (8, 8)),
+materials: {"white": Lambert(albedo: (0.5, 0.5, 0.5))},
+entities: [(name: "crowd", shape: Gltf(path: "many.gltf"), material: "white")])"#,
+    )
+    .unwrap();
+    let o = raylab_in(d, &["validate", "s.ron"]);
+    refused(
+        &o,
+        &[
+            "entity `crowd`",
+            "400000000 triangles need about",
+            "GiB of memory",
+        ],
+    );
+}
+
+fn base64_encode(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            if k <= c.len() {
+                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
