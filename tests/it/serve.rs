@@ -364,3 +364,55 @@ fn new_settings_abandon_a_pass_that_would_take_hours() {
     });
     assert_eq!(srv.run.interrupt().code(), Some(0));
 }
+
+/// Another site's page cannot change the settings (its Origin is refused, and only an exact
+/// JSON content type is taken), and forty tabs long-polling leave the page reachable.
+#[test]
+fn cross_origin_posts_are_refused_and_long_polls_leave_slots_free() {
+    let (_dir, scene) = scene_copy("cornell_box.ron");
+    let srv = serve(&scene, "4");
+    let s = srv.wait_state("the first image", finished);
+    let post = |origin: Option<&str>, content_type: &str| {
+        let origin = origin.map_or(String::new(), |o| format!("Origin: {o}\r\n"));
+        let body = r#"{"integrator": "whitted"}"#;
+        srv.raw(&format!(
+            "POST /settings HTTP/1.1\r\nHost: {}\r\n{origin}Content-Type: {content_type}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+            srv.addr,
+            body.len()
+        ))
+    };
+    assert_eq!(
+        post(Some("http://evil.example"), "application/json").status,
+        403
+    );
+    assert_eq!(post(Some("null"), "application/json").status, 403);
+    for bad in ["application/jsonp", "application/json-seq", "text/plain"] {
+        assert_eq!(post(None, bad).status, 415, "{bad}");
+    }
+    assert_eq!(srv.state()["selection"]["integrator"], Value::Null);
+    let own = format!("http://{}", srv.addr);
+    assert_eq!(
+        post(Some(&own), "application/json; charset=utf-8").status,
+        200
+    );
+
+    // Forty long polls on the current version: the page and the image still answer.
+    let v = s["version"].as_u64().unwrap() + 1000;
+    let polls: Vec<TcpStream> = (0..40)
+        .map(|_| {
+            let mut c = TcpStream::connect(srv.addr).unwrap();
+            write!(
+                c,
+                "GET /state?since={v} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
+                srv.addr
+            )
+            .unwrap();
+            c
+        })
+        .collect();
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    assert_eq!(srv.get("/").status, 200);
+    assert_eq!(srv.get("/settings").status, 200);
+    drop(polls);
+    assert_eq!(srv.run.interrupt().code(), Some(0));
+}

@@ -39,6 +39,9 @@ use tiny_http::{Header, Method, Request, Response};
 pub const LONG_POLL: Duration = Duration::from_secs(2);
 /// Requests answered at once; more get a 503.
 pub const MAX_ACTIVE: usize = 32;
+/// Long polls that may wait at once (half the slots): the rest of the slots stay free for
+/// the page's other requests, however many tabs poll.
+pub const MAX_WAITING: usize = MAX_ACTIVE / 2;
 /// Largest `POST /settings` body.
 const MAX_BODY: u64 = 64 * 1024;
 
@@ -346,9 +349,12 @@ struct Context {
     /// Accepted `Host` headers; `None` accepts any.
     hosts: Option<Vec<String>>,
     active: AtomicUsize,
+    /// Long polls waiting now.
+    waiting: AtomicUsize,
 }
 
-/// Decrements the active-request count when a request thread ends, however it ends.
+/// Decrements a count (active requests, waiting long polls) when it is dropped, however the
+/// request ends.
 struct ActiveGuard<'a>(&'a AtomicUsize);
 
 impl Drop for ActiveGuard<'_> {
@@ -381,11 +387,15 @@ impl Context {
             })
     }
 
-    /// `GET /state?since=N[&wait=MS]`: waits for a version above N, at most `wait`.
+    /// `GET /state?since=N[&wait=MS]`: waits for a version above N, at most `wait`. At most
+    /// [`MAX_WAITING`] requests wait at once; more are answered at once, so that waiting
+    /// clients never hold every request slot.
     fn state(&self, since: Option<u64>, wait: Duration) -> Reply {
         let shared = &self.shared;
+        let may_wait = since.is_some() && self.waiting.fetch_add(1, Ordering::SeqCst) < MAX_WAITING;
+        let _waiting = since.is_some().then(|| ActiveGuard(&self.waiting));
         let mut s = shared.lock();
-        if let Some(since) = since {
+        if let (Some(since), true) = (since, may_wait) {
             let end = Instant::now() + wait;
             while s.version <= since && !self.control.is_quitting() {
                 let left = end.saturating_duration_since(Instant::now());
@@ -402,15 +412,35 @@ impl Context {
         Reply::json(&shared.state_json(&s))
     }
 
+    /// The value of the header `name`, if the request has it.
+    fn header<'r>(request: &'r Request, name: &'static str) -> Option<&'r str> {
+        request
+            .headers()
+            .iter()
+            .find(|h| h.field.equiv(name))
+            .map(|h| h.value.as_str())
+    }
+
     fn post_settings(&self, request: &mut Request) -> Reply {
-        let json_type = request.headers().iter().any(|h| {
-            h.field.equiv("Content-Type")
-                && h.value
-                    .as_str()
-                    .to_ascii_lowercase()
-                    .starts_with("application/json")
+        // Another site's page may post to this address; a browser sends its Origin. Only
+        // this page's own origin (or none, from a client that is no browser) may change the
+        // settings.
+        if let Some(origin) = Self::header(request, "Origin") {
+            let host = Self::header(request, "Host").unwrap_or("");
+            if !origin.eq_ignore_ascii_case(&format!("http://{host}")) {
+                return Reply::text(403, "POST /settings is only taken from this page's origin");
+            }
+        }
+        // Exactly JSON (parameters such as a charset aside): a cross-site form or a plain
+        // text body is no settings request.
+        let media_type = Self::header(request, "Content-Type").map(|t| {
+            t.split(';')
+                .next()
+                .unwrap_or("")
+                .trim()
+                .to_ascii_lowercase()
         });
-        if !json_type {
+        if media_type.as_deref() != Some("application/json") {
             return Reply::text(415, "POST /settings takes Content-Type: application/json");
         }
         let mut body = Vec::new();
@@ -537,6 +567,7 @@ impl Server {
                 control,
                 hosts,
                 active: AtomicUsize::new(0),
+                waiting: AtomicUsize::new(0),
             }),
         })
     }
