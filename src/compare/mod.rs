@@ -187,11 +187,18 @@ pub fn contestants(
             }
         }
     }
-    let mut labels: Vec<&str> = out.iter().map(|c| c.label.as_str()).collect();
-    labels.sort();
-    labels.dedup();
-    if labels.len() != out.len() {
-        bail!("each integrator may be named once (use --sweep for several values)");
+    for (k, c) in out.iter().enumerate() {
+        if out[..k].iter().any(|d| d.label == c.label) {
+            match &c.swept {
+                Some((key, value)) => {
+                    bail!("--sweep {key}: the value `{value}` is given twice")
+                }
+                None => bail!(
+                    "-i {}: each integrator may be named once (use --sweep for several values of a parameter)",
+                    c.integrator
+                ),
+            }
+        }
     }
     Ok(out)
 }

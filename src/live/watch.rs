@@ -74,9 +74,14 @@ impl SceneWatcher {
         let mut wanted = HashSet::new();
         let mut dirs = HashSet::new();
         for f in std::iter::once(&self.scene).chain(files) {
-            if let Some((file, dir)) = normalize(f) {
-                wanted.insert(file);
-                dirs.insert(dir);
+            // A file named through a symbolic link changes where the link points: both the
+            // link and its target are watched.
+            let target = crate::output::atomic::through_links(f).unwrap_or_else(|_| f.clone());
+            for path in [f, &target] {
+                if let Some((file, dir)) = normalize(path) {
+                    wanted.insert(file);
+                    dirs.insert(dir);
+                }
             }
         }
         let mut watcher = lock(&self.watcher);

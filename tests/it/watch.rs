@@ -143,3 +143,24 @@ fn watch_refuses_options_it_cannot_honour() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown integrator `nope`"));
 }
+
+/// A scene watched through a symbolic link in another folder: saving the file the link
+/// points to renders again.
+#[cfg(unix)]
+#[test]
+fn edits_through_a_symlinked_scene_rerender() {
+    let (dir, scene) = scene_copy("cornell_box.ron");
+    let links = tempfile::tempdir().unwrap();
+    let link = links.path().join("linked.ron");
+    std::os::unix::fs::symlink(&scene, &link).unwrap();
+    let out = dir.path().join("out.png");
+    let run = watch(&link, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+    let text = std::fs::read_to_string(&scene).unwrap();
+    save(
+        &scene,
+        &text.replace(CORNELL_LIGHT, "radiance: (1.5, 1.5, 1.5)"),
+    );
+    run.wait_stderr("the render after the edit", |e| done_count(e) >= 2);
+    assert_eq!(run.interrupt().code(), Some(0));
+}
