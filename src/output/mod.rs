@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 use atomic::parent_dir;
 pub use film::Film;
 use image::{ImageFormat, Rgb32FImage, RgbImage};
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::Path;
 pub use tonemap::Tonemap;
 
@@ -81,17 +81,28 @@ pub fn check_writable_folder(path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Writes `path` atomically through a buffered writer.
+/// Writes `path` atomically: `encode` fills a buffer in memory (its errors are the
+/// encoder's), which is then written to the file (its errors are the disk's: a full disk says
+/// so, not "decoding" as the EXR encoder would report it).
 fn write_buffered(
     path: &Path,
-    write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<()>,
+    encode: impl FnOnce(&mut std::io::Cursor<Vec<u8>>) -> Result<()>,
 ) -> Result<()> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    encode(&mut bytes).with_context(|| format!("{}: cannot encode the image", path.display()))?;
     atomic::write_atomic(path, |file| {
-        let mut w = BufWriter::new(file);
-        write(&mut w).with_context(|| format!("{}: cannot encode the image", path.display()))?;
-        w.flush()
-            .with_context(|| format!("{}: cannot write", path.display()))
+        file.write_all(bytes.get_ref())
+            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), write_error(&e)))
     })
+}
+
+/// What a failed write means to the user.
+pub fn write_error(e: &std::io::Error) -> String {
+    if e.kind() == std::io::ErrorKind::StorageFull || e.raw_os_error() == Some(28) {
+        "cannot write: the disk is full".to_string()
+    } else {
+        format!("cannot write: {e}")
+    }
 }
 
 /// The film as 8-bit sRGB after exposure and tone curve.
@@ -165,4 +176,17 @@ pub fn write_png(path: &Path, img: &RgbImage) -> Result<()> {
         img.write_to(w, ImageFormat::Png)?;
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_disk_says_so() {
+        let full = std::io::Error::from_raw_os_error(28);
+        assert_eq!(write_error(&full), "cannot write: the disk is full");
+        let other = std::io::Error::from(std::io::ErrorKind::PermissionDenied);
+        assert!(write_error(&other).starts_with("cannot write: "));
+    }
 }

@@ -179,8 +179,13 @@ fn check(acc: &Accumulation) -> Result<()> {
 /// Writes a checkpoint atomically (temporary file in the same folder, then rename).
 pub fn save(path: &Path, acc: &Accumulation, hash: u64) -> Result<()> {
     crate::output::atomic::write_atomic(path, |file| {
-        file.write_all(&encode(acc, hash))
-            .with_context(|| format!("{}: cannot write the checkpoint", path.display()))
+        file.write_all(&encode(acc, hash)).map_err(|e| {
+            anyhow::anyhow!(
+                "{}: the checkpoint: {}",
+                path.display(),
+                crate::output::write_error(&e)
+            )
+        })
     })
 }
 
