@@ -352,11 +352,11 @@ pub fn run(
         if let Some(s) = pending.selection {
             selection = s;
         }
-        // Unparsable: keep watching what the last good version named.
-        if let Some(files) = scene::references::referenced_files(&settings.scene) {
-            if let Err(e) = watcher.track(&files) {
-                eprintln!("warning: {e:#}");
-            }
+        // Unparsable: keep watching what the last good version named (and folders made
+        // again since, anew).
+        let files = scene::references::referenced_files(&settings.scene);
+        if let Err(e) = watcher.track(files.as_deref()) {
+            eprintln!("warning: {e:#}");
         }
         match prepare(settings, &selection) {
             Ok(job) => render_job(job, settings.image_interval, control, observer),

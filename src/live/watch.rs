@@ -8,7 +8,7 @@
 use super::Control;
 use anyhow::{Context, Result};
 use notify::{EventKind, RecommendedWatcher, RecursiveMode, Watcher};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
@@ -21,22 +21,48 @@ pub const DEBOUNCE: Duration = Duration::from_millis(150);
 pub struct SceneWatcher {
     scene: PathBuf,
     watcher: Mutex<RecommendedWatcher>,
-    /// Folders being watched.
-    dirs: Mutex<HashSet<PathBuf>>,
+    /// Folders being watched, with the identity (device, inode) of the folder watched: a
+    /// folder deleted and made again is a new one, whose watch must be set again.
+    dirs: Mutex<HashMap<PathBuf, (u64, u64)>>,
+    /// The files named by the last scene that could be read (kept while it cannot be).
+    named: Mutex<Vec<PathBuf>>,
+    /// The scene and the files it names, normalised: what [`SceneWatcher::files`] lists.
+    tracked: Mutex<Vec<PathBuf>>,
     /// Files whose changes count (absolute, with canonical folders), shared with the thread.
     files: Arc<Mutex<HashSet<PathBuf>>>,
 }
 
 /// `path` with its folder made canonical (the file itself may not exist, or be mid-rename),
-/// as notify reports paths under a canonical watched folder. `None` if the folder is missing.
+/// as notify reports paths under a canonical watched folder, and the folder to watch for it:
+/// its own, or, while that is missing (deleted, about to be made again), the nearest folder
+/// above it that exists, which sees it come back.
 fn normalize(path: &Path) -> Option<(PathBuf, PathBuf)> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let dir = dir.canonicalize().ok()?;
     let name = path.file_name()?;
-    Some((dir.join(name), dir))
+    if let Ok(dir) = dir.canonicalize() {
+        return Some((dir.join(name), dir));
+    }
+    let absolute = std::path::absolute(dir).ok()?;
+    let existing = absolute.ancestors().find_map(|a| a.canonicalize().ok())?;
+    Some((absolute.join(name), existing))
+}
+
+/// What the system calls the folder `dir` now (device, inode).
+fn identity(dir: &Path) -> Option<(u64, u64)> {
+    let meta = std::fs::metadata(dir).ok()?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        Some((meta.dev(), meta.ino()))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = meta;
+        Some((0, 0))
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -62,18 +88,28 @@ impl SceneWatcher {
             scene: scene.to_path_buf(),
             watcher: Mutex::new(watcher),
             dirs: Mutex::default(),
+            named: Mutex::default(),
+            tracked: Mutex::default(),
             files,
         };
-        w.track(&[])?;
+        w.track(Some(&[]))?;
         Ok(w)
     }
 
-    /// Watches the scene and `files` from now on (the folders of files that do not exist
-    /// yet cannot be watched; their files will count once the folder is watched for another).
-    pub fn track(&self, files: &[PathBuf]) -> Result<()> {
+    /// Watches the scene and `files` from now on; `None` keeps the files named before (the
+    /// scene cannot be read now) but watches folders made again since anew. Called after
+    /// every load.
+    pub fn track(&self, files: Option<&[PathBuf]>) -> Result<()> {
+        let files = match files {
+            Some(f) => {
+                *lock(&self.named) = f.to_vec();
+                f.to_vec()
+            }
+            None => lock(&self.named).clone(),
+        };
         let mut wanted = HashSet::new();
         let mut dirs = HashSet::new();
-        for f in std::iter::once(&self.scene).chain(files) {
+        for f in std::iter::once(&self.scene).chain(&files) {
             // A file named through a symbolic link changes where the link points: both the
             // link and its target are watched.
             let target = crate::output::atomic::through_links(f).unwrap_or_else(|_| f.clone());
@@ -86,25 +122,42 @@ impl SceneWatcher {
         }
         let mut watcher = lock(&self.watcher);
         let mut watched = lock(&self.dirs);
-        for d in dirs.difference(&watched.clone()) {
-            watcher
-                .watch(d, RecursiveMode::NonRecursive)
-                .with_context(|| format!("cannot watch the folder {}", d.display()))?;
-            watched.insert(d.clone());
+        for d in &dirs {
+            let Some(now) = identity(d) else {
+                continue;
+            };
+            if watched.get(d) != Some(&now) {
+                if watched.contains_key(d) {
+                    let _ = watcher.unwatch(d);
+                }
+                watcher
+                    .watch(d, RecursiveMode::NonRecursive)
+                    .with_context(|| format!("cannot watch the folder {}", d.display()))?;
+                watched.insert(d.clone(), now);
+            }
         }
-        for d in watched.difference(&dirs).cloned().collect::<Vec<_>>() {
-            let _ = watcher.unwatch(&d);
-            watched.remove(&d);
+        for d in watched.keys().cloned().collect::<Vec<_>>() {
+            if !dirs.contains(&d) {
+                let _ = watcher.unwatch(&d);
+                watched.remove(&d);
+            }
         }
+        let mut tracked: Vec<PathBuf> = wanted.iter().cloned().collect();
+        tracked.sort();
+        *lock(&self.tracked) = tracked;
+        // Changes to the wanted files count, and so does a folder of theirs coming back.
+        let folders: Vec<PathBuf> = wanted
+            .iter()
+            .filter_map(|f| f.parent().map(Path::to_path_buf))
+            .collect();
+        wanted.extend(folders);
         *lock(&self.files) = wanted;
         Ok(())
     }
 
     /// The files whose changes count now.
     pub fn files(&self) -> Vec<PathBuf> {
-        let mut v: Vec<PathBuf> = lock(&self.files).iter().cloned().collect();
-        v.sort();
-        v
+        lock(&self.tracked).clone()
     }
 }
 
@@ -172,7 +225,7 @@ mod tests {
         std::fs::write(&scene, "a").unwrap();
         let control = Arc::new(Control::new());
         let w = SceneWatcher::start(&scene, Arc::clone(&control)).unwrap();
-        w.track(std::slice::from_ref(&mesh)).unwrap();
+        w.track(Some(std::slice::from_ref(&mesh))).unwrap();
         assert_eq!(w.files().len(), 2);
 
         // An unrelated file in the same folder: nothing.

@@ -28,7 +28,8 @@ fn watch(scene: &Path, out: &Path) -> Running {
             "-o",
             s(out),
         ],
-        &scene.with_extension("stderr"),
+        // Beside the output: a test may delete the scene's folder.
+        &out.with_extension("stderr"),
         false,
     )
 }
@@ -162,5 +163,32 @@ fn edits_through_a_symlinked_scene_rerender() {
         &text.replace(CORNELL_LIGHT, "radiance: (1.5, 1.5, 1.5)"),
     );
     run.wait_stderr("the render after the edit", |e| done_count(e) >= 2);
+    assert_eq!(run.interrupt().code(), Some(0));
+}
+
+/// The scene's folder deleted and made again (a checkout, a sync tool): saves into the new
+/// folder still render.
+#[test]
+fn saves_after_the_scenes_folder_is_made_again_rerender() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("scene");
+    std::fs::create_dir(&folder).unwrap();
+    let scene = folder.join("box.ron");
+    let text = std::fs::read_to_string(common::repo_file("scenes/cornell_box.ron")).unwrap();
+    std::fs::write(&scene, &text).unwrap();
+    let out = dir.path().join("out.png");
+    let run = watch(&scene, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+    std::fs::remove_dir_all(&folder).unwrap();
+    run.wait_stderr("the load error", |e| e.contains("cannot read"));
+    std::fs::create_dir(&folder).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    save(
+        &scene,
+        &text.replace(CORNELL_LIGHT, "radiance: (1.5, 1.5, 1.5)"),
+    );
+    run.wait_stderr("the render in the new folder", |e| done_count(e) >= 2);
+    save(&scene, &text);
+    run.wait_stderr("a second save there", |e| done_count(e) >= 3);
     assert_eq!(run.interrupt().code(), Some(0));
 }
