@@ -416,3 +416,71 @@ fn cross_origin_posts_are_refused_and_long_polls_leave_slots_free() {
     drop(polls);
     assert_eq!(srv.run.interrupt().code(), Some(0));
 }
+
+/// A client that sends an endless header line, too many headers, a huge body or trickles
+/// its request gets its error status and is cut off; the server keeps answering others.
+#[test]
+fn oversized_and_slow_requests_are_cut_off() {
+    let (_dir, scene) = scene_copy("cornell_box.ron");
+    let srv = serve(&scene, "4");
+    srv.wait_state("the first image", finished);
+    let status_of = |reply: &[u8]| -> u16 {
+        let text = String::from_utf8_lossy(reply);
+        text.split_whitespace()
+            .nth(1)
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0)
+    };
+    // A 200 MB header line, sent until the server stops reading.
+    let mut c = TcpStream::connect(srv.addr).unwrap();
+    c.set_read_timeout(Some(TIMEOUT)).unwrap();
+    c.write_all(b"GET /state HTTP/1.1\r\nX-Long: ").unwrap();
+    let chunk = vec![b'a'; 64 * 1024];
+    let mut sent = 0usize;
+    while sent < 200 << 20 && c.write_all(&chunk).is_ok() {
+        sent += chunk.len();
+    }
+    assert!(
+        sent < 10 << 20,
+        "the server read {sent} bytes of one header"
+    );
+    let mut reply = Vec::new();
+    let _ = c.read_to_end(&mut reply);
+    assert!(
+        reply.is_empty() || status_of(&reply) == 431,
+        "{}",
+        String::from_utf8_lossy(&reply)
+    );
+
+    // Too many headers; a body larger than any setting.
+    let many: String = (0..100).map(|i| format!("X-{i}: 1\r\n")).collect();
+    let r = srv.raw(&format!(
+        "GET /state HTTP/1.1\r\nHost: {}\r\n{many}\r\n",
+        srv.addr
+    ));
+    assert_eq!(r.status, 431);
+    let r = srv.raw(&format!(
+        "POST /settings HTTP/1.1\r\nHost: {}\r\nContent-Type: application/json\r\nContent-Length: 100000000\r\n\r\n{{",
+        srv.addr
+    ));
+    assert_eq!(r.status, 413);
+
+    // A client that sends half a request and waits: 408 within the server's deadline.
+    let mut slow = TcpStream::connect(srv.addr).unwrap();
+    slow.set_read_timeout(Some(TIMEOUT)).unwrap();
+    slow.write_all(b"GET /state HTTP/1.1\r\nHo").unwrap();
+    let start = std::time::Instant::now();
+    let mut reply = Vec::new();
+    let _ = slow.read_to_end(&mut reply);
+    assert_eq!(
+        status_of(&reply),
+        408,
+        "{}",
+        String::from_utf8_lossy(&reply)
+    );
+    assert!(start.elapsed() < std::time::Duration::from_secs(10));
+
+    // And the page still answers.
+    assert_eq!(srv.get("/").status, 200);
+    assert_eq!(srv.run.interrupt().code(), Some(0));
+}

@@ -14,26 +14,27 @@
 //!   `{"integrator": NAME, "params": {NAME: VALUE}}`) switches integrator and parameters,
 //!   checked by the registry: a bad one is a 400 with the registry's message.
 //!
-//! Every request is answered on its own thread (at most [`MAX_ACTIVE`] at once, then 503), so
-//! a slow or stuck client holds up nobody else; a client that goes away mid-response only
-//! makes that write fail, which is ignored. Requests whose `Host` is not the loopback address
-//! are refused when bound to loopback (DNS rebinding), and `POST` needs a JSON content type
-//! (no cross-site form posts).
+//! Every request is answered on its own thread (at most [`MAX_ACTIVE`] at once, then 503, and
+//! at most half of them waiting in long polls), under the limits of [`http`]: a bounded head
+//! and body, and a deadline for a slow client; a client that goes away mid-response only makes
+//! that write fail, which is ignored. Requests whose `Host` is not the loopback address are
+//! refused when bound to loopback (DNS rebinding), and `POST` needs this page's origin (or
+//! none) and exactly a JSON content type (no cross-site posts).
 
+pub mod http;
 pub mod page;
 
 use super::{Control, Ended, Observer, RenderInfo, Selection};
 use crate::output::{self, DisplaySettings};
 use crate::render::{Film, RenderStats};
 use anyhow::{anyhow, Result};
+use http::Request;
 use raylab_integrators::{registry, ParamKind};
 use serde_json::{json, Value};
-use std::io::Read;
-use std::net::SocketAddr;
+use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
-use tiny_http::{Header, Method, Request, Response};
 
 /// Longest wait of a `/state?since=N` request.
 pub const LONG_POLL: Duration = Duration::from_secs(2);
@@ -43,7 +44,7 @@ pub const MAX_ACTIVE: usize = 32;
 /// the page's other requests, however many tabs poll.
 pub const MAX_WAITING: usize = MAX_ACTIVE / 2;
 /// Largest `POST /settings` body.
-const MAX_BODY: u64 = 64 * 1024;
+const MAX_BODY: usize = 64 * 1024;
 
 /// The latest image, PNG-encoded.
 struct Image {
@@ -337,11 +338,6 @@ impl Reply {
     }
 }
 
-fn header(name: &str, value: &str) -> Header {
-    // Every name and value here is plain ASCII, which is all from_bytes refuses.
-    Header::from_bytes(name.as_bytes(), value.as_bytes()).expect("ASCII header")
-}
-
 /// What the request threads share.
 struct Context {
     shared: Arc<Shared>,
@@ -377,14 +373,8 @@ impl Context {
             return true;
         };
         request
-            .headers()
-            .iter()
-            .find(|h| h.field.equiv("Host"))
-            .is_some_and(|h| {
-                hosts
-                    .iter()
-                    .any(|ok| h.value.as_str().eq_ignore_ascii_case(ok))
-            })
+            .header("Host")
+            .is_some_and(|h| hosts.iter().any(|ok| h.eq_ignore_ascii_case(ok)))
     }
 
     /// `GET /state?since=N[&wait=MS]`: waits for a version above N, at most `wait`. At most
@@ -412,28 +402,19 @@ impl Context {
         Reply::json(&shared.state_json(&s))
     }
 
-    /// The value of the header `name`, if the request has it.
-    fn header<'r>(request: &'r Request, name: &'static str) -> Option<&'r str> {
-        request
-            .headers()
-            .iter()
-            .find(|h| h.field.equiv(name))
-            .map(|h| h.value.as_str())
-    }
-
-    fn post_settings(&self, request: &mut Request) -> Reply {
+    fn post_settings(&self, request: &Request) -> Reply {
         // Another site's page may post to this address; a browser sends its Origin. Only
         // this page's own origin (or none, from a client that is no browser) may change the
         // settings.
-        if let Some(origin) = Self::header(request, "Origin") {
-            let host = Self::header(request, "Host").unwrap_or("");
+        if let Some(origin) = request.header("Origin") {
+            let host = request.header("Host").unwrap_or("");
             if !origin.eq_ignore_ascii_case(&format!("http://{host}")) {
                 return Reply::text(403, "POST /settings is only taken from this page's origin");
             }
         }
         // Exactly JSON (parameters such as a charset aside): a cross-site form or a plain
         // text body is no settings request.
-        let media_type = Self::header(request, "Content-Type").map(|t| {
+        let media_type = request.header("Content-Type").map(|t| {
             t.split(';')
                 .next()
                 .unwrap_or("")
@@ -443,18 +424,7 @@ impl Context {
         if media_type.as_deref() != Some("application/json") {
             return Reply::text(415, "POST /settings takes Content-Type: application/json");
         }
-        let mut body = Vec::new();
-        if let Err(e) = request
-            .as_reader()
-            .take(MAX_BODY + 1)
-            .read_to_end(&mut body)
-        {
-            return Reply::text(400, format!("cannot read the request body: {e}"));
-        }
-        if body.len() as u64 > MAX_BODY {
-            return Reply::text(413, "request body too large");
-        }
-        match parse_selection(&body) {
+        match parse_selection(&request.body) {
             Ok(selection) => {
                 self.shared.update(|s| s.selection = selection.clone());
                 self.control.select(selection);
@@ -469,17 +439,17 @@ impl Context {
         Reply::json(&self.shared.state_json(&s)["selection"])
     }
 
-    fn route(&self, request: &mut Request) -> Reply {
+    fn route(&self, request: &Request) -> Reply {
         if !self.host_ok(request) {
             return Reply::text(
                 403,
                 "this server answers only requests addressed to it by its loopback address",
             );
         }
-        let url = request.url().to_string();
-        let (path, query) = url.split_once('?').unwrap_or((&url, ""));
-        let method = request.method().clone();
-        let get = matches!(method, Method::Get | Method::Head);
+        let url = request.url.as_str();
+        let (path, query) = url.split_once('?').unwrap_or((url, ""));
+        let method = request.method.as_str();
+        let get = matches!(method, "GET" | "HEAD");
         match (path, get) {
             ("/", true) => Reply {
                 status: 200,
@@ -503,7 +473,7 @@ impl Context {
             }
             ("/integrators", true) => Reply::json(&integrators_json()),
             ("/settings", true) => self.settings(),
-            ("/settings", false) if method == Method::Post => self.post_settings(request),
+            ("/settings", false) if method == "POST" => self.post_settings(request),
             ("/" | "/image.png" | "/state" | "/integrators" | "/settings", false) => {
                 Reply::text(405, "method not allowed")
             }
@@ -511,27 +481,46 @@ impl Context {
         }
     }
 
-    fn handle(&self, mut request: Request) {
-        let reply = self.route(&mut request);
-        let body = Arc::try_unwrap(reply.body).unwrap_or_else(|shared| (*shared).clone());
-        let response = Response::from_data(body)
-            .with_status_code(reply.status)
-            .with_header(header("Content-Type", reply.content_type))
-            .with_header(header("Cache-Control", "no-store"))
-            .with_header(header("X-Content-Type-Options", "nosniff"))
-            .with_header(header("X-Frame-Options", "DENY"))
-            .with_header(header(
-                "Content-Security-Policy",
-                "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self' data:; connect-src 'self'",
-            ));
-        // A client that went away: nothing to do but drop its connection.
-        let _ = request.respond(response);
+    /// Reads one request from `stream` and answers it.
+    fn handle(&self, mut stream: TcpStream) {
+        let request = match http::read_request(&mut stream, MAX_BODY) {
+            Ok(r) => r,
+            Err(http::ReadError::Gone) => return,
+            Err(http::ReadError::Status(status, why)) => {
+                let reply = Reply::text(status, why);
+                http::respond(
+                    &mut stream,
+                    status,
+                    &[("Content-Type", reply.content_type)],
+                    &reply.body,
+                    false,
+                );
+                return;
+            }
+        };
+        let reply = self.route(&request);
+        http::respond(
+            &mut stream,
+            reply.status,
+            &[
+                ("Content-Type", reply.content_type),
+                ("Cache-Control", "no-store"),
+                ("X-Content-Type-Options", "nosniff"),
+                ("X-Frame-Options", "DENY"),
+                (
+                    "Content-Security-Policy",
+                    "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self' data:; connect-src 'self'",
+                ),
+            ],
+            &reply.body,
+            request.method == "HEAD",
+        );
     }
 }
 
 /// A bound server, not yet answering.
 pub struct Server {
-    http: Arc<tiny_http::Server>,
+    listener: TcpListener,
     addr: SocketAddr,
     context: Arc<Context>,
 }
@@ -544,12 +533,15 @@ impl Server {
         shared: Arc<Shared>,
         control: Arc<Control>,
     ) -> Result<Server> {
-        let http = tiny_http::Server::http((host, port))
+        let listener = TcpListener::bind((host, port))
             .map_err(|e| anyhow!("cannot listen on {host}:{port}: {e}"))?;
-        let addr = http
-            .server_addr()
-            .to_ip()
-            .ok_or_else(|| anyhow!("{host}:{port} is not an IP address"))?;
+        let addr = listener
+            .local_addr()
+            .map_err(|e| anyhow!("{host}:{port}: {e}"))?;
+        // Accepting in turns with checking whether the session quit.
+        listener
+            .set_nonblocking(true)
+            .map_err(|e| anyhow!("{host}:{port}: {e}"))?;
         let hosts = addr.ip().is_loopback().then(|| {
             let p = addr.port();
             vec![
@@ -560,7 +552,7 @@ impl Server {
             ]
         });
         Ok(Server {
-            http: Arc::new(http),
+            listener,
             addr,
             context: Arc::new(Context {
                 shared,
@@ -585,25 +577,40 @@ impl Server {
     /// Answers requests, each on its own thread, until the control quits.
     pub fn run(&self) {
         while !self.context.control.is_quitting() {
-            let request = match self.http.recv_timeout(Duration::from_millis(200)) {
-                Ok(Some(r)) => r,
-                Ok(None) => continue,
+            let mut stream = match self.listener.accept() {
+                Ok((stream, _)) => stream,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    std::thread::sleep(Duration::from_millis(20));
+                    continue;
+                }
                 Err(e) => {
                     eprintln!("warning: serve: {e}");
+                    std::thread::sleep(Duration::from_millis(20));
                     continue;
                 }
             };
+            // Connections block (with the deadlines of `http`); only the listener polls.
+            if stream.set_nonblocking(false).is_err() {
+                continue;
+            }
             let ctx = Arc::clone(&self.context);
             if ctx.active.fetch_add(1, Ordering::SeqCst) >= MAX_ACTIVE {
                 ctx.active.fetch_sub(1, Ordering::SeqCst);
-                let _ = request.respond(Response::from_string("busy\n").with_status_code(503));
+                let busy = Reply::text(503, "busy");
+                http::respond(
+                    &mut stream,
+                    503,
+                    &[("Content-Type", busy.content_type)],
+                    &busy.body,
+                    false,
+                );
                 continue;
             }
             let spawned = std::thread::Builder::new()
                 .name("raylab-http".into())
                 .spawn(move || {
                     let _guard = ActiveGuard(&ctx.active);
-                    ctx.handle(request);
+                    ctx.handle(stream);
                 });
             if let Err(e) = spawned {
                 // The closure (and its guard) never ran: undo the count by hand.
