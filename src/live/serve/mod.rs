@@ -1,4 +1,5 @@
-//! `raylab serve`: a small local web server (tiny_http) showing a live session.
+//! `raylab serve`: a small local web server (std TCP, `httparse`; see [`http`]) showing a live
+//! session.
 //!
 //! Routes, and nothing else (every other path is a 404; no part of a request ever names a
 //! file, so nothing on disk can be reached through it):
