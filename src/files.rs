@@ -36,10 +36,18 @@ pub fn open_capped(path: &Path, max: u64) -> std::io::Result<(std::fs::File, u64
     Ok((std::fs::File::open(path)?, meta.len()))
 }
 
-/// Reads a regular file of at most `max` bytes whole (a file that grows while it is read is
-/// cut at `max` and refused).
+/// Reads a regular file of at most `max` bytes whole, if it fits in the memory this process
+/// may still allocate (a file that grows while it is read is cut at `max` and refused).
 pub fn read_capped(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
     let (file, len) = open_capped(path, max)?;
+    if let Some((room, what)) = crate::system::memory_limit() {
+        if len > room {
+            return Err(Error::new(
+                ErrorKind::InvalidInput,
+                format!("it is {len} bytes, more than the {room} bytes of memory {what}"),
+            ));
+        }
+    }
     let mut bytes = Vec::with_capacity(len as usize);
     file.take(max + 1).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > max {
@@ -49,6 +57,56 @@ pub fn read_capped(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
         ));
     }
     Ok(bytes)
+}
+
+/// The longest line a text format may have (an OBJ, an MTL file).
+pub const MAX_LINE: usize = 1 << 20;
+
+/// A reader of text lines that fails on a line longer than [`MAX_LINE`], so that a line
+/// parser never gathers a whole binary file (or `/dev/zero`) into one string.
+pub struct LineCapped<R> {
+    inner: R,
+    /// Bytes consumed since the last newline.
+    run: usize,
+}
+
+impl<R: std::io::BufRead> LineCapped<R> {
+    pub fn new(inner: R) -> Self {
+        LineCapped { inner, run: 0 }
+    }
+}
+
+impl<R: std::io::BufRead> Read for LineCapped<R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let available = std::io::BufRead::fill_buf(self)?;
+        let n = available.len().min(out.len());
+        out[..n].copy_from_slice(&available[..n]);
+        std::io::BufRead::consume(self, n);
+        Ok(n)
+    }
+}
+
+impl<R: std::io::BufRead> std::io::BufRead for LineCapped<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.run > MAX_LINE {
+            return Err(Error::new(
+                ErrorKind::InvalidData,
+                format!("it has a line longer than {MAX_LINE} bytes (is it a text file?)"),
+            ));
+        }
+        self.inner.fill_buf()
+    }
+
+    fn consume(&mut self, amt: usize) {
+        if let Ok(buf) = self.inner.fill_buf() {
+            let taken = &buf[..amt.min(buf.len())];
+            self.run = match taken.iter().rposition(|b| *b == b'\n') {
+                Some(i) => taken.len() - i - 1,
+                None => self.run + taken.len(),
+            };
+        }
+        self.inner.consume(amt);
+    }
 }
 
 /// [`read_capped`] as UTF-8 text (a byte-order mark at the start is skipped).
@@ -90,6 +148,18 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("folder"));
+        // A long line is an error, not a string of the whole file.
+        use std::io::BufRead;
+        let long = vec![b'x'; MAX_LINE + 10];
+        let mut lines = LineCapped::new(&long[..]).lines();
+        let e = lines.next().unwrap().unwrap_err().to_string();
+        assert!(e.contains("longer than"), "{e}");
+        let text = b"a\nbb\n";
+        let lines: Vec<String> = LineCapped::new(&text[..])
+            .lines()
+            .map(|l| l.unwrap())
+            .collect();
+        assert_eq!(lines, ["a", "bb"]);
         #[cfg(unix)]
         {
             let e = read_capped(Path::new("/dev/zero"), 100)

@@ -172,9 +172,15 @@ pub const OBJ_DEFAULT_ALBEDO: [f32; 3] = [0.8, 0.8, 0.8];
 /// and the diffuse (`Kd`) and emitted (`Ke`) colours of its MTL materials. A missing or bad
 /// MTL file is an error only if `need_materials`.
 pub fn load_obj(file: &Path, need_materials: bool, files: &SceneFiles) -> Result<FileMesh, String> {
-    let text = crate::files::read_capped(file, crate::files::MAX_BINARY)
+    // Streamed, lines capped (a binary file is one endless line), a byte-order mark skipped.
+    let (handle, _) = crate::files::open_capped(file, crate::files::MAX_BINARY)
         .map_err(|e| format!("cannot load OBJ file `{}`: {e}", file.display()))?;
-    let text = text.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&text);
+    let mut reader = std::io::BufReader::new(handle);
+    if std::io::BufRead::fill_buf(&mut reader).is_ok_and(|b| b.starts_with(b"\xef\xbb\xbf")) {
+        std::io::BufRead::consume(&mut reader, 3);
+    }
+    let mut text = crate::files::LineCapped::new(reader);
+    let line_error = std::cell::RefCell::new(None::<String>);
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
@@ -200,9 +206,18 @@ pub fn load_obj(file: &Path, need_materials: bool, files: &SceneFiles) -> Result
     let (models, materials) = guarded(
         "OBJ",
         file,
-        std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut &text[..], &options, load_mtl)),
+        std::panic::AssertUnwindSafe(|| {
+            let result = tobj::load_obj_buf(&mut text, &options, load_mtl);
+            if let Err(e) = std::io::BufRead::fill_buf(&mut text) {
+                *line_error.borrow_mut() = Some(e.to_string());
+            }
+            result
+        }),
     )?
     .map_err(|e| {
+        if let Some(why) = line_error.take() {
+            return format!("cannot load OBJ file `{}`: {why}", file.display());
+        }
         let hint = match e {
             tobj::LoadError::ReadError => " (is it a text OBJ file?)",
             _ => "",
