@@ -465,3 +465,23 @@ entities: [(name: "crowd", shape: Gltf(path: "many.gltf"), material: "white")])"
         ],
     );
 }
+
+/// A scene saved with a UTF-8 byte-order mark (as some editors do) loads; an OBJ with one too.
+#[test]
+fn a_byte_order_mark_is_no_error() {
+    let dir = workspace();
+    let d = dir.path();
+    let scene = std::fs::read_to_string(d.join("mesh_files.ron")).unwrap();
+    std::fs::write(d.join("bom.ron"), format!("\u{feff}{scene}")).unwrap();
+    // The mark right before the first vertex line, where tobj would miss the `v`.
+    let obj = std::fs::read_to_string(d.join("assets/pyramid.obj")).unwrap();
+    let body: String = obj
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with('o'))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(body.starts_with("v "));
+    std::fs::write(d.join("assets/pyramid.obj"), format!("\u{feff}{body}")).unwrap();
+    let o = raylab_in(d, &["validate", "bom.ron"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

@@ -194,6 +194,28 @@ fn time_budget_stops_an_open_ended_render() {
         let o = raylab(&["render", CORNELL, "--time", bad, "-o", s(&out)]);
         assert_eq!(o.status.code(), Some(2), "--time {bad}");
     }
+    // A budget far shorter than one pass (fixed-depth's pass takes about a second here)
+    // still gives the first pass's image, as the help promises.
+    let short = dir.path().join("short.png");
+    let o = raylab(&[
+        "render",
+        CORNELL,
+        "-i",
+        "fixed-depth",
+        "--size",
+        "96x96",
+        "--time",
+        "0.001",
+        "-o",
+        s(&short),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("time budget spent: 1 spp"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(short.exists());
 }
 
 #[cfg(unix)]
