@@ -158,7 +158,8 @@ impl Pending {
 pub struct Control {
     pending: Mutex<Pending>,
     wake: Condvar,
-    /// Set with any request: the render in progress stops at the end of its pass.
+    /// Set with any request: the render in progress abandons its pass (long work inside the
+    /// pass checks it as it goes).
     interrupt: AtomicBool,
     quitting: AtomicBool,
 }
