@@ -485,3 +485,22 @@ fn a_byte_order_mark_is_no_error() {
     let o = raylab_in(d, &["validate", "bom.ron"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// Under `ulimit -v` (as a batch job sets it), a render too large for the limit is refused
+/// with a message naming it, not aborted in the allocation.
+#[cfg(unix)]
+#[test]
+fn an_address_space_limit_is_respected() {
+    let dir = workspace();
+    let bin = env!("CARGO_BIN_EXE_raylab");
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 2000000 && exec {bin} render s.ron --size 8000x8000 --spp 1 -q -o big.png"
+        ))
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    refused(&o, &["8000x8000 image needs", "ulimit -v"]);
+    assert!(!dir.path().join("big.png").exists());
+}
