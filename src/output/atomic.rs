@@ -73,10 +73,15 @@ pub fn through_links(path: &Path) -> Result<PathBuf> {
 /// file's permissions. Refuses what `cp` would not overwrite (a file this user may not write)
 /// and what is not a regular file.
 pub fn check_replaceable(path: &Path) -> Result<Option<std::fs::Permissions>> {
+    Ok(replaceable(path)?.1)
+}
+
+/// [`check_replaceable`], with the file a write of `path` reaches (through links).
+fn replaceable(path: &Path) -> Result<(PathBuf, Option<std::fs::Permissions>)> {
     let target = through_links(path)?;
     let meta = match std::fs::metadata(&target) {
         Ok(m) => m,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((target, None)),
         Err(e) => return Err(e).with_context(|| format!("{}: cannot inspect it", path.display())),
     };
     if meta.is_dir() {
@@ -103,7 +108,7 @@ pub fn check_replaceable(path: &Path) -> Result<Option<std::fs::Permissions>> {
             path.display()
         );
     }
-    Ok(Some(meta.permissions()))
+    Ok((target, Some(meta.permissions())))
 }
 
 /// A temporary file in `path`'s folder, with the permissions of any new file (0666 less the
@@ -126,8 +131,7 @@ pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut std::fs::File) -> Result<()>,
 ) -> Result<()> {
-    let existing = check_replaceable(path)?;
-    let target = through_links(path)?;
+    let (target, existing) = replaceable(path)?;
     let (mut tmp, _registered) = Registered::create_beside(&target).with_context(|| {
         format!(
             "{}: cannot create a temporary file beside it",

@@ -105,7 +105,9 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
         bail!("the file is truncated");
     }
     let (body, sum) = bytes.split_at(bytes.len() - 8);
-    if stable_hash(&[body]) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
+    let mut stored = [0u8; 8];
+    stored.copy_from_slice(sum);
+    if stable_hash(&[body]) != u64::from_le_bytes(stored) {
         bail!("the file is damaged (its checksum does not match)");
     }
     let mut r = Reader { bytes: &body[12..] };

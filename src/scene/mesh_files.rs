@@ -301,11 +301,8 @@ pub fn load_gltf(file: &Path, files: &SceneFiles) -> Result<FileMesh, String> {
     let bytes =
         crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(&e))?;
     // A GLB's header states its length: one beyond the file is damage (or a lie).
-    if let Some(claimed) = bytes
-        .strip_prefix(b"glTF")
-        .and_then(|rest| rest.get(4..8))
-        .map(|l| u32::from_le_bytes(l.try_into().expect("4 bytes")) as usize)
-    {
+    if let Some(&[a, b, c, d]) = bytes.strip_prefix(b"glTF").and_then(|rest| rest.get(4..8)) {
+        let claimed = u32::from_le_bytes([a, b, c, d]) as usize;
         if claimed > bytes.len() {
             return Err(cannot(&format!(
                 "its GLB header claims {claimed} bytes, the file has {}",

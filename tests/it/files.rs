@@ -33,6 +33,28 @@ fn workspace() -> tempfile::TempDir {
 
 const QUICK: [&str; 5] = ["--spp", "1", "--size", "16x16", "-q"];
 
+/// `raylab compare s.ron -i path` at 1 spp, 16x16, against `reference`, into `out`.
+fn compare(dir: &Path, reference: &str, out: &str) -> Output {
+    raylab_in(
+        dir,
+        &[
+            "compare",
+            "s.ron",
+            "-i",
+            "path",
+            "--spp",
+            "1",
+            "--size",
+            "16x16",
+            "-q",
+            "--reference",
+            reference,
+            "-o",
+            out,
+        ],
+    )
+}
+
 fn render(dir: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["render"];
     args.extend_from_slice(extra);
@@ -120,27 +142,7 @@ fn compare_keeps_its_reference_and_leaves_no_empty_folder() {
         .status
         .success());
     let reference = std::fs::read(d.join("out/reference.exr")).unwrap();
-    let compare = |out: &str, reference: &str| {
-        raylab_in(
-            d,
-            &[
-                "compare",
-                "s.ron",
-                "-i",
-                "path",
-                "--spp",
-                "1",
-                "--size",
-                "16x16",
-                "-q",
-                "--reference",
-                reference,
-                "-o",
-                out,
-            ],
-        )
-    };
-    let o = compare("out", "out/reference.exr");
+    let o = compare(d, "out/reference.exr", "out");
     refused(&o, &["would overwrite the reference image"]);
     assert_eq!(
         std::fs::read(d.join("out/reference.exr")).unwrap(),
@@ -148,13 +150,13 @@ fn compare_keeps_its_reference_and_leaves_no_empty_folder() {
     );
     // The same reference, moved out of the way, is fine.
     std::fs::rename(d.join("out/reference.exr"), d.join("ref.exr")).unwrap();
-    assert!(compare("out", "ref.exr").status.success());
+    assert!(compare(d, "ref.exr", "out").status.success());
     // A comparison that fails removes the folder it created, and only an empty one.
-    let o = compare("new", "missing.exr");
+    let o = compare(d, "missing.exr", "new");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(!d.join("new").exists());
     // An output folder that is a file is refused before anything is rendered.
-    let o = compare("s.ron", "ref.exr");
+    let o = compare(d, "ref.exr", "s.ron");
     refused(&o, &["is a file, not a folder"]);
 }
 
@@ -247,14 +249,7 @@ fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
         assert!(e.contains("interrupted: wrote the image with"), "{e}");
         assert!(out.exists() && ck.exists(), "SIG{signal}: {e}");
     }
-    let names: Vec<String> = std::fs::read_dir(d)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    assert!(
-        names.iter().all(|n| !n.starts_with(".tmp")),
-        "no temporary file left: {names:?}"
-    );
+    crate::common::assert_no_temporaries(d);
 }
 
 /// One NaN pixel, or an image of infinity, is a difference whatever the tolerance, reported
@@ -285,24 +280,7 @@ fn non_finite_pixels_are_differences_and_bad_references() {
             "{out}"
         );
     }
-    let o = raylab_in(
-        d,
-        &[
-            "compare",
-            "s.ron",
-            "-i",
-            "path",
-            "--spp",
-            "1",
-            "--size",
-            "16x16",
-            "-q",
-            "--reference",
-            "one-nan.exr",
-            "-o",
-            "cmp",
-        ],
-    );
+    let o = compare(d, "one-nan.exr", "cmp");
     refused(&o, &["the reference has 1 pixel(s) with NaN"]);
     // A PNG is no radiance reference.
     assert!(render(d, &["s.ron", "-o", "r.png"]).status.success());

@@ -281,14 +281,7 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
         std::fs::read_to_string(dir.path().join("twice.log")).unwrap()
     );
     assert!(!out.exists());
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    assert!(
-        names.iter().all(|n| !n.starts_with(".tmp")),
-        "no temporary file left: {names:?}"
-    );
+    crate::common::assert_no_temporaries(dir.path());
 }
 
 /// A checkpoint is tied to the mesh files the scene names, not only to the scene file: after

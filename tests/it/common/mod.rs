@@ -108,6 +108,18 @@ pub fn raylab_in(dir: &Path, args: &[&str]) -> std::process::Output {
         .expect("raylab runs")
 }
 
+/// Fails if `dir` holds a temporary file of an atomic write (`.tmp*`).
+pub fn assert_no_temporaries(dir: &Path) {
+    let names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.starts_with(".tmp")),
+        "no temporary file left: {names:?}"
+    );
+}
+
 /// The repository's file `path`, absolute (for tests that run elsewhere).
 pub fn repo_file(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
