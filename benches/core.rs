@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3A};
 use raylab::bench::{coherent_rays, incoherent_rays};
 use raylab::scene::parse_scene;
 use raylab::scene::RenderScene;
-use raylab_integrators::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
+use raylab_integrators::bsdf::{Dielectric, Lambert, Mirror, OrenNayar, Phong};
 use raylab_integrators::{Material, PixelSample, Rgb, Sampler, Scene, Splats, Tracer};
 use std::path::Path;
 
@@ -70,10 +70,7 @@ fn bsdfs(c: &mut Criterion) {
         ("mirror", Material::Mirror(Mirror { tint: Rgb::ONE })),
         (
             "glass",
-            Material::Glass(Glass {
-                ior: 1.5,
-                tint: Rgb::ONE,
-            }),
+            Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE)),
         ),
     ];
     let wo = Vec3A::new(0.3, 0.2, 0.93).normalize();

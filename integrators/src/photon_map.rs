@@ -147,6 +147,7 @@ fn trace_one(
         let material = scene.material(hit.material);
         // Store it if this map wants it.
         if !material.is_specular() {
+            // Caustic: every scattering event so far was a Dirac lobe.
             let caustic = specular_so_far && bounces > 0;
             let store = match keep {
                 Keep::All => true,
@@ -162,10 +163,11 @@ fn trace_one(
                     caustic,
                 });
             }
-            if keep == Keep::Caustic {
+            // A caustic photon ends here unless a Dirac lobe (a plastic's coating) may still
+            // carry it on.
+            if keep == Keep::Caustic && !material.has_delta_lobe() {
                 return;
             }
-            specular_so_far = false;
         }
         // A further landing would exceed the depth limit.
         if bounces >= max_bounces || bounces >= u16::MAX as u32 {
@@ -180,6 +182,10 @@ fn trace_one(
         ) else {
             return;
         };
+        specular_so_far &= s.bsdf.specular;
+        if keep == Keep::Caustic && !specular_so_far {
+            return;
+        }
         let next = s.throughput(beta);
         if !(next.is_finite() && next != Rgb::ZERO) {
             return;
@@ -234,20 +240,24 @@ pub fn land(
         if let Some(l) = l.as_deref_mut() {
             *l += path.beta * emitted_at(tracer.scene, &hit, &path.ray);
         }
-        let material = tracer.scene.material(hit.material);
-        if !material.is_specular() {
+        let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+        // A surface with Dirac lobes (all of them, or a plastic's coating over its base) sends
+        // the path on through one of them with their probability `p`; otherwise the path
+        // lands here, weighted by 1 / (1 - p), and is gathered with the rest of the BSDF.
+        let p = sp.material.delta_probability(sp.wo);
+        let u_lobe = if p > 0.0 { sampler.next_1d() } else { 1.0 };
+        if u_lobe >= p {
             return Some(Landing {
                 hit,
                 ray: path.ray,
-                beta: path.beta,
+                beta: path.beta / (1.0 - p),
                 bounces: path.bounces,
             });
         }
         if path.bounces >= max_bounces {
             return None;
         }
-        let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
-        if !path.scatter(&sp, rr_depth, sampler) {
+        if !path.scatter_with_lobe(&sp, u_lobe, rr_depth, sampler) {
             return None;
         }
     }

@@ -3,10 +3,16 @@
 use super::access::SceneFiles;
 use super::components::{Emitter, Instanced, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::error::{finite, SceneError};
-use super::schema::{CameraDesc, EmitterDesc, MaterialDesc, RenderDesc, SceneFile, ShapeDesc};
+use super::schema::{
+    CameraDesc, EmitterDesc, MaterialDesc, Metal, RenderDesc, SceneFile, ShapeDesc,
+};
 use super::{assets, file_materials, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
-use raylab_integrators::bsdf::{checks, Glass, Lambert, Mirror, OrenNayar, Phong};
+use raylab_integrators::bsdf::{
+    checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert, Microfacet,
+    Mirror, OrenNayar, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
+    ThinDielectric,
+};
 use raylab_integrators::Camera;
 use raylab_integrators::{registry, Material, Rgb};
 use ron::extensions::Extensions;
@@ -86,17 +92,147 @@ fn v3(a: [f32; 3]) -> Vec3A {
 /// Turns a material description into a material; the material's constructor checks its
 /// parameters.
 pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
-    Ok(match *desc {
-        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert::new(v3(albedo))?),
+    Ok(match desc {
+        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert::new(v3(*albedo))?),
         MaterialDesc::OrenNayar { albedo, sigma } => {
-            Material::OrenNayar(OrenNayar::checked(v3(albedo), sigma)?)
+            Material::OrenNayar(OrenNayar::checked(v3(*albedo), *sigma)?)
         }
         MaterialDesc::Phong { kd, ks, exponent } => {
-            Material::Phong(Phong::new(v3(kd), v3(ks), exponent)?)
+            Material::Phong(Phong::new(v3(*kd), v3(*ks), *exponent)?)
         }
-        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror::new(v3(tint))?),
-        MaterialDesc::Glass { ior, tint } => Material::Glass(Glass::new(ior, v3(tint))?),
+        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror::new(v3(*tint))?),
+        MaterialDesc::Glass { ior, tint } => {
+            Material::Dielectric(Dielectric::new(*ior, v3(*tint), v3(*tint))?)
+        }
+        MaterialDesc::Dielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance: r,
+            specular_transmittance: t,
+        } => Material::Dielectric(Dielectric::new(
+            relative_ior(int_ior.0, ext_ior.0)?,
+            v3(*r),
+            v3(*t),
+        )?),
+        MaterialDesc::RoughDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance: r,
+            specular_transmittance: t,
+            distribution,
+            alpha,
+            alpha_u,
+            alpha_v,
+        } => Material::RoughDielectric(RoughDielectric::new(
+            relative_ior(int_ior.0, ext_ior.0)?,
+            v3(*r),
+            v3(*t),
+            microfacet(*distribution, *alpha, *alpha_u, *alpha_v)?,
+        )?),
+        MaterialDesc::ThinDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance: r,
+            specular_transmittance: t,
+        } => Material::ThinDielectric(ThinDielectric::new(
+            relative_ior(int_ior.0, ext_ior.0)?,
+            v3(*r),
+            v3(*t),
+        )?),
+        MaterialDesc::Conductor {
+            metal,
+            eta,
+            k,
+            specular_reflectance,
+        } => Material::Conductor(Conductor::new(
+            complex_ior(*metal, *eta, *k)?,
+            v3(*specular_reflectance),
+        )?),
+        MaterialDesc::RoughConductor {
+            metal,
+            eta,
+            k,
+            specular_reflectance,
+            distribution,
+            alpha,
+            alpha_u,
+            alpha_v,
+        } => Material::RoughConductor(RoughConductor::new(
+            complex_ior(*metal, *eta, *k)?,
+            v3(*specular_reflectance),
+            microfacet(*distribution, *alpha, *alpha_u, *alpha_v)?,
+        )?),
+        MaterialDesc::Plastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+        } => Material::Plastic(Plastic::new(
+            v3(*diffuse_reflectance),
+            v3(*specular_reflectance),
+            relative_ior(int_ior.0, ext_ior.0)?,
+            *nonlinear,
+        )?),
+        MaterialDesc::RoughPlastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            distribution,
+            alpha,
+        } => Material::RoughPlastic(RoughPlastic::new(
+            v3(*diffuse_reflectance),
+            v3(*specular_reflectance),
+            relative_ior(int_ior.0, ext_ior.0)?,
+            *nonlinear,
+            microfacet(*distribution, Some(*alpha), None, None)?,
+        )?),
+        MaterialDesc::TwoSided(inner) => {
+            let m = material_from_desc(inner)?;
+            if m.is_transmissive() {
+                return Err(
+                    "TwoSided cannot hold a dielectric: it has two sides of its own".into(),
+                );
+            }
+            m
+        }
     })
+}
+
+/// The roughness of a rough material: `alpha`, or `alpha_u` and `alpha_v` (anisotropic), or
+/// Mitsuba's default 0.1.
+fn microfacet(
+    distribution: Distribution,
+    alpha: Option<f32>,
+    alpha_u: Option<f32>,
+    alpha_v: Option<f32>,
+) -> Result<Microfacet, String> {
+    let (u, v) = match (alpha, alpha_u, alpha_v) {
+        (Some(a), None, None) => (a, a),
+        (None, Some(u), Some(v)) => (u, v),
+        (None, None, None) => (0.1, 0.1),
+        (Some(_), _, _) => return Err("give alpha, or alpha_u and alpha_v, not both".into()),
+        _ => return Err("an anisotropic roughness needs both alpha_u and alpha_v".into()),
+    };
+    Microfacet::new(distribution, u, v)
+}
+
+/// A conductor's complex IOR: a named `metal`, or `eta` and `k`, or (neither) a perfect
+/// mirror.
+fn complex_ior(
+    metal: Option<Metal>,
+    eta: Option<[f32; 3]>,
+    k: Option<[f32; 3]>,
+) -> Result<Option<ComplexIor>, String> {
+    match (metal, eta, k) {
+        (Some(m), None, None) => Ok(m.0),
+        (None, Some(eta), Some(k)) => Ok(Some(ComplexIor::new(v3(eta), v3(k))?)),
+        (None, None, None) => Ok(None),
+        (Some(_), _, _) => Err("give a metal by name, or eta and k, not both".into()),
+        _ => Err("a conductor's IOR needs both eta and k".into()),
+    }
 }
 
 fn check_resolution((w, h): (u32, u32)) -> Result<(), String> {

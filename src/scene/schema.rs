@@ -4,6 +4,7 @@
 //! `implicit_some` extension is on), so `emitter: Area(radiance: (1, 1, 1))` works.
 //! See `scenes/README.md` for a guide with examples.
 
+use raylab_integrators::bsdf::{ior, ComplexIor, Distribution};
 use raylab_integrators::Filter;
 use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer};
@@ -141,13 +142,189 @@ pub enum MaterialDesc {
         #[serde(default = "white")]
         tint: V3,
     },
-    /// Smooth dielectric. Defaults: `ior: 1.5`, `tint: (1, 1, 1)`.
+    /// Smooth dielectric with one tint for both lobes (the `Dielectric` of raylab 1).
+    /// Defaults: `ior: 1.5`, `tint: (1, 1, 1)`.
     Glass {
         #[serde(default = "glass_ior")]
         ior: f32,
         #[serde(default = "white")]
         tint: V3,
     },
+    /// Smooth dielectric (Mitsuba's `dielectric`). IORs are numbers or names (`"bk7"`,
+    /// `"water"`, `"air"`, ...). Defaults: `int_ior: "bk7"`, `ext_ior: "air"`, both tints white.
+    Dielectric {
+        #[serde(default = "bk7")]
+        int_ior: Ior,
+        #[serde(default = "air")]
+        ext_ior: Ior,
+        #[serde(default = "white")]
+        specular_reflectance: V3,
+        #[serde(default = "white")]
+        specular_transmittance: V3,
+    },
+    /// Frosted glass (Mitsuba's `roughdielectric`): as `Dielectric` plus the microfacet
+    /// distribution. Defaults: `distribution: "beckmann"`, `alpha: 0.1`.
+    RoughDielectric {
+        #[serde(default = "bk7")]
+        int_ior: Ior,
+        #[serde(default = "air")]
+        ext_ior: Ior,
+        #[serde(default = "white")]
+        specular_reflectance: V3,
+        #[serde(default = "white")]
+        specular_transmittance: V3,
+        #[serde(default, deserialize_with = "distribution_name")]
+        distribution: Distribution,
+        alpha: Option<f32>,
+        alpha_u: Option<f32>,
+        alpha_v: Option<f32>,
+    },
+    /// A thin pane (Mitsuba's `thindielectric`): reflection and straight transmission.
+    /// Defaults as `Dielectric`.
+    ThinDielectric {
+        #[serde(default = "bk7")]
+        int_ior: Ior,
+        #[serde(default = "air")]
+        ext_ior: Ior,
+        #[serde(default = "white")]
+        specular_reflectance: V3,
+        #[serde(default = "white")]
+        specular_transmittance: V3,
+    },
+    /// Smooth metal (Mitsuba's `conductor`): a named `metal` (`"Au"`, `"Ag"`, `"Cu"`, ...;
+    /// `"none"` is a perfect mirror) or `eta` and `k`. Defaults: `metal: "none"`,
+    /// `specular_reflectance: (1, 1, 1)`.
+    Conductor {
+        metal: Option<Metal>,
+        eta: Option<V3>,
+        k: Option<V3>,
+        #[serde(default = "white")]
+        specular_reflectance: V3,
+    },
+    /// Rough metal (Mitsuba's `roughconductor`): as `Conductor` plus the microfacet
+    /// distribution. Defaults: `distribution: "beckmann"`, `alpha: 0.1`.
+    RoughConductor {
+        metal: Option<Metal>,
+        eta: Option<V3>,
+        k: Option<V3>,
+        #[serde(default = "white")]
+        specular_reflectance: V3,
+        #[serde(default, deserialize_with = "distribution_name")]
+        distribution: Distribution,
+        alpha: Option<f32>,
+        alpha_u: Option<f32>,
+        alpha_v: Option<f32>,
+    },
+    /// Diffuse base under a smooth coating (Mitsuba's `plastic`). Defaults:
+    /// `diffuse_reflectance: (0.5, 0.5, 0.5)`, `specular_reflectance: (1, 1, 1)`,
+    /// `int_ior: "polypropylene"` (1.49), `ext_ior: "air"`, `nonlinear: false`.
+    Plastic {
+        #[serde(default = "half")]
+        diffuse_reflectance: V3,
+        #[serde(default = "white")]
+        specular_reflectance: V3,
+        #[serde(default = "polypropylene")]
+        int_ior: Ior,
+        #[serde(default = "air")]
+        ext_ior: Ior,
+        #[serde(default)]
+        nonlinear: bool,
+    },
+    /// Diffuse base under a rough coating (Mitsuba's `roughplastic`): as `Plastic` plus the
+    /// distribution and an isotropic `alpha`. Defaults: `distribution: "beckmann"`,
+    /// `alpha: 0.1`.
+    RoughPlastic {
+        #[serde(default = "half")]
+        diffuse_reflectance: V3,
+        #[serde(default = "white")]
+        specular_reflectance: V3,
+        #[serde(default = "polypropylene")]
+        int_ior: Ior,
+        #[serde(default = "air")]
+        ext_ior: Ior,
+        #[serde(default)]
+        nonlinear: bool,
+        #[serde(default, deserialize_with = "distribution_name")]
+        distribution: Distribution,
+        #[serde(default = "default_alpha")]
+        alpha: f32,
+    },
+    /// The same material on both faces (Mitsuba's `twosided`). raylab's opaque materials are
+    /// two-sided already, so this is the material itself; a dielectric inside is an error.
+    TwoSided(Box<MaterialDesc>),
+}
+
+/// An index of refraction: a number, or a name from the table of dielectrics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ior(pub f32);
+
+impl<'de> Deserialize<'de> for Ior {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct IorVisitor;
+        impl Visitor<'_> for IorVisitor {
+            type Value = Ior;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an index of refraction: a number or a name such as \"bk7\"")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Ior, E> {
+                Ok(Ior(v as f32))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Ior, E> {
+                Ok(Ior(v as f32))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Ior, E> {
+                Ok(Ior(v as f32))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Ior, E> {
+                ior::dielectric(v).map(Ior).map_err(E::custom)
+            }
+        }
+        d.deserialize_any(IorVisitor)
+    }
+}
+
+/// A metal by name, resolved while parsing (so that an unknown name is an error at its
+/// place in the file): its complex IOR, or none for `"none"` (a perfect mirror).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Metal(pub Option<ComplexIor>);
+
+impl<'de> Deserialize<'de> for Metal {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        ior::metal(&name).map(Metal).map_err(de::Error::custom)
+    }
+}
+
+/// A microfacet distribution by name: `"ggx"` or `"beckmann"` (Mitsuba's names).
+fn distribution_name<'de, D: Deserializer<'de>>(d: D) -> Result<Distribution, D::Error> {
+    let name = String::deserialize(d)?;
+    match name.as_str() {
+        "ggx" | "GGX" => Ok(Distribution::Ggx),
+        "beckmann" | "Beckmann" => Ok(Distribution::Beckmann),
+        _ => Err(de::Error::custom(format!(
+            "unknown microfacet distribution {name:?}; known: \"ggx\", \"beckmann\""
+        ))),
+    }
+}
+
+fn bk7() -> Ior {
+    Ior(1.5046)
+}
+
+fn air() -> Ior {
+    Ior(1.000_277)
+}
+
+fn polypropylene() -> Ior {
+    Ior(1.49)
+}
+
+fn half() -> V3 {
+    [0.5; 3]
+}
+
+fn default_alpha() -> f32 {
+    0.1
 }
 
 fn default_subdivisions() -> u32 {

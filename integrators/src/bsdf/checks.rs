@@ -36,7 +36,7 @@ pub fn reflectance(what: &str, c: Rgb) -> Result<Rgb, String> {
 
 #[cfg(test)]
 mod tests {
-    use crate::bsdf::{Glass, Lambert, Mirror, OrenNayar, Phong};
+    use crate::bsdf::{Dielectric, Lambert, Mirror, OrenNayar, Phong};
     use crate::Rgb;
 
     #[test]
@@ -58,7 +58,10 @@ mod tests {
         assert!(Mirror::new(Rgb::splat(-0.1))
             .unwrap_err()
             .contains("negative"));
-        assert!(Glass::new(1.5, Rgb::ONE).is_ok() && Glass::new(0.9, Rgb::ONE).is_err());
-        assert!(Glass::new(f32::INFINITY, Rgb::ONE).is_err());
+        assert!(
+            Dielectric::new(1.5, Rgb::ONE, Rgb::ONE).is_ok()
+                && Dielectric::new(0.1, Rgb::ONE, Rgb::ONE).is_err()
+        );
+        assert!(Dielectric::new(f32::INFINITY, Rgb::ONE, Rgb::ONE).is_err());
     }
 }

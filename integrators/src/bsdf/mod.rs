@@ -3,20 +3,39 @@
 //! All functions work in the local shading frame (`z` = shading normal); see the crate docs for
 //! the direction conventions. Opaque materials are two-sided: [`Material`] mirrors both
 //! directions into the upper hemisphere before calling them, so each model only sees
-//! `wo.z >= 0`. Glass sees the true side: `wo.z > 0` means the ray arrives from outside.
+//! `wo.z >= 0`. Dielectric sees the true side: `wo.z > 0` means the ray arrives from outside.
 
 pub mod checks;
-mod glass;
+mod conductor;
+mod dielectric;
+pub mod fresnel;
+pub mod ior;
 mod lambert;
+pub mod microfacet;
 mod mirror;
 mod oren_nayar;
 mod phong;
+mod plastic;
+mod rough_conductor;
+mod rough_dielectric;
+mod rough_plastic;
+mod thin_dielectric;
+#[cfg(test)]
+mod verification;
 
-pub use glass::{fresnel_dielectric, Glass};
+pub use conductor::{ComplexIor, Conductor};
+pub use dielectric::{relative_ior, Dielectric};
+pub use fresnel::fresnel_dielectric;
 pub use lambert::Lambert;
+pub use microfacet::{Distribution, Microfacet};
 pub use mirror::Mirror;
 pub use oren_nayar::OrenNayar;
 pub use phong::Phong;
+pub use plastic::Plastic;
+pub use rough_conductor::RoughConductor;
+pub use rough_dielectric::RoughDielectric;
+pub use rough_plastic::RoughPlastic;
+pub use thin_dielectric::ThinDielectric;
 
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
@@ -98,7 +117,13 @@ pub enum Material {
     OrenNayar(OrenNayar),
     Phong(Phong),
     Mirror(Mirror),
-    Glass(Glass),
+    Dielectric(Dielectric),
+    ThinDielectric(ThinDielectric),
+    RoughDielectric(RoughDielectric),
+    Conductor(Conductor),
+    RoughConductor(RoughConductor),
+    Plastic(Plastic),
+    RoughPlastic(RoughPlastic),
 }
 
 macro_rules! dispatch {
@@ -108,7 +133,13 @@ macro_rules! dispatch {
             Material::OrenNayar($m) => $e,
             Material::Phong($m) => $e,
             Material::Mirror($m) => $e,
-            Material::Glass($m) => $e,
+            Material::Dielectric($m) => $e,
+            Material::ThinDielectric($m) => $e,
+            Material::RoughDielectric($m) => $e,
+            Material::Conductor($m) => $e,
+            Material::RoughConductor($m) => $e,
+            Material::Plastic($m) => $e,
+            Material::RoughPlastic($m) => $e,
         }
     };
 }
@@ -124,23 +155,53 @@ fn mirror_z(v: Vec3A, flip: bool) -> Vec3A {
 }
 
 impl Material {
-    /// True for the transmissive models, which see both sides of the surface.
+    /// True for the opaque models, which are two-sided: they see both sides of the surface
+    /// alike.
     #[inline]
     fn two_sided_opaque(&self) -> bool {
-        !matches!(self, Material::Glass(_))
+        !self.is_transmissive()
     }
 
-    /// True for materials that let light through (glass): only they may send a path to the
-    /// other side of the surface.
+    /// True for materials that let light through (the dielectrics): only they may send a path
+    /// to the other side of the surface, and they see which side a ray arrives from.
     #[inline]
     pub fn is_transmissive(&self) -> bool {
-        matches!(self, Material::Glass(_))
+        matches!(
+            self,
+            Material::Dielectric(_) | Material::ThinDielectric(_) | Material::RoughDielectric(_)
+        )
     }
 
     /// True when every lobe is a Dirac delta (no direct lighting possible).
     #[inline]
     pub fn is_specular(&self) -> bool {
-        matches!(self, Material::Mirror(_) | Material::Glass(_))
+        matches!(
+            self,
+            Material::Mirror(_)
+                | Material::Dielectric(_)
+                | Material::ThinDielectric(_)
+                | Material::Conductor(_)
+        )
+    }
+
+    /// True when some lobe is a Dirac delta: the specular materials, and smooth plastic's
+    /// coating over its diffuse base. Whitted-style tracers follow these lobes recursively.
+    #[inline]
+    pub fn has_delta_lobe(&self) -> bool {
+        self.is_specular() || matches!(self, Material::Plastic(_))
+    }
+
+    /// Probability that [`Material::sample`] at `wo` picks a Dirac lobe, and does so exactly
+    /// when its `u_lobe` is below it: 1 for the specular materials, the coating's share for
+    /// smooth plastic, 0 for the rest. Photon gathers use it to split a mixed surface into its
+    /// delta lobes (followed) and the rest (gathered).
+    #[inline]
+    pub fn delta_probability(&self, wo: Vec3A) -> f32 {
+        match self {
+            Material::Plastic(p) => p.coating_probability(wo.z.abs()),
+            m if m.is_specular() => 1.0,
+            _ => 0.0,
+        }
     }
 
     /// `f(wo, wi)` in the local frame, without the cosine.
@@ -190,13 +251,8 @@ impl Material {
     /// `eta^2` times the radiance weight.
     #[inline]
     pub fn sample_weight(&self, wo: Vec3A, s: &BsdfSample, mode: TransportMode) -> Rgb {
-        match (self, mode) {
-            (Material::Glass(g), TransportMode::Importance)
-                if s.specular && wo.z * s.wi.z < 0.0 =>
-            {
-                let eta = if wo.z > 0.0 { g.ior } else { 1.0 / g.ior };
-                s.weight() * (eta * eta)
-            }
+        match mode {
+            TransportMode::Importance if wo.z * s.wi.z < 0.0 => s.weight() * (s.eta * s.eta),
             _ => s.weight(),
         }
     }
@@ -261,10 +317,7 @@ mod tests {
 
     #[test]
     fn glass_sees_the_true_side() {
-        let m = Material::Glass(Glass {
-            ior: 1.5,
-            tint: Rgb::ONE,
-        });
+        let m = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
         assert!(m.is_specular());
         // From inside past the critical angle: total internal reflection, staying inside.
         let b = m
@@ -280,10 +333,7 @@ mod tests {
     fn photons_through_glass_keep_their_power() {
         // Lossless glass conserves power: the mean importance weight over both lobes is 1 from
         // either side, while radiance weights carry 1/eta^2 on refraction.
-        let glass = Material::Glass(Glass {
-            ior: 1.5,
-            tint: Rgb::ONE,
-        });
+        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
         let mut s = Sampler::new(77, 0, 0);
         for wo in [dir(30.0, 20.0), dir(150.0, 20.0)] {
             let n = 200_000;

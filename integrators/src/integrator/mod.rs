@@ -412,8 +412,20 @@ pub fn continue_path(
     beta: &mut Rgb,
     sampler: &mut Sampler,
 ) -> Option<(Ray, crate::BsdfSample)> {
+    let u_lobe = sampler.next_1d();
+    continue_path_with_lobe(sp, u_lobe, beta, sampler)
+}
+
+/// [`continue_path`] with the number that picks the lobe given.
+#[inline]
+pub fn continue_path_with_lobe(
+    sp: &ShadingPoint,
+    u_lobe: f32,
+    beta: &mut Rgb,
+    sampler: &mut Sampler,
+) -> Option<(Ray, crate::BsdfSample)> {
     let s = sp.sample(
-        sampler.next_1d(),
+        u_lobe,
         sampler.next_2d(),
         crate::bsdf::TransportMode::Radiance,
     )?;
@@ -441,16 +453,13 @@ mod analytic_tests;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::{Glass, Mirror};
+    use crate::bsdf::{Dielectric, Mirror};
     use crate::Material;
     use glam::Vec3A;
 
     #[test]
     fn specular_lobes_of_glass_split_energy_by_fresnel() {
-        let glass = Material::Glass(Glass {
-            ior: 1.5,
-            tint: Rgb::ONE,
-        });
+        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
         let [r, t] = specular_lobes(&glass, Vec3A::Z);
         let (r, t) = (r.unwrap(), t.unwrap());
         assert!(

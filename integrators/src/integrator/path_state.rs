@@ -3,7 +3,7 @@
 //! differs between them, how it counts the emitters it meets.
 
 use crate::integrator::{
-    continue_path, mis_weight_for_hit, russian_roulette, ShadingPoint, Tracer,
+    continue_path_with_lobe, mis_weight_for_hit, russian_roulette, ShadingPoint, Tracer,
 };
 use crate::{Hit, Ray, Rgb, Sampler};
 use glam::Vec3A;
@@ -80,7 +80,20 @@ impl PathState {
     /// on, plays Russian roulette. `false` ends the walk.
     #[inline]
     pub fn scatter(&mut self, sp: &ShadingPoint, rr_depth: u32, sampler: &mut Sampler) -> bool {
-        let Some((next, bs)) = continue_path(sp, &mut self.beta, sampler) else {
+        let u_lobe = sampler.next_1d();
+        self.scatter_with_lobe(sp, u_lobe, rr_depth, sampler)
+    }
+
+    /// [`PathState::scatter`] with the number that picks the lobe given.
+    #[inline]
+    pub fn scatter_with_lobe(
+        &mut self,
+        sp: &ShadingPoint,
+        u_lobe: f32,
+        rr_depth: u32,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let Some((next, bs)) = continue_path_with_lobe(sp, u_lobe, &mut self.beta, sampler) else {
             return false;
         };
         self.eta_scale *= bs.eta * bs.eta;

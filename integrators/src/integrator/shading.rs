@@ -129,7 +129,7 @@ impl<'a> ShadingPoint<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::{Glass, Lambert};
+    use crate::bsdf::{Dielectric, Lambert};
     use crate::testing::furnace_sphere;
 
     fn hit(ns: Vec3A) -> Hit {
@@ -146,10 +146,7 @@ mod tests {
     #[test]
     fn refraction_reports_its_eta_and_importance_keeps_the_power_radiance_loses() {
         let scene = furnace_sphere(0.5, 1.0);
-        let glass = Material::Glass(Glass {
-            ior: 1.5,
-            tint: Rgb::ONE,
-        });
+        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
         let dir = Vec3A::new(0.3, 0.0, -1.0).normalize();
         let mut sp = ShadingPoint::new(&hit(Vec3A::Z), dir, &scene);
         sp.material = &glass;

@@ -4,7 +4,11 @@
 //! reflections and glass refractions, plus direct illumination at the first non-specular
 //! surface: `L = Le + sum over lights of f * Li * cos` with one shadow-ray sample per light
 //! (area lights are sampled, so shadows are soft and converge with spp). At glass both the
-//! reflected and the refracted ray are traced, weighted by Fresnel.
+//! reflected and the refracted ray are traced, weighted by Fresnel; every Dirac lobe is
+//! followed (a plastic's smooth coating too, beside the direct light on its base).
+//! Glossy materials (rough metal, rough glass and plastic, Phong) are lit directly, as the
+//! report lit Phong: their highlights of light sources appear, their reflections of other
+//! surfaces do not.
 //!
 //! **Parameters**: `max-depth` (default 5): scattering events allowed on a path (see the
 //! depth convention in the crate docs), specular ones included.
@@ -57,8 +61,9 @@ impl Whitted {
         let material = tracer.scene.material(hit.material);
         let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
 
-        if material.is_specular() {
-            // Specular recursion: follow every lobe (mirror; glass reflection and refraction).
+        if material.has_delta_lobe() {
+            // Specular recursion: follow every delta lobe (mirror; glass reflection and
+            // refraction; a plastic's coating).
             for (wi, weight) in specular_lobes(material, sp.wo).into_iter().flatten() {
                 let next = hit.spawn_ray(sp.frame.to_world(wi));
                 l += weight
@@ -67,7 +72,9 @@ impl Whitted {
                         None => escaped(tracer.scene, &next),
                     };
             }
-            return l;
+            if material.is_specular() {
+                return l;
+            }
         }
 
         // Direct light: one shadow ray to every light.

@@ -374,10 +374,12 @@ pub fn inside_a_mirror() -> TestScene {
 /// checks Fresnel, refraction, total internal reflection and the 1/eta^2 radiance scaling.
 pub fn furnace_with_glass(a: f32, le: f32) -> TestScene {
     let mut scene = furnace_sphere(a, le);
-    scene.materials.push(Material::Glass(crate::bsdf::Glass {
-        ior: 1.5,
-        tint: Rgb::ONE,
-    }));
+    scene
+        .materials
+        .push(Material::Dielectric(crate::bsdf::Dielectric::unchecked(
+            1.5,
+            Rgb::ONE,
+        )));
     scene.surfaces.push(Surface::Sphere {
         center: Vec3A::ZERO,
         radius: 0.3,

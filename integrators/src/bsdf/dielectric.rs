@@ -1,74 +1,89 @@
-//! Smooth dielectric (glass, water): Fresnel-weighted specular reflection and refraction.
+//! Smooth dielectric (glass, water): Fresnel-weighted specular reflection and refraction
+//! (Mitsuba 3's `dielectric`; RON `Dielectric`, or `Glass`).
 //!
 //! Parameters and units:
-//! * `ior`: index of refraction of the inside relative to the outside, unitless (> 0; 1.5 for
-//!   glass in air). The outside is the side the normal faces (`z > 0` in the local frame).
-//! * `tint`: per-channel multiplier of both lobes, unitless, in `[0, 1]`.
+//! * `ior`: index of refraction of the inside relative to the outside, unitless (`int_ior /
+//!   ext_ior`; 1.5 for glass in air, below 1 for a bubble). The outside is the side the normal
+//!   faces (`z > 0` in the local frame).
+//! * `reflectance`, `transmittance`: per-channel multipliers of the two lobes, unitless, in
+//!   `[0, 1]` (Mitsuba's `specular_reflectance` and `specular_transmittance`; the RON `Glass`
+//!   sets both to its `tint`). They scale the lobes' weights, not the choice between them.
 //!
 //! Both lobes are Dirac deltas. [`Bxdf::sample`] picks reflection with probability `F` (the
 //! exact unpolarised Fresnel reflectance, [`fresnel_dielectric`]) and refraction otherwise, so
-//! the throughput weight `f |cos(wi)| / pdf` is `tint` for reflection and `tint / eta^2` for
-//! refraction, `eta` being the relative IOR (transmitted side over the side of `wo`). The
-//! `1 / eta^2` is the compression of solid angle on refraction: radiance carried along camera
-//! paths is scaled by it (pbrt-v4's `TransportMode::Radiance`).
+//! the throughput weight `f |cos(wi)| / pdf` is `reflectance` for reflection and
+//! `transmittance / eta^2` for refraction, `eta` being the relative IOR (transmitted side over
+//! the side of `wo`). The `1 / eta^2` is the compression of solid angle on refraction: radiance
+//! carried along camera paths is scaled by it (pbrt-v4's `TransportMode::Radiance`).
 //!
-//! Unlike the opaque models, glass sees the true side of the surface: `wo.z > 0` means the
-//! ray arrives from outside, `wo.z < 0` from inside.
+//! Unlike the opaque models, a dielectric sees the true side of the surface: `wo.z > 0` means
+//! the ray arrives from outside, `wo.z < 0` from inside.
 
+use super::fresnel::fresnel_dielectric;
 use super::{BsdfSample, Bxdf};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 
 /// A smooth dielectric interface (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Glass {
+pub struct Dielectric {
     /// Index of refraction inside relative to outside (outside = the side the normal faces).
     pub ior: f32,
-    /// Per-channel multiplier of reflection and transmission, unitless.
-    pub tint: Rgb,
+    /// Per-channel multiplier of reflection, unitless.
+    pub reflectance: Rgb,
+    /// Per-channel multiplier of transmission, unitless.
+    pub transmittance: Rgb,
 }
 
-/// Unpolarised Fresnel reflectance of a dielectric interface. `cos_i` is the cosine of the
-/// incident angle measured against the normal on the incident side's convention (positive:
-/// arriving from outside); `eta` = inside IOR / outside IOR. Returns 1 on total internal
-/// reflection.
-///
-/// This is the exact average of the parallel and perpendicular reflectances (pbrt-v4's
-/// `FrDielectric`); for `cos_i < 0` the roles of the two media are swapped.
-pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let mut cos_i = cos_i.clamp(-1.0, 1.0);
-    let mut eta = eta;
-    if cos_i < 0.0 {
-        eta = 1.0 / eta;
-        cos_i = -cos_i;
+/// Range of relative IORs a dielectric may have: every material of the field's tables lies
+/// well inside it (diamond in air is 2.42, air in diamond 0.41).
+pub const IOR_RANGE: std::ops::RangeInclusive<f32> = 0.25..=4.0;
+
+/// The relative IOR `int_ior / ext_ior`, both finite and positive and their ratio in
+/// [`IOR_RANGE`].
+pub fn relative_ior(int_ior: f32, ext_ior: f32) -> Result<f32, String> {
+    super::checks::finite("ior", &[int_ior, ext_ior])?;
+    if !(int_ior > 0.0 && ext_ior > 0.0) {
+        return Err(format!(
+            "int_ior and ext_ior must be positive, got {int_ior} and {ext_ior}"
+        ));
     }
-    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
-    let sin2_t = sin2_i / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
+    let ior = int_ior / ext_ior;
+    if !IOR_RANGE.contains(&ior) {
+        return Err(format!(
+            "the relative ior int_ior / ext_ior must be in [0.25, 4], got {ior}"
+        ));
     }
-    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)
+    Ok(ior)
 }
 
-impl Glass {
-    /// Glass of index of refraction `ior` (in `[1, 4]`) relative to the outside, tinted by
-    /// `tint` (each channel in `[0, 1]`).
-    pub fn new(ior: f32, tint: Rgb) -> Result<Glass, String> {
+impl Dielectric {
+    /// A dielectric of relative index of refraction `ior` (in [`IOR_RANGE`]) whose lobes are
+    /// scaled by `reflectance` and `transmittance` (each channel in `[0, 1]`).
+    pub fn new(ior: f32, reflectance: Rgb, transmittance: Rgb) -> Result<Dielectric, String> {
         super::checks::finite("ior", &[ior])?;
-        if !(1.0..=4.0).contains(&ior) {
-            return Err(format!("ior must be in [1, 4], got {ior}"));
+        if !IOR_RANGE.contains(&ior) {
+            return Err(format!("ior must be in [0.25, 4], got {ior}"));
         }
-        Ok(Glass {
+        Ok(Dielectric {
             ior,
-            tint: super::checks::reflectance("tint", tint)?,
+            reflectance: super::checks::reflectance("specular_reflectance", reflectance)?,
+            transmittance: super::checks::reflectance("specular_transmittance", transmittance)?,
         })
     }
+
+    /// Glass of relative IOR `ior` with both lobes tinted by `tint`, unchecked: for tests and
+    /// the built-in scenes.
+    pub const fn unchecked(ior: f32, tint: Rgb) -> Dielectric {
+        Dielectric {
+            ior,
+            reflectance: tint,
+            transmittance: tint,
+        }
+    }
 }
 
-impl Bxdf for Glass {
+impl Bxdf for Dielectric {
     fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
         Rgb::ZERO
     }
@@ -86,7 +101,7 @@ impl Bxdf for Glass {
             let wi = Vec3A::new(-wo.x, -wo.y, wo.z);
             return Some(BsdfSample {
                 wi,
-                f: self.tint * (fresnel / wi.z.abs()),
+                f: self.reflectance * (fresnel / wi.z.abs()),
                 pdf: fresnel,
                 specular: true,
                 eta: 1.0,
@@ -115,7 +130,7 @@ impl Bxdf for Glass {
         }
         Some(BsdfSample {
             wi,
-            f: self.tint * (transmit / (cos_t * eta * eta)),
+            f: self.transmittance * (transmit / (cos_t * eta * eta)),
             pdf: transmit,
             specular: true,
             eta,
@@ -123,7 +138,7 @@ impl Bxdf for Glass {
     }
 
     fn albedo(&self) -> Rgb {
-        self.tint
+        self.reflectance
     }
 }
 
@@ -133,10 +148,7 @@ mod tests {
     use crate::testing::chi2::dir;
     use crate::Sampler;
 
-    const GLASS: Glass = Glass {
-        ior: 1.5,
-        tint: Rgb::new(1.0, 0.9, 0.8),
-    };
+    const GLASS: Dielectric = Dielectric::unchecked(1.5, Rgb::new(1.0, 0.9, 0.8));
 
     #[test]
     fn normal_incidence_reflectance_is_four_percent() {
@@ -192,7 +204,7 @@ mod tests {
             for u in [0.0, 0.5, 0.999_999_9] {
                 let b = GLASS.sample(wo, u, Vec2::ZERO).expect("reflects");
                 assert!(b.specular && b.pdf == 1.0 && b.wi.z < 0.0);
-                assert!((b.weight() - GLASS.tint).abs().max_element() < 1e-5);
+                assert!((b.weight() - GLASS.reflectance).abs().max_element() < 1e-5);
             }
         }
         // Just inside the critical angle some light still leaves.
@@ -222,7 +234,7 @@ mod tests {
                 assert!(wo.truncate().normalize().dot(b.wi.truncate().normalize()) < -0.9999);
             }
             assert!(
-                (b.weight() - GLASS.tint / 2.25).abs().max_element() < 1e-5,
+                (b.weight() - GLASS.reflectance / 2.25).abs().max_element() < 1e-5,
                 "{}",
                 b.weight()
             );
@@ -231,14 +243,17 @@ mod tests {
             let back = GLASS.sample(b.wi, 0.999, Vec2::ZERO).expect("refracts out");
             assert!((back.wi - wo).length() < 1e-4, "{:?} vs {wo:?}", back.wi);
             assert!(
-                (back.weight() - GLASS.tint * 2.25).abs().max_element() < 1e-4,
+                (back.weight() - GLASS.reflectance * 2.25)
+                    .abs()
+                    .max_element()
+                    < 1e-4,
                 "{}",
                 back.weight()
             );
             // Reflection: mirror direction, weight tint.
             let r = GLASS.sample(wo, 0.0, Vec2::ZERO).expect("reflects");
             assert!((r.wi - Vec3A::new(-wo.x, -wo.y, wo.z)).length() < 1e-6 && r.pdf == f);
-            assert!((r.weight() - GLASS.tint).abs().max_element() < 1e-5);
+            assert!((r.weight() - GLASS.reflectance).abs().max_element() < 1e-5);
         }
         assert!(
             GLASS.sample(Vec3A::X, 0.5, Vec2::ZERO).is_none(),
