@@ -90,6 +90,14 @@ fn report_room_path_russian_roulette_and_fixed_depth_agree() {
     agreement("scenes/report_room.ron", "4");
 }
 
+/// Every material of the field (rough metals, rough glass, plastics, a thin pane): MIS
+/// with the glossy lobes' densities (`path`), plain BSDF sampling (`russian-roulette`) and
+/// direct light plus branching (`fixed-depth`) agree.
+#[test]
+fn every_material_path_russian_roulette_and_fixed_depth_agree() {
+    agreement("scenes/materials.ron", "4");
+}
+
 #[test]
 fn unlimited_depth_path_and_russian_roulette_agree() {
     let path = render_mean(
