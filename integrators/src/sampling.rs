@@ -195,3 +195,87 @@ mod tests {
         assert!((power_heuristic(2.0, 1.0) - 0.8).abs() < 1e-6);
     }
 }
+
+/// A piecewise-constant distribution over `n` equal cells of `[0, n)`, proportional to
+/// non-negative weights (uniform when they are all zero): the rows and columns of an
+/// environment map's sampling distribution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution1D {
+    /// Normalised running sums, `cdf[0] = 0`, `cdf[n] = 1`.
+    cdf: Vec<f32>,
+    /// Weight of each cell over their sum.
+    pmf: Vec<f32>,
+    /// Sum of the weights (0 when they were all zero and the distribution is uniform).
+    pub total: f64,
+}
+
+impl Distribution1D {
+    /// The distribution of `weights` (NaN or negative weights count as 0).
+    pub fn new(weights: &[f32]) -> Distribution1D {
+        let n = weights.len().max(1);
+        let clean = |w: f32| {
+            if w > 0.0 && w.is_finite() {
+                w as f64
+            } else {
+                0.0
+            }
+        };
+        let total: f64 = weights.iter().map(|&w| clean(w)).sum();
+        let pmf: Vec<f32> = if total > 0.0 {
+            weights.iter().map(|&w| (clean(w) / total) as f32).collect()
+        } else {
+            vec![1.0 / n as f32; n]
+        };
+        let mut cdf = Vec::with_capacity(n + 1);
+        let mut sum = 0.0f64;
+        cdf.push(0.0);
+        for &w in weights.iter().take(n) {
+            sum += if total > 0.0 {
+                clean(w) / total
+            } else {
+                1.0 / n as f64
+            };
+            cdf.push(sum as f32);
+        }
+        if weights.is_empty() {
+            cdf.push(1.0);
+        }
+        // Pin the end (and everything after the last non-empty cell) to exactly 1.
+        let last = pmf.iter().rposition(|&p| p > 0.0).unwrap_or(n - 1);
+        for c in &mut cdf[last + 1..] {
+            *c = 1.0;
+        }
+        Distribution1D { cdf, pmf, total }
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    /// True for a distribution of no cells (never: an empty one has one uniform cell).
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// A point of `[0, n)` for `u` in `[0, 1)`, its cell, and its density (per unit of `x`).
+    /// Never lands in a cell of zero weight.
+    #[inline]
+    pub fn sample(&self, u: f32) -> (f32, usize, f32) {
+        let u = u.clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        let i = (self.cdf.partition_point(|&c| c <= u) - 1).min(self.pmf.len() - 1);
+        let p = self.pmf[i];
+        let within = if p > 0.0 {
+            ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+        } else {
+            0.5
+        };
+        (i as f32 + within, i, p)
+    }
+
+    /// Probability of cell `i` (its density per unit of `x`, cells being one unit wide).
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf.get(i).copied().unwrap_or(0.0)
+    }
+}

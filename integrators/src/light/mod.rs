@@ -26,16 +26,22 @@
 //! uniform direction, and the environment from a uniform point of the disk of the scene's
 //! radius facing a uniform direction, outside the scene's bounding sphere.
 
+pub mod directional;
+pub mod env_map;
 pub mod environment;
 pub mod planar;
 pub mod point;
 pub mod sphere;
+pub mod spot;
 pub mod table;
 
+pub use directional::DirectionalLight;
+pub use env_map::{EnvMap, EnvMapLight};
 pub use environment::EnvironmentLight;
 pub use planar::{Planar, PlanarShape};
 pub use point::PointLight;
 pub use sphere::SphereLight;
+pub use spot::SpotLight;
 pub use table::LightTable;
 
 use crate::{Frame, Rgb};
@@ -53,6 +59,12 @@ pub enum Light {
     Point(PointLight),
     /// Constant radiance arriving from every direction not blocked by geometry.
     Environment(EnvironmentLight),
+    /// Radiance from a latitude-longitude image, arriving from every direction not blocked.
+    EnvMap(EnvMapLight),
+    /// Parallel light from infinitely far away (a sun).
+    Directional(DirectionalLight),
+    /// A point light whose intensity falls off away from its axis.
+    Spot(SpotLight),
 }
 
 /// Incident radiance sampled from one light at a reference point.
@@ -149,6 +161,9 @@ macro_rules! dispatch {
             Light::Sphere($l) => $e,
             Light::Point($l) => $e,
             Light::Environment($l) => $e,
+            Light::EnvMap($l) => $e,
+            Light::Directional($l) => $e,
+            Light::Spot($l) => $e,
         }
     };
 }
@@ -202,9 +217,17 @@ impl Light {
         Light::Environment(EnvironmentLight { radiance })
     }
 
-    /// True for lights that rays cannot hit (point lights).
+    /// True for lights that rays cannot hit (point, spot and directional lights).
     pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point(_))
+        matches!(
+            self,
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_)
+        )
+    }
+
+    /// True for the lights at infinity that escaping rays see (constant or mapped).
+    pub fn is_environment(&self) -> bool {
+        matches!(self, Light::Environment(_) | Light::EnvMap(_))
     }
 
     /// Samples a direction towards the light from `p`. `None` when the sample carries no
@@ -252,6 +275,9 @@ impl Light {
             Light::Sphere(l) => l.sample_le(u_pos, u_dir),
             Light::Point(l) => l.sample_le(u_dir),
             Light::Environment(l) => l.sample_le(u_pos, u_dir, scene_center, scene_radius),
+            Light::EnvMap(l) => l.sample_le(u_pos, u_dir, scene_center, scene_radius),
+            Light::Directional(l) => l.sample_le(u_pos, scene_center, scene_radius),
+            Light::Spot(l) => l.sample_le(u_dir),
         };
         (s.weight.is_finite() && s.weight != Rgb::ZERO).then_some(s)
     }
@@ -267,6 +293,9 @@ impl Light {
             Light::Sphere(l) => l.pdf_le(n, w),
             Light::Point(l) => l.pdf_le(),
             Light::Environment(l) => l.pdf_le(scene_radius),
+            Light::EnvMap(l) => l.pdf_le(w, scene_radius),
+            Light::Directional(l) => l.pdf_le(scene_radius),
+            Light::Spot(l) => l.pdf_le(w),
         }
     }
 
@@ -275,6 +304,9 @@ impl Light {
     pub fn power(&self, scene_radius: f32) -> f64 {
         let power = match self {
             Light::Environment(l) => l.power(scene_radius),
+            Light::EnvMap(l) => l.power(scene_radius),
+            Light::Directional(l) => l.power(scene_radius),
+            Light::Spot(l) => l.power(),
             Light::Planar(l) => l.power(),
             Light::Sphere(l) => l.power(),
             Light::Point(l) => l.power(),

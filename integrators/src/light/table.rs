@@ -50,7 +50,7 @@ impl LightTable {
         }
         let environment = lights
             .iter()
-            .position(|l| matches!(l, Light::Environment(_)))
+            .position(Light::is_environment)
             .and_then(|i| u32::try_from(i).ok());
         LightTable {
             lights,

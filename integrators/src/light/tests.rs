@@ -59,8 +59,8 @@ fn hit_light(light: &Light, p: Vec3A, w: Vec3A) -> Option<(Vec3A, Vec3A)> {
                 (f(q), f((q - d(center)).normalize()))
             })
         }
-        Light::Environment(_) => Some((p + f(w), -f(w))),
-        Light::Point(_) => None,
+        Light::Environment(_) | Light::EnvMap(_) => Some((p + f(w), -f(w))),
+        Light::Point(_) | Light::Spot(_) | Light::Directional(_) => None,
     }
 }
 
@@ -563,7 +563,7 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
             }
             assert!(close(dir, le.pdf_dir), "{light:?}: {dir} vs {}", le.pdf_dir);
             let cos = match light {
-                Light::Point(_) => 1.0,
+                Light::Point(_) | Light::Spot(_) => 1.0,
                 _ => le.normal.dot(le.ray.dir),
             };
             assert!(cos > 0.0, "{light:?}: the ray leaves the emitting side");
@@ -583,7 +583,8 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
                     assert!(((le.ray.origin - sph.center).length() - sph.radius).abs() < 1e-3)
                 }
                 Light::Point(pt) => assert_eq!(le.ray.origin, pt.position),
-                Light::Environment(_) => {
+                Light::Spot(sp) => assert_eq!(le.ray.origin, sp.position),
+                Light::Environment(_) | Light::EnvMap(_) | Light::Directional(_) => {
                     assert!((le.ray.origin - center).length() >= radius * 0.999)
                 }
             }
