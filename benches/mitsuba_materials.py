@@ -56,7 +56,6 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 MAX_DEPTH = 7  # raylab's scattering events; Mitsuba's max_depth is one more
 RR_DEPTH = 5  # the same in both (see benches/mitsuba_cornell.py)
-SEEDS = (1, 2)
 
 # The scene, apart from the ball's material. Quads list their corners in order; the front of
 # a one-sided emitter is where they run counter-clockwise (right-handed normal).
@@ -383,6 +382,7 @@ def main():
     ap.add_argument("--spp", type=int, default=1024, help="samples per pixel, both renderers (default 1024)")
     ap.add_argument("--res", default="128", help="image size: N or WxH (default 128)")
     ap.add_argument("--only", help="materials to run: names or parts of names, comma-separated")
+    ap.add_argument("--seeds", default="1,2", help="the two seeds each renderer runs with (default 1,2)")
     ap.add_argument("--raylab", default="target/release/raylab", help="raylab binary")
     ap.add_argument("--out", default="out/mitsuba-materials", help="folder for the scenes, EXRs and PNGs")
     args = ap.parse_args()
@@ -391,6 +391,9 @@ def main():
 
     mi.set_variant("scalar_rgb")
     mi.set_log_level(mi.LogLevel.Warn)
+    seeds = tuple(int(x) for x in args.seeds.split(","))
+    if len(seeds) != 2 or seeds[0] == seeds[1]:
+        sys.exit("--seeds: two different seeds, A,B")
     w, _, h = args.res.partition("x")
     res = (int(w), int(h or w))
     exe = pathlib.Path(args.raylab)
@@ -417,12 +420,12 @@ def main():
         scene_path = out / f"{slug}.ron"
         scene_path.write_text(ron_scene(material, res, mesh))
         t = time.time()
-        r = [raylab_render(exe, scene_path, out / f"{slug}-raylab-{s}.exr", args.spp, s) for s in SEEDS]
+        r = [raylab_render(exe, scene_path, out / f"{slug}-raylab-{s}.exr", args.spp, s) for s in seeds]
         times["raylab"] += time.time() - t
         t = time.time()
         scene = mitsuba_scene(material, res, args.spp, obj_uv if mesh else None)
         m = []
-        for s in SEEDS:
+        for s in seeds:
             img = mi.render(scene, spp=args.spp, seed=s)
             mi.Bitmap(img).write(str(out / f"{slug}-mitsuba-{s}.exr"))
             m.append(np.array(img, dtype=np.float64))
@@ -441,7 +444,7 @@ def main():
         print(f"{name}: ratio {c['ratio']:.4f}, excess {c['excess']:.3f}, z {c['z']:+.2f}"
               f"  ({time.time() - start:.0f} s)", file=sys.stderr, flush=True)
 
-    print(f"\n{res[0]}x{res[1]}, {args.spp} spp, seeds {SEEDS[0]} and {SEEDS[1]} in each renderer; raylab max-depth"
+    print(f"\n{res[0]}x{res[1]}, {args.spp} spp, seeds {seeds[0]} and {seeds[1]} in each renderer; raylab max-depth"
           f" {MAX_DEPTH} rr-depth {RR_DEPTH}, Mitsuba scalar_rgb max_depth {MAX_DEPTH + 1} rr_depth {RR_DEPTH}; box filter\n")
     print("| material | raylab mean | Mitsuba mean | ratio | relMSE raylab vs Mitsuba | relMSE raylab vs raylab"
           " | relMSE Mitsuba vs Mitsuba | excess | z | verdict |")

@@ -30,15 +30,19 @@ impl Default for Transform {
 impl Transform {
     /// The local-to-world matrix.
     pub fn matrix(&self) -> Affine3A {
+        Affine3A::from_scale_rotation_translation(self.scale, self.rotation(), self.translate)
+    }
+
+    /// The rotation alone.
+    pub fn rotation(&self) -> Quat {
         let r = self.rotate_degrees;
         // Extrinsic x, then y, then z  ==  R = Rz * Ry * Rx.
-        let rotation = Quat::from_euler(
+        Quat::from_euler(
             EulerRot::ZYX,
             r.z.to_radians(),
             r.y.to_radians(),
             r.x.to_radians(),
-        );
-        Affine3A::from_scale_rotation_translation(self.scale, rotation, self.translate)
+        )
     }
 }
 
@@ -98,12 +102,31 @@ pub struct Instanced {
 pub struct MaterialRef(pub u32);
 
 /// Light emission of an entity.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Emitter {
     /// Emits `radiance` from the front of the shape (both sides if `two_sided`).
     Area { radiance: Rgb, two_sided: bool },
     /// Isotropic point light at the entity's translation.
     Point { intensity: Rgb },
+    /// A spot light at the entity's translation, pointing at `look_at` or along its rotated
+    /// `+z`; angles in degrees.
+    Spot {
+        intensity: Rgb,
+        look_at: Option<Vec3A>,
+        cutoff_angle: f32,
+        beam_width: f32,
+    },
+    /// Parallel light travelling along `direction` (before the entity's rotation).
+    Directional { direction: Vec3A, irradiance: Rgb },
+    /// An environment map, already turned into the world by the entity's rotation.
+    Environment(Arc<raylab_integrators::light::EnvMap>),
+}
+
+impl Emitter {
+    /// True for the emitters that have no shape: everything but area lights.
+    pub fn is_shapeless(&self) -> bool {
+        !matches!(self, Emitter::Area { .. })
+    }
 }
 
 /// World-space geometry, produced from `Shape` and `Transform` by the bake system.

@@ -13,6 +13,7 @@ use raylab_integrators::bsdf::{
     Mirror, OrenNayar, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
     ThinDielectric,
 };
+use raylab_integrators::light::EnvMap;
 use raylab_integrators::Camera;
 use raylab_integrators::{registry, Material, Rgb};
 use ron::extensions::Extensions;
@@ -197,6 +198,53 @@ pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
                 );
             }
             m
+        }
+    })
+}
+
+/// Turns an emitter description into the component; an environment map's image is read
+/// here, and turned into the world by the entity's rotation.
+fn emitter_from_desc(
+    desc: EmitterDesc,
+    transform: &Transform,
+    files: &SceneFiles,
+) -> Result<Emitter, String> {
+    Ok(match desc {
+        EmitterDesc::Area {
+            radiance,
+            two_sided,
+        } => Emitter::Area {
+            radiance: v3(radiance),
+            two_sided,
+        },
+        EmitterDesc::Point { intensity } => Emitter::Point {
+            intensity: v3(intensity),
+        },
+        EmitterDesc::Spot {
+            intensity,
+            look_at,
+            cutoff_angle,
+            beam_width,
+        } => Emitter::Spot {
+            intensity: v3(intensity),
+            look_at: look_at.map(v3),
+            cutoff_angle,
+            beam_width: beam_width.unwrap_or(0.75 * cutoff_angle),
+        },
+        EmitterDesc::Directional {
+            direction,
+            irradiance,
+        } => Emitter::Directional {
+            direction: v3(direction),
+            irradiance: v3(irradiance),
+        },
+        EmitterDesc::Environment { path, scale } => {
+            let file = files.named(&path)?;
+            let image = super::images::read_linear_rgb(&file)?;
+            let rotation = glam::Mat3A::from_quat(transform.rotation());
+            let map = EnvMap::new(image.width, image.height, image.texels, scale, rotation)
+                .map_err(|e| format!("environment map `{}`: {e}", file.display()))?;
+            Emitter::Environment(std::sync::Arc::new(map))
         }
     })
 }
@@ -496,6 +544,28 @@ fn build_world(
         None => None,
     };
 
+    // One sky: the constant `environment` or one `Environment` emitter.
+    let maps: Vec<String> = file
+        .entities
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| matches!(e.emitter, Some(EmitterDesc::Environment { .. })))
+        .map(|(i, e)| e.name.clone().unwrap_or_else(|| format!("entity #{i}")))
+        .collect();
+    if maps.len() + usize::from(environment.is_some()) > 1 {
+        let mut named: Vec<String> = maps.iter().map(|n| format!("`{n}`")).collect();
+        if environment.is_some() {
+            named.insert(0, "the top-level `environment`".into());
+        }
+        return Err(SceneError::Scene {
+            path: path_buf.clone(),
+            message: format!(
+                "a scene has at most one environment; {} are environments",
+                named.join(" and ")
+            ),
+        });
+    }
+
     if file.entities.is_empty() {
         return Err(SceneError::Scene {
             path: path_buf,
@@ -561,18 +631,11 @@ fn build_world(
             }
             (None, None, _) => None,
         };
-        let emitter = e.emitter.map(|d| match d {
-            EmitterDesc::Area {
-                radiance,
-                two_sided,
-            } => Emitter::Area {
-                radiance: v3(radiance),
-                two_sided,
-            },
-            EmitterDesc::Point { intensity } => Emitter::Point {
-                intensity: v3(intensity),
-            },
-        });
+        let emitter = e
+            .emitter
+            .map(|d| emitter_from_desc(d, &transform, files))
+            .transpose()
+            .map_err(&entity_error)?;
         let shape = e
             .shape
             .map(|d| shape_from_desc(d, files))

@@ -7,6 +7,7 @@ pub mod components;
 pub mod error;
 pub mod file_materials;
 pub mod flatten;
+pub mod images;
 pub mod load;
 pub mod mesh_files;
 pub mod procedural;

@@ -1,8 +1,8 @@
 //! The files a scene file names: meshes (OBJ, glTF) and, for a `.gltf`, the buffers and images
-//! it points to. Live editing watches them so that saving any of them re-renders.
+//! it points to; environment maps. Live editing watches them so that saving any of them re-renders.
 
 use super::load::parse_scene_file;
-use super::schema::ShapeDesc;
+use super::schema::{EmitterDesc, ShapeDesc};
 use std::path::{Path, PathBuf};
 
 /// FNV-1a, 64 bits: a hash that is stable across builds and platforms (unlike std's).
@@ -70,6 +70,12 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
                 add(gltf);
             }
             _ => {}
+        }
+    }
+    // Environment maps.
+    for e in &file.entities {
+        if let Some(EmitterDesc::Environment { path, .. }) = &e.emitter {
+            add(dir.join(path));
         }
     }
     Some(files)

@@ -504,4 +504,36 @@ pub enum EmitterDesc {
     },
     /// Isotropic point light of `intensity` (W/sr per channel) at the entity's translation.
     Point { intensity: V3 },
+    /// A spot light at the entity's translation (Mitsuba's `spot`), pointing at `look_at` or,
+    /// without it, along the entity's rotated `+z`. `intensity` (W/sr per channel) on the
+    /// axis, falling off linearly in the angle from `beam_width` to `cutoff_angle` (degrees).
+    /// Defaults: `cutoff_angle: 20`, `beam_width: 3/4 of cutoff_angle`.
+    Spot {
+        intensity: V3,
+        look_at: Option<V3>,
+        #[serde(default = "default_cutoff")]
+        cutoff_angle: f32,
+        beam_width: Option<f32>,
+    },
+    /// Parallel light from infinitely far away (a sun, Mitsuba's `directional`) travelling
+    /// along `direction` (turned by the entity's rotation), with `irradiance` (W m^-2 per
+    /// channel) on a surface facing it.
+    Directional { direction: V3, irradiance: V3 },
+    /// A latitude-longitude environment map (Mitsuba's `envmap`): an EXR, Radiance HDR or
+    /// PNG file (8-bit images are decoded from sRGB), `+y` up in the map's frame, turned by
+    /// the entity's rotation (rotate `(90, 0, 0)` for a z-up scene), radiance times `scale`.
+    /// Default: `scale: 1`.
+    Environment {
+        path: String,
+        #[serde(default = "one")]
+        scale: f32,
+    },
+}
+
+fn default_cutoff() -> f32 {
+    20.0
+}
+
+fn one() -> f32 {
+    1.0
 }

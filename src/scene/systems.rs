@@ -11,8 +11,9 @@
 
 use super::components::{Emitter, Name, Shape, Transform, WorldShape};
 use super::error::finite;
-use glam::{Affine3A, Mat3A, Vec3A};
+use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 use hecs::{Entity, World};
+use raylab_integrators::light::{DirectionalLight, EnvMapLight, SpotLight};
 use raylab_integrators::Light;
 
 /// An error message with the name of the entity it is about.
@@ -64,6 +65,44 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                     return Err(fail(
                         "a point light has no shape: put it on an entity of its own without `shape`".into(),
                     ));
+                }
+            }
+            (
+                Some(
+                    em @ (Emitter::Spot { .. }
+                    | Emitter::Directional { .. }
+                    | Emitter::Environment(_)),
+                ),
+                s,
+            ) => {
+                if s.is_some() {
+                    return Err(fail(
+                        "a spot, directional or environment light has no shape: put it on an entity of its own without `shape`".into(),
+                    ));
+                }
+                match em {
+                    Emitter::Spot {
+                        intensity, look_at, ..
+                    } => {
+                        check_radiance("intensity", *intensity).map_err(fail)?;
+                        if let Some(target) = look_at {
+                            finite("look_at", &target.to_array()).map_err(fail)?;
+                        }
+                        spot_light(em, transform).map_err(fail)?;
+                    }
+                    Emitter::Directional {
+                        direction,
+                        irradiance,
+                    } => {
+                        check_radiance("irradiance", *irradiance).map_err(fail)?;
+                        finite("direction", &direction.to_array()).map_err(fail)?;
+                        if direction.length_squared() == 0.0 {
+                            return Err(fail(
+                                "a directional light's direction has no length".into(),
+                            ));
+                        }
+                    }
+                    _ => {}
                 }
             }
             (None, None) => {
@@ -521,10 +560,27 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
     let mut out: Vec<(Entity, Vec<Light>)> = query
         .iter()
         .filter_map(|(entity, emitter, transform, shape)| {
-            let lights = match (*emitter, shape) {
+            let lights = match (emitter.clone(), shape) {
                 (Emitter::Point { intensity }, _) => {
                     vec![Light::point(transform.translate.into(), intensity)]
                 }
+                (Emitter::Spot { .. }, _) => match spot_light(emitter, transform) {
+                    Ok(spot) => vec![Light::Spot(spot)],
+                    Err(_) => return None, // refused by validation
+                },
+                (
+                    Emitter::Directional {
+                        direction,
+                        irradiance,
+                    },
+                    _,
+                ) => vec![Light::Directional(DirectionalLight {
+                    direction: (transform.rotation() * Vec3::from(direction))
+                        .normalize()
+                        .into(),
+                    irradiance,
+                })],
+                (Emitter::Environment(map), _) => vec![Light::EnvMap(EnvMapLight { map })],
                 (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
                     vec![Light::sphere(*center, *radius, radiance)]
                 }
@@ -556,4 +612,24 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
         .collect();
     out.sort_by_key(|(e, _)| e.id());
     out
+}
+
+/// The spot light of a `Spot` emitter at `transform`: at its translation, pointing at its
+/// `look_at` or along its rotated `+z`.
+pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight, String> {
+    let Emitter::Spot {
+        intensity,
+        look_at,
+        cutoff_angle,
+        beam_width,
+    } = emitter
+    else {
+        return Err("not a spot light".into());
+    };
+    let position: Vec3A = transform.translate.into();
+    let axis = match look_at {
+        Some(target) => *target - position,
+        None => (transform.rotation() * Vec3::Z).into(),
+    };
+    SpotLight::new(position, axis, *intensity, *cutoff_angle, *beam_width)
 }

@@ -97,7 +97,7 @@ fn part(
         .unwrap_or_else(|| panic!("no entity `{name}`"));
     (
         loaded.materials[m.0 as usize].clone(),
-        e.copied(),
+        e.cloned(),
         s.clone(),
     )
 }

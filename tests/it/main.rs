@@ -13,6 +13,7 @@ mod common;
 mod compare;
 mod corpus;
 mod files;
+mod lights;
 mod new_integrator;
 mod passes;
 mod photons;

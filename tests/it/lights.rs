@@ -1,0 +1,143 @@
+//! The lights of the field through every light-transport integrator of the registry, each
+//! against its closed form: a floor under a directional light, a floor under a spot light, and
+//! a diffuse ball under a uniform environment map (which must equal the constant environment).
+
+use raylab::render::{render, RenderSettings};
+use raylab::scene::load_scene;
+use raylab::scene::RenderScene;
+use raylab_integrators::registry::REGISTRY;
+use std::f32::consts::PI;
+use std::path::Path;
+
+/// The integrators that estimate light transport (not the debug views).
+fn transport_integrators() -> Vec<&'static str> {
+    REGISTRY
+        .iter()
+        .map(|e| e.name)
+        .filter(|n| !matches!(*n, "normals" | "albedo" | "depth"))
+        .collect()
+}
+
+/// Renders `scene` (written to a temporary folder with `files`) with `integrator` and returns
+/// the green channel's mean over the image and its standard error.
+fn mean_green(scene: &str, files: &[(&str, Vec<u8>)], integrator: &str, spp: u32) -> (f32, f32) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    let path = dir.path().join("scene.ron");
+    std::fs::write(&path, scene).unwrap();
+    let loaded = load_scene(Path::new(&path)).unwrap();
+    let built = RenderScene::build(&loaded);
+    let mut integrator = REGISTRY
+        .iter()
+        .find(|e| e.name == integrator)
+        .unwrap()
+        .instantiate(&[])
+        .unwrap();
+    let settings = RenderSettings::fixed(spp, 7, None);
+    let film = render(&built, &loaded.camera, integrator.as_mut(), &settings)
+        .unwrap()
+        .0;
+    (film.mean().y, film.mean_standard_error().y)
+}
+
+/// Photon density estimation blurs and is biased by its radius; everything else is unbiased.
+fn tolerance(integrator: &str, expected: f32, se: f32) -> f32 {
+    let bias = if matches!(integrator, "photon" | "sppm") {
+        0.03 * expected
+    } else {
+        0.0
+    };
+    4.5 * se + bias + 1e-4 * expected
+}
+
+fn check_all(what: &str, scene: &str, files: &[(&str, Vec<u8>)], expected: f32, spp: u32) {
+    for name in transport_integrators() {
+        let (mean, se) = mean_green(scene, files, name, spp);
+        println!("{what}, {name}: {mean:.5} +- {se:.5} (expected {expected:.5})");
+        assert!(
+            (mean - expected).abs() <= tolerance(name, expected, se),
+            "{what}, {name}: {mean} +- {se}, expected {expected}"
+        );
+    }
+}
+
+/// A camera looking straight down at the origin of a large floor (y = 0) through a narrow
+/// field of view.
+const CAMERA: &str = "camera: LookAt(eye: (0, 1, 0), look_at: (0, 0, 0), up: (0, 0, -1), fov: 2, resolution: (8, 8)),";
+const FLOOR: &str = r#"(name: "floor", shape: Quad(vertices: [(-50, 0, 50), (50, 0, 50), (50, 0, -50), (-50, 0, -50)]), material: "grey"),"#;
+
+#[test]
+fn a_floor_under_a_directional_light_has_radiance_a_e_cos_over_pi() {
+    // Irradiance 2 at 45 degrees: the floor's radiance is 0.5 / pi * 2 * cos 45.
+    let scene = format!(
+        r#"({CAMERA}
+            materials: {{"grey": Lambert(albedo: (0.5, 0.5, 0.5))}},
+            entities: [{FLOOR}
+                (name: "sun", emitter: Directional(direction: (0, -1, -1), irradiance: (2, 2, 2))),
+            ])"#
+    );
+    let expected = 0.5 / PI * 2.0 * std::f32::consts::FRAC_1_SQRT_2;
+    check_all("directional", &scene, &[], expected, 16);
+}
+
+#[test]
+fn a_floor_under_a_spot_light_has_radiance_a_i_over_pi_h2() {
+    // Intensity 8 from 2 m straight above, inside the beam: E = 8 / 4 at the centre.
+    let scene = format!(
+        r#"({CAMERA}
+            materials: {{"grey": Lambert(albedo: (0.5, 0.5, 0.5))}},
+            entities: [{FLOOR}
+                (name: "spot", transform: (translate: (0, 2, 0)),
+                 emitter: Spot(intensity: (8, 8, 8), look_at: (0, 0, 0), cutoff_angle: 30)),
+            ])"#
+    );
+    // The 2-degree view sees the floor within 0.018 m of the centre: cos^3 > 0.9999.
+    let expected = 0.5 / PI * 8.0 / 4.0;
+    check_all("spot", &scene, &[], expected, 16);
+}
+
+/// A Radiance HDR file of `w x h` texels, all of value `v` (flat scanlines).
+fn uniform_hdr(w: usize, h: usize, v: f32) -> Vec<u8> {
+    let (m, e) = {
+        let e = v.log2().floor() as i32 + 1;
+        ((v / 2f32.powi(e) * 256.0) as u8, (e + 128) as u8)
+    };
+    let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+    for _ in 0..w * h {
+        bytes.extend_from_slice(&[m, m, m, e]);
+    }
+    bytes
+}
+
+#[test]
+fn a_uniform_environment_map_is_the_constant_environment() {
+    // A convex ball of albedo 0.6 under a uniform sky of 0.5 (times the map's scale 2):
+    // radiance 0.6 * 1.0, as with the constant environment.
+    let scene = |sky: &str| {
+        format!(
+            r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 8, resolution: (8, 8)),
+            {sky}
+            materials: {{"ball": Lambert(albedo: (0.6, 0.6, 0.6))}},
+            entities: [
+                (name: "ball", shape: Sphere(radius: 1), material: "ball"),
+                {}
+            ])"#,
+            if sky.is_empty() {
+                r#"(name: "sky", transform: (rotate: (30, 40, 0)), emitter: Environment(path: "sky.hdr", scale: 2)),"#
+            } else {
+                ""
+            }
+        )
+    };
+    let files = [("sky.hdr", uniform_hdr(16, 8, 0.5))];
+    check_all("uniform map", &scene(""), &files, 0.6, 64);
+    check_all(
+        "constant environment",
+        &scene("environment: (1, 1, 1),"),
+        &[],
+        0.6,
+        64,
+    );
+}
