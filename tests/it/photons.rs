@@ -178,3 +178,45 @@ fn photon_mapping_agrees_with_path_up_to_its_blur() {
         0.02,
     );
 }
+
+/// On every material of the field, and on a plastic floor filling the view, whose camera
+/// paths either follow the coating's reflection or land on the base by the coating's
+/// probability (a landing that forgot to divide by that probability is 5% too dark here).
+#[test]
+fn sppm_agrees_with_path_on_the_new_materials() {
+    let scene = load("scenes/materials.ron", 24, 24);
+    let depth = [("max-depth", "6")];
+    let reference = run(&scene, "path", &depth, 2048, &[]);
+    let sppm = run(
+        &scene,
+        "sppm",
+        &[("photons", "10000"), ("max-depth", "6")],
+        256,
+        &[],
+    );
+    assert_means_agree("materials, sppm vs path", &sppm, &reference, 4.0, 0.01);
+
+    let dir = tempfile::tempdir().unwrap();
+    let floor = dir.path().join("plastic.ron");
+    std::fs::write(
+        &floor,
+        r#"(camera: LookAt(eye: (0, 1, 3), look_at: (0, 0, 0), up: (0, 1, 0), fov: 20, resolution: (16, 16)),
+            environment: (0.2, 0.25, 0.3),
+            materials: {"plastic": Plastic(diffuse_reflectance: (0.6, 0.6, 0.6))},
+            entities: [
+                (name: "floor", shape: Quad(vertices: [(-9, 0, 9), (9, 0, 9), (9, 0, -9), (-9, 0, -9)]), material: "plastic"),
+                (name: "light", shape: Quad(vertices: [(-1, 3, -1), (-1, 3, 1), (1, 3, 1), (1, 3, -1)]), emitter: Area(radiance: (5, 5, 5))),
+            ])"#,
+    )
+    .unwrap();
+    let scene = load(floor.to_str().unwrap(), 16, 16);
+    let reference = run(&scene, "path", &depth, 1024, &[]);
+    let sppm = run(
+        &scene,
+        "sppm",
+        &[("photons", "10000"), ("max-depth", "6")],
+        128,
+        &[],
+    );
+    assert_means_agree("plastic floor, sppm vs path", &sppm, &reference, 4.0, 0.01);
+}
