@@ -97,6 +97,10 @@ pub struct Instanced {
     pub asset: Arc<LocalMesh>,
 }
 
+/// Marks an entity whose shape's faces are turned around (`flip_normals`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FlipNormals;
+
 /// Index of the entity's material in the scene's material table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MaterialRef(pub u32);

@@ -1,7 +1,9 @@
 //! Parsing a RON scene file and spawning its entities into a hecs world.
 
 use super::access::SceneFiles;
-use super::components::{Emitter, Instanced, MaterialRef, Name, Shape, Transform, WorldShape};
+use super::components::{
+    Emitter, FlipNormals, Instanced, MaterialRef, Name, Shape, Transform, WorldShape,
+};
 use super::error::{finite, SceneError};
 use super::schema::{
     CameraDesc, EmitterDesc, MaterialDesc, Metal, RenderDesc, SceneFile, ShapeDesc,
@@ -424,6 +426,12 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
         },
         ShapeDesc::Triangle { vertices } => Shape::Triangle(corners("Triangle", &vertices)?),
         ShapeDesc::Quad { vertices } => Shape::Quad(corners("Quad", &vertices)?),
+        ShapeDesc::Rectangle => Shape::Quad([
+            Vec3A::new(-1.0, -1.0, 0.0),
+            Vec3A::new(1.0, -1.0, 0.0),
+            Vec3A::new(1.0, 1.0, 0.0),
+            Vec3A::new(-1.0, 1.0, 0.0),
+        ]),
         ShapeDesc::Tetrahedron { vertices } => {
             Shape::Tetrahedron(corners("Tetrahedron", &vertices)?)
         }
@@ -589,6 +597,27 @@ fn build_world(
             rotate_degrees: Vec3::from_array(t.rotate),
             scale: Vec3::from_array(t.scale),
         };
+        if e.flip_normals {
+            if e.material.as_deref() == Some(file_materials::FROM_FILE) {
+                return Err(entity_error(
+                    "flip_normals cannot turn the parts of a mesh file split by its materials \
+                     (\"from-file\")"
+                        .into(),
+                ));
+            }
+            let dielectric = e
+                .material
+                .as_ref()
+                .and_then(|m| material_names.iter().position(|n| n == m))
+                .is_some_and(|i| materials[i].is_transmissive());
+            if dielectric && matches!(e.shape, Some(ShapeDesc::Sphere { .. })) {
+                return Err(entity_error(
+                    "flip_normals on a dielectric sphere is not supported: give the \
+                     dielectric the inverse IOR instead"
+                        .into(),
+                ));
+            }
+        }
         if e.material.as_deref() == Some(file_materials::FROM_FILE) {
             spawn_file_parts(
                 &mut world,
@@ -642,6 +671,11 @@ fn build_world(
             .transpose()
             .map_err(&entity_error)?;
         let entity = world.spawn((Name(name), transform));
+        if e.flip_normals {
+            world
+                .insert_one(entity, FlipNormals)
+                .expect("entity was just spawned");
+        }
         if let Some(shape) = shape {
             world
                 .insert_one(entity, shape)

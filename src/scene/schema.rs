@@ -416,6 +416,10 @@ pub struct EntityDesc {
     /// Light emission. Default: none.
     #[serde(default)]
     pub emitter: Option<EmitterDesc>,
+    /// Turns the shape's faces around (Mitsuba's `flip_normals`): a one-sided emitter then
+    /// emits from its other side, and a sphere emits into its inside. Default: false.
+    #[serde(default)]
+    pub flip_normals: bool,
 }
 
 /// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate.
@@ -458,6 +462,9 @@ pub enum ShapeDesc {
     Triangle { vertices: Vec<V3> },
     /// A parallelogram given by its 4 corners in order (counter-clockwise seen from the front).
     Quad { vertices: Vec<V3> },
+    /// Mitsuba's `rectangle`: the square `[-1, 1]^2` of the local `xy` plane, its front
+    /// facing `+z`. Size and place it with `transform`.
+    Rectangle,
     /// Four corners; faces are oriented outwards automatically.
     Tetrahedron { vertices: Vec<V3> },
     /// Axis-aligned box in local space, faces oriented outwards.

@@ -9,7 +9,7 @@
 //! Queries visit entities in archetype order; every system sorts by entity id so that results
 //! (and therefore images) never depend on it.
 
-use super::components::{Emitter, Name, Shape, Transform, WorldShape};
+use super::components::{Emitter, FlipNormals, Name, Shape, Transform, WorldShape};
 use super::error::finite;
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 use hecs::{Entity, World};
@@ -414,13 +414,20 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
     let mut warnings = Vec::new();
     let mut baked: Vec<(Entity, WorldShape)> = Vec::new();
     {
-        let mut query = world.query::<(Entity, &Name, &Transform, &Shape, Option<&Emitter>)>();
+        let mut query = world.query::<(
+            Entity,
+            &Name,
+            &Transform,
+            &Shape,
+            Option<&Emitter>,
+            Option<&FlipNormals>,
+        )>();
         let mut items: Vec<_> = query.iter().collect();
         items.sort_by_key(|(e, ..)| e.id());
         // The scene's triangles, checked against memory before any shape is made: the
         // first entity past what fits is named.
         let mut triangles_so_far = 0u64;
-        for (_, name, _, shape, _) in &items {
+        for (_, name, _, shape, ..) in &items {
             triangles_so_far += triangle_count(shape);
             check_triangle_memory(triangles_so_far).map_err(|e| {
                 (
@@ -429,12 +436,17 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
                 )
             })?;
         }
-        for (entity, name, transform, shape, emitter) in items {
+        for (entity, name, transform, shape, emitter, flip) in items {
             if matches!(shape, Shape::Instance { .. }) {
                 continue;
             }
             let m = transform.matrix();
             let world_shape = bake_shape(shape, &m);
+            let world_shape = if flip.is_some() {
+                flip_faces(world_shape)
+            } else {
+                world_shape
+            };
             check_reach(&world_shape).map_err(|e| (name.0.clone(), e))?;
             if let WorldShape::Triangles {
                 triangles,
@@ -482,6 +494,24 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
             .expect("baked entity exists");
     }
     Ok(warnings)
+}
+
+/// The shape with its faces turned around: triangles wound the other way, shading normals
+/// negated, a parallelogram's edges swapped. A sphere keeps its geometry (its emitter is made
+/// to emit inwards instead, see [`collect_emitters`]).
+fn flip_faces(shape: WorldShape) -> WorldShape {
+    match shape {
+        WorldShape::Triangles {
+            triangles,
+            normals,
+            parallelogram,
+        } => WorldShape::Triangles {
+            triangles: triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect(),
+            normals: normals.map(|n| n.into_iter().map(|[a, b, c]| [-a, -c, -b]).collect()),
+            parallelogram: parallelogram.map(|[p0, e1, e2]| [p0, e2, e1]),
+        },
+        sphere @ WorldShape::Sphere { .. } => sphere,
+    }
 }
 
 /// Triangles without the degenerate ones (see [`is_degenerate`]), with their normals.
@@ -556,10 +586,16 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
 /// The lights of every emitting entity, in entity order: one per sphere, one per emitting quad
 /// (a parallelogram), one per triangle otherwise, one per point light.
 pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
-    let mut query = world.query::<(Entity, &Emitter, &Transform, Option<&WorldShape>)>();
+    let mut query = world.query::<(
+        Entity,
+        &Emitter,
+        &Transform,
+        Option<&WorldShape>,
+        Option<&FlipNormals>,
+    )>();
     let mut out: Vec<(Entity, Vec<Light>)> = query
         .iter()
-        .filter_map(|(entity, emitter, transform, shape)| {
+        .filter_map(|(entity, emitter, transform, shape, flip)| {
             let lights = match (emitter.clone(), shape) {
                 (Emitter::Point { intensity }, _) => {
                     vec![Light::point(transform.translate.into(), intensity)]
@@ -582,7 +618,11 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                 })],
                 (Emitter::Environment(map), _) => vec![Light::EnvMap(EnvMapLight { map })],
                 (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
-                    vec![Light::sphere(*center, *radius, radiance)]
+                    if flip.is_some() {
+                        vec![Light::sphere_inward(*center, *radius, radiance)]
+                    } else {
+                        vec![Light::sphere(*center, *radius, radiance)]
+                    }
                 }
                 (
                     Emitter::Area {

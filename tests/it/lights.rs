@@ -141,3 +141,28 @@ fn a_uniform_environment_map_is_the_constant_environment() {
         64,
     );
 }
+
+#[test]
+fn inside_a_sphere_with_flipped_normals_the_furnace_holds() {
+    // pbrt-v4's analytic furnace: a diffuse sphere (albedo 0.5) emitting 1 into its inside.
+    // Radiance everywhere: the series 1 + a + a^2 + ... as far as each integrator sums it.
+    let scene = r#"(camera: LookAt(eye: (0.1, -0.2, 0.3), look_at: (1, 0.4, 0), up: (0, 0, 1), fov: 60, resolution: (8, 8)),
+        materials: {"white": Lambert(albedo: (0.5, 0.5, 0.5))},
+        entities: [
+            (name: "furnace", shape: Sphere(radius: 1), material: "white", flip_normals: true,
+             emitter: Area(radiance: (1, 1, 1))),
+        ])"#;
+    for name in transport_integrators() {
+        let expected = match name {
+            "whitted" => 1.5,
+            "fixed-depth" => 1.75, // depth 2
+            _ => 2.0,
+        };
+        let (mean, se) = mean_green(scene, &[], name, 32);
+        println!("furnace, {name}: {mean:.5} +- {se:.5} (expected {expected})");
+        assert!(
+            (mean - expected).abs() <= tolerance(name, expected, se),
+            "furnace, {name}: {mean} +- {se}, expected {expected}"
+        );
+    }
+}

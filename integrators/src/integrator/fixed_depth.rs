@@ -80,7 +80,7 @@ impl FixedDepth {
         let lights = tracer.scene.lights();
         for (index, light) in lights.lights().iter().enumerate() {
             // A flat or convex emitter cannot light itself.
-            if sp.hit.light == Some(index as u32) {
+            if sp.hit.light == Some(index as u32) && !light.lights_itself() {
                 continue;
             }
             let n = if light.is_delta() {

@@ -93,6 +93,18 @@ mod tests {
     }
 
     #[test]
+    fn inside_an_analytic_emitting_sphere_radiance_is_le_over_one_minus_a() {
+        // pbrt-v4's furnace, written with a sphere whose normals are flipped; the unbiased
+        // tracers reach Le / (1 - a), whitted Le (1 + a).
+        for (a, le) in [(0.5, 1.0), (0.8, 0.5)] {
+            let scene = furnace_emitting_sphere(a, le);
+            expect_mean("path", &[], &scene, le / (1.0 - a), 8000);
+            expect_mean("russian-roulette", &[], &scene, le / (1.0 - a), 8000);
+            expect_mean("whitted", &[], &scene, le * (1.0 + a), 4000);
+        }
+    }
+
+    #[test]
     fn paths_end_inside_a_closed_mirror() {
         // Unlimited depth and a throughput that never drops: Russian roulette must still end
         // every path (a regression: this used to loop forever).

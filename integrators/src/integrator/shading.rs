@@ -102,10 +102,11 @@ impl<'a> ShadingPoint<'a> {
     ) -> Option<(LightSample, Rgb, f32)> {
         // A flat or convex emitter cannot light itself: skip it exactly rather than leave
         // rounding to produce a grazing sample of its own plane.
-        if self.hit.light == Some(index) {
+        let light = tracer.scene.lights().get(index);
+        if self.hit.light == Some(index) && !light.lights_itself() {
             return None;
         }
-        let ls = tracer.scene.lights().get(index).sample_li(self.hit.p, u)?;
+        let ls = light.sample_li(self.hit.p, u)?;
         if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
             return None;
         }

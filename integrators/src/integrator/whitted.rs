@@ -80,7 +80,7 @@ impl Whitted {
         // Direct light: one shadow ray to every light.
         for index in 0..tracer.scene.lights().len() as u32 {
             // A flat or convex emitter cannot light itself.
-            if hit.light == Some(index) {
+            if hit.light == Some(index) && !tracer.scene.lights().get(index).lights_itself() {
                 continue;
             }
             if let Some((ls, f, cos)) = sp.connect_light(index, sampler.next_2d(), tracer) {

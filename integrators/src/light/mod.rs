@@ -201,6 +201,17 @@ impl Light {
             center,
             radius,
             radiance,
+            inward: false,
+        })
+    }
+
+    /// A sphere emitting `radiance` into its inside (its normals flipped).
+    pub fn sphere_inward(center: Vec3A, radius: f32, radiance: Rgb) -> Light {
+        Light::Sphere(SphereLight {
+            center,
+            radius,
+            radiance,
+            inward: true,
         })
     }
 
@@ -223,6 +234,13 @@ impl Light {
             self,
             Light::Point(_) | Light::Spot(_) | Light::Directional(_)
         )
+    }
+
+    /// True when points of the light's own surface may receive its light (a concave
+    /// emitter: a sphere emitting inwards). Flat and convex emitters cannot light themselves,
+    /// and shading points on them skip their own light exactly.
+    pub fn lights_itself(&self) -> bool {
+        matches!(self, Light::Sphere(s) if s.lights_itself())
     }
 
     /// True for the lights at infinity that escaping rays see (constant or mapped).

@@ -1,4 +1,6 @@
-//! Spherical emitters: cone sampling from outside, area sampling from inside.
+//! Spherical emitters: cone sampling from outside, area sampling from inside. A sphere emits
+//! outwards, or, with its normals flipped (`inward`), into its inside only: the camera inside
+//! an emitting sphere, pbrt-v4's analytic furnace.
 
 use super::{leave, lum, LeSample, LightSample, MIN_COS};
 use crate::sampling::uniform_sphere;
@@ -6,7 +8,7 @@ use crate::{Frame, Rgb};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
 
-/// A sphere emitting `radiance` outwards from its whole surface.
+/// A sphere emitting `radiance` from its whole surface, outwards or (`inward`) inwards.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SphereLight {
     pub center: Vec3A,
@@ -14,6 +16,17 @@ pub struct SphereLight {
     pub radius: f32,
     /// Emitted radiance, W·sr⁻¹·m⁻² per channel.
     pub radiance: Rgb,
+    /// Emits into the sphere instead of out of it.
+    pub inward: bool,
+}
+
+impl SphereLight {
+    /// True when a point of this light may be lit by the light itself: only a sphere that
+    /// emits inwards is concave.
+    #[inline]
+    pub fn lights_itself(&self) -> bool {
+        self.inward
+    }
 }
 
 /// `1 - cos(theta_max)` of the cone subtended by a sphere, from `sin^2(theta_max) = r^2 / d^2`,
@@ -43,19 +56,7 @@ pub(super) fn sphere_sample(
     let r2 = radius * radius;
     if d2.is_nan() || d2 <= r2 {
         // Inside or on the sphere: uniform area sampling.
-        let n = uniform_sphere(u);
-        let q = center + n * radius;
-        let d = q - p;
-        let dist2 = d.length_squared();
-        if dist2.is_nan() || dist2 <= 0.0 {
-            return None;
-        }
-        let cos = n.dot(d).abs() / dist2.sqrt();
-        if cos < MIN_COS {
-            return None;
-        }
-        let pdf = dist2 / (cos * 4.0 * PI * r2);
-        return pdf.is_finite().then_some((q, n, pdf));
+        return area_sample(center, radius, p, u);
     }
     let d = d2.sqrt();
     let sin2_max = r2 / d2;
@@ -84,10 +85,62 @@ pub(super) fn sphere_sample(
     pdf.is_finite().then_some((q, n, pdf))
 }
 
+/// A uniform point of the sphere, its outward normal and its solid-angle density at `p`.
+#[inline]
+fn area_sample(center: Vec3A, radius: f32, p: Vec3A, u: Vec2) -> Option<(Vec3A, Vec3A, f32)> {
+    let n = uniform_sphere(u);
+    let q = center + n * radius;
+    let d = q - p;
+    let dist2 = d.length_squared();
+    if dist2.is_nan() || dist2 <= 0.0 {
+        return None;
+    }
+    let cos = n.dot(d).abs() / dist2.sqrt();
+    if cos < MIN_COS {
+        return None;
+    }
+    let pdf = dist2 / (cos * 4.0 * PI * radius * radius);
+    pdf.is_finite().then_some((q, n, pdf))
+}
+
+/// Relative margin by which a point on an inward sphere still counts as inside it: hit
+/// points lie on the surface up to rounding, and the inside of the surface lights them.
+const ON_SURFACE: f32 = 1e-4;
+
 impl SphereLight {
+    /// True when `p` is inside the sphere, or on it (within rounding) for an inward one.
+    #[inline]
+    fn sees_inside(&self, p: Vec3A) -> bool {
+        let d2 = (self.center - p).length_squared();
+        let r2 = self.radius * self.radius;
+        if self.inward {
+            d2 <= r2 * (1.0 + ON_SURFACE)
+        } else {
+            d2 < r2
+        }
+    }
+
+    /// The emitting normal at the surface point whose outward normal is `n`.
+    #[inline]
+    fn emitting_normal(&self, n: Vec3A) -> Vec3A {
+        if self.inward {
+            -n
+        } else {
+            n
+        }
+    }
+
     pub fn sample_li(&self, p: Vec3A, u: Vec2) -> Option<LightSample> {
-        let (q, n, pdf) = sphere_sample(self.center, self.radius, p, u)?;
-        // The sphere emits outwards only: nothing reaches points inside it.
+        if self.inward != self.sees_inside(p) {
+            // Outwards, nothing reaches the inside; inwards, nothing the outside.
+            return None;
+        }
+        let (q, n, pdf) = if self.inward {
+            area_sample(self.center, self.radius, p, u)?
+        } else {
+            sphere_sample(self.center, self.radius, p, u)?
+        };
+        let n = self.emitting_normal(n);
         LightSample::on_surface(p, q, self.radiance, |wi, _| {
             if n.dot(-wi) > 0.0 {
                 pdf
@@ -101,14 +154,26 @@ impl SphereLight {
         let (center, radius) = (self.center, self.radius);
         let d2 = (center - p).length_squared();
         let r2 = radius * radius;
-        if !(radius > 0.0 && d2 > r2) {
+        if radius.is_nan() || radius <= 0.0 {
             return 0.0;
         }
-        // Only the side facing p emits towards it.
-        if (q - center).dot(-wi) <= 0.0 {
-            return 0.0;
-        }
-        let pdf = 1.0 / (2.0 * PI * one_minus_cos_max(r2 / d2));
+        let pdf = if self.inward {
+            // From inside, uniform in area: dist^2 / (cos area), the inner face towards p.
+            let n = (q - center) / radius;
+            let d = q - p;
+            let dist2 = d.length_squared();
+            let cos = n.dot(d) / dist2.sqrt();
+            if !self.sees_inside(p) || cos < MIN_COS {
+                return 0.0;
+            }
+            dist2 / (cos * 4.0 * PI * r2)
+        } else {
+            // From outside, uniform in the cone; only the side facing p emits towards it.
+            if d2 <= r2 || (q - center).dot(-wi) <= 0.0 {
+                return 0.0;
+            }
+            1.0 / (2.0 * PI * one_minus_cos_max(r2 / d2))
+        };
         if pdf.is_finite() {
             pdf
         } else {
@@ -117,7 +182,7 @@ impl SphereLight {
     }
 
     pub fn emitted(&self, n: Vec3A, w: Vec3A) -> Rgb {
-        if n.dot(w) > 0.0 {
+        if self.emitting_normal(n).dot(w) > 0.0 {
             self.radiance
         } else {
             Rgb::ZERO
@@ -125,9 +190,10 @@ impl SphereLight {
     }
 
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> LeSample {
-        let n = uniform_sphere(u_pos);
+        let outward = uniform_sphere(u_pos);
+        let n = self.emitting_normal(outward);
         let r = self.radius;
-        let (ray, cos) = leave(self.center + n * r, n, u_dir);
+        let (ray, cos) = leave(self.center + outward * r, n, u_dir);
         LeSample {
             ray,
             radiance: self.radiance,
@@ -138,7 +204,7 @@ impl SphereLight {
         }
     }
 
-    /// Densities of a ray leaving the surface where its outward normal is `n`.
+    /// Densities of a ray leaving the surface where its emitting normal is `n`.
     pub fn pdf_le(&self, n: Vec3A, w: Vec3A) -> (f32, f32) {
         let r = self.radius;
         (1.0 / (4.0 * PI * r * r), n.dot(w).max(0.0) / PI)

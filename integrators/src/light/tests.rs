@@ -258,6 +258,7 @@ fn chi2_sphere_near() {
         center: Vec3A::new(0.2, -0.1, 2.0),
         radius: 1.2,
         radiance: L,
+        inward: false,
     });
     let p = Vec3A::new(0.0, 0.3, 0.1);
     chi2_light("sphere near", &light, p, &sphere_grid(&light, p), 705);
@@ -270,6 +271,7 @@ fn chi2_sphere_far() {
         center: Vec3A::new(30.0, -40.0, 0.0),
         radius: 1.0,
         radiance: L,
+        inward: false,
     });
     let p = Vec3A::new(0.0, 0.0, 0.0);
     chi2_light("sphere far", &light, p, &sphere_grid(&light, p), 706);
@@ -284,8 +286,25 @@ fn chi2_sphere_inside_area_sampling() {
         center,
         radius,
         radiance: L,
+        inward: false,
     });
     let p = Vec3A::new(2.2, 0.5, -0.3);
+    // The same sphere with its normals flipped emits into its inside only, sampled by the
+    // same area sampling, with the density pdf_li reports.
+    let inward = Light::sphere_inward(center, radius, L);
+    let mut s = Sampler::new(709, 0, 0);
+    for _ in 0..1000 {
+        let ls = inward
+            .sample_li(p, s.next_2d())
+            .expect("inside an inward sphere");
+        let (q, n) = hit_light(&inward, p, ls.wi).expect("inside");
+        let pdf = inward.pdf_li(p, ls.wi, q);
+        assert!((pdf - ls.pdf).abs() <= 1e-3 * pdf, "{pdf} vs {}", ls.pdf);
+        assert_eq!(inward.emitted(n, -ls.wi), L);
+        assert!(inward
+            .sample_li(center + Vec3A::new(0.0, 3.0, 0.0), s.next_2d())
+            .is_none());
+    }
     let mut s = Sampler::new(707, 0, 0);
     for _ in 0..1000 {
         assert!(light.sample_li(p, s.next_2d()).is_none());
@@ -365,6 +384,7 @@ fn sphere_samples_are_on_the_visible_cap_and_far_densities_are_accurate() {
             center: Vec3A::new(0.0, dist, 0.0),
             radius: 1.0,
             radiance: L,
+            inward: false,
         });
         let p = Vec3A::ZERO;
         check_samples(&light, p, 2000, 711);

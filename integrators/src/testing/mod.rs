@@ -180,6 +180,26 @@ pub fn furnace_sphere(a: f32, le: f32) -> TestScene {
     }
 }
 
+/// pbrt-v4's analytic furnace: the camera inside a diffuse unit sphere of albedo `a` whose
+/// inside emits `le` (an analytic sphere light with its normals flipped). Radiance
+/// everywhere is `le / (1 - a)`.
+pub fn furnace_emitting_sphere(a: f32, le: f32) -> TestScene {
+    TestScene {
+        surfaces: vec![Surface::SphereLight {
+            center: Vec3A::ZERO,
+            radius: 1.0,
+            light: 0,
+        }],
+        // Sphere lights of test scenes use material 1.
+        materials: vec![lambert(a), lambert(a)],
+        lights: LightTable::new(
+            vec![Light::sphere_inward(Vec3A::ZERO, 1.0, Rgb::splat(le))],
+            1.0,
+        ),
+        camera: Probe::Omni(Vec3A::new(0.1, -0.2, 0.3)),
+    }
+}
+
 /// A point light of intensity pi at the centre of the unit sphere, seen from inside; the
 /// sphere is diffuse with albedo `a`. Radiance on the sphere: `a / (1 - a)` (1 for a = 0.5).
 pub fn point_in_sphere(a: f32) -> TestScene {
