@@ -28,21 +28,30 @@ What it measures, per material (all over the whole image, RGB channels together)
   / beyond 60 degrees of the view direction) and off it (floor and background), to say where
   a difference is.
 
-The row "roughconductor Al aniso (flat mesh)" repeats the anisotropic material on a flat-shaded
-icosphere (an OBJ file both renderers load): there both use the tangent frame built from the
-normal alone (Duff et al. 2017), whereas on Mitsuba's analytic sphere the tangent follows the
-sphere's parametrisation (dp/du, around the z axis) and raylab's does not, so the anisotropy
-runs along different directions on the sphere.
+Anisotropic roughness runs along the shading frame's tangents, and the two renderers build
+them differently on a sphere: Mitsuba's first tangent follows the sphere's parametrisation
+(dp/du, around the world z axis, which points nearly at the camera here, so its brushing is
+circular around the ball's centre), raylab's comes from the normal alone (Duff et al. 2017,
+nearly the world x axis on the ball's front). "roughconductor Al aniso" therefore differs on
+purpose (a brighter, vertical highlight in raylab's image; a wedge-shaped one in Mitsuba's).
+The row "roughconductor Al aniso (flat mesh)" is the same material on a flat-shaded icosphere
+(3 subdivisions) that both renderers load from OBJ files, where the frames are made the same:
+Mitsuba takes a triangle's tangent from its texture coordinates (without any, from its edge
+p1 - p0), so its file gives every corner the coordinates (p.s, p.t) in its face's Duff frame.
+The diffuse scene also prints a camera check: relMSE against Mitsuba's image mirrored left
+to right, which must be far larger than unmirrored.
 
     pip install mitsuba numpy
     cargo build --release
     python3 benches/mitsuba_materials.py [--spp 1024] [--res 128] [--only plastic,conductor]
-        [--raylab target/release/raylab] [--out out/mitsuba-materials]
+        [--seeds 1,2] [--raylab target/release/raylab] [--out out/mitsuba-materials]
 
---only takes names or parts of names (comma-separated). --out keeps each scene's RON file, the
-four EXRs and a PNG: raylab | Mitsuba | difference (red where raylab is brighter, blue where
-Mitsuba is, full colour at a difference of 0.25). Runs in about 6 minutes on two cores with
-the defaults.
+--only takes names (exactly one material) or parts of names (every material containing it),
+comma-separated. --out keeps each scene's RON file, the four EXRs and a PNG: raylab |
+Mitsuba | difference (red where raylab is brighter, blue where Mitsuba is, full colour at a
+difference of 0.25). The exit status is 1 when a row differs. With the defaults (128x128,
+1024 spp) it runs in about 7 minutes on two cores (raylab 2.5, Mitsuba 4), with differences
+of the means resolved to about 0.05 %.
 """
 import argparse
 import math
