@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3A};
 use raylab::bench::{coherent_rays, incoherent_rays};
 use raylab::scene::parse_scene;
 use raylab::scene::RenderScene;
-use raylab_integrators::bsdf::{Dielectric, Lambert, Mirror, OrenNayar, Phong};
+use raylab_integrators::bsdf::{Conductor, Dielectric, Lambert, OrenNayar, Phong};
 use raylab_integrators::{Material, PixelSample, Rgb, Sampler, Scene, Splats, Tracer};
 use std::path::Path;
 
@@ -67,7 +67,10 @@ fn bsdfs(c: &mut Criterion) {
                 exponent: 50.0,
             }),
         ),
-        ("mirror", Material::Mirror(Mirror { tint: Rgb::ONE })),
+        (
+            "mirror",
+            Material::Conductor(Conductor::perfect_mirror(Rgb::ONE)),
+        ),
         (
             "glass",
             Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE)),

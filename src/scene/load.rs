@@ -12,8 +12,7 @@ use super::{assets, file_materials, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::bsdf::{
     checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert, Microfacet,
-    Mirror, OrenNayar, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
-    ThinDielectric,
+    OrenNayar, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
 };
 use raylab_integrators::light::EnvMap;
 use raylab_integrators::Camera;
@@ -103,7 +102,10 @@ pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
         MaterialDesc::Phong { kd, ks, exponent } => {
             Material::Phong(Phong::new(v3(*kd), v3(*ks), *exponent)?)
         }
-        MaterialDesc::Mirror { tint } => Material::Mirror(Mirror::new(v3(*tint))?),
+        MaterialDesc::Mirror { tint } => Material::Conductor(Conductor::new(
+            None,
+            checks::reflectance("tint", v3(*tint))?,
+        )?),
         MaterialDesc::Glass { ior, tint } => {
             Material::Dielectric(Dielectric::new(*ior, v3(*tint), v3(*tint))?)
         }

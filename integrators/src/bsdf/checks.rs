@@ -36,7 +36,7 @@ pub fn reflectance(what: &str, c: Rgb) -> Result<Rgb, String> {
 
 #[cfg(test)]
 mod tests {
-    use crate::bsdf::{Dielectric, Lambert, Mirror, OrenNayar, Phong};
+    use crate::bsdf::{Conductor, Dielectric, Lambert, OrenNayar, Phong};
     use crate::Rgb;
 
     #[test]
@@ -55,7 +55,7 @@ mod tests {
             .unwrap_err()
             .contains("conserve energy"));
         assert!(Phong::new(half, Rgb::splat(0.4), 1e6).is_err());
-        assert!(Mirror::new(Rgb::splat(-0.1))
+        assert!(Conductor::new(None, Rgb::splat(-0.1))
             .unwrap_err()
             .contains("negative"));
         assert!(

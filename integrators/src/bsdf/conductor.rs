@@ -9,7 +9,8 @@
 //!   `specular_reflectance`).
 //!
 //! One Dirac lobe: `wi` is `wo` mirrored about the normal, and the throughput weight is
-//! `reflectance * F(cos(wo))`. Two-sided like every opaque material.
+//! `reflectance * F(cos(wo))`. Two-sided like every opaque material. Without an IOR it is
+//! the report's perfect mirror (RON `Mirror(tint)`): `F` is exactly 1.
 
 use super::fresnel::fresnel_conductor;
 use super::{BsdfSample, Bxdf};
@@ -52,6 +53,15 @@ pub struct Conductor {
 }
 
 impl Conductor {
+    /// A perfect mirror tinted by `tint`, unchecked: for tests and built-in scenes (RON's
+    /// `Mirror(tint)` is this, checked).
+    pub const fn perfect_mirror(tint: Rgb) -> Conductor {
+        Conductor {
+            ior: None,
+            reflectance: tint,
+        }
+    }
+
     /// A smooth metal of complex IOR `ior` (none: a perfect mirror) tinted by `reflectance`.
     pub fn new(ior: Option<ComplexIor>, reflectance: Rgb) -> Result<Conductor, String> {
         Ok(Conductor {

@@ -12,7 +12,6 @@ pub mod fresnel;
 pub mod ior;
 mod lambert;
 pub mod microfacet;
-mod mirror;
 mod oren_nayar;
 mod phong;
 mod plastic;
@@ -28,7 +27,6 @@ pub use dielectric::{relative_ior, Dielectric};
 pub use fresnel::fresnel_dielectric;
 pub use lambert::Lambert;
 pub use microfacet::{Distribution, Microfacet};
-pub use mirror::Mirror;
 pub use oren_nayar::OrenNayar;
 pub use phong::Phong;
 pub use plastic::Plastic;
@@ -116,7 +114,6 @@ pub enum Material {
     Lambert(Lambert),
     OrenNayar(OrenNayar),
     Phong(Phong),
-    Mirror(Mirror),
     Dielectric(Dielectric),
     ThinDielectric(ThinDielectric),
     RoughDielectric(RoughDielectric),
@@ -132,7 +129,6 @@ macro_rules! dispatch {
             Material::Lambert($m) => $e,
             Material::OrenNayar($m) => $e,
             Material::Phong($m) => $e,
-            Material::Mirror($m) => $e,
             Material::Dielectric($m) => $e,
             Material::ThinDielectric($m) => $e,
             Material::RoughDielectric($m) => $e,
@@ -177,10 +173,7 @@ impl Material {
     pub fn is_specular(&self) -> bool {
         matches!(
             self,
-            Material::Mirror(_)
-                | Material::Dielectric(_)
-                | Material::ThinDielectric(_)
-                | Material::Conductor(_)
+            Material::Dielectric(_) | Material::ThinDielectric(_) | Material::Conductor(_)
         )
     }
 

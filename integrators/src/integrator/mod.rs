@@ -453,7 +453,7 @@ mod analytic_tests;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::{Dielectric, Mirror};
+    use crate::bsdf::{Conductor, Dielectric};
     use crate::Material;
     use glam::Vec3A;
 
@@ -479,9 +479,7 @@ mod tests {
 
     #[test]
     fn specular_lobes_of_a_mirror_is_one_tinted_reflection() {
-        let mirror = Material::Mirror(Mirror {
-            tint: Rgb::new(0.9, 0.5, 0.1),
-        });
+        let mirror = Material::Conductor(Conductor::perfect_mirror(Rgb::new(0.9, 0.5, 0.1)));
         let wo = Vec3A::new(0.6, 0.0, 0.8);
         let [r, t] = specular_lobes(&mirror, wo);
         let r = r.unwrap();

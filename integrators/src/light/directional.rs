@@ -3,8 +3,7 @@
 //! facing it receives `irradiance` (W m^-2 per channel, measured perpendicular to the beam).
 
 use super::{lum, LeSample, LightSample};
-use crate::sampling::concentric_disk;
-use crate::{Frame, Rgb};
+use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
 
@@ -40,12 +39,10 @@ impl DirectionalLight {
     /// outside the scene's bounding sphere.
     pub fn sample_le(&self, u_pos: Vec2, scene_center: Vec3A, scene_radius: f32) -> LeSample {
         let dir = self.direction;
-        let frame = Frame::from_normal(dir);
-        let d = concentric_disk(u_pos) * scene_radius;
-        let origin = scene_center - dir * (2.0 * scene_radius) + frame.s * d.x + frame.t * d.y;
+        let ray = super::ray_from_afar(dir, u_pos, scene_center, scene_radius);
         let area = PI * scene_radius * scene_radius;
         LeSample {
-            ray: crate::Ray::new(origin, dir),
+            ray,
             radiance: self.irradiance,
             normal: dir,
             pdf_pos: 1.0 / area,

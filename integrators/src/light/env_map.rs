@@ -20,8 +20,8 @@
 //! `pdf(u, v) / (2 pi^2 sin(theta))`.
 
 use super::{lum, LeSample, LightSample};
-use crate::sampling::{concentric_disk, Distribution1D};
-use crate::{Frame, Rgb};
+use crate::sampling::Distribution1D;
+use crate::Rgb;
 use glam::{Mat3A, Vec2, Vec3A};
 use std::f32::consts::PI;
 
@@ -268,11 +268,9 @@ impl EnvMapLight {
             };
         };
         let dir = -towards_sky;
-        let frame = Frame::from_normal(dir);
-        let d = concentric_disk(u_pos) * scene_radius;
-        let origin = scene_center - dir * (2.0 * scene_radius) + frame.s * d.x + frame.t * d.y;
+        let ray = super::ray_from_afar(dir, u_pos, scene_center, scene_radius);
         LeSample {
-            ray: crate::Ray::new(origin, dir),
+            ray,
             radiance,
             normal: dir,
             pdf_pos: 1.0 / area,
@@ -340,33 +338,32 @@ mod tests {
         assert!((rotated.radiance(Vec3A::Z) - map.radiance(Vec3A::Y)).length() < 1e-5);
     }
 
+    /// `integral f dw` over the sphere by the midpoint rule, uniform in `y` and the azimuth.
+    fn over_sphere(f: impl Fn(Vec3A) -> f64) -> f64 {
+        let (nt, np) = (800, 1600);
+        let mut sum = 0.0f64;
+        for i in 0..nt {
+            let z = -1.0 + 2.0 * (i as f64 + 0.5) / nt as f64;
+            let r = (1.0 - z * z).sqrt();
+            for j in 0..np {
+                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
+                sum += f(Vec3A::new(
+                    (r * phi.cos()) as f32,
+                    z as f32,
+                    (r * phi.sin()) as f32,
+                ));
+            }
+        }
+        sum * 4.0 * std::f64::consts::PI / (nt * np) as f64
+    }
+
     #[test]
     fn sampling_covers_the_radiance_and_integrates_it() {
         let map = test_map(Mat3A::from_rotation_y(0.7) * Mat3A::from_rotation_x(0.3));
-        // The estimate of integral L dw from light samples equals a quadrature of it.
-        let (nt, np) = (800, 1600);
-        let mut quad = 0.0f64;
-        for i in 0..nt {
-            let z = -1.0 + 2.0 * (i as f64 + 0.5) / nt as f64;
-            let r = (1.0 - z * z).sqrt();
-            for j in 0..np {
-                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-                let d = Vec3A::new((r * phi.cos()) as f32, z as f32, (r * phi.sin()) as f32);
-                quad += map.radiance(d).y as f64;
-            }
-        }
-        quad *= 4.0 * std::f64::consts::PI / (nt * np) as f64;
-        let mut pdf_integral = 0.0f64;
-        for i in 0..nt {
-            let z = -1.0 + 2.0 * (i as f64 + 0.5) / nt as f64;
-            let r = (1.0 - z * z).sqrt();
-            for j in 0..np {
-                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-                let d = Vec3A::new((r * phi.cos()) as f32, z as f32, (r * phi.sin()) as f32);
-                pdf_integral += map.pdf(d) as f64;
-            }
-        }
-        pdf_integral *= 4.0 * std::f64::consts::PI / (nt * np) as f64;
+        // The estimate of integral L dw from light samples equals a quadrature of it, and
+        // the density integrates to 1.
+        let quad = over_sphere(|d| map.radiance(d).y as f64);
+        let pdf_integral = over_sphere(|d| map.pdf(d) as f64);
         let mut s = Sampler::new(2101, 0, 0);
         let n = 400_000;
         let (mut sum, mut sum2) = (0.0f64, 0.0f64);

@@ -1,8 +1,8 @@
 //! The constant environment: radiance from every direction that leaves the scene.
 
 use super::{lum, LeSample, LightSample};
-use crate::sampling::{concentric_disk, uniform_sphere, UNIFORM_SPHERE_PDF};
-use crate::{Frame, Rgb};
+use crate::sampling::{uniform_sphere, UNIFORM_SPHERE_PDF};
+use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
 
@@ -44,11 +44,9 @@ impl EnvironmentLight {
         scene_radius: f32,
     ) -> LeSample {
         let dir = uniform_sphere(u_dir);
-        let frame = Frame::from_normal(dir);
-        let d = concentric_disk(u_pos) * scene_radius;
-        let origin = scene_center - dir * (2.0 * scene_radius) + frame.s * d.x + frame.t * d.y;
+        let ray = super::ray_from_afar(dir, u_pos, scene_center, scene_radius);
         LeSample {
-            ray: crate::Ray::new(origin, dir),
+            ray,
             radiance: self.radiance,
             normal: dir,
             pdf_pos: 1.0 / (PI * scene_radius * scene_radius),

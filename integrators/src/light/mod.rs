@@ -154,6 +154,16 @@ fn leave(p: Vec3A, n: Vec3A, u_dir: Vec2) -> (crate::Ray, f32) {
     (surface.spawn_ray(dir), local.z)
 }
 
+/// A ray travelling along `dir` into the scene from infinitely far away: from a uniform
+/// point (`u_pos`) of the disk of radius `scene_radius` across `dir`, placed outside the
+/// scene's bounding sphere. How lights at infinity (environments, directional lights) emit.
+fn ray_from_afar(dir: Vec3A, u_pos: Vec2, scene_center: Vec3A, scene_radius: f32) -> crate::Ray {
+    let frame = Frame::from_normal(dir);
+    let d = crate::sampling::concentric_disk(u_pos) * scene_radius;
+    let origin = scene_center - dir * (2.0 * scene_radius) + frame.s * d.x + frame.t * d.y;
+    crate::Ray::new(origin, dir)
+}
+
 macro_rules! dispatch {
     ($self:expr, $l:ident => $e:expr) => {
         match $self {

@@ -383,7 +383,9 @@ pub fn expect_mean_passes(
 pub fn inside_a_mirror() -> TestScene {
     TestScene {
         surfaces: vec![UNIT_SPHERE],
-        materials: vec![Material::Mirror(crate::bsdf::Mirror { tint: Rgb::ONE })],
+        materials: vec![Material::Conductor(crate::bsdf::Conductor::perfect_mirror(
+            Rgb::ONE,
+        ))],
         lights: LightTable::new(Vec::new(), 1.0),
         camera: Probe::Omni(Vec3A::new(0.2, 0.1, 0.0)),
     }
