@@ -40,6 +40,10 @@ pub struct Hit {
     pub material: u32,
     /// Index of the surface's emitter in the scene's light table, if it emits.
     pub light: Option<u32>,
+    /// The surface's tangent along its `u` parameter where the shape has a parametrisation
+    /// that orients its shading frame (spheres: around the `z` axis, as Mitsuba 3's), zero
+    /// where it has none (the frame is then built from the normal alone). Not unit length.
+    pub dpdu: Vec3A,
 }
 
 /// Distance by which spawned rays are pushed off a surface, relative to the magnitude of the
@@ -60,7 +64,10 @@ impl Hit {
         light: Option<u32>,
     ) -> Hit {
         let n = (ray.at(t) - center).normalize();
-        Hit::new(t, center + n * radius, n, material, light)
+        Hit {
+            dpdu: Vec3A::new(-n.y, n.x, 0.0),
+            ..Hit::new(t, center + n * radius, n, material, light)
+        }
     }
 
     /// A hit whose shading normal is its geometric normal `n`.
@@ -73,6 +80,7 @@ impl Hit {
             ns: n,
             material,
             light,
+            dpdu: Vec3A::ZERO,
         }
     }
 
@@ -109,10 +117,11 @@ impl Hit {
         }
     }
 
-    /// The shading frame at the hit.
+    /// The shading frame at the hit: `z` the shading normal, `x` the tangent `dpdu` made
+    /// orthogonal to it where the shape has one (anisotropic materials follow it).
     #[inline]
     pub fn frame(&self) -> Frame {
-        Frame::from_normal(self.ns)
+        Frame::from_normal_and_tangent(self.ns, self.dpdu)
     }
 }
 
@@ -134,6 +143,25 @@ impl Frame {
         let s = Vec3A::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
         let t = Vec3A::new(b, sign + n.y * n.y * a, -n.y);
         Frame { s, t, n }
+    }
+
+    /// A frame around a unit normal whose `s` axis is `tangent` made orthogonal to it
+    /// (Gram-Schmidt, as Mitsuba 3's shading frames); [`Frame::from_normal`] where the tangent
+    /// vanishes or is parallel to the normal.
+    #[inline]
+    pub fn from_normal_and_tangent(n: Vec3A, tangent: Vec3A) -> Self {
+        let s = tangent - n * n.dot(tangent);
+        let len2 = s.length_squared();
+        let threshold = 1e-12 * tangent.length_squared().max(f32::MIN_POSITIVE);
+        if !len2.is_finite() || len2 <= threshold {
+            return Frame::from_normal(n);
+        }
+        let s = s / len2.sqrt();
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
     }
 
     #[inline]
@@ -212,6 +240,48 @@ mod tests {
             let v = Vec3A::new(0.2, 0.7, -0.4);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
         }
+    }
+
+    #[test]
+    fn sphere_frames_follow_the_parametrisation_around_z() {
+        // Mitsuba 3's sphere: the first tangent runs around the z axis (dp/du), made
+        // orthogonal to the shading normal; at the poles, where dp/du vanishes, the frame of
+        // the normal alone.
+        let ray = Ray::new(
+            Vec3A::new(3.0, 1.0, 0.5),
+            Vec3A::new(-1.0, -0.3, -0.1).normalize(),
+        );
+        let hit = Hit::on_sphere(&ray, 2.0, Vec3A::ZERO, 1.0, 0, None);
+        let f = hit.frame();
+        let n = hit.ns;
+        let expected = Vec3A::new(-n.y, n.x, 0.0).normalize();
+        assert!(
+            (f.s - expected).length() < 1e-5,
+            "{:?} vs {expected:?}",
+            f.s
+        );
+        assert!(f.s.cross(f.t).dot(n) > 0.9999 && f.s.dot(f.t).abs() < 1e-6);
+        let pole = Hit::on_sphere(
+            &Ray::new(Vec3A::Z * 3.0, -Vec3A::Z),
+            2.0,
+            Vec3A::ZERO,
+            1.0,
+            0,
+            None,
+        );
+        let g = pole.frame();
+        let h = Frame::from_normal(pole.ns);
+        assert!((g.s - h.s).length() < 1e-6 && (g.t - h.t).length() < 1e-6);
+        // Triangles have no parametrisation here: the normal's frame, as before.
+        let flat = Hit::new(
+            1.0,
+            Vec3A::ZERO,
+            Vec3A::new(0.3, 0.1, 0.9).normalize(),
+            0,
+            None,
+        );
+        let (a, b) = (flat.frame(), Frame::from_normal(flat.ns));
+        assert_eq!((a.s, a.t, a.n), (b.s, b.t, b.n));
     }
 
     #[test]

@@ -277,6 +277,7 @@ impl InstanceSet {
             ns,
             material: inst.material,
             light: None,
+            dpdu: Vec3A::ZERO,
         }
     }
 }

@@ -440,6 +440,7 @@ impl WideBvh {
                 ns,
                 material: data.material(lane),
                 light: data.light(lane),
+                dpdu: Vec3A::ZERO,
             }
         }
     }

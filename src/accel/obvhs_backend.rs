@@ -362,6 +362,7 @@ impl ObvhsBvh {
                     ns,
                     material,
                     light: light(l),
+                    dpdu: Vec3A::ZERO,
                 }
             }
         }
@@ -393,6 +394,7 @@ impl ObvhsBvh {
             ns,
             material: inst.material,
             light: None,
+            dpdu: Vec3A::ZERO,
         }
     }
 }

@@ -135,12 +135,8 @@ mod tests {
 
     fn hit(ns: Vec3A) -> Hit {
         Hit {
-            t: 1.0,
-            p: Vec3A::ZERO,
-            ng: Vec3A::Z,
             ns,
-            material: 0,
-            light: None,
+            ..Hit::new(1.0, Vec3A::ZERO, Vec3A::Z, 0, None)
         }
     }
 

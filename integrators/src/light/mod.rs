@@ -143,14 +143,7 @@ const MIN_COS: f32 = 1e-6;
 fn leave(p: Vec3A, n: Vec3A, u_dir: Vec2) -> (crate::Ray, f32) {
     let local = crate::sampling::cosine_hemisphere(u_dir);
     let dir = Frame::from_normal(n).to_world(local);
-    let surface = crate::Hit {
-        t: 0.0,
-        p,
-        ng: n,
-        ns: n,
-        material: 0,
-        light: None,
-    };
+    let surface = crate::Hit::new(0.0, p, n, 0, None);
     (surface.spawn_ray(dir), local.z)
 }
 
