@@ -14,7 +14,7 @@ pub struct SpotLight {
     pub position: Vec3A,
     pub axis: Vec3A,
     pub intensity: Rgb,
-    /// Angles in radians, `0 <= beam_width <= cutoff < pi / 2`... up to `pi`.
+    /// Angles from the axis in radians, `0 <= beam_width <= cutoff <= pi`.
     pub cutoff: f32,
     pub beam_width: f32,
 }
