@@ -28,34 +28,57 @@ What it measures, per material (all over the whole image, RGB channels together)
   / beyond 60 degrees of the view direction) and off it (floor and background), to say where
   a difference is.
 
-Anisotropic roughness runs along the shading frame's tangents, and the two renderers build
-them differently on a sphere: Mitsuba's first tangent follows the sphere's parametrisation
-(dp/du, around the world z axis, which points nearly at the camera here, so its brushing is
-circular around the ball's centre), raylab's comes from the normal alone (Duff et al. 2017,
-nearly the world x axis on the ball's front). "roughconductor Al aniso" therefore differs on
-purpose (a brighter, vertical highlight in raylab's image; a wedge-shaped one in Mitsuba's).
-The row "roughconductor Al aniso (flat mesh)" is the same material on a flat-shaded icosphere
-(3 subdivisions) that both renderers load from OBJ files, where the frames are made the same:
-Mitsuba takes a triangle's tangent from its texture coordinates (without any, from its edge
-p1 - p0), so its file gives every corner the coordinates (p.s, p.t) in its face's Duff frame.
+Anisotropic roughness runs along the shading frame's tangents. On a sphere both renderers
+take the first tangent from the sphere's parametrisation (dp/du, around the world z axis);
+before raylab did (commit "Spheres' shading frames follow Mitsuba's parametrisation"), its
+frame came from the normal alone and "roughconductor Al aniso" differed (excess 21). The row
+"roughconductor Al aniso (flat mesh)" is the same material on a flat-shaded icosphere
+(3 subdivisions) that both renderers load from OBJ files, where raylab's frame still comes
+from the normal: Mitsuba takes a triangle's tangent from its texture coordinates (without
+any, from its edge p1 - p0), so its file gives every corner the coordinates (p.s, p.t) in its
+face's Duff frame, and the frames agree.
 The diffuse scene also prints a camera check: relMSE against Mitsuba's image mirrored left
 to right, which must be far larger than unmirrored.
+
+Four more rows (LIGHTS) check raylab's other lights the same way, each replacing both the
+constant environment and the area light, so that it is the only light:
+
+* "envmap sky: diffuse" and "envmap sky: roughconductor Cu ggx 0.2": the latitude-longitude
+  map scenes/assets/sky.hdr (128 x 64, a small sun 30 degrees up towards +x), scale 1; raylab's
+  `Environment` (the file is copied next to the RON files, which name it relatively, so no
+  --allow-path is needed), Mitsuba's `envmap` with identity to_world. Both read the map in
+  Mitsuba's convention: u = atan2(x, -z) / 2 pi with columns centred at (x + 1/2) / W, v =
+  acos(y) / pi with rows at y / (H - 1), bilinear.
+* "spot: diffuse": raylab's `Spot` at SPOT's position aimed at its target, Mitsuba's `spot`
+  placed by look_at (its local +z is the axis); cutoff 25 and beam width 15 degrees, the
+  falloff ring visible on the floor around the ball.
+* "directional: diffuse": raylab's `Directional`, Mitsuba's `directional`, light travelling
+  along SUN's direction (down, right and away from the camera).
+
+The spot and directional scenes have no environment: their background is exactly 0 in both
+renderers, which the 1e-2 in relMSE's denominator keeps well-conditioned (those pixels add 0
+to every relMSE). With 1024 spp these rows resolve a half-column turn of the map (1.4 degrees
+about y: excess 1.6, z +33), the map's sun lowered by half a row (1.4 degrees about z: excess
+6), a 0.5 degree turn of the directional light (excess 3.9), 0.3 % of its irradiance (z -48)
+and 1 degree of the spot's beam width (excess 20).
 
     pip install mitsuba numpy
     cargo build --release
     python3 benches/mitsuba_materials.py [--spp 1024] [--res 128] [--only plastic,conductor]
         [--seeds 1,2] [--raylab target/release/raylab] [--out out/mitsuba-materials]
 
---only takes names (exactly one material) or parts of names (every material containing it),
-comma-separated. --out keeps each scene's RON file, the four EXRs and a PNG: raylab |
+--only takes names (exactly one row) or parts of names (every row containing it),
+comma-separated: `--only envmap,spot,directional` runs the light rows, `--only diffuse` the
+material row "diffuse" alone. --out keeps each scene's RON file, the four EXRs and a PNG: raylab |
 Mitsuba | difference (red where raylab is brighter, blue where Mitsuba is, full colour at a
 difference of 0.25). The exit status is 1 when a row differs. With the defaults (128x128,
-1024 spp) it runs in about 7 minutes on two cores (raylab 2.5, Mitsuba 4), with differences
-of the means resolved to about 0.05 %.
+1024 spp) the material rows run in about 7 minutes on two cores (raylab 2.5, Mitsuba 4), with
+differences of the means resolved to about 0.05 %; the four light rows add about 2 minutes.
 """
 import argparse
 import math
 import pathlib
+import shutil
 import subprocess
 import sys
 import time
@@ -92,6 +115,18 @@ MATERIALS = {
     "plastic nonlinear": ("plastic", {"diffuse_reflectance": BLUE, "nonlinear": True}),
     "roughplastic beckmann 0.1": ("roughplastic", {"diffuse_reflectance": BLUE}),
     "roughplastic ggx 0.3": ("roughplastic", {"diffuse_reflectance": BLUE, "distribution": "ggx", "alpha": 0.3}),
+}
+# Rows for raylab's other lights: (ball material, lighting). "default" is SCENE's constant
+# environment and area light; the others replace both (see the docstring).
+SKY = ROOT / "scenes" / "assets" / "sky.hdr"  # 128 x 64, a sun 30 degrees up towards +x
+SPOT = {"position": (1.6, 2.6, 2.2), "target": (-0.4, -1.0, -0.6), "intensity": 40.0,
+        "cutoff_angle": 25.0, "beam_width": 15.0}
+SUN = {"direction": (0.5, -0.8, -0.33), "irradiance": 3.0}  # where the light travels
+LIGHTS = {
+    "envmap sky: diffuse": ("diffuse", "envmap"),
+    "envmap sky: roughconductor Cu ggx 0.2": ("roughconductor Cu ggx 0.2", "envmap"),
+    "spot: diffuse": ("diffuse", "spot"),
+    "directional: diffuse": ("diffuse", "directional"),
 }
 RAYLAB_NAMES = {
     "diffuse": ("Lambert", {"reflectance": "albedo"}),
@@ -242,25 +277,46 @@ def to_raylab(plugin, params):
     return f"{name}({fields})"
 
 
-def ron_scene(material, res, ball_obj=None):
-    cam, fl, L = SCENE["camera"], SCENE["floor"], SCENE["light"]
+def ron_lights(lighting, sky=None):
+    """The top-level environment line (or "") and the light entities, for one lighting."""
+    if lighting == "default":
+        L = SCENE["light"]
+        quad = "Quad(vertices: [" + ", ".join(ron_value(p) for p in light_corners()) + "])"
+        return (f"    environment: {ron_value(SCENE['environment'])},\n",
+                f'(name: "light", shape: {quad}, emitter: Area(radiance: {ron_value(L["radiance"])})),')
+    if lighting == "envmap":  # the map's file next to the RON file: no --allow-path needed
+        return "", f'(name: "sky", emitter: Environment(path: "{sky}", scale: 1.0)),'
+    if lighting == "spot":
+        S, i = SPOT, float(SPOT["intensity"])
+        return "", (f'(name: "spot", transform: (translate: {ron_value(S["position"])}), emitter: Spot(intensity:'
+                    f' {ron_value((i, i, i))}, look_at: {ron_value(S["target"])}, cutoff_angle:'
+                    f' {ron_value(S["cutoff_angle"])}, beam_width: {ron_value(S["beam_width"])})),')
+    if lighting == "directional":
+        e = float(SUN["irradiance"])
+        return "", (f'(name: "sun", emitter: Directional(direction: {ron_value(SUN["direction"])},'
+                    f' irradiance: {ron_value((e, e, e))})),')
+    raise ValueError(lighting)
+
+
+def ron_scene(material, res, ball_obj=None, lighting="default", sky=None):
+    cam, fl = SCENE["camera"], SCENE["floor"]
     quad = lambda cs: "Quad(vertices: [" + ", ".join(ron_value(p) for p in cs) + "])"
     ball = (f'Obj(path: "{ball_obj}")' if ball_obj else
             f"Sphere(center: {ron_value(SCENE['ball']['center'])}, radius: {ron_value(SCENE['ball']['radius'])})")
-    return f"""// Written by benches/mitsuba_materials.py: the ball in {to_raylab(*material)}.
+    environment, light = ron_lights(lighting, sky)
+    return f"""// Written by benches/mitsuba_materials.py: the ball in {to_raylab(*material)}, lighting {lighting}.
 (
     camera: LookAt(eye: {ron_value(cam['eye'])}, look_at: {ron_value(cam['look_at'])}, up: {ron_value(cam['up'])},
                    fov: {ron_value(cam['fov'])}, resolution: ({res[0]}, {res[1]})),
     render: (integrator: "path", spp: 16, seed: 0, params: {{"max-depth": {MAX_DEPTH}}}),
-    environment: {ron_value(SCENE['environment'])},
-    materials: {{
+{environment}    materials: {{
         "floor": Lambert(albedo: {ron_value(fl['albedo'])}),
         "ball": {to_raylab(*material)},
     }},
     entities: [
         (name: "floor", shape: {quad(fl['corners'])}, material: "floor"),
         (name: "ball", shape: {ball}, material: "ball"),
-        (name: "light", shape: {quad(light_corners())}, emitter: Area(radiance: {ron_value(L['radiance'])})),
+        {light}
     ],
 )
 """
@@ -283,10 +339,37 @@ def mi_value(v):
     return v
 
 
-def mitsuba_scene(material, res, spp, ball_obj=None):
+def mitsuba_lights(lighting, sky=None):
+    """The emitters of one lighting, as `load_dict` entries."""
     import mitsuba as mi
 
-    cam, fl, L = SCENE["camera"], SCENE["floor"], SCENE["light"]
+    if lighting == "default":
+        L = SCENE["light"]
+        # A rectangle without a BSDF would get Mitsuba's default grey diffuse; raylab's pure
+        # emitter is black.
+        black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0, 0, 0]}}
+        return {"env": {"type": "constant", "radiance": mi_value(SCENE["environment"])},
+                "light": {"type": "rectangle", "to_world": mi.ScalarTransform4f(quad_to_world(light_corners()).tolist()),
+                          "bsdf": black, "emitter": {"type": "area", "radiance": mi_value(L["radiance"])}}}
+    if lighting == "envmap":  # identity to_world: raylab's map frame is the world's
+        return {"sky": {"type": "envmap", "filename": str(sky), "scale": 1.0}}
+    if lighting == "spot":  # local +z along the axis; look_at turns +z towards the target
+        S = SPOT
+        up = [0.0, 0.0, 1.0]  # any up not along the axis: the beam is round
+        return {"spot": {"type": "spot", "intensity": {"type": "rgb", "value": [S["intensity"]] * 3},
+                         "cutoff_angle": S["cutoff_angle"], "beam_width": S["beam_width"],
+                         "to_world": mi.ScalarTransform4f().look_at(origin=list(S["position"]),
+                                                                    target=list(S["target"]), up=up)}}
+    if lighting == "directional":
+        return {"sun": {"type": "directional", "direction": list(SUN["direction"]),
+                        "irradiance": {"type": "rgb", "value": [SUN["irradiance"]] * 3}}}
+    raise ValueError(lighting)
+
+
+def mitsuba_scene(material, res, spp, ball_obj=None, lighting="default", sky=None):
+    import mitsuba as mi
+
+    cam, fl = SCENE["camera"], SCENE["floor"]
     plugin, params = material
     bsdf = {"type": plugin, **{k: mi_value(v) for k, v in params.items()}}
     if ball_obj:
@@ -294,7 +377,6 @@ def mitsuba_scene(material, res, spp, ball_obj=None):
     else:
         ball = {"type": "sphere", "center": list(SCENE["ball"]["center"]),
                 "radius": SCENE["ball"]["radius"], "bsdf": bsdf}
-    black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0, 0, 0]}}
     return mi.load_dict({
         "type": "scene",
         "integrator": {"type": "path", "max_depth": MAX_DEPTH + 1, "rr_depth": RR_DEPTH},
@@ -308,14 +390,10 @@ def mitsuba_scene(material, res, spp, ball_obj=None):
             "film": {"type": "hdrfilm", "width": res[0], "height": res[1], "pixel_format": "rgb",
                      "rfilter": {"type": "box"}},
         },
-        "env": {"type": "constant", "radiance": mi_value(SCENE["environment"])},
         "floor": {"type": "rectangle", "to_world": mi.ScalarTransform4f(quad_to_world(fl["corners"]).tolist()),
                   "bsdf": {"type": "diffuse", "reflectance": mi_value(fl["albedo"])}},
         "ball": ball,
-        # A rectangle without a BSDF would get Mitsuba's default grey diffuse; raylab's pure
-        # emitter is black.
-        "light": {"type": "rectangle", "to_world": mi.ScalarTransform4f(quad_to_world(light_corners()).tolist()),
-                  "bsdf": black, "emitter": {"type": "area", "radiance": mi_value(L["radiance"])}},
+        **mitsuba_lights(lighting, sky),
     })
 
 
@@ -390,7 +468,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--spp", type=int, default=1024, help="samples per pixel, both renderers (default 1024)")
     ap.add_argument("--res", default="128", help="image size: N or WxH (default 128)")
-    ap.add_argument("--only", help="materials to run: names or parts of names, comma-separated")
+    ap.add_argument("--only", help="rows to run: names or parts of names, comma-separated")
     ap.add_argument("--seeds", default="1,2", help="the two seeds each renderer runs with (default 1,2)")
     ap.add_argument("--raylab", default="target/release/raylab", help="raylab binary")
     ap.add_argument("--out", default="out/mitsuba-materials", help="folder for the scenes, EXRs and PNGs")
@@ -411,28 +489,34 @@ def main():
     out = out if out.is_absolute() else ROOT / out
     out.mkdir(parents=True, exist_ok=True)
     # A name given whole selects itself only ("plastic"); a part of names, every name containing it.
+    # Every row: name -> (material, lighting); the materials' rows, then the lights'.
+    all_rows = {**{n: (n, "default") for n in MATERIALS}, **LIGHTS}
     wanted = [w.strip() for w in args.only.split(",")] if args.only else []
-    names = [n for n in MATERIALS if not wanted or any(w == n or (w not in MATERIALS and w in n) for w in wanted)]
+    names = [n for n in all_rows if not wanted or any(w == n or (w not in all_rows and w in n) for w in wanted)]
     if not names:
-        sys.exit(f"--only {args.only}: no such material (have: {', '.join(MATERIALS)})")
+        sys.exit(f"--only {args.only}: no such row (have: {', '.join(all_rows)})")
     obj, obj_uv = out / "icosphere.obj", out / "icosphere-duff-uv.obj"
     write_obj(obj)
     write_obj(obj_uv, duff_uv=True)
+    sky = out / SKY.name  # next to the RON files, which name it relatively
+    if any(all_rows[n][1] == "envmap" for n in names):
+        shutil.copyfile(SKY, sky)
     cos = ball_disc(res)
 
     start = time.time()
     rows, details, times = [], [], {"raylab": 0.0, "mitsuba": 0.0}
     for name in names:
-        material = MATERIALS[name]
-        slug = name.replace(" ", "-").replace("(", "").replace(")", "").replace(".", "")
+        material_name, lighting = all_rows[name]
+        material = MATERIALS[material_name]
+        slug = name.replace(" ", "-").replace("(", "").replace(")", "").replace(".", "").replace(":", "")
         mesh = obj.name if FLAT_MESH in name else None
         scene_path = out / f"{slug}.ron"
-        scene_path.write_text(ron_scene(material, res, mesh))
+        scene_path.write_text(ron_scene(material, res, mesh, lighting, sky.name))
         t = time.time()
         r = [raylab_render(exe, scene_path, out / f"{slug}-raylab-{s}.exr", args.spp, s) for s in seeds]
         times["raylab"] += time.time() - t
         t = time.time()
-        scene = mitsuba_scene(material, res, args.spp, obj_uv if mesh else None)
+        scene = mitsuba_scene(material, res, args.spp, obj_uv if mesh else None, lighting, sky)
         m = []
         for s in seeds:
             img = mi.render(scene, spp=args.spp, seed=s)
@@ -466,8 +550,7 @@ def main():
     verdicts = {name: c["agrees"] for name, c in rows}
     if not verdicts.get(ANISO, True) and verdicts.get(ANISO + " " + FLAT_MESH):
         print(f"\n{ANISO} differs on the analytic sphere and agrees on the flat mesh: the BSDFs agree, the"
-              " tangent frames do not. Mitsuba's sphere takes its first tangent from the parametrisation"
-              " (around the world z axis), raylab from the normal alone (Duff et al. 2017).")
+              " tangent frames do not (Mitsuba's sphere takes its first tangent from its parametrisation).")
     print(f"\nTime: raylab {times['raylab']:.0f} s, Mitsuba {times['mitsuba']:.0f} s, total {time.time() - start:.0f} s;"
           f" files in {out}")
     return 0 if all(c["agrees"] for _, c in rows) else 1
