@@ -240,19 +240,23 @@ pub fn land(
         if let Some(l) = l.as_deref_mut() {
             *l += path.beta * emitted_at(tracer.scene, &hit, &path.ray);
         }
-        let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
         // A surface with Dirac lobes (all of them, or a plastic's coating over its base) sends
         // the path on through one of them with their probability `p`; otherwise the path
         // lands here, weighted by 1 / (1 - p), and is gathered with the rest of the BSDF.
+        let landing = |beta| Landing {
+            hit,
+            ray: path.ray,
+            beta,
+            bounces: path.bounces,
+        };
+        if !tracer.scene.material(hit.material).has_delta_lobe() {
+            return Some(landing(path.beta));
+        }
+        let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
         let p = sp.material.delta_probability(sp.wo);
         let u_lobe = if p > 0.0 { sampler.next_1d() } else { 1.0 };
         if u_lobe >= p {
-            return Some(Landing {
-                hit,
-                ray: path.ray,
-                beta: path.beta / (1.0 - p),
-                bounces: path.bounces,
-            });
+            return Some(landing(path.beta / (1.0 - p)));
         }
         if path.bounces >= max_bounces {
             return None;

@@ -248,16 +248,6 @@ impl Distribution1D {
         Distribution1D { cdf, pmf, total }
     }
 
-    /// Number of cells.
-    pub fn len(&self) -> usize {
-        self.pmf.len()
-    }
-
-    /// True for a distribution of no cells (never: an empty one has one uniform cell).
-    pub fn is_empty(&self) -> bool {
-        self.pmf.is_empty()
-    }
-
     /// A point of `[0, n)` for `u` in `[0, 1)`, its cell, and its density (per unit of `x`).
     /// Never lands in a cell of zero weight.
     #[inline]

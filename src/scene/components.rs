@@ -126,13 +126,6 @@ pub enum Emitter {
     Environment(Arc<raylab_integrators::light::EnvMap>),
 }
 
-impl Emitter {
-    /// True for the emitters that have no shape: everything but area lights.
-    pub fn is_shapeless(&self) -> bool {
-        !matches!(self, Emitter::Area { .. })
-    }
-}
-
 /// World-space geometry, produced from `Shape` and `Transform` by the bake system.
 #[derive(Clone, Debug, PartialEq)]
 pub enum WorldShape {

@@ -490,17 +490,17 @@ fn spawn_file_parts(
     }
     for part in file_materials::file_parts(shape, files).map_err(fail)? {
         materials.push(part.material);
-        let entity = world.spawn((
+        let mut entity = hecs::EntityBuilder::new();
+        entity.add_bundle((
             Name(format!("{name}/{}", part.name)),
             transform,
             part.shape,
             MaterialRef((materials.len() - 1) as u32),
         ));
         if let Some(emitter) = part.emitter {
-            world
-                .insert_one(entity, emitter)
-                .expect("entity was just spawned");
+            entity.add(emitter);
         }
+        world.spawn(entity.build());
     }
     Ok(())
 }
@@ -672,27 +672,22 @@ fn build_world(
             .map(|d| shape_from_desc(d, files))
             .transpose()
             .map_err(&entity_error)?;
-        let entity = world.spawn((Name(name), transform));
+        // One entity with exactly the components it has.
+        let mut entity = hecs::EntityBuilder::new();
+        entity.add_bundle((Name(name), transform));
         if e.flip_normals {
-            world
-                .insert_one(entity, FlipNormals)
-                .expect("entity was just spawned");
+            entity.add(FlipNormals);
         }
         if let Some(shape) = shape {
-            world
-                .insert_one(entity, shape)
-                .expect("entity was just spawned");
+            entity.add(shape);
         }
         if let Some(m) = material {
-            world
-                .insert_one(entity, m)
-                .expect("entity was just spawned");
+            entity.add(m);
         }
         if let Some(em) = emitter {
-            world
-                .insert_one(entity, em)
-                .expect("entity was just spawned");
+            entity.add(em);
         }
+        world.spawn(entity.build());
     }
 
     // Systems: validate, bake transforms into world-space geometry, resolve instances.

@@ -87,6 +87,15 @@ impl BsdfSample {
         (pdf > 0.0).then(|| BsdfSample::reflection(wi, f(wi), pdf))
     }
 
+    /// The glossy sample of direction `wi` that `bxdf` drew for `wo`, with the bxdf's own
+    /// `eval` and `pdf` (so that sampling and MIS see one density); `None` where the density
+    /// vanishes or is not finite.
+    #[inline]
+    pub fn evaluated<B: Bxdf + ?Sized>(bxdf: &B, wo: Vec3A, wi: Vec3A) -> Option<BsdfSample> {
+        let pdf = bxdf.pdf(wo, wi);
+        (pdf > 0.0 && pdf.is_finite()).then(|| BsdfSample::reflection(wi, bxdf.eval(wo, wi), pdf))
+    }
+
     /// Throughput weight `f * |cos(wi)| / pdf`.
     #[inline]
     pub fn weight(&self) -> Rgb {

@@ -169,11 +169,7 @@ impl Bxdf for Phong {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0 && pdf.is_finite()) {
-            return None;
-        }
-        Some(BsdfSample::reflection(wi, self.eval(wo, wi), pdf))
+        BsdfSample::evaluated(self, wo, wi)
     }
 
     fn albedo(&self) -> Rgb {

@@ -79,11 +79,7 @@ impl Bxdf for RoughConductor {
         if wi.z <= 0.0 || wo.dot(m) <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0 && pdf.is_finite()) {
-            return None;
-        }
-        Some(BsdfSample::reflection(wi, self.eval(wo, wi), pdf))
+        BsdfSample::evaluated(self, wo, wi)
     }
 
     fn albedo(&self) -> Rgb {

@@ -148,17 +148,7 @@ impl Bxdf for RoughDielectric {
         if (wi.z * wo.z > 0.0) != reflected || wi.z == 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0 && pdf.is_finite()) {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-            specular: false,
-            eta,
-        })
+        BsdfSample::evaluated(self, wo, wi).map(|s| BsdfSample { eta, ..s })
     }
 
     fn albedo(&self) -> Rgb {

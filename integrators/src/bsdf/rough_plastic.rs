@@ -207,8 +207,7 @@ impl Bxdf for RoughPlastic {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0 && pdf.is_finite()).then(|| BsdfSample::reflection(wi, self.eval(wo, wi), pdf))
+        BsdfSample::evaluated(self, wo, wi)
     }
 
     fn albedo(&self) -> Rgb {

@@ -79,8 +79,8 @@ impl FixedDepth {
         let mut l = Rgb::ZERO;
         let lights = tracer.scene.lights();
         for (index, light) in lights.lights().iter().enumerate() {
-            // A flat or convex emitter cannot light itself.
-            if sp.hit.light == Some(index as u32) && !light.lights_itself() {
+            // A flat or convex emitter cannot light itself (no samples drawn for it).
+            if !sp.can_receive(index as u32, lights) {
                 continue;
             }
             let n = if light.is_delta() {

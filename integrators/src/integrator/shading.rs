@@ -89,6 +89,15 @@ impl<'a> ShadingPoint<'a> {
         })
     }
 
+    /// False when light `index` cannot light this point: it is the emitter the point lies on,
+    /// and flat or convex (only a concave emitter, a sphere emitting inwards, lights itself).
+    /// Skipped exactly rather than left to rounding, which would produce grazing samples of
+    /// the emitter's own plane.
+    #[inline]
+    pub fn can_receive(&self, index: u32, lights: &crate::LightTable) -> bool {
+        self.hit.light != Some(index) || lights.get(index).lights_itself()
+    }
+
     /// Connects the shading point to one sample of light `index` (`u` places it): the sample,
     /// the BSDF value towards it and `|cos|` at the shading point. `None` when the connection
     /// carries nothing (the emitter the point lies on, no sample, black, across an opaque
@@ -100,13 +109,10 @@ impl<'a> ShadingPoint<'a> {
         u: Vec2,
         tracer: &mut Tracer,
     ) -> Option<(LightSample, Rgb, f32)> {
-        // A flat or convex emitter cannot light itself: skip it exactly rather than leave
-        // rounding to produce a grazing sample of its own plane.
-        let light = tracer.scene.lights().get(index);
-        if self.hit.light == Some(index) && !light.lights_itself() {
+        if !self.can_receive(index, tracer.scene.lights()) {
             return None;
         }
-        let ls = light.sample_li(self.hit.p, u)?;
+        let ls = tracer.scene.lights().get(index).sample_li(self.hit.p, u)?;
         if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
             return None;
         }

@@ -79,8 +79,8 @@ impl Whitted {
 
         // Direct light: one shadow ray to every light.
         for index in 0..tracer.scene.lights().len() as u32 {
-            // A flat or convex emitter cannot light itself.
-            if hit.light == Some(index) && !tracer.scene.lights().get(index).lights_itself() {
+            // A flat or convex emitter cannot light itself (no sample drawn for it).
+            if !sp.can_receive(index, tracer.scene.lights()) {
                 continue;
             }
             if let Some((ls, f, cos)) = sp.connect_light(index, sampler.next_2d(), tracer) {
