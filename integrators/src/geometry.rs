@@ -1,6 +1,6 @@
 //! Rays, hit records and orthonormal frames.
 
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 
 /// A ray `origin + t * dir` for `t` in `[0, tmax)`. `dir` is unit length.
 #[derive(Clone, Copy, Debug)]
@@ -44,6 +44,11 @@ pub struct Hit {
     /// that orients its shading frame (spheres: around the `z` axis, as Mitsuba 3's), zero
     /// where it has none (the frame is then built from the normal alone). Not unit length.
     pub dpdu: Vec3A,
+    /// The surface's tangent along its `v` parameter (zero where `dpdu` is).
+    pub dpdv: Vec3A,
+    /// Texture coordinates: the mesh's, interpolated, or the shape's parametrisation
+    /// (Mitsuba 3's for spheres and rectangles; `(b1, b2)` on triangles without any).
+    pub uv: Vec2,
 }
 
 /// Distance by which spawned rays are pushed off a surface, relative to the magnitude of the
@@ -64,8 +69,15 @@ impl Hit {
         light: Option<u32>,
     ) -> Hit {
         let n = (ray.at(t) - center).normalize();
+        // Mitsuba 3's parametrisation: u the angle around z from +x, v the angle from +z.
+        let mut phi = n.y.atan2(n.x);
+        if phi < 0.0 {
+            phi += std::f32::consts::TAU;
+        }
+        let theta = n.z.clamp(-1.0, 1.0).acos();
         Hit {
             dpdu: Vec3A::new(-n.y, n.x, 0.0),
+            uv: Vec2::new(phi / std::f32::consts::TAU, theta / std::f32::consts::PI),
             ..Hit::new(t, center + n * radius, n, material, light)
         }
     }
@@ -81,6 +93,8 @@ impl Hit {
             material,
             light,
             dpdu: Vec3A::ZERO,
+            dpdv: Vec3A::ZERO,
+            uv: Vec2::ZERO,
         }
     }
 

@@ -10,8 +10,9 @@
 
 use super::bvh::{isa::Isa, Bvh, Packets, Singles};
 use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_SPHERES};
+use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
 use super::{box_corners, InstanceDesc, Mesh};
-use glam::{Affine3A, Vec3A};
+use glam::{Affine3A, Mat3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
 use raylab_integrators::Hit;
@@ -19,10 +20,10 @@ use raylab_integrators::Hit;
 /// One mesh asset's triangles as packets, one or two per leaf of their BVH.
 struct MeshBlas {
     bvh: Bvh,
-    /// Each lane's `smooth` index is the triangle's place in the BVH's order.
+    /// Each lane's `vertex_data` index is the triangle's place in the BVH's order.
     packets: Vec<Stored>,
-    /// Vertex normals per triangle (BVH order), or empty for flat shading.
-    smooth: Vec<[Vec3A; 3]>,
+    /// Vertex data per triangle (BVH order), or empty when the mesh has none.
+    vertex_data: Vec<VertexData>,
     triangles: usize,
 }
 
@@ -30,6 +31,8 @@ struct MeshBlas {
 #[derive(Clone, Copy)]
 struct Instance {
     world_to_local: Affine3A,
+    /// The linear part of the local-to-world map, for tangents.
+    to_world: Mat3A,
     mesh: u32,
     material: u32,
 }
@@ -70,21 +73,21 @@ impl MeshBlas {
                         corners: mesh.triangles[order[k as usize] as usize],
                         material: 0,
                         light: NONE,
-                        smooth: k,
+                        vertex_data: k,
                     })
                     .collect();
                 let (packet, data) = Packet::new(&lanes);
                 Stored { packet, data }
             })
             .collect();
-        let smooth = match mesh.normals {
-            Some(n) => order.iter().map(|&i| n[i as usize]).collect(),
-            None => Vec::new(),
-        };
+        let vertex_data = order
+            .iter()
+            .filter_map(|&i| mesh.vertex_data(i as usize))
+            .collect();
         MeshBlas {
             bvh,
             packets,
-            smooth,
+            vertex_data,
             triangles: order.len(),
         }
     }
@@ -93,7 +96,7 @@ impl MeshBlas {
         use std::mem::size_of;
         self.bvh.memory_bytes()
             + self.packets.capacity() * size_of::<Stored>()
-            + self.smooth.capacity() * size_of::<[Vec3A; 3]>()
+            + self.vertex_data.capacity() * size_of::<VertexData>()
     }
 }
 
@@ -126,6 +129,7 @@ impl InstanceSet {
                 let inst = &instances[i as usize];
                 Instance {
                     world_to_local: inst.local_to_world.inverse(),
+                    to_world: inst.local_to_world.matrix3,
                     mesh: inst.mesh,
                     material: inst.material,
                 }
@@ -254,22 +258,23 @@ impl InstanceSet {
         // Normals transform by the inverse transpose of the local-to-world map.
         let normal_matrix = inst.world_to_local.matrix3.transpose();
         let ng = (normal_matrix * packet.normal(lane)).normalize_or_zero();
-        // The lane's index is the triangle's place in the BVH's order, where `smooth` keeps
-        // its vertex normals (when the mesh has them).
-        let smooth = data.smooth(lane).and_then(|k| mesh.smooth.get(k));
-        let ns = match smooth {
-            None => ng,
-            Some(normals) => {
-                let local_p = inst.world_to_local.transform_point3a(origin)
-                    + inst.world_to_local.transform_vector3a(dir) * t;
-                let (v0, e1, e2) = packet.edges(lane);
-                let b = super::barycentrics(v0, e1, e2, local_p);
-                // Each vertex normal to world space, then interpolated: as the flattened build
-                // does, so an instance shades like its flattened copy under non-uniform scales.
-                let n = normals.map(|n| (normal_matrix * n).normalize_or_zero());
-                super::shading_normal(ng, b, n)
-            }
-        };
+        // The lane's index is the triangle's place in the BVH's order, where `vertex_data`
+        // keeps its normals and texture coordinates (when the mesh has them).
+        let vertex = data.vertex_data(lane).and_then(|k| mesh.vertex_data.get(k));
+        let local_p = inst.world_to_local.transform_point3a(origin)
+            + inst.world_to_local.transform_vector3a(dir) * t;
+        let (v0, e1, e2) = packet.edges(lane);
+        let b = barycentrics(v0, e1, e2, local_p);
+        // Each vertex normal to world space, then interpolated: as the flattened build does,
+        // so an instance shades like its flattened copy under non-uniform scales.
+        let ns = vertex.map_or(ng, |d| {
+            shading_normal(
+                ng,
+                b,
+                d.normals.map(|n| (normal_matrix * n).normalize_or_zero()),
+            )
+        });
+        let param = parametrisation(b, e1, e2, vertex);
         Hit {
             t,
             p: origin + dir * t,
@@ -277,7 +282,9 @@ impl InstanceSet {
             ns,
             material: inst.material,
             light: None,
-            dpdu: Vec3A::ZERO,
+            dpdu: inst.to_world * param.dpdu,
+            dpdv: inst.to_world * param.dpdv,
+            uv: param.uv,
         }
     }
 }

@@ -17,25 +17,40 @@ mod instances;
 mod obvhs_backend;
 mod packet;
 mod primitives;
+mod surface;
 
 pub use obvhs_backend::ObvhsBvh;
 
 use arrayvec::ArrayVec;
 use bvh::{isa, isa::Isa, Bvh};
-use glam::{Affine3A, Vec3A};
+use glam::{Affine3A, Vec2, Vec3A};
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
 use packet::{Lane, LeafTest, Packet, PacketRay, Spheres, Stored, NONE};
 use raylab_integrators::{Hit, Ray};
 use rayon::prelude::*;
+use surface::{barycentrics, parametrisation, shading_normal, VertexData};
 
 /// Triangles in their own space, with optional per-triangle vertex normals (smooth shading)
-/// and their bounds (min, max).
+/// and texture coordinates, and their bounds (min, max).
 #[derive(Clone, Copy, Debug)]
 pub struct Mesh<'a> {
     pub triangles: &'a [[Vec3A; 3]],
     pub normals: Option<&'a [[Vec3A; 3]]>,
+    pub uvs: Option<&'a [[Vec2; 3]]>,
     pub bounds: (Vec3A, Vec3A),
+}
+
+impl Mesh<'_> {
+    /// Whether its triangles carry vertex data.
+    fn has_vertex_data(&self) -> bool {
+        self.normals.is_some() || self.uvs.is_some()
+    }
+
+    /// Triangle `i`'s vertex data, if the mesh has any.
+    fn vertex_data(&self, i: usize) -> Option<VertexData> {
+        VertexData::of(self.normals, self.uvs, i)
+    }
 }
 
 /// The geometry of one shape.
@@ -228,8 +243,8 @@ pub struct WideBvh {
     /// Per packet of a leaf's primitives (one or two per leaf): the packet and its lane data,
     /// side by side.
     pub(crate) packets: Vec<Stored>,
-    /// Per-vertex normals of the triangles that have them ([`packet::LaneData::smooth`]).
-    pub(crate) smooth_normals: Vec<[Vec3A; 3]>,
+    /// Vertex data of the triangles that have any ([`packet::LaneData::vertex_data`]).
+    pub(crate) vertex_data: Vec<VertexData>,
     // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
     pub(crate) sph_center: Vec<Vec3A>,
     pub(crate) sph_radius: Vec<f32>,
@@ -297,20 +312,18 @@ impl WideBvh {
             None => instances.bounds,
         };
 
-        // Each position of the BVH's order: its index among the smooth triangles or among the
-        // spheres (a running count, cheap), for the lanes to refer to.
+        // Each position of the BVH's order: its index among the triangles with vertex data or
+        // among the spheres (a running count, cheap), for the lanes to refer to.
         let mut aux = Vec::with_capacity(order.len());
-        let (mut smooth, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
+        let (mut with_data, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
         for &original in &order {
             let p = prims[original as usize];
             aux.push(match shapes[p.shape as usize].geometry {
-                Geometry::Triangles(Mesh {
-                    normals: Some(_), ..
-                }) => {
-                    smooth += 1;
-                    smooth - 1
+                Geometry::Triangles(mesh) if mesh.has_vertex_data() => {
+                    with_data += 1;
+                    with_data - 1
                 }
-                Geometry::Triangles(Mesh { normals: None, .. }) => NONE,
+                Geometry::Triangles(_) => NONE,
                 Geometry::Sphere { center, radius } => {
                     sph_center.push(center);
                     sph_radius.push(radius);
@@ -318,16 +331,14 @@ impl WideBvh {
                 }
             });
         }
-        // Then, in parallel and in order, the smooth normals and the packets.
-        let smooth_normals: Vec<[Vec3A; 3]> = order
+        // Then, in parallel and in order, the vertex data and the packets.
+        let vertex_data: Vec<VertexData> = order
             .par_iter()
             .filter_map(|&original| {
                 let p = prims[original as usize];
                 match shapes[p.shape as usize].geometry {
-                    Geometry::Triangles(Mesh {
-                        normals: Some(n), ..
-                    }) => Some(n[p.index as usize]),
-                    _ => None,
+                    Geometry::Triangles(mesh) => mesh.vertex_data(p.index as usize),
+                    Geometry::Sphere { .. } => None,
                 }
             })
             .collect();
@@ -339,7 +350,7 @@ impl WideBvh {
                     corners: mesh.triangles[p.index as usize],
                     material: shape.material,
                     light: p.light,
-                    smooth: aux[k as usize],
+                    vertex_data: aux[k as usize],
                 },
                 Geometry::Sphere { .. } => Lane::Sphere {
                     index: aux[k as usize],
@@ -373,7 +384,7 @@ impl WideBvh {
         WideBvh {
             bvh,
             packets,
-            smooth_normals,
+            vertex_data,
             sph_center,
             sph_radius,
             instances,
@@ -395,7 +406,7 @@ impl WideBvh {
         let v = |n: usize, each: usize| n * each;
         self.instances.memory_bytes()
             + v(self.packets.capacity(), size_of::<Stored>())
-            + v(self.smooth_normals.capacity(), size_of::<[Vec3A; 3]>())
+            + v(self.vertex_data.capacity(), size_of::<VertexData>())
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
             + self.bvh.memory_bytes()
@@ -422,53 +433,25 @@ impl WideBvh {
             Hit::on_sphere(ray, t, c, r, data.material(lane), data.light(lane))
         } else {
             let ng = s.normal(lane);
-            let ns = match data.smooth(lane) {
-                None => ng,
-                Some(k) => {
-                    let (v0, a, b) = s.edges(lane);
-                    shading_normal(
-                        ng,
-                        barycentrics(v0, a, b, ray.at(t)),
-                        self.smooth_normals[k],
-                    )
-                }
-            };
+            let (v0, e1, e2) = s.edges(lane);
+            let p = ray.at(t);
+            let b = barycentrics(v0, e1, e2, p);
+            let vertex = data.vertex_data(lane).map(|k| &self.vertex_data[k]);
+            let ns = vertex.map_or(ng, |d| shading_normal(ng, b, d.normals));
+            let param = parametrisation(b, e1, e2, vertex);
             Hit {
                 t,
-                p: ray.at(t),
+                p,
                 ng,
                 ns,
                 material: data.material(lane),
                 light: data.light(lane),
-                dpdu: Vec3A::ZERO,
+                dpdu: param.dpdu,
+                dpdv: param.dpdv,
+                uv: param.uv,
             }
         }
     }
-}
-
-/// The shading normal at barycentric weights `b` from the vertex normals `n`, turned to the
-/// side of the geometric normal `ng` (`ng` itself where the interpolation vanishes).
-#[inline]
-fn shading_normal(ng: Vec3A, b: Vec3A, n: [Vec3A; 3]) -> Vec3A {
-    let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
-    if s == Vec3A::ZERO {
-        ng
-    } else if s.dot(ng) < 0.0 {
-        -s
-    } else {
-        s
-    }
-}
-
-/// Barycentric weights of `p` (on the triangle's plane) for v0, v1, v2, from the triangle's
-/// `v0` and edges `e1 = v1 - v0`, `e2 = v2 - v0`.
-fn barycentrics(v0: Vec3A, e1: Vec3A, e2: Vec3A, p: Vec3A) -> Vec3A {
-    let d = p - v0;
-    let n = e1.cross(e2);
-    let inv = 1.0 / n.length_squared();
-    let b1 = d.cross(e2).dot(n) * inv;
-    let b2 = e1.cross(d).dot(n) * inv;
-    Vec3A::new(1.0 - b1 - b2, b1, b2)
 }
 
 /// The traversal built for AVX2: the same functions, inlined into these two and compiled

@@ -10,10 +10,9 @@
 //! [`super::instances`], so that local and world distances agree.
 
 use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle};
-use super::{
-    barycentrics, box_corners, bvh, shading_normal, AccelStats, Geometry, Input, ShapeLights,
-};
-use glam::{Affine3A, Vec3A};
+use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
+use super::{box_corners, bvh, AccelStats, Geometry, Input, ShapeLights};
+use glam::{Affine3A, Mat3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::{Ray as BvhRay, RayHit};
@@ -29,8 +28,8 @@ const NONE: u32 = u32::MAX;
 enum Prim {
     Triangle {
         corners: [Vec3A; 3],
-        /// Index into the smooth normals, or [`NONE`].
-        smooth: u32,
+        /// Index into the vertex data, or [`NONE`].
+        vertex_data: u32,
         material: u32,
         light: u32,
     },
@@ -42,15 +41,17 @@ enum Prim {
     },
 }
 
-/// A mesh asset's triangles in the order of its CWBVH, with their vertex normals if any.
+/// A mesh asset's triangles in the order of its CWBVH, with their vertex data if any.
 struct MeshBvh {
     bvh: CwBvh,
     triangles: Vec<[Vec3A; 3]>,
-    normals: Vec<[Vec3A; 3]>,
+    vertex_data: Vec<VertexData>,
 }
 
 struct Instance {
     world_to_local: Affine3A,
+    /// The linear part of the local-to-world map, for tangents.
+    to_world: Mat3A,
     mesh: u32,
     material: u32,
 }
@@ -59,7 +60,7 @@ struct Instance {
 pub struct ObvhsBvh {
     flat: Option<CwBvh>,
     prims: Vec<Prim>,
-    smooth_normals: Vec<[Vec3A; 3]>,
+    vertex_data: Vec<VertexData>,
     tlas: Option<CwBvh>,
     /// In the TLAS's primitive order.
     instances: Vec<Instance>,
@@ -84,7 +85,7 @@ impl ObvhsBvh {
     pub fn build(input: &Input) -> ObvhsBvh {
         // The flat primitives in input order, and their boxes.
         let mut prims = Vec::new();
-        let mut smooth_normals = Vec::new();
+        let mut vertex_data = Vec::new();
         for shape in &input.shapes {
             let light = |i: usize| match shape.lights {
                 ShapeLights::None => NONE,
@@ -94,16 +95,16 @@ impl ObvhsBvh {
             match shape.geometry {
                 Geometry::Triangles(mesh) => {
                     for (i, corners) in mesh.triangles.iter().enumerate() {
-                        let smooth = match mesh.normals {
-                            Some(n) => {
-                                smooth_normals.push(n[i]);
-                                smooth_normals.len() as u32 - 1
+                        let index = match mesh.vertex_data(i) {
+                            Some(d) => {
+                                vertex_data.push(d);
+                                vertex_data.len() as u32 - 1
                             }
                             None => NONE,
                         };
                         prims.push(Prim::Triangle {
                             corners: *corners,
-                            smooth,
+                            vertex_data: index,
                             material: shape.material,
                             light: light(i),
                         });
@@ -151,9 +152,10 @@ impl ObvhsBvh {
                 let order = &bvh.primitive_indices;
                 meshes.push(MeshBvh {
                     triangles: order.iter().map(|&i| mesh.triangles[i as usize]).collect(),
-                    normals: mesh
-                        .normals
-                        .map_or_else(Vec::new, |n| order.iter().map(|&i| n[i as usize]).collect()),
+                    vertex_data: order
+                        .iter()
+                        .filter_map(|&i| mesh.vertex_data(i as usize))
+                        .collect(),
                     bvh,
                 });
             }
@@ -175,6 +177,7 @@ impl ObvhsBvh {
                     let inst = &input.instances[i as usize];
                     Instance {
                         world_to_local: inst.local_to_world.inverse(),
+                        to_world: inst.local_to_world.matrix3,
                         mesh: inst.mesh,
                         material: inst.material,
                     }
@@ -210,7 +213,7 @@ impl ObvhsBvh {
         ObvhsBvh {
             flat,
             prims,
-            smooth_normals,
+            vertex_data,
             tlas,
             instances,
             meshes,
@@ -234,14 +237,15 @@ impl ObvhsBvh {
         self.flat.as_ref().map_or(0, bvh)
             + self.tlas.as_ref().map_or(0, bvh)
             + self.prims.capacity() * size_of::<Prim>()
-            + self.smooth_normals.capacity() * size_of::<[Vec3A; 3]>()
+            + self.vertex_data.capacity() * size_of::<VertexData>()
             + self.instances.capacity() * size_of::<Instance>()
             + self
                 .meshes
                 .iter()
                 .map(|m| {
                     bvh(&m.bvh)
-                        + (m.triangles.capacity() + m.normals.capacity()) * size_of::<[Vec3A; 3]>()
+                        + m.triangles.capacity() * size_of::<[Vec3A; 3]>()
+                        + m.vertex_data.capacity() * size_of::<VertexData>()
                 })
                 .sum::<usize>()
     }
@@ -343,26 +347,27 @@ impl ObvhsBvh {
             } => Hit::on_sphere(ray, t, center, radius, material, light(l)),
             Prim::Triangle {
                 corners: [v0, v1, v2],
-                smooth,
+                vertex_data,
                 material,
                 light: l,
             } => {
                 let (e1, e2) = (v1 - v0, v2 - v0);
                 let ng = e1.cross(e2).normalize_or_zero();
-                let ns = if smooth == NONE {
-                    ng
-                } else {
-                    let b = barycentrics(v0, e1, e2, ray.at(t));
-                    shading_normal(ng, b, self.smooth_normals[smooth as usize])
-                };
+                let p = ray.at(t);
+                let b = barycentrics(v0, e1, e2, p);
+                let vertex = (vertex_data != NONE).then(|| &self.vertex_data[vertex_data as usize]);
+                let ns = vertex.map_or(ng, |d| shading_normal(ng, b, d.normals));
+                let param = parametrisation(b, e1, e2, vertex);
                 Hit {
                     t,
-                    p: ray.at(t),
+                    p,
                     ng,
                     ns,
                     material,
                     light: light(l),
-                    dpdu: Vec3A::ZERO,
+                    dpdu: param.dpdu,
+                    dpdv: param.dpdv,
+                    uv: param.uv,
                 }
             }
         }
@@ -377,16 +382,18 @@ impl ObvhsBvh {
         let (e1, e2) = (v1 - v0, v2 - v0);
         let normal_matrix = inst.world_to_local.matrix3.transpose();
         let ng = (normal_matrix * e1.cross(e2).normalize_or_zero()).normalize_or_zero();
-        let ns = match mesh.normals.get(k) {
-            None => ng,
-            Some(normals) => {
-                let w = &inst.world_to_local;
-                let local_p = w.transform_point3a(ray.origin) + w.transform_vector3a(ray.dir) * t;
-                let b = barycentrics(v0, e1, e2, local_p);
-                let n = normals.map(|n| (normal_matrix * n).normalize_or_zero());
-                shading_normal(ng, b, n)
-            }
-        };
+        let w = &inst.world_to_local;
+        let local_p = w.transform_point3a(ray.origin) + w.transform_vector3a(ray.dir) * t;
+        let b = barycentrics(v0, e1, e2, local_p);
+        let vertex = mesh.vertex_data.get(k);
+        let ns = vertex.map_or(ng, |d| {
+            shading_normal(
+                ng,
+                b,
+                d.normals.map(|n| (normal_matrix * n).normalize_or_zero()),
+            )
+        });
+        let param = parametrisation(b, e1, e2, vertex);
         Hit {
             t,
             p: ray.origin + ray.dir * t,
@@ -394,7 +401,9 @@ impl ObvhsBvh {
             ns,
             material: inst.material,
             light: None,
-            dpdu: Vec3A::ZERO,
+            dpdu: inst.to_world * param.dpdu,
+            dpdv: inst.to_world * param.dpdv,
+            uv: param.uv,
         }
     }
 }

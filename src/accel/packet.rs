@@ -4,7 +4,7 @@
 //! A BVH leaf is one or two packets ([`super::bvh::Bvh::number_leaves`]). A [`Packet`] holds
 //! what the intersection test reads, in 192 bytes (three cache lines): each lane's first
 //! corner `v0`, its edges `e1 = v0 - v1` and `e2 = v2 - v0` and their cross product
-//! `n = e1 x e2`, so the test computes neither. What only a hit needs (material, light, smooth
+//! `n = e1 x e2`, so the test computes neither. What only a hit needs (material, light, vertex
 //! normals) is in a [`LaneData`] of 48 bytes stored right after it ([`Stored`], four cache
 //! lines): the test never reads that line, a hit does. (An array of its own beside the
 //! packets cost the 1.3 M-triangle mesh's incoherent closest hits 10%: one more cache miss.)
@@ -38,7 +38,7 @@ pub fn runs(first: u32, count: u32) -> impl Iterator<Item = (u32, u32)> {
     })
 }
 
-/// "No light" / "no smooth normals".
+/// "No light" / "no vertex data".
 pub const NONE: u32 = u32::MAX;
 
 /// Three coordinates, a lane per primitive.
@@ -51,7 +51,7 @@ pub enum Lane {
         corners: [Vec3A; 3],
         material: u32,
         light: u32,
-        smooth: u32,
+        vertex_data: u32,
     },
     Sphere {
         index: u32,
@@ -71,7 +71,7 @@ pub struct Packet {
 }
 
 /// What a hit reads of a packet's primitives: each lane's material, light and an index: the
-/// triangle's smooth normals, or the sphere's place in the sphere arrays.
+/// triangle's vertex data, or the sphere's place in the sphere arrays.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LaneData {
     material: [u32; WIDTH],
@@ -151,8 +151,8 @@ impl Packet {
                     corners,
                     material,
                     light,
-                    smooth,
-                } => (corners, material, light, smooth),
+                    vertex_data,
+                } => (corners, material, light, vertex_data),
                 Lane::Sphere {
                     index,
                     material,
@@ -297,8 +297,8 @@ impl LaneData {
         Some(self.light[lane]).filter(|&l| l != NONE)
     }
 
-    /// A triangle's index into the smooth normals, if it has them.
-    pub fn smooth(&self, lane: usize) -> Option<usize> {
+    /// A triangle's index into the vertex data, if it has any.
+    pub fn vertex_data(&self, lane: usize) -> Option<usize> {
         Some(self.aux[lane])
             .filter(|&s| s != NONE)
             .map(|s| s as usize)
@@ -555,7 +555,7 @@ mod tests {
             corners,
             material,
             light: NONE,
-            smooth: NONE,
+            vertex_data: NONE,
         }
     }
 
@@ -645,7 +645,7 @@ mod tests {
                 corners: tri,
                 material: 2,
                 light: NONE,
-                smooth: 6,
+                vertex_data: 6,
             },
             Lane::Sphere {
                 index: 0,
@@ -673,7 +673,7 @@ mod tests {
         assert_eq!(packet.sphere_index(3, &data), None);
         assert_eq!((data.material(0), data.light(0)), (3, Some(8)));
         assert_eq!(
-            (data.material(1), data.light(1), data.smooth(1)),
+            (data.material(1), data.light(1), data.vertex_data(1)),
             (2, None, Some(6))
         );
         assert!(data.used(2) && !data.used(3));

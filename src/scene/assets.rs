@@ -122,13 +122,16 @@ fn load_asset(
     let shape = super::load::shape_from_desc(desc.clone(), files)?;
     systems::validate_shape(&shape, &Transform::default())?;
     let WorldShape::Triangles {
-        triangles, normals, ..
+        triangles,
+        normals,
+        uvs,
+        ..
     } = systems::bake_shape(&shape, &Affine3A::IDENTITY)
     else {
         return Err("a mesh asset must be made of triangles".into());
     };
     let before = triangles.len();
-    let (triangles, normals) = systems::drop_degenerate(triangles, normals);
+    let (triangles, normals, uvs) = systems::drop_degenerate(triangles, normals, uvs);
     if triangles.is_empty() {
         return Err(format!(
             "has no triangles (of {before}) that are not degenerate"
@@ -144,6 +147,7 @@ fn load_asset(
             name: name.to_string(),
             triangles,
             normals,
+            uvs,
             bounds,
         },
         dropped,

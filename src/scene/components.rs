@@ -1,6 +1,6 @@
 //! ECS components of scene entities, and the resources that live beside the world.
 
-use glam::{Affine3A, EulerRot, Quat, Vec3, Vec3A};
+use glam::{Affine3A, EulerRot, Quat, Vec2, Vec3, Vec3A};
 use raylab_integrators::Rgb;
 use std::sync::Arc;
 
@@ -68,6 +68,7 @@ pub enum Shape {
         positions: Vec<Vec3A>,
         indices: Vec<[u32; 3]>,
         normals: Option<Vec<Vec3A>>,
+        uvs: Option<Vec<Vec2>>,
     },
     /// A mesh asset of the scene, by name; resolved to [`Instanced`] by
     /// [`super::assets::resolve_instances`].
@@ -85,6 +86,8 @@ pub struct LocalMesh {
     pub triangles: Vec<[Vec3A; 3]>,
     /// Per-triangle vertex normals for smooth shading, if the source has them.
     pub normals: Option<Vec<[Vec3A; 3]>>,
+    /// Per-triangle texture coordinates, if the source has them.
+    pub uvs: Option<Vec<[Vec2; 3]>>,
     /// Local bounds (min, max).
     pub bounds: (Vec3A, Vec3A),
 }
@@ -129,11 +132,13 @@ pub enum Emitter {
 /// World-space geometry, produced from `Shape` and `Transform` by the bake system.
 #[derive(Clone, Debug, PartialEq)]
 pub enum WorldShape {
-    /// Triangles with optional per-vertex shading normals. `parallelogram` is set for quads
-    /// (corner, edge, edge), so an emitting quad is sampled as one light.
+    /// Triangles with optional per-vertex shading normals and texture coordinates.
+    /// `parallelogram` is set for quads (corner, edge, edge), so an emitting quad is sampled
+    /// as one light.
     Triangles {
         triangles: Vec<[Vec3A; 3]>,
         normals: Option<Vec<[Vec3A; 3]>>,
+        uvs: Option<Vec<[Vec2; 3]>>,
         parallelogram: Option<[Vec3A; 3]>,
     },
     Sphere {

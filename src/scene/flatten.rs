@@ -94,10 +94,14 @@ impl RenderScene {
             .map(|(entity, shape, material)| Shape {
                 geometry: match shape {
                     WorldShape::Triangles {
-                        triangles, normals, ..
+                        triangles,
+                        normals,
+                        uvs,
+                        ..
                     } => Geometry::Triangles(Mesh {
                         triangles,
                         normals: normals.as_deref(),
+                        uvs: uvs.as_deref(),
                         bounds: (Vec3A::ZERO, Vec3A::ZERO),
                     }),
                     WorldShape::Sphere { center, radius } => Geometry::Sphere {
@@ -135,6 +139,7 @@ impl RenderScene {
                 .map(|m| Mesh {
                     triangles: &m.triangles,
                     normals: m.normals.as_deref(),
+                    uvs: m.uvs.as_deref(),
                     bounds: m.bounds,
                 })
                 .collect(),

@@ -452,10 +452,12 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             positions,
             indices,
             normals,
+            uvs,
         } => Shape::Mesh {
             positions: positions.into_iter().map(v3).collect(),
             indices,
             normals: normals.map(|n| n.into_iter().map(v3).collect()),
+            uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
         },
     })
 }

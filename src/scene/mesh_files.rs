@@ -9,7 +9,7 @@
 
 use super::access::{relative_uri, SceneFiles};
 use super::components::Shape;
-use glam::{Mat3, Mat4, Vec3, Vec3A};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
 use std::panic::UnwindSafe;
 use std::path::Path;
 use std::sync::Mutex;
@@ -33,6 +33,9 @@ pub struct FileMesh {
     pub positions: Vec<Vec3A>,
     pub indices: Vec<[u32; 3]>,
     pub normals: Option<Vec<Vec3A>>,
+    /// Texture coordinates per vertex, with `v` running down the image from its top row
+    /// (Mitsuba 3's convention).
+    pub uvs: Option<Vec<Vec2>>,
     /// Per triangle, its index in `materials`.
     pub triangle_material: Vec<u32>,
     pub materials: Vec<FileMaterial>,
@@ -45,6 +48,7 @@ impl FileMesh {
             positions: self.positions,
             indices: self.indices,
             normals: self.normals,
+            uvs: self.uvs,
         }
     }
 
@@ -54,7 +58,8 @@ impl FileMesh {
         let mut out = Vec::new();
         for (m, material) in self.materials.iter().enumerate() {
             let mut remap = vec![u32::MAX; self.positions.len()];
-            let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut positions, mut normals, mut uvs, mut indices) =
+                (Vec::new(), Vec::new(), Vec::new(), Vec::new());
             for (t, _) in self
                 .indices
                 .iter()
@@ -69,18 +74,23 @@ impl FileMesh {
                         if let Some(n) = &self.normals {
                             normals.push(n[v]);
                         }
+                        if let Some(uv) = &self.uvs {
+                            uvs.push(uv[v]);
+                        }
                     }
                     remap[v]
                 }));
             }
             if !indices.is_empty() {
                 let normals = self.normals.is_some().then_some(normals);
+                let uvs = self.uvs.is_some().then_some(uvs);
                 out.push((
                     material.clone(),
                     Shape::Mesh {
                         positions,
                         indices,
                         normals,
+                        uvs,
                     },
                 ));
             }
@@ -124,7 +134,7 @@ fn parent_of(file: &Path) -> &Path {
     }
 }
 
-/// Every position and normal finite, at least one triangle.
+/// Every position, normal and texture coordinate finite, at least one triangle.
 fn check_mesh(kind: &str, file: &Path, mesh: &FileMesh) -> Result<(), String> {
     if let Some((i, p)) = mesh
         .positions
@@ -137,6 +147,15 @@ fn check_mesh(kind: &str, file: &Path, mesh: &FileMesh) -> Result<(), String> {
             file.display(),
             p.to_array()
         ));
+    }
+    if let Some(uv) = &mesh.uvs {
+        if let Some((i, v)) = uv.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(format!(
+                "{kind} file `{}`: vertex {i} has texture coordinates that are not finite: {:?}",
+                file.display(),
+                v.to_array()
+            ));
+        }
     }
     if let Some(n) = &mesh.normals {
         if let Some((i, v)) = n.iter().enumerate().find(|(_, v)| !v.is_finite()) {
@@ -250,8 +269,11 @@ pub fn load_obj(file: &Path, need_materials: bool, files: &SceneFiles) -> Result
     let mut uses_default = false;
 
     let mut mesh = FileMesh::default();
-    let mut normals: Vec<Vec3A> = Vec::new();
-    let all_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
+    let mut streams = VertexStreams {
+        all_normals: models.iter().all(|m| !m.mesh.normals.is_empty()),
+        all_uvs: models.iter().all(|m| !m.mesh.texcoords.is_empty()),
+        ..VertexStreams::default()
+    };
     for m in &models {
         let base = mesh.positions.len() as u32;
         let count = m.mesh.positions.len() / 3;
@@ -268,12 +290,21 @@ pub fn load_obj(file: &Path, need_materials: bool, files: &SceneFiles) -> Result
                 .chunks_exact(3)
                 .map(|p| Vec3A::new(p[0], p[1], p[2])),
         );
-        if all_normals {
-            normals.extend(
+        if streams.all_normals {
+            streams.normals.extend(
                 m.mesh
                     .normals
                     .chunks_exact(3)
                     .map(|n| Vec3A::new(n[0], n[1], n[2])),
+            );
+        }
+        if streams.all_uvs {
+            // OBJ's `v` runs up the image: turned to run down it, as Mitsuba 3 reads OBJ.
+            streams.uvs.extend(
+                m.mesh
+                    .texcoords
+                    .chunks_exact(2)
+                    .map(|t| Vec2::new(t[0], 1.0 - t[1])),
             );
         }
         for t in m.mesh.indices.chunks_exact(3) {
@@ -289,7 +320,7 @@ pub fn load_obj(file: &Path, need_materials: bool, files: &SceneFiles) -> Result
         }
     }
     let default = uses_default.then_some(OBJ_DEFAULT_ALBEDO);
-    finish_mesh("OBJ", file, mesh, materials, default, normals, all_normals)
+    finish_mesh("OBJ", file, mesh, materials, default, streams)
 }
 
 /// Loads the triangles of a glTF file's default scene (or its first) as one mesh, each mesh
@@ -419,8 +450,11 @@ fn read_gltf_scene(
     let mut uses_default = false;
 
     let mut mesh = FileMesh::default();
-    let mut normals = Vec::new();
-    let mut all_normals = true;
+    let mut streams = VertexStreams {
+        all_normals: true,
+        all_uvs: true,
+        ..VertexStreams::default()
+    };
     // What flattening every node's mesh will make (a node graph can place one mesh
     // thousands of times), checked against memory before anything is read.
     let mut triangles = 0u64;
@@ -487,12 +521,19 @@ fn read_gltf_scene(
                     .extend(p.map(|v| Vec3A::from(world.transform_point3(Vec3::from(v)))));
                 let count = mesh.positions.len() as u32 - base;
                 match reader.read_normals() {
-                    Some(n) if all_normals => {
-                        normals.extend(n.map(|v| {
+                    Some(n) if streams.all_normals => {
+                        streams.normals.extend(n.map(|v| {
                             Vec3A::from(normal_matrix * Vec3::from(v)).normalize_or_zero()
                         }))
                     }
-                    _ => all_normals = false,
+                    _ => streams.all_normals = false,
+                }
+                // glTF's `v` runs down the image already.
+                match reader.read_tex_coords(0) {
+                    Some(t) if streams.all_uvs => {
+                        streams.uvs.extend(t.into_f32().map(Vec2::from_array))
+                    }
+                    _ => streams.all_uvs = false,
                 }
                 let tri: Vec<u32> = match (primitive.indices(), reader.read_indices()) {
                     (None, _) => (0..count).collect(),
@@ -526,20 +567,29 @@ fn read_gltf_scene(
         stack.extend(node.children().map(|c| (c, world)));
     }
     let default = uses_default.then_some([1.0; 3]);
-    finish_mesh("glTF", file, mesh, materials, default, normals, all_normals)
+    finish_mesh("glTF", file, mesh, materials, default, streams)
+}
+
+/// Vertex normals and texture coordinates as a file's objects give them, and whether every
+/// object had them.
+#[derive(Default)]
+struct VertexStreams {
+    normals: Vec<Vec3A>,
+    all_normals: bool,
+    uvs: Vec<Vec2>,
+    all_uvs: bool,
 }
 
 /// Completes a mesh read from `file`: its materials, with a default one of albedo `default`
-/// appended when some triangle has none; the vertex normals, kept when every vertex has one;
-/// then the checks every mesh file passes.
+/// appended when some triangle has none; the vertex normals and texture coordinates, each
+/// kept when every vertex has one; then the checks every mesh file passes.
 fn finish_mesh(
     format: &str,
     file: &Path,
     mut mesh: FileMesh,
     mut materials: Vec<FileMaterial>,
     default: Option<[f32; 3]>,
-    normals: Vec<Vec3A>,
-    all_normals: bool,
+    streams: VertexStreams,
 ) -> Result<FileMesh, String> {
     if let Some(albedo) = default {
         materials.push(FileMaterial {
@@ -550,7 +600,15 @@ fn finish_mesh(
         });
     }
     mesh.materials = materials;
-    mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
+    let count = mesh.positions.len();
+    let VertexStreams {
+        normals,
+        all_normals,
+        uvs,
+        all_uvs,
+    } = streams;
+    mesh.normals = (all_normals && normals.len() == count).then_some(normals);
+    mesh.uvs = (all_uvs && uvs.len() == count).then_some(uvs);
     check_mesh(format, file, &mesh)?;
     Ok(mesh)
 }

@@ -489,12 +489,15 @@ pub enum ShapeDesc {
     /// instance shares one copy of the mesh and its BVH. Instances cannot emit light.
     Instance { mesh: String },
     /// Triangle mesh: vertex positions, triangles as index triples, optional per-vertex normals
-    /// for smooth shading.
+    /// for smooth shading and texture coordinates `(u, v)` (`v` running down the image from
+    /// its top row, as in Mitsuba 3).
     Mesh {
         positions: Vec<V3>,
         indices: Vec<[u32; 3]>,
         #[serde(default)]
         normals: Option<Vec<V3>>,
+        #[serde(default)]
+        uvs: Option<Vec<[f32; 2]>>,
     },
 }
 

@@ -11,7 +11,7 @@
 
 use super::components::{Emitter, FlipNormals, Name, Shape, Transform, WorldShape};
 use super::error::finite;
-use glam::{Affine3A, Mat3A, Vec3, Vec3A};
+use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
 use hecs::{Entity, World};
 use raylab_integrators::light::{DirectionalLight, EnvMapLight, SpotLight};
 use raylab_integrators::Light;
@@ -208,8 +208,21 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             positions,
             indices,
             normals,
+            uvs,
         } => {
             all("mesh positions", positions)?;
+            if let Some(uv) = uvs {
+                if !uv.iter().all(|v| v.is_finite()) {
+                    return Err("mesh uvs must be finite".into());
+                }
+                if uv.len() != positions.len() {
+                    return Err(format!(
+                        "mesh has {} uvs for {} positions",
+                        uv.len(),
+                        positions.len()
+                    ));
+                }
+            }
             if indices.is_empty() {
                 return Err("mesh has no triangles".into());
             }
@@ -258,6 +271,28 @@ pub fn check_triangle_memory(triangles: u64) -> Result<(), String> {
             room as f64 / (1u64 << 30) as f64
         )),
         _ => Ok(()),
+    }
+}
+
+/// The texture coordinates of a quad's two triangles (as [`local_triangles`] splits it):
+/// corners 0, 1, 2, 3 at `(0, 0)`, `(1, 0)`, `(1, 1)`, `(0, 1)`, as Mitsuba 3's rectangle.
+const QUAD_UVS: [[Vec2; 3]; 2] = [
+    [Vec2::ZERO, Vec2::X, Vec2::ONE],
+    [Vec2::ZERO, Vec2::ONE, Vec2::Y],
+];
+
+/// Per-triangle texture coordinates of a shape's [`local_triangles`], where it has any: a
+/// mesh's own, each face of a quad or a box spanning `[0, 1]^2`.
+fn local_uvs(shape: &Shape) -> Option<Vec<[Vec2; 3]>> {
+    match shape {
+        Shape::Quad(_) => Some(QUAD_UVS.to_vec()),
+        Shape::Box { .. } => Some(QUAD_UVS.repeat(6)),
+        Shape::Mesh {
+            indices,
+            uvs: Some(uv),
+            ..
+        } => Some(indices.iter().map(|t| t.map(|k| uv[k as usize])).collect()),
+        _ => None,
     }
 }
 
@@ -451,11 +486,12 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
             if let WorldShape::Triangles {
                 triangles,
                 normals,
+                uvs,
                 parallelogram,
             } = world_shape
             {
                 let before = triangles.len();
-                let (triangles, normals) = drop_degenerate(triangles, normals);
+                let (triangles, normals, uvs) = drop_degenerate(triangles, normals, uvs);
                 if triangles.len() < before {
                     warnings.push(format!(
                         "entity `{}`: dropped {} degenerate triangle(s) of {before}",
@@ -480,6 +516,7 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
                     WorldShape::Triangles {
                         triangles,
                         normals,
+                        uvs,
                         parallelogram,
                     },
                 ));
@@ -504,39 +541,49 @@ fn flip_faces(shape: WorldShape) -> WorldShape {
         WorldShape::Triangles {
             triangles,
             normals,
+            uvs,
             parallelogram,
         } => WorldShape::Triangles {
             triangles: triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect(),
             normals: normals.map(|n| n.into_iter().map(|[a, b, c]| [-a, -c, -b]).collect()),
+            uvs: uvs.map(|u| u.into_iter().map(|[a, b, c]| [a, c, b]).collect()),
             parallelogram: parallelogram.map(|[p0, e1, e2]| [p0, e2, e1]),
         },
         sphere @ WorldShape::Sphere { .. } => sphere,
     }
 }
 
-/// Triangles without the degenerate ones (see [`is_degenerate`]), with their normals.
+/// Per-triangle vertex normals and texture coordinates, as triangles carry them.
+type TriangleData = (
+    Vec<[Vec3A; 3]>,
+    Option<Vec<[Vec3A; 3]>>,
+    Option<Vec<[Vec2; 3]>>,
+);
+
+/// Triangles without the degenerate ones (see [`is_degenerate`]), with their normals and
+/// texture coordinates.
 pub fn drop_degenerate(
     triangles: Vec<[Vec3A; 3]>,
     normals: Option<Vec<[Vec3A; 3]>>,
-) -> (Vec<[Vec3A; 3]>, Option<Vec<[Vec3A; 3]>>) {
+    uvs: Option<Vec<[Vec2; 3]>>,
+) -> TriangleData {
     if !triangles.iter().any(is_degenerate) {
-        return (triangles, normals);
+        return (triangles, normals, uvs);
     }
     let keep: Vec<bool> = triangles.iter().map(|t| !is_degenerate(t)).collect();
-    let normals = normals.map(|n| {
-        n.into_iter()
-            .zip(&keep)
+    fn kept<T>(items: Vec<T>, keep: &[bool]) -> Vec<T> {
+        items
+            .into_iter()
+            .zip(keep)
             .filter(|(_, k)| **k)
-            .map(|(n, _)| n)
-            .collect::<Vec<_>>()
-    });
-    let triangles = triangles
-        .into_iter()
-        .zip(&keep)
-        .filter(|(_, k)| **k)
-        .map(|(t, _)| t)
-        .collect();
-    (triangles, normals)
+            .map(|(t, _)| t)
+            .collect()
+    }
+    (
+        kept(triangles, &keep),
+        normals.map(|n| kept(n, &keep)),
+        uvs.map(|u| kept(u, &keep)),
+    )
 }
 
 /// The world-space geometry of one shape under matrix `m`.
@@ -577,6 +624,7 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
             WorldShape::Triangles {
                 triangles,
                 normals,
+                uvs: local_uvs(shape),
                 parallelogram,
             }
         }
