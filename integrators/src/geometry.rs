@@ -1,6 +1,7 @@
 //! Rays, hit records and orthonormal frames.
 
 use glam::{Vec2, Vec3A};
+use std::f32::consts::{PI, TAU};
 
 /// A ray `origin + t * dir` for `t` in `[0, tmax)`. `dir` is unit length.
 #[derive(Clone, Copy, Debug)]
@@ -69,15 +70,19 @@ impl Hit {
         light: Option<u32>,
     ) -> Hit {
         let n = (ray.at(t) - center).normalize();
-        // Mitsuba 3's parametrisation: u the angle around z from +x, v the angle from +z.
+        // Mitsuba 3's parametrisation: u the angle around z from +x, v the angle from +z;
+        // the tangents are the position's derivatives along them.
         let mut phi = n.y.atan2(n.x);
         if phi < 0.0 {
-            phi += std::f32::consts::TAU;
+            phi += TAU;
         }
         let theta = n.z.clamp(-1.0, 1.0).acos();
+        let (sin_phi, cos_phi) = phi.sin_cos();
+        let ring = (n.x * n.x + n.y * n.y).sqrt();
         Hit {
-            dpdu: Vec3A::new(-n.y, n.x, 0.0),
-            uv: Vec2::new(phi / std::f32::consts::TAU, theta / std::f32::consts::PI),
+            dpdu: Vec3A::new(-n.y, n.x, 0.0) * (TAU * radius),
+            dpdv: Vec3A::new(n.z * cos_phi, n.z * sin_phi, -ring) * (PI * radius),
+            uv: Vec2::new(phi / TAU, theta / PI),
             ..Hit::new(t, center + n * radius, n, material, light)
         }
     }

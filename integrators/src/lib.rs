@@ -30,10 +30,11 @@ pub mod sampling;
 pub mod scene;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
+pub mod texture;
 
 pub use integrator::registry;
 
-pub use bsdf::{BsdfSample, Material};
+pub use bsdf::{BsdfSample, Material, SurfaceMaterial};
 pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
 pub use geometry::{Frame, Hit, Ray};

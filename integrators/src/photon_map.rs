@@ -144,7 +144,8 @@ fn trace_one(
         let Some(hit) = tracer.light(&ray) else {
             return;
         };
-        let material = scene.material(hit.material);
+        // Textures do not change which lobes a material has.
+        let material = &scene.material(hit.material).bsdf;
         // Store it if this map wants it.
         if !material.is_specular() {
             // Caustic: every scattering event so far was a Dirac lobe.
@@ -249,7 +250,7 @@ pub fn land(
             beta,
             bounces: path.bounces,
         };
-        if !tracer.scene.material(hit.material).has_delta_lobe() {
+        if !tracer.scene.material(hit.material).bsdf.has_delta_lobe() {
             return Some(landing(path.beta));
         }
         let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
@@ -397,7 +398,7 @@ impl PhotonMap {
     /// that `accept` admits: `sum f(wo, wi) Phi / (pi r^2)`.
     #[inline]
     pub fn radiance(&self, sp: &ShadingPoint, accept: impl Fn(&Photon) -> bool) -> Rgb {
-        let (frame, wo, material, hit) = (&sp.frame, sp.wo, sp.material, &sp.hit);
+        let (frame, wo, material, hit) = (&sp.frame, sp.wo, &*sp.material, &sp.hit);
         let wo_world = frame.to_world(wo);
         let mut sum = Rgb::ZERO;
         self.for_each_near(hit.p, |ph| {

@@ -1,6 +1,6 @@
 //! What an integrator needs from a scene, and nothing more.
 
-use crate::{Hit, LightTable, Material, Ray};
+use crate::{Hit, LightTable, Ray, SurfaceMaterial};
 use glam::Vec3A;
 
 /// A renderable scene as light transport sees it. The engine implements this for its
@@ -11,7 +11,7 @@ pub trait Scene: Sync {
     /// True if any surface lies on `ray` with `t < ray.tmax`.
     fn occluded(&self, ray: &Ray) -> bool;
     /// Material `id` of the scene's material table.
-    fn material(&self, id: u32) -> &Material;
+    fn material(&self, id: u32) -> &SurfaceMaterial;
     /// Every emitter, with the distribution used to pick one.
     fn lights(&self) -> &LightTable;
     /// Axis-aligned bounds of the geometry (min, max).

@@ -256,13 +256,13 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
             }
             None => assert_ne!(mesh, 1),
         }
-        match d.smooth(lane) {
+        match d.vertex_data(lane) {
             Some(k) => {
                 assert_eq!(mesh, 2);
                 smooth += 1;
                 let x = i as f32 * 0.1;
                 let expected = Vec3A::new(0.0, x, 1.0).normalize();
-                assert!(wide(&scene).smooth_normals[k][1].abs_diff_eq(expected, 1e-6));
+                assert!(wide(&scene).vertex_data[k].normals[1].abs_diff_eq(expected, 1e-6));
             }
             None => assert_ne!(mesh, 2),
         }

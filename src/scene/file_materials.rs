@@ -9,11 +9,11 @@
 
 use super::access::SceneFiles;
 use super::components::{Emitter, Shape};
-use super::load::material_from_desc;
 use super::mesh_files;
-use super::schema::{MaterialDesc, ShapeDesc};
+use super::schema::ShapeDesc;
 use glam::Vec3A;
-use raylab_integrators::Material;
+use raylab_integrators::bsdf::Lambert;
+use raylab_integrators::{Material, SurfaceMaterial};
 
 /// The material name that asks for the file's own materials. It cannot name a material of
 /// the scene's table.
@@ -24,7 +24,7 @@ pub struct Part {
     /// The file's name for the material.
     pub name: String,
     pub shape: Shape,
-    pub material: Material,
+    pub material: SurfaceMaterial,
     pub emitter: Option<Emitter>,
 }
 
@@ -51,7 +51,8 @@ pub fn file_parts(desc: &ShapeDesc, files: &SceneFiles) -> Result<Vec<Part>, Str
     mesh.split_by_material()
         .into_iter()
         .map(|(m, shape)| {
-            let material = material_from_desc(&MaterialDesc::Lambert { albedo: m.albedo })
+            let material = Lambert::new(Vec3A::from_array(m.albedo))
+                .map(|l| SurfaceMaterial::from(Material::Lambert(l)))
                 .map_err(|e| {
                     format!(
                         "material `{}` of `{}`: diffuse colour: {e}",

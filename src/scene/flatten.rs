@@ -12,7 +12,7 @@ use crate::accel::{
 use glam::Vec3A;
 use hecs::Entity;
 use obvhs::triangle::Triangle;
-use raylab_integrators::{Hit, Light, LightTable, Material, Ray, Scene};
+use raylab_integrators::{Hit, Light, LightTable, Ray, Scene, SurfaceMaterial};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
@@ -40,7 +40,7 @@ pub struct BuildStats {
 /// The flattened, accelerated scene that rendering reads.
 pub struct RenderScene {
     pub(crate) accel: Accel,
-    materials: Vec<Material>,
+    materials: Vec<SurfaceMaterial>,
     pub(crate) lights: LightTable,
     bounds: (Vec3A, Vec3A),
     pub stats: BuildStats,
@@ -200,7 +200,7 @@ impl Scene for RenderScene {
         self.accel.occluded(ray)
     }
 
-    fn material(&self, id: u32) -> &Material {
+    fn material(&self, id: u32) -> &SurfaceMaterial {
         &self.materials[id as usize]
     }
 

@@ -1,7 +1,7 @@
-//! Reading images that scenes name (environment maps): any format the `image` crate decodes
+//! Reading images that scenes name (environment maps, textures): any format the `image` crate decodes
 //! here (OpenEXR, Radiance HDR, PNG), capped in size before anything is allocated, as linear
-//! RGB. 8- and 16-bit images are decoded from sRGB, as Mitsuba 3 does; float images are taken
-//! as they are.
+//! RGB. 8- and 16-bit images are decoded from sRGB, as Mitsuba 3 does, unless they hold data
+//! (`raw`); float images are taken as they are. Texels that are not finite are refused.
 
 use raylab_integrators::Rgb;
 use std::io::Cursor;
@@ -28,8 +28,9 @@ fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
-/// Reads and decodes `file`; the error names the file and what is wrong with it.
-pub fn read_linear_rgb(file: &Path) -> Result<LinearImage, String> {
+/// Reads and decodes `file`; 8- and 16-bit images are decoded from sRGB unless `raw`. The
+/// error names the file and what is wrong with it.
+pub fn read_linear_rgb(file: &Path, raw: bool) -> Result<LinearImage, String> {
     let cannot = |e: &dyn std::fmt::Display| format!("cannot load image `{}`: {e}", file.display());
     let bytes =
         crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(&e))?;
@@ -55,17 +56,24 @@ pub fn read_linear_rgb(file: &Path) -> Result<LinearImage, String> {
     );
     let rgb = decoded.into_rgb32f();
     let (width, height) = (rgb.width() as usize, rgb.height() as usize);
-    let texels = rgb
+    let texels: Vec<Rgb> = rgb
         .pixels()
         .map(|p| {
             let [r, g, b] = p.0;
-            if is_float {
+            if is_float || raw {
                 Rgb::new(r, g, b)
             } else {
                 Rgb::new(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b))
             }
         })
         .collect();
+    if let Some(i) = texels.iter().position(|t| !t.is_finite()) {
+        return Err(cannot(&format_args!(
+            "texel ({}, {}) is not finite",
+            i % width,
+            i / width
+        )));
+    }
     Ok(LinearImage {
         width,
         height,
@@ -93,9 +101,12 @@ mod tests {
             .unwrap()
             .save(&png)
             .unwrap();
-        let img = read_linear_rgb(&png).unwrap();
+        let img = read_linear_rgb(&png, false).unwrap();
         assert_eq!((img.width, img.height), (2, 1));
         assert!((img.texels[0].x - 0.215_861).abs() < 1e-4 && img.texels[1] == Rgb::ONE);
+        // Raw: the stored values, for data such as normal maps.
+        let raw = read_linear_rgb(&png, true).unwrap();
+        assert!((raw.texels[0].x - 128.0 / 255.0).abs() < 1e-6);
         // An EXR keeps its values.
         let exr = dir.path().join("a.exr");
         image::Rgb32FImage::from_raw(1, 1, vec![5.0, 0.25, 0.0])
@@ -103,14 +114,16 @@ mod tests {
             .save(&exr)
             .unwrap();
         assert_eq!(
-            read_linear_rgb(&exr).unwrap().texels[0],
+            read_linear_rgb(&exr, false).unwrap().texels[0],
             Rgb::new(5.0, 0.25, 0.0)
         );
         // Not an image; missing.
         let txt = dir.path().join("a.hdr");
         std::fs::write(&txt, "hello").unwrap();
-        assert!(read_linear_rgb(&txt).unwrap_err().contains("not an image"));
-        assert!(read_linear_rgb(&dir.path().join("none.exr"))
+        assert!(read_linear_rgb(&txt, false)
+            .unwrap_err()
+            .contains("not an image"));
+        assert!(read_linear_rgb(&dir.path().join("none.exr"), false)
             .unwrap_err()
             .contains("none.exr"));
     }

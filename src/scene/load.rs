@@ -5,18 +5,15 @@ use super::components::{
     Emitter, FlipNormals, Instanced, MaterialRef, Name, Shape, Transform, WorldShape,
 };
 use super::error::{finite, SceneError};
-use super::schema::{
-    CameraDesc, EmitterDesc, MaterialDesc, Metal, RenderDesc, SceneFile, ShapeDesc,
-};
+use super::materials::material_from_desc;
+use super::schema::{CameraDesc, EmitterDesc, RenderDesc, SceneFile, ShapeDesc};
+use super::textures::TextureLoader;
 use super::{assets, file_materials, mesh_files, systems, LoadedScene};
 use glam::{Vec3, Vec3A};
-use raylab_integrators::bsdf::{
-    checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert, Microfacet,
-    OrenNayar, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
-};
+use raylab_integrators::bsdf::{checks, Lambert};
 use raylab_integrators::light::EnvMap;
 use raylab_integrators::Camera;
-use raylab_integrators::{registry, Material, Rgb};
+use raylab_integrators::{registry, Material, Rgb, SurfaceMaterial};
 use ron::extensions::Extensions;
 use std::path::{Path, PathBuf};
 
@@ -91,121 +88,6 @@ fn v3(a: [f32; 3]) -> Vec3A {
     Vec3A::from_array(a)
 }
 
-/// Turns a material description into a material; the material's constructor checks its
-/// parameters.
-pub fn material_from_desc(desc: &MaterialDesc) -> Result<Material, String> {
-    Ok(match desc {
-        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert::new(v3(*albedo))?),
-        MaterialDesc::OrenNayar { albedo, sigma } => {
-            Material::OrenNayar(OrenNayar::checked(v3(*albedo), *sigma)?)
-        }
-        MaterialDesc::Phong { kd, ks, exponent } => {
-            Material::Phong(Phong::new(v3(*kd), v3(*ks), *exponent)?)
-        }
-        MaterialDesc::Mirror { tint } => Material::Conductor(Conductor::new(
-            None,
-            checks::reflectance("tint", v3(*tint))?,
-        )?),
-        MaterialDesc::Glass { ior, tint } => {
-            Material::Dielectric(Dielectric::new(*ior, v3(*tint), v3(*tint))?)
-        }
-        MaterialDesc::Dielectric {
-            int_ior,
-            ext_ior,
-            specular_reflectance: r,
-            specular_transmittance: t,
-        } => Material::Dielectric(Dielectric::new(
-            relative_ior(int_ior.0, ext_ior.0)?,
-            v3(*r),
-            v3(*t),
-        )?),
-        MaterialDesc::RoughDielectric {
-            int_ior,
-            ext_ior,
-            specular_reflectance: r,
-            specular_transmittance: t,
-            distribution,
-            alpha,
-            alpha_u,
-            alpha_v,
-        } => Material::RoughDielectric(RoughDielectric::new(
-            relative_ior(int_ior.0, ext_ior.0)?,
-            v3(*r),
-            v3(*t),
-            microfacet(*distribution, *alpha, *alpha_u, *alpha_v)?,
-        )?),
-        MaterialDesc::ThinDielectric {
-            int_ior,
-            ext_ior,
-            specular_reflectance: r,
-            specular_transmittance: t,
-        } => Material::ThinDielectric(ThinDielectric::new(
-            relative_ior(int_ior.0, ext_ior.0)?,
-            v3(*r),
-            v3(*t),
-        )?),
-        MaterialDesc::Conductor {
-            metal,
-            eta,
-            k,
-            specular_reflectance,
-        } => Material::Conductor(Conductor::new(
-            complex_ior(*metal, *eta, *k)?,
-            v3(*specular_reflectance),
-        )?),
-        MaterialDesc::RoughConductor {
-            metal,
-            eta,
-            k,
-            specular_reflectance,
-            distribution,
-            alpha,
-            alpha_u,
-            alpha_v,
-        } => Material::RoughConductor(RoughConductor::new(
-            complex_ior(*metal, *eta, *k)?,
-            v3(*specular_reflectance),
-            microfacet(*distribution, *alpha, *alpha_u, *alpha_v)?,
-        )?),
-        MaterialDesc::Plastic {
-            diffuse_reflectance,
-            specular_reflectance,
-            int_ior,
-            ext_ior,
-            nonlinear,
-        } => Material::Plastic(Plastic::new(
-            v3(*diffuse_reflectance),
-            v3(*specular_reflectance),
-            relative_ior(int_ior.0, ext_ior.0)?,
-            *nonlinear,
-        )?),
-        MaterialDesc::RoughPlastic {
-            diffuse_reflectance,
-            specular_reflectance,
-            int_ior,
-            ext_ior,
-            nonlinear,
-            distribution,
-            alpha,
-        } => Material::RoughPlastic(RoughPlastic::new(
-            v3(*diffuse_reflectance),
-            v3(*specular_reflectance),
-            relative_ior(int_ior.0, ext_ior.0)?,
-            *nonlinear,
-            microfacet(*distribution, Some(*alpha), None, None)?,
-        )?),
-        MaterialDesc::TwoSided(inner) => {
-            let m = material_from_desc(inner)?;
-            if m.is_transmissive() {
-                return Err(
-                    "TwoSided cannot hold a dielectric: it has two sides of its own".into(),
-                );
-            }
-            m
-        }
-    })
-}
-
 /// Turns an emitter description into the component; an environment map's image is read
 /// here, and turned into the world by the entity's rotation.
 fn emitter_from_desc(
@@ -244,47 +126,13 @@ fn emitter_from_desc(
         },
         EmitterDesc::Environment { path, scale } => {
             let file = files.named(&path)?;
-            let image = super::images::read_linear_rgb(&file)?;
+            let image = super::images::read_linear_rgb(&file, false)?;
             let rotation = glam::Mat3A::from_quat(transform.rotation());
             let map = EnvMap::new(image.width, image.height, image.texels, scale, rotation)
                 .map_err(|e| format!("environment map `{}`: {e}", file.display()))?;
             Emitter::Environment(std::sync::Arc::new(map))
         }
     })
-}
-
-/// The roughness of a rough material: `alpha`, or `alpha_u` and `alpha_v` (anisotropic), or
-/// Mitsuba's default 0.1.
-fn microfacet(
-    distribution: Distribution,
-    alpha: Option<f32>,
-    alpha_u: Option<f32>,
-    alpha_v: Option<f32>,
-) -> Result<Microfacet, String> {
-    let (u, v) = match (alpha, alpha_u, alpha_v) {
-        (Some(a), None, None) => (a, a),
-        (None, Some(u), Some(v)) => (u, v),
-        (None, None, None) => (0.1, 0.1),
-        (Some(_), _, _) => return Err("give alpha, or alpha_u and alpha_v, not both".into()),
-        _ => return Err("an anisotropic roughness needs both alpha_u and alpha_v".into()),
-    };
-    Microfacet::new(distribution, u, v)
-}
-
-/// A conductor's complex IOR: a named `metal`, or `eta` and `k`, or (neither) a perfect
-/// mirror.
-fn complex_ior(
-    metal: Option<Metal>,
-    eta: Option<[f32; 3]>,
-    k: Option<[f32; 3]>,
-) -> Result<Option<ComplexIor>, String> {
-    match (metal, eta, k) {
-        (Some(m), None, None) => Ok(m.0),
-        (None, Some(eta), Some(k)) => Ok(Some(ComplexIor::new(v3(eta), v3(k))?)),
-        (None, None, None) => Ok(None),
-        (Some(_), _, _) => Err("give a metal by name, or eta and k, not both".into()),
-        _ => Err("a conductor's IOR needs both eta and k".into()),
-    }
 }
 
 fn check_resolution((w, h): (u32, u32)) -> Result<(), String> {
@@ -466,7 +314,7 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
 /// (see [`file_materials`]), appending those materials to the table.
 fn spawn_file_parts(
     world: &mut hecs::World,
-    materials: &mut Vec<Material>,
+    materials: &mut Vec<SurfaceMaterial>,
     shape: &Option<ShapeDesc>,
     has_emitter: bool,
     name: String,
@@ -515,6 +363,7 @@ fn build_world(
     let path_buf = path.to_path_buf();
 
     // Materials: the table entities refer to by name.
+    let mut textures = TextureLoader::new(files);
     let mut materials = Vec::with_capacity(file.materials.0.len() + 1);
     let mut material_names = Vec::with_capacity(file.materials.0.len());
     for (name, desc) in &file.materials.0 {
@@ -525,11 +374,12 @@ fn build_world(
                 message: "this name is reserved: it asks for a mesh file's own materials".into(),
             });
         }
-        let m = material_from_desc(desc).map_err(|message| SceneError::Material {
-            path: path_buf.clone(),
-            material: name.clone(),
-            message,
-        })?;
+        let m =
+            material_from_desc(desc, &mut textures).map_err(|message| SceneError::Material {
+                path: path_buf.clone(),
+                material: name.clone(),
+                message,
+            })?;
         materials.push(m);
         material_names.push(name.clone());
     }
@@ -613,7 +463,7 @@ fn build_world(
                 .material
                 .as_ref()
                 .and_then(|m| material_names.iter().position(|n| n == m))
-                .is_some_and(|i| materials[i].is_transmissive());
+                .is_some_and(|i| materials[i].bsdf.is_transmissive());
             if dielectric && matches!(e.shape, Some(ShapeDesc::Sphere { .. })) {
                 return Err(entity_error(
                     "flip_normals on a dielectric sphere is not supported: give the \
@@ -654,7 +504,7 @@ fn build_world(
             (None, Some(_), Some(EmitterDesc::Area { .. })) => {
                 // A pure emitter reflects nothing.
                 let id = *black.get_or_insert_with(|| {
-                    materials.push(Material::Lambert(Lambert { albedo: Rgb::ZERO }));
+                    materials.push(Material::Lambert(Lambert { albedo: Rgb::ZERO }).into());
                     (materials.len() - 1) as u32
                 });
                 Some(MaterialRef(id))

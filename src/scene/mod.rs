@@ -9,18 +9,20 @@ pub mod file_materials;
 pub mod flatten;
 pub mod images;
 pub mod load;
+pub mod materials;
 pub mod mesh_files;
 pub mod procedural;
 pub mod references;
 pub mod schema;
 pub mod systems;
+pub mod textures;
 
 pub use error::SceneError;
 pub use flatten::RenderScene;
 pub use load::{load_scene, load_scene_with, parse_scene};
 pub use raylab_integrators::Camera;
 
-use raylab_integrators::{Material, Rgb};
+use raylab_integrators::{Rgb, SurfaceMaterial};
 use std::path::PathBuf;
 
 /// A loaded scene: the ECS world of entities and the resources beside it.
@@ -34,7 +36,7 @@ pub struct LoadedScene {
     pub camera: Camera,
     pub render: schema::RenderDesc,
     /// The material table (file order; a black material may be appended for pure emitters).
-    pub materials: Vec<Material>,
+    pub materials: Vec<SurfaceMaterial>,
     pub material_names: Vec<String>,
     /// The mesh assets instances place (loaded ones only, in order of first use); entities
     /// refer to them through their `Instanced` component.

@@ -4,6 +4,7 @@
 //! `implicit_some` extension is on), so `emitter: Area(radiance: (1, 1, 1))` works.
 //! See `scenes/README.md` for a guide with examples.
 
+pub use super::textures::{ColorDesc, FloatDesc};
 use raylab_integrators::bsdf::{ior, ComplexIor, Distribution};
 use raylab_integrators::Filter;
 use serde::de::{self, MapAccess, Visitor};
@@ -126,17 +127,23 @@ fn default_spp() -> u32 {
     16
 }
 
-/// A material model with its parameters. Colours are linear RGB reflectances in `[0, 1]`.
+/// A material model with its parameters. Colours are linear RGB reflectances in `[0, 1]`:
+/// `(r, g, b)`, a grey number, or a texture (see [`super::textures`]); so may be the rough
+/// metals' and glasses' `alpha`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum MaterialDesc {
     /// Ideal diffuse reflector.
-    Lambert { albedo: V3 },
+    Lambert { albedo: ColorDesc },
     /// Rough diffuse reflector; `sigma` is the facet slope deviation in DEGREES (0 = Lambert).
-    OrenNayar { albedo: V3, sigma: f32 },
+    OrenNayar { albedo: ColorDesc, sigma: f32 },
     /// Energy-conserving Phong: diffuse `kd` plus a glossy lobe `ks` of `exponent`;
     /// `kd + ks <= 1` per channel.
-    Phong { kd: V3, ks: V3, exponent: f32 },
+    Phong {
+        kd: ColorDesc,
+        ks: ColorDesc,
+        exponent: f32,
+    },
     /// Perfect mirror. Default tint: `(1, 1, 1)`.
     Mirror {
         #[serde(default = "white")]
@@ -157,10 +164,10 @@ pub enum MaterialDesc {
         int_ior: Ior,
         #[serde(default = "air")]
         ext_ior: Ior,
-        #[serde(default = "white")]
-        specular_reflectance: V3,
-        #[serde(default = "white")]
-        specular_transmittance: V3,
+        #[serde(default = "white_colour")]
+        specular_reflectance: ColorDesc,
+        #[serde(default = "white_colour")]
+        specular_transmittance: ColorDesc,
     },
     /// Frosted glass (Mitsuba's `roughdielectric`): as `Dielectric` plus the microfacet
     /// distribution. Defaults: `distribution: "beckmann"`, `alpha: 0.1`.
@@ -169,15 +176,15 @@ pub enum MaterialDesc {
         int_ior: Ior,
         #[serde(default = "air")]
         ext_ior: Ior,
-        #[serde(default = "white")]
-        specular_reflectance: V3,
-        #[serde(default = "white")]
-        specular_transmittance: V3,
+        #[serde(default = "white_colour")]
+        specular_reflectance: ColorDesc,
+        #[serde(default = "white_colour")]
+        specular_transmittance: ColorDesc,
         #[serde(default, deserialize_with = "distribution_name")]
         distribution: Distribution,
-        alpha: Option<f32>,
-        alpha_u: Option<f32>,
-        alpha_v: Option<f32>,
+        alpha: Option<FloatDesc>,
+        alpha_u: Option<FloatDesc>,
+        alpha_v: Option<FloatDesc>,
     },
     /// A thin pane (Mitsuba's `thindielectric`): reflection and straight transmission.
     /// Defaults as `Dielectric`.
@@ -186,10 +193,10 @@ pub enum MaterialDesc {
         int_ior: Ior,
         #[serde(default = "air")]
         ext_ior: Ior,
-        #[serde(default = "white")]
-        specular_reflectance: V3,
-        #[serde(default = "white")]
-        specular_transmittance: V3,
+        #[serde(default = "white_colour")]
+        specular_reflectance: ColorDesc,
+        #[serde(default = "white_colour")]
+        specular_transmittance: ColorDesc,
     },
     /// Smooth metal (Mitsuba's `conductor`): a named `metal` (`"Au"`, `"Ag"`, `"Cu"`, ...;
     /// `"none"` is a perfect mirror) or `eta` and `k`. Defaults: `metal: "none"`,
@@ -198,8 +205,8 @@ pub enum MaterialDesc {
         metal: Option<Metal>,
         eta: Option<V3>,
         k: Option<V3>,
-        #[serde(default = "white")]
-        specular_reflectance: V3,
+        #[serde(default = "white_colour")]
+        specular_reflectance: ColorDesc,
     },
     /// Rough metal (Mitsuba's `roughconductor`): as `Conductor` plus the microfacet
     /// distribution. Defaults: `distribution: "beckmann"`, `alpha: 0.1`.
@@ -207,22 +214,22 @@ pub enum MaterialDesc {
         metal: Option<Metal>,
         eta: Option<V3>,
         k: Option<V3>,
-        #[serde(default = "white")]
-        specular_reflectance: V3,
+        #[serde(default = "white_colour")]
+        specular_reflectance: ColorDesc,
         #[serde(default, deserialize_with = "distribution_name")]
         distribution: Distribution,
-        alpha: Option<f32>,
-        alpha_u: Option<f32>,
-        alpha_v: Option<f32>,
+        alpha: Option<FloatDesc>,
+        alpha_u: Option<FloatDesc>,
+        alpha_v: Option<FloatDesc>,
     },
     /// Diffuse base under a smooth coating (Mitsuba's `plastic`). Defaults:
     /// `diffuse_reflectance: (0.5, 0.5, 0.5)`, `specular_reflectance: (1, 1, 1)`,
     /// `int_ior: "polypropylene"` (1.49), `ext_ior: "air"`, `nonlinear: false`.
     Plastic {
-        #[serde(default = "half")]
-        diffuse_reflectance: V3,
-        #[serde(default = "white")]
-        specular_reflectance: V3,
+        #[serde(default = "half_colour")]
+        diffuse_reflectance: ColorDesc,
+        #[serde(default = "white_colour")]
+        specular_reflectance: ColorDesc,
         #[serde(default = "polypropylene")]
         int_ior: Ior,
         #[serde(default = "air")]
@@ -231,13 +238,13 @@ pub enum MaterialDesc {
         nonlinear: bool,
     },
     /// Diffuse base under a rough coating (Mitsuba's `roughplastic`): as `Plastic` plus the
-    /// distribution and an isotropic `alpha`. Defaults: `distribution: "beckmann"`,
-    /// `alpha: 0.1`.
+    /// distribution and an isotropic `alpha` (a number: the coating's tables depend on it).
+    /// Defaults: `distribution: "beckmann"`, `alpha: 0.1`.
     RoughPlastic {
-        #[serde(default = "half")]
-        diffuse_reflectance: V3,
-        #[serde(default = "white")]
-        specular_reflectance: V3,
+        #[serde(default = "half_colour")]
+        diffuse_reflectance: ColorDesc,
+        #[serde(default = "white_colour")]
+        specular_reflectance: ColorDesc,
         #[serde(default = "polypropylene")]
         int_ior: Ior,
         #[serde(default = "air")]
@@ -252,6 +259,21 @@ pub enum MaterialDesc {
     /// The same material on both faces (Mitsuba's `twosided`). raylab's opaque materials are
     /// two-sided already, so this is the material itself; a dielectric inside is an error.
     TwoSided(Box<MaterialDesc>),
+    /// `material` with its shading normal read from a tangent-space normal map (Mitsuba's
+    /// `normalmap`): `texture`'s `2 rgb - 1`, in the frame of the surface's normal and `dpdu`.
+    NormalMap {
+        texture: ColorDesc,
+        material: Box<MaterialDesc>,
+    },
+    /// `material` on a surface displaced along its normal by `scale` times `texture`'s
+    /// luminance (Mitsuba's `bumpmap`), shaded with the displaced surface's normal. Default
+    /// `scale: 1`.
+    BumpMap {
+        texture: FloatDesc,
+        #[serde(default = "one")]
+        scale: f32,
+        material: Box<MaterialDesc>,
+    },
 }
 
 /// An index of refraction: a number, or a name from the table of dielectrics.
@@ -319,8 +341,12 @@ fn polypropylene() -> Ior {
     Ior(1.49)
 }
 
-fn half() -> V3 {
-    [0.5; 3]
+fn half_colour() -> ColorDesc {
+    ColorDesc::Constant([0.5; 3])
+}
+
+fn white_colour() -> ColorDesc {
+    ColorDesc::Constant([1.0; 3])
 }
 
 fn default_alpha() -> f32 {

@@ -76,7 +76,7 @@ fn spawn_creates_one_entity_per_object_with_its_components() {
     by_name(w, "entity #3");
     // The black material was appended for the lamp.
     assert_eq!(s.materials.len(), 2);
-    assert_eq!(s.materials[1].albedo(), Rgb::ZERO);
+    assert_eq!(s.materials[1].bsdf.albedo(), Rgb::ZERO);
 }
 
 #[test]
@@ -149,6 +149,7 @@ fn bake_transforms_mesh_normals_with_the_inverse_transpose() {
         positions: vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y],
         indices: vec![[0, 1, 2]],
         normals: Some(vec![Vec3A::new(1.0, 1.0, 0.0).normalize(); 3]),
+        uvs: None,
     };
     let t = Transform {
         scale: Vec3::new(2.0, 1.0, 1.0),

@@ -19,4 +19,5 @@ mod passes;
 mod photons;
 mod proptest_loader;
 mod serve;
+mod textures;
 mod watch;

@@ -18,6 +18,7 @@ mod plastic;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
+mod textured;
 mod thin_dielectric;
 #[cfg(test)]
 mod verification;
@@ -33,6 +34,7 @@ pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
+pub use textured::{MaterialTextures, Perturbation, SurfaceMaterial};
 pub use thin_dielectric::ThinDielectric;
 
 use crate::Rgb;
@@ -118,6 +120,9 @@ pub trait Bxdf {
 }
 
 /// A surface material. The closed set of models raylab supports.
+// Rough plastic's table is inline (not boxed) so that a textured material's per-hit copy
+// allocates nothing; untextured materials are never copied.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
     Lambert(Lambert),

@@ -17,12 +17,12 @@ struct AlbedoView;
 
 impl RayIntegrator for AlbedoView {
     fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
-        let Some(hit) = tracer.camera(ray) else {
+        let Some(mut hit) = tracer.camera(ray) else {
             return Rgb::ZERO;
         };
         if hit.light.is_some() {
             return emitted_at(tracer.scene, &hit, ray);
         }
-        tracer.scene.material(hit.material).albedo()
+        tracer.scene.material(hit.material).at(&mut hit).albedo()
     }
 }

@@ -123,8 +123,8 @@ impl FixedDepth {
         if bounces >= self.depth || tracer.stop.requested() {
             return l;
         }
-        let material = tracer.scene.material(hit.material);
         let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
+        let material = &*sp.material;
 
         // Specular surfaces: one continuation ray, emission at its end counts.
         if material.is_specular() {

@@ -8,10 +8,12 @@ use crate::bsdf::{BsdfSample, TransportMode};
 use crate::light::LightSample;
 use crate::{Frame, Hit, Material, Rgb, Scene};
 use glam::{Vec2, Vec3A};
+use std::borrow::Cow;
 
 /// A surface hit, ready to shade.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct ShadingPoint<'a> {
+    /// The hit, with its shading normal as the material's normal or bump map makes it.
     pub hit: Hit,
     /// The shading frame (`z` = the shading normal).
     pub frame: Frame,
@@ -19,7 +21,8 @@ pub struct ShadingPoint<'a> {
     pub wo: Vec3A,
     /// The same direction in world space (exactly the negated ray direction).
     pub wo_world: Vec3A,
-    pub material: &'a Material,
+    /// The BSDF at the hit (its textures looked up there).
+    pub material: Cow<'a, Material>,
 }
 
 /// One BSDF sample at a shading point, in world space, with the factors a path's throughput
@@ -49,13 +52,15 @@ impl<'a> ShadingPoint<'a> {
     /// The shading point of `hit`, reached by a ray of direction `dir`.
     #[inline]
     pub fn new(hit: &Hit, dir: Vec3A, scene: &'a dyn Scene) -> ShadingPoint<'a> {
+        let mut hit = *hit;
+        let material = scene.material(hit.material).at(&mut hit);
         let frame = hit.frame();
         ShadingPoint {
-            hit: *hit,
+            hit,
             frame,
             wo: frame.to_local(-dir),
             wo_world: -dir,
-            material: scene.material(hit.material),
+            material,
         }
     }
 
@@ -67,7 +72,7 @@ impl<'a> ShadingPoint<'a> {
     pub fn sample(&self, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<Scatter> {
         let bs = self.material.sample(self.wo, u_lobe, u)?;
         let wi = self.frame.to_world(bs.wi);
-        if !stays_on_viewer_side(self.material, self.hit.ng, self.wo_world, wi) {
+        if !stays_on_viewer_side(&self.material, self.hit.ng, self.wo_world, wi) {
             return None;
         }
         let correction = match mode {
@@ -117,7 +122,7 @@ impl<'a> ShadingPoint<'a> {
             return None;
         }
         if !stays_on_viewer_side(
-            self.material,
+            &self.material,
             self.hit.ng,
             self.frame.to_world(self.wo),
             ls.wi,
@@ -152,7 +157,7 @@ mod tests {
         let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
         let dir = Vec3A::new(0.3, 0.0, -1.0).normalize();
         let mut sp = ShadingPoint::new(&hit(Vec3A::Z), dir, &scene);
-        sp.material = &glass;
+        sp.material = Cow::Borrowed(&glass);
         // u_lobe near 1 picks refraction (Fresnel reflectance is a few percent here).
         let r = sp
             .sample(0.999, Vec2::ZERO, TransportMode::Radiance)
@@ -170,7 +175,7 @@ mod tests {
         assert!(r.bsdf.eta == 1.0 && r.weight == i.weight);
         // From inside, the relative IOR is the inverse.
         let mut inside = ShadingPoint::new(&hit(Vec3A::Z), -dir, &scene);
-        inside.material = &glass;
+        inside.material = Cow::Borrowed(&glass);
         let t = inside
             .sample(0.999, Vec2::ZERO, TransportMode::Radiance)
             .unwrap();
@@ -186,7 +191,7 @@ mod tests {
         let ns = Vec3A::new(0.3, 0.0, 1.0).normalize();
         let dir = Vec3A::new(-0.5, 0.2, -1.0).normalize();
         let mut sp = ShadingPoint::new(&hit(ns), dir, &scene);
-        sp.material = &lambert;
+        sp.material = Cow::Borrowed(&lambert);
         let u = Vec2::new(0.3, 0.7);
         let r = sp.sample(0.5, u, TransportMode::Radiance).unwrap();
         let i = sp.sample(0.5, u, TransportMode::Importance).unwrap();

@@ -58,8 +58,8 @@ impl Whitted {
         if bounces >= self.max_depth {
             return l;
         }
-        let material = tracer.scene.material(hit.material);
         let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
+        let material = &*sp.material;
 
         if material.has_delta_lobe() {
             // Specular recursion: follow every delta lobe (mirror; glass reflection and

@@ -7,7 +7,7 @@ pub mod chi2;
 use crate::bsdf::Lambert;
 use crate::integrator::{Integrator, RayIntegrator, Tracer};
 use crate::sampling::uniform_sphere;
-use crate::{find, Hit, Light, LightTable, Material, Ray, Rgb, Sampler, Scene};
+use crate::{find, Hit, Light, LightTable, Material, Ray, Rgb, Sampler, Scene, SurfaceMaterial};
 use glam::Vec3A;
 
 /// One surface: a triangle or a sphere, with a material and maybe a light.
@@ -53,7 +53,7 @@ pub enum Probe {
 pub struct TestScene {
     surfaces: Vec<Surface>,
     /// Triangles use material 0; spheres name theirs.
-    materials: Vec<Material>,
+    materials: Vec<SurfaceMaterial>,
     lights: LightTable,
     pub camera: Probe,
 }
@@ -121,7 +121,7 @@ impl Scene for TestScene {
         self.intersect(ray).is_some()
     }
 
-    fn material(&self, id: u32) -> &Material {
+    fn material(&self, id: u32) -> &SurfaceMaterial {
         &self.materials[id as usize]
     }
 
@@ -134,10 +134,11 @@ impl Scene for TestScene {
     }
 }
 
-fn lambert(a: f32) -> Material {
+fn lambert(a: f32) -> SurfaceMaterial {
     Material::Lambert(Lambert {
         albedo: Rgb::splat(a),
     })
+    .into()
 }
 
 /// A closed furnace seen from inside: a unit icosphere (320 triangles), every face diffuse
@@ -383,9 +384,9 @@ pub fn expect_mean_passes(
 pub fn inside_a_mirror() -> TestScene {
     TestScene {
         surfaces: vec![UNIT_SPHERE],
-        materials: vec![Material::Conductor(crate::bsdf::Conductor::perfect_mirror(
-            Rgb::ONE,
-        ))],
+        materials: vec![
+            Material::Conductor(crate::bsdf::Conductor::perfect_mirror(Rgb::ONE)).into(),
+        ],
         lights: LightTable::new(Vec::new(), 1.0),
         camera: Probe::Omni(Vec3A::new(0.2, 0.1, 0.0)),
     }
@@ -398,10 +399,7 @@ pub fn furnace_with_glass(a: f32, le: f32) -> TestScene {
     let mut scene = furnace_sphere(a, le);
     scene
         .materials
-        .push(Material::Dielectric(crate::bsdf::Dielectric::unchecked(
-            1.5,
-            Rgb::ONE,
-        )));
+        .push(Material::Dielectric(crate::bsdf::Dielectric::unchecked(1.5, Rgb::ONE)).into());
     scene.surfaces.push(Surface::Sphere {
         center: Vec3A::ZERO,
         radius: 0.3,

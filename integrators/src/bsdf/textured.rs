@@ -1,0 +1,278 @@
+//! Materials as a scene holds them: a BSDF whose parameters may vary over the surface
+//! (textures), and an optional normal or bump map that tilts the shading normal.
+//!
+//! At each hit, [`SurfaceMaterial::at`] gives the BSDF there: the material itself when nothing
+//! is textured (borrowed, no copy), else a copy with the textured parameters looked up at the
+//! hit's `uv`. Derived constants stay those of the material made from the textures' means
+//! (the coated materials' lobe-sampling weight, as Mitsuba 3 computes it), and a rough
+//! plastic's roughness cannot be textured (its tables depend on it; Mitsuba's neither).
+//!
+//! The normal and bump maps follow Mitsuba 3's `normalmap` and `bumpmap`: a normal map holds
+//! tangent-space normals `2 rgb - 1` in the frame of the shading normal and `dpdu`; a bump map
+//! displaces the surface along its normal by `scale * h(u, v)`, and the shading normal is the
+//! cross product of the displaced tangents `dpdu + n (scale dh/du)` and `dpdv + n (scale dh/dv)`.
+
+use super::Material;
+use crate::texture::Texture;
+use crate::{Frame, Hit};
+use glam::Vec3A;
+use std::borrow::Cow;
+
+/// The textures that replace a material's constant parameters, by the parameter's role.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MaterialTextures {
+    /// Diffuse reflectance: Lambert's and Oren-Nayar's `albedo`, Phong's `kd`, the plastics'
+    /// `diffuse_reflectance`.
+    pub diffuse: Option<Texture>,
+    /// Specular reflectance: Phong's `ks`, the conductors' and dielectrics' and plastics'
+    /// `specular_reflectance`.
+    pub specular: Option<Texture>,
+    /// The dielectrics' `specular_transmittance`.
+    pub transmittance: Option<Texture>,
+    /// The rough conductor's and rough dielectric's roughness along the tangent and the
+    /// bitangent (both from `alpha`).
+    pub alpha_u: Option<Texture>,
+    pub alpha_v: Option<Texture>,
+}
+
+impl MaterialTextures {
+    /// True when some parameter is textured.
+    pub fn any(&self) -> bool {
+        self.diffuse.is_some()
+            || self.specular.is_some()
+            || self.transmittance.is_some()
+            || self.alpha_u.is_some()
+            || self.alpha_v.is_some()
+    }
+
+    /// `m` with its textured parameters looked up at `uv`.
+    fn apply(&self, m: &mut Material, uv: glam::Vec2) {
+        let at = |t: &Option<Texture>, default| t.as_ref().map_or(default, |t| t.eval(uv));
+        let alpha = |t: &Option<Texture>, default: f32| {
+            t.as_ref().map_or(default, |t| {
+                t.eval_scalar(uv).clamp(super::microfacet::MIN_ALPHA, 2.0)
+            })
+        };
+        match m {
+            Material::Lambert(l) => l.albedo = at(&self.diffuse, l.albedo),
+            Material::OrenNayar(o) => o.albedo = at(&self.diffuse, o.albedo),
+            Material::Phong(p) => {
+                p.kd = at(&self.diffuse, p.kd);
+                p.ks = at(&self.specular, p.ks);
+            }
+            Material::Conductor(c) => c.reflectance = at(&self.specular, c.reflectance),
+            Material::RoughConductor(c) => {
+                c.reflectance = at(&self.specular, c.reflectance);
+                c.microfacet.alpha_u = alpha(&self.alpha_u, c.microfacet.alpha_u);
+                c.microfacet.alpha_v = alpha(&self.alpha_v, c.microfacet.alpha_v);
+            }
+            Material::Dielectric(d) => {
+                d.reflectance = at(&self.specular, d.reflectance);
+                d.transmittance = at(&self.transmittance, d.transmittance);
+            }
+            Material::ThinDielectric(d) => {
+                d.reflectance = at(&self.specular, d.reflectance);
+                d.transmittance = at(&self.transmittance, d.transmittance);
+            }
+            Material::RoughDielectric(d) => {
+                d.reflectance = at(&self.specular, d.reflectance);
+                d.transmittance = at(&self.transmittance, d.transmittance);
+                d.microfacet.alpha_u = alpha(&self.alpha_u, d.microfacet.alpha_u);
+                d.microfacet.alpha_v = alpha(&self.alpha_v, d.microfacet.alpha_v);
+            }
+            Material::Plastic(p) => {
+                p.diffuse = at(&self.diffuse, p.diffuse);
+                p.specular = at(&self.specular, p.specular);
+            }
+            Material::RoughPlastic(p) => {
+                p.diffuse = at(&self.diffuse, p.diffuse);
+                p.specular = at(&self.specular, p.specular);
+            }
+        }
+    }
+}
+
+/// A change of the shading normal over the surface.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Perturbation {
+    /// Tangent-space normals, `2 rgb - 1` (Mitsuba's `normalmap`).
+    NormalMap(Texture),
+    /// A height field `scale * h(u, v)` (its luminance) displacing the surface along its
+    /// normal (Mitsuba's `bumpmap`).
+    BumpMap { height: Texture, scale: f32 },
+}
+
+impl Perturbation {
+    /// The shading normal at `hit` under this map, or `None` where it is undefined (a zero
+    /// normal, degenerate tangents) or would face away from the geometric normal: the hit
+    /// then keeps its own.
+    fn normal(&self, hit: &Hit) -> Option<Vec3A> {
+        let n = match self {
+            Perturbation::NormalMap(t) => {
+                let local = (t.eval(hit.uv) * 2.0 - Vec3A::ONE).normalize_or_zero();
+                hit.frame().to_world(local)
+            }
+            Perturbation::BumpMap { height, scale } => {
+                let g = height.gradient(hit.uv) * *scale;
+                let n = hit.ns;
+                // Without a parametrisation, the tangents of the normal's own frame, as
+                // Mitsuba 3 gives triangles without texture coordinates.
+                let (dpdu, dpdv) = if hit.dpdu == Vec3A::ZERO || hit.dpdv == Vec3A::ZERO {
+                    let f = Frame::from_normal(n);
+                    (f.s, f.t)
+                } else {
+                    (hit.dpdu, hit.dpdv)
+                };
+                let du = dpdu + n * (g.x - n.dot(dpdu));
+                let dv = dpdv + n * (g.y - n.dot(dpdv));
+                let m = du.cross(dv).normalize_or_zero();
+                if m.dot(n) < 0.0 {
+                    -m
+                } else {
+                    m
+                }
+            }
+        };
+        (n.is_finite() && n.dot(hit.ng) > 0.0).then_some(n)
+    }
+}
+
+/// A material as the scene's material table holds it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceMaterial {
+    /// The BSDF with every parameter constant (textured ones at their textures' means).
+    pub bsdf: Material,
+    pub textures: MaterialTextures,
+    pub perturbation: Option<Perturbation>,
+}
+
+impl From<Material> for SurfaceMaterial {
+    fn from(bsdf: Material) -> Self {
+        SurfaceMaterial {
+            bsdf,
+            textures: MaterialTextures::default(),
+            perturbation: None,
+        }
+    }
+}
+
+impl SurfaceMaterial {
+    /// The BSDF at `hit`, whose shading normal the normal or bump map (if any) replaces.
+    #[inline]
+    pub fn at(&self, hit: &mut Hit) -> Cow<'_, Material> {
+        if let Some(p) = &self.perturbation {
+            if let Some(n) = p.normal(hit) {
+                hit.ns = n;
+            }
+        }
+        if !self.textures.any() {
+            return Cow::Borrowed(&self.bsdf);
+        }
+        let mut m = self.bsdf.clone();
+        self.textures.apply(&mut m, hit.uv);
+        Cow::Owned(m)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::{Lambert, Microfacet, RoughConductor};
+    use crate::texture::{ImageTexture, TextureFilter, Wrap};
+    use crate::Rgb;
+    use glam::{Affine2, Vec2};
+    use std::sync::Arc;
+
+    fn hit_at(uv: Vec2) -> Hit {
+        Hit {
+            uv,
+            dpdu: Vec3A::X,
+            dpdv: Vec3A::Y,
+            ..Hit::new(1.0, Vec3A::ZERO, Vec3A::Z, 0, None)
+        }
+    }
+
+    fn checker() -> Texture {
+        Texture::Checkerboard {
+            color0: Rgb::splat(0.8),
+            color1: Rgb::splat(0.1),
+            to_uv: Affine2::IDENTITY,
+        }
+    }
+
+    #[test]
+    fn untextured_materials_are_borrowed_and_textured_ones_looked_up() {
+        let plain = SurfaceMaterial::from(Material::Lambert(Lambert::new(Rgb::ONE).unwrap()));
+        assert!(matches!(
+            plain.at(&mut hit_at(Vec2::ZERO)),
+            Cow::Borrowed(_)
+        ));
+        let textured = SurfaceMaterial {
+            textures: MaterialTextures {
+                diffuse: Some(checker()),
+                ..Default::default()
+            },
+            ..plain
+        };
+        for (uv, expected) in [(Vec2::splat(0.25), 0.8), (Vec2::new(0.75, 0.25), 0.1)] {
+            assert_eq!(textured.at(&mut hit_at(uv)).albedo(), Rgb::splat(expected));
+        }
+        // Roughness reads the texture's value, kept within the microfacet range.
+        let rough = SurfaceMaterial {
+            textures: MaterialTextures {
+                alpha_u: Some(Texture::Constant(Rgb::ZERO)),
+                alpha_v: Some(checker()),
+                ..Default::default()
+            },
+            ..SurfaceMaterial::from(Material::RoughConductor(
+                RoughConductor::new(
+                    None,
+                    Rgb::ONE,
+                    Microfacet::new(Default::default(), 0.3, 0.3).unwrap(),
+                )
+                .unwrap(),
+            ))
+        };
+        let Material::RoughConductor(c) = &*rough.at(&mut hit_at(Vec2::splat(0.25))) else {
+            panic!("a rough conductor")
+        };
+        assert_eq!(c.microfacet.alpha_u, crate::bsdf::microfacet::MIN_ALPHA);
+        assert!((c.microfacet.alpha_v - 0.8).abs() < 1e-6);
+    }
+
+    #[test]
+    fn normal_maps_tilt_the_normal_in_the_tangent_frame() {
+        // rgb (1, 0.5, 0.5) -> tangent-space normal (1, 0, 0): along dpdu; halfway with z.
+        let map = |c: Rgb| Perturbation::NormalMap(Texture::Constant(c));
+        let hit = hit_at(Vec2::ZERO);
+        let n = map(Rgb::new(1.0, 0.5, 1.0)).normal(&hit).unwrap();
+        assert!(
+            (n - Vec3A::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6,
+            "{n}"
+        );
+        // Flat blue is the unperturbed normal; one below the surface is refused.
+        let flat = map(Rgb::new(0.5, 0.5, 1.0)).normal(&hit).unwrap();
+        assert!((flat - Vec3A::Z).length() < 1e-6);
+        assert_eq!(map(Rgb::new(0.5, 0.5, 0.0)).normal(&hit), None);
+    }
+
+    #[test]
+    fn bump_maps_tilt_the_normal_against_the_slope() {
+        // Between the texel centres (u = 1/4 and 3/4) the height rises by 0.5: a slope of 1
+        // per unit u, so the normal leans 45 degrees back towards -u.
+        let texels = vec![Rgb::ZERO, Rgb::splat(0.5)];
+        let image = ImageTexture::new(2, 1, texels, TextureFilter::Bilinear, Wrap::Clamp).unwrap();
+        let bump = Perturbation::BumpMap {
+            height: Texture::Image {
+                image: Arc::new(image),
+                to_uv: Affine2::IDENTITY,
+            },
+            scale: 1.0,
+        };
+        let n = bump.normal(&hit_at(Vec2::new(0.5, 0.5))).unwrap();
+        assert!(
+            (n - Vec3A::new(-1.0, 0.0, 1.0).normalize()).length() < 1e-5,
+            "{n}"
+        );
+    }
+}

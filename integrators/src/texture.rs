@@ -1,0 +1,356 @@
+//! Textures: spatially varying material parameters, looked up by a hit's texture coordinates.
+//!
+//! The kinds and their conventions are Mitsuba 3's, so that a scene renders the same in both:
+//!
+//! * [`Texture::Image`] (Mitsuba's `bitmap`): `v = 0` is the image's top row; bilinear
+//!   filtering interpolates between texel centres (`uv * size - 0.5`), nearest takes the texel
+//!   under `uv * size`; out-of-range texels wrap by `repeat`, `clamp` or `mirror` (the edge
+//!   texel repeated, as OpenGL's mirrored repeat).
+//! * [`Texture::Checkerboard`]: `color0` where the fractional parts of `u` and `v` are both at
+//!   most or both above one half, `color1` elsewhere.
+//!
+//! Both map the hit's `uv` through an affine transform first (Mitsuba's `to_uv`). A scalar
+//! parameter (a roughness) reads a colour texture's luminance, as Mitsuba's `eval_1` does.
+
+use crate::{luminance, Rgb};
+use glam::{Affine2, Vec2};
+use std::sync::Arc;
+
+/// How lookups between texels are filtered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TextureFilter {
+    #[default]
+    Bilinear,
+    Nearest,
+}
+
+/// What lookups outside `[0, 1]^2` read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Wrap {
+    #[default]
+    Repeat,
+    Clamp,
+    Mirror,
+}
+
+impl Wrap {
+    /// Texel index `i` of a row or column of `n` texels, wrapped into `0..n`.
+    #[inline]
+    fn index(self, i: i64, n: usize) -> usize {
+        let n = n as i64;
+        let wrapped = match self {
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m < n {
+                    m
+                } else {
+                    2 * n - 1 - m
+                }
+            }
+        };
+        wrapped as usize
+    }
+}
+
+/// An image as linear RGB texels, row by row from the top, with its filter and wrap mode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageTexture {
+    width: usize,
+    height: usize,
+    texels: Vec<Rgb>,
+    filter: TextureFilter,
+    wrap: Wrap,
+}
+
+impl ImageTexture {
+    /// The texture over `texels` (`width * height`, row by row from the top; at least one).
+    /// `None` when the sizes do not match.
+    pub fn new(
+        width: usize,
+        height: usize,
+        texels: Vec<Rgb>,
+        filter: TextureFilter,
+        wrap: Wrap,
+    ) -> Option<ImageTexture> {
+        (width > 0 && height > 0 && width.checked_mul(height) == Some(texels.len())).then_some(
+            ImageTexture {
+                width,
+                height,
+                texels,
+                filter,
+                wrap,
+            },
+        )
+    }
+
+    #[inline]
+    fn texel(&self, x: i64, y: i64) -> Rgb {
+        let (x, y) = (
+            self.wrap.index(x, self.width),
+            self.wrap.index(y, self.height),
+        );
+        self.texels[y * self.width + x]
+    }
+
+    /// The four texels around `uv` and the bilinear weights of the far ones.
+    #[inline]
+    fn corners(&self, uv: Vec2) -> ([Rgb; 4], Vec2) {
+        let size = Vec2::new(self.width as f32, self.height as f32);
+        let pos = uv * size - 0.5;
+        let base = pos.floor();
+        let w = pos - base;
+        let (x, y) = (base.x as i64, base.y as i64);
+        (
+            [
+                self.texel(x, y),
+                self.texel(x + 1, y),
+                self.texel(x, y + 1),
+                self.texel(x + 1, y + 1),
+            ],
+            w,
+        )
+    }
+
+    /// The filtered colour at `uv`.
+    #[inline]
+    pub fn eval(&self, uv: Vec2) -> Rgb {
+        if !uv.is_finite() {
+            return Rgb::ZERO;
+        }
+        match self.filter {
+            TextureFilter::Nearest => {
+                let size = Vec2::new(self.width as f32, self.height as f32);
+                let p = (uv * size).floor();
+                self.texel(p.x as i64, p.y as i64)
+            }
+            TextureFilter::Bilinear => {
+                let ([f00, f10, f01, f11], w) = self.corners(uv);
+                (f00 * (1.0 - w.x) + f10 * w.x) * (1.0 - w.y)
+                    + (f01 * (1.0 - w.x) + f11 * w.x) * w.y
+            }
+        }
+    }
+
+    /// The gradient of the luminance along `u` and `v` at `uv` (zero for nearest filtering,
+    /// which is piecewise constant): what a bump map differentiates.
+    pub fn luminance_gradient(&self, uv: Vec2) -> Vec2 {
+        if self.filter == TextureFilter::Nearest || !uv.is_finite() {
+            return Vec2::ZERO;
+        }
+        let ([f00, f10, f01, f11], w) = self.corners(uv);
+        let [f00, f10, f01, f11] = [f00, f10, f01, f11].map(luminance);
+        let dx = (1.0 - w.y) * (f10 - f00) + w.y * (f11 - f01);
+        let dy = (1.0 - w.x) * (f01 - f00) + w.x * (f11 - f10);
+        Vec2::new(dx * self.width as f32, dy * self.height as f32)
+    }
+
+    /// The largest and smallest value of any channel of any texel: what a filtered lookup
+    /// stays within.
+    pub fn range(&self) -> (f32, f32) {
+        self.texels
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), t| {
+                (lo.min(t.min_element()), hi.max(t.max_element()))
+            })
+    }
+
+    /// The mean of the texels (what Mitsuba 3's `mean()` is for a bitmap).
+    pub fn mean(&self) -> Rgb {
+        let sum = self.texels.iter().fold(glam::DVec3::ZERO, |s, t| {
+            s + glam::DVec3::new(t.x as f64, t.y as f64, t.z as f64)
+        });
+        let m = sum / self.texels.len() as f64;
+        Rgb::new(m.x as f32, m.y as f32, m.z as f32)
+    }
+
+    /// The largest value of each channel over the texels.
+    pub fn max(&self) -> Rgb {
+        self.texels
+            .iter()
+            .fold(Rgb::splat(f32::NEG_INFINITY), |m, t| m.max(*t))
+    }
+
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+}
+
+/// A material parameter: a constant, or a texture over the surface's `uv`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texture {
+    Constant(Rgb),
+    Image {
+        image: Arc<ImageTexture>,
+        to_uv: Affine2,
+    },
+    Checkerboard {
+        color0: Rgb,
+        color1: Rgb,
+        to_uv: Affine2,
+    },
+}
+
+impl Texture {
+    /// The colour at texture coordinates `uv`.
+    #[inline]
+    pub fn eval(&self, uv: Vec2) -> Rgb {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Image { image, to_uv } => image.eval(to_uv.transform_point2(uv)),
+            Texture::Checkerboard {
+                color0,
+                color1,
+                to_uv,
+            } => {
+                let p = to_uv.transform_point2(uv);
+                let f = p - p.floor();
+                if (f.x > 0.5) == (f.y > 0.5) {
+                    *color0
+                } else {
+                    *color1
+                }
+            }
+        }
+    }
+
+    /// A scalar parameter at `uv`: the colour's luminance (a grey texture's value).
+    #[inline]
+    pub fn eval_scalar(&self, uv: Vec2) -> f32 {
+        luminance(self.eval(uv))
+    }
+
+    /// The gradient of [`Texture::eval_scalar`] with respect to the surface's `uv`: an
+    /// image's is exact for bilinear filtering (chained through `to_uv`); a constant's and a
+    /// checkerboard's (a step) are zero.
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Image { image, to_uv } => {
+                let g = image.luminance_gradient(to_uv.transform_point2(uv));
+                to_uv.matrix2.transpose() * g
+            }
+            Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
+        }
+    }
+
+    /// The smallest and largest channel value the texture takes anywhere.
+    pub fn range(&self) -> (f32, f32) {
+        match self {
+            Texture::Constant(c) => (c.min_element(), c.max_element()),
+            Texture::Image { image, .. } => image.range(),
+            Texture::Checkerboard { color0, color1, .. } => (
+                color0.min_element().min(color1.min_element()),
+                color0.max_element().max(color1.max_element()),
+            ),
+        }
+    }
+
+    /// The texture's mean over the unit square of texture space: what a material's constant
+    /// form (and its lobe-sampling weights) is made from.
+    pub fn mean(&self) -> Rgb {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Image { image, .. } => image.mean(),
+            Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
+        }
+    }
+
+    /// The largest value of each channel the texture takes anywhere.
+    pub fn max(&self) -> Rgb {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Image { image, .. } => image.max(),
+            Texture::Checkerboard { color0, color1, .. } => color0.max(*color1),
+        }
+    }
+
+    /// The constant's value, or `None` for a texture.
+    pub fn constant(&self) -> Option<Rgb> {
+        match self {
+            Texture::Constant(c) => Some(*c),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp(filter: TextureFilter, wrap: Wrap) -> ImageTexture {
+        // 4 x 2: red runs 0, 1, 2, 3 along x; green 0 on the top row, 10 on the bottom.
+        let texels = (0..8)
+            .map(|i| Rgb::new((i % 4) as f32, 10.0 * (i / 4) as f32, 0.0))
+            .collect();
+        ImageTexture::new(4, 2, texels, filter, wrap).unwrap()
+    }
+
+    #[test]
+    fn texel_centres_return_the_texels_and_v_runs_down_the_image() {
+        let t = ramp(TextureFilter::Bilinear, Wrap::Clamp);
+        for x in 0..4 {
+            for y in 0..2 {
+                let uv = Vec2::new((x as f32 + 0.5) / 4.0, (y as f32 + 0.5) / 2.0);
+                assert_eq!(t.eval(uv), Rgb::new(x as f32, 10.0 * y as f32, 0.0));
+            }
+        }
+        // Halfway between texel centres: the mean.
+        let mid = t.eval(Vec2::new(0.25, 0.5));
+        assert!((mid - Rgb::new(0.5, 5.0, 0.0)).length() < 1e-5, "{mid}");
+    }
+
+    #[test]
+    fn wrap_modes_follow_mitsuba() {
+        for (wrap, expected) in [
+            // index -1, -2, 4, 5 of a row of 4
+            (Wrap::Repeat, [3, 2, 0, 1]),
+            (Wrap::Clamp, [0, 0, 3, 3]),
+            (Wrap::Mirror, [0, 1, 3, 2]),
+        ] {
+            let got = [-1, -2, 4, 5].map(|i| wrap.index(i, 4));
+            assert_eq!(got, expected, "{wrap:?}");
+        }
+        let t = ramp(TextureFilter::Nearest, Wrap::Repeat);
+        assert_eq!(t.eval(Vec2::new(1.1, 0.2)).x, 0.0);
+        assert_eq!(t.eval(Vec2::new(-0.1, 0.2)).x, 3.0);
+        assert_eq!(t.eval(Vec2::new(f32::NAN, 0.2)), Rgb::ZERO);
+    }
+
+    #[test]
+    fn checkerboard_follows_mitsuba() {
+        let c = Texture::Checkerboard {
+            color0: Rgb::splat(0.4),
+            color1: Rgb::splat(0.2),
+            to_uv: Affine2::from_scale(Vec2::splat(2.0)),
+        };
+        // uv (0.1, 0.1) -> (0.2, 0.2): both halves low, color0; (0.3, 0.1) -> (0.6, 0.2):
+        // color1; (0.3, 0.3) -> (0.6, 0.6): both high, color0.
+        assert_eq!(c.eval(Vec2::new(0.1, 0.1)).x, 0.4);
+        assert_eq!(c.eval(Vec2::new(0.3, 0.1)).x, 0.2);
+        assert_eq!(c.eval(Vec2::new(0.3, 0.3)).x, 0.4);
+        assert_eq!(c.gradient(Vec2::new(0.3, 0.3)), Vec2::ZERO);
+        assert_eq!(c.range(), (0.2, 0.4));
+    }
+
+    #[test]
+    fn the_gradient_is_the_derivative_of_the_lookup() {
+        let image = Arc::new(ramp(TextureFilter::Bilinear, Wrap::Repeat));
+        let t = Texture::Image {
+            image,
+            to_uv: Affine2::from_scale_angle_translation(Vec2::new(1.5, 0.7), 0.3, Vec2::X),
+        };
+        let h = 1e-3;
+        for uv in [Vec2::new(0.31, 0.42), Vec2::new(0.77, 0.13)] {
+            let g = t.gradient(uv);
+            let fd = Vec2::new(
+                t.eval_scalar(uv + Vec2::X * h) - t.eval_scalar(uv - Vec2::X * h),
+                t.eval_scalar(uv + Vec2::Y * h) - t.eval_scalar(uv - Vec2::Y * h),
+            ) / (2.0 * h);
+            assert!(
+                (g - fd).length() < 1e-2 * (1.0 + fd.length()),
+                "{g} vs {fd}"
+            );
+        }
+    }
+}

@@ -1,0 +1,268 @@
+//! Material descriptions to materials: each model's constructor checks its constant
+//! parameters; textured ones are checked over their whole range, and the material's constant
+//! form takes their means (as Mitsuba 3 makes its sampling weights from them).
+
+use super::schema::{MaterialDesc, Metal};
+use super::textures::{ColorDesc, FloatDesc, Role, TextureLoader};
+use glam::Vec3A;
+use raylab_integrators::bsdf::{
+    checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert,
+    MaterialTextures, Microfacet, OrenNayar, Perturbation, Phong, Plastic, RoughConductor,
+    RoughDielectric, RoughPlastic, SurfaceMaterial, ThinDielectric,
+};
+use raylab_integrators::texture::Texture;
+use raylab_integrators::Material;
+
+fn v3(a: [f32; 3]) -> Vec3A {
+    Vec3A::from_array(a)
+}
+
+/// Turns a material description into the scene's material, reading its textures with
+/// `textures`.
+pub fn material_from_desc(
+    desc: &MaterialDesc,
+    textures: &mut TextureLoader,
+) -> Result<SurfaceMaterial, String> {
+    let mut t = MaterialTextures::default();
+    // A colour parameter: its constant (a texture's mean), its texture kept in `slot`.
+    let mut colour = |desc: &ColorDesc, role: Role, slot: &mut Option<Texture>| {
+        let (c, texture) = textures.colour(desc, role)?;
+        *slot = texture;
+        Ok::<_, String>(c)
+    };
+    let bsdf = match desc {
+        MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert::new(colour(
+            albedo,
+            Role::Reflectance,
+            &mut t.diffuse,
+        )?)?),
+        MaterialDesc::OrenNayar { albedo, sigma } => Material::OrenNayar(OrenNayar::checked(
+            colour(albedo, Role::Reflectance, &mut t.diffuse)?,
+            *sigma,
+        )?),
+        MaterialDesc::Phong { kd, ks, exponent } => {
+            let kd = colour(kd, Role::Reflectance, &mut t.diffuse)?;
+            let ks = colour(ks, Role::Reflectance, &mut t.specular)?;
+            // Energy holds at every point: the largest kd + ks, not the means'.
+            let max = |tex: &Option<Texture>, c: Vec3A| tex.as_ref().map_or(c, |x| x.max());
+            if (t.diffuse.is_some() || t.specular.is_some())
+                && (max(&t.diffuse, kd) + max(&t.specular, ks)).max_element() > 1.0 + 1e-6
+            {
+                return Err(
+                    "the textures' kd + ks exceed 1 somewhere: Phong would create energy".into(),
+                );
+            }
+            Material::Phong(Phong::new(kd, ks, *exponent)?)
+        }
+        MaterialDesc::Mirror { tint } => Material::Conductor(Conductor::new(
+            None,
+            checks::reflectance("tint", v3(*tint))?,
+        )?),
+        MaterialDesc::Glass { ior, tint } => {
+            Material::Dielectric(Dielectric::new(*ior, v3(*tint), v3(*tint))?)
+        }
+        MaterialDesc::Dielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance: r,
+            specular_transmittance: tr,
+        } => Material::Dielectric(Dielectric::new(
+            relative_ior(int_ior.0, ext_ior.0)?,
+            colour(r, Role::Reflectance, &mut t.specular)?,
+            colour(tr, Role::Reflectance, &mut t.transmittance)?,
+        )?),
+        MaterialDesc::RoughDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance: r,
+            specular_transmittance: tr,
+            distribution,
+            alpha,
+            alpha_u,
+            alpha_v,
+        } => {
+            let r = colour(r, Role::Reflectance, &mut t.specular)?;
+            let tr = colour(tr, Role::Reflectance, &mut t.transmittance)?;
+            Material::RoughDielectric(RoughDielectric::new(
+                relative_ior(int_ior.0, ext_ior.0)?,
+                r,
+                tr,
+                microfacet(*distribution, [alpha, alpha_u, alpha_v], textures, &mut t)?,
+            )?)
+        }
+        MaterialDesc::ThinDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance: r,
+            specular_transmittance: tr,
+        } => Material::ThinDielectric(ThinDielectric::new(
+            relative_ior(int_ior.0, ext_ior.0)?,
+            colour(r, Role::Reflectance, &mut t.specular)?,
+            colour(tr, Role::Reflectance, &mut t.transmittance)?,
+        )?),
+        MaterialDesc::Conductor {
+            metal,
+            eta,
+            k,
+            specular_reflectance,
+        } => Material::Conductor(Conductor::new(
+            complex_ior(*metal, *eta, *k)?,
+            colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
+        )?),
+        MaterialDesc::RoughConductor {
+            metal,
+            eta,
+            k,
+            specular_reflectance,
+            distribution,
+            alpha,
+            alpha_u,
+            alpha_v,
+        } => {
+            let r = colour(specular_reflectance, Role::Reflectance, &mut t.specular)?;
+            Material::RoughConductor(RoughConductor::new(
+                complex_ior(*metal, *eta, *k)?,
+                r,
+                microfacet(*distribution, [alpha, alpha_u, alpha_v], textures, &mut t)?,
+            )?)
+        }
+        MaterialDesc::Plastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+        } => Material::Plastic(Plastic::new(
+            colour(diffuse_reflectance, Role::Reflectance, &mut t.diffuse)?,
+            colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
+            relative_ior(int_ior.0, ext_ior.0)?,
+            *nonlinear,
+        )?),
+        MaterialDesc::RoughPlastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            distribution,
+            alpha,
+        } => Material::RoughPlastic(RoughPlastic::new(
+            colour(diffuse_reflectance, Role::Reflectance, &mut t.diffuse)?,
+            colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
+            relative_ior(int_ior.0, ext_ior.0)?,
+            *nonlinear,
+            alphas(*distribution, (*alpha, *alpha))?,
+        )?),
+        MaterialDesc::TwoSided(inner) => {
+            let m = material_from_desc(inner, textures)?;
+            if m.bsdf.is_transmissive() {
+                return Err(
+                    "TwoSided cannot hold a dielectric: it has two sides of its own".into(),
+                );
+            }
+            return Ok(m);
+        }
+        MaterialDesc::NormalMap { texture, material } => {
+            let map = match texture {
+                ColorDesc::Constant(c) => Texture::Constant(v3(*c)),
+                ColorDesc::Texture(t) => textures.texture(t, Role::Data)?,
+            };
+            return perturbed(material, Perturbation::NormalMap(map), textures);
+        }
+        MaterialDesc::BumpMap {
+            texture,
+            scale,
+            material,
+        } => {
+            if !scale.is_finite() {
+                return Err(format!("a bump map's scale must be finite, got {scale}"));
+            }
+            let height = match texture {
+                FloatDesc::Constant(x) => Texture::Constant(Vec3A::splat(*x)),
+                FloatDesc::Texture(t) => textures.texture(t, Role::Data)?,
+            };
+            let map = Perturbation::BumpMap {
+                height,
+                scale: *scale,
+            };
+            return perturbed(material, map, textures);
+        }
+    };
+    Ok(SurfaceMaterial {
+        bsdf,
+        textures: t,
+        perturbation: None,
+    })
+}
+
+/// `inner` under the normal or bump map `map`: one map per material.
+fn perturbed(
+    inner: &MaterialDesc,
+    map: Perturbation,
+    textures: &mut TextureLoader,
+) -> Result<SurfaceMaterial, String> {
+    let mut m = material_from_desc(inner, textures)?;
+    if m.perturbation.is_some() {
+        return Err("a material takes one normal or bump map, not one inside another".into());
+    }
+    m.perturbation = Some(map);
+    Ok(m)
+}
+
+/// The microfacet distribution of roughnesses `(alpha_u, alpha_v)`.
+fn alphas(distribution: Distribution, (u, v): (f32, f32)) -> Result<Microfacet, String> {
+    Microfacet::new(distribution, u, v)
+}
+
+/// The roughness of a rough material from `[alpha, alpha_u, alpha_v]`: `alpha`, or `alpha_u`
+/// and `alpha_v` (anisotropic), or Mitsuba's default 0.1; textured ones are kept in `t`, and
+/// the distribution made from their means.
+fn microfacet(
+    distribution: Distribution,
+    [alpha, alpha_u, alpha_v]: [&Option<FloatDesc>; 3],
+    textures: &mut TextureLoader,
+    t: &mut MaterialTextures,
+) -> Result<Microfacet, String> {
+    let mut scalar = |d: &FloatDesc| textures.scalar(d, Role::Roughness);
+    let ((u, tu), (v, tv)) = match (alpha, alpha_u, alpha_v) {
+        (Some(a), None, None) => {
+            let a = scalar(a)?;
+            (a.clone(), a)
+        }
+        (None, Some(u), Some(v)) => (scalar(u)?, scalar(v)?),
+        (None, None, None) => ((0.1, None), (0.1, None)),
+        (Some(_), _, _) => return Err("give alpha, or alpha_u and alpha_v, not both".into()),
+        _ => return Err("an anisotropic roughness needs both alpha_u and alpha_v".into()),
+    };
+    // A texture's mean may be 0 (a black roughness map); its lookups are kept at the
+    // smallest roughness, and so is its constant form.
+    let floor = |a: f32, textured: bool| {
+        if textured {
+            a.max(raylab_integrators::bsdf::microfacet::MIN_ALPHA)
+        } else {
+            a
+        }
+    };
+    let m = alphas(
+        distribution,
+        (floor(u, tu.is_some()), floor(v, tv.is_some())),
+    )?;
+    (t.alpha_u, t.alpha_v) = (tu, tv);
+    Ok(m)
+}
+
+/// A conductor's complex IOR: a named `metal`, or `eta` and `k`, or (neither) a perfect
+/// mirror.
+fn complex_ior(
+    metal: Option<Metal>,
+    eta: Option<[f32; 3]>,
+    k: Option<[f32; 3]>,
+) -> Result<Option<ComplexIor>, String> {
+    match (metal, eta, k) {
+        (Some(m), None, None) => Ok(m.0),
+        (None, Some(eta), Some(k)) => Ok(Some(ComplexIor::new(v3(eta), v3(k))?)),
+        (None, None, None) => Ok(None),
+        (Some(_), _, _) => Err("give a metal by name, or eta and k, not both".into()),
+        _ => Err("a conductor's IOR needs both eta and k".into()),
+    }
+}

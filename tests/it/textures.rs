@@ -1,0 +1,159 @@
+//! Textures, normal maps and bump maps through every light-transport integrator of the
+//! registry, each against its closed form: a checkerboard under a uniform sky shows its two
+//! albedos; a constant normal map and a linear bump both tilt a floor under a sun by 45
+//! degrees, which dims it by cos 45.
+
+use raylab::render::{render, RenderSettings};
+use raylab::scene::load_scene;
+use raylab::scene::RenderScene;
+use raylab_integrators::registry::REGISTRY;
+use std::f32::consts::{FRAC_1_SQRT_2, PI};
+use std::path::Path;
+
+/// The integrators that estimate light transport (not the debug views), and `albedo`, which
+/// shows the texture itself.
+fn integrators() -> Vec<&'static str> {
+    REGISTRY
+        .iter()
+        .map(|e| e.name)
+        .filter(|n| !matches!(*n, "normals" | "depth"))
+        .collect()
+}
+
+/// Renders `scene` (written to a temporary folder with `files`) at 16 x 16 pixels with
+/// `integrator`; returns the green channel's mean and standard error over each of `regions`
+/// (x, y, width, height in pixels).
+fn region_means(
+    scene: &str,
+    files: &[(&str, Vec<u8>)],
+    integrator: &str,
+    spp: u32,
+    regions: &[(u32, u32, u32, u32)],
+) -> Vec<(f32, f32)> {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    let path = dir.path().join("scene.ron");
+    std::fs::write(&path, scene).unwrap();
+    let loaded = load_scene(Path::new(&path)).unwrap();
+    let built = RenderScene::build(&loaded);
+    let mut integrator = REGISTRY
+        .iter()
+        .find(|e| e.name == integrator)
+        .unwrap()
+        .instantiate(&[])
+        .unwrap();
+    let settings = RenderSettings::fixed(spp, 11, None);
+    let film = render(&built, &loaded.camera, integrator.as_mut(), &settings)
+        .unwrap()
+        .0;
+    regions
+        .iter()
+        .map(|&(x, y, w, h)| {
+            let c = film.crop(x, y, w, h).unwrap();
+            (c.mean().y, c.mean_standard_error().y)
+        })
+        .collect()
+}
+
+/// Photon density estimation is biased by its radius; the rest is unbiased.
+fn tolerance(integrator: &str, expected: f32, se: f32) -> f32 {
+    let bias = if matches!(integrator, "photon" | "sppm") {
+        0.04 * expected
+    } else {
+        0.0
+    };
+    4.5 * se + bias + 1e-4 * expected
+}
+
+/// The camera straight in front of the unit rectangle (`[-1, 1]^2` of the xy plane), seeing
+/// `[-0.8, 0.8]^2` of it over 16 x 16 pixels.
+const CAMERA: &str = "camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 18.2, resolution: (16, 16)),";
+
+#[test]
+fn a_checkerboard_under_a_uniform_sky_shows_its_albedos() {
+    // uv = ((x + 1) / 2, (y + 1) / 2), v up the rectangle's y; the quadrants where u and v are
+    // both below or both above one half are color0 (0.7), the others color1 (0.2). Under a
+    // uniform sky of 1 with nothing else, a Lambert surface's radiance is its albedo.
+    let scene = format!(
+        r#"({CAMERA}
+            environment: (1, 1, 1),
+            materials: {{"board": Lambert(albedo: Checkerboard(color0: 0.7, color1: 0.2))}},
+            entities: [(name: "board", shape: Rectangle, material: "board")])"#
+    );
+    // Pixel rows run down the image (y decreasing): the top-left quadrant is u < 1/2, v > 1/2.
+    // Each region is a quadrant without the two pixel lines along the centre.
+    let regions = [(0, 0, 7, 7), (9, 0, 7, 7), (0, 9, 7, 7), (9, 9, 7, 7)];
+    let expected = [0.2, 0.7, 0.7, 0.2];
+    for name in integrators() {
+        let means = region_means(&scene, &[], name, 256, &regions);
+        for ((mean, se), want) in means.into_iter().zip(expected) {
+            println!("checkerboard, {name}: {mean:.5} +- {se:.5} (expected {want})");
+            assert!(
+                (mean - want).abs() <= tolerance(name, want, se),
+                "checkerboard, {name}: {mean} +- {se}, expected {want}"
+            );
+        }
+    }
+}
+
+/// A PNG of `w x 1` grey texels of the given 8-bit values.
+fn grey_png(values: &[u8]) -> Vec<u8> {
+    let img = image::GrayImage::from_raw(values.len() as u32, 1, values.to_vec()).unwrap();
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .unwrap();
+    bytes
+}
+
+#[test]
+fn normal_and_bump_maps_tilt_the_shading_normal() {
+    // A sun of irradiance 2 straight at the rectangle: flat, its radiance is 0.5 * 2 / pi.
+    let scene = |material: &str| {
+        format!(
+            r#"({CAMERA}
+                materials: {{"m": {material}, "black": Lambert(albedo: 0)}},
+                entities: [
+                    (name: "floor", shape: Rectangle, material: "m"),
+                    (name: "sun", emitter: Directional(direction: (0, 0, -1), irradiance: (2, 2, 2))),
+                ])"#
+        )
+    };
+    let flat = 0.5 * 2.0 / PI;
+    let tilted = flat * FRAC_1_SQRT_2;
+    // A constant normal map of rgb (1, 0.5, 1): the tangent-space normal (1, 0, 1), 45
+    // degrees towards dpdu, everywhere.
+    let normal_map = scene("NormalMap(texture: (1, 0.5, 1), material: Lambert(albedo: 0.5))");
+    // A bump map of two texels, 0 and 1 (raw), clamped: between the texel centres (u from
+    // 1/4 to 3/4) the height rises by 1 over half a unit of u, a slope of 2 per unit u;
+    // dpdu is 2 (the rectangle is 2 wide), so the normal leans by atan(2 / 2) = 45 degrees.
+    // Outside, the height is flat.
+    let bump = scene(
+        r#"BumpMap(texture: Image(path: "ramp.png", wrap: "clamp"), scale: 1, material: Lambert(albedo: 0.5))"#,
+    );
+    let files = [("ramp.png", grey_png(&[0, 255]))];
+    // Columns of x in (-0.4, 0.4) (u in (0.3, 0.7)) and the outer columns (u < 0.2, u > 0.8).
+    let (middle, left, right) = ((4, 0, 8, 16), (0, 0, 2, 16), (14, 0, 2, 16));
+    for name in integrators().into_iter().filter(|n| *n != "albedo") {
+        let [(n, n_se)] = region_means(&normal_map, &[], name, 16, &[middle])[..] else {
+            unreachable!()
+        };
+        println!("normal map, {name}: {n:.5} +- {n_se:.5} (expected {tilted:.5})");
+        assert!(
+            (n - tilted).abs() <= tolerance(name, tilted, n_se),
+            "normal map, {name}: {n}"
+        );
+        let means = region_means(&bump, &files, name, 16, &[middle, left, right]);
+        for ((mean, se), want) in means.into_iter().zip([tilted, flat, flat]) {
+            println!("bump map, {name}: {mean:.5} +- {se:.5} (expected {want:.5})");
+            assert!(
+                (mean - want).abs() <= tolerance(name, want, se),
+                "bump map, {name}: {mean} +- {se}, expected {want}"
+            );
+        }
+    }
+}
