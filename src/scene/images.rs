@@ -1,5 +1,5 @@
 //! Reading images that scenes name (environment maps, textures): any format the `image` crate decodes
-//! here (OpenEXR, Radiance HDR, PNG), capped in size before anything is allocated, as linear
+//! here (OpenEXR, Radiance HDR, PNG, JPEG), capped in size before anything is allocated, as linear
 //! RGB. 8- and 16-bit images are decoded from sRGB, as Mitsuba 3 does, unless they hold data
 //! (`raw`); float images are taken as they are. Texels that are not finite are refused.
 
@@ -39,7 +39,7 @@ pub fn read_linear_rgb(file: &Path, raw: bool) -> Result<LinearImage, String> {
         .map_err(|e| cannot(&e))?;
     if reader.format().is_none() {
         return Err(cannot(
-            &"it is not an image raylab reads (OpenEXR, Radiance HDR or PNG)",
+            &"it is not an image raylab reads (OpenEXR, Radiance HDR, PNG or JPEG)",
         ));
     }
     let mut limits = image::Limits::default();

@@ -146,13 +146,22 @@ pub fn material_from_desc(
             nonlinear,
             distribution,
             alpha,
-        } => Material::RoughPlastic(RoughPlastic::new(
-            colour(diffuse_reflectance, Role::Reflectance, &mut t.diffuse)?,
-            colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
-            relative_ior(int_ior.0, ext_ior.0)?,
-            *nonlinear,
-            alphas(*distribution, (*alpha, *alpha))?,
-        )?),
+        } => {
+            let FloatDesc::Constant(alpha) = *alpha else {
+                return Err(
+                    "RoughPlastic's alpha must be a number: the coating's tables are \
+                            made for one roughness, as in Mitsuba's roughplastic"
+                        .into(),
+                );
+            };
+            Material::RoughPlastic(RoughPlastic::new(
+                colour(diffuse_reflectance, Role::Reflectance, &mut t.diffuse)?,
+                colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
+                relative_ior(int_ior.0, ext_ior.0)?,
+                *nonlinear,
+                alphas(*distribution, (alpha, alpha))?,
+            )?)
+        }
         MaterialDesc::TwoSided(inner) => {
             let m = material_from_desc(inner, textures)?;
             if m.bsdf.is_transmissive() {

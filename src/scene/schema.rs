@@ -254,7 +254,7 @@ pub enum MaterialDesc {
         #[serde(default, deserialize_with = "distribution_name")]
         distribution: Distribution,
         #[serde(default = "default_alpha")]
-        alpha: f32,
+        alpha: FloatDesc,
     },
     /// The same material on both faces (Mitsuba's `twosided`). raylab's opaque materials are
     /// two-sided already, so this is the material itself; a dielectric inside is an error.
@@ -349,8 +349,8 @@ fn white_colour() -> ColorDesc {
     ColorDesc::Constant([1.0; 3])
 }
 
-fn default_alpha() -> f32 {
-    0.1
+fn default_alpha() -> FloatDesc {
+    FloatDesc::Constant(0.1)
 }
 
 fn default_subdivisions() -> u32 {
