@@ -55,6 +55,14 @@ constant environment and the area light, so that it is the only light:
 * "directional: diffuse": raylab's `Directional`, Mitsuba's `directional`, light travelling
   along SUN's direction (down, right and away from the camera).
 
+Six more rows (TEXTURED) give the ball textured parameters under the default lighting: an
+image (scenes/assets/tiles.png, to_uv / uv_scale 4 x 2) and a checkerboard as diffuse
+reflectance, the image as a plastic's, a roughness map (roughness.png, raw) on aluminium, a
+bump map (bumps.png, raw, scale 0.005) on plastic and a normal map (bumps_normal.png, raw) on
+copper. The images are copied next to the RON files; Mitsuba reads them by absolute path.
+The normal-map row differs: Mitsuba's normalmap loses energy that the closed form keeps
+(README, Materials).
+
 The spot and directional scenes have no environment: their background is exactly 0 in both
 renderers, which the 1e-2 in relMSE's denominator keeps well-conditioned (those pixels add 0
 to every relMSE). With 1024 spp these rows resolve a half-column turn of the map (1.4 degrees
@@ -128,7 +136,37 @@ LIGHTS = {
     "spot: diffuse": ("diffuse", "spot"),
     "directional: diffuse": ("diffuse", "directional"),
 }
+# Textured rows: the ball's parameters as textures (Tex), and the normal and bump maps. The
+# images are scenes/assets' (scripts/make_textures.py), copied next to the RON files.
+class Tex:
+    """A texture parameter: Mitsuba's `bitmap` or `checkerboard`, raylab's `Image` or
+    `Checkerboard`, with the uv scale as `to_uv` / `uv_scale`."""
+
+    def __init__(self, kind, file=None, raw=False, scale=(1.0, 1.0), color0=None, color1=None):
+        self.kind, self.file, self.raw, self.scale = kind, file, raw, scale
+        self.color0, self.color1 = color0, color1
+
+
+TILES = Tex("bitmap", "tiles.png", scale=(4.0, 2.0))
+TEXTURED = {
+    "diffuse bitmap": ("diffuse", {"reflectance": TILES}),
+    "diffuse checkerboard": ("diffuse", {"reflectance": Tex("checkerboard", color0=(0.8, 0.7, 0.6),
+                                                            color1=(0.1, 0.2, 0.4), scale=(8.0, 4.0))}),
+    "plastic bitmap": ("plastic", {"diffuse_reflectance": TILES}),
+    "roughconductor Al ggx alpha bitmap": ("roughconductor", {"material": "Al", "distribution": "ggx",
+                                                              "alpha": Tex("bitmap", "roughness.png", raw=True)}),
+    "normalmap roughconductor Cu ggx 0.1": ("normalmap", {
+        "normalmap": Tex("bitmap", "bumps_normal.png", raw=True, scale=(4.0, 2.0)),
+        "bsdf": ("roughconductor", {"material": "Cu", "distribution": "ggx", "alpha": 0.1})}),
+    "bumpmap plastic": ("bumpmap", {
+        "bumpmap": Tex("bitmap", "bumps.png", raw=True, scale=(4.0, 2.0)), "scale": 0.005,
+        "bsdf": ("plastic", {"diffuse_reflectance": BLUE})}),
+}
+MATERIALS.update(TEXTURED)
+TEXTURE_FILES = ["tiles.png", "roughness.png", "bumps_normal.png", "bumps.png"]
 RAYLAB_NAMES = {
+    "normalmap": ("NormalMap", {"normalmap": "texture", "bsdf": "material"}),
+    "bumpmap": ("BumpMap", {"bumpmap": "texture", "bsdf": "material"}),
     "diffuse": ("Lambert", {"reflectance": "albedo"}),
     "conductor": ("Conductor", {"material": "metal"}),
     "roughconductor": ("RoughConductor", {"material": "metal"}),
@@ -261,7 +299,18 @@ def ball_disc(res):
 # raylab
 
 
+def is_bsdf(v):
+    return isinstance(v, tuple) and len(v) == 2 and isinstance(v[1], dict)
+
+
 def ron_value(v):
+    if isinstance(v, Tex):
+        uv = f"uv_scale: {ron_value(v.scale)}"
+        if v.kind == "checkerboard":
+            return f"Checkerboard(color0: {ron_value(v.color0)}, color1: {ron_value(v.color1)}, {uv})"
+        return f'Image(path: "{v.file}", raw: {ron_value(v.raw)}, {uv})'
+    if is_bsdf(v):
+        return to_raylab(*v)
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
@@ -333,7 +382,20 @@ def raylab_render(exe, scene_path, out, spp, seed):
 # Mitsuba
 
 
+TEXTURE_DIR = None  # where the texture files are, for Mitsuba (set by main)
+
+
 def mi_value(v):
+    import mitsuba as mi
+
+    if isinstance(v, Tex):
+        to_uv = mi.ScalarTransform4f().scale([v.scale[0], v.scale[1], 1.0])
+        if v.kind == "checkerboard":
+            return {"type": "checkerboard", "color0": mi_value(v.color0), "color1": mi_value(v.color1),
+                    "to_uv": to_uv}
+        return {"type": "bitmap", "filename": str(TEXTURE_DIR / v.file), "raw": v.raw, "to_uv": to_uv}
+    if is_bsdf(v):
+        return {"type": v[0], **{k: mi_value(x) for k, x in v[1].items()}}
     if isinstance(v, tuple) and len(v) == 3:
         return {"type": "rgb", "value": list(v)}
     return v
@@ -371,7 +433,7 @@ def mitsuba_scene(material, res, spp, ball_obj=None, lighting="default", sky=Non
 
     cam, fl = SCENE["camera"], SCENE["floor"]
     plugin, params = material
-    bsdf = {"type": plugin, **{k: mi_value(v) for k, v in params.items()}}
+    bsdf = mi_value((plugin, params))
     if ball_obj:
         ball = {"type": "obj", "filename": str(ball_obj), "face_normals": True, "bsdf": bsdf}
     else:
@@ -498,6 +560,10 @@ def main():
     obj, obj_uv = out / "icosphere.obj", out / "icosphere-duff-uv.obj"
     write_obj(obj)
     write_obj(obj_uv, duff_uv=True)
+    global TEXTURE_DIR
+    TEXTURE_DIR = out
+    for f in TEXTURE_FILES:  # next to the RON files, which name them relatively
+        shutil.copyfile(ROOT / "scenes" / "assets" / f, out / f)
     sky = out / SKY.name  # next to the RON files, which name it relatively
     if any(all_rows[n][1] == "envmap" for n in names):
         shutil.copyfile(SKY, sky)

@@ -41,7 +41,7 @@ pub struct ImageDesc {
     pub wrap: String,
     /// Take 8- and 16-bit texels as they are instead of decoding sRGB. Default: false for
     /// colours, true for data.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "optional_bool")]
     pub raw: Option<bool>,
     #[serde(default = "unit_scale")]
     pub uv_scale: [f32; 2],
@@ -64,6 +64,21 @@ pub struct CheckerboardDesc {
     pub uv_scale: [f32; 2],
     #[serde(default)]
     pub uv_offset: [f32; 2],
+}
+
+/// A flag written as `true`, or as `Some(true)` (the fields of a texture arrive without
+/// RON's implicit `Some`).
+fn optional_bool<'de, D: Deserializer<'de>>(d: D) -> Result<Option<bool>, D::Error> {
+    #[derive(serde::Deserialize)]
+    #[serde(untagged)]
+    enum Either {
+        Bare(bool),
+        Wrapped(Option<bool>),
+    }
+    match Either::deserialize(d).map_err(|_| de::Error::custom("expected true or false"))? {
+        Either::Bare(b) => Ok(Some(b)),
+        Either::Wrapped(b) => Ok(b),
+    }
 }
 
 /// A colour written as `(r, g, b)` or as one grey number.
