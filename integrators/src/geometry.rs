@@ -50,6 +50,22 @@ pub struct Hit {
     /// Texture coordinates: the mesh's, interpolated, or the shape's parametrisation
     /// (Mitsuba 3's for spheres and rectangles; `(b1, b2)` on triangles without any).
     pub uv: Vec2,
+    /// What `uv`, `dpdu` and `dpdv` still wait for: most hits never need them, so they are
+    /// computed only when a material asks ([`crate::Scene::parametrise`]).
+    pub pending: Pending,
+}
+
+/// A hit's parametrisation not yet computed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pending {
+    /// Computed (or there is none).
+    None,
+    /// An analytic sphere's `uv`, `dpdv` and `dpdu`'s length ([`Hit::parametrise_sphere`];
+    /// `dpdu`'s direction, which orients the shading frame, is always there).
+    Sphere { radius: f32 },
+    /// A triangle's `uv`, `dpdu` and `dpdv`, from the vertex data the accelerator keeps:
+    /// its primitive and, for an instance, the instance, as the accelerator numbers them.
+    Triangle { prim: u32, instance: u32 },
 }
 
 /// Distance by which spawned rays are pushed off a surface, relative to the magnitude of the
@@ -70,19 +86,13 @@ impl Hit {
         light: Option<u32>,
     ) -> Hit {
         let n = (ray.at(t) - center).normalize();
-        // Mitsuba 3's parametrisation: u the angle around z from +x, v the angle from +z;
-        // the tangents are the position's derivatives along them.
-        let mut phi = n.y.atan2(n.x);
-        if phi < 0.0 {
-            phi += TAU;
-        }
-        let theta = n.z.clamp(-1.0, 1.0).acos();
-        let (sin_phi, cos_phi) = phi.sin_cos();
-        let ring = (n.x * n.x + n.y * n.y).sqrt();
+        // The first tangent of Mitsuba 3's parametrisation (around the z axis), which orients
+        // the shading frame; the texture coordinates and the second tangent only when a
+        // material asks for them.
         Hit {
-            dpdu: Vec3A::new(-n.y, n.x, 0.0) * (TAU * radius),
-            dpdv: Vec3A::new(n.z * cos_phi, n.z * sin_phi, -ring) * (PI * radius),
-            uv: Vec2::new(phi / TAU, theta / PI),
+            // Its direction only, until `parametrise_sphere` gives it its length.
+            dpdu: Vec3A::new(-n.y, n.x, 0.0),
+            pending: Pending::Sphere { radius },
             ..Hit::new(t, center + n * radius, n, material, light)
         }
     }
@@ -100,7 +110,30 @@ impl Hit {
             dpdu: Vec3A::ZERO,
             dpdv: Vec3A::ZERO,
             uv: Vec2::ZERO,
+            pending: Pending::None,
         }
+    }
+
+    /// Completes a sphere hit's parametrisation, Mitsuba 3's: `u` the angle around the `z`
+    /// axis from `+x` over 2 pi, `v` the angle from `+z` over pi, and `dpdv` the position's
+    /// derivative along `v`.
+    #[inline]
+    pub fn parametrise_sphere(&mut self) {
+        let Pending::Sphere { radius } = self.pending else {
+            return;
+        };
+        let n = self.ng;
+        let mut phi = n.y.atan2(n.x);
+        if phi < 0.0 {
+            phi += TAU;
+        }
+        let theta = n.z.clamp(-1.0, 1.0).acos();
+        let (sin_phi, cos_phi) = phi.sin_cos();
+        let ring = (n.x * n.x + n.y * n.y).sqrt();
+        self.dpdu = Vec3A::new(-n.y, n.x, 0.0) * (TAU * radius);
+        self.dpdv = Vec3A::new(n.z * cos_phi, n.z * sin_phi, -ring) * (PI * radius);
+        self.uv = Vec2::new(phi / TAU, theta / PI);
+        self.pending = Pending::None;
     }
 
     /// The hit position pushed off the surface along the geometric normal, on the side of `dir`.

@@ -37,7 +37,7 @@ pub use integrator::registry;
 pub use bsdf::{BsdfSample, Material, SurfaceMaterial};
 pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
-pub use geometry::{Frame, Hit, Ray};
+pub use geometry::{Frame, Hit, Pending, Ray};
 pub use integrator::{
     Demand, Integrator, PixelSample, RayCounters, RayIntegrator, Splats, Stop, Tracer,
 };

@@ -16,4 +16,9 @@ pub trait Scene: Sync {
     fn lights(&self) -> &LightTable;
     /// Axis-aligned bounds of the geometry (min, max).
     fn bounds(&self) -> (Vec3A, Vec3A);
+    /// Computes `hit`'s texture coordinates and tangents if they are pending (see
+    /// [`crate::geometry::Pending`]). Scenes of spheres alone need not override it.
+    fn parametrise(&self, hit: &mut Hit) {
+        hit.parametrise_sphere();
+    }
 }

@@ -10,12 +10,12 @@
 
 use super::bvh::{isa::Isa, Bvh, Packets, Singles};
 use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_SPHERES};
-use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
+use super::surface::{barycentrics, parametrisation, shading_normal, Parametrisation, VertexData};
 use super::{box_corners, InstanceDesc, Mesh};
 use glam::{Affine3A, Mat3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
-use raylab_integrators::Hit;
+use raylab_integrators::{Hit, Pending};
 
 /// One mesh asset's triangles as packets, one or two per leaf of their BVH.
 struct MeshBlas {
@@ -261,30 +261,44 @@ impl InstanceSet {
         // The lane's index is the triangle's place in the BVH's order, where `vertex_data`
         // keeps its normals and texture coordinates (when the mesh has them).
         let vertex = data.vertex_data(lane).and_then(|k| mesh.vertex_data.get(k));
-        let local_p = inst.world_to_local.transform_point3a(origin)
-            + inst.world_to_local.transform_vector3a(dir) * t;
-        let (v0, e1, e2) = packet.edges(lane);
-        let b = barycentrics(v0, e1, e2, local_p);
-        // Each vertex normal to world space, then interpolated: as the flattened build does,
-        // so an instance shades like its flattened copy under non-uniform scales.
-        let ns = vertex.map_or(ng, |d| {
-            shading_normal(
-                ng,
-                b,
-                d.normals.map(|n| (normal_matrix * n).normalize_or_zero()),
-            )
-        });
-        let param = parametrisation(b, e1, e2, vertex);
+        let ns = match vertex {
+            Some(d) if d.has_normals => {
+                let local_p = inst.world_to_local.transform_point3a(origin)
+                    + inst.world_to_local.transform_vector3a(dir) * t;
+                let (v0, e1, e2) = packet.edges(lane);
+                let b = barycentrics(v0, e1, e2, local_p);
+                // Each vertex normal to world space, then interpolated: as the flattened
+                // build does, so an instance shades like its flattened copy under
+                // non-uniform scales.
+                shading_normal(ng, b, d, |n| (normal_matrix * n).normalize_or_zero())
+            }
+            _ => ng,
+        };
         Hit {
-            t,
-            p: origin + dir * t,
-            ng,
+            pending: Pending::Triangle {
+                prim,
+                instance: slot,
+            },
             ns,
-            material: inst.material,
-            light: None,
-            dpdu: inst.to_world * param.dpdu,
-            dpdv: inst.to_world * param.dpdv,
-            uv: param.uv,
+            ..Hit::new(t, origin + dir * t, ng, inst.material, None)
+        }
+    }
+
+    /// The world-space parametrisation at world point `p` of triangle `prim` of the instance
+    /// in slot `slot`.
+    pub fn parametrisation(&self, slot: u32, prim: u32, p: Vec3A) -> Parametrisation {
+        let inst = &self.instances[slot as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let (k, lane) = (prim as usize / packet::WIDTH, prim as usize % packet::WIDTH);
+        let Stored { packet, data } = &mesh.packets[k];
+        let vertex = data.vertex_data(lane).and_then(|i| mesh.vertex_data.get(i));
+        let (v0, e1, e2) = packet.edges(lane);
+        let b = barycentrics(v0, e1, e2, inst.world_to_local.transform_point3a(p));
+        let local = parametrisation(b, e1, e2, vertex);
+        Parametrisation {
+            uv: local.uv,
+            dpdu: inst.to_world * local.dpdu,
+            dpdv: inst.to_world * local.dpdv,
         }
     }
 }

@@ -27,9 +27,9 @@ use glam::{Affine3A, Vec2, Vec3A};
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
 use packet::{Lane, LeafTest, Packet, PacketRay, Spheres, Stored, NONE};
-use raylab_integrators::{Hit, Ray};
+use raylab_integrators::{Hit, Pending, Ray};
 use rayon::prelude::*;
-use surface::{barycentrics, parametrisation, shading_normal, VertexData};
+use surface::{barycentrics, parametrisation, shading_normal, SetParametrisation, VertexData};
 
 /// Triangles in their own space, with optional per-triangle vertex normals (smooth shading)
 /// and texture coordinates, and their bounds (min, max).
@@ -136,6 +136,9 @@ pub trait Accelerator: Sync {
     fn stats(&self) -> AccelStats;
     /// Bytes held by the geometry, its per-primitive data and the BVHs.
     fn memory_bytes(&self) -> usize;
+    /// Computes `hit`'s pending texture coordinates and tangents (as this accelerator's
+    /// `closest` left them).
+    fn parametrise(&self, hit: &mut Hit);
 }
 
 /// The accelerators raylab offers (`--accel`).
@@ -233,6 +236,13 @@ impl Accelerator for Accel {
         match self {
             Accel::Raylab(a) => a.memory_bytes(),
             Accel::Obvhs(a) => a.memory_bytes(),
+        }
+    }
+
+    fn parametrise(&self, hit: &mut Hit) {
+        match self {
+            Accel::Raylab(a) => a.parametrise(hit),
+            Accel::Obvhs(a) => a.parametrise(hit),
         }
     }
 }
@@ -433,24 +443,43 @@ impl WideBvh {
             Hit::on_sphere(ray, t, c, r, data.material(lane), data.light(lane))
         } else {
             let ng = s.normal(lane);
-            let (v0, e1, e2) = s.edges(lane);
             let p = ray.at(t);
-            let b = barycentrics(v0, e1, e2, p);
             let vertex = data.vertex_data(lane).map(|k| &self.vertex_data[k]);
-            let ns = vertex.map_or(ng, |d| shading_normal(ng, b, d.normals));
-            let param = parametrisation(b, e1, e2, vertex);
+            // Flat shading unless the triangle has vertex normals.
+            let ns = match vertex {
+                Some(d) if d.has_normals => {
+                    let (v0, e1, e2) = s.edges(lane);
+                    shading_normal(ng, barycentrics(v0, e1, e2, p), d, |n| n)
+                }
+                _ => ng,
+            };
             Hit {
-                t,
-                p,
-                ng,
+                pending: Pending::Triangle {
+                    prim: id,
+                    instance: NONE,
+                },
                 ns,
-                material: data.material(lane),
-                light: data.light(lane),
-                dpdu: param.dpdu,
-                dpdv: param.dpdv,
-                uv: param.uv,
+                ..Hit::new(t, p, ng, data.material(lane), data.light(lane))
             }
         }
+    }
+
+    /// Computes a hit's pending texture coordinates and tangents ([`Pending`]).
+    pub fn parametrise(&self, hit: &mut Hit) {
+        let Pending::Triangle { prim, instance } = hit.pending else {
+            hit.parametrise_sphere();
+            return;
+        };
+        let param = if instance == NONE {
+            let (p, lane) = (prim as usize / packet::WIDTH, prim as usize % packet::WIDTH);
+            let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
+            let (v0, e1, e2) = s.edges(lane);
+            let vertex = data.vertex_data(lane).map(|k| &self.vertex_data[k]);
+            parametrisation(barycentrics(v0, e1, e2, hit.p), e1, e2, vertex)
+        } else {
+            self.instances.parametrisation(instance, prim, hit.p)
+        };
+        hit.set_parametrisation(param);
     }
 }
 

@@ -10,14 +10,16 @@
 //! [`super::instances`], so that local and world distances agree.
 
 use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle};
-use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
+use super::surface::{
+    barycentrics, parametrisation, shading_normal, Parametrisation, SetParametrisation, VertexData,
+};
 use super::{box_corners, bvh, AccelStats, Geometry, Input, ShapeLights};
 use glam::{Affine3A, Mat3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::BvhBuildParams;
-use raylab_integrators::{Hit, Ray};
+use raylab_integrators::{Hit, Pending, Ray};
 use std::time::Duration;
 
 /// No light, as the lane data spells it.
@@ -354,20 +356,19 @@ impl ObvhsBvh {
                 let (e1, e2) = (v1 - v0, v2 - v0);
                 let ng = e1.cross(e2).normalize_or_zero();
                 let p = ray.at(t);
-                let b = barycentrics(v0, e1, e2, p);
-                let vertex = (vertex_data != NONE).then(|| &self.vertex_data[vertex_data as usize]);
-                let ns = vertex.map_or(ng, |d| shading_normal(ng, b, d.normals));
-                let param = parametrisation(b, e1, e2, vertex);
+                let ns = match self.vertex_data.get(vertex_data as usize) {
+                    Some(d) if d.has_normals => {
+                        shading_normal(ng, barycentrics(v0, e1, e2, p), d, |n| n)
+                    }
+                    _ => ng,
+                };
                 Hit {
-                    t,
-                    p,
-                    ng,
+                    pending: Pending::Triangle {
+                        prim: k as u32,
+                        instance: NONE,
+                    },
                     ns,
-                    material,
-                    light: light(l),
-                    dpdu: param.dpdu,
-                    dpdv: param.dpdv,
-                    uv: param.uv,
+                    ..Hit::new(t, p, ng, material, light(l))
                 }
             }
         }
@@ -382,28 +383,56 @@ impl ObvhsBvh {
         let (e1, e2) = (v1 - v0, v2 - v0);
         let normal_matrix = inst.world_to_local.matrix3.transpose();
         let ng = (normal_matrix * e1.cross(e2).normalize_or_zero()).normalize_or_zero();
-        let w = &inst.world_to_local;
-        let local_p = w.transform_point3a(ray.origin) + w.transform_vector3a(ray.dir) * t;
-        let b = barycentrics(v0, e1, e2, local_p);
-        let vertex = mesh.vertex_data.get(k);
-        let ns = vertex.map_or(ng, |d| {
-            shading_normal(
-                ng,
-                b,
-                d.normals.map(|n| (normal_matrix * n).normalize_or_zero()),
-            )
-        });
-        let param = parametrisation(b, e1, e2, vertex);
+        let ns = match mesh.vertex_data.get(k) {
+            Some(d) if d.has_normals => {
+                let w = &inst.world_to_local;
+                let local_p = w.transform_point3a(ray.origin) + w.transform_vector3a(ray.dir) * t;
+                let b = barycentrics(v0, e1, e2, local_p);
+                shading_normal(ng, b, d, |n| (normal_matrix * n).normalize_or_zero())
+            }
+            _ => ng,
+        };
         Hit {
-            t,
-            p: ray.origin + ray.dir * t,
-            ng,
+            pending: Pending::Triangle {
+                prim: k as u32,
+                instance: slot as u32,
+            },
             ns,
-            material: inst.material,
-            light: None,
-            dpdu: inst.to_world * param.dpdu,
-            dpdv: inst.to_world * param.dpdv,
-            uv: param.uv,
+            ..Hit::new(t, ray.origin + ray.dir * t, ng, inst.material, None)
         }
+    }
+
+    /// Computes a hit's pending texture coordinates and tangents, as [`super::WideBvh`] does.
+    pub fn parametrise(&self, hit: &mut Hit) {
+        let Pending::Triangle { prim, instance } = hit.pending else {
+            hit.parametrise_sphere();
+            return;
+        };
+        let param = if instance == NONE {
+            let Prim::Triangle {
+                corners: [v0, v1, v2],
+                vertex_data,
+                ..
+            } = self.prims[prim as usize]
+            else {
+                return;
+            };
+            let (e1, e2) = (v1 - v0, v2 - v0);
+            let b = barycentrics(v0, e1, e2, hit.p);
+            parametrisation(b, e1, e2, self.vertex_data.get(vertex_data as usize))
+        } else {
+            let inst = &self.instances[instance as usize];
+            let mesh = &self.meshes[inst.mesh as usize];
+            let [v0, v1, v2] = mesh.triangles[prim as usize];
+            let (e1, e2) = (v1 - v0, v2 - v0);
+            let b = barycentrics(v0, e1, e2, inst.world_to_local.transform_point3a(hit.p));
+            let local = parametrisation(b, e1, e2, mesh.vertex_data.get(prim as usize));
+            Parametrisation {
+                uv: local.uv,
+                dpdu: inst.to_world * local.dpdu,
+                dpdv: inst.to_world * local.dpdv,
+            }
+        };
+        hit.set_parametrisation(param);
     }
 }

@@ -9,7 +9,8 @@ use glam::{Vec2, Vec3A};
 pub struct VertexData {
     pub normals: [Vec3A; 3],
     pub uvs: [Vec2; 3],
-    /// Whether `uvs` are the mesh's own.
+    /// Whether `normals` and `uvs` are the mesh's own.
+    pub has_normals: bool,
     pub has_uvs: bool,
 }
 
@@ -28,6 +29,7 @@ impl VertexData {
         (normals.is_some() || uvs.is_some()).then(|| VertexData {
             normals: normals.map_or([Vec3A::ZERO; 3], |n| n[i]),
             uvs: uvs.map_or(DEFAULT_UVS, |u| u[i]),
+            has_normals: normals.is_some(),
             has_uvs: uvs.is_some(),
         })
     }
@@ -39,6 +41,19 @@ pub struct Parametrisation {
     pub uv: Vec2,
     pub dpdu: Vec3A,
     pub dpdv: Vec3A,
+}
+
+/// Writes a computed parametrisation into its hit.
+pub trait SetParametrisation {
+    fn set_parametrisation(&mut self, p: Parametrisation);
+}
+
+impl SetParametrisation for raylab_integrators::Hit {
+    #[inline]
+    fn set_parametrisation(&mut self, p: Parametrisation) {
+        (self.uv, self.dpdu, self.dpdv) = (p.uv, p.dpdu, p.dpdv);
+        self.pending = raylab_integrators::Pending::None;
+    }
 }
 
 /// The parametrisation at barycentric weights `b` of the triangle with edges `e1 = v1 - v0`
@@ -77,10 +92,9 @@ pub fn parametrisation(
 }
 
 /// The shading normal at barycentric weights `b` from the vertex normals `n`, turned to the
-/// side of the geometric normal `ng` (`ng` itself where the interpolation vanishes, as for a
-/// triangle without vertex normals).
+/// side of the geometric normal `ng` (`ng` itself where the interpolation vanishes).
 #[inline]
-pub fn shading_normal(ng: Vec3A, b: Vec3A, n: [Vec3A; 3]) -> Vec3A {
+pub fn interpolated_normal(ng: Vec3A, b: Vec3A, n: [Vec3A; 3]) -> Vec3A {
     let s = (n[0] * b.x + n[1] * b.y + n[2] * b.z).normalize_or_zero();
     if s == Vec3A::ZERO {
         ng
@@ -88,6 +102,22 @@ pub fn shading_normal(ng: Vec3A, b: Vec3A, n: [Vec3A; 3]) -> Vec3A {
         -s
     } else {
         s
+    }
+}
+
+/// The shading normal of a triangle hit at barycentric weights `b`: its vertex normals'
+/// (mapped by `to_world`) where it has them, else its geometric normal `ng`.
+#[inline]
+pub fn shading_normal(
+    ng: Vec3A,
+    b: Vec3A,
+    data: &VertexData,
+    to_world: impl Fn(Vec3A) -> Vec3A,
+) -> Vec3A {
+    if data.has_normals {
+        interpolated_normal(ng, b, data.normals.map(to_world))
+    } else {
+        ng
     }
 }
 
@@ -114,6 +144,7 @@ mod tests {
         let data = VertexData {
             normals: [Vec3A::ZERO; 3],
             uvs: [Vec2::ZERO, Vec2::new(2.0, 0.0), Vec2::new(0.0, 2.0)],
+            has_normals: false,
             has_uvs: true,
         };
         let b = Vec3A::new(0.5, 0.25, 0.25);

@@ -211,6 +211,11 @@ impl Scene for RenderScene {
     fn bounds(&self) -> (Vec3A, Vec3A) {
         self.bounds
     }
+
+    #[inline]
+    fn parametrise(&self, hit: &mut Hit) {
+        self.accel.parametrise(hit);
+    }
 }
 
 /// The flat (not instanced) triangles of a loaded scene, exactly as the build places them,

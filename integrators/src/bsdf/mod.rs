@@ -34,7 +34,7 @@ pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
-pub use textured::{MaterialTextures, Perturbation, SurfaceMaterial};
+pub use textured::{material_at, MaterialTextures, Perturbation, SurfaceMaterial};
 pub use thin_dielectric::ThinDielectric;
 
 use crate::Rgb;
@@ -261,6 +261,17 @@ impl Material {
         match mode {
             TransportMode::Importance if wo.z * s.wi.z < 0.0 => s.weight() * (s.eta * s.eta),
             _ => s.weight(),
+        }
+    }
+
+    /// True for a roughness that differs along the two tangents: its lobe turns with the
+    /// shading frame's tangent.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        match self {
+            Material::RoughConductor(m) => m.microfacet.alpha_u != m.microfacet.alpha_v,
+            Material::RoughDielectric(m) => m.microfacet.alpha_u != m.microfacet.alpha_v,
+            _ => false,
         }
     }
 

@@ -42,7 +42,7 @@ pub struct RoughPlastic {
     pub nonlinear: bool,
     pub microfacet: Microfacet,
     /// `t(mu)` at `mu = i / (TABLE - 1)`.
-    transmittance: [f32; TABLE],
+    transmittance: std::sync::Arc<[f32; TABLE]>,
     /// Diffuse reflectance of the rough interface seen from inside.
     internal: f32,
     specular_weight: f32,
@@ -135,9 +135,9 @@ impl RoughPlastic {
         microfacet: Microfacet,
     ) -> Result<RoughPlastic, String> {
         let c = Coating::new(diffuse, specular, ior)?;
-        let transmittance = std::array::from_fn(|i| {
+        let transmittance = std::sync::Arc::new(std::array::from_fn(|i| {
             rough_transmittance(&microfacet, ior, i as f32 / (TABLE - 1) as f32)
-        });
+        }));
         Ok(RoughPlastic {
             diffuse: c.diffuse,
             specular: c.specular,

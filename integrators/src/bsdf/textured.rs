@@ -14,7 +14,7 @@
 
 use super::Material;
 use crate::texture::Texture;
-use crate::{Frame, Hit};
+use crate::{Frame, Hit, Scene};
 use glam::Vec3A;
 use std::borrow::Cow;
 
@@ -157,9 +157,27 @@ impl From<Material> for SurfaceMaterial {
 }
 
 impl SurfaceMaterial {
-    /// The BSDF at `hit`, whose shading normal the normal or bump map (if any) replaces.
+    /// True when the material needs the hit's texture coordinates or tangents: it has
+    /// textures, a normal or bump map, or an anisotropic roughness (which the tangents
+    /// orient). The shading frame of the others may come from the normal alone.
     #[inline]
+    pub fn needs_parametrisation(&self) -> bool {
+        self.perturbation.is_some() || self.textures.any() || self.bsdf.is_anisotropic()
+    }
+
+    /// The BSDF at `hit` (parametrised, if [`SurfaceMaterial::needs_parametrisation`]),
+    /// whose shading normal the normal or bump map (if any) replaces.
+    #[inline(always)]
     pub fn at(&self, hit: &mut Hit) -> Cow<'_, Material> {
+        if self.perturbation.is_none() && !self.textures.any() {
+            return Cow::Borrowed(&self.bsdf);
+        }
+        self.at_varying(hit)
+    }
+
+    /// [`SurfaceMaterial::at`] for a material that varies over the surface.
+    #[inline(never)]
+    fn at_varying(&self, hit: &mut Hit) -> Cow<'_, Material> {
         if let Some(p) = &self.perturbation {
             if let Some(n) = p.normal(hit) {
                 hit.ns = n;
@@ -172,6 +190,18 @@ impl SurfaceMaterial {
         self.textures.apply(&mut m, hit.uv);
         Cow::Owned(m)
     }
+}
+
+/// The BSDF of the surface at `hit` in `scene`: its material at the hit, parametrised first
+/// where the material needs it; `hit`'s shading normal as the material's normal or bump map
+/// makes it.
+#[inline]
+pub fn material_at<'s>(scene: &'s dyn Scene, hit: &mut Hit) -> Cow<'s, Material> {
+    let surface = scene.material(hit.material);
+    if surface.needs_parametrisation() {
+        scene.parametrise(hit);
+    }
+    surface.at(hit)
 }
 
 #[cfg(test)]

@@ -23,6 +23,6 @@ impl RayIntegrator for AlbedoView {
         if hit.light.is_some() {
             return emitted_at(tracer.scene, &hit, ray);
         }
-        tracer.scene.material(hit.material).at(&mut hit).albedo()
+        crate::bsdf::material_at(tracer.scene, &mut hit).albedo()
     }
 }

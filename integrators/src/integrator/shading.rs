@@ -53,7 +53,7 @@ impl<'a> ShadingPoint<'a> {
     #[inline]
     pub fn new(hit: &Hit, dir: Vec3A, scene: &'a dyn Scene) -> ShadingPoint<'a> {
         let mut hit = *hit;
-        let material = scene.material(hit.material).at(&mut hit);
+        let material = crate::bsdf::material_at(scene, &mut hit);
         let frame = hit.frame();
         ShadingPoint {
             hit,
