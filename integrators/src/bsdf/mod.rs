@@ -120,9 +120,6 @@ pub trait Bxdf {
 }
 
 /// A surface material. The closed set of models raylab supports.
-// Rough plastic's table is inline (not boxed) so that a textured material's per-hit copy
-// allocates nothing; untextured materials are never copied.
-#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
     Lambert(Lambert),

@@ -41,7 +41,8 @@ pub struct RoughPlastic {
     pub ior: f32,
     pub nonlinear: bool,
     pub microfacet: Microfacet,
-    /// `t(mu)` at `mu = i / (TABLE - 1)`.
+    /// `t(mu)` at `mu = i / (TABLE - 1)`; shared, so that the per-hit copy of a textured
+    /// rough plastic allocates nothing.
     transmittance: std::sync::Arc<[f32; TABLE]>,
     /// Diffuse reflectance of the rough interface seen from inside.
     internal: f32,
