@@ -41,14 +41,16 @@ pub struct Hit {
     pub material: u32,
     /// Index of the surface's emitter in the scene's light table, if it emits.
     pub light: Option<u32>,
-    /// The surface's tangent along its `u` parameter where the shape has a parametrisation
-    /// that orients its shading frame (spheres: around the `z` axis, as Mitsuba 3's), zero
-    /// where it has none (the frame is then built from the normal alone). Not unit length.
+    /// The surface's tangent along its `u` parameter, which orients the shading frame: on a
+    /// sphere its direction (around the `z` axis, as Mitsuba 3's) from the start, its length
+    /// once parametrised; on a triangle zero until parametrised, and zero after where it has
+    /// no texture coordinates (the frame is then built from the normal alone).
     pub dpdu: Vec3A,
-    /// The surface's tangent along its `v` parameter (zero where `dpdu` is).
+    /// The surface's tangent along its `v` parameter; zero until parametrised.
     pub dpdv: Vec3A,
-    /// Texture coordinates: the mesh's, interpolated, or the shape's parametrisation
-    /// (Mitsuba 3's for spheres and rectangles; `(b1, b2)` on triangles without any).
+    /// Texture coordinates, once parametrised: the mesh's, interpolated, or the shape's
+    /// parametrisation (Mitsuba 3's for spheres and rectangles; `(b1, b2)` on triangles
+    /// without any).
     pub uv: Vec2,
     /// What `uv`, `dpdu` and `dpdv` still wait for: most hits never need them, so they are
     /// computed only when a material asks ([`crate::Scene::parametrise`]).

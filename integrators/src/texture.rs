@@ -34,6 +34,18 @@ pub enum Wrap {
 }
 
 impl Wrap {
+    /// `x` moved by whole periods of the wrap (1 for repeat, 2 for mirror) into a small range,
+    /// or clamped just outside `[0, 1]`: the same texels and weights, with texel indices that
+    /// stay small for any finite coordinate.
+    #[inline]
+    fn reduce(self, x: f32) -> f32 {
+        match self {
+            Wrap::Repeat => x - x.floor(),
+            Wrap::Mirror => x.rem_euclid(2.0),
+            Wrap::Clamp => x.clamp(-1.0, 2.0),
+        }
+    }
+
     /// Texel index `i` of a row or column of `n` texels, wrapped into `0..n`.
     #[inline]
     fn index(self, i: i64, n: usize) -> usize {
@@ -54,12 +66,13 @@ impl Wrap {
     }
 }
 
-/// An image as linear RGB texels, row by row from the top, with its filter and wrap mode.
+/// An image as linear RGB texels, row by row from the top (shared by every texture that
+/// reads the file), with its filter and wrap mode.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImageTexture {
     width: usize,
     height: usize,
-    texels: Vec<Rgb>,
+    texels: Arc<[Rgb]>,
     filter: TextureFilter,
     wrap: Wrap,
 }
@@ -70,7 +83,7 @@ impl ImageTexture {
     pub fn new(
         width: usize,
         height: usize,
-        texels: Vec<Rgb>,
+        texels: Arc<[Rgb]>,
         filter: TextureFilter,
         wrap: Wrap,
     ) -> Option<ImageTexture> {
@@ -83,6 +96,12 @@ impl ImageTexture {
                 wrap,
             },
         )
+    }
+
+    /// `uv` reduced by the wrap mode ([`Wrap::reduce`]).
+    #[inline]
+    fn reduced(&self, uv: Vec2) -> Vec2 {
+        Vec2::new(self.wrap.reduce(uv.x), self.wrap.reduce(uv.y))
     }
 
     #[inline]
@@ -98,7 +117,7 @@ impl ImageTexture {
     #[inline]
     fn corners(&self, uv: Vec2) -> ([Rgb; 4], Vec2) {
         let size = Vec2::new(self.width as f32, self.height as f32);
-        let pos = uv * size - 0.5;
+        let pos = self.reduced(uv) * size - 0.5;
         let base = pos.floor();
         let w = pos - base;
         let (x, y) = (base.x as i64, base.y as i64);
@@ -122,7 +141,7 @@ impl ImageTexture {
         match self.filter {
             TextureFilter::Nearest => {
                 let size = Vec2::new(self.width as f32, self.height as f32);
-                let p = (uv * size).floor();
+                let p = (self.reduced(uv) * size).floor();
                 self.texel(p.x as i64, p.y as i64)
             }
             TextureFilter::Bilinear => {
@@ -170,10 +189,6 @@ impl ImageTexture {
         self.texels
             .iter()
             .fold(Rgb::splat(f32::NEG_INFINITY), |m, t| m.max(*t))
-    }
-
-    pub fn size(&self) -> (usize, usize) {
-        (self.width, self.height)
     }
 }
 
@@ -264,14 +279,6 @@ impl Texture {
             Texture::Checkerboard { color0, color1, .. } => color0.max(*color1),
         }
     }
-
-    /// The constant's value, or `None` for a texture.
-    pub fn constant(&self) -> Option<Rgb> {
-        match self {
-            Texture::Constant(c) => Some(*c),
-            _ => None,
-        }
-    }
 }
 
 #[cfg(test)]
@@ -280,10 +287,10 @@ mod tests {
 
     fn ramp(filter: TextureFilter, wrap: Wrap) -> ImageTexture {
         // 4 x 2: red runs 0, 1, 2, 3 along x; green 0 on the top row, 10 on the bottom.
-        let texels = (0..8)
+        let texels: Vec<Rgb> = (0..8)
             .map(|i| Rgb::new((i % 4) as f32, 10.0 * (i / 4) as f32, 0.0))
             .collect();
-        ImageTexture::new(4, 2, texels, filter, wrap).unwrap()
+        ImageTexture::new(4, 2, texels.into(), filter, wrap).unwrap()
     }
 
     #[test]
@@ -315,6 +322,25 @@ mod tests {
         assert_eq!(t.eval(Vec2::new(1.1, 0.2)).x, 0.0);
         assert_eq!(t.eval(Vec2::new(-0.1, 0.2)).x, 3.0);
         assert_eq!(t.eval(Vec2::new(f32::NAN, 0.2)), Rgb::ZERO);
+        // Far-away coordinates wrap like near ones (no overflow of the texel index).
+        for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
+            for filter in [TextureFilter::Nearest, TextureFilter::Bilinear] {
+                let t = ramp(filter, wrap);
+                for uv in [
+                    Vec2::new(1e30, -1e30),
+                    Vec2::splat(f32::MAX),
+                    Vec2::new(3e9, 0.3),
+                ] {
+                    assert!(t.eval(uv).is_finite() && t.luminance_gradient(uv).is_finite());
+                }
+            }
+        }
+        let far = ramp(TextureFilter::Bilinear, Wrap::Repeat);
+        let (a, b) = (
+            far.eval(Vec2::new(0.3, 0.3)),
+            far.eval(Vec2::new(1024.3, 0.3)),
+        );
+        assert!((a - b).length() < 1e-3, "{a} vs {b}");
     }
 
     #[test]

@@ -12,7 +12,7 @@ use super::bvh::{isa::Isa, Bvh, Packets, Singles};
 use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_SPHERES};
 use super::surface::{barycentrics, parametrisation, shading_normal, Parametrisation, VertexData};
 use super::{box_corners, InstanceDesc, Mesh};
-use glam::{Affine3A, Mat3A, Vec3A};
+use glam::{Affine3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
 use raylab_integrators::{Hit, Pending};
@@ -31,8 +31,6 @@ struct MeshBlas {
 #[derive(Clone, Copy)]
 struct Instance {
     world_to_local: Affine3A,
-    /// The linear part of the local-to-world map, for tangents.
-    to_world: Mat3A,
     mesh: u32,
     material: u32,
 }
@@ -129,7 +127,6 @@ impl InstanceSet {
                 let inst = &instances[i as usize];
                 Instance {
                     world_to_local: inst.local_to_world.inverse(),
-                    to_world: inst.local_to_world.matrix3,
                     mesh: inst.mesh,
                     material: inst.material,
                 }
@@ -294,11 +291,8 @@ impl InstanceSet {
         let vertex = data.vertex_data(lane).and_then(|i| mesh.vertex_data.get(i));
         let (v0, e1, e2) = packet.edges(lane);
         let b = barycentrics(v0, e1, e2, inst.world_to_local.transform_point3a(p));
-        let local = parametrisation(b, e1, e2, vertex);
-        Parametrisation {
-            uv: local.uv,
-            dpdu: inst.to_world * local.dpdu,
-            dpdv: inst.to_world * local.dpdv,
-        }
+        // Tangents go back to world space by the local-to-world map (rarely needed: inverted
+        // here rather than stored beside every instance the traversal reads).
+        parametrisation(b, e1, e2, vertex).mapped(inst.world_to_local.matrix3.inverse())
     }
 }

@@ -29,7 +29,7 @@ use obvhs::aabb::Aabb;
 use packet::{Lane, LeafTest, Packet, PacketRay, Spheres, Stored, NONE};
 use raylab_integrators::{Hit, Pending, Ray};
 use rayon::prelude::*;
-use surface::{barycentrics, parametrisation, shading_normal, SetParametrisation, VertexData};
+use surface::{barycentrics, parametrisation, shading_normal, VertexData};
 
 /// Triangles in their own space, with optional per-triangle vertex normals (smooth shading)
 /// and texture coordinates, and their bounds (min, max).
@@ -479,7 +479,7 @@ impl WideBvh {
         } else {
             self.instances.parametrisation(instance, prim, hit.p)
         };
-        hit.set_parametrisation(param);
+        param.write_to(hit);
     }
 }
 

@@ -10,11 +10,9 @@
 //! [`super::instances`], so that local and world distances agree.
 
 use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle};
-use super::surface::{
-    barycentrics, parametrisation, shading_normal, Parametrisation, SetParametrisation, VertexData,
-};
+use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
 use super::{box_corners, bvh, AccelStats, Geometry, Input, ShapeLights};
-use glam::{Affine3A, Mat3A, Vec3A};
+use glam::{Affine3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::ray::{Ray as BvhRay, RayHit};
@@ -52,8 +50,6 @@ struct MeshBvh {
 
 struct Instance {
     world_to_local: Affine3A,
-    /// The linear part of the local-to-world map, for tangents.
-    to_world: Mat3A,
     mesh: u32,
     material: u32,
 }
@@ -179,7 +175,6 @@ impl ObvhsBvh {
                     let inst = &input.instances[i as usize];
                     Instance {
                         world_to_local: inst.local_to_world.inverse(),
-                        to_world: inst.local_to_world.matrix3,
                         mesh: inst.mesh,
                         material: inst.material,
                     }
@@ -426,13 +421,9 @@ impl ObvhsBvh {
             let [v0, v1, v2] = mesh.triangles[prim as usize];
             let (e1, e2) = (v1 - v0, v2 - v0);
             let b = barycentrics(v0, e1, e2, inst.world_to_local.transform_point3a(hit.p));
-            let local = parametrisation(b, e1, e2, mesh.vertex_data.get(prim as usize));
-            Parametrisation {
-                uv: local.uv,
-                dpdu: inst.to_world * local.dpdu,
-                dpdv: inst.to_world * local.dpdv,
-            }
+            parametrisation(b, e1, e2, mesh.vertex_data.get(prim as usize))
+                .mapped(inst.world_to_local.matrix3.inverse())
         };
-        hit.set_parametrisation(param);
+        param.write_to(hit);
     }
 }

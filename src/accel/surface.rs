@@ -43,16 +43,22 @@ pub struct Parametrisation {
     pub dpdv: Vec3A,
 }
 
-/// Writes a computed parametrisation into its hit.
-pub trait SetParametrisation {
-    fn set_parametrisation(&mut self, p: Parametrisation);
-}
-
-impl SetParametrisation for raylab_integrators::Hit {
+impl Parametrisation {
+    /// The same with its tangents mapped by `m` (an instance's local-to-world linear map).
     #[inline]
-    fn set_parametrisation(&mut self, p: Parametrisation) {
-        (self.uv, self.dpdu, self.dpdv) = (p.uv, p.dpdu, p.dpdv);
-        self.pending = raylab_integrators::Pending::None;
+    pub fn mapped(self, m: glam::Mat3A) -> Parametrisation {
+        Parametrisation {
+            uv: self.uv,
+            dpdu: m * self.dpdu,
+            dpdv: m * self.dpdv,
+        }
+    }
+
+    /// Writes it into `hit`, whose parametrisation is then complete.
+    #[inline]
+    pub fn write_to(self, hit: &mut raylab_integrators::Hit) {
+        (hit.uv, hit.dpdu, hit.dpdv) = (self.uv, self.dpdu, self.dpdv);
+        hit.pending = raylab_integrators::Pending::None;
     }
 }
 
@@ -105,8 +111,8 @@ pub fn interpolated_normal(ng: Vec3A, b: Vec3A, n: [Vec3A; 3]) -> Vec3A {
     }
 }
 
-/// The shading normal of a triangle hit at barycentric weights `b`: its vertex normals'
-/// (mapped by `to_world`) where it has them, else its geometric normal `ng`.
+/// The shading normal of a triangle hit at barycentric weights `b` from its vertex normals
+/// (which it must have), each mapped by `to_world` first.
 #[inline]
 pub fn shading_normal(
     ng: Vec3A,
@@ -114,11 +120,8 @@ pub fn shading_normal(
     data: &VertexData,
     to_world: impl Fn(Vec3A) -> Vec3A,
 ) -> Vec3A {
-    if data.has_normals {
-        interpolated_normal(ng, b, data.normals.map(to_world))
-    } else {
-        ng
-    }
+    debug_assert!(data.has_normals);
+    interpolated_normal(ng, b, data.normals.map(to_world))
 }
 
 /// Barycentric weights of `p` (on the triangle's plane) for v0, v1, v2, from the triangle's

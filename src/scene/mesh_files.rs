@@ -520,6 +520,8 @@ fn read_gltf_scene(
                 mesh.positions
                     .extend(p.map(|v| Vec3A::from(world.transform_point3(Vec3::from(v)))));
                 let count = mesh.positions.len() as u32 - base;
+                // Each stream is kept only when every primitive gives one entry per vertex.
+                let before = (streams.normals.len(), streams.uvs.len());
                 match reader.read_normals() {
                     Some(n) if streams.all_normals => {
                         streams.normals.extend(n.map(|v| {
@@ -535,6 +537,8 @@ fn read_gltf_scene(
                     }
                     _ => streams.all_uvs = false,
                 }
+                streams.all_normals &= streams.normals.len() - before.0 == count as usize;
+                streams.all_uvs &= streams.uvs.len() - before.1 == count as usize;
                 let tri: Vec<u32> = match (primitive.indices(), reader.read_indices()) {
                     (None, _) => (0..count).collect(),
                     (Some(_), Some(i)) => i.into_u32().collect(),

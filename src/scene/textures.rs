@@ -201,10 +201,13 @@ pub enum Role {
     Data,
 }
 
-/// Reads the scene's textures, each image file once per decoding.
+/// The texels of a decoded image: width, height, and the texels row by row from the top.
+type Texels = (usize, usize, Arc<[Vec3A]>);
+
+/// Reads the scene's textures, each image file once per decoding (sRGB or raw).
 pub struct TextureLoader<'a> {
     files: &'a SceneFiles,
-    images: HashMap<(PathBuf, bool, TextureFilter, Wrap), Arc<ImageTexture>>,
+    images: HashMap<(PathBuf, bool), Texels>,
 }
 
 fn uv_transform(scale: [f32; 2], offset: [f32; 2]) -> Result<Affine2, String> {
@@ -287,16 +290,18 @@ impl<'a> TextureLoader<'a> {
         };
         let raw = desc.raw.unwrap_or(role != Role::Reflectance);
         let file = self.files.named(&desc.path)?;
-        let key = (file.clone(), raw, filter, wrap);
-        if let Some(image) = self.images.get(&key) {
-            return Ok(image.clone());
-        }
-        let linear = read_linear_rgb(&file, raw)?;
-        let image = ImageTexture::new(linear.width, linear.height, linear.texels, filter, wrap)
-            .ok_or_else(|| format!("image `{}` has no texels", file.display()))?;
-        let image = Arc::new(image);
-        self.images.insert(key, image.clone());
-        Ok(image)
+        let (width, height, texels) = match self.images.get(&(file.clone(), raw)) {
+            Some(t) => t.clone(),
+            None => {
+                let linear = read_linear_rgb(&file, raw)?;
+                let t: Texels = (linear.width, linear.height, linear.texels.into());
+                self.images.insert((file.clone(), raw), t.clone());
+                t
+            }
+        };
+        ImageTexture::new(width, height, texels, filter, wrap)
+            .map(Arc::new)
+            .ok_or_else(|| format!("image `{}` has no texels", file.display()))
     }
 
     /// A colour parameter: the constant, or the texture (and its mean, for the material's

@@ -245,3 +245,65 @@ fn both_accelerators_and_instances_give_the_same_texture_coordinates() {
     }
     assert_eq!(seen, [true, true]);
 }
+
+#[test]
+fn normal_maps_tilt_towards_u_on_shapes_and_instances_through_both_accelerators() {
+    // A sun from +x and +z at 45 degrees (irradiance 2 facing it) over the rectangle facing
+    // +z. A normal map of rgb (1, 0.5, 1) tilts the normal 45 degrees towards dpdu: +x on
+    // the rectangle as it is (the normal then faces the sun: 0.5 * 2 / pi), +y once the
+    // rectangle is turned 90 degrees about z (60 degrees from the sun: half that). A flat
+    // normal would give cos 45, a normal tilted the wrong way nothing. The turned rectangle
+    // is also stretched, placed as an instance and traced by both accelerators.
+    use raylab::accel::AccelKind;
+    let scene = |transform: &str, instanced: bool| {
+        let (meshes, shape) = if instanced {
+            (
+                r#"meshes: {"board": Rectangle},"#,
+                r#"Instance(mesh: "board")"#,
+            )
+        } else {
+            ("", "Rectangle")
+        };
+        format!(
+            r#"({CAMERA}
+                {meshes}
+                materials: {{"m": NormalMap(texture: (1, 0.5, 1), material: Lambert(albedo: 0.5))}},
+                entities: [
+                    (name: "floor", transform: {transform}, shape: {shape}, material: "m"),
+                    (name: "sun", emitter: Directional(direction: (-1, 0, -1), irradiance: (2, 2, 2))),
+                ])"#
+        )
+    };
+    let facing = 0.5 * 2.0 / PI;
+    let turned = "(rotate: (0, 0, 90), scale: (1.5, 3, 1))";
+    let cases = [
+        ("as it is", scene("()", false), facing),
+        ("turned", scene(turned, false), facing * 0.5),
+        ("turned instance", scene(turned, true), facing * 0.5),
+    ];
+    for (what, text, expected) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.ron");
+        std::fs::write(&path, text).unwrap();
+        let loaded = load_scene(&path).unwrap();
+        for kind in [AccelKind::Raylab, AccelKind::Obvhs] {
+            let built = RenderScene::build_with(&loaded, kind);
+            let mut path_tracer = REGISTRY
+                .iter()
+                .find(|e| e.name == "path")
+                .unwrap()
+                .instantiate(&[])
+                .unwrap();
+            let settings = RenderSettings::fixed(4, 3, None);
+            let film = render(&built, &loaded.camera, path_tracer.as_mut(), &settings)
+                .unwrap()
+                .0;
+            let got = film.crop(4, 4, 8, 8).unwrap().mean().y;
+            println!("{what}, {kind}: {got:.5} (expected {expected:.5})");
+            assert!(
+                (got - expected).abs() < 1e-3 * expected,
+                "{what}, {kind}: {got}, expected {expected}"
+            );
+        }
+    }
+}

@@ -1,7 +1,7 @@
 //! Materials as a scene holds them: a BSDF whose parameters may vary over the surface
 //! (textures), and an optional normal or bump map that tilts the shading normal.
 //!
-//! At each hit, [`SurfaceMaterial::at`] gives the BSDF there: the material itself when nothing
+//! At each hit, [`material_at`] gives the BSDF there: the material itself when nothing
 //! is textured (borrowed, no copy), else a copy with the textured parameters looked up at the
 //! hit's `uv`. Derived constants stay those of the material made from the textures' means
 //! (the coated materials' lobe-sampling weight, as Mitsuba 3 computes it), and a rough
@@ -168,7 +168,7 @@ impl SurfaceMaterial {
     /// The BSDF at `hit` (parametrised, if [`SurfaceMaterial::needs_parametrisation`]),
     /// whose shading normal the normal or bump map (if any) replaces.
     #[inline(always)]
-    pub fn at(&self, hit: &mut Hit) -> Cow<'_, Material> {
+    pub(crate) fn at(&self, hit: &mut Hit) -> Cow<'_, Material> {
         if self.perturbation.is_none() && !self.textures.any() {
             return Cow::Borrowed(&self.bsdf);
         }
@@ -290,7 +290,7 @@ mod tests {
     fn bump_maps_tilt_the_normal_against_the_slope() {
         // Between the texel centres (u = 1/4 and 3/4) the height rises by 0.5: a slope of 1
         // per unit u, so the normal leans 45 degrees back towards -u.
-        let texels = vec![Rgb::ZERO, Rgb::splat(0.5)];
+        let texels = vec![Rgb::ZERO, Rgb::splat(0.5)].into();
         let image = ImageTexture::new(2, 1, texels, TextureFilter::Bilinear, Wrap::Clamp).unwrap();
         let bump = Perturbation::BumpMap {
             height: Texture::Image {
