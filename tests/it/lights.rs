@@ -2,12 +2,10 @@
 //! against its closed form: a floor under a directional light, a floor under a spot light, and
 //! a diffuse ball under a uniform environment map (which must equal the constant environment).
 
-use raylab::render::{render, RenderSettings};
-use raylab::scene::load_scene;
-use raylab::scene::RenderScene;
+use crate::common::render_text;
+use raylab::accel::AccelKind;
 use raylab_integrators::registry::REGISTRY;
 use std::f32::consts::PI;
-use std::path::Path;
 
 /// The integrators that estimate light transport (not the debug views).
 fn transport_integrators() -> Vec<&'static str> {
@@ -21,24 +19,7 @@ fn transport_integrators() -> Vec<&'static str> {
 /// Renders `scene` (written to a temporary folder with `files`) with `integrator` and returns
 /// the green channel's mean over the image and its standard error.
 fn mean_green(scene: &str, files: &[(&str, Vec<u8>)], integrator: &str, spp: u32) -> (f32, f32) {
-    let dir = tempfile::tempdir().unwrap();
-    for (name, bytes) in files {
-        std::fs::write(dir.path().join(name), bytes).unwrap();
-    }
-    let path = dir.path().join("scene.ron");
-    std::fs::write(&path, scene).unwrap();
-    let loaded = load_scene(Path::new(&path)).unwrap();
-    let built = RenderScene::build(&loaded);
-    let mut integrator = REGISTRY
-        .iter()
-        .find(|e| e.name == integrator)
-        .unwrap()
-        .instantiate(&[])
-        .unwrap();
-    let settings = RenderSettings::fixed(spp, 7, None);
-    let film = render(&built, &loaded.camera, integrator.as_mut(), &settings)
-        .unwrap()
-        .0;
+    let film = render_text(scene, files, integrator, spp, 7, AccelKind::Raylab);
     (film.mean().y, film.mean_standard_error().y)
 }
 

@@ -3,12 +3,10 @@
 //! albedos; a constant normal map and a linear bump both tilt a floor under a sun by 45
 //! degrees, which dims it by cos 45.
 
-use raylab::render::{render, RenderSettings};
-use raylab::scene::load_scene;
-use raylab::scene::RenderScene;
+use crate::common::render_text;
+use raylab::accel::AccelKind;
 use raylab_integrators::registry::REGISTRY;
 use std::f32::consts::{FRAC_1_SQRT_2, PI};
-use std::path::Path;
 
 /// The integrators that estimate light transport (not the debug views), and `albedo`, which
 /// shows the texture itself.
@@ -30,24 +28,7 @@ fn region_means(
     spp: u32,
     regions: &[(u32, u32, u32, u32)],
 ) -> Vec<(f32, f32)> {
-    let dir = tempfile::tempdir().unwrap();
-    for (name, bytes) in files {
-        std::fs::write(dir.path().join(name), bytes).unwrap();
-    }
-    let path = dir.path().join("scene.ron");
-    std::fs::write(&path, scene).unwrap();
-    let loaded = load_scene(Path::new(&path)).unwrap();
-    let built = RenderScene::build(&loaded);
-    let mut integrator = REGISTRY
-        .iter()
-        .find(|e| e.name == integrator)
-        .unwrap()
-        .instantiate(&[])
-        .unwrap();
-    let settings = RenderSettings::fixed(spp, 11, None);
-    let film = render(&built, &loaded.camera, integrator.as_mut(), &settings)
-        .unwrap()
-        .0;
+    let film = render_text(scene, files, integrator, spp, 11, AccelKind::Raylab);
     regions
         .iter()
         .map(|&(x, y, w, h)| {
@@ -182,20 +163,25 @@ fn a_tilted_normal_map_sees_the_sky_view_factor() {
     }
 }
 
+/// The unit rectangle as a shape of its own or as an instance of a mesh asset: the scene's
+/// `meshes` line and the entity's shape.
+fn rectangle(instanced: bool) -> (&'static str, &'static str) {
+    if instanced {
+        (
+            r#"meshes: {"board": Rectangle},"#,
+            r#"Instance(mesh: "board")"#,
+        )
+    } else {
+        ("", "Rectangle")
+    }
+}
+
 #[test]
 fn both_accelerators_and_instances_give_the_same_texture_coordinates() {
     // The checkerboard's quadrants, seen through the albedo view (exact), on the rectangle as
     // a shape and as an instance of a mesh asset, through each accelerator.
-    use raylab::accel::AccelKind;
     let scene = |instanced: bool| {
-        let (meshes, shape) = if instanced {
-            (
-                r#"meshes: {"board": Rectangle},"#,
-                r#"Instance(mesh: "board")"#,
-            )
-        } else {
-            ("", "Rectangle")
-        };
+        let (meshes, shape) = rectangle(instanced);
         format!(
             r#"({CAMERA}
                 {meshes}
@@ -203,25 +189,10 @@ fn both_accelerators_and_instances_give_the_same_texture_coordinates() {
                 entities: [(name: "board", transform: (rotate: (0, 0, 30)), shape: {shape}, material: "board")])"#
         )
     };
-    let dir = tempfile::tempdir().unwrap();
     let mut images = Vec::new();
     for instanced in [false, true] {
-        let path = dir.path().join("scene.ron");
-        std::fs::write(&path, scene(instanced)).unwrap();
-        let loaded = load_scene(&path).unwrap();
         for kind in [AccelKind::Raylab, AccelKind::Obvhs] {
-            let built = RenderScene::build_with(&loaded, kind);
-            let mut albedo = REGISTRY
-                .iter()
-                .find(|e| e.name == "albedo")
-                .unwrap()
-                .instantiate(&[])
-                .unwrap();
-            let settings = RenderSettings::fixed(1, 1, None);
-            let film = render(&built, &loaded.camera, albedo.as_mut(), &settings)
-                .unwrap()
-                .0;
-            images.push(film);
+            images.push(render_text(&scene(instanced), &[], "albedo", 1, 1, kind));
         }
     }
     // The rectangle is turned 30 degrees about z: every pixel shows one of the two colours
@@ -254,16 +225,8 @@ fn normal_maps_tilt_towards_u_on_shapes_and_instances_through_both_accelerators(
     // rectangle is turned 90 degrees about z (60 degrees from the sun: half that). A flat
     // normal would give cos 45, a normal tilted the wrong way nothing. The turned rectangle
     // is also stretched, placed as an instance and traced by both accelerators.
-    use raylab::accel::AccelKind;
     let scene = |transform: &str, instanced: bool| {
-        let (meshes, shape) = if instanced {
-            (
-                r#"meshes: {"board": Rectangle},"#,
-                r#"Instance(mesh: "board")"#,
-            )
-        } else {
-            ("", "Rectangle")
-        };
+        let (meshes, shape) = rectangle(instanced);
         format!(
             r#"({CAMERA}
                 {meshes}
@@ -282,22 +245,8 @@ fn normal_maps_tilt_towards_u_on_shapes_and_instances_through_both_accelerators(
         ("turned instance", scene(turned, true), facing * 0.5),
     ];
     for (what, text, expected) in cases {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("scene.ron");
-        std::fs::write(&path, text).unwrap();
-        let loaded = load_scene(&path).unwrap();
         for kind in [AccelKind::Raylab, AccelKind::Obvhs] {
-            let built = RenderScene::build_with(&loaded, kind);
-            let mut path_tracer = REGISTRY
-                .iter()
-                .find(|e| e.name == "path")
-                .unwrap()
-                .instantiate(&[])
-                .unwrap();
-            let settings = RenderSettings::fixed(4, 3, None);
-            let film = render(&built, &loaded.camera, path_tracer.as_mut(), &settings)
-                .unwrap()
-                .0;
+            let film = render_text(&text, &[], "path", 4, 3, kind);
             let got = film.crop(4, 4, 8, 8).unwrap().mean().y;
             println!("{what}, {kind}: {got:.5} (expected {expected:.5})");
             assert!(

@@ -251,3 +251,33 @@ pub fn break_scene(scene: &Path) -> (String, String) {
     let name = scene.file_name().unwrap().to_str().unwrap();
     (text, format!("{name}:{line}:"))
 }
+
+/// Renders the scene `text` (written to a temporary folder beside `files`) in process with
+/// `integrator` at `spp` samples per pixel and `seed`, over the accelerator `kind`.
+pub fn render_text(
+    text: &str,
+    files: &[(&str, Vec<u8>)],
+    integrator: &str,
+    spp: u32,
+    seed: u64,
+    kind: raylab::accel::AccelKind,
+) -> raylab::output::Film {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    let path = dir.path().join("scene.ron");
+    std::fs::write(&path, text).unwrap();
+    let loaded = raylab::scene::load_scene(&path).unwrap();
+    let built = raylab::scene::RenderScene::build_with(&loaded, kind);
+    let mut integrator = raylab_integrators::registry::REGISTRY
+        .iter()
+        .find(|e| e.name == integrator)
+        .unwrap()
+        .instantiate(&[])
+        .unwrap();
+    let settings = raylab::render::RenderSettings::fixed(spp, seed, None);
+    raylab::render::render(&built, &loaded.camera, integrator.as_mut(), &settings)
+        .unwrap()
+        .0
+}
