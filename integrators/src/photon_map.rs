@@ -145,7 +145,7 @@ fn trace_one(
             return;
         };
         // Textures do not change which lobes a material has.
-        let material = &scene.material(hit.material).bsdf;
+        let material = scene.material(hit.material).bsdf();
         // Store it if this map wants it.
         if !material.is_specular() {
             // Caustic: every scattering event so far was a Dirac lobe.
@@ -250,7 +250,7 @@ pub fn land(
             beta,
             bounces: path.bounces,
         };
-        if !tracer.scene.material(hit.material).bsdf.has_delta_lobe() {
+        if !tracer.scene.material(hit.material).bsdf().has_delta_lobe() {
             return Some(landing(path.beta));
         }
         let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);

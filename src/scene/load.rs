@@ -463,7 +463,7 @@ fn build_world(
                 .material
                 .as_ref()
                 .and_then(|m| material_names.iter().position(|n| n == m))
-                .is_some_and(|i| materials[i].bsdf.is_transmissive());
+                .is_some_and(|i| materials[i].bsdf().is_transmissive());
             if dielectric && matches!(e.shape, Some(ShapeDesc::Sphere { .. })) {
                 return Err(entity_error(
                     "flip_normals on a dielectric sphere is not supported: give the \

@@ -164,7 +164,7 @@ pub fn material_from_desc(
         }
         MaterialDesc::TwoSided(inner) => {
             let m = material_from_desc(inner, textures)?;
-            if m.bsdf.is_transmissive() {
+            if m.bsdf().is_transmissive() {
                 return Err(
                     "TwoSided cannot hold a dielectric: it has two sides of its own".into(),
                 );
@@ -197,11 +197,7 @@ pub fn material_from_desc(
             return perturbed(material, map, textures);
         }
     };
-    Ok(SurfaceMaterial {
-        bsdf,
-        textures: t,
-        perturbation: None,
-    })
+    Ok(SurfaceMaterial::new(bsdf, t, None))
 }
 
 /// `inner` under the normal or bump map `map`: one map per material.
@@ -210,12 +206,11 @@ fn perturbed(
     map: Perturbation,
     textures: &mut TextureLoader,
 ) -> Result<SurfaceMaterial, String> {
-    let mut m = material_from_desc(inner, textures)?;
-    if m.perturbation.is_some() {
+    let m = material_from_desc(inner, textures)?;
+    if m.perturbation().is_some() {
         return Err("a material takes one normal or bump map, not one inside another".into());
     }
-    m.perturbation = Some(map);
-    Ok(m)
+    Ok(m.with_perturbation(map))
 }
 
 /// The microfacet distribution of roughnesses `(alpha_u, alpha_v)`.

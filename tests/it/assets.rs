@@ -96,7 +96,7 @@ fn part(
         .find(|(n, ..)| n.0 == name)
         .unwrap_or_else(|| panic!("no entity `{name}`"));
     (
-        loaded.materials[m.0 as usize].bsdf.clone(),
+        loaded.materials[m.0 as usize].bsdf().clone(),
         e.cloned(),
         s.clone(),
     )

@@ -141,35 +141,65 @@ impl Perturbation {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceMaterial {
     /// The BSDF with every parameter constant (textured ones at their textures' means).
-    pub bsdf: Material,
-    pub textures: MaterialTextures,
-    pub perturbation: Option<Perturbation>,
+    bsdf: Material,
+    /// Whether some parameter is textured or a map perturbs the normal: the one test every
+    /// hit makes, kept beside the BSDF rather than read from the five textures' slots (which
+    /// span several cache lines).
+    varies: bool,
+    textures: MaterialTextures,
+    perturbation: Option<Perturbation>,
 }
 
 impl From<Material> for SurfaceMaterial {
     fn from(bsdf: Material) -> Self {
-        SurfaceMaterial {
-            bsdf,
-            textures: MaterialTextures::default(),
-            perturbation: None,
-        }
+        SurfaceMaterial::new(bsdf, MaterialTextures::default(), None)
     }
 }
 
 impl SurfaceMaterial {
+    pub fn new(
+        bsdf: Material,
+        textures: MaterialTextures,
+        perturbation: Option<Perturbation>,
+    ) -> SurfaceMaterial {
+        SurfaceMaterial {
+            varies: textures.any() || perturbation.is_some(),
+            bsdf,
+            textures,
+            perturbation,
+        }
+    }
+
+    /// The BSDF with every parameter constant (textured ones at their textures' means): what
+    /// does not vary over the surface, such as which lobes it has.
+    #[inline]
+    pub fn bsdf(&self) -> &Material {
+        &self.bsdf
+    }
+
+    /// The normal or bump map, if any.
+    pub fn perturbation(&self) -> Option<&Perturbation> {
+        self.perturbation.as_ref()
+    }
+
+    /// The same material under the normal or bump map `map`.
+    pub fn with_perturbation(self, map: Perturbation) -> SurfaceMaterial {
+        SurfaceMaterial::new(self.bsdf, self.textures, Some(map))
+    }
+
     /// True when the material needs the hit's texture coordinates or tangents: it has
     /// textures, a normal or bump map, or an anisotropic roughness (which the tangents
     /// orient). The shading frame of the others may come from the normal alone.
     #[inline]
     pub fn needs_parametrisation(&self) -> bool {
-        self.perturbation.is_some() || self.textures.any() || self.bsdf.is_anisotropic()
+        self.varies || self.bsdf.is_anisotropic()
     }
 
     /// The BSDF at `hit` (parametrised, if [`SurfaceMaterial::needs_parametrisation`]),
     /// whose shading normal the normal or bump map (if any) replaces.
     #[inline(always)]
     pub(crate) fn at(&self, hit: &mut Hit) -> Cow<'_, Material> {
-        if self.perturbation.is_none() && !self.textures.any() {
+        if !self.varies {
             return Cow::Borrowed(&self.bsdf);
         }
         self.at_varying(hit)
@@ -237,32 +267,34 @@ mod tests {
             plain.at(&mut hit_at(Vec2::ZERO)),
             Cow::Borrowed(_)
         ));
-        let textured = SurfaceMaterial {
-            textures: MaterialTextures {
+        let textured = SurfaceMaterial::new(
+            plain.bsdf().clone(),
+            MaterialTextures {
                 diffuse: Some(checker()),
                 ..Default::default()
             },
-            ..plain
-        };
+            None,
+        );
         for (uv, expected) in [(Vec2::splat(0.25), 0.8), (Vec2::new(0.75, 0.25), 0.1)] {
             assert_eq!(textured.at(&mut hit_at(uv)).albedo(), Rgb::splat(expected));
         }
         // Roughness reads the texture's value, kept within the microfacet range.
-        let rough = SurfaceMaterial {
-            textures: MaterialTextures {
-                alpha_u: Some(Texture::Constant(Rgb::ZERO)),
-                alpha_v: Some(checker()),
-                ..Default::default()
-            },
-            ..SurfaceMaterial::from(Material::RoughConductor(
+        let rough = SurfaceMaterial::new(
+            Material::RoughConductor(
                 RoughConductor::new(
                     None,
                     Rgb::ONE,
                     Microfacet::new(Default::default(), 0.3, 0.3).unwrap(),
                 )
                 .unwrap(),
-            ))
-        };
+            ),
+            MaterialTextures {
+                alpha_u: Some(Texture::Constant(Rgb::ZERO)),
+                alpha_v: Some(checker()),
+                ..Default::default()
+            },
+            None,
+        );
         let Material::RoughConductor(c) = &*rough.at(&mut hit_at(Vec2::splat(0.25))) else {
             panic!("a rough conductor")
         };
