@@ -8,7 +8,7 @@ use glam::Vec3A;
 use raylab_integrators::bsdf::{
     checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert,
     MaterialTextures, Microfacet, OrenNayar, Perturbation, Phong, Plastic, RoughConductor,
-    RoughDielectric, RoughPlastic, SurfaceMaterial, ThinDielectric,
+    RoughDielectric, RoughPlastic, RoughnessTextures, SurfaceMaterial, ThinDielectric,
 };
 use raylab_integrators::texture::Texture;
 use raylab_integrators::Material;
@@ -230,11 +230,20 @@ fn microfacet(
     let mut scalar = |d: &FloatDesc| textures.scalar(d, Role::Roughness);
     let ((u, tu), (v, tv)) = match (alpha, alpha_u, alpha_v) {
         (Some(a), None, None) => {
-            let a = scalar(a)?;
-            (a.clone(), a)
+            let (a, texture) = scalar(a)?;
+            // One texture for both tangents, looked up once per hit.
+            t.alpha = texture.map(RoughnessTextures::Isotropic);
+            ((a, t.alpha.is_some()), (a, t.alpha.is_some()))
         }
-        (None, Some(u), Some(v)) => (scalar(u)?, scalar(v)?),
-        (None, None, None) => ((0.1, None), (0.1, None)),
+        (None, Some(u), Some(v)) => {
+            let ((u, tu), (v, tv)) = (scalar(u)?, scalar(v)?);
+            let textured = (tu.is_some(), tv.is_some());
+            if tu.is_some() || tv.is_some() {
+                t.alpha = Some(RoughnessTextures::Anisotropic { u: tu, v: tv });
+            }
+            ((u, textured.0), (v, textured.1))
+        }
+        (None, None, None) => ((0.1, false), (0.1, false)),
         (Some(_), _, _) => return Err("give alpha, or alpha_u and alpha_v, not both".into()),
         _ => return Err("an anisotropic roughness needs both alpha_u and alpha_v".into()),
     };
@@ -247,12 +256,7 @@ fn microfacet(
             a
         }
     };
-    let m = alphas(
-        distribution,
-        (floor(u, tu.is_some()), floor(v, tv.is_some())),
-    )?;
-    (t.alpha_u, t.alpha_v) = (tu, tv);
-    Ok(m)
+    alphas(distribution, (floor(u, tu), floor(v, tv)))
 }
 
 /// A conductor's complex IOR: a named `metal`, or `eta` and `k`, or (neither) a perfect

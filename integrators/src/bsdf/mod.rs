@@ -34,7 +34,9 @@ pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
-pub use textured::{material_at, MaterialTextures, Perturbation, SurfaceMaterial};
+pub use textured::{
+    material_at, MaterialTextures, Perturbation, RoughnessTextures, SurfaceMaterial,
+};
 pub use thin_dielectric::ThinDielectric;
 
 use crate::Rgb;

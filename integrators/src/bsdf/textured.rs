@@ -29,10 +29,39 @@ pub struct MaterialTextures {
     pub specular: Option<Texture>,
     /// The dielectrics' `specular_transmittance`.
     pub transmittance: Option<Texture>,
-    /// The rough conductor's and rough dielectric's roughness along the tangent and the
-    /// bitangent (both from `alpha`).
-    pub alpha_u: Option<Texture>,
-    pub alpha_v: Option<Texture>,
+    /// The rough conductor's and rough dielectric's roughness.
+    pub alpha: Option<RoughnessTextures>,
+}
+
+/// A textured microfacet roughness.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RoughnessTextures {
+    /// One texture for both tangents (`alpha`), looked up once.
+    Isotropic(Texture),
+    /// Along the tangent and the bitangent (`alpha_u`, `alpha_v`); a `None` keeps the
+    /// material's constant.
+    Anisotropic {
+        u: Option<Texture>,
+        v: Option<Texture>,
+    },
+}
+
+impl RoughnessTextures {
+    /// `mf` with its roughness looked up at `uv`, kept within the microfacet range.
+    #[inline]
+    fn apply(&self, mf: &mut super::Microfacet, uv: glam::Vec2) {
+        let at = |t: &Texture| t.eval_scalar(uv).clamp(super::microfacet::MIN_ALPHA, 2.0);
+        match self {
+            RoughnessTextures::Isotropic(t) => {
+                let a = at(t);
+                (mf.alpha_u, mf.alpha_v) = (a, a);
+            }
+            RoughnessTextures::Anisotropic { u, v } => {
+                mf.alpha_u = u.as_ref().map_or(mf.alpha_u, at);
+                mf.alpha_v = v.as_ref().map_or(mf.alpha_v, at);
+            }
+        }
+    }
 }
 
 impl MaterialTextures {
@@ -41,17 +70,16 @@ impl MaterialTextures {
         self.diffuse.is_some()
             || self.specular.is_some()
             || self.transmittance.is_some()
-            || self.alpha_u.is_some()
-            || self.alpha_v.is_some()
+            || self.alpha.is_some()
     }
 
     /// `m` with its textured parameters looked up at `uv`.
     fn apply(&self, m: &mut Material, uv: glam::Vec2) {
         let at = |t: &Option<Texture>, default| t.as_ref().map_or(default, |t| t.eval(uv));
-        let alpha = |t: &Option<Texture>, default: f32| {
-            t.as_ref().map_or(default, |t| {
-                t.eval_scalar(uv).clamp(super::microfacet::MIN_ALPHA, 2.0)
-            })
+        let roughness = |mf: &mut super::Microfacet| {
+            if let Some(a) = &self.alpha {
+                a.apply(mf, uv);
+            }
         };
         match m {
             Material::Lambert(l) => l.albedo = at(&self.diffuse, l.albedo),
@@ -63,8 +91,7 @@ impl MaterialTextures {
             Material::Conductor(c) => c.reflectance = at(&self.specular, c.reflectance),
             Material::RoughConductor(c) => {
                 c.reflectance = at(&self.specular, c.reflectance);
-                c.microfacet.alpha_u = alpha(&self.alpha_u, c.microfacet.alpha_u);
-                c.microfacet.alpha_v = alpha(&self.alpha_v, c.microfacet.alpha_v);
+                roughness(&mut c.microfacet);
             }
             Material::Dielectric(d) => {
                 d.reflectance = at(&self.specular, d.reflectance);
@@ -77,8 +104,7 @@ impl MaterialTextures {
             Material::RoughDielectric(d) => {
                 d.reflectance = at(&self.specular, d.reflectance);
                 d.transmittance = at(&self.transmittance, d.transmittance);
-                d.microfacet.alpha_u = alpha(&self.alpha_u, d.microfacet.alpha_u);
-                d.microfacet.alpha_v = alpha(&self.alpha_v, d.microfacet.alpha_v);
+                roughness(&mut d.microfacet);
             }
             Material::Plastic(p) => {
                 p.diffuse = at(&self.diffuse, p.diffuse);
@@ -289,8 +315,10 @@ mod tests {
                 .unwrap(),
             ),
             MaterialTextures {
-                alpha_u: Some(Texture::Constant(Rgb::ZERO)),
-                alpha_v: Some(checker()),
+                alpha: Some(RoughnessTextures::Anisotropic {
+                    u: Some(Texture::Constant(Rgb::ZERO)),
+                    v: Some(checker()),
+                }),
                 ..Default::default()
             },
             None,
