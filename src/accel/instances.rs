@@ -9,7 +9,7 @@
 //! allocates.
 
 use super::bvh::{isa::Isa, Bvh, Packets, Singles};
-use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_SPHERES};
+use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_ANALYTIC};
 use super::surface::{barycentrics, parametrisation, shading_normal, Parametrisation, VertexData};
 use super::{box_corners, InstanceDesc, Mesh};
 use glam::{Affine3A, Vec3A};
@@ -210,7 +210,7 @@ impl InstanceSet {
                 if let Some((id, t)) = mesh.bvh.closest(isa, &lr, |lr, first, count| {
                     let end = first + packet::packets_for(count);
                     let leaf = &mesh.packets[first as usize..end as usize];
-                    let (k, t) = isa.closest(leaf, &lanes, lr, lr.tmax, &NO_SPHERES)?;
+                    let (k, t) = isa.closest(leaf, &lanes, lr, lr.tmax, &NO_ANALYTIC)?;
                     Some((first * packet::WIDTH as u32 + k as u32, t))
                 }) {
                     best_prim = id;
@@ -238,7 +238,7 @@ impl InstanceSet {
                         &mesh.packets[first as usize..end as usize],
                         &lanes,
                         lr,
-                        &NO_SPHERES,
+                        &NO_ANALYTIC,
                     )
                 })
             })

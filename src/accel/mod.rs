@@ -1,11 +1,11 @@
 //! The accelerator: raylab's own BVH over the scene's primitives, and every SIMD routine and
 //! `unsafe` block of the project.
 //!
-//! It takes geometry as plain data ([`Input`]: triangles, spheres, mesh assets and their
-//! instances, each primitive with a material and light index to report) and answers closest
-//! hits and occlusion. Triangles and spheres share one 8-wide BVH ([`bvh`]); the primitives
-//! are laid out in [`packet::Packet`]s, one or two per BVH leaf (spheres' centres and radii in
-//! arrays of their own). Instances of mesh assets are not flattened: they get a two-level BVH
+//! It takes geometry as plain data ([`Input`]: triangles, spheres, disks and cylinders, mesh
+//! assets and their instances, each primitive with a material and light index to report) and
+//! answers closest hits and occlusion. Triangles and analytic shapes share one 8-wide BVH
+//! ([`bvh`]); the primitives are laid out in [`packet::Packet`]s, one or two per BVH leaf (the
+//! analytic shapes' geometry in arrays of their own). Instances of mesh assets are not flattened: they get a two-level BVH
 //! of their own ([`instances`]), traced after the flat BVH with the ray shortened to its hit,
 //! and only when the scene has any. Traversal runs an AVX2 build where the processor has it
 //! (chosen at run time through the [`isa::Avx2`] capability token), with the same bits as the
@@ -26,7 +26,8 @@ use bvh::{isa, isa::Isa, Bvh};
 use glam::{Affine3A, Vec2, Vec3A};
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
-use packet::{Lane, LeafTest, Packet, PacketRay, Spheres, Stored, NONE};
+use packet::{Analytic, AnalyticIndex, Lane, LeafTest, Packet, PacketRay, Stored, NONE};
+pub use primitives::{Quadric, QuadricKind};
 use raylab_integrators::{Hit, Pending, Ray};
 use rayon::prelude::*;
 use surface::{barycentrics, parametrisation, shading_normal, VertexData};
@@ -62,6 +63,8 @@ pub enum Geometry<'a> {
         center: Vec3A,
         radius: f32,
     },
+    /// A disk or an open cylinder.
+    Quadric(Quadric),
 }
 
 /// Which light a shape's primitives report when hit.
@@ -115,6 +118,8 @@ pub fn box_corners((min, max): (Vec3A, Vec3A)) -> [Vec3A; 8] {
 pub struct AccelStats {
     pub triangles: usize,
     pub spheres: usize,
+    /// Disks and cylinders.
+    pub quadrics: usize,
     pub bvh_nodes: usize,
     /// Leaves of the flat geometry's BVH.
     pub bvh_leaves: usize,
@@ -247,7 +252,7 @@ impl Accelerator for Accel {
     }
 }
 
-/// raylab's own BVH over triangles and spheres, and the instances' two-level BVH.
+/// raylab's own BVH over triangles and analytic shapes, and the instances' two-level BVH.
 pub struct WideBvh {
     pub(crate) bvh: Bvh,
     /// Per packet of a leaf's primitives (one or two per leaf): the packet and its lane data,
@@ -258,6 +263,8 @@ pub struct WideBvh {
     // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
     pub(crate) sph_center: Vec<Vec3A>,
     pub(crate) sph_radius: Vec<f32>,
+    /// Disks and cylinders, in BVH order.
+    pub(crate) quadrics: Vec<Quadric>,
     /// Instanced meshes (a two-level BVH); empty in most scenes.
     instances: InstanceSet,
     /// Bounds of everything, or `None` without geometry.
@@ -273,7 +280,7 @@ pub struct WideBvh {
 struct Prim {
     /// Index into the input's shapes.
     shape: u32,
-    /// Triangle index within the shape (0 for a sphere).
+    /// Triangle index within the shape (0 for an analytic shape).
     index: u32,
     light: u32,
 }
@@ -284,6 +291,10 @@ impl Prim {
             Geometry::Triangles(mesh) => Aabb::from_points(&mesh.triangles[self.index as usize]),
             Geometry::Sphere { center, radius } => {
                 Aabb::new(center - Vec3A::splat(radius), center + Vec3A::splat(radius))
+            }
+            Geometry::Quadric(q) => {
+                let (min, max) = q.bounds();
+                Aabb::new(min, max)
             }
         }
     }
@@ -296,7 +307,7 @@ impl WideBvh {
         let shapes = &input.shapes;
         let count = |g: &Geometry| match g {
             Geometry::Triangles(mesh) => mesh.triangles.len(),
-            Geometry::Sphere { .. } => 1,
+            Geometry::Sphere { .. } | Geometry::Quadric(_) => 1,
         };
         let mut prims: Vec<Prim> =
             Vec::with_capacity(shapes.iter().map(|s| count(&s.geometry)).sum());
@@ -322,10 +333,11 @@ impl WideBvh {
             None => instances.bounds,
         };
 
-        // Each position of the BVH's order: its index among the triangles with vertex data or
-        // among the spheres (a running count, cheap), for the lanes to refer to.
+        // Each position of the BVH's order: its index among the triangles with vertex data,
+        // the spheres or the quadrics (a running count, cheap), for the lanes to refer to.
         let mut aux = Vec::with_capacity(order.len());
         let (mut with_data, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
+        let mut quadrics = Vec::new();
         for &original in &order {
             let p = prims[original as usize];
             aux.push(match shapes[p.shape as usize].geometry {
@@ -339,6 +351,10 @@ impl WideBvh {
                     sph_radius.push(radius);
                     sph_center.len() as u32 - 1
                 }
+                Geometry::Quadric(q) => {
+                    quadrics.push(q);
+                    quadrics.len() as u32 - 1
+                }
             });
         }
         // Then, in parallel and in order, the vertex data and the packets.
@@ -348,7 +364,7 @@ impl WideBvh {
                 let p = prims[original as usize];
                 match shapes[p.shape as usize].geometry {
                     Geometry::Triangles(mesh) => mesh.vertex_data(p.index as usize),
-                    Geometry::Sphere { .. } => None,
+                    Geometry::Sphere { .. } | Geometry::Quadric(_) => None,
                 }
             })
             .collect();
@@ -363,6 +379,11 @@ impl WideBvh {
                     vertex_data: aux[k as usize],
                 },
                 Geometry::Sphere { .. } => Lane::Sphere {
+                    index: aux[k as usize],
+                    material: shape.material,
+                    light: p.light,
+                },
+                Geometry::Quadric(_) => Lane::Quadric {
                     index: aux[k as usize],
                     material: shape.material,
                     light: p.light,
@@ -383,8 +404,9 @@ impl WideBvh {
             })
             .collect();
         let stats = AccelStats {
-            triangles: prims.len() - sph_center.len(),
+            triangles: prims.len() - sph_center.len() - quadrics.len(),
             spheres: sph_center.len(),
+            quadrics: quadrics.len(),
             bvh_nodes: bvh.node_count() + instances.bvh_nodes(),
             bvh_leaves: leaves.len(),
             instances: instances.len(),
@@ -397,6 +419,7 @@ impl WideBvh {
             vertex_data,
             sph_center,
             sph_radius,
+            quadrics,
             instances,
             bounds: bounds.valid().then_some((bounds.min, bounds.max)),
             avx2: isa::Avx2::detect(),
@@ -419,13 +442,15 @@ impl WideBvh {
             + v(self.vertex_data.capacity(), size_of::<VertexData>())
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
+            + v(self.quadrics.capacity(), size_of::<Quadric>())
             + self.bvh.memory_bytes()
     }
 
-    fn sphere_geometry(&self) -> Spheres<'_> {
-        Spheres {
+    fn analytic(&self) -> Analytic<'_> {
+        Analytic {
             center: &self.sph_center,
             radius: &self.sph_radius,
+            quadrics: &self.quadrics,
         }
     }
 
@@ -438,9 +463,17 @@ impl WideBvh {
     fn hit_record(&self, ray: &Ray, id: u32, t: f32) -> Hit {
         let (p, lane) = (id as usize / packet::WIDTH, id as usize % packet::WIDTH);
         let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
-        if let Some(i) = s.sphere_index(lane, data) {
-            let (c, r) = (self.sph_center[i], self.sph_radius[i]);
-            Hit::on_sphere(ray, t, c, r, data.material(lane), data.light(lane))
+        let (material, light) = (data.material(lane), data.light(lane));
+        if let Some(shape) = s.analytic_index(lane, data) {
+            match shape {
+                AnalyticIndex::Sphere(i) => {
+                    let (c, r) = (self.sph_center[i], self.sph_radius[i]);
+                    Hit::on_sphere(ray, t, c, r, material, light)
+                }
+                AnalyticIndex::Quadric(i) => {
+                    self.quadrics[i].hit(ray.origin, ray.dir, t, material, light)
+                }
+            }
         } else {
             let ng = s.normal(lane);
             let p = ray.at(t);
@@ -459,7 +492,7 @@ impl WideBvh {
                     instance: NONE,
                 },
                 ns,
-                ..Hit::new(t, p, ng, data.material(lane), data.light(lane))
+                ..Hit::new(t, p, ng, material, light)
             }
         }
     }
@@ -503,7 +536,7 @@ impl WideBvh {
     #[inline(always)]
     fn closest_hit<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> Option<Hit> {
         let bvh_ray = Self::to_bvh_ray(ray)?;
-        let (lanes, spheres) = (PacketRay::new(&bvh_ray), self.sphere_geometry());
+        let (lanes, shapes) = (PacketRay::new(&bvh_ray), self.analytic());
         let flat = self.bvh.closest(
             isa,
             &bvh_ray,
@@ -511,7 +544,7 @@ impl WideBvh {
             |r, first, count| {
                 let leaf =
                     &self.packets[first as usize..(first + packet::packets_for(count)) as usize];
-                let (k, t) = isa.closest(leaf, &lanes, r, r.tmax, &spheres)?;
+                let (k, t) = isa.closest(leaf, &lanes, r, r.tmax, &shapes)?;
                 Some((first * packet::WIDTH as u32 + k as u32, t))
             },
         );
@@ -535,7 +568,7 @@ impl WideBvh {
     fn any_hit<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> bool {
         match Self::to_bvh_ray(ray) {
             Some(r) => {
-                let (lanes, spheres) = (PacketRay::new(&r), self.sphere_geometry());
+                let (lanes, shapes) = (PacketRay::new(&r), self.analytic());
                 self.bvh.any(
                     isa,
                     &r,
@@ -546,7 +579,7 @@ impl WideBvh {
                             &self.packets[first as usize..end as usize],
                             &lanes,
                             r,
-                            &spheres,
+                            &shapes,
                         )
                     },
                 ) || (!self.instances.is_empty() && self.instances.occluded(isa, &r))

@@ -4,12 +4,12 @@
 //!
 //! Triangles are tested with raylab's Möller–Trumbore ([`super::primitives`]), which counts a
 //! barycentric of -0.0 as inside (obvhs's own test lets rays on a shared edge through), and
-//! spheres analytically; rays carry their exact inverse direction ([`super::bvh::ray`]).
+//! spheres, disks and cylinders analytically; rays carry their exact inverse direction ([`super::bvh::ray`]).
 //! Instances get a CWBVH per mesh asset and one over the instances' world boxes; a ray that
 //! reaches an instance is moved into its space without renormalising its direction, as in
 //! [`super::instances`], so that local and world distances agree.
 
-use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle};
+use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle, Quadric};
 use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
 use super::{box_corners, bvh, AccelStats, Geometry, Input, ShapeLights};
 use glam::{Affine3A, Vec3A};
@@ -39,6 +39,12 @@ enum Prim {
         material: u32,
         light: u32,
     },
+    /// A disk or cylinder, by its index in [`ObvhsBvh::quadrics`].
+    Quadric {
+        index: u32,
+        material: u32,
+        light: u32,
+    },
 }
 
 /// A mesh asset's triangles in the order of its CWBVH, with their vertex data if any.
@@ -59,6 +65,7 @@ pub struct ObvhsBvh {
     flat: Option<CwBvh>,
     prims: Vec<Prim>,
     vertex_data: Vec<VertexData>,
+    quadrics: Vec<Quadric>,
     tlas: Option<CwBvh>,
     /// In the TLAS's primitive order.
     instances: Vec<Instance>,
@@ -84,6 +91,7 @@ impl ObvhsBvh {
         // The flat primitives in input order, and their boxes.
         let mut prims = Vec::new();
         let mut vertex_data = Vec::new();
+        let mut quadrics = Vec::new();
         for shape in &input.shapes {
             let light = |i: usize| match shape.lights {
                 ShapeLights::None => NONE,
@@ -114,6 +122,14 @@ impl ObvhsBvh {
                     material: shape.material,
                     light: light(0),
                 }),
+                Geometry::Quadric(q) => {
+                    quadrics.push(q);
+                    prims.push(Prim::Quadric {
+                        index: quadrics.len() as u32 - 1,
+                        material: shape.material,
+                        light: light(0),
+                    });
+                }
             }
         }
         let boxes: Vec<Aabb> = prims
@@ -122,6 +138,10 @@ impl ObvhsBvh {
                 Prim::Triangle { corners, .. } => Aabb::from_points(&corners),
                 Prim::Sphere { center, radius, .. } => {
                     Aabb::new(center - Vec3A::splat(radius), center + Vec3A::splat(radius))
+                }
+                Prim::Quadric { index, .. } => {
+                    let (min, max) = quadrics[index as usize].bounds();
+                    Aabb::new(min, max)
                 }
             })
             .collect();
@@ -192,8 +212,9 @@ impl ObvhsBvh {
             .count();
         let mesh_triangles = |m: u32| meshes[m as usize].triangles.len();
         let stats = AccelStats {
-            triangles: prims.len() - spheres,
+            triangles: prims.len() - spheres - quadrics.len(),
             spheres,
+            quadrics: quadrics.len(),
             bvh_nodes: node_count(&flat)
                 + node_count(&tlas)
                 + meshes.iter().map(|m| m.bvh.nodes.len()).sum::<usize>(),
@@ -211,6 +232,7 @@ impl ObvhsBvh {
             flat,
             prims,
             vertex_data,
+            quadrics,
             tlas,
             instances,
             meshes,
@@ -235,6 +257,7 @@ impl ObvhsBvh {
             + self.tlas.as_ref().map_or(0, bvh)
             + self.prims.capacity() * size_of::<Prim>()
             + self.vertex_data.capacity() * size_of::<VertexData>()
+            + self.quadrics.capacity() * size_of::<Quadric>()
             + self.instances.capacity() * size_of::<Instance>()
             + self
                 .meshes
@@ -272,6 +295,7 @@ impl ObvhsBvh {
             b.ray_traverse(r, &mut flat_hit, |r, i| match self.prims[i] {
                 Prim::Triangle { corners, .. } => intersect_triangle(&corners, r),
                 Prim::Sphere { center, radius, .. } => intersect_sphere(center, radius, r),
+                Prim::Quadric { index, .. } => self.quadrics[index as usize].intersect(r),
             })
         });
         if flat {
@@ -311,6 +335,7 @@ impl ObvhsBvh {
             !b.ray_traverse_miss(r, |r, i| match self.prims[i] {
                 Prim::Triangle { corners, .. } => occludes_triangle(&corners, r),
                 Prim::Sphere { center, radius, .. } => intersect_sphere(center, radius, r),
+                Prim::Quadric { index, .. } => self.quadrics[index as usize].intersect(r),
             })
         });
         hit_flat
@@ -342,6 +367,11 @@ impl ObvhsBvh {
                 material,
                 light: l,
             } => Hit::on_sphere(ray, t, center, radius, material, light(l)),
+            Prim::Quadric {
+                index,
+                material,
+                light: l,
+            } => self.quadrics[index as usize].hit(ray.origin, ray.dir, t, material, light(l)),
             Prim::Triangle {
                 corners: [v0, v1, v2],
                 vertex_data,

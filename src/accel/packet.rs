@@ -12,11 +12,11 @@
 //! The triangle test is [`super::primitives::intersect_triangle`]'s Möller–Trumbore with the
 //! same operations in the same order, lane by lane (the stored edges and normal are the values
 //! it computes), so a packet finds the same distances, to the bit, as testing its triangles one
-//! at a time. A sphere's lane has NaN corners, which no triangle test passes, and is tested on
-//! its own; an unused lane is all zeros (a degenerate triangle, which no ray hits) and has the
-//! material [`NONE`].
+//! at a time. An analytic shape's lane (a sphere, a disk, a cylinder) has NaN corners, which no
+//! triangle test passes, and is tested on its own; an unused lane is all zeros (a degenerate
+//! triangle, which no ray hits) and has the material [`NONE`].
 
-use super::primitives::intersect_sphere;
+use super::primitives::{intersect_sphere, Quadric};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::ray::Ray;
 
@@ -41,6 +41,10 @@ pub fn runs(first: u32, count: u32) -> impl Iterator<Item = (u32, u32)> {
 /// "No light" / "no vertex data".
 pub const NONE: u32 = u32::MAX;
 
+/// Set in an analytic lane's index when it is a disk or cylinder (an index into the
+/// quadrics), clear for a sphere.
+const QUADRIC: u32 = 1 << 31;
+
 /// Three coordinates, a lane per primitive.
 type Lanes3 = [Vec4; 3];
 
@@ -58,6 +62,19 @@ pub enum Lane {
         material: u32,
         light: u32,
     },
+    /// A disk or cylinder, by its index among the quadrics.
+    Quadric {
+        index: u32,
+        material: u32,
+        light: u32,
+    },
+}
+
+/// An analytic lane's shape, by its index in the [`Analytic`] arrays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnalyticIndex {
+    Sphere(usize),
+    Quadric(usize),
 }
 
 /// What the intersection test reads of up to four primitives.
@@ -71,7 +88,7 @@ pub struct Packet {
 }
 
 /// What a hit reads of a packet's primitives: each lane's material, light and an index: the
-/// triangle's vertex data, or the sphere's place in the sphere arrays.
+/// triangle's vertex data, or the analytic shape's place in the [`Analytic`] arrays.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LaneData {
     material: [u32; WIDTH],
@@ -158,6 +175,14 @@ impl Packet {
                     material,
                     light,
                 } => ([Vec3A::NAN; 3], material, light, index),
+                Lane::Quadric {
+                    index,
+                    material,
+                    light,
+                } => {
+                    assert!(index < QUADRIC, "{index} quadrics");
+                    ([Vec3A::NAN; 3], material, light, index | QUADRIC)
+                }
             };
             corners[i] = c;
             (data.material[i], data.light[i], data.aux[i]) = (material, light, aux);
@@ -174,23 +199,22 @@ impl Packet {
         (Packet { v0, e1, e2, n }, data)
     }
 
-    /// Lanes holding spheres, a bit each.
+    /// Lanes holding analytic shapes, a bit each.
     #[inline(always)]
-    fn sphere_lanes(&self) -> u32 {
+    fn analytic_lanes(&self) -> u32 {
         let x = self.v0[0];
         x.cmpne(x).bitmask()
     }
 
-    /// Each lane's distance along `ray` in `[tmin, tmax]`, or infinity; sphere lanes are
-    /// tested with [`intersect_sphere`] against `spheres`' centres and radii, found through
-    /// `data` (read only for them).
+    /// Each lane's distance along `ray` in `[tmin, tmax]`, or infinity; analytic lanes are
+    /// tested on their own against `shapes`, found through `data` (read only for them).
     #[inline(always)]
     fn distances(
         &self,
         r: &PacketRay,
         ray: &Ray,
         tmax: f32,
-        spheres: &Spheres,
+        shapes: &Analytic,
         data: &LaneData,
     ) -> Vec4 {
         let c = sub(&self.v0, &r.origin);
@@ -206,14 +230,18 @@ impl Packet {
         let inside: BVec4A = u.cmpge(zero) & v.cmpge(zero) & w.cmpge(zero) & inv_det.cmpne(zero);
         let within = t.cmpge(Vec4::splat(ray.tmin)) & t.cmple(Vec4::splat(tmax));
         let mut t = Vec4::select(inside & within, t, Vec4::INFINITY);
-        let mut s = self.sphere_lanes();
+        let mut s = self.analytic_lanes();
         while s != 0 {
             let lane = s.trailing_zeros() as usize;
             s &= s - 1;
-            let i = data.aux[lane] as usize;
             let mut r = *ray;
             r.tmax = tmax;
-            t[lane] = intersect_sphere(spheres.center[i], spheres.radius[i], &r);
+            t[lane] = match data.analytic(lane) {
+                AnalyticIndex::Sphere(i) => {
+                    intersect_sphere(shapes.center[i], shapes.radius[i], &r)
+                }
+                AnalyticIndex::Quadric(i) => shapes.quadrics[i].intersect(&r),
+            };
         }
         t
     }
@@ -226,10 +254,10 @@ impl Packet {
         r: &PacketRay,
         ray: &Ray,
         tmax: f32,
-        spheres: &Spheres,
+        shapes: &Analytic,
         data: &LaneData,
     ) -> Option<(usize, f32)> {
-        let t = self.distances(r, ray, tmax, spheres, data);
+        let t = self.distances(r, ray, tmax, shapes, data);
         let hit = t.cmplt(Vec4::splat(tmax)).bitmask();
         if hit == 0 {
             return None;
@@ -241,8 +269,8 @@ impl Packet {
 
     /// Whether `ray` meets any of the packet's primitives within `[ray.tmin, ray.tmax]`.
     #[inline(always)]
-    pub fn any(&self, r: &PacketRay, ray: &Ray, spheres: &Spheres, data: &LaneData) -> bool {
-        self.distances(r, ray, ray.tmax, spheres, data)
+    pub fn any(&self, r: &PacketRay, ray: &Ray, shapes: &Analytic, data: &LaneData) -> bool {
+        self.distances(r, ray, ray.tmax, shapes, data)
             .cmplt(Vec4::INFINITY)
             .any()
     }
@@ -265,10 +293,10 @@ impl Packet {
         (-lane3(&self.n, lane)).normalize_or_zero()
     }
 
-    /// Lane `lane`'s sphere, as its index in the sphere arrays, or `None` for a triangle.
+    /// Lane `lane`'s analytic shape, or `None` for a triangle.
     #[inline(always)]
-    pub fn sphere_index(&self, lane: usize, data: &LaneData) -> Option<usize> {
-        (self.sphere_lanes() >> lane & 1 == 1).then_some(data.aux[lane] as usize)
+    pub fn analytic_index(&self, lane: usize, data: &LaneData) -> Option<AnalyticIndex> {
+        (self.analytic_lanes() >> lane & 1 == 1).then(|| data.analytic(lane))
     }
 
     /// Every lane's bits, for comparing packets (sphere lanes hold NaNs).
@@ -297,6 +325,17 @@ impl LaneData {
         Some(self.light[lane]).filter(|&l| l != NONE)
     }
 
+    /// An analytic lane's shape (meaningless for a triangle's lane).
+    #[inline(always)]
+    fn analytic(&self, lane: usize) -> AnalyticIndex {
+        let i = self.aux[lane];
+        if i & QUADRIC == 0 {
+            AnalyticIndex::Sphere(i as usize)
+        } else {
+            AnalyticIndex::Quadric((i & !QUADRIC) as usize)
+        }
+    }
+
     /// A triangle's index into the vertex data, if it has any.
     pub fn vertex_data(&self, lane: usize) -> Option<usize> {
         Some(self.aux[lane])
@@ -317,11 +356,11 @@ pub trait LeafTest {
         r: &PacketRay,
         ray: &Ray,
         tmax: f32,
-        spheres: &Spheres,
+        shapes: &Analytic,
     ) -> Option<(usize, f32)>;
 
     /// Whether `ray` meets any primitive of `leaf` within `[ray.tmin, ray.tmax]`.
-    fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool;
+    fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, shapes: &Analytic) -> bool;
 }
 
 /// One packet after the other.
@@ -331,11 +370,11 @@ fn closest_in_turn(
     r: &PacketRay,
     ray: &Ray,
     mut tmax: f32,
-    spheres: &Spheres,
+    shapes: &Analytic,
 ) -> Option<(usize, f32)> {
     let mut best = None;
     for (k, Stored { packet, data }) in leaf.iter().enumerate() {
-        if let Some((lane, t)) = packet.closest(r, ray, tmax, spheres, data) {
+        if let Some((lane, t)) = packet.closest(r, ray, tmax, shapes, data) {
             (best, tmax) = (Some((k * WIDTH + lane, t)), t);
         }
     }
@@ -343,10 +382,10 @@ fn closest_in_turn(
 }
 
 #[inline(always)]
-fn any_in_turn(leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+fn any_in_turn(leaf: &[Stored], r: &PacketRay, ray: &Ray, shapes: &Analytic) -> bool {
     // A plain loop: `Iterator::any` was not inlined into the AVX2 build of the traversal.
     for Stored { packet, data } in leaf {
-        if packet.any(r, ray, spheres, data) {
+        if packet.any(r, ray, shapes, data) {
             return true;
         }
     }
@@ -361,14 +400,14 @@ impl LeafTest for super::bvh::isa::Portable {
         r: &PacketRay,
         ray: &Ray,
         tmax: f32,
-        spheres: &Spheres,
+        shapes: &Analytic,
     ) -> Option<(usize, f32)> {
-        closest_in_turn(leaf, r, ray, tmax, spheres)
+        closest_in_turn(leaf, r, ray, tmax, shapes)
     }
 
     #[inline(always)]
-    fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
-        any_in_turn(leaf, r, ray, spheres)
+    fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, shapes: &Analytic) -> bool {
+        any_in_turn(leaf, r, ray, shapes)
     }
 }
 
@@ -435,7 +474,7 @@ mod avx2 {
     }
 
     /// The two packets' eight distances, as `Packet::distances` computes each lane (the two
-    /// packets hold no spheres).
+    /// packets hold no analytic shapes).
     #[inline(always)]
     fn distances(a: &Packet, b: &Packet, ray: &Ray, tmax: f32) -> __m256 {
         let (origin, dir) = (splat3(ray.origin), splat3(ray.direction));
@@ -474,10 +513,10 @@ mod avx2 {
         }
     }
 
-    /// Whether neither packet holds a sphere (spheres are tested one by one).
+    /// Whether neither packet holds an analytic shape (those are tested one by one).
     #[inline(always)]
     fn triangles_only(a: &Packet, b: &Packet) -> bool {
-        a.sphere_lanes() | b.sphere_lanes() == 0
+        a.analytic_lanes() | b.analytic_lanes() == 0
     }
 
     impl LeafTest for Avx2 {
@@ -488,13 +527,13 @@ mod avx2 {
             r: &PacketRay,
             ray: &Ray,
             tmax: f32,
-            spheres: &Spheres,
+            shapes: &Analytic,
         ) -> Option<(usize, f32)> {
             let [a, b] = leaf else {
-                return closest_in_turn(leaf, r, ray, tmax, spheres);
+                return closest_in_turn(leaf, r, ray, tmax, shapes);
             };
             if !triangles_only(&a.packet, &b.packet) {
-                return closest_in_turn(leaf, r, ray, tmax, spheres);
+                return closest_in_turn(leaf, r, ray, tmax, shapes);
             }
             let t = distances(&a.packet, &b.packet, ray, tmax);
             // SAFETY: register arithmetic; `self` is the token that proves AVX2.
@@ -514,7 +553,7 @@ mod avx2 {
         }
 
         #[inline(always)]
-        fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, spheres: &Spheres) -> bool {
+        fn any(self, leaf: &[Stored], r: &PacketRay, ray: &Ray, shapes: &Analytic) -> bool {
             match leaf {
                 [a, b] if triangles_only(&a.packet, &b.packet) => {
                     let t = distances(&a.packet, &b.packet, ray, ray.tmax);
@@ -524,23 +563,26 @@ mod avx2 {
                         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, inf)) != 0
                     }
                 }
-                _ => any_in_turn(leaf, r, ray, spheres),
+                _ => any_in_turn(leaf, r, ray, shapes),
             }
         }
     }
 }
 
-/// The spheres' geometry that packets refer to by index.
+/// The analytic shapes that packets refer to by index: spheres' centres and radii, and the
+/// disks and cylinders.
 #[derive(Clone, Copy)]
-pub struct Spheres<'a> {
+pub struct Analytic<'a> {
     pub center: &'a [Vec3A],
     pub radius: &'a [f32],
+    pub quadrics: &'a [Quadric],
 }
 
-/// No spheres (instanced meshes have none).
-pub const NO_SPHERES: Spheres = Spheres {
+/// No analytic shapes (instanced meshes have none).
+pub const NO_ANALYTIC: Analytic = Analytic {
     center: &[],
     radius: &[],
+    quadrics: &[],
 };
 
 #[cfg(test)]
@@ -586,7 +628,7 @@ mod tests {
                 };
                 let ray = Ray::new(origin, target - origin, 0.0, [f32::INFINITY, 1.5][k % 2]);
                 let pr = PacketRay::new(&ray);
-                let t = packet.distances(&pr, &ray, ray.tmax, &NO_SPHERES, &data);
+                let t = packet.distances(&pr, &ray, ray.tmax, &NO_ANALYTIC, &data);
                 for (i, tri) in tris.iter().enumerate() {
                     assert_eq!(t[i].to_bits(), intersect_triangle(tri, &ray).to_bits());
                     hits += usize::from(t[i].is_finite());
@@ -604,10 +646,10 @@ mod tests {
                         Some((_, bt)) if bt <= t => b,
                         _ => Some((i, t)),
                     });
-                let found = packet.closest(&pr, &ray, ray.tmax, &NO_SPHERES, &data);
+                let found = packet.closest(&pr, &ray, ray.tmax, &NO_ANALYTIC, &data);
                 assert_eq!(found, expected);
                 assert_eq!(
-                    packet.any(&pr, &ray, &NO_SPHERES, &data),
+                    packet.any(&pr, &ray, &NO_ANALYTIC, &data),
                     expected.is_some()
                 );
             }
@@ -623,12 +665,25 @@ mod tests {
     }
 
     #[test]
-    fn sphere_lanes_are_tested_as_spheres_and_keep_their_data() {
+    fn analytic_lanes_are_tested_as_their_shapes_and_keep_their_data() {
+        use crate::accel::primitives::QuadricKind;
+        use glam::Affine3A;
         let centers = [Vec3A::new(0.0, 0.0, 5.0), Vec3A::new(0.0, 0.0, 9.0)];
         let radii = [1.0, 2.0];
-        let spheres = Spheres {
+        // A disk of radius 0.5 at z = 8, and one off the axis.
+        let disk = |x: f32| {
+            let m = Affine3A::from_scale_rotation_translation(
+                glam::Vec3::splat(0.5),
+                glam::Quat::IDENTITY,
+                glam::Vec3::new(x, 0.0, 8.0),
+            );
+            Quadric::new(QuadricKind::Disk, m, false)
+        };
+        let quadrics = [disk(3.0), disk(0.0)];
+        let shapes = Analytic {
             center: &centers,
             radius: &radii,
+            quadrics: &quadrics,
         };
         let tri = [
             Vec3A::new(-1.0, -1.0, 7.0),
@@ -652,34 +707,44 @@ mod tests {
                 material: 1,
                 light: NONE,
             },
+            Lane::Quadric {
+                index: 1,
+                material: 4,
+                light: 2,
+            },
         ]);
-        let ray = Ray::new_inf(Vec3A::ZERO, Vec3A::Z);
-        let pr = PacketRay::new(&ray);
-        let closest = packet.closest(&pr, &ray, f32::INFINITY, &spheres, &data);
-        assert_eq!(closest, Some((2, 4.0)));
+        let closest_from = |tmin: f32| {
+            let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, tmin, f32::INFINITY);
+            packet.closest(&PacketRay::new(&ray), &ray, f32::INFINITY, &shapes, &data)
+        };
+        assert_eq!(closest_from(0.0), Some((2, 4.0)));
         // Beyond the near sphere the far one and the triangle tie at 7: the lower lane wins.
-        let from = Ray::new(Vec3A::ZERO, Vec3A::Z, 6.5, f32::INFINITY);
-        let t = packet.closest(
-            &PacketRay::new(&from),
-            &from,
-            f32::INFINITY,
-            &spheres,
-            &data,
+        assert_eq!(closest_from(6.5), Some((0, 7.0)));
+        // Beyond those, the disk.
+        assert_eq!(closest_from(7.5), Some((3, 8.0)));
+        assert_eq!(
+            packet.analytic_index(0, &data),
+            Some(AnalyticIndex::Sphere(1))
         );
-        assert_eq!(t, Some((0, 7.0)));
-        assert_eq!(packet.sphere_index(0, &data), Some(1));
-        assert_eq!(packet.sphere_index(1, &data), None);
-        assert_eq!(packet.sphere_index(2, &data), Some(0));
-        assert_eq!(packet.sphere_index(3, &data), None);
+        assert_eq!(packet.analytic_index(1, &data), None);
+        assert_eq!(
+            packet.analytic_index(2, &data),
+            Some(AnalyticIndex::Sphere(0))
+        );
+        assert_eq!(
+            packet.analytic_index(3, &data),
+            Some(AnalyticIndex::Quadric(1))
+        );
         assert_eq!((data.material(0), data.light(0)), (3, Some(8)));
+        assert_eq!((data.material(3), data.light(3)), (4, Some(2)));
         assert_eq!(
             (data.material(1), data.light(1), data.vertex_data(1)),
             (2, None, Some(6))
         );
-        assert!(data.used(2) && !data.used(3));
+        assert!(data.used(2) && data.used(3));
         assert_eq!(packet.edges(1).0, tri[0]);
         let short = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0, 3.0);
-        assert!(!packet.any(&PacketRay::new(&short), &short, &spheres, &data));
+        assert!(!packet.any(&PacketRay::new(&short), &short, &shapes, &data));
         assert_eq!(std::mem::size_of::<Packet>(), 192);
         assert_eq!(std::mem::size_of::<LaneData>(), 48);
     }
@@ -691,11 +756,11 @@ mod tests {
         leaf: &[Stored],
         r: &PacketRay,
         ray: &Ray,
-        spheres: &Spheres,
+        shapes: &Analytic,
     ) -> (Option<(usize, f32)>, bool) {
         (
-            avx2.closest(leaf, r, ray, ray.tmax, spheres),
-            avx2.any(leaf, r, ray, spheres),
+            avx2.closest(leaf, r, ray, ray.tmax, shapes),
+            avx2.any(leaf, r, ray, shapes),
         )
     }
 
@@ -710,9 +775,10 @@ mod tests {
         };
         let centers = [Vec3A::new(1.5, 1.5, 1.5)];
         let radii = [0.4];
-        let spheres = Spheres {
+        let spheres = Analytic {
             center: &centers,
             radius: &radii,
+            quadrics: &[],
         };
         let mut rng = StdRng::seed_from_u64(9);
         let mut p3 = |s: f32| Vec3A::new(rng.random(), rng.random(), rng.random()) * s;
@@ -751,7 +817,7 @@ mod tests {
                         Lane::Triangle { corners, .. } => {
                             (corners[0] + corners[1] + corners[2]) / 3.0
                         }
-                        Lane::Sphere { .. } => unreachable!(),
+                        Lane::Sphere { .. } | Lane::Quadric { .. } => unreachable!(),
                     },
                     _ => p3(3.0),
                 };

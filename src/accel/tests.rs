@@ -21,8 +21,9 @@ fn wide(scene: &RenderScene) -> &WideBvh {
     }
 }
 
-/// A scene of random triangles (one mesh) and spheres, as RON text.
-fn random_scene(triangles: usize, spheres: usize, seed: u64) -> String {
+/// A scene of random triangles (one mesh), spheres, and disks and cylinders (alternately), as
+/// RON text. The analytic shapes emit, in that order.
+fn random_scene(triangles: usize, spheres: usize, quadrics: usize, seed: u64) -> String {
     let mut s = Sampler::new(seed, 0, 0);
     let mut r = |scale: f32| (s.next_1d() * 2.0 - 1.0) * scale;
     let mut positions = String::new();
@@ -48,6 +49,43 @@ fn random_scene(triangles: usize, spheres: usize, seed: u64) -> String {
             0.1 + r(0.4).abs()
         );
     }
+    for i in 0..quadrics {
+        let place = format!(
+            "transform: (translate: ({}, {}, {}), rotate: ({}, {}, {}), scale: {}),",
+            r(4.0),
+            r(4.0),
+            r(4.0),
+            r(180.0),
+            r(180.0),
+            r(180.0),
+            if i % 2 == 0 {
+                // Disks may be ellipses.
+                format!("({}, {}, 1)", 0.2 + r(0.6).abs(), 0.2 + r(0.6).abs())
+            } else {
+                let s = 0.5 + r(0.4).abs();
+                format!("({s}, {s}, {s})")
+            }
+        );
+        let shape = if i % 2 == 0 {
+            "Disk".to_string()
+        } else {
+            format!(
+                "Cylinder(p0: ({}, {}, {}), p1: ({}, {}, {}), radius: {})",
+                r(0.5),
+                r(0.5),
+                r(0.5),
+                r(1.0),
+                r(1.0),
+                r(1.0),
+                0.1 + r(0.4).abs()
+            )
+        };
+        let _ = write!(
+            entities,
+            r#"(name: "q{i}", {place} shape: {shape}, material: "m", flip_normals: {}, emitter: Area(radiance: (1, 1, 1))),"#,
+            i % 3 == 0
+        );
+    }
     format!(
         "(camera: LookAt(eye: (0, 0, 10), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40),
           materials: {{\"m\": Lambert(albedo: (0.5, 0.5, 0.5))}}, entities: [{entities}])"
@@ -67,6 +105,7 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
                 .iter()
                 .map(|t| primitives::intersect_triangle(t, &obvhs_ray))
                 .collect(),
+            WorldShape::Quadric(q) => vec![q.intersect(&obvhs_ray)],
         };
         for t in ts {
             if t.is_finite() && best.is_none_or(|(b, _)| t < b) {
@@ -79,7 +118,7 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
 
 #[test]
 fn bvh_closest_hit_and_occlusion_match_brute_force() {
-    let loaded = parse_scene(&random_scene(3000, 40, 7), Path::new("random.ron")).unwrap();
+    let loaded = parse_scene(&random_scene(3000, 40, 40, 7), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
     let mut portable = RenderScene::build(&loaded);
     match &mut portable.accel {
@@ -89,8 +128,16 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
     // The obvhs backend tests the same primitives with the same routines: the same hits.
     let obvhs = RenderScene::build_with(&loaded, AccelKind::Obvhs);
     assert_eq!(
-        (obvhs.stats.triangles, obvhs.stats.spheres),
-        (scene.stats.triangles, scene.stats.spheres)
+        (
+            obvhs.stats.triangles,
+            obvhs.stats.spheres,
+            obvhs.stats.quadrics
+        ),
+        (
+            scene.stats.triangles,
+            scene.stats.spheres,
+            scene.stats.quadrics
+        )
     );
     assert_eq!(obvhs.bounds(), scene.bounds());
     let baked_triangles: usize = loaded
@@ -99,15 +146,19 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
         .iter()
         .map(|s| match s {
             WorldShape::Triangles { triangles, .. } => triangles.len(),
-            WorldShape::Sphere { .. } => 0,
+            WorldShape::Sphere { .. } | WorldShape::Quadric(_) => 0,
         })
         .sum();
     assert_eq!(
-        (scene.stats.triangles, scene.stats.spheres),
-        (baked_triangles, 40)
+        (
+            scene.stats.triangles,
+            scene.stats.spheres,
+            scene.stats.quadrics
+        ),
+        (baked_triangles, 40, 40)
     );
     let mut sampler = Sampler::new(99, 0, 0);
-    let (mut hits, mut occluded) = (0, 0);
+    let (mut hits, mut occluded, mut quadric_hits) = (0, 0, 0);
     for i in 0..5000 {
         let origin =
             Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 12.0 - 6.0;
@@ -129,6 +180,7 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
             }
             (a, b) => a.is_none() && b.is_none(),
         };
+        quadric_hits += usize::from(got.is_some_and(|h| matches!(h.light, Some(l) if l >= 40)));
         assert!(
             same(&portable.intersect(&ray), &got),
             "ray {i}: builds differ"
@@ -157,33 +209,49 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
     // The test must exercise both outcomes a fair number of times.
     assert!(hits > 1000 && hits < 4500, "hits {hits}");
     assert!(occluded > 1000);
+    assert!(quadric_hits > 25, "{quadric_hits} disk and cylinder hits");
 }
 
 #[test]
 fn every_primitive_keeps_its_material_and_light_after_reordering() {
-    let loaded = parse_scene(&random_scene(200, 10, 3), Path::new("random.ron")).unwrap();
+    let loaded = parse_scene(&random_scene(200, 10, 6, 3), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
-    // Triangles are not emitters, spheres are, each its own light.
-    let mut sphere_lights = Vec::new();
+    // Triangles are not emitters, analytic shapes are, each its own light.
+    let mut analytic_lights = Vec::new();
     for (p, d, lane) in used_lanes(&scene) {
-        match p.sphere_index(lane, d) {
+        match p.analytic_index(lane, d) {
             None => assert_eq!(d.light(lane), None),
-            Some(i) => {
-                let light = d.light(lane).expect("every sphere emits");
-                sphere_lights.push(light);
-                match scene.lights.get(light) {
-                    Light::Sphere(SphereLight { center, radius, .. }) => assert_eq!(
+            Some(shape) => {
+                let light = d.light(lane).expect("every analytic shape emits");
+                analytic_lights.push(light);
+                match (scene.lights.get(light), shape) {
+                    (
+                        Light::Sphere(SphereLight { center, radius, .. }),
+                        AnalyticIndex::Sphere(i),
+                    ) => assert_eq!(
                         (*center, *radius),
                         (wide(&scene).sph_center[i], wide(&scene).sph_radius[i])
                     ),
+                    (Light::Planar(Planar { p0, .. }), AnalyticIndex::Quadric(i)) => {
+                        let q = &wide(&scene).quadrics[i];
+                        assert_eq!((q.kind, *p0), (QuadricKind::Disk, q.to_world.translation))
+                    }
+                    (Light::Cylinder(c), AnalyticIndex::Quadric(i)) => {
+                        let q = &wide(&scene).quadrics[i];
+                        assert_eq!(
+                            (q.kind, c.base),
+                            (QuadricKind::Cylinder, q.to_world.translation)
+                        );
+                        assert_eq!(c.inward, q.flipped);
+                    }
                     other => panic!("{other:?}"),
                 }
             }
         }
     }
-    sphere_lights.sort();
-    assert_eq!(sphere_lights, (0..10).collect::<Vec<u32>>());
-    assert_eq!(used_lanes(&scene).count(), 210);
+    analytic_lights.sort();
+    assert_eq!(analytic_lights, (0..16).collect::<Vec<u32>>());
+    assert_eq!(used_lanes(&scene).count(), 216);
 }
 
 /// Every packet lane that holds a primitive, with its packet and lane data.
@@ -274,7 +342,7 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
 fn the_build_does_not_depend_on_the_thread_count() {
     // The BVH is built in parallel on the current rayon pool (--threads sets it): the BVH and the
     // primitive order must come out the same on 1 and 2 threads (the images rely on it).
-    let loaded = parse_scene(&random_scene(5000, 30, 11), Path::new("random.ron")).unwrap();
+    let loaded = parse_scene(&random_scene(5000, 30, 10, 11), Path::new("random.ron")).unwrap();
     let build = |threads: usize| {
         RenderScene::build_on_threads(&loaded, AccelKind::Raylab, Some(threads)).unwrap()
     };

@@ -307,6 +307,9 @@ pub fn validate(path: &Path, allowed: &[PathBuf]) -> Result<ExitCode> {
     println!("  materials  {}", loaded.material_names.len());
     println!("  triangles  {}", s.triangles);
     println!("  spheres    {}", s.spheres);
+    if s.quadrics > 0 {
+        println!("  disks and cylinders {}", s.quadrics);
+    }
     if s.instances > 0 {
         println!(
             "  instances  {} of {} mesh(es): {} triangles held once, {} placed",

@@ -114,6 +114,12 @@ fn load_asset(
                     .into(),
             )
         }
+        ShapeDesc::Disk | ShapeDesc::Cylinder { .. } => {
+            return Err(
+                "a mesh asset must be made of triangles; a Disk or Cylinder is analytic (place                  it as an entity's shape)"
+                    .into(),
+            )
+        }
         ShapeDesc::Instance { .. } => {
             return Err("a mesh asset cannot itself be an Instance".into());
         }

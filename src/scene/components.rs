@@ -1,5 +1,6 @@
 //! ECS components of scene entities, and the resources that live beside the world.
 
+use crate::accel::Quadric;
 use glam::{Affine3A, EulerRot, Quat, Vec2, Vec3, Vec3A};
 use raylab_integrators::Rgb;
 use std::sync::Arc;
@@ -55,6 +56,14 @@ pub enum Shape {
     },
     Triangle([Vec3A; 3]),
     Quad([Vec3A; 4]),
+    /// The unit disk of the local `xy` plane, front `+z`.
+    Disk,
+    /// An open cylinder of `radius` around the segment `p0` to `p1`.
+    Cylinder {
+        p0: Vec3A,
+        p1: Vec3A,
+        radius: f32,
+    },
     Tetrahedron([Vec3A; 4]),
     Icosphere {
         subdivisions: u32,
@@ -145,6 +154,8 @@ pub enum WorldShape {
         center: Vec3A,
         radius: f32,
     },
+    /// A disk or cylinder, placed.
+    Quadric(Quadric),
 }
 
 impl WorldShape {
@@ -156,6 +167,7 @@ impl WorldShape {
                 .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
                 .sum(),
             WorldShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
+            WorldShape::Quadric(q) => q.area(),
         }
     }
 }

@@ -22,6 +22,8 @@ pub struct BuildStats {
     pub entities: usize,
     pub triangles: usize,
     pub spheres: usize,
+    /// Disks and cylinders.
+    pub quadrics: usize,
     /// Entries in the light table (a quad light is one, a mesh light one per triangle).
     pub lights: usize,
     /// Entities that emit.
@@ -108,6 +110,7 @@ impl RenderScene {
                         center: *center,
                         radius: *radius,
                     },
+                    WorldShape::Quadric(q) => Geometry::Quadric(*q),
                 },
                 material: material.0,
                 // One light for the whole entity (a sphere, a quad), or one per triangle.
@@ -159,6 +162,7 @@ impl RenderScene {
             entities: world.len() as usize,
             triangles: a.triangles,
             spheres: a.spheres,
+            quadrics: a.quadrics,
             lights: lights.len(),
             emitters: emitters.len() + usize::from(scene.environment.is_some()),
             bvh_nodes: a.bvh_nodes,
@@ -229,7 +233,7 @@ pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
         .iter()
         .flat_map(|(_, shape)| match shape {
             WorldShape::Triangles { triangles, .. } => triangles.as_slice(),
-            WorldShape::Sphere { .. } => &[],
+            WorldShape::Sphere { .. } | WorldShape::Quadric(_) => &[],
         })
         .map(|&[v0, v1, v2]| Triangle { v0, v1, v2 })
         .collect()
@@ -243,7 +247,7 @@ pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
         .iter()
         .filter_map(|(e, shape)| match shape {
             WorldShape::Sphere { center, radius } => Some((e.id(), *center, *radius)),
-            WorldShape::Triangles { .. } => None,
+            WorldShape::Triangles { .. } | WorldShape::Quadric(_) => None,
         })
         .collect();
     spheres.sort_by_key(|s| s.0);

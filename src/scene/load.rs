@@ -282,6 +282,12 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             Vec3A::new(1.0, 1.0, 0.0),
             Vec3A::new(-1.0, 1.0, 0.0),
         ]),
+        ShapeDesc::Disk => Shape::Disk,
+        ShapeDesc::Cylinder { p0, p1, radius } => Shape::Cylinder {
+            p0: v3(p0),
+            p1: v3(p1),
+            radius,
+        },
         ShapeDesc::Tetrahedron { vertices } => {
             Shape::Tetrahedron(corners("Tetrahedron", &vertices)?)
         }

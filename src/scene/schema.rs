@@ -491,6 +491,20 @@ pub enum ShapeDesc {
     /// Mitsuba's `rectangle`: the square `[-1, 1]^2` of the local `xy` plane, its front
     /// facing `+z`. Size and place it with `transform`.
     Rectangle,
+    /// Mitsuba's `disk`: the unit disk of the local `xy` plane, its front facing `+z`. Size
+    /// and place it with `transform` (a scale that differs in `x` and `y` makes an ellipse).
+    Disk,
+    /// Mitsuba's `cylinder`: an open tube (no end caps) of `radius` around the segment from
+    /// `p0` to `p1`, its front facing outwards. The transform must keep its cross-section a
+    /// circle. Defaults: `p0: (0, 0, 0)`, `p1: (0, 0, 1)`, `radius: 1`.
+    Cylinder {
+        #[serde(default)]
+        p0: V3,
+        #[serde(default = "unit_z")]
+        p1: V3,
+        #[serde(default = "one")]
+        radius: f32,
+    },
     /// Four corners; faces are oriented outwards automatically.
     Tetrahedron { vertices: Vec<V3> },
     /// Axis-aligned box in local space, faces oriented outwards.
@@ -572,4 +586,8 @@ fn default_cutoff() -> f32 {
 
 fn one() -> f32 {
     1.0
+}
+
+fn unit_z() -> V3 {
+    [0.0, 0.0, 1.0]
 }

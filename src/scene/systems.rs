@@ -11,9 +11,10 @@
 
 use super::components::{Emitter, FlipNormals, Name, Shape, Transform, WorldShape};
 use super::error::finite;
+use crate::accel::{Quadric, QuadricKind};
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
 use hecs::{Entity, World};
-use raylab_integrators::light::{DirectionalLight, EnvMapLight, SpotLight};
+use raylab_integrators::light::{CylinderLight, DirectionalLight, EnvMapLight, SpotLight};
 use raylab_integrators::Light;
 
 /// An error message with the name of the entity it is about.
@@ -55,6 +56,12 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                 if *two_sided && matches!(s, Some(Shape::Sphere { .. })) {
                     return Err(fail(
                         "a sphere is closed and emits outwards: `two_sided` has no meaning on it"
+                            .into(),
+                    ));
+                }
+                if *two_sided && matches!(s, Some(Shape::Cylinder { .. })) {
+                    return Err(fail(
+                        "a cylinder emits from its outside, or with `flip_normals` from its                          inside: `two_sided` is not supported on it"
                             .into(),
                     ));
                 }
@@ -164,6 +171,32 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
         }
         // Resolved, and its asset checked, by `assets::resolve_instances`.
         Shape::Instance { .. } => {}
+        // Placed by the transform alone (checked on its own).
+        Shape::Disk => {}
+        Shape::Cylinder { p0, p1, radius } => {
+            all("cylinder p0 and p1", &[*p0, *p1])?;
+            finite("cylinder radius", &[*radius])?;
+            if *radius <= 0.0 {
+                return Err(format!("cylinder radius must be positive, got {radius}"));
+            }
+            if (*p1 - *p0).length() == 0.0 {
+                return Err("cylinder p0 and p1 must differ".into());
+            }
+            let m = cylinder_to_world(*p0, *p1, *radius, &t.matrix()).matrix3;
+            let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
+            let (lx, ly, lz) = (x.length(), y.length(), z.length());
+            let tol = 1e-4;
+            if (lx - ly).abs() > tol * lx
+                || x.dot(y).abs() > tol * lx * ly
+                || x.dot(z).abs() > tol * lx * lz
+                || y.dot(z).abs() > tol * ly * lz
+            {
+                return Err(format!(
+                    "a cylinder must stay a circular cylinder: transform.scale {:?} stretches                      it unevenly across its axis (scale it uniformly, or along its axis only)",
+                    t.scale.to_array()
+                ));
+            }
+        }
         Shape::Triangle(v) => all("triangle vertices", v)?,
         Shape::Tetrahedron(v) => all("tetrahedron vertices", v)?,
         Shape::Quad(v) => {
@@ -299,7 +332,7 @@ fn local_uvs(shape: &Shape) -> Option<Vec<[Vec2; 3]>> {
 /// Triangles a shape will make, known before making them.
 fn triangle_count(shape: &Shape) -> u64 {
     match shape {
-        Shape::Sphere { .. } | Shape::Instance { .. } => 0,
+        Shape::Sphere { .. } | Shape::Disk | Shape::Cylinder { .. } | Shape::Instance { .. } => 0,
         Shape::Icosphere { subdivisions, .. } => 20 * 4u64.pow((*subdivisions).min(31)),
         Shape::Triangle(_) => 1,
         Shape::Quad(_) => 2,
@@ -315,7 +348,9 @@ pub const MAX_SUBDIVISIONS: u32 = 10;
 
 fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
     match shape {
-        Shape::Sphere { .. } | Shape::Instance { .. } => Vec::new(),
+        Shape::Sphere { .. } | Shape::Disk | Shape::Cylinder { .. } | Shape::Instance { .. } => {
+            Vec::new()
+        }
         Shape::Icosphere {
             subdivisions,
             displacement,
@@ -399,6 +434,17 @@ pub const MAX_COORDINATE: f32 = 1e7;
 pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
     match shape {
         WorldShape::Sphere { center, radius } => check_reach_of(far(center) + radius),
+        WorldShape::Quadric(q) => {
+            let (min, max) = q.bounds();
+            check_reach_of(far(&min).max(far(&max)))?;
+            let area = q.area();
+            if !(area > 0.0 && area.is_finite() && q.to_local.is_finite()) {
+                return Err(format!(
+                    "its transform makes it too thin to trace (area {area:e}): check                      transform.scale"
+                ));
+            }
+            Ok(())
+        }
         WorldShape::Triangles { triangles, .. } => {
             check_points_reach(triangles.iter().flatten().copied())
         }
@@ -550,6 +596,10 @@ fn flip_faces(shape: WorldShape) -> WorldShape {
             parallelogram: parallelogram.map(|[p0, e1, e2]| [p0, e2, e1]),
         },
         sphere @ WorldShape::Sphere { .. } => sphere,
+        WorldShape::Quadric(q) => WorldShape::Quadric(Quadric {
+            flipped: !q.flipped,
+            ..q
+        }),
     }
 }
 
@@ -586,9 +636,29 @@ pub fn drop_degenerate(
     )
 }
 
+/// The map from the unit cylinder (radius 1 around `z`, from `z = 0` to 1) to the cylinder of
+/// `radius` from `p0` to `p1` placed by `m`: its axis' frame is Mitsuba 3's (`Frame3f`, as
+/// [`raylab_integrators::Frame::from_normal`]), so that `u` starts where Mitsuba's does.
+pub fn cylinder_to_world(p0: Vec3A, p1: Vec3A, radius: f32, m: &Affine3A) -> Affine3A {
+    let d = p1 - p0;
+    let length = d.length();
+    let frame = raylab_integrators::Frame::from_normal(d / length);
+    let local = Affine3A::from_mat3_translation(
+        Mat3A::from_cols(frame.s * radius, frame.t * radius, frame.n * length).into(),
+        p0.into(),
+    );
+    *m * local
+}
+
 /// The world-space geometry of one shape under matrix `m`.
 pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
     match shape {
+        Shape::Disk => WorldShape::Quadric(Quadric::new(QuadricKind::Disk, *m, false)),
+        Shape::Cylinder { p0, p1, radius } => WorldShape::Quadric(Quadric::new(
+            QuadricKind::Cylinder,
+            cylinder_to_world(*p0, *p1, *radius, m),
+            false,
+        )),
         Shape::Sphere { center, radius } => WorldShape::Sphere {
             center: m.transform_point3a(*center),
             radius: radius * m.matrix3.x_axis.length(),
@@ -665,6 +735,13 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     irradiance,
                 })],
                 (Emitter::Environment(map), _) => vec![Light::EnvMap(EnvMapLight { map })],
+                (
+                    Emitter::Area {
+                        radiance,
+                        two_sided,
+                    },
+                    Some(WorldShape::Quadric(q)),
+                ) => vec![quadric_light(q, radiance, two_sided)],
                 (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
                     if flip.is_some() {
                         vec![Light::sphere_inward(*center, *radius, radiance)]
@@ -700,6 +777,33 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
         .collect();
     out.sort_by_key(|(e, _)| e.id());
     out
+}
+
+/// The light of an emitting disk (one-sided unless `two_sided`) or cylinder (never
+/// two-sided), facing where the quadric's normals face.
+fn quadric_light(q: &Quadric, radiance: raylab_integrators::Rgb, two_sided: bool) -> Light {
+    let m = &q.to_world.matrix3;
+    let center = q.to_world.translation;
+    match q.kind {
+        QuadricKind::Disk => {
+            // Its front is e1 x e2: swapping the axes turns it around.
+            let (e1, e2) = if q.flipped {
+                (m.y_axis, m.x_axis)
+            } else {
+                (m.x_axis, m.y_axis)
+            };
+            Light::disk(center, e1, e2, radiance, two_sided)
+        }
+        QuadricKind::Cylinder => Light::Cylinder(CylinderLight {
+            base: center,
+            axis: m.z_axis,
+            u: m.x_axis.normalize(),
+            v: m.y_axis.normalize(),
+            radius: m.x_axis.length(),
+            radiance,
+            inward: q.flipped,
+        }),
+    }
 }
 
 /// The spot light of a `Spot` emitter at `transform`: at its translation, pointing at its

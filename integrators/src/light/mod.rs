@@ -11,9 +11,11 @@
 //! scene for the environment) and per unit solid angle of the emitted direction.
 //!
 //! Sampling strategies:
-//! * Triangle and parallelogram ([`planar`]): uniform in area, converted to solid angle with
-//!   `pdf = dist^2 / (|cos_l| area)`. One-sided emitters (the default) emit only on the side
-//!   their normal `n = normalize(e1 x e2)` points to; from behind they yield no sample.
+//! * Triangle, parallelogram and disk ([`planar`]): uniform in area, converted to solid angle
+//!   with `pdf = dist^2 / (|cos_l| area)`. One-sided emitters (the default) emit only on the
+//!   side their normal `n = normalize(e1 x e2)` points to; from behind they yield no sample.
+//! * Cylinder ([`cylinder`]): uniform in area too (as Mitsuba 3 and pbrt-v4 sample it),
+//!   emitting outwards or, with its normals flipped, inwards.
 //! * Sphere ([`sphere`]), reference point outside: uniform in the cone of directions the sphere
 //!   subtends (pbrt-v4's `Sphere::Sample`), computed with cancellation-free formulas so that
 //!   distant, tiny spheres keep an accurate density. Inside (or on) the sphere: uniform in
@@ -26,6 +28,7 @@
 //! uniform direction, and the environment from a uniform point of the disk of the scene's
 //! radius facing a uniform direction, outside the scene's bounding sphere.
 
+pub mod cylinder;
 pub mod directional;
 pub mod env_map;
 pub mod environment;
@@ -35,6 +38,7 @@ pub mod sphere;
 pub mod spot;
 pub mod table;
 
+pub use cylinder::CylinderLight;
 pub use directional::DirectionalLight;
 pub use env_map::{EnvMap, EnvMapLight};
 pub use environment::EnvironmentLight;
@@ -51,8 +55,10 @@ use glam::{Vec2, Vec3A};
 /// a quad is one parallelogram so that stratified samples cover it as a whole).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {
-    /// A triangle or parallelogram.
+    /// A triangle, parallelogram or disk.
     Planar(Planar),
+    /// An open cylinder emitting from its outside or (normals flipped) its inside.
+    Cylinder(CylinderLight),
     /// A sphere emitting outwards from its whole surface.
     Sphere(SphereLight),
     /// An isotropic point light.
@@ -161,6 +167,7 @@ macro_rules! dispatch {
     ($self:expr, $l:ident => $e:expr) => {
         match $self {
             Light::Planar($l) => $e,
+            Light::Cylinder($l) => $e,
             Light::Sphere($l) => $e,
             Light::Point($l) => $e,
             Light::Environment($l) => $e,
@@ -191,6 +198,19 @@ impl Light {
         Light::Planar(Planar::new(
             PlanarShape::Parallelogram,
             p0,
+            e1,
+            e2,
+            radiance,
+            two_sided,
+        ))
+    }
+
+    /// A disk (an ellipse if `e1` and `e2` differ) centred on `center` with placed axes `e1`,
+    /// `e2`; it emits on the side of `e1 x e2` unless `two_sided`.
+    pub fn disk(center: Vec3A, e1: Vec3A, e2: Vec3A, radiance: Rgb, two_sided: bool) -> Light {
+        Light::Planar(Planar::new(
+            PlanarShape::Disk,
+            center,
             e1,
             e2,
             radiance,
@@ -240,10 +260,14 @@ impl Light {
     }
 
     /// True when points of the light's own surface may receive its light (a concave
-    /// emitter: a sphere emitting inwards). Flat and convex emitters cannot light themselves,
-    /// and shading points on them skip their own light exactly.
+    /// emitter: a sphere or cylinder emitting inwards). Flat and convex emitters cannot light
+    /// themselves, and shading points on them skip their own light exactly.
     pub fn lights_itself(&self) -> bool {
-        matches!(self, Light::Sphere(s) if s.lights_itself())
+        match self {
+            Light::Sphere(s) => s.lights_itself(),
+            Light::Cylinder(c) => c.inward,
+            _ => false,
+        }
     }
 
     /// True for the lights at infinity that escaping rays see (constant or mapped).
@@ -293,6 +317,7 @@ impl Light {
     ) -> Option<LeSample> {
         let s = match self {
             Light::Planar(l) => l.sample_le(u_pos, u_dir, u_side),
+            Light::Cylinder(l) => l.sample_le(u_pos, u_dir),
             Light::Sphere(l) => l.sample_le(u_pos, u_dir),
             Light::Point(l) => l.sample_le(u_dir),
             Light::Environment(l) => l.sample_le(u_pos, u_dir, scene_center, scene_radius),
@@ -311,6 +336,7 @@ impl Light {
     pub fn pdf_le(&self, n: Vec3A, w: Vec3A, scene_radius: f32) -> (f32, f32) {
         match self {
             Light::Planar(l) => l.pdf_le(w),
+            Light::Cylinder(l) => l.pdf_le(n, w),
             Light::Sphere(l) => l.pdf_le(n, w),
             Light::Point(l) => l.pdf_le(),
             Light::Environment(l) => l.pdf_le(scene_radius),
@@ -329,6 +355,7 @@ impl Light {
             Light::Directional(l) => l.power(scene_radius),
             Light::Spot(l) => l.power(),
             Light::Planar(l) => l.power(),
+            Light::Cylinder(l) => l.power(),
             Light::Sphere(l) => l.power(),
             Light::Point(l) => l.power(),
         };

@@ -1,7 +1,7 @@
-//! Triangle and parallelogram emitters: uniform area sampling, one-sided by default.
+//! Triangle, parallelogram and disk emitters: uniform area sampling, one-sided by default.
 
 use super::{leave, lum, LeSample, LightSample, MIN_COS};
-use crate::sampling::uniform_triangle;
+use crate::sampling::{concentric_disk, uniform_triangle};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
@@ -13,6 +13,10 @@ pub enum PlanarShape {
     Triangle,
     /// `p0 + s e1 + t e2`, `s, t` in `[0, 1]`.
     Parallelogram,
+    /// `p0 + s e1 + t e2`, `s^2 + t^2 <= 1`: a disk (an ellipse when `e1` and `e2` differ in
+    /// length), Mitsuba 3's `disk` with `p0` its centre and `e1`, `e2` its placed `x` and `y`
+    /// axes.
+    Disk,
 }
 
 /// A planar emitter. `n = normalize(e1 x e2)` is the emitting side unless `two_sided`. Build it
@@ -29,7 +33,8 @@ pub struct Planar {
     pub e2: Vec3A,
     /// Unit normal `normalize(e1 x e2)`: the emitting side of a one-sided light.
     pub n: Vec3A,
-    /// Area: `|e1 x e2| / 2` for a triangle, `|e1 x e2|` for a parallelogram.
+    /// Area: `|e1 x e2| / 2` for a triangle, `|e1 x e2|` for a parallelogram, `pi |e1 x e2|`
+    /// for a disk.
     pub area: f32,
     /// Emitted radiance, W·sr⁻¹·m⁻² per channel.
     pub radiance: Rgb,
@@ -70,6 +75,7 @@ impl Planar {
         let area = match shape {
             PlanarShape::Triangle => 0.5 * c.length(),
             PlanarShape::Parallelogram => c.length(),
+            PlanarShape::Disk => PI * c.length(),
         };
         Planar {
             shape,
@@ -92,6 +98,11 @@ impl Planar {
                 self.p0 + self.e1 * b.x + self.e2 * b.y
             }
             PlanarShape::Parallelogram => self.p0 + self.e1 * u.x + self.e2 * u.y,
+            // Uniform on the unit disk (Shirley-Chiu), and an affine map keeps uniformity.
+            PlanarShape::Disk => {
+                let d = concentric_disk(u);
+                self.p0 + self.e1 * d.x + self.e2 * d.y
+            }
         }
     }
 
