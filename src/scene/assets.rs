@@ -116,7 +116,8 @@ fn load_asset(
         }
         ShapeDesc::Disk | ShapeDesc::Cylinder { .. } => {
             return Err(
-                "a mesh asset must be made of triangles; a Disk or Cylinder is analytic (place                  it as an entity's shape)"
+                "a mesh asset must be made of triangles; a Disk or Cylinder is analytic (place \
+                     it as an entity's shape)"
                     .into(),
             )
         }

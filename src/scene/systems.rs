@@ -61,7 +61,8 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                 }
                 if *two_sided && matches!(s, Some(Shape::Cylinder { .. })) {
                     return Err(fail(
-                        "a cylinder emits from its outside, or with `flip_normals` from its                          inside: `two_sided` is not supported on it"
+                        "a cylinder emits from its outside, or with `flip_normals` from its \
+                     inside: `two_sided` is not supported on it"
                             .into(),
                     ));
                 }
@@ -192,7 +193,8 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
                 || y.dot(z).abs() > tol * ly * lz
             {
                 return Err(format!(
-                    "a cylinder must stay a circular cylinder: transform.scale {:?} stretches                      it unevenly across its axis (scale it uniformly, or along its axis only)",
+                    "a cylinder must stay a circular cylinder: transform.scale {:?} stretches \
+                     it unevenly across its axis (scale it uniformly, or along its axis only)",
                     t.scale.to_array()
                 ));
             }
@@ -440,7 +442,8 @@ pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
             let area = q.area();
             if !(area > 0.0 && area.is_finite() && q.to_local.is_finite()) {
                 return Err(format!(
-                    "its transform makes it too thin to trace (area {area:e}): check                      transform.scale"
+                    "its transform makes it too thin to trace (area {area:e}): check \
+                     transform.scale"
                 ));
             }
             Ok(())

@@ -147,3 +147,51 @@ fn inside_a_sphere_with_flipped_normals_the_furnace_holds() {
         );
     }
 }
+
+#[test]
+fn a_floor_under_a_disk_light_has_radiance_a_l_r2_over_h2_plus_r2() {
+    // A disk of radius 0.5 emitting 4 downwards from 2 m above the floor's centre: the
+    // irradiance there is pi L r^2 / (h^2 + r^2). Once facing down by its rotation, once
+    // facing up and turned around by flip_normals: the same light.
+    let expected = 0.5 / PI * PI * 4.0 * 0.25 / (4.0 + 0.25);
+    for (what, rotate, flip) in [
+        ("disk", "(90, 0, 0)", false),
+        ("flipped disk", "(-90, 0, 0)", true),
+    ] {
+        let scene = format!(
+            r#"({CAMERA}
+                materials: {{"grey": Lambert(albedo: (0.5, 0.5, 0.5))}},
+                entities: [{FLOOR}
+                    (name: "lamp", shape: Disk, transform: (translate: (0, 2, 0), scale: (0.5, 0.5, 1), rotate: {rotate}),
+                     flip_normals: {flip}, emitter: Area(radiance: (4, 4, 4))),
+                ])"#
+        );
+        check_all(what, &scene, &[], expected, 16);
+    }
+}
+
+#[test]
+fn inside_a_cylinder_with_flipped_normals_under_a_matching_sky_the_furnace_holds() {
+    // An open tube (albedo 0.5) emitting 1 into its inside, under a sky of 2 = 1 / (1 - 0.5):
+    // radiance 2 everywhere, seen on the walls and through the ends. The walls light
+    // themselves (next-event estimation from inside) and the sky through the ends. The report's
+    // whitted and fixed-depth tracers truncate the series, so their answers depend on the view.
+    let scene = r#"(camera: LookAt(eye: (0.1, -0.2, 0.3), look_at: (0.6, 0.4, 2), up: (0, 0, 1), fov: 70, resolution: (8, 8)),
+        environment: (2, 2, 2),
+        materials: {"white": Lambert(albedo: (0.5, 0.5, 0.5))},
+        entities: [
+            (name: "tube", shape: Cylinder(p0: (0, 0, -1.5), p1: (0, 0, 1.5), radius: 1), material: "white",
+             flip_normals: true, emitter: Area(radiance: (1, 1, 1))),
+        ])"#;
+    for name in transport_integrators() {
+        if matches!(name, "whitted" | "fixed-depth") {
+            continue;
+        }
+        let (mean, se) = mean_green(scene, &[], name, 32);
+        println!("tube furnace, {name}: {mean:.5} +- {se:.5} (expected 2)");
+        assert!(
+            (mean - 2.0).abs() <= tolerance(name, 2.0, se),
+            "tube furnace, {name}: {mean} +- {se}, expected 2"
+        );
+    }
+}

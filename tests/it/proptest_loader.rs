@@ -21,7 +21,8 @@ fn load_build_render(text: &str) -> bool {
     };
     let built = RenderScene::build(&loaded);
     assert!(
-        built.stats.triangles + built.stats.spheres + built.stats.instances > 0,
+        built.stats.triangles + built.stats.spheres + built.stats.quadrics + built.stats.instances
+            > 0,
         "a loaded scene has geometry"
     );
     let camera = loaded.camera.with_resolution(4, 4);
@@ -179,6 +180,14 @@ fn shape(h: u32) -> impl Strategy<Value = String> {
     prop_oneof![
         (v3(h), num(h)).prop_map(|(c, r)| format!("Sphere(center: {c}, radius: {r})")),
         (int3(), 1i32..3).prop_map(|(c, r)| format!("Sphere(center: {}, radius: {r})", p(c))),
+        Just("Disk".to_string()),
+        (v3(h), v3(h), num(h))
+            .prop_map(|(a, b, r)| format!("Cylinder(p0: {a}, p1: {b}, radius: {r})")),
+        (int3(), int3(), 1i32..3).prop_map(|(a, b, r)| format!(
+            "Cylinder(p0: {}, p1: {}, radius: {r})",
+            p(a),
+            p(b)
+        )),
         prop::collection::vec(v3(h), 3..=3)
             .prop_map(|v| format!("Triangle(vertices: [{}])", v.join(", "))),
         (int3(), int3(), int3()).prop_map(|(a, b, c)| format!(
