@@ -63,6 +63,16 @@ copper. The images are copied next to the RON files; Mitsuba reads them by absol
 The normal-map row differs: Mitsuba's normalmap loses energy that the closed form keeps
 (README, Materials).
 
+Four more rows (SHAPES) check the disk and the cylinder. "disk light: diffuse" replaces the
+area light by a disk of radius 1 in its place, facing the ball; "cylinder light: diffuse" by
+an emitting tube of radius 0.15 along x above and behind the ball; both keep the constant
+environment. "disk: diffuse checkerboard" and "cylinder: diffuse checkerboard" replace the
+ball by a unit disk facing the camera and by a tube of radius 0.7 along x (its ends face
+sideways, so the camera never looks into it) with the checkerboard, which shows the
+parametrisations (Mitsuba's disk: u the radius, v the angle; its cylinder: u the angle, v
+along the axis). Mitsuba gets them as `disk` (to_world from the light's frame) and `cylinder`
+(p0, p1, radius), the textured ones inside `twosided`, as raylab's opaque materials are.
+
 The spot and directional scenes have no environment: their background is exactly 0 in both
 renderers, which the 1e-2 in relMSE's denominator keeps well-conditioned (those pixels add 0
 to every relMSE). With 1024 spp these rows resolve a half-column turn of the map (1.4 degrees
@@ -163,6 +173,19 @@ TEXTURED = {
         "bsdf": ("plastic", {"diffuse_reflectance": BLUE})}),
 }
 MATERIALS.update(TEXTURED)
+# Rows for the disk and the cylinder: (ball material, lighting, shape of the "ball"). As lights
+# they replace the area light (the constant environment stays); as shapes they replace the
+# ball, with a checkerboard that shows their parametrisations, under the default lighting.
+DISK_LIGHT = {"radius": 1.0}  # at the area light's centre, facing the ball like it
+TUBE_LIGHT = {"p0": (-2.0, 2.5, -1.0), "p1": (2.0, 2.5, -1.0), "radius": 0.15}
+TUBE = {"p0": (-1.2, -0.3, 0.0), "p1": (1.2, -0.3, 0.0), "radius": 0.7}  # along x: its ends
+# face sideways, so the camera never looks into it
+SHAPES = {
+    "disk light: diffuse": ("diffuse", "disk", "sphere"),
+    "cylinder light: diffuse": ("diffuse", "cylinder", "sphere"),
+    "disk: diffuse checkerboard": ("diffuse checkerboard", "default", "disk"),
+    "cylinder: diffuse checkerboard": ("diffuse checkerboard", "default", "cylinder"),
+}
 TEXTURE_FILES = ["tiles.png", "roughness.png", "bumps_normal.png", "bumps.png"]
 RAYLAB_NAMES = {
     "normalmap": ("NormalMap", {"normalmap": "texture", "bsdf": "material"}),
@@ -188,13 +211,27 @@ def v3(a):
 
 def light_corners():
     """The light's four corners, counter-clockwise seen from the ball (its front faces it)."""
-    L = SCENE["light"]
-    c, h = v3(L["center"]), L["half_size"]
-    n = -c / np.linalg.norm(c)  # towards the origin
+    c, u, v, _ = light_frame()  # u x v = n
+    h = SCENE["light"]["half_size"]
+    return [tuple(c + h * (su * u + sv * v)) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+
+
+def light_frame():
+    """The area light's frame: its centre and unit axes u, v, n (n towards the ball)."""
+    c = v3(SCENE["light"]["center"])
+    n = -c / np.linalg.norm(c)
     u = np.cross((0.0, 1.0, 0.0), n)
     u /= np.linalg.norm(u)
-    v = np.cross(n, u)  # u x v = n
-    return [tuple(c + h * (su * u + sv * v)) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    return c, u, np.cross(n, u), n
+
+
+def euler_xyz_degrees(m):
+    """Angles (degrees) about x, then y, then z (fixed axes: R = Rz Ry Rx), raylab's
+    `rotate`, of the rotation matrix m."""
+    beta = math.asin(-m[2, 0])
+    alpha = math.atan2(m[2, 1], m[2, 2])
+    gamma = math.atan2(m[1, 0], m[0, 0])
+    return tuple(math.degrees(a) for a in (alpha, beta, gamma))
 
 
 def quad_to_world(corners):
@@ -335,6 +372,17 @@ def ron_lights(lighting, sky=None):
                 f'(name: "light", shape: {quad}, emitter: Area(radiance: {ron_value(L["radiance"])})),')
     if lighting == "envmap":  # the map's file next to the RON file: no --allow-path needed
         return "", f'(name: "sky", emitter: Environment(path: "{sky}", scale: 1.0)),'
+    if lighting in ("disk", "cylinder"):
+        L, env = SCENE["light"], f"    environment: {ron_value(SCENE['environment'])},\n"
+        if lighting == "disk":
+            c, u, v, n = light_frame()
+            r = DISK_LIGHT["radius"]
+            place = (f"transform: (translate: {ron_value(tuple(c))}, rotate: "
+                     f"{ron_value(euler_xyz_degrees(np.column_stack([u, v, n])))}, scale: {ron_value((r, r, 1.0))})")
+            return env, f'(name: "light", shape: Disk, {place}, emitter: Area(radiance: {ron_value(L["radiance"])})),'
+        T = TUBE_LIGHT
+        tube = f"Cylinder(p0: {ron_value(T['p0'])}, p1: {ron_value(T['p1'])}, radius: {ron_value(T['radius'])})"
+        return env, f'(name: "light", shape: {tube}, emitter: Area(radiance: {ron_value(L["radiance"])})),'
     if lighting == "spot":
         S, i = SPOT, float(SPOT["intensity"])
         return "", (f'(name: "spot", transform: (translate: {ron_value(S["position"])}), emitter: Spot(intensity:'
@@ -347,11 +395,15 @@ def ron_lights(lighting, sky=None):
     raise ValueError(lighting)
 
 
-def ron_scene(material, res, ball_obj=None, lighting="default", sky=None):
+def ron_scene(material, res, ball_obj=None, lighting="default", sky=None, shape="sphere"):
     cam, fl = SCENE["camera"], SCENE["floor"]
     quad = lambda cs: "Quad(vertices: [" + ", ".join(ron_value(p) for p in cs) + "])"
     ball = (f'Obj(path: "{ball_obj}")' if ball_obj else
             f"Sphere(center: {ron_value(SCENE['ball']['center'])}, radius: {ron_value(SCENE['ball']['radius'])})")
+    if shape == "disk":  # the unit disk at the origin, facing +z (the camera)
+        ball = "Disk"
+    elif shape == "cylinder":
+        ball = f"Cylinder(p0: {ron_value(TUBE['p0'])}, p1: {ron_value(TUBE['p1'])}, radius: {ron_value(TUBE['radius'])})"
     environment, light = ron_lights(lighting, sky)
     return f"""// Written by benches/mitsuba_materials.py: the ball in {to_raylab(*material)}, lighting {lighting}.
 (
@@ -415,6 +467,21 @@ def mitsuba_lights(lighting, sky=None):
                           "bsdf": black, "emitter": {"type": "area", "radiance": mi_value(L["radiance"])}}}
     if lighting == "envmap":  # identity to_world: raylab's map frame is the world's
         return {"sky": {"type": "envmap", "filename": str(sky), "scale": 1.0}}
+    if lighting in ("disk", "cylinder"):
+        L = SCENE["light"]
+        black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0, 0, 0]}}
+        emitter = {"type": "area", "radiance": mi_value(L["radiance"])}
+        env = {"type": "constant", "radiance": mi_value(SCENE["environment"])}
+        if lighting == "disk":
+            c, u, v, n = light_frame()
+            r = DISK_LIGHT["radius"]
+            m = np.eye(4)
+            m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u * r, v * r, n, c
+            light = {"type": "disk", "to_world": mi.ScalarTransform4f(m.tolist())}
+        else:
+            T = TUBE_LIGHT
+            light = {"type": "cylinder", "p0": list(T["p0"]), "p1": list(T["p1"]), "radius": T["radius"]}
+        return {"env": env, "light": {**light, "bsdf": black, "emitter": emitter}}
     if lighting == "spot":  # local +z along the axis; look_at turns +z towards the target
         S = SPOT
         up = [0.0, 0.0, 1.0]  # any up not along the axis: the beam is round
@@ -428,7 +495,7 @@ def mitsuba_lights(lighting, sky=None):
     raise ValueError(lighting)
 
 
-def mitsuba_scene(material, res, spp, ball_obj=None, lighting="default", sky=None):
+def mitsuba_scene(material, res, spp, ball_obj=None, lighting="default", sky=None, shape="sphere"):
     import mitsuba as mi
 
     cam, fl = SCENE["camera"], SCENE["floor"]
@@ -436,6 +503,11 @@ def mitsuba_scene(material, res, spp, ball_obj=None, lighting="default", sky=Non
     bsdf = mi_value((plugin, params))
     if ball_obj:
         ball = {"type": "obj", "filename": str(ball_obj), "face_normals": True, "bsdf": bsdf}
+    elif shape == "disk":  # raylab's opaque materials are two-sided, as Mitsuba's twosided
+        ball = {"type": "disk", "bsdf": {"type": "twosided", "bsdf": bsdf}}
+    elif shape == "cylinder":
+        ball = {"type": "cylinder", "p0": list(TUBE["p0"]), "p1": list(TUBE["p1"]), "radius": TUBE["radius"],
+                "bsdf": {"type": "twosided", "bsdf": bsdf}}
     else:
         ball = {"type": "sphere", "center": list(SCENE["ball"]["center"]),
                 "radius": SCENE["ball"]["radius"], "bsdf": bsdf}
@@ -552,7 +624,8 @@ def main():
     out.mkdir(parents=True, exist_ok=True)
     # A name given whole selects itself only ("plastic"); a part of names, every name containing it.
     # Every row: name -> (material, lighting); the materials' rows, then the lights'.
-    all_rows = {**{n: (n, "default") for n in MATERIALS}, **LIGHTS}
+    all_rows = {**{n: (n, "default", "sphere") for n in MATERIALS},
+                **{n: (m, lighting, "sphere") for n, (m, lighting) in LIGHTS.items()}, **SHAPES}
     wanted = [w.strip() for w in args.only.split(",")] if args.only else []
     names = [n for n in all_rows if not wanted or any(w == n or (w not in all_rows and w in n) for w in wanted)]
     if not names:
@@ -572,17 +645,17 @@ def main():
     start = time.time()
     rows, details, times = [], [], {"raylab": 0.0, "mitsuba": 0.0}
     for name in names:
-        material_name, lighting = all_rows[name]
+        material_name, lighting, shape = all_rows[name]
         material = MATERIALS[material_name]
         slug = name.replace(" ", "-").replace("(", "").replace(")", "").replace(".", "").replace(":", "")
         mesh = obj.name if FLAT_MESH in name else None
         scene_path = out / f"{slug}.ron"
-        scene_path.write_text(ron_scene(material, res, mesh, lighting, sky.name))
+        scene_path.write_text(ron_scene(material, res, mesh, lighting, sky.name, shape))
         t = time.time()
         r = [raylab_render(exe, scene_path, out / f"{slug}-raylab-{s}.exr", args.spp, s) for s in seeds]
         times["raylab"] += time.time() - t
         t = time.time()
-        scene = mitsuba_scene(material, res, args.spp, obj_uv if mesh else None, lighting, sky)
+        scene = mitsuba_scene(material, res, args.spp, obj_uv if mesh else None, lighting, sky, shape)
         m = []
         for s in seeds:
             img = mi.render(scene, spp=args.spp, seed=s)

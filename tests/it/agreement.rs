@@ -98,6 +98,13 @@ fn every_material_path_russian_roulette_and_fixed_depth_agree() {
     agreement("scenes/materials.ron", "4");
 }
 
+/// Mitsuba's analytic shapes with textures, lit by a disk and a tube (an emitting cylinder):
+/// their intersections, parametrisations and light sampling.
+#[test]
+fn analytic_shapes_path_russian_roulette_and_fixed_depth_agree() {
+    agreement("scenes/shapes.ron", "4");
+}
+
 #[test]
 fn unlimited_depth_path_and_russian_roulette_agree() {
     let path = render_mean(
