@@ -156,7 +156,8 @@ impl Quadric {
 
     /// Nearest distance in `[ray.tmin, ray.tmax]` at which `ray` meets the surface, or
     /// infinity.
-    #[inline]
+    // Out of line: inlined into the packet test, it slowed traversal of scenes without any.
+    #[inline(never)]
     pub fn intersect(&self, ray: &Ray) -> f32 {
         let o = self.to_local.transform_point3a(ray.origin);
         let d = self.to_local.transform_vector3a(ray.direction);
@@ -203,7 +204,7 @@ impl Quadric {
     /// the radius and around it; on a cylinder `uv = (phi / 2 pi, z)`, `dpdu` around the axis
     /// (length `2 pi r`) and `dpdv` along it. The point is put back onto the surface (the
     /// ray's point carries the rounding of `t`).
-    #[inline]
+    #[inline(never)]
     pub fn hit(&self, origin: Vec3A, dir: Vec3A, t: f32, material: u32, light: Option<u32>) -> Hit {
         let m = &self.to_world.matrix3;
         let local = self.to_local.transform_point3a(origin + dir * t);
