@@ -269,6 +269,7 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
         ShapeDesc::Obj { path } => {
             mesh_files::load_obj(&files.named(&path)?, false, files)?.into_shape()
         }
+        ShapeDesc::Ply { path } => super::ply::load_ply(&files.named(&path)?)?.into_shape(),
         ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),

@@ -102,7 +102,7 @@ impl FileMesh {
 /// Runs a third-party parser on a user file. A panic in it becomes an error; the default
 /// hook, which would print "panicked" as if raylab had crashed, is silenced meanwhile (the
 /// lock keeps two loads from swapping hooks at once).
-fn guarded<T>(
+pub(super) fn guarded<T>(
     kind: &str,
     file: &Path,
     parse: impl FnOnce() -> T + UnwindSafe,
@@ -135,7 +135,7 @@ fn parent_of(file: &Path) -> &Path {
 }
 
 /// Every position, normal and texture coordinate finite, at least one triangle.
-fn check_mesh(kind: &str, file: &Path, mesh: &FileMesh) -> Result<(), String> {
+pub(super) fn check_mesh(kind: &str, file: &Path, mesh: &FileMesh) -> Result<(), String> {
     if let Some((i, p)) = mesh
         .positions
         .iter()

@@ -11,6 +11,7 @@ pub mod images;
 pub mod load;
 pub mod materials;
 pub mod mesh_files;
+pub mod ply;
 pub mod procedural;
 pub mod references;
 pub mod schema;

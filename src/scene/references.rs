@@ -69,6 +69,7 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
                 }
                 add(gltf);
             }
+            ShapeDesc::Ply { path } => add(dir.join(path)),
             _ => {}
         }
     }

@@ -525,6 +525,10 @@ pub enum ShapeDesc {
     /// every mesh in its default scene, placed by the node transforms, with their normals when
     /// present. Its materials are not used.
     Gltf { path: String },
+    /// A Stanford PLY file (ASCII or binary), `path` relative to the scene file: its faces
+    /// (polygons split into triangles), with vertex normals and texture coordinates when
+    /// present.
+    Ply { path: String },
     /// A mesh asset of the scene's `meshes` table, placed by the entity's transform. Every
     /// instance shares one copy of the mesh and its BVH. Instances cannot emit light.
     Instance { mesh: String },

@@ -256,3 +256,50 @@ fn normal_maps_tilt_towards_u_on_shapes_and_instances_through_both_accelerators(
         }
     }
 }
+
+/// A textured square from a PLY file and from an OBJ file: Mitsuba 3 reads PLY's `v` as it is
+/// and OBJ's `v` flipped, so the PLY's `v` must be the OBJ's `1 - v` for the two to match,
+/// and then the images are the same to the bit (the same triangles in the same order).
+#[test]
+fn ply_texture_coordinates_are_read_unflipped_as_mitsuba_reads_them() {
+    let obj = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0.2\nvt 0.7 0.1\nvt 1 1\nvt 0.1 0.9\nf 1/1 2/2 3/3 4/4\n";
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+               property float u\nproperty float v\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+               -1 -1 0 0 0.8\n1 -1 0 0.7 0.9\n1 1 0 1 0\n-1 1 0 0.1 0.1\n4 0 1 2 3\n";
+    let scene = |shape: &str| {
+        format!(
+            r#"(camera: LookAt(eye: (0, 0, 4), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (24, 24)),
+            environment: (1, 1, 1),
+            materials: {{"c": Lambert(albedo: Checkerboard(color0: (0.9, 0.5, 0.1), color1: (0.1, 0.2, 0.6), uv_scale: (5, 5)))}},
+            entities: [(name: "square", shape: {shape}, material: "c")])"#
+        )
+    };
+    let files = [
+        ("sq.obj", obj.as_bytes().to_vec()),
+        ("sq.ply", ply.as_bytes().to_vec()),
+    ];
+    let render =
+        |shape: &str| render_text(&scene(shape), &files, "albedo", 4, 1, AccelKind::Raylab);
+    let (a, b) = (
+        render(r#"Obj(path: "sq.obj")"#),
+        render(r#"Ply(path: "sq.ply")"#),
+    );
+    assert_eq!(
+        a.mean().to_array().map(f32::to_bits),
+        b.mean().to_array().map(f32::to_bits)
+    );
+    // With the PLY's v flipped like the OBJ's, the image changes.
+    let flipped = ply
+        .replace("0 0.8\n", "0 0.2\n")
+        .replace("0.7 0.9\n", "0.7 0.1\n");
+    let files = [("sq.ply", flipped.into_bytes())];
+    let c = render_text(
+        &scene(r#"Ply(path: "sq.ply")"#),
+        &files,
+        "albedo",
+        4,
+        1,
+        AccelKind::Raylab,
+    );
+    assert_ne!(a.mean(), c.mean());
+}

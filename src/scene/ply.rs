@@ -1,0 +1,387 @@
+//! Stanford PLY meshes (ASCII, binary little- and big-endian) through `ply-rs-bw`: vertex
+//! positions, normals (`nx ny nz`) and texture coordinates (`u v`, `s t`, `texture_u
+//! texture_v` or `texture_s texture_t`) in any property order and of any numeric type, faces
+//! as `vertex_indices` or `vertex_index` lists, polygons split into triangle fans. Other
+//! elements and properties are read past and ignored, as Mitsuba 3 does.
+//!
+//! The file is third-party input to a third-party parser: its header's counts are checked
+//! against the memory raylab may use before any payload is read, a panic in the parser is an
+//! error naming the file, and indices and values are checked once read.
+
+use super::mesh_files::{check_mesh, guarded, FileMesh};
+use glam::{Vec2, Vec3A};
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
+use std::path::Path;
+
+/// A property's value as a number, if it is a scalar.
+fn scalar(p: &Property) -> Option<f64> {
+    Some(match *p {
+        Property::Char(v) => v as f64,
+        Property::UChar(v) => v as f64,
+        Property::Short(v) => v as f64,
+        Property::UShort(v) => v as f64,
+        Property::Int(v) => v as f64,
+        Property::UInt(v) => v as f64,
+        Property::Float(v) => v as f64,
+        Property::Double(v) => v,
+        _ => return None,
+    })
+}
+
+/// A list property's values as indices (negative ones become `i64` below zero).
+fn list(p: Property) -> Option<Vec<i64>> {
+    fn all<T: Into<i64>>(v: Vec<T>) -> Vec<i64> {
+        v.into_iter().map(Into::into).collect()
+    }
+    Some(match p {
+        Property::ListChar(v) => all(v),
+        Property::ListUChar(v) => all(v),
+        Property::ListShort(v) => all(v),
+        Property::ListUShort(v) => all(v),
+        Property::ListInt(v) => all(v),
+        Property::ListUInt(v) => all(v),
+        _ => return None,
+    })
+}
+
+/// One vertex: position, normal, texture coordinates (NaN where the file gives none).
+struct Vertex([f32; 8]);
+
+impl PropertyAccess for Vertex {
+    fn new() -> Self {
+        Vertex([f32::NAN; 8])
+    }
+    fn set_property(&mut self, key: &str, property: Property) -> PropertyAccessResult {
+        let slot = match key {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            "nx" => 3,
+            "ny" => 4,
+            "nz" => 5,
+            "u" | "s" | "texture_u" | "texture_s" => 6,
+            "v" | "t" | "texture_v" | "texture_t" => 7,
+            _ => return PropertyAccessResult::Ignored,
+        };
+        match scalar(&property) {
+            Some(v) => {
+                self.0[slot] = v as f32;
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::Ignored,
+        }
+    }
+}
+
+/// One face: its vertex indices (empty if the file gives none).
+struct Face(Vec<i64>);
+
+impl PropertyAccess for Face {
+    fn new() -> Self {
+        Face(Vec::new())
+    }
+    fn set_property(&mut self, key: &str, property: Property) -> PropertyAccessResult {
+        if !matches!(key, "vertex_indices" | "vertex_index") {
+            return PropertyAccessResult::Ignored;
+        }
+        match list(property) {
+            Some(indices) => {
+                self.0 = indices;
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::Ignored,
+        }
+    }
+}
+
+/// An element raylab does not use, read past.
+struct Skipped;
+
+impl PropertyAccess for Skipped {
+    fn new() -> Self {
+        Skipped
+    }
+}
+
+/// The parser's message: its first line (the rest repeats the file's bytes, which may hold
+/// anything), with control characters escaped.
+fn first_line(e: &dyn std::fmt::Display) -> String {
+    let text = e.to_string();
+    let line = text.lines().next().unwrap_or("").trim_end();
+    line.chars()
+        .map(|c| if c.is_control() { '?' } else { c })
+        .collect()
+}
+
+/// Loads a PLY file as one mesh in the file's space.
+pub fn load_ply(file: &Path) -> Result<FileMesh, String> {
+    let bytes = crate::files::read_capped(file, crate::files::MAX_BINARY)
+        .map_err(|e| format!("cannot load PLY file `{}`: {e}", file.display()))?;
+    parse_ply(file, &bytes)
+}
+
+/// Reads a PLY file's `bytes` (`file` names it in messages).
+pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
+    let cannot =
+        |e: &dyn std::fmt::Display| format!("cannot load PLY file `{}`: {e}", file.display());
+    let mut reader = Reader::new(std::io::Cursor::new(bytes));
+    let vertex_parser = Parser::<Vertex>::new();
+    let header = guarded(
+        "PLY",
+        file,
+        std::panic::AssertUnwindSafe(|| vertex_parser.read_header(&mut reader)),
+    )?
+    .map_err(|e| cannot(&first_line(&e)))?;
+    let count = |name: &str| header.elements.get(name).map_or(0, |e| e.count as u64);
+    let has = |names: &[&str]| {
+        header
+            .elements
+            .get("vertex")
+            .is_some_and(|e| names.iter().any(|n| e.properties.contains_key(*n)))
+    };
+    for axis in ["x", "y", "z"] {
+        if !has(&[axis]) {
+            return Err(cannot(&format!("its vertices have no `{axis}` property")));
+        }
+    }
+    if !header.elements.get("face").is_some_and(|e| {
+        e.properties.contains_key("vertex_indices") || e.properties.contains_key("vertex_index")
+    }) {
+        return Err(cannot(
+            &"it has no faces (a `face` element with `vertex_indices`)",
+        ));
+    }
+    // Every face is at least one triangle, every vertex 32 bytes: refuse what cannot fit
+    // before reading (a header may claim billions).
+    super::systems::check_triangle_memory(count("face").saturating_add(count("vertex") / 2))
+        .map_err(|e| cannot(&e))?;
+    let has_normals = has(&["nx"]) && has(&["ny"]) && has(&["nz"]);
+    let has_uvs =
+        has(&["u", "s", "texture_u", "texture_s"]) && has(&["v", "t", "texture_v", "texture_t"]);
+
+    let (face_parser, skip_parser) = (Parser::<Face>::new(), Parser::<Skipped>::new());
+    let (mut vertices, mut faces) = (Vec::new(), Vec::new());
+    for element in header.elements.values() {
+        guarded(
+            "PLY",
+            file,
+            std::panic::AssertUnwindSafe(|| {
+                match element.name.as_str() {
+                    "vertex" => {
+                        vertices =
+                            vertex_parser.read_payload_for_element(&mut reader, element, &header)?
+                    }
+                    "face" => {
+                        faces =
+                            face_parser.read_payload_for_element(&mut reader, element, &header)?
+                    }
+                    _ => {
+                        skip_parser.read_payload_for_element(&mut reader, element, &header)?;
+                    }
+                }
+                Ok::<(), ply_rs_bw::parser::ParseError>(())
+            }),
+        )?
+        .map_err(|e| cannot(&format!("element `{}`: {}", element.name, first_line(&e))))?;
+    }
+
+    let mut mesh = FileMesh {
+        positions: vertices
+            .iter()
+            .map(|v| Vec3A::new(v.0[0], v.0[1], v.0[2]))
+            .collect(),
+        ..FileMesh::default()
+    };
+    if has_normals {
+        mesh.normals = Some(
+            vertices
+                .iter()
+                .map(|v| Vec3A::new(v.0[3], v.0[4], v.0[5]))
+                .collect(),
+        );
+    }
+    if has_uvs {
+        mesh.uvs = Some(vertices.iter().map(|v| Vec2::new(v.0[6], v.0[7])).collect());
+    }
+    let n = vertices.len() as i64;
+    for (f, Face(indices)) in faces.iter().enumerate() {
+        if let Some(&bad) = indices.iter().find(|&&i| !(0..n).contains(&i)) {
+            return Err(cannot(&format!(
+                "face {f} refers to vertex {bad}, but the file has {n} vertices"
+            )));
+        }
+        // A fan: polygons of n corners become n - 2 triangles (none for fewer than three).
+        for k in 1..indices.len().saturating_sub(1) {
+            mesh.indices
+                .push([indices[0], indices[k], indices[k + 1]].map(|i| i as u32));
+        }
+    }
+    check_mesh("PLY", file, &mesh)?;
+    Ok(mesh)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The unit square as two triangles (or one quad), with normals and uvs, in `format`;
+    /// properties in an unusual order, of mixed types, and an extra element and property.
+    fn square(format: &str, quad: bool) -> Vec<u8> {
+        let verts = [
+            [-1.0f32, -1.0, 0.0, 0.0, 0.0],
+            [1.0, -1.0, 0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0, 1.0, 1.0],
+            [-1.0, 1.0, 0.0, 0.0, 1.0],
+        ];
+        let faces: Vec<Vec<i32>> = if quad {
+            vec![vec![0, 1, 2, 3]]
+        } else {
+            vec![vec![0, 1, 2], vec![0, 2, 3]]
+        };
+        let mut out = format!(
+            "ply\nformat {format} 1.0\ncomment made by raylab's tests\nelement material 1\nproperty uchar red\n\
+             element vertex 4\nproperty float u\nproperty double x\nproperty float y\nproperty float z\n\
+             property float v\nproperty float nz\nproperty float nx\nproperty float ny\nproperty uchar quality\n\
+             element face {}\nproperty list uchar int vertex_indices\nproperty ushort flags\nend_header\n",
+            faces.len()
+        )
+        .into_bytes();
+        let big = format == "binary_big_endian";
+        let f32b = |v: f32| {
+            if big {
+                v.to_be_bytes()
+            } else {
+                v.to_le_bytes()
+            }
+        };
+        let i32b = |v: i32| {
+            if big {
+                v.to_be_bytes()
+            } else {
+                v.to_le_bytes()
+            }
+        };
+        if format == "ascii" {
+            out.extend_from_slice(b"7\n");
+            for v in verts {
+                out.extend_from_slice(
+                    format!("{} {} {} {} {} 1 0 0 9\n", v[3], v[0], v[1], v[2], v[4]).as_bytes(),
+                );
+            }
+            for f in &faces {
+                let list: Vec<String> = f.iter().map(|i| i.to_string()).collect();
+                out.extend_from_slice(format!("{} {} 3\n", f.len(), list.join(" ")).as_bytes());
+            }
+        } else {
+            out.push(7);
+            for v in verts {
+                out.extend_from_slice(&f32b(v[3]));
+                let x = v[0] as f64;
+                out.extend_from_slice(&if big {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                });
+                for c in [v[1], v[2], v[4], 1.0, 0.0, 0.0] {
+                    out.extend_from_slice(&f32b(c));
+                }
+                out.push(9);
+            }
+            for f in &faces {
+                out.push(f.len() as u8);
+                for &i in f {
+                    out.extend_from_slice(&i32b(i));
+                }
+                out.extend_from_slice(&if big {
+                    3u16.to_be_bytes()
+                } else {
+                    3u16.to_le_bytes()
+                });
+            }
+        }
+        out
+    }
+
+    fn load(bytes: &[u8]) -> Result<FileMesh, String> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.ply");
+        std::fs::write(&path, bytes).unwrap();
+        load_ply(&path)
+    }
+
+    #[test]
+    fn ascii_and_both_binary_orders_read_the_same_mesh() {
+        for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
+            for quad in [false, true] {
+                let m = load(&square(format, quad)).unwrap_or_else(|e| panic!("{format}: {e}"));
+                assert_eq!(m.positions[2], Vec3A::new(1.0, 1.0, 0.0), "{format}");
+                assert_eq!(
+                    m.indices,
+                    vec![[0, 1, 2], [0, 2, 3]],
+                    "{format} quad {quad}"
+                );
+                assert_eq!(m.normals.as_ref().unwrap()[1], Vec3A::Z, "{format}");
+                // Texture coordinates as the file has them (Mitsuba 3 does not flip PLY's v).
+                assert_eq!(m.uvs.as_ref().unwrap()[1], Vec2::new(1.0, 0.0), "{format}");
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(400))]
+        /// Valid files cut short or with bytes replaced: an error or a mesh, never a panic.
+        #[test]
+        fn damaged_files_never_panic(
+            format in 0usize..3,
+            cut in proptest::prelude::any::<proptest::sample::Index>(),
+            at in proptest::prelude::any::<proptest::sample::Index>(),
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..6),
+        ) {
+            let format = ["ascii", "binary_little_endian", "binary_big_endian"][format];
+            let mut file = square(format, format == "ascii");
+            let at = at.index(file.len());
+            let end = (at + bytes.len()).min(file.len());
+            file.splice(at..end, bytes);
+            let _ = parse_ply(Path::new("damaged.ply"), &file);
+            file.truncate(cut.index(file.len() + 1));
+            let _ = parse_ply(Path::new("cut.ply"), &file);
+        }
+    }
+
+    #[test]
+    fn bad_files_are_refused_with_a_reason() {
+        let good = square("binary_little_endian", false);
+        let text = String::from_utf8_lossy(&square("ascii", false)).to_string();
+        let cases: Vec<(Vec<u8>, &str)> = vec![
+            (b"not a ply file at all".to_vec(), "cannot load PLY file"),
+            (good[..good.len() - 5].to_vec(), "element `face`"),
+            (
+                text.replace("3 0 2 3 3\n", "3 0 2 4 3\n").into_bytes(),
+                "face 1 refers to vertex 4, but the file has 4 vertices",
+            ),
+            (
+                text.replace("3 0 2 3 3\n", "3 0 -1 3 3\n").into_bytes(),
+                "refers to vertex -1",
+            ),
+            (
+                text.replace("element face 2", "element face 4000000000000")
+                    .into_bytes(),
+                "cannot load PLY file",
+            ),
+            (
+                text.replace("property double x\n", "").into_bytes(),
+                "no `x` property",
+            ),
+            (
+                text.replace("1 1 1 0 1 1 0 0 9", "1 1 1e39 0 1 1 0 0 9")
+                    .into_bytes(),
+                "not finite",
+            ),
+        ];
+        for (bytes, expected) in cases {
+            let e = load(&bytes).map(|_| ()).expect_err(expected);
+            assert!(e.contains(expected), "{e:?} lacks {expected:?}");
+        }
+    }
+}
