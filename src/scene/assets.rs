@@ -78,10 +78,13 @@ pub fn resolve_instances(
             check_instance_reach(&asset, &m).map_err(fail)?;
             // Rays are moved into the instance's space by the inverse.
             if !m.inverse().is_finite() {
-                return Err(fail(format!(
-                    "transform.scale {:?} is too small: the instance's transform cannot be inverted",
-                    transform.scale.to_array()
-                )));
+                return Err(fail(match transform.matrix {
+                    None => format!(
+                        "transform.scale {:?} is too small: the instance's transform cannot be inverted",
+                        transform.scale.to_array()
+                    ),
+                    Some(_) => "transform.matrix cannot be inverted".into(),
+                }));
             }
             resolved.push((entity, Instanced { mesh: id, asset }));
         }

@@ -10,12 +10,13 @@ use std::sync::Arc;
 pub struct Name(pub String);
 
 /// Placement of an entity: scale, then rotation (degrees about x, then y, then z, fixed
-/// axes), then translation.
+/// axes), then translation; or a whole affine matrix, which replaces the three.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
     pub translate: Vec3,
     pub rotate_degrees: Vec3,
     pub scale: Vec3,
+    pub matrix: Option<Affine3A>,
 }
 
 impl Default for Transform {
@@ -24,6 +25,7 @@ impl Default for Transform {
             translate: Vec3::ZERO,
             rotate_degrees: Vec3::ZERO,
             scale: Vec3::ONE,
+            matrix: None,
         }
     }
 }
@@ -31,11 +33,29 @@ impl Default for Transform {
 impl Transform {
     /// The local-to-world matrix.
     pub fn matrix(&self) -> Affine3A {
-        Affine3A::from_scale_rotation_translation(self.scale, self.rotation(), self.translate)
+        self.matrix.unwrap_or_else(|| {
+            Affine3A::from_scale_rotation_translation(self.scale, self.rotation(), self.translate)
+        })
     }
 
-    /// The rotation alone.
+    /// Where the local origin lands.
+    pub fn translation(&self) -> Vec3A {
+        self.matrix().translation
+    }
+
+    /// The rotation alone: of a matrix, its columns made orthonormal (Gram-Schmidt from `x`,
+    /// then `y`; `z` their cross product), exactly its rotation when it scales along its own
+    /// axes; the identity for a degenerate matrix.
     pub fn rotation(&self) -> Quat {
+        if let Some(m) = self.matrix {
+            let x = m.matrix3.x_axis.normalize_or_zero();
+            let y = (m.matrix3.y_axis - x * x.dot(m.matrix3.y_axis)).normalize_or_zero();
+            let z = x.cross(y);
+            if z.length_squared() < 0.5 {
+                return Quat::IDENTITY;
+            }
+            return Quat::from_mat3a(&glam::Mat3A::from_cols(x, y, z)).normalize();
+        }
         let r = self.rotate_degrees;
         // Extrinsic x, then y, then z  ==  R = Rz * Ry * Rx.
         Quat::from_euler(

@@ -135,6 +135,46 @@ fn emitter_from_desc(
     })
 }
 
+/// The entity's transform: translate, rotate and scale, or a whole matrix (without them).
+fn transform_from_desc(t: &super::schema::TransformDesc) -> Result<Transform, String> {
+    let mut transform = Transform {
+        translate: Vec3::from_array(t.translate),
+        rotate_degrees: Vec3::from_array(t.rotate),
+        scale: Vec3::from_array(t.scale),
+        matrix: None,
+    };
+    let Some(values) = &t.matrix else {
+        return Ok(transform);
+    };
+    if transform != Transform::default() {
+        return Err(
+            "transform.matrix replaces translate, rotate and scale: give the matrix alone".into(),
+        );
+    }
+    let rows: [[f32; 4]; 3] = match values.len() {
+        12 | 16 => std::array::from_fn(|r| std::array::from_fn(|c| values[4 * r + c])),
+        n => {
+            return Err(format!(
+                "transform.matrix takes 12 or 16 numbers (rows of four), got {n}"
+            ))
+        }
+    };
+    if values.len() == 16 && values[12..] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(format!(
+            "transform.matrix's last row must be 0 0 0 1 (an affine map), got {:?}",
+            &values[12..]
+        ));
+    }
+    let column = |c: usize| Vec3A::new(rows[0][c], rows[1][c], rows[2][c]);
+    transform.matrix = Some(glam::Affine3A::from_cols(
+        column(0),
+        column(1),
+        column(2),
+        column(3),
+    ));
+    Ok(transform)
+}
+
 fn check_resolution((w, h): (u32, u32)) -> Result<(), String> {
     check_size(w, h)
 }
@@ -452,12 +492,7 @@ fn build_world(
             entity: name.clone(),
             message,
         };
-        let t = &e.transform;
-        let transform = Transform {
-            translate: Vec3::from_array(t.translate),
-            rotate_degrees: Vec3::from_array(t.rotate),
-            scale: Vec3::from_array(t.scale),
-        };
+        let transform = transform_from_desc(&e.transform).map_err(entity_error)?;
         if e.flip_normals {
             if e.material.as_deref() == Some(file_materials::FROM_FILE) {
                 return Err(entity_error(

@@ -448,7 +448,8 @@ pub struct EntityDesc {
     pub flip_normals: bool,
 }
 
-/// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate.
+/// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate; or a
+/// whole affine `matrix` instead of the three.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransformDesc {
@@ -461,6 +462,11 @@ pub struct TransformDesc {
     /// Default: `(1, 1, 1)`. Every component must be positive.
     #[serde(default = "white")]
     pub scale: V3,
+    /// The local-to-world matrix, row by row: 12 numbers (three rows of four) or 16 (the
+    /// last row `0 0 0 1`), as Mitsuba's `<matrix value="...">`. It replaces `translate`,
+    /// `rotate` and `scale`, which must then be left out. Default: none.
+    #[serde(default)]
+    pub matrix: Option<Vec<f32>>,
 }
 
 impl Default for TransformDesc {
@@ -469,6 +475,7 @@ impl Default for TransformDesc {
             translate: [0.0; 3],
             rotate: [0.0; 3],
             scale: [1.0; 3],
+            matrix: None,
         }
     }
 }

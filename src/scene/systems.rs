@@ -134,6 +134,23 @@ fn check_radiance(what: &str, c: Vec3A) -> Result<(), String> {
 }
 
 fn validate_transform(t: &Transform) -> Result<(), String> {
+    if let Some(m) = t.matrix {
+        // Row by row, as written.
+        let rows: Vec<f32> = (0..3)
+            .flat_map(|r| {
+                let row = m.matrix3.row(r);
+                [row.x, row.y, row.z, m.translation[r]]
+            })
+            .collect();
+        finite("transform.matrix", &rows)?;
+        let det = m.matrix3.determinant();
+        if det == 0.0 || !det.is_finite() || !m.inverse().is_finite() {
+            return Err(format!(
+                "transform.matrix cannot be inverted (determinant {det:e}): it flattens the shape"
+            ));
+        }
+        return Ok(());
+    }
     finite("transform.translate", &t.translate.to_array())?;
     finite("transform.rotate", &t.rotate_degrees.to_array())?;
     finite("transform.scale", &t.scale.to_array())?;
@@ -162,12 +179,27 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             if *radius <= 0.0 {
                 return Err(format!("sphere radius must be positive, got {radius}"));
             }
-            let s = t.scale;
-            if (s.x - s.y).abs() > 1e-6 * s.x || (s.x - s.z).abs() > 1e-6 * s.x {
-                return Err(format!(
-                    "a sphere needs a uniform scale, got {:?}",
-                    s.to_array()
-                ));
+            // Orthogonal axes of one length (any rotation or mirror, a uniform scale).
+            let m = t.matrix().matrix3;
+            let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
+            let l = x.length();
+            let tol = 1e-5 * l * l;
+            if (y.length_squared() - l * l).abs() > 2.0 * tol
+                || (z.length_squared() - l * l).abs() > 2.0 * tol
+                || x.dot(y).abs() > tol
+                || x.dot(z).abs() > tol
+                || y.dot(z).abs() > tol
+            {
+                return Err(match t.matrix {
+                    None => format!(
+                        "a sphere needs a uniform scale, got {:?}",
+                        t.scale.to_array()
+                    ),
+                    Some(_) => {
+                        "a sphere needs a uniform scale: transform.matrix stretches or shears it"
+                            .into()
+                    }
+                });
             }
         }
         // Resolved, and its asset checked, by `assets::resolve_instances`.
@@ -719,7 +751,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
         .filter_map(|(entity, emitter, transform, shape, flip)| {
             let lights = match (emitter.clone(), shape) {
                 (Emitter::Point { intensity }, _) => {
-                    vec![Light::point(transform.translate.into(), intensity)]
+                    vec![Light::point(transform.translation(), intensity)]
                 }
                 (Emitter::Spot { .. }, _) => match spot_light(emitter, transform) {
                     Ok(spot) => vec![Light::Spot(spot)],
@@ -821,7 +853,7 @@ pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight,
     else {
         return Err("not a spot light".into());
     };
-    let position: Vec3A = transform.translate.into();
+    let position: Vec3A = transform.translation();
     let axis = match look_at {
         Some(target) => *target - position,
         None => (transform.rotation() * Vec3::Z).into(),

@@ -2,7 +2,7 @@
 
 use super::components::{Emitter, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::systems::{bake_shape, bake_transforms, collect_emitters, validate};
-use super::{parse_scene, SceneError};
+use super::{parse_scene, LoadedScene, RenderScene, SceneError};
 use glam::{Vec3, Vec3A};
 use hecs::{Entity, World};
 use raylab_integrators::light::{PlanarShape, PointLight, SphereLight};
@@ -79,12 +79,94 @@ fn spawn_creates_one_entity_per_object_with_its_components() {
     assert_eq!(s.materials[1].bsdf().albedo(), Rgb::ZERO);
 }
 
+/// The same entity placed by translate, rotate and scale and by the equivalent matrix: the
+/// same world geometry, the same lights, the same rotation for what turns with it.
+#[test]
+fn a_transform_matrix_places_entities_as_the_equivalent_trs() {
+    let trs = Transform {
+        translate: Vec3::new(1.0, -2.0, 0.5),
+        rotate_degrees: Vec3::new(30.0, -40.0, 75.0),
+        scale: Vec3::new(2.0, 0.5, 1.5),
+        matrix: None,
+    };
+    let m = trs.matrix();
+    let rows: Vec<String> = (0..3)
+        .flat_map(|r| {
+            let row = m.matrix3.row(r);
+            [row.x, row.y, row.z, m.translation[r]]
+        })
+        .map(|v| format!("{v:e}"))
+        .collect();
+    let scene = |placement: &str| {
+        format!(
+            r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40),
+            materials: {{"m": Lambert(albedo: 0.5)}},
+            entities: [
+                (name: "box", transform: {placement}, shape: Box(min: (-1, -1, -1), max: (1, 2, 1)), material: "m"),
+                (name: "lamp", transform: {placement}, shape: Disk, emitter: Area(radiance: (1, 1, 1))),
+                (name: "sun", transform: {placement}, emitter: Directional(direction: (0, 0, -1), irradiance: (1, 1, 1))),
+            ])"#
+        )
+    };
+    let a = parse_scene(
+        &scene("(translate: (1, -2, 0.5), rotate: (30, -40, 75), scale: (2, 0.5, 1.5))"),
+        Path::new("trs.ron"),
+    )
+    .unwrap();
+    let b = parse_scene(
+        &scene(&format!("(matrix: [{}])", rows.join(", "))),
+        Path::new("matrix.ron"),
+    )
+    .unwrap();
+    let shapes = |s: &LoadedScene| {
+        let mut v: Vec<(u32, WorldShape)> = s
+            .world
+            .query::<(hecs::Entity, &WorldShape)>()
+            .iter()
+            .map(|(e, w)| (e.id(), w.clone()))
+            .collect();
+        v.sort_by_key(|(e, _)| *e);
+        v.into_iter().map(|(_, w)| w).collect::<Vec<_>>()
+    };
+    let (sa, sb) = (shapes(&a), shapes(&b));
+    let WorldShape::Triangles { triangles: ta, .. } = &sa[0] else {
+        panic!()
+    };
+    let WorldShape::Triangles { triangles: tb, .. } = &sb[0] else {
+        panic!()
+    };
+    for (x, y) in ta.iter().flatten().zip(tb.iter().flatten()) {
+        assert!((*x - *y).length() < 1e-5, "{x} vs {y}");
+    }
+    let (WorldShape::Quadric(qa), WorldShape::Quadric(qb)) = (&sa[1], &sb[1]) else {
+        panic!()
+    };
+    assert!(qa.to_world.abs_diff_eq(qb.to_world, 1e-5));
+    // The sun turns by the rotation alone: the matrix's, made orthonormal, is the TRS's.
+    let (ra, rb) = (
+        RenderScene::build(&a).lights.get(1).clone(),
+        RenderScene::build(&b).lights.get(1).clone(),
+    );
+    match (ra, rb) {
+        (Light::Directional(x), Light::Directional(y)) => {
+            assert!(
+                (x.direction - y.direction).length() < 1e-5,
+                "{:?} vs {:?}",
+                x.direction,
+                y.direction
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
 #[test]
 fn transform_matrix_scales_then_rotates_then_translates() {
     let t = Transform {
         translate: Vec3::new(1.0, 2.0, 3.0),
         rotate_degrees: Vec3::new(0.0, 0.0, 90.0),
         scale: Vec3::splat(2.0),
+        matrix: None,
     };
     let p = t.matrix().transform_point3(Vec3::X);
     // (1,0,0) -> scale (2,0,0) -> rotate 90 about z (0,2,0) -> translate (1,4,3).
