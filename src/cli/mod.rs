@@ -50,9 +50,20 @@ pub enum Command {
     Diff(DiffArgs),
     /// Measure rays per second, samples per second, BVH build time and memory.
     Bench(BenchArgs),
+    /// Convert a Mitsuba 3 XML scene into a RON scene that a person can edit.
+    Import {
+        /// Scene file (Mitsuba 3 XML).
+        scene: PathBuf,
+        /// The RON file to write; its folder must be the scene's (file names stay relative).
+        #[arg(short = 'o', long = "output", value_name = "FILE")]
+        output: PathBuf,
+        /// Also print what was mapped approximately, or by a changed convention.
+        #[arg(long)]
+        report: bool,
+    },
     /// Parse and build a scene, then print its counts and bounds.
     Validate {
-        /// Scene file (RON).
+        /// Scene file (RON, or Mitsuba 3 XML).
         scene: PathBuf,
         /// Let the scene read files under DIR too (repeatable). By default a scene may read
         /// files (meshes, MTL files, glTF buffers) under its own folder only.
@@ -304,6 +315,11 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             check_allowed(&allow_path)?;
             render_cmd::validate(&scene, &allow_path)
         }
+        Command::Import {
+            scene,
+            output,
+            report,
+        } => render_cmd::import(&scene, &output, report),
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
         Command::Bench(args) => {

@@ -294,6 +294,48 @@ fn install_interrupt_handler() {
     });
 }
 
+/// `raylab import`: a Mitsuba 3 XML scene written out as RON, checked by loading it the way
+/// `render` would before anything is written.
+pub fn import(path: &Path, output: &Path, report: bool) -> Result<ExitCode> {
+    if !scene::is_mitsuba(path) {
+        anyhow::bail!(
+            "{}: import reads Mitsuba 3 XML scenes (.xml); this is not one",
+            path.display()
+        );
+    }
+    let folder = |p: &Path| {
+        let parent = crate::output::atomic::parent_dir(p);
+        std::fs::canonicalize(parent).unwrap_or_else(|_| parent.to_path_buf())
+    };
+    if folder(path) != folder(output) {
+        anyhow::bail!(
+            "{}: write the RON scene into the XML scene's folder ({}), where the files it names are",
+            output.display(),
+            crate::output::atomic::parent_dir(path).display()
+        );
+    }
+    let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT)
+        .with_context(|| format!("{}: cannot read scene file", path.display()))?;
+    let imported = scene::import_mitsuba(path, &text)?;
+    // The same checks as rendering it: a scene that will not load is not written.
+    scene::load_scene(path)?;
+    crate::output::atomic::write_atomic(output, |f| {
+        use std::io::Write as _;
+        f.write_all(imported.ron.as_bytes())
+            .with_context(|| format!("{}: cannot write (is the disk full?)", output.display()))
+    })?;
+    note!("{}: wrote {}", path.display(), output.display());
+    if report {
+        println!("| what | how raylab reads it |");
+        println!("|---|---|");
+        for line in &imported.report {
+            let (what, how) = line.split_once(": ").unwrap_or(("", line));
+            println!("| {what} | {how} |");
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 pub fn validate(path: &Path, allowed: &[PathBuf]) -> Result<ExitCode> {
     let loaded = scene::load_scene_with(path, allowed)?;
     for w in &loaded.warnings {

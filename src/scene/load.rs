@@ -31,17 +31,43 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
 /// [`load_scene`] for a scene that may also read files under the folders `allowed`
 /// (`--allow-path`).
 pub fn load_scene_with(path: &Path, allowed: &[PathBuf]) -> Result<LoadedScene, SceneError> {
+    let text = scene_text(path)?;
+    build_world(
+        parse_scene_file(&text, path)?,
+        path,
+        &SceneFiles::new(path, allowed),
+    )
+}
+
+/// Whether `path` names a Mitsuba 3 XML scene (by its extension).
+pub fn is_mitsuba(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// A scene file's RON text: the file itself, or a Mitsuba 3 XML scene converted (errors at
+/// their place in the XML).
+pub fn scene_text(path: &Path) -> Result<String, SceneError> {
     let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT).map_err(|reason| {
         SceneError::Read {
             path: path.to_path_buf(),
             reason,
         }
     })?;
-    build_world(
-        parse_scene_file(&text, path)?,
-        path,
-        &SceneFiles::new(path, allowed),
-    )
+    if !is_mitsuba(path) {
+        return Ok(text);
+    }
+    Ok(import_mitsuba(path, &text)?.ron)
+}
+
+/// Converts a Mitsuba 3 XML scene's text into RON.
+pub fn import_mitsuba(path: &Path, text: &str) -> Result<super::mitsuba::Imported, SceneError> {
+    super::mitsuba::to_ron(text, &[]).map_err(|(line, col, message)| SceneError::Parse {
+        path: path.to_path_buf(),
+        line: line as usize,
+        col: col as usize,
+        message,
+    })
 }
 
 /// Parses scene text; `path` is used in messages and to resolve relative files (under its

@@ -11,6 +11,7 @@ pub mod images;
 pub mod load;
 pub mod materials;
 pub mod mesh_files;
+pub mod mitsuba;
 pub mod ply;
 pub mod procedural;
 pub mod references;
@@ -20,7 +21,7 @@ pub mod textures;
 
 pub use error::SceneError;
 pub use flatten::RenderScene;
-pub use load::{load_scene, load_scene_with, parse_scene};
+pub use load::{import_mitsuba, is_mitsuba, load_scene, load_scene_with, parse_scene, scene_text};
 pub use raylab_integrators::Camera;
 
 use raylab_integrators::{Rgb, SurfaceMaterial};

@@ -1,0 +1,840 @@
+//! Mitsuba 3's plugins, one by one, as raylab's RON.
+
+use super::xml::{at, attr, position, value, Located, Params, Value};
+use glam::Affine3A;
+use roxmltree::{Document, Node};
+use std::collections::HashMap;
+use std::fmt::Write as _;
+
+/// A Mitsuba scene as RON text, with what the conversion did.
+#[derive(Debug)]
+pub struct Imported {
+    pub ron: String,
+    /// One line per mapping that is not one to one (an approximation, a changed convention).
+    pub report: Vec<String>,
+}
+
+/// A plugin's properties by name, each taken at most once; what is left is an error.
+struct Props<'a, 'input> {
+    doc: &'a Document<'input>,
+    node: Node<'a, 'input>,
+    values: HashMap<String, (Value, Node<'a, 'input>)>,
+    /// Nested plugins and references: (name or "", node).
+    children: Vec<(String, Node<'a, 'input>)>,
+}
+
+impl<'a, 'input> Props<'a, 'input> {
+    fn read(
+        params: &Params,
+        doc: &'a Document<'input>,
+        node: Node<'a, 'input>,
+    ) -> Result<Self, Located> {
+        let (mut values, mut children) = (HashMap::new(), Vec::new());
+        for child in node.children().filter(Node::is_element) {
+            let tag = child.tag_name().name();
+            let name = attr(params, doc, child, "name")?.unwrap_or_default();
+            match tag {
+                "bsdf" | "emitter" | "texture" | "film" | "sampler" | "rfilter" | "ref"
+                | "shape" | "sensor" | "integrator" | "medium" | "phase" | "volume" => {
+                    children.push((name, child))
+                }
+                _ => {
+                    if name.is_empty() {
+                        return Err(at(doc, child, format!("<{tag}> needs a `name`")));
+                    }
+                    let v = value(params, doc, child)?;
+                    if values.insert(name.clone(), (v, child)).is_some() {
+                        return Err(at(doc, child, format!("`{name}` is given twice")));
+                    }
+                }
+            }
+        }
+        Ok(Props {
+            doc,
+            node,
+            values,
+            children,
+        })
+    }
+
+    fn kind(&self) -> String {
+        format!(
+            "<{} type=\"{}\">",
+            self.node.tag_name().name(),
+            self.node.attribute("type").unwrap_or("")
+        )
+    }
+
+    fn take(&mut self, name: &str) -> Option<(Value, Node<'a, 'input>)> {
+        self.values.remove(name)
+    }
+
+    fn float(&mut self, name: &str) -> Result<Option<f32>, Located> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((Value::Float(v), _)) => Ok(Some(v)),
+            Some((Value::Integer(v), _)) => Ok(Some(v as f32)),
+            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a float"))),
+        }
+    }
+
+    fn integer(&mut self, name: &str) -> Result<Option<i64>, Located> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((Value::Integer(v), _)) => Ok(Some(v)),
+            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be an integer"))),
+        }
+    }
+
+    fn boolean(&mut self, name: &str) -> Result<Option<bool>, Located> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((Value::Boolean(v), _)) => Ok(Some(v)),
+            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a boolean"))),
+        }
+    }
+
+    fn string(&mut self, name: &str) -> Result<Option<String>, Located> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((Value::String(v), _)) => Ok(Some(v)),
+            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a string"))),
+        }
+    }
+
+    fn vector(&mut self, name: &str) -> Result<Option<[f32; 3]>, Located> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((Value::Vector(v), _)) => Ok(Some(v)),
+            Some((Value::Float(v), _)) => Ok(Some([v; 3])),
+            Some((_, n)) => Err(at(
+                self.doc,
+                n,
+                format!("`{name}` must be a colour or a vector"),
+            )),
+        }
+    }
+
+    fn transform(&mut self, name: &str) -> Result<Option<Affine3A>, Located> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((Value::Transform(v), _)) => Ok(Some(v)),
+            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a <transform>"))),
+        }
+    }
+
+    /// A number, or (for IORs) a name, as RON: `1.5` or `"bk7"`.
+    fn ior(&mut self, name: &str) -> Result<Option<String>, Located> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((Value::Float(v), _)) => Ok(Some(num(v))),
+            Some((Value::String(s), _)) => Ok(Some(quote(&s))),
+            Some((_, n)) => Err(at(
+                self.doc,
+                n,
+                format!("`{name}` must be a number or a name"),
+            )),
+        }
+    }
+
+    /// Everything given and not used is an error: raylab does not drop what it cannot do.
+    fn finish(self, ignorable: &[&str]) -> Result<(), Located> {
+        let mut left: Vec<_> = self
+            .values
+            .iter()
+            .filter(|(k, _)| !ignorable.contains(&k.as_str()))
+            .collect();
+        left.sort_by_key(|(_, (_, n))| n.range().start);
+        if let Some((name, (_, n))) = left.first() {
+            return Err(at(
+                self.doc,
+                *n,
+                format!("{}: parameter `{name}` is not supported", self.kind()),
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn num(v: f32) -> String {
+    format!("{v:?}")
+}
+
+fn v3(v: [f32; 3]) -> String {
+    format!("({}, {}, {})", num(v[0]), num(v[1]), num(v[2]))
+}
+
+/// A RON string literal.
+fn quote(s: &str) -> String {
+    let mut out = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            c if c.is_control() => {
+                let _ = write!(out, "\\u{{{:x}}}", c as u32);
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
+/// The matrix as RON's `transform: (matrix: [...])`, row by row.
+fn matrix(m: &Affine3A) -> String {
+    let rows: Vec<String> = (0..3)
+        .flat_map(|r| {
+            let row = m.matrix3.row(r);
+            [row.x, row.y, row.z, m.translation[r]]
+        })
+        .map(num)
+        .collect();
+    format!("(matrix: [{}])", rows.join(", "))
+}
+
+/// The conversion's state: the output's parts and the named things seen so far.
+struct Converter<'a, 'input> {
+    doc: &'a Document<'input>,
+    params: Params,
+    /// Top-level plugins with an id, for `<ref>`.
+    ids: HashMap<String, Node<'a, 'input>>,
+    /// Material names already written, by the node that made them.
+    materials: Vec<(String, String)>,
+    material_of: HashMap<roxmltree::NodeId, String>,
+    entities: Vec<String>,
+    environment: Option<String>,
+    camera: Option<String>,
+    render: Vec<String>,
+    report: Vec<String>,
+}
+
+impl<'a, 'input> Converter<'a, 'input> {
+    fn props(&self, node: Node<'a, 'input>) -> Result<Props<'a, 'input>, Located> {
+        Props::read(&self.params, self.doc, node)
+    }
+
+    fn kind(&self, node: Node) -> Result<String, Located> {
+        attr(&self.params, self.doc, node, "type")?.ok_or_else(|| {
+            at(
+                self.doc,
+                node,
+                format!("<{}> needs a `type`", node.tag_name().name()),
+            )
+        })
+    }
+
+    /// `node` itself, or the plugin its `<ref id>` names.
+    fn resolve(&self, node: Node<'a, 'input>) -> Result<Node<'a, 'input>, Located> {
+        if node.tag_name().name() != "ref" {
+            return Ok(node);
+        }
+        let id = attr(&self.params, self.doc, node, "id")?
+            .ok_or_else(|| at(self.doc, node, "<ref> needs an `id`"))?;
+        self.ids
+            .get(&id)
+            .copied()
+            .ok_or_else(|| at(self.doc, node, format!("<ref id=\"{id}\">: no plugin has that id (it must be defined before, at the top level)")))
+    }
+
+    /// A colour parameter: a constant, or a `bitmap` / `checkerboard` texture given nested
+    /// or by reference.
+    fn colour(
+        &self,
+        props: &mut Props<'a, 'input>,
+        name: &str,
+        default: Option<[f32; 3]>,
+    ) -> Result<Option<String>, Located> {
+        if let Some(v) = props.vector(name)? {
+            return Ok(Some(v3(v)));
+        }
+        let Some(i) = props.children.iter().position(|(n, _)| n == name) else {
+            return Ok(default.map(v3));
+        };
+        let (_, node) = props.children.remove(i);
+        let node = self.resolve(node)?;
+        if node.tag_name().name() != "texture" {
+            return Err(at(
+                self.doc,
+                node,
+                format!("`{name}` must be a colour or a <texture>"),
+            ));
+        }
+        self.texture(node).map(Some)
+    }
+
+    fn texture(&self, node: Node<'a, 'input>) -> Result<String, Located> {
+        let kind = self.kind(node)?;
+        let mut p = self.props(node)?;
+        let (scale, offset) = match p.transform("to_uv")? {
+            None => ([1.0, 1.0], [0.0, 0.0]),
+            Some(m) => {
+                let c = m.matrix3;
+                if c.x_axis.y != 0.0 || c.y_axis.x != 0.0 {
+                    return Err(at(self.doc, node, "`to_uv`: only a scale and a translation of the texture coordinates are supported"));
+                }
+                ([c.x_axis.x, c.y_axis.y], [m.translation.x, m.translation.y])
+            }
+        };
+        let uv = format!(
+            "uv_scale: ({}, {}), uv_offset: ({}, {})",
+            num(scale[0]),
+            num(scale[1]),
+            num(offset[0]),
+            num(offset[1])
+        );
+        let out = match kind.as_str() {
+            "bitmap" => {
+                let file = p.string("filename")?.ok_or_else(|| {
+                    at(self.doc, node, "<texture type=\"bitmap\"> needs `filename`")
+                })?;
+                let filter = p
+                    .string("filter_type")?
+                    .unwrap_or_else(|| "bilinear".into());
+                let wrap = p.string("wrap_mode")?.unwrap_or_else(|| "repeat".into());
+                let raw = p.boolean("raw")?.unwrap_or(false);
+                format!(
+                    "Image(path: {}, filter: {}, wrap: {}, raw: {raw}, {uv})",
+                    quote(&file),
+                    quote(&filter),
+                    quote(&wrap)
+                )
+            }
+            "checkerboard" => {
+                let c0 = p.vector("color0")?.unwrap_or([0.4; 3]);
+                let c1 = p.vector("color1")?.unwrap_or([0.2; 3]);
+                format!("Checkerboard(color0: {}, color1: {}, {uv})", v3(c0), v3(c1))
+            }
+            other => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!("texture type `{other}` is not supported (bitmap, checkerboard are)"),
+                ))
+            }
+        };
+        p.finish(&[])?;
+        Ok(out)
+    }
+
+    /// The RON of a BSDF.
+    fn bsdf(&mut self, node: Node<'a, 'input>) -> Result<String, Located> {
+        let kind = self.kind(node)?;
+        let mut p = self.props(node)?;
+        let rough = |p: &mut Props<'a, 'input>, out: &mut String| -> Result<(), Located> {
+            if let Some(d) = p.string("distribution")? {
+                let _ = write!(out, ", distribution: {}", quote(&d));
+            }
+            for name in ["alpha", "alpha_u", "alpha_v"] {
+                if let Some(a) = p.float(name)? {
+                    let _ = write!(out, ", {name}: {}", num(a));
+                }
+            }
+            Ok(())
+        };
+        let iors = |p: &mut Props<'a, 'input>, out: &mut String| -> Result<(), Located> {
+            for name in ["int_ior", "ext_ior"] {
+                if let Some(v) = p.ior(name)? {
+                    let _ = write!(out, ", {name}: {v}");
+                }
+            }
+            Ok(())
+        };
+        let out = match kind.as_str() {
+            "diffuse" => {
+                let albedo = self.colour(&mut p, "reflectance", Some([0.5; 3]))?.unwrap_or_default();
+                format!("Lambert(albedo: {albedo})")
+            }
+            "conductor" | "roughconductor" => {
+                let mut out = String::from(if kind == "conductor" { "Conductor(" } else { "RoughConductor(" });
+                match (p.string("material")?, p.vector("eta")?, p.vector("k")?) {
+                    (Some(m), None, None) => { let _ = write!(out, "metal: {}", quote(&m)); }
+                    (None, Some(eta), Some(k)) => { let _ = write!(out, "eta: {}, k: {}", v3(eta), v3(k)); }
+                    (None, None, None) => out.push_str("metal: \"none\""),
+                    _ => return Err(at(self.doc, node, "a conductor takes `material`, or `eta` and `k`")),
+                }
+                if let Some(c) = self.colour(&mut p, "specular_reflectance", None)? {
+                    let _ = write!(out, ", specular_reflectance: {c}");
+                }
+                if kind == "roughconductor" {
+                    rough(&mut p, &mut out)?;
+                }
+                out + ")"
+            }
+            "dielectric" | "roughdielectric" | "thindielectric" => {
+                let mut out = match kind.as_str() {
+                    "dielectric" => "Dielectric(".to_string(),
+                    "roughdielectric" => "RoughDielectric(".to_string(),
+                    _ => "ThinDielectric(".to_string(),
+                };
+                let mut fields = String::new();
+                iors(&mut p, &mut fields)?;
+                for name in ["specular_reflectance", "specular_transmittance"] {
+                    if let Some(c) = self.colour(&mut p, name, None)? {
+                        let _ = write!(fields, ", {name}: {c}");
+                    }
+                }
+                if kind == "roughdielectric" {
+                    rough(&mut p, &mut fields)?;
+                }
+                out.push_str(fields.trim_start_matches(", "));
+                out + ")"
+            }
+            "plastic" | "roughplastic" => {
+                let mut fields = String::new();
+                for name in ["diffuse_reflectance", "specular_reflectance"] {
+                    if let Some(c) = self.colour(&mut p, name, None)? {
+                        let _ = write!(fields, ", {name}: {c}");
+                    }
+                }
+                iors(&mut p, &mut fields)?;
+                if let Some(b) = p.boolean("nonlinear")? {
+                    let _ = write!(fields, ", nonlinear: {b}");
+                }
+                if kind == "roughplastic" {
+                    rough(&mut p, &mut fields)?;
+                }
+                let name = if kind == "plastic" { "Plastic" } else { "RoughPlastic" };
+                format!("{name}({})", fields.trim_start_matches(", "))
+            }
+            "twosided" => {
+                let inner: Vec<Node> = p.children.iter().map(|(_, n)| *n).collect();
+                p.children.clear();
+                let [inner] = inner[..] else {
+                    return Err(at(self.doc, node, "<bsdf type=\"twosided\"> with two BSDFs (one per side) is not supported: give one"));
+                };
+                let inner = self.resolve(inner)?;
+                format!("TwoSided({})", self.bsdf(inner)?)
+            }
+            other => {
+                return Err(at(self.doc, node, format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided are)")))
+            }
+        };
+        if let Some((name, child)) = p.children.first() {
+            return Err(at(
+                self.doc,
+                *child,
+                format!("<bsdf type=\"{kind}\">: `{name}` is not supported here"),
+            ));
+        }
+        p.finish(&[])?;
+        Ok(out)
+    }
+
+    /// The material name for a BSDF node (written once, however many shapes use it).
+    fn material(&mut self, node: Node<'a, 'input>, fallback: &str) -> Result<String, Located> {
+        let node = self.resolve(node)?;
+        if let Some(name) = self.material_of.get(&node.id()) {
+            return Ok(name.clone());
+        }
+        let mut name =
+            attr(&self.params, self.doc, node, "id")?.unwrap_or_else(|| fallback.to_string());
+        while self.materials.iter().any(|(n, _)| *n == name) {
+            name.push('\'');
+        }
+        let desc = self.bsdf(node)?;
+        self.materials.push((name.clone(), desc));
+        self.material_of.insert(node.id(), name.clone());
+        Ok(name)
+    }
+
+    fn shape(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
+        let kind = self.kind(node)?;
+        let name =
+            attr(&self.params, self.doc, node, "id")?.unwrap_or_else(|| format!("{kind} #{index}"));
+        let mut p = self.props(node)?;
+        let to_world = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
+        let file = |p: &mut Props<'a, 'input>| -> Result<String, Located> {
+            p.string("filename")?.ok_or_else(|| {
+                at(
+                    self.doc,
+                    node,
+                    format!("<shape type=\"{kind}\"> needs `filename`"),
+                )
+            })
+        };
+        let shape = match kind.as_str() {
+            "obj" => format!("Obj(path: {})", quote(&file(&mut p)?)),
+            "ply" => format!("Ply(path: {})", quote(&file(&mut p)?)),
+            "rectangle" => "Rectangle".to_string(),
+            "cube" => "Box(min: (-1, -1, -1), max: (1, 1, 1))".to_string(),
+            "disk" => "Disk".to_string(),
+            "sphere" => {
+                let c = p.vector("center")?.unwrap_or([0.0; 3]);
+                let r = p.float("radius")?.unwrap_or(1.0);
+                format!("Sphere(center: {}, radius: {})", v3(c), num(r))
+            }
+            "cylinder" => {
+                let p0 = p.vector("p0")?.unwrap_or([0.0; 3]);
+                let p1 = p.vector("p1")?.unwrap_or([0.0, 0.0, 1.0]);
+                let r = p.float("radius")?.unwrap_or(1.0);
+                format!("Cylinder(p0: {}, p1: {}, radius: {})", v3(p0), v3(p1), num(r))
+            }
+            other => {
+                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, rectangle, cube, disk, sphere, cylinder are)")))
+            }
+        };
+        if matches!(kind.as_str(), "obj" | "ply") && p.boolean("face_normals")? == Some(true) {
+            self.report.push(format!("{name}: face_normals ignored: raylab shades with the file's vertex normals where it has them"));
+        }
+        let flip = p.boolean("flip_normals")?.unwrap_or(false);
+        let (mut material, mut emitter) = (None, None);
+        for (_, child) in std::mem::take(&mut p.children) {
+            let child = self.resolve(child)?;
+            match child.tag_name().name() {
+                "bsdf" if material.is_none() => {
+                    material = Some(self.material(child, &format!("{name} material"))?)
+                }
+                "emitter" if emitter.is_none() => {
+                    let k = self.kind(child)?;
+                    if k != "area" {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!("a shape's emitter must be `area`, not `{k}`"),
+                        ));
+                    }
+                    let mut e = self.props(child)?;
+                    let radiance = e.vector("radiance")?.ok_or_else(|| at(self.doc, child, "<emitter type=\"area\"> needs a constant `radiance` (a texture is not supported)"))?;
+                    e.finish(&[])?;
+                    emitter = Some(format!("Area(radiance: {})", v3(radiance)));
+                }
+                tag => {
+                    return Err(at(
+                        self.doc,
+                        child,
+                        format!("<{tag}> inside a shape is not supported"),
+                    ))
+                }
+            }
+        }
+        p.finish(&[])?;
+        // Mitsuba gives a shape without a BSDF its default grey diffuse, emitters included.
+        let material = match material {
+            Some(m) => m,
+            None => {
+                if !self.materials.iter().any(|(n, _)| n == "default") {
+                    self.materials
+                        .push(("default".into(), "Lambert(albedo: 0.5)".into()));
+                }
+                "default".into()
+            }
+        };
+        let mut e = format!(
+            "(name: {}, transform: {}, shape: {shape}, material: {}",
+            quote(&name),
+            matrix(&to_world),
+            quote(&material)
+        );
+        if flip {
+            e.push_str(", flip_normals: true");
+        }
+        if let Some(em) = emitter {
+            let _ = write!(e, ", emitter: {em}");
+        }
+        e.push_str("),");
+        self.entities.push(e);
+        Ok(())
+    }
+
+    fn emitter(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
+        let kind = self.kind(node)?;
+        let name =
+            attr(&self.params, self.doc, node, "id")?.unwrap_or_else(|| format!("{kind} #{index}"));
+        let mut p = self.props(node)?;
+        let to_world = p.transform("to_world")?;
+        let placed = |m: Option<Affine3A>| {
+            m.map(|m| format!(", transform: {}", matrix(&m)))
+                .unwrap_or_default()
+        };
+        let entity = match kind.as_str() {
+            "constant" => {
+                let r = p.vector("radiance")?.unwrap_or([1.0; 3]);
+                if self.environment.replace(v3(r)).is_some() {
+                    return Err(at(self.doc, node, "a second environment emitter: raylab's scene has one"));
+                }
+                None
+            }
+            "envmap" => {
+                let file = p.string("filename")?.ok_or_else(|| at(self.doc, node, "<emitter type=\"envmap\"> needs `filename`"))?;
+                let scale = p.float("scale")?.unwrap_or(1.0);
+                Some(format!("emitter: Environment(path: {}, scale: {}){}", quote(&file), num(scale), placed(to_world)))
+            }
+            "point" => {
+                let i = p.vector("intensity")?.unwrap_or([1.0; 3]);
+                let m = match p.vector("position")? {
+                    Some(pos) => Affine3A::from_translation(pos.into()),
+                    None => to_world.unwrap_or(Affine3A::IDENTITY),
+                };
+                Some(format!("emitter: Point(intensity: {}), transform: {}", v3(i), matrix(&m)))
+            }
+            "spot" => {
+                let i = p.vector("intensity")?.unwrap_or([1.0; 3]);
+                let cutoff = p.float("cutoff_angle")?.unwrap_or(20.0);
+                let beam = p.float("beam_width")?.unwrap_or(cutoff * 0.75);
+                Some(format!("emitter: Spot(intensity: {}, cutoff_angle: {}, beam_width: {}){}", v3(i), num(cutoff), num(beam), placed(to_world)))
+            }
+            "directional" => {
+                let e = p.vector("irradiance")?.unwrap_or([1.0; 3]);
+                let d = p.vector("direction")?.unwrap_or([0.0, 0.0, 1.0]);
+                Some(format!("emitter: Directional(direction: {}, irradiance: {}){}", v3(d), v3(e), placed(to_world)))
+            }
+            other => return Err(at(self.doc, node, format!("emitter `{other}` is not supported (area, point, spot, directional, constant, envmap are)"))),
+        };
+        p.finish(&[])?;
+        if let Some(e) = entity {
+            self.entities
+                .push(format!("(name: {}, {e}),", quote(&name)));
+        }
+        Ok(())
+    }
+
+    fn sensor(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
+        let kind = self.kind(node)?;
+        if kind != "perspective" {
+            return Err(at(
+                self.doc,
+                node,
+                format!("sensor `{kind}` is not supported (perspective is)"),
+            ));
+        }
+        let mut p = self.props(node)?;
+        let fov = p.float("fov")?.unwrap_or(39.3077);
+        let axis = p.string("fov_axis")?.unwrap_or_else(|| "x".into());
+        let m = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
+        if p.float("near_clip")?.is_some() | p.float("far_clip")?.is_some() {
+            self.report.push(
+                "sensor: near_clip and far_clip ignored (raylab's camera does not clip)".into(),
+            );
+        }
+        let (mut width, mut height, mut filter, mut spp) =
+            (768i64, 576i64, "gaussian".to_string(), None);
+        for (_, child) in std::mem::take(&mut p.children) {
+            match child.tag_name().name() {
+                "film" => {
+                    let mut f = self.props(child)?;
+                    width = f.integer("width")?.unwrap_or(width);
+                    height = f.integer("height")?.unwrap_or(height);
+                    for (_, rf) in std::mem::take(&mut f.children) {
+                        if rf.tag_name().name() != "rfilter" {
+                            return Err(at(self.doc, rf, "only an <rfilter> goes inside the film"));
+                        }
+                        filter = match self.kind(rf)?.as_str() {
+                            "box" => "box".into(),
+                            "tent" => "tent".into(),
+                            "gaussian" => "gaussian".into(),
+                            other => return Err(at(
+                                self.doc,
+                                rf,
+                                format!(
+                                    "filter `{other}` is not supported (box, tent, gaussian are)"
+                                ),
+                            )),
+                        };
+                        self.props(rf)?.finish(&["radius", "stddev"])?;
+                    }
+                    f.finish(&[
+                        "pixel_format",
+                        "component_format",
+                        "file_format",
+                        "banner",
+                        "sample_border",
+                        "compensate",
+                        "rfilter",
+                    ])?;
+                }
+                "sampler" => {
+                    let mut s = self.props(child)?;
+                    spp = s.integer("sample_count")?;
+                    s.finish(&["seed", "jitter", "scramble_seed"])?;
+                }
+                tag => {
+                    return Err(at(
+                        self.doc,
+                        child,
+                        format!("<{tag}> inside the sensor is not supported"),
+                    ))
+                }
+            }
+        }
+        // A pinhole's focus distance changes nothing.
+        p.finish(&["focus_distance"])?;
+        let (w, h) = (width as f32, height as f32);
+        // raylab's fov is vertical.
+        let half = (fov.to_radians() * 0.5).tan();
+        let vertical = match axis.as_str() {
+            "y" => half,
+            "x" => half * h / w,
+            "diagonal" => half * h / (w * w + h * h).sqrt(),
+            "smaller" => {
+                if w < h {
+                    half * h / w
+                } else {
+                    half
+                }
+            }
+            "larger" => {
+                if w > h {
+                    half * h / w
+                } else {
+                    half
+                }
+            }
+            other => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!("fov_axis `{other}` is not known"),
+                ))
+            }
+        };
+        let fov_y = 2.0 * vertical.atan().to_degrees();
+        let eye = m.translation;
+        let (left, up, dir) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
+        if up.cross(dir).dot(left) <= 0.0 {
+            return Err(at(
+                self.doc,
+                node,
+                "the sensor's to_world mirrors the image, which raylab's camera cannot",
+            ));
+        }
+        let dir = dir.normalize();
+        self.camera = Some(format!(
+            "LookAt(eye: {}, look_at: {}, up: {}, fov: {}, resolution: ({width}, {height}))",
+            v3(eye.into()),
+            v3((eye + dir).into()),
+            v3(up.normalize().into()),
+            num(fov_y)
+        ));
+        self.render.push(format!("filter: {}", quote(&filter)));
+        if let Some(spp) = spp {
+            self.render.push(format!("spp: {spp}"));
+        }
+        Ok(())
+    }
+
+    fn integrator(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
+        let kind = self.kind(node)?;
+        let mut p = self.props(node)?;
+        match kind.as_str() {
+            "path" => {
+                let max_depth = p.integer("max_depth")?.unwrap_or(-1);
+                let rr_depth = p.integer("rr_depth")?.unwrap_or(5);
+                if p.boolean("hide_emitters")? == Some(true) {
+                    return Err(at(self.doc, node, "hide_emitters is not supported"));
+                }
+                // Mitsuba's max_depth counts the segments of a path, raylab's the scattering
+                // events: one less; -1 is unlimited in both.
+                let depth = if max_depth < 0 {
+                    "inf".to_string()
+                } else {
+                    (max_depth - 1).max(0).to_string()
+                };
+                self.render.push(format!("integrator: \"path\", params: {{\"max-depth\": {depth}, \"rr-depth\": {rr_depth}}}"));
+                self.report.push(format!("integrator: Mitsuba's path max_depth {max_depth} is raylab's max-depth {depth}"));
+            }
+            other => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!("integrator `{other}` is not supported (path is)"),
+                ))
+            }
+        }
+        p.finish(&[])
+    }
+}
+
+/// Converts the Mitsuba XML `text` (of `file`, for messages) into RON; `overrides` are `-D`
+/// parameters.
+pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Located> {
+    let doc = Document::parse(text).map_err(|e| {
+        let p = e.pos();
+        (p.row, p.col, format!("malformed XML: {e}"))
+    })?;
+    let root = doc.root_element();
+    if root.tag_name().name() != "scene" {
+        return Err(at(
+            &doc,
+            root,
+            format!("expected a <scene>, found <{}>", root.tag_name().name()),
+        ));
+    }
+    let mut c = Converter {
+        doc: &doc,
+        params: Params::new(overrides),
+        ids: HashMap::new(),
+        materials: Vec::new(),
+        material_of: HashMap::new(),
+        entities: Vec::new(),
+        environment: None,
+        camera: None,
+        render: Vec::new(),
+        report: Vec::new(),
+    };
+    let mut index = 0;
+    for node in root.children().filter(Node::is_element) {
+        index += 1;
+        let tag = node.tag_name().name();
+        if let Some(id) = attr(&c.params, &doc, node, "id")? {
+            if c.ids.insert(id.clone(), node).is_some() {
+                return Err(at(&doc, node, format!("id `{id}` is used twice")));
+            }
+        }
+        match tag {
+            "default" => {
+                let name = attr(&c.params, &doc, node, "name")?
+                    .ok_or_else(|| at(&doc, node, "<default> needs a `name`"))?;
+                let value = node
+                    .attribute("value")
+                    .ok_or_else(|| at(&doc, node, "<default> needs a `value`"))?;
+                c.params.default(&name, value);
+            }
+            "bsdf" => {
+                // Written when a shape uses it (unused ones are left out).
+            }
+            "texture" => {}
+            "shape" => c.shape(node, index)?,
+            "emitter" => c.emitter(node, index)?,
+            "sensor" => c.sensor(node)?,
+            "integrator" => c.integrator(node)?,
+            other => {
+                return Err(at(
+                    &doc,
+                    node,
+                    format!("<{other}> is not supported at the top of a scene"),
+                ))
+            }
+        }
+    }
+    let camera = c.camera.ok_or_else(|| {
+        (
+            1,
+            1,
+            "the scene has no <sensor>: raylab needs a camera".to_string(),
+        )
+    })?;
+    if c.entities.is_empty() {
+        return Err((1, 1, "the scene has no shapes or emitters".into()));
+    }
+    let (line, col) = position(&doc, root);
+    let mut ron = format!("// Imported by raylab from a Mitsuba 3 scene (its <scene> at {line}:{col}).\n(\n    camera: {camera},\n");
+    let _ = writeln!(ron, "    render: ({}),", c.render.join(", "));
+    if let Some(env) = &c.environment {
+        let _ = writeln!(ron, "    environment: {env},");
+    }
+    ron.push_str("    materials: {\n");
+    for (name, desc) in &c.materials {
+        let _ = writeln!(ron, "        {}: {desc},", quote(name));
+    }
+    ron.push_str("    },\n    entities: [\n");
+    for e in &c.entities {
+        let _ = writeln!(ron, "        {e}");
+    }
+    ron.push_str("    ],\n)\n");
+    Ok(Imported {
+        ron,
+        report: c.report,
+    })
+}

@@ -1,0 +1,313 @@
+//! The XML side: elements with their line and column, `$name` substitution from `<default>`s
+//! and `-D` overrides, and typed property values.
+
+use glam::{Affine3A, DAffine3, DMat3, DVec3, Vec3A};
+use roxmltree::{Document, Node};
+use std::collections::HashMap;
+
+/// An error at a place in the file: (line, column, message).
+pub type Located = (u32, u32, String);
+
+/// Where `node` starts, as (line, column) from 1.
+pub fn position(doc: &Document, node: Node) -> (u32, u32) {
+    let p = doc.text_pos_at(node.range().start);
+    (p.row, p.col)
+}
+
+/// The substitutions in force: `<default>` values, overridden by `-D` ones.
+pub struct Params {
+    values: HashMap<String, String>,
+    overridden: HashMap<String, String>,
+}
+
+impl Params {
+    pub fn new(overrides: &[(String, String)]) -> Params {
+        Params {
+            values: HashMap::new(),
+            overridden: overrides.iter().cloned().collect(),
+        }
+    }
+
+    /// Records a `<default name value>` (a `-D` of the same name wins).
+    pub fn default(&mut self, name: &str, value: &str) {
+        self.values.insert(name.to_string(), value.to_string());
+    }
+
+    /// `text` with every `$name` replaced by its value; an unknown name is an error.
+    pub fn substitute(&self, text: &str) -> Result<String, String> {
+        let mut out = String::with_capacity(text.len());
+        let mut rest = text;
+        while let Some(at) = rest.find('$') {
+            out.push_str(&rest[..at]);
+            let after = &rest[at + 1..];
+            let len = after
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            let name = &after[..len];
+            if name.is_empty() {
+                return Err(format!("`$` without a parameter name in {text:?}"));
+            }
+            let value = self
+                .overridden
+                .get(name)
+                .or_else(|| self.values.get(name))
+                .ok_or_else(|| {
+                    format!(
+                        "parameter `${name}` has no value: give it a <default> or -D {name}=..."
+                    )
+                })?;
+            out.push_str(value);
+            rest = &after[len..];
+        }
+        out.push_str(rest);
+        Ok(out)
+    }
+}
+
+/// One attribute of `node`, substituted; `None` when absent.
+pub fn attr(
+    params: &Params,
+    doc: &Document,
+    node: Node,
+    name: &str,
+) -> Result<Option<String>, Located> {
+    node.attribute(name)
+        .map(|v| params.substitute(v).map_err(|e| at(doc, node, e)))
+        .transpose()
+}
+
+/// An error at `node`.
+pub fn at(doc: &Document, node: Node, message: impl Into<String>) -> Located {
+    let (line, col) = position(doc, node);
+    (line, col, message.into())
+}
+
+/// Numbers separated by commas and/or whitespace.
+pub fn numbers(text: &str) -> Result<Vec<f32>, String> {
+    text.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<f32>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("`{s}` is not a finite number"))
+        })
+        .collect()
+}
+
+/// A typed property value.
+#[derive(Clone, Debug)]
+pub enum Value {
+    Float(f32),
+    Integer(i64),
+    Boolean(bool),
+    String(String),
+    /// `rgb`, a uniform `spectrum`, `point` or `vector`.
+    Vector([f32; 3]),
+    Transform(Affine3A),
+}
+
+/// A vector from `x`, `y`, `z` attributes (missing ones 0) or a `value` of one or three
+/// numbers.
+fn xyz(params: &Params, doc: &Document, node: Node, default: f32) -> Result<[f32; 3], Located> {
+    if let Some(v) = attr(params, doc, node, "value")? {
+        let n = numbers(&v).map_err(|e| at(doc, node, e))?;
+        return match n.len() {
+            1 => Ok([n[0]; 3]),
+            3 => Ok([n[0], n[1], n[2]]),
+            k => Err(at(doc, node, format!("expected 1 or 3 numbers, got {k}"))),
+        };
+    }
+    let mut out = [default; 3];
+    for (i, name) in ["x", "y", "z"].iter().enumerate() {
+        if let Some(v) = attr(params, doc, node, name)? {
+            out[i] = numbers(&v)
+                .ok()
+                .and_then(|n| (n.len() == 1).then_some(n[0]))
+                .ok_or_else(|| at(doc, node, format!("`{name}`: `{v}` is not a number")))?;
+        }
+    }
+    Ok(out)
+}
+
+/// The value of a property element (`<float name="..." value="..."/>`, ...).
+pub fn value(params: &Params, doc: &Document, node: Node) -> Result<Value, Located> {
+    let tag = node.tag_name().name();
+    let text = |name: &str| -> Result<String, Located> {
+        attr(params, doc, node, name)?
+            .ok_or_else(|| at(doc, node, format!("<{tag}> needs `{name}`")))
+    };
+    Ok(match tag {
+        "float" => {
+            let v = text("value")?;
+            let n = numbers(&v).map_err(|e| at(doc, node, e))?;
+            match n[..] {
+                [x] => Value::Float(x),
+                _ => {
+                    return Err(at(
+                        doc,
+                        node,
+                        format!("<float> takes one number, got `{v}`"),
+                    ))
+                }
+            }
+        }
+        "integer" => {
+            let v = text("value")?;
+            Value::Integer(
+                v.trim()
+                    .parse()
+                    .map_err(|_| at(doc, node, format!("`{v}` is not an integer")))?,
+            )
+        }
+        "boolean" => {
+            let v = text("value")?;
+            Value::Boolean(match v.trim() {
+                "true" => true,
+                "false" => false,
+                _ => return Err(at(doc, node, format!("`{v}` is not `true` or `false`"))),
+            })
+        }
+        "string" => Value::String(text("value")?),
+        "rgb" => {
+            let v = text("value")?;
+            let n = numbers(&v).map_err(|e| at(doc, node, e))?;
+            match n[..] {
+                [x] => Value::Vector([x; 3]),
+                [r, g, b] => Value::Vector([r, g, b]),
+                _ => {
+                    return Err(at(
+                        doc,
+                        node,
+                        format!("<rgb> takes 1 or 3 numbers, got `{v}`"),
+                    ))
+                }
+            }
+        }
+        "spectrum" => {
+            let v = text("value")?;
+            match numbers(&v).ok().as_deref() {
+                Some([x]) => Value::Vector([*x; 3]),
+                _ => {
+                    return Err(at(
+                        doc,
+                        node,
+                        format!("<spectrum value=\"{v}\">: only a uniform spectrum (one number) is supported"),
+                    ))
+                }
+            }
+        }
+        "point" | "vector" => Value::Vector(xyz(params, doc, node, 0.0)?),
+        "transform" => Value::Transform(transform(params, doc, node)?),
+        _ => return Err(at(doc, node, format!("unknown property type <{tag}>"))),
+    })
+}
+
+/// A `<transform>`: its operations applied in order (each after the ones before), composed in
+/// double precision as Mitsuba does, so that a rotation by 90 degrees leaves exact zeros.
+pub fn transform(params: &Params, doc: &Document, node: Node) -> Result<Affine3A, Located> {
+    let d = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+    let one = |op: Node, name: &str| -> Result<f64, Located> {
+        let v = attr(params, doc, op, name)?.ok_or_else(|| {
+            at(
+                doc,
+                op,
+                format!("<{}> needs `{name}`", op.tag_name().name()),
+            )
+        })?;
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| at(doc, op, format!("`{name}`: `{v}` is not a finite number")))
+    };
+    let mut m = DAffine3::IDENTITY;
+    for op in node.children().filter(Node::is_element) {
+        let step = match op.tag_name().name() {
+            "translate" => DAffine3::from_translation(d(xyz(params, doc, op, 0.0)?)),
+            "scale" => DAffine3::from_scale(d(xyz(params, doc, op, 1.0)?)),
+            "rotate" => {
+                let axis = d(xyz(params, doc, op, 0.0)?);
+                let angle = one(op, "angle")?;
+                if axis.length_squared() == 0.0 {
+                    return Err(at(doc, op, "<rotate> needs a non-zero axis"));
+                }
+                DAffine3::from_axis_angle(axis.normalize(), angle.to_radians())
+            }
+            "matrix" => {
+                let v = attr(params, doc, op, "value")?
+                    .ok_or_else(|| at(doc, op, "<matrix> needs `value`"))?;
+                let n = numbers(&v).map_err(|e| at(doc, op, e))?;
+                let n: Vec<f64> = n.into_iter().map(f64::from).collect();
+                let cols = match n.len() {
+                    16 if n[12..] == [0.0, 0.0, 0.0, 1.0] => 4,
+                    16 => {
+                        return Err(at(
+                            doc,
+                            op,
+                            "<matrix>: a projective last row is not supported",
+                        ))
+                    }
+                    9 => 3,
+                    k => {
+                        return Err(at(
+                            doc,
+                            op,
+                            format!("<matrix> takes 16 (or 9) numbers, got {k}"),
+                        ))
+                    }
+                };
+                let e = |r: usize, c: usize| if c < cols { n[cols * r + c] } else { 0.0 };
+                let col = |c: usize| DVec3::new(e(0, c), e(1, c), e(2, c));
+                DAffine3::from_cols(col(0), col(1), col(2), col(3))
+            }
+            "lookat" => {
+                let get = |name: &str| -> Result<DVec3, Located> {
+                    let v = attr(params, doc, op, name)?
+                        .ok_or_else(|| at(doc, op, format!("<lookat> needs `{name}`")))?;
+                    match numbers(&v).map_err(|e| at(doc, op, e))?[..] {
+                        [x, y, z] => Ok(d([x, y, z])),
+                        _ => Err(at(doc, op, format!("`{name}` takes 3 numbers, got `{v}`"))),
+                    }
+                };
+                let origin = get("origin")?;
+                let target = get("target")?;
+                let up = match attr(params, doc, op, "up")? {
+                    Some(_) => get("up")?,
+                    None => DVec3::Y,
+                };
+                // Mitsuba's look_at: z towards the target, x = up x z (to the left), y = z x x.
+                let dir = (target - origin).normalize_or_zero();
+                let left = up.normalize_or_zero().cross(dir).normalize_or_zero();
+                if dir == DVec3::ZERO || left == DVec3::ZERO {
+                    return Err(at(
+                        doc,
+                        op,
+                        "<lookat>: the target is the origin, or up is along the view",
+                    ));
+                }
+                let new_up = dir.cross(left);
+                DAffine3::from_mat3_translation(DMat3::from_cols(left, new_up, dir), origin)
+            }
+            other => {
+                return Err(at(
+                    doc,
+                    op,
+                    format!("unknown transform operation <{other}>"),
+                ))
+            }
+        };
+        m = step * m;
+    }
+    // In single precision, with what double precision left of exact zeros made zero.
+    let f = |v: DVec3| {
+        let snap = |x: f64| if x.abs() < 1e-12 { 0.0 } else { x as f32 };
+        Vec3A::new(snap(v.x), snap(v.y), snap(v.z))
+    };
+    Ok(Affine3A::from_cols(
+        f(m.matrix3.x_axis),
+        f(m.matrix3.y_axis),
+        f(m.matrix3.z_axis),
+        f(m.translation),
+    ))
+}
