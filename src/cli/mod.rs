@@ -60,6 +60,9 @@ pub enum Command {
         /// Also print what was mapped approximately, or by a changed convention.
         #[arg(long)]
         report: bool,
+        /// A `<default>` parameter as NAME=VALUE; repeat for several.
+        #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+        defines: Vec<(String, String)>,
     },
     /// Parse and build a scene, then print its counts and bounds.
     Validate {
@@ -69,6 +72,9 @@ pub enum Command {
         /// files (meshes, MTL files, glTF buffers) under its own folder only.
         #[arg(long = "allow-path", value_name = "DIR")]
         allow_path: Vec<PathBuf>,
+        /// A Mitsuba scene's `<default>` parameter as NAME=VALUE; repeat for several.
+        #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+        defines: Vec<(String, String)>,
     },
 }
 
@@ -117,6 +123,10 @@ pub struct SessionArgs {
     /// files (meshes, MTL files, glTF buffers) under its own folder only.
     #[arg(long = "allow-path", value_name = "DIR")]
     pub allow_path: Vec<PathBuf>,
+    /// A Mitsuba scene's `<default>` parameter as NAME=VALUE (as `mitsuba -D`); repeat for
+    /// several.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub defines: Vec<(String, String)>,
     /// Exposure in stops for the PNG or the page's image (each +1 doubles the brightness).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
@@ -207,6 +217,10 @@ pub struct CompareArgs {
     /// files (meshes, MTL files, glTF buffers) under its own folder only.
     #[arg(long = "allow-path", value_name = "DIR")]
     pub allow_path: Vec<PathBuf>,
+    /// A Mitsuba scene's `<default>` parameter as NAME=VALUE (as `mitsuba -D`); repeat for
+    /// several.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub defines: Vec<(String, String)>,
     /// Output folder (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -311,15 +325,20 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             print!("{}", render_cmd::integrators_listing());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Validate { scene, allow_path } => {
+        Command::Validate {
+            scene,
+            allow_path,
+            defines,
+        } => {
             check_allowed(&allow_path)?;
-            render_cmd::validate(&scene, &allow_path)
+            render_cmd::validate(&scene, &allow_path, &defines)
         }
         Command::Import {
             scene,
             output,
             report,
-        } => render_cmd::import(&scene, &output, report),
+            defines,
+        } => render_cmd::import(&scene, &output, report, &defines),
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
         Command::Bench(args) => {
@@ -401,4 +420,18 @@ fn parse_filter(name: &str) -> Result<raylab_integrators::Filter, String> {
 /// `--accel NAME`.
 fn parse_accel(name: &str) -> Result<crate::accel::AccelKind, String> {
     name.parse()
+}
+
+/// `-D NAME=VALUE`: a Mitsuba `<default>` parameter.
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((name, value))
+            if !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') =>
+        {
+            Ok((name.to_string(), value.to_string()))
+        }
+        _ => Err(format!(
+            "expected NAME=VALUE (a Mitsuba <default> parameter), got `{s}`"
+        )),
+    }
 }

@@ -94,7 +94,11 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         .map(|p| parse_param(p))
         .collect::<Result<Vec<_>>>()?;
 
-    let loaded = scene::load_scene_with(&args.session.scene, &args.session.allow_path)?;
+    let loaded = scene::load_scene_defined(
+        &args.session.scene,
+        &args.session.allow_path,
+        &args.session.defines,
+    )?;
     for w in &loaded.warnings {
         note!("warning: {}: {w}", args.session.scene.display());
     }
@@ -296,7 +300,12 @@ fn install_interrupt_handler() {
 
 /// `raylab import`: a Mitsuba 3 XML scene written out as RON, checked by loading it the way
 /// `render` would before anything is written.
-pub fn import(path: &Path, output: &Path, report: bool) -> Result<ExitCode> {
+pub fn import(
+    path: &Path,
+    output: &Path,
+    report: bool,
+    defines: &[(String, String)],
+) -> Result<ExitCode> {
     if !scene::is_mitsuba(path) {
         anyhow::bail!(
             "{}: import reads Mitsuba 3 XML scenes (.xml); this is not one",
@@ -316,9 +325,9 @@ pub fn import(path: &Path, output: &Path, report: bool) -> Result<ExitCode> {
     }
     let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT)
         .with_context(|| format!("{}: cannot read scene file", path.display()))?;
-    let imported = scene::import_mitsuba(path, &text)?;
+    let imported = scene::import_mitsuba(path, &text, defines)?;
     // The same checks as rendering it: a scene that will not load is not written.
-    scene::load_scene(path)?;
+    scene::load_scene_defined(path, &[], defines)?;
     crate::output::atomic::write_atomic(output, |f| {
         use std::io::Write as _;
         f.write_all(imported.ron.as_bytes())
@@ -336,8 +345,12 @@ pub fn import(path: &Path, output: &Path, report: bool) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-pub fn validate(path: &Path, allowed: &[PathBuf]) -> Result<ExitCode> {
-    let loaded = scene::load_scene_with(path, allowed)?;
+pub fn validate(
+    path: &Path,
+    allowed: &[PathBuf],
+    defines: &[(String, String)],
+) -> Result<ExitCode> {
+    let loaded = scene::load_scene_defined(path, allowed, defines)?;
     for w in &loaded.warnings {
         note!("warning: {}: {w}", path.display());
     }

@@ -75,6 +75,8 @@ pub struct LiveSettings {
     pub scene: PathBuf,
     /// Folders beside the scene's that it may read files from (`--allow-path`).
     pub allowed: Vec<PathBuf>,
+    /// `-D` parameters of a Mitsuba XML scene.
+    pub defines: Vec<(String, String)>,
     /// Image size overriding the scene's.
     pub size: Option<(u32, u32)>,
     /// Samples per pixel to stop at; `None` renders until the next change or Ctrl-C.
@@ -252,7 +254,7 @@ fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, 
 
 /// Loads and builds the scene with the selected integrator.
 fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
-    let loaded = scene::load_scene_with(&settings.scene, &settings.allowed)?;
+    let loaded = scene::load_scene_defined(&settings.scene, &settings.allowed, &settings.defines)?;
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", settings.scene.display());
     }

@@ -31,12 +31,30 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
 /// [`load_scene`] for a scene that may also read files under the folders `allowed`
 /// (`--allow-path`).
 pub fn load_scene_with(path: &Path, allowed: &[PathBuf]) -> Result<LoadedScene, SceneError> {
-    let text = scene_text(path)?;
-    build_world(
-        parse_scene_file(&text, path)?,
-        path,
-        &SceneFiles::new(path, allowed),
-    )
+    load_scene_defined(path, allowed, &[])
+}
+
+/// [`load_scene_with`] with `-D` parameters for a Mitsuba XML scene's `<default>`s (an error
+/// for a RON scene, which has none).
+pub fn load_scene_defined(
+    path: &Path,
+    allowed: &[PathBuf],
+    defines: &[(String, String)],
+) -> Result<LoadedScene, SceneError> {
+    let text = scene_text(path, defines)?;
+    let file = parse_scene_file(&text, path).map_err(|e| match e {
+        // A place in the RON made of an XML scene is no place in the file the user has.
+        SceneError::Parse {
+            line, col, message, ..
+        } if is_mitsuba(path) => SceneError::Scene {
+            path: path.to_path_buf(),
+            message: format!(
+                "{message} (at {line}:{col} of the RON scene raylab made of it: see `raylab import`)"
+            ),
+        },
+        e => e,
+    })?;
+    build_world(file, path, &SceneFiles::new(path, allowed))
 }
 
 /// Whether `path` names a Mitsuba 3 XML scene (by its extension).
@@ -47,7 +65,7 @@ pub fn is_mitsuba(path: &Path) -> bool {
 
 /// A scene file's RON text: the file itself, or a Mitsuba 3 XML scene converted (errors at
 /// their place in the XML).
-pub fn scene_text(path: &Path) -> Result<String, SceneError> {
+pub fn scene_text(path: &Path, defines: &[(String, String)]) -> Result<String, SceneError> {
     let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT).map_err(|reason| {
         SceneError::Read {
             path: path.to_path_buf(),
@@ -55,14 +73,26 @@ pub fn scene_text(path: &Path) -> Result<String, SceneError> {
         }
     })?;
     if !is_mitsuba(path) {
+        if let Some((name, _)) = defines.first() {
+            return Err(SceneError::Scene {
+                path: path.to_path_buf(),
+                message: format!(
+                    "-D {name}=... sets a Mitsuba XML scene's <default>; this is a RON scene"
+                ),
+            });
+        }
         return Ok(text);
     }
-    Ok(import_mitsuba(path, &text)?.ron)
+    Ok(import_mitsuba(path, &text, defines)?.ron)
 }
 
 /// Converts a Mitsuba 3 XML scene's text into RON.
-pub fn import_mitsuba(path: &Path, text: &str) -> Result<super::mitsuba::Imported, SceneError> {
-    super::mitsuba::to_ron(text, &[]).map_err(|(line, col, message)| SceneError::Parse {
+pub fn import_mitsuba(
+    path: &Path,
+    text: &str,
+    defines: &[(String, String)],
+) -> Result<super::mitsuba::Imported, SceneError> {
+    super::mitsuba::to_ron(text, defines).map_err(|(line, col, message)| SceneError::Parse {
         path: path.to_path_buf(),
         line: line as usize,
         col: col as usize,

@@ -21,7 +21,10 @@ pub mod textures;
 
 pub use error::SceneError;
 pub use flatten::RenderScene;
-pub use load::{import_mitsuba, is_mitsuba, load_scene, load_scene_with, parse_scene, scene_text};
+pub use load::{
+    import_mitsuba, is_mitsuba, load_scene, load_scene_defined, load_scene_with, parse_scene,
+    scene_text,
+};
 pub use raylab_integrators::Camera;
 
 use raylab_integrators::{Rgb, SurfaceMaterial};

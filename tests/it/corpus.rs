@@ -95,12 +95,13 @@ fn check(case: &Case) -> Option<String> {
     }
 }
 
-/// The bad scenes: `NN-short-name.ron` files with their `// expect:` lines.
+/// The bad scenes: `NN-short-name.ron` files with their `// expect:` lines, and Mitsuba XML
+/// ones, `NN-short-name.xml` with `<!-- expect: ... -->` lines.
 fn scene_cases() -> Vec<Case> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(corpus_dir())
         .expect("tests/corpus exists")
         .map(|e| e.expect("readable entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .filter(|p| p.extension().is_some_and(|e| e == "ron" || e == "xml"))
         .collect();
     files.sort();
     let mut cases = Vec::new();
@@ -117,7 +118,12 @@ fn scene_cases() -> Vec<Case> {
         let text = String::from_utf8_lossy(&bytes);
         let expect: Vec<String> = text
             .lines()
-            .filter_map(|l| l.strip_prefix("// expect: "))
+            .filter_map(|l| {
+                l.strip_prefix("// expect: ").or_else(|| {
+                    l.strip_prefix("<!-- expect: ")
+                        .and_then(|l| l.strip_suffix(" -->"))
+                })
+            })
             .map(str::to_string)
             .collect();
         assert!(!expect.is_empty(), "{file}: no `// expect: ` line");

@@ -14,6 +14,7 @@ mod compare;
 mod corpus;
 mod files;
 mod lights;
+mod mitsuba;
 mod new_integrator;
 mod passes;
 mod photons;

@@ -128,7 +128,10 @@ impl<'a, 'input> Props<'a, 'input> {
         match self.take(name) {
             None => Ok(None),
             Some((Value::Float(v), _)) => Ok(Some(num(v))),
-            Some((Value::String(s), _)) => Ok(Some(quote(&s))),
+            Some((Value::String(s), n)) => {
+                raylab_integrators::bsdf::ior::dielectric(&s).map_err(|e| at(self.doc, n, e))?;
+                Ok(Some(quote(&s)))
+            }
             Some((_, n)) => Err(at(
                 self.doc,
                 n,
@@ -323,8 +326,19 @@ impl<'a, 'input> Converter<'a, 'input> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         let rough = |p: &mut Props<'a, 'input>, out: &mut String| -> Result<(), Located> {
-            if let Some(d) = p.string("distribution")? {
-                let _ = write!(out, ", distribution: {}", quote(&d));
+            if let Some((v, n)) = p.take("distribution") {
+                match v {
+                    Value::String(d) if matches!(d.as_str(), "ggx" | "beckmann") => {
+                        let _ = write!(out, ", distribution: {}", quote(&d));
+                    }
+                    _ => {
+                        return Err(at(
+                            p.doc,
+                            n,
+                            "`distribution` must be \"ggx\" or \"beckmann\"",
+                        ))
+                    }
+                }
             }
             for name in ["alpha", "alpha_u", "alpha_v"] {
                 if let Some(a) = p.float(name)? {
@@ -348,7 +362,15 @@ impl<'a, 'input> Converter<'a, 'input> {
             }
             "conductor" | "roughconductor" => {
                 let mut out = String::from(if kind == "conductor" { "Conductor(" } else { "RoughConductor(" });
-                match (p.string("material")?, p.vector("eta")?, p.vector("k")?) {
+                let metal = match p.take("material") {
+                    None => None,
+                    Some((Value::String(m), n)) => {
+                        raylab_integrators::bsdf::ior::metal(&m).map_err(|e| at(self.doc, n, e))?;
+                        Some(m)
+                    }
+                    Some((_, n)) => return Err(at(self.doc, n, "`material` must be a string")),
+                };
+                match (metal, p.vector("eta")?, p.vector("k")?) {
                     (Some(m), None, None) => { let _ = write!(out, "metal: {}", quote(&m)); }
                     (None, Some(eta), Some(k)) => { let _ = write!(out, "eta: {}, k: {}", v3(eta), v3(k)); }
                     (None, None, None) => out.push_str("metal: \"none\""),
@@ -624,13 +646,15 @@ impl<'a, 'input> Converter<'a, 'input> {
                             "box" => "box".into(),
                             "tent" => "tent".into(),
                             "gaussian" => "gaussian".into(),
-                            other => return Err(at(
-                                self.doc,
-                                rf,
-                                format!(
+                            other => {
+                                return Err(at(
+                                    self.doc,
+                                    rf,
+                                    format!(
                                     "filter `{other}` is not supported (box, tent, gaussian are)"
                                 ),
-                            )),
+                                ))
+                            }
                         };
                         self.props(rf)?.finish(&["radius", "stddev"])?;
                     }

@@ -311,3 +311,89 @@ pub fn transform(params: &Params, doc: &Document, node: Node) -> Result<Affine3A
         f(m.translation),
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(doc: &str, f: impl FnOnce(&Document, Node)) {
+        let d = Document::parse(doc).unwrap();
+        f(&d, d.root_element());
+    }
+
+    #[test]
+    fn parameters_are_substituted_and_overridden() {
+        let mut p = Params::new(&[("spp".into(), "64".into())]);
+        p.default("spp", "4");
+        p.default("res", "128");
+        assert_eq!(p.substitute("$spp x $res$res").unwrap(), "64 x 128128");
+        assert_eq!(p.substitute("no dollars").unwrap(), "no dollars");
+        assert!(p
+            .substitute("$missing")
+            .unwrap_err()
+            .contains("`$missing` has no value"));
+        assert!(p
+            .substitute("a $ b")
+            .unwrap_err()
+            .contains("without a parameter name"));
+    }
+
+    #[test]
+    fn transform_operations_apply_in_order() {
+        with(
+            r#"<transform name="to_world"><scale value="2"/><rotate y="1" angle="90"/><translate x="1" y="2" z="3"/></transform>"#,
+            |d, n| {
+                let m = transform(&Params::new(&[]), d, n).unwrap();
+                // (1, 0, 0) -> scaled (2, 0, 0) -> about y by 90 degrees (0, 0, -2) -> (1, 2, 1).
+                let p = m.transform_point3a(Vec3A::X);
+                assert!((p - Vec3A::new(1.0, 2.0, 1.0)).length() < 1e-6, "{p}");
+                // Exact zeros where double precision leaves 6e-17.
+                assert_eq!(m.matrix3.x_axis.x, 0.0);
+            },
+        );
+        with(
+            r#"<transform name="t"><matrix value="1 0 0 5  0 2 0 6  0 0 3 7  0 0 0 1"/><translate x="1"/></transform>"#,
+            |d, n| {
+                let m = transform(&Params::new(&[]), d, n).unwrap();
+                assert_eq!(m.transform_point3a(Vec3A::ONE), Vec3A::new(7.0, 8.0, 10.0));
+            },
+        );
+    }
+
+    #[test]
+    fn lookat_is_mitsubas_frame() {
+        // z towards the target, x = up x z (the image's left), y the up made orthogonal.
+        with(
+            r#"<transform name="t"><lookat origin="1, 2, 3" target="1, 2, 0" up="0, 1, 0"/></transform>"#,
+            |d, n| {
+                let m = transform(&Params::new(&[]), d, n).unwrap();
+                assert_eq!(m.translation, Vec3A::new(1.0, 2.0, 3.0));
+                assert_eq!(m.matrix3.z_axis, -Vec3A::Z);
+                assert_eq!(m.matrix3.x_axis, -Vec3A::X);
+                assert_eq!(m.matrix3.y_axis, Vec3A::Y);
+            },
+        );
+    }
+
+    #[test]
+    fn bad_values_are_located() {
+        with(r#"<scene><float name="x" value="1 2"/></scene>"#, |d, n| {
+            let e = value(&Params::new(&[]), d, n.first_element_child().unwrap()).unwrap_err();
+            assert_eq!((e.0, e.1), (1, 8));
+            assert!(e.2.contains("takes one number"), "{e:?}");
+        });
+        with(
+            r#"<scene><spectrum name="x" value="400:1, 700:2"/></scene>"#,
+            |d, n| {
+                let e = value(&Params::new(&[]), d, n.first_element_child().unwrap()).unwrap_err();
+                assert!(e.2.contains("only a uniform spectrum"), "{e:?}");
+            },
+        );
+        with(r#"<t><rotate angle="30"/></t>"#, |d, n| {
+            let e = transform(&Params::new(&[]), d, n).unwrap_err();
+            assert!(e.2.contains("non-zero axis"), "{e:?}");
+        });
+        assert!(numbers("1, 2 3,4").unwrap() == vec![1.0, 2.0, 3.0, 4.0]);
+        assert!(numbers("1 inf").is_err() && numbers("1 x").is_err());
+    }
+}

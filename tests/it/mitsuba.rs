@@ -1,0 +1,191 @@
+//! Mitsuba 3 XML scenes: rendered as raylab reads them, imported to RON, and held to the RON
+//! scene they were written from.
+
+use crate::common::{raylab_in, repo_file};
+use raylab::render::{render, Film, RenderSettings};
+use raylab::scene::{load_scene, load_scene_defined, RenderScene};
+use raylab_integrators::registry;
+use std::path::Path;
+
+fn mean_of(scene: &Path, defines: &[(String, String)], spp: u32, seed: u64) -> Film {
+    let loaded = load_scene_defined(scene, &[], defines).unwrap();
+    let built = RenderScene::build(&loaded);
+    let camera = loaded.camera.with_resolution(24, 24);
+    let mut path = registry::find("path")
+        .unwrap()
+        .instantiate(&[("max-depth".into(), "7".into())])
+        .unwrap();
+    let settings = RenderSettings::fixed(spp, seed, None);
+    render(&built, &camera, path.as_mut(), &settings).unwrap().0
+}
+
+/// `scenes/mitsuba/cornell_box.xml` is `scenes/cornell_box.ron` written as Mitsuba XML:
+/// the same image, within noise (a z-test on each channel's mean).
+#[test]
+fn the_xml_cornell_box_renders_as_the_ron_one() {
+    let xml = mean_of(&repo_file("scenes/mitsuba/cornell_box.xml"), &[], 512, 1);
+    let ron = mean_of(&repo_file("scenes/cornell_box.ron"), &[], 512, 2);
+    let (a, b) = (xml.mean(), ron.mean());
+    let (sa, sb) = (xml.mean_standard_error(), ron.mean_standard_error());
+    for c in 0..3 {
+        let z = (a[c] - b[c]) / (sa[c] * sa[c] + sb[c] * sb[c]).sqrt();
+        assert!(z.abs() < 4.0, "channel {c}: {a} vs {b} (z {z})");
+        assert!(sa[c] < 0.01 * a[c], "too noisy to mean anything");
+    }
+    // The scene's own settings came across: camera, film, filter, samples, depth.
+    let loaded = load_scene(&repo_file("scenes/mitsuba/cornell_box.xml")).unwrap();
+    assert_eq!((loaded.camera.width, loaded.camera.height), (256, 256));
+    assert_eq!(loaded.render.spp, 64);
+    assert_eq!(loaded.render.params.get("max-depth"), Some(&7.0));
+    // -D overrides a <default>.
+    let defined = load_scene_defined(
+        &repo_file("scenes/mitsuba/cornell_box.xml"),
+        &[],
+        &[("spp".into(), "8".into()), ("max_depth".into(), "3".into())],
+    )
+    .unwrap();
+    assert_eq!(defined.render.spp, 8);
+    assert_eq!(defined.render.params.get("max-depth"), Some(&2.0));
+}
+
+/// Every plugin the importer knows, in one scene: it loads, with the materials, lights and
+/// shapes it says.
+#[test]
+fn every_supported_plugin_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+               element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    std::fs::write(dir.path().join("tri.ply"), ply).unwrap();
+    std::fs::write(
+        dir.path().join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let xml = r#"<scene version="3.0.0">
+        <default name="r" value="0.5"/>
+        <integrator type="path"><integer name="max_depth" value="-1"/></integrator>
+        <sensor type="perspective">
+            <float name="fov" value="45"/><string name="fov_axis" value="y"/>
+            <transform name="to_world"><lookat origin="0, 1, 6" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/><rfilter type="tent"/></film>
+            <sampler type="independent"><integer name="sample_count" value="5"/></sampler>
+        </sensor>
+        <texture type="checkerboard" id="checks"><rgb name="color0" value="0.1"/><rgb name="color1" value="0.9"/>
+            <transform name="to_uv"><scale x="4" y="2"/></transform></texture>
+        <bsdf type="diffuse" id="chequered"><ref name="reflectance" id="checks"/></bsdf>
+        <bsdf type="twosided" id="gold"><bsdf type="roughconductor"><string name="material" value="Au"/>
+            <string name="distribution" value="ggx"/><float name="alpha" value="0.2"/></bsdf></bsdf>
+        <bsdf type="dielectric" id="glass"><string name="int_ior" value="bk7"/><float name="ext_ior" value="1"/></bsdf>
+        <bsdf type="roughdielectric" id="frosted"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>
+        <bsdf type="thindielectric" id="pane"/>
+        <bsdf type="plastic" id="plastic"><rgb name="diffuse_reflectance" value="0.1 0.3 0.7"/><boolean name="nonlinear" value="true"/></bsdf>
+        <bsdf type="roughplastic" id="rough plastic"><float name="alpha" value="0.3"/></bsdf>
+        <bsdf type="conductor" id="copper"><rgb name="eta" value="0.2 0.9 1.1"/><rgb name="k" value="3.9 2.4 2.2"/></bsdf>
+        <shape type="rectangle" id="floor"><transform name="to_world"><rotate x="1" angle="-90"/><scale value="5"/></transform><ref id="chequered"/></shape>
+        <shape type="cube" id="box"><transform name="to_world"><scale value="0.3"/><translate x="-2"/></transform><ref id="gold"/></shape>
+        <shape type="sphere" id="ball"><point name="center" x="1" y="0.5" z="0"/><float name="radius" value="$r"/><ref id="glass"/></shape>
+        <shape type="disk" id="plate"><ref id="frosted"/></shape>
+        <shape type="cylinder" id="tube"><point name="p0" value="0 0 -2"/><point name="p1" value="0 1 -2"/><ref id="pane"/></shape>
+        <shape type="ply" id="tri"><string name="filename" value="tri.ply"/><ref id="plastic"/></shape>
+        <shape type="obj" id="tri2"><string name="filename" value="tri.obj"/><boolean name="face_normals" value="true"/><ref id="rough plastic"/></shape>
+        <shape type="sphere" id="shell"><float name="radius" value="0.2"/><ref id="copper"/><boolean name="flip_normals" value="false"/></shape>
+        <shape type="rectangle" id="lamp"><transform name="to_world"><rotate x="1" angle="90"/><translate y="3"/></transform>
+            <emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>
+        <emitter type="point"><point name="position" x="0" y="2" z="2"/><rgb name="intensity" value="3"/></emitter>
+        <emitter type="spot"><transform name="to_world"><lookat origin="0, 3, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+            <rgb name="intensity" value="10"/><float name="cutoff_angle" value="30"/></emitter>
+        <emitter type="directional"><vector name="direction" x="0" y="-1" z="0"/><rgb name="irradiance" value="1"/></emitter>
+        <emitter type="constant"><rgb name="radiance" value="0.1"/></emitter>
+    </scene>"#;
+    let path = dir.path().join("all.xml");
+    std::fs::write(&path, xml).unwrap();
+    let loaded = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        loaded.material_names,
+        [
+            "chequered",
+            "gold",
+            "glass",
+            "frosted",
+            "pane",
+            "plastic",
+            "rough plastic",
+            "copper",
+            "default"
+        ]
+    );
+    assert_eq!((loaded.camera.width, loaded.camera.height), (32, 24));
+    assert_eq!(loaded.render.spp, 5);
+    assert!(loaded.render.params.get("max-depth").unwrap().is_infinite());
+    let built = RenderScene::build(&loaded);
+    // Area light, point, spot, directional and the constant environment.
+    assert_eq!(built.stats.lights, 5);
+    assert_eq!((built.stats.spheres, built.stats.quadrics), (2, 2));
+    // It renders with every integrator of the registry.
+    let film = mean_of(&path, &[], 2, 0);
+    assert!(film.mean().x.is_finite() && film.mean().x > 0.0);
+
+    // raylab import writes the same scene as RON, and the report says what changed.
+    let out = raylab_in(
+        dir.path(),
+        &["import", "all.xml", "-o", "all.ron", "--report"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("| tri2 | face_normals ignored"), "{report}");
+    assert!(
+        report.contains("max_depth -1 is raylab's max-depth inf"),
+        "{report}"
+    );
+    let ron = load_scene(&dir.path().join("all.ron")).unwrap();
+    assert_eq!(ron.material_names, loaded.material_names);
+    assert_eq!(RenderScene::build(&ron).stats.lights, 5);
+}
+
+#[test]
+fn import_refuses_what_it_cannot_write_well() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("elsewhere")).unwrap();
+    std::fs::copy(
+        repo_file("scenes/mitsuba/cornell_box.xml"),
+        dir.path().join("box.xml"),
+    )
+    .unwrap();
+    // Into another folder: its relative file names would break.
+    let out = raylab_in(
+        dir.path(),
+        &["import", "box.xml", "-o", "elsewhere/box.ron"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("into the XML scene's folder"));
+    // A RON scene is not imported; a bad scene writes nothing.
+    let out = raylab_in(dir.path(), &["import", "box.ron", "-o", "x.ron"]);
+    assert_eq!(out.status.code(), Some(2));
+    std::fs::write(
+        dir.path().join("bad.xml"),
+        "<scene><shape type=\"hair\"/></scene>",
+    )
+    .unwrap();
+    let out = raylab_in(dir.path(), &["import", "bad.xml", "-o", "bad.ron"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("bad.xml:1:8: shape `hair` is not supported")
+    );
+    assert!(!dir.path().join("bad.ron").exists());
+    // -D reaches the import.
+    let out = raylab_in(
+        dir.path(),
+        &["import", "box.xml", "-o", "box.ron", "-D", "spp=3"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.path().join("box.ron")).unwrap();
+    assert!(text.contains("spp: 3"), "{text}");
+}
