@@ -38,6 +38,20 @@ impl Transform {
         })
     }
 
+    /// The world direction of the local direction `v`, unit length: turned by the rotation,
+    /// or, for a matrix, `v` mapped by it (as Mitsuba turns its emitters: a mirror mirrors).
+    pub fn direction(&self, v: Vec3) -> Vec3 {
+        match self.matrix {
+            Some(m) => Vec3::from(m.matrix3 * Vec3A::from(v)).normalize(),
+            None => (self.rotation() * v).normalize(),
+        }
+    }
+
+    /// Whether the transform mirrors (a matrix of negative determinant).
+    pub fn mirrors(&self) -> bool {
+        self.matrix.is_some_and(|m| m.matrix3.determinant() < 0.0)
+    }
+
     /// Where the local origin lands.
     pub fn translation(&self) -> Vec3A {
         self.matrix().translation

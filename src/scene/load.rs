@@ -181,6 +181,12 @@ fn emitter_from_desc(
             irradiance: v3(irradiance),
         },
         EmitterDesc::Environment { path, scale } => {
+            if transform.mirrors() {
+                return Err(
+                    "an environment map cannot be mirrored: its transform.matrix has a negative determinant"
+                        .into(),
+                );
+            }
             let file = files.named(&path)?;
             let image = super::images::read_linear_rgb(&file, false)?;
             let rotation = glam::Mat3A::from_quat(transform.rotation());

@@ -74,24 +74,20 @@ impl PropertyAccess for Vertex {
     }
 }
 
-/// One face: its vertex indices (empty if the file gives none).
-struct Face(Vec<i64>);
+/// One face: its vertex indices (empty if the file gives none; `None` if they are not
+/// integers).
+struct Face(Option<Vec<i64>>);
 
 impl PropertyAccess for Face {
     fn new() -> Self {
-        Face(Vec::new())
+        Face(Some(Vec::new()))
     }
     fn set_property(&mut self, key: &str, property: Property) -> PropertyAccessResult {
         if !matches!(key, "vertex_indices" | "vertex_index") {
             return PropertyAccessResult::Ignored;
         }
-        match list(property) {
-            Some(indices) => {
-                self.0 = indices;
-                PropertyAccessResult::Set
-            }
-            None => PropertyAccessResult::Ignored,
-        }
+        self.0 = list(property);
+        PropertyAccessResult::Set
     }
 }
 
@@ -152,6 +148,24 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
             &"it has no faces (a `face` element with `vertex_indices`)",
         ));
     }
+    // Every element of a property takes at least a byte of the file: a header claiming more
+    // is damaged or hostile (an element without properties would be read from no bytes,
+    // forever).
+    let left = bytes.len() as u64;
+    for e in header.elements.values() {
+        if e.count > 0 && e.properties.is_empty() {
+            return Err(cannot(&format!(
+                "element `{}` has {} entries but no properties",
+                e.name, e.count
+            )));
+        }
+        if e.count as u64 > left {
+            return Err(cannot(&format!(
+                "element `{}` claims {} entries, more than the file's {left} bytes could hold",
+                e.name, e.count
+            )));
+        }
+    }
     // Every face is at least one triangle, every vertex 32 bytes: refuse what cannot fit
     // before reading (a header may claim billions).
     super::systems::check_triangle_memory(count("face").saturating_add(count("vertex") / 2))
@@ -206,6 +220,11 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
     }
     let n = vertices.len() as i64;
     for (f, Face(indices)) in faces.iter().enumerate() {
+        let Some(indices) = indices else {
+            return Err(cannot(&format!(
+                "face {f}'s vertex indices are not integers"
+            )));
+        };
         if let Some(&bad) = indices.iter().find(|&&i| !(0..n).contains(&i)) {
             return Err(cannot(&format!(
                 "face {f} refers to vertex {bad}, but the file has {n} vertices"

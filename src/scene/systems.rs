@@ -764,9 +764,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     },
                     _,
                 ) => vec![Light::Directional(DirectionalLight {
-                    direction: (transform.rotation() * Vec3::from(direction))
-                        .normalize()
-                        .into(),
+                    direction: transform.direction(Vec3::from(direction)).into(),
                     irradiance,
                 })],
                 (Emitter::Environment(map), _) => vec![Light::EnvMap(EnvMapLight { map })],
@@ -821,8 +819,11 @@ fn quadric_light(q: &Quadric, radiance: raylab_integrators::Rgb, two_sided: bool
     let center = q.to_world.translation;
     match q.kind {
         QuadricKind::Disk => {
-            // Its front is e1 x e2: swapping the axes turns it around.
-            let (e1, e2) = if q.flipped {
+            // Its front is e1 x e2, which a mirroring placement turns away from the hit's
+            // normal (the inverse transpose's +z, Mitsuba's): swapping the axes turns it
+            // around, as flip_normals does.
+            let mirrored = m.determinant() < 0.0;
+            let (e1, e2) = if q.flipped != mirrored {
                 (m.y_axis, m.x_axis)
             } else {
                 (m.x_axis, m.y_axis)
@@ -856,7 +857,7 @@ pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight,
     let position: Vec3A = transform.translation();
     let axis = match look_at {
         Some(target) => *target - position,
-        None => (transform.rotation() * Vec3::Z).into(),
+        None => transform.direction(Vec3::Z).into(),
     };
     SpotLight::new(position, axis, *intensity, *cutoff_angle, *beam_width)
 }

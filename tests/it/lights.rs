@@ -195,3 +195,20 @@ fn inside_a_cylinder_with_flipped_normals_under_a_matching_sky_the_furnace_holds
         );
     }
 }
+
+#[test]
+fn a_disk_light_placed_by_a_mirroring_matrix_faces_its_normal() {
+    // The disk of the test above, radius 0.5 at 2 m, placed by a matrix that mirrors x: its
+    // normal (the inverse transpose's +z) points down, and so must its light, whichever way
+    // its axes turn.
+    let expected = 0.5 / PI * PI * 4.0 * 0.25 / (4.0 + 0.25);
+    let scene = format!(
+        r#"({CAMERA}
+            materials: {{"grey": Lambert(albedo: (0.5, 0.5, 0.5))}},
+            entities: [{FLOOR}
+                (name: "lamp", shape: Disk, transform: (matrix: [-0.5, 0, 0, 0,  0, 0, -1, 2,  0, 0.5, 0, 0]),
+                 emitter: Area(radiance: (4, 4, 4))),
+            ])"#
+    );
+    check_all("mirrored disk", &scene, &[], expected, 16);
+}

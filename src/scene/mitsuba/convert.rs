@@ -155,6 +155,18 @@ impl<'a, 'input> Props<'a, 'input> {
                 format!("{}: parameter `{name}` is not supported", self.kind()),
             ));
         }
+        if let Some((name, n)) = self.children.first() {
+            let what = if name.is_empty() {
+                format!("<{}>", n.tag_name().name())
+            } else {
+                format!("`{name}`")
+            };
+            return Err(at(
+                self.doc,
+                *n,
+                format!("{}: {what} is not supported here", self.kind()),
+            ));
+        }
         Ok(())
     }
 }
@@ -206,6 +218,8 @@ struct Converter<'a, 'input> {
     /// Material names already written, by the node that made them.
     materials: Vec<(String, String)>,
     material_of: HashMap<roxmltree::NodeId, String>,
+    /// The name given to Mitsuba's default BSDF, once a shape needs it.
+    default_material: Option<String>,
     entities: Vec<String>,
     environment: Option<String>,
     camera: Option<String>,
@@ -456,6 +470,16 @@ impl<'a, 'input> Converter<'a, 'input> {
             name.push('\'');
         }
         let desc = self.bsdf(node)?;
+        let kind = self.kind(node)?;
+        if matches!(
+            kind.as_str(),
+            "diffuse" | "conductor" | "roughconductor" | "plastic" | "roughplastic"
+        ) {
+            self.report.push(format!(
+                "{name}: Mitsuba's `{kind}` is one-sided (black from behind); raylab's opaque \
+                 materials are two-sided (as inside `twosided`)"
+            ));
+        }
         self.materials.push((name.clone(), desc));
         self.material_of.insert(node.id(), name.clone());
         Ok(name)
@@ -500,7 +524,15 @@ impl<'a, 'input> Converter<'a, 'input> {
         if matches!(kind.as_str(), "obj" | "ply") && p.boolean("face_normals")? == Some(true) {
             self.report.push(format!("{name}: face_normals ignored: raylab shades with the file's vertex normals where it has them"));
         }
-        let flip = p.boolean("flip_normals")?.unwrap_or(false);
+        let mut flip = p.boolean("flip_normals")?.unwrap_or(false);
+        // Mitsuba's rectangle faces its inverse transpose's +z; raylab's Rectangle is two
+        // triangles facing their winding, which a mirroring to_world turns the other way.
+        if kind == "rectangle" && to_world.matrix3.determinant() < 0.0 {
+            flip = !flip;
+            self.report.push(format!(
+                "{name}: a mirroring to_world: its faces turned to face where Mitsuba's do"
+            ));
+        }
         let (mut material, mut emitter) = (None, None);
         for (_, child) in std::mem::take(&mut p.children) {
             let child = self.resolve(child)?;
@@ -535,13 +567,23 @@ impl<'a, 'input> Converter<'a, 'input> {
         // Mitsuba gives a shape without a BSDF its default grey diffuse, emitters included.
         let material = match material {
             Some(m) => m,
-            None => {
-                if !self.materials.iter().any(|(n, _)| n == "default") {
+            None => match &self.default_material {
+                Some(name) => name.clone(),
+                None => {
+                    let mut name = "default".to_string();
+                    while self.materials.iter().any(|(n, _)| *n == name) {
+                        name.push('\'');
+                    }
                     self.materials
-                        .push(("default".into(), "Lambert(albedo: 0.5)".into()));
+                        .push((name.clone(), "Lambert(albedo: 0.5)".into()));
+                    self.report.push(format!(
+                        "{name}: Mitsuba's default BSDF (diffuse 0.5), for shapes without one; \
+                         two-sided in raylab"
+                    ));
+                    self.default_material = Some(name.clone());
+                    name
                 }
-                "default".into()
-            }
+            },
         };
         let mut e = format!(
             "(name: {}, transform: {}, shape: {shape}, material: {}",
@@ -622,7 +664,13 @@ impl<'a, 'input> Converter<'a, 'input> {
             ));
         }
         let mut p = self.props(node)?;
-        let fov = p.float("fov")?.unwrap_or(39.3077);
+        let fov = p.float("fov")?.ok_or_else(|| {
+            at(
+                self.doc,
+                node,
+                "the sensor needs `fov` (raylab does not read `focal_length`)",
+            )
+        })?;
         let axis = p.string("fov_axis")?.unwrap_or_else(|| "x".into());
         let m = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
         if p.float("near_clip")?.is_some() | p.float("far_clip")?.is_some() {
@@ -635,6 +683,14 @@ impl<'a, 'input> Converter<'a, 'input> {
         for (_, child) in std::mem::take(&mut p.children) {
             match child.tag_name().name() {
                 "film" => {
+                    let film = self.kind(child)?;
+                    if film != "hdrfilm" {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!("film `{film}` is not supported (hdrfilm is)"),
+                        ));
+                    }
                     let mut f = self.props(child)?;
                     width = f.integer("width")?.unwrap_or(width);
                     height = f.integer("height")?.unwrap_or(height);
@@ -656,7 +712,24 @@ impl<'a, 'input> Converter<'a, 'input> {
                                 ))
                             }
                         };
-                        self.props(rf)?.finish(&["radius", "stddev"])?;
+                        // raylab's filters are Mitsuba's defaults (box 0.5, tent 1, gaussian
+                        // stddev 0.5 over radius 2): other sizes are refused.
+                        let mut r = self.props(rf)?;
+                        let default = match filter.as_str() {
+                            "tent" => ("radius", 1.0),
+                            "gaussian" => ("stddev", 0.5),
+                            _ => ("radius", 0.5),
+                        };
+                        for name in ["radius", "stddev"] {
+                            if let Some(v) = r.float(name)? {
+                                if (name, v) != default {
+                                    return Err(at(self.doc, rf, format!(
+                                        "<rfilter type=\"{filter}\">: `{name}` {v} is not supported (raylab's {filter} filter is Mitsuba's default)"
+                                    )));
+                                }
+                            }
+                        }
+                        r.finish(&[])?;
                     }
                     f.finish(&[
                         "pixel_format",
@@ -744,6 +817,13 @@ impl<'a, 'input> Converter<'a, 'input> {
         match kind.as_str() {
             "path" => {
                 let max_depth = p.integer("max_depth")?.unwrap_or(-1);
+                if max_depth == 0 || max_depth < -1 {
+                    return Err(at(
+                        self.doc,
+                        node,
+                        format!("max_depth {max_depth}: raylab takes -1 (unlimited) or a positive depth"),
+                    ));
+                }
                 let rr_depth = p.integer("rr_depth")?.unwrap_or(5);
                 if p.boolean("hide_emitters")? == Some(true) {
                     return Err(at(self.doc, node, "hide_emitters is not supported"));
@@ -791,6 +871,7 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
         ids: HashMap::new(),
         materials: Vec::new(),
         material_of: HashMap::new(),
+        default_material: None,
         entities: Vec::new(),
         environment: None,
         camera: None,
