@@ -89,6 +89,7 @@ fn every_supported_plugin_loads() {
         <shape type="ply" id="tri"><string name="filename" value="tri.ply"/><ref id="plastic"/></shape>
         <shape type="obj" id="tri2"><string name="filename" value="tri.obj"/><boolean name="face_normals" value="true"/><ref id="rough plastic"/></shape>
         <shape type="sphere" id="shell"><float name="radius" value="0.2"/><ref id="copper"/><boolean name="flip_normals" value="false"/></shape>
+        <shape type="sphere" id="plain"><point name="center" x="3" y="0" z="0"/><float name="radius" value="0.1"/></shape>
         <shape type="rectangle" id="lamp"><transform name="to_world"><rotate x="1" angle="90"/><translate y="3"/></transform>
             <emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>
         <emitter type="point"><point name="position" x="0" y="2" z="2"/><rgb name="intensity" value="3"/></emitter>
@@ -120,7 +121,7 @@ fn every_supported_plugin_loads() {
     let built = RenderScene::build(&loaded);
     // Area light, point, spot, directional and the constant environment.
     assert_eq!(built.stats.lights, 5);
-    assert_eq!((built.stats.spheres, built.stats.quadrics), (2, 2));
+    assert_eq!((built.stats.spheres, built.stats.quadrics), (3, 2));
     // It renders with every integrator of the registry.
     let film = mean_of(&path, &[], 2, 0);
     assert!(film.mean().x.is_finite() && film.mean().x > 0.0);
@@ -138,9 +139,24 @@ fn every_supported_plugin_loads() {
     let report = String::from_utf8_lossy(&out.stdout);
     assert!(report.contains("| tri2 | face_normals ignored"), "{report}");
     assert!(
+        report.contains("| default | Mitsuba's default BSDF"),
+        "{report}"
+    );
+    assert!(
+        report.contains("| copper | Mitsuba's `conductor` is one-sided"),
+        "{report}"
+    );
+    assert!(
         report.contains("max_depth -1 is raylab's max-depth inf"),
         "{report}"
     );
+    // An emitter without a BSDF is black in Mitsuba (not its default grey): no material.
+    let text = std::fs::read_to_string(dir.path().join("all.ron")).unwrap();
+    let lamp = text
+        .lines()
+        .find(|l| l.contains("(name: \"lamp\""))
+        .unwrap();
+    assert!(!lamp.contains("material:"), "{lamp}");
     let ron = load_scene(&dir.path().join("all.ron")).unwrap();
     assert_eq!(ron.material_names, loaded.material_names);
     assert_eq!(RenderScene::build(&ron).stats.lights, 5);

@@ -564,10 +564,12 @@ impl<'a, 'input> Converter<'a, 'input> {
             }
         }
         p.finish(&[])?;
-        // Mitsuba gives a shape without a BSDF its default grey diffuse, emitters included.
-        let material = match material {
-            Some(m) => m,
-            None => match &self.default_material {
+        // Mitsuba gives a shape without a BSDF its default grey diffuse, but an emitter a
+        // black one: raylab's pure emitters are black too (no material).
+        let material = match (material, &emitter) {
+            (Some(m), _) => Some(m),
+            (None, Some(_)) => None,
+            (None, None) => Some(match &self.default_material {
                 Some(name) => name.clone(),
                 None => {
                     let mut name = "default".to_string();
@@ -583,14 +585,16 @@ impl<'a, 'input> Converter<'a, 'input> {
                     self.default_material = Some(name.clone());
                     name
                 }
-            },
+            }),
         };
         let mut e = format!(
-            "(name: {}, transform: {}, shape: {shape}, material: {}",
+            "(name: {}, transform: {}, shape: {shape}",
             quote(&name),
             matrix(&to_world),
-            quote(&material)
         );
+        if let Some(material) = material {
+            let _ = write!(e, ", material: {}", quote(&material));
+        }
         if flip {
             e.push_str(", flip_normals: true");
         }
