@@ -69,58 +69,63 @@ impl<'a, 'input> Props<'a, 'input> {
         self.values.remove(name)
     }
 
-    fn float(&mut self, name: &str) -> Result<Option<f32>, Located> {
+    /// Property `name` as what `extract` takes from its value (`what` says it in the error).
+    fn typed<T>(
+        &mut self,
+        name: &str,
+        what: &str,
+        extract: impl FnOnce(Value) -> Option<T>,
+    ) -> Result<Option<T>, Located> {
         match self.take(name) {
             None => Ok(None),
-            Some((Value::Float(v), _)) => Ok(Some(v)),
-            Some((Value::Integer(v), _)) => Ok(Some(v as f32)),
-            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a float"))),
+            Some((v, n)) => extract(v)
+                .map(Some)
+                .ok_or_else(|| at(self.doc, n, format!("`{name}` must be {what}"))),
         }
+    }
+
+    fn float(&mut self, name: &str) -> Result<Option<f32>, Located> {
+        self.typed(name, "a float", |v| match v {
+            Value::Float(x) => Some(x),
+            Value::Integer(i) => Some(i as f32),
+            _ => None,
+        })
     }
 
     fn integer(&mut self, name: &str) -> Result<Option<i64>, Located> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((Value::Integer(v), _)) => Ok(Some(v)),
-            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be an integer"))),
-        }
+        self.typed(name, "an integer", |v| match v {
+            Value::Integer(i) => Some(i),
+            _ => None,
+        })
     }
 
     fn boolean(&mut self, name: &str) -> Result<Option<bool>, Located> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((Value::Boolean(v), _)) => Ok(Some(v)),
-            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a boolean"))),
-        }
+        self.typed(name, "a boolean", |v| match v {
+            Value::Boolean(b) => Some(b),
+            _ => None,
+        })
     }
 
     fn string(&mut self, name: &str) -> Result<Option<String>, Located> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((Value::String(v), _)) => Ok(Some(v)),
-            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a string"))),
-        }
+        self.typed(name, "a string", |v| match v {
+            Value::String(s) => Some(s),
+            _ => None,
+        })
     }
 
     fn vector(&mut self, name: &str) -> Result<Option<[f32; 3]>, Located> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((Value::Vector(v), _)) => Ok(Some(v)),
-            Some((Value::Float(v), _)) => Ok(Some([v; 3])),
-            Some((_, n)) => Err(at(
-                self.doc,
-                n,
-                format!("`{name}` must be a colour or a vector"),
-            )),
-        }
+        self.typed(name, "a colour or a vector", |v| match v {
+            Value::Vector(x) => Some(x),
+            Value::Float(x) => Some([x; 3]),
+            _ => None,
+        })
     }
 
     fn transform(&mut self, name: &str) -> Result<Option<Affine3A>, Located> {
-        match self.take(name) {
-            None => Ok(None),
-            Some((Value::Transform(v), _)) => Ok(Some(v)),
-            Some((_, n)) => Err(at(self.doc, n, format!("`{name}` must be a <transform>"))),
-        }
+        self.typed(name, "a <transform>", |v| match v {
+            Value::Transform(m) => Some(m),
+            _ => None,
+        })
     }
 
     /// A number, or (for IORs) a name, as RON: `1.5` or `"bk7"`.
