@@ -7,53 +7,126 @@
 //! and has its centre at `(i + 0.5, j + 0.5)`.
 //!
 //! * `box` (the default): each sample counts in the pixel it falls in, with weight 1.
-//! * `tent`: `f(x) = max(0, 1 - |x|)`, radius 1 pixel (Mitsuba 3's `tent`).
+//!   `box(radius: r)` counts it in every pixel whose centre is within `r` in x and y.
+//! * `tent`: `f(x) = max(0, 1 - |x| / r)`, radius 1 pixel (Mitsuba 3's `tent`);
+//!   `tent(radius: 2)` is pbrt-v4's `triangle`.
 //! * `gaussian`: Mitsuba 3's default, a Gaussian of standard deviation 0.5 pixel cut off at 4
 //!   standard deviations and shifted down to reach 0 there:
-//!   `f(x) = max(0, exp(-x^2 / (2 s^2)) - exp(-r^2 / (2 s^2)))`, `s = 0.5`, `r = 2`.
+//!   `f(x) = max(0, exp(-x^2 / (2 s^2)) - exp(-r^2 / (2 s^2)))`, `s = 0.5`, `r = 2`;
+//!   `gaussian(stddev: 0.5, radius: 1.5)` is pbrt-v4's default.
 //!
-//! Splats (radiance an integrator adds at any film position, light paths) are spread with the
-//! same filter, normalised to unit integral so that they keep their energy.
+//! Radii are at most [`MAX_RADIUS`] pixels. Splats (radiance an integrator adds at any film
+//! position, light paths) are spread with the same filter, normalised to unit integral so
+//! that they keep their energy.
 
 use std::fmt;
+
+/// The largest filter radius, in pixels (a footprint spans at most 16 pixels a side).
+pub const MAX_RADIUS: f32 = 6.0;
 
 /// A separable pixel reconstruction filter.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Filter {
+    /// The pixel a sample falls in (radius 0.5).
     #[default]
     Box,
-    Tent,
-    Gaussian {
-        stddev: f32,
-    },
+    /// A box of another radius.
+    WideBox { radius: f32 },
+    /// A tent of `radius` (1 is Mitsuba's).
+    Tent { radius: f32 },
+    /// A Gaussian cut off and shifted to zero at `radius` (Mitsuba's: 0.5 and 2).
+    Gaussian { stddev: f32, radius: f32 },
 }
 
 /// The filters by name, as `--filter` and the scene's `render.filter` take them.
 pub const FILTER_NAMES: [&str; 3] = ["box", "tent", "gaussian"];
 
 impl fmt::Display for Filter {
+    /// The name [`str::parse`] reads back: `box`, `tent(radius: 2)`, ...; parameters that
+    /// equal the defaults are left out.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Filter::Box => "box",
-            Filter::Tent => "tent",
-            Filter::Gaussian { .. } => "gaussian",
-        })
+        match *self {
+            Filter::Box => f.write_str("box"),
+            Filter::WideBox { radius } => write!(f, "box(radius: {radius})"),
+            Filter::Tent { radius: 1.0 } => f.write_str("tent"),
+            Filter::Tent { radius } => write!(f, "tent(radius: {radius})"),
+            Filter::Gaussian { stddev, radius } if stddev == 0.5 && radius == 2.0 => {
+                f.write_str("gaussian")
+            }
+            Filter::Gaussian { stddev, radius } => {
+                write!(f, "gaussian(stddev: {stddev}, radius: {radius})")
+            }
+        }
     }
 }
 
 impl std::str::FromStr for Filter {
     type Err = String;
 
-    fn from_str(name: &str) -> Result<Filter, String> {
-        match name {
-            "box" => Ok(Filter::Box),
-            "tent" => Ok(Filter::Tent),
-            "gaussian" => Ok(Filter::Gaussian { stddev: 0.5 }),
-            _ => Err(format!(
-                "unknown filter `{name}`; valid filters: {}",
-                FILTER_NAMES.join(", ")
-            )),
+    /// `box`, `tent` or `gaussian`, optionally with parameters in parentheses:
+    /// `box(radius: 1)`, `tent(radius: 2)`, `gaussian(stddev: 0.5, radius: 1.5)`.
+    fn from_str(text: &str) -> Result<Filter, String> {
+        let (name, args) = match text.split_once('(') {
+            None => (text.trim(), None),
+            Some((name, rest)) => {
+                let args = rest
+                    .trim_end()
+                    .strip_suffix(')')
+                    .ok_or_else(|| format!("filter `{text}`: the parameters must end with `)`"))?;
+                (name.trim(), Some(args))
+            }
+        };
+        let (mut radius, mut stddev) = match name {
+            "box" => (0.5, None),
+            "tent" => (1.0, None),
+            "gaussian" => (2.0, Some(0.5)),
+            _ => {
+                return Err(format!(
+                    "unknown filter `{name}`; valid filters: {}",
+                    FILTER_NAMES.join(", ")
+                ))
+            }
+        };
+        for arg in args.iter().flat_map(|a| a.split(',')).map(str::trim) {
+            if arg.is_empty() {
+                continue;
+            }
+            let (key, value) = arg
+                .split_once(':')
+                .ok_or_else(|| format!("filter `{text}`: `{arg}` is not `name: value`"))?;
+            let value: f32 = value
+                .trim()
+                .parse()
+                .map_err(|_| format!("filter `{text}`: `{}` is not a number", value.trim()))?;
+            match (key.trim(), stddev.is_some()) {
+                ("radius", _) => radius = value,
+                ("stddev", true) => stddev = Some(value),
+                (key, _) => {
+                    return Err(format!(
+                        "filter `{text}`: {name} takes {}, not `{key}`",
+                        if stddev.is_some() {
+                            "`stddev` and `radius`"
+                        } else {
+                            "`radius`"
+                        }
+                    ))
+                }
+            }
         }
+        if !(radius > 0.0 && radius <= MAX_RADIUS) {
+            return Err(format!(
+                "filter `{text}`: the radius must be above 0 and at most {MAX_RADIUS} pixels"
+            ));
+        }
+        Ok(match (name, stddev) {
+            ("box", _) if radius == 0.5 => Filter::Box,
+            ("box", _) => Filter::WideBox { radius },
+            ("tent", _) => Filter::Tent { radius },
+            (_, Some(stddev)) if stddev > 0.0 && stddev.is_finite() => {
+                Filter::Gaussian { stddev, radius }
+            }
+            _ => return Err(format!("filter `{text}`: the stddev must be above 0")),
+        })
     }
 }
 
@@ -62,26 +135,26 @@ impl Filter {
     pub fn radius(&self) -> f32 {
         match *self {
             Filter::Box => 0.5,
-            Filter::Tent => 1.0,
-            Filter::Gaussian { stddev } => 4.0 * stddev,
+            Filter::WideBox { radius }
+            | Filter::Tent { radius }
+            | Filter::Gaussian { radius, .. } => radius,
         }
     }
 
     /// The one-dimensional filter at offset `x` (pixels) from a pixel centre.
     pub fn eval_1d(&self, x: f32) -> f32 {
         match *self {
-            Filter::Box => {
-                if x.abs() <= 0.5 {
+            Filter::Box | Filter::WideBox { .. } => {
+                if x.abs() <= self.radius() {
                     1.0
                 } else {
                     0.0
                 }
             }
-            Filter::Tent => (1.0 - x.abs()).max(0.0),
-            Filter::Gaussian { stddev } => {
+            Filter::Tent { radius } => (1.0 - x.abs() / radius).max(0.0),
+            Filter::Gaussian { stddev, radius } => {
                 let alpha = -1.0 / (2.0 * stddev * stddev);
-                let r = self.radius();
-                ((alpha * x * x).exp() - (alpha * r * r).exp()).max(0.0)
+                ((alpha * x * x).exp() - (alpha * radius * radius).exp()).max(0.0)
             }
         }
     }
@@ -89,7 +162,8 @@ impl Filter {
     /// Integral of [`Filter::eval_1d`] over its support (to normalise splats).
     pub fn integral_1d(&self) -> f32 {
         match *self {
-            Filter::Box | Filter::Tent => 1.0,
+            Filter::Box | Filter::WideBox { .. } => 2.0 * self.radius(),
+            Filter::Tent { radius } => radius,
             Filter::Gaussian { .. } => {
                 // Midpoint rule on 1024 cells: exact to far below f32 rounding for this
                 // smooth, compact function.
@@ -164,6 +238,65 @@ mod tests {
     }
 
     #[test]
+    fn parameters_parse_print_back_and_are_checked() {
+        for (text, filter) in [
+            ("tent", Filter::Tent { radius: 1.0 }),
+            ("tent(radius: 2)", Filter::Tent { radius: 2.0 }),
+            ("box(radius: 1.5)", Filter::WideBox { radius: 1.5 }),
+            (
+                "gaussian",
+                Filter::Gaussian {
+                    stddev: 0.5,
+                    radius: 2.0,
+                },
+            ),
+            (
+                "gaussian(stddev: 0.5, radius: 1.5)",
+                Filter::Gaussian {
+                    stddev: 0.5,
+                    radius: 1.5,
+                },
+            ),
+        ] {
+            assert_eq!(text.parse::<Filter>(), Ok(filter));
+            assert_eq!(filter.to_string(), text);
+        }
+        assert_eq!("box(radius: 0.5)".parse::<Filter>(), Ok(Filter::Box));
+        for (bad, says) in [
+            ("tent(radius: 0)", "above 0"),
+            ("tent(radius: 9)", "at most 6"),
+            ("box(stddev: 1)", "takes `radius`"),
+            ("gaussian(stddev: -1)", "stddev must be above 0"),
+            ("gaussian(radius 2)", "not `name: value`"),
+            ("tent(radius: x)", "not a number"),
+            ("tent(radius: 2", "must end with"),
+        ] {
+            let err = bad.parse::<Filter>().unwrap_err();
+            assert!(err.contains(says), "{bad}: {err}");
+        }
+    }
+
+    #[test]
+    fn every_filters_integral_is_its_evaluations_sum() {
+        for filter in [
+            "box(radius: 1.5)",
+            "tent(radius: 2)",
+            "gaussian(stddev: 0.5, radius: 1.5)",
+        ] {
+            let f: Filter = filter.parse().unwrap();
+            let (r, n) = (f.radius() as f64, 100_000);
+            let h = 2.0 * r / n as f64;
+            let sum: f64 = (0..n)
+                .map(|i| f.eval_1d((-r + (i as f64 + 0.5) * h) as f32) as f64 * h)
+                .sum();
+            assert!(
+                (sum - f.integral_1d() as f64).abs() < 1e-3,
+                "{filter}: {sum}"
+            );
+        }
+    }
+
+    #[test]
     fn mitsubas_gaussian_reaches_zero_at_four_standard_deviations() {
         let g: Filter = "gaussian".parse().unwrap();
         assert_eq!(g.radius(), 2.0);
@@ -187,7 +320,7 @@ mod tests {
         Filter::Box.footprint(3.7, 1.2, 8, 8, |x, y, w| seen.push((x, y, w)));
         assert_eq!(seen, vec![(3, 1, 1.0)]);
         seen.clear();
-        Filter::Tent.footprint(3.7, 1.2, 8, 8, |x, y, w| seen.push((x, y, w)));
+        Filter::Tent { radius: 1.0 }.footprint(3.7, 1.2, 8, 8, |x, y, w| seen.push((x, y, w)));
         // x centres 3.5 and 4.5 lie within 1 of 3.7; y centres 0.5 and 1.5 within 1 of 1.2.
         let pixels: Vec<_> = seen.iter().map(|&(x, y, _)| (x, y)).collect();
         assert_eq!(pixels, vec![(3, 0), (4, 0), (3, 1), (4, 1)]);
