@@ -101,7 +101,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
     let opts = CompareOptions {
         scene: args.scene.clone(),
         allowed: args.allow_path.clone(),
-        defines: args.defines.clone(),
+        import: args.import.options(),
         contestants,
         budget,
         reference,

@@ -50,7 +50,7 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
         LiveSettings {
             scene: c.scene.clone(),
             allowed: c.allow_path.clone(),
-            defines: c.defines.clone(),
+            import: c.import.options(),
             size: c.size.as_deref().map(parse_size).transpose()?,
             spp: c.spp,
             seed: c.seed,

@@ -60,9 +60,8 @@ pub enum Command {
         /// Also print what was mapped approximately, or by a changed convention.
         #[arg(long)]
         report: bool,
-        /// A `<default>` parameter as NAME=VALUE; repeat for several.
-        #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
-        defines: Vec<(String, String)>,
+        #[command(flatten)]
+        import: ImportFlags,
     },
     /// Parse and build a scene, then print its counts and bounds.
     Validate {
@@ -72,9 +71,8 @@ pub enum Command {
         /// files (meshes, MTL files, glTF buffers) under its own folder only.
         #[arg(long = "allow-path", value_name = "DIR")]
         allow_path: Vec<PathBuf>,
-        /// A Mitsuba scene's `<default>` parameter as NAME=VALUE; repeat for several.
-        #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
-        defines: Vec<(String, String)>,
+        #[command(flatten)]
+        import: ImportFlags,
     },
 }
 
@@ -123,10 +121,8 @@ pub struct SessionArgs {
     /// files (meshes, MTL files, glTF buffers) under its own folder only.
     #[arg(long = "allow-path", value_name = "DIR")]
     pub allow_path: Vec<PathBuf>,
-    /// A Mitsuba scene's `<default>` parameter as NAME=VALUE (as `mitsuba -D`); repeat for
-    /// several.
-    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
-    pub defines: Vec<(String, String)>,
+    #[command(flatten)]
+    pub import: ImportFlags,
     /// Exposure in stops for the PNG or the page's image (each +1 doubles the brightness).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
@@ -217,10 +213,8 @@ pub struct CompareArgs {
     /// files (meshes, MTL files, glTF buffers) under its own folder only.
     #[arg(long = "allow-path", value_name = "DIR")]
     pub allow_path: Vec<PathBuf>,
-    /// A Mitsuba scene's `<default>` parameter as NAME=VALUE (as `mitsuba -D`); repeat for
-    /// several.
-    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
-    pub defines: Vec<(String, String)>,
+    #[command(flatten)]
+    pub import: ImportFlags,
     /// Output folder (created if missing).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -328,17 +322,17 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate {
             scene,
             allow_path,
-            defines,
+            import,
         } => {
             check_allowed(&allow_path)?;
-            render_cmd::validate(&scene, &allow_path, &defines)
+            render_cmd::validate(&scene, &allow_path, &import.options())
         }
         Command::Import {
             scene,
             output,
             report,
-            defines,
-        } => render_cmd::import(&scene, &output, report, &defines),
+            import,
+        } => render_cmd::import(&scene, &output, report, &import.options()),
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
         Command::Bench(args) => {
@@ -423,6 +417,29 @@ fn parse_accel(name: &str) -> Result<crate::accel::AccelKind, String> {
 }
 
 /// `-D NAME=VALUE`: a Mitsuba `<default>` parameter.
+/// How a Mitsuba 3 XML or pbrt-v4 scene is read.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ImportFlags {
+    /// A Mitsuba scene's `<default>` parameter as NAME=VALUE (as `mitsuba -D`); repeat for
+    /// several.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub defines: Vec<(String, String)>,
+    /// Render what raylab does not have (a spot light's smoothstep falloff, a dispersive
+    /// glass, a medium) as the nearest thing it has, each listed as a warning, instead of
+    /// refusing the scene.
+    #[arg(long)]
+    pub approximate: bool,
+}
+
+impl ImportFlags {
+    pub fn options(&self) -> crate::scene::ImportOptions {
+        crate::scene::ImportOptions {
+            defines: self.defines.clone(),
+            approximate: self.approximate,
+        }
+    }
+}
+
 fn parse_define(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
         Some((name, value))

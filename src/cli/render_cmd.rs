@@ -97,7 +97,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let loaded = scene::load_scene_defined(
         &args.session.scene,
         &args.session.allow_path,
-        &args.session.defines,
+        &args.session.import.options(),
     )?;
     for w in &loaded.warnings {
         note!("warning: {}: {w}", args.session.scene.display());
@@ -298,17 +298,17 @@ fn install_interrupt_handler() {
     });
 }
 
-/// `raylab import`: a Mitsuba 3 XML scene written out as RON, checked by loading it the way
-/// `render` would before anything is written.
+/// `raylab import`: a Mitsuba 3 XML or pbrt-v4 scene written out as RON, checked by loading
+/// it the way `render` would before anything is written.
 pub fn import(
     path: &Path,
     output: &Path,
     report: bool,
-    defines: &[(String, String)],
+    options: &scene::ImportOptions,
 ) -> Result<ExitCode> {
-    if !scene::is_mitsuba(path) {
+    if !scene::is_imported(path) {
         anyhow::bail!(
-            "{}: import reads Mitsuba 3 XML scenes (.xml); this is not one",
+            "{}: import reads Mitsuba 3 XML (.xml) and pbrt-v4 (.pbrt) scenes; this is neither",
             path.display()
         );
     }
@@ -318,16 +318,16 @@ pub fn import(
     };
     if folder(path) != folder(output) {
         anyhow::bail!(
-            "{}: write the RON scene into the XML scene's folder ({}), where the files it names are",
+            "{}: write the RON scene into the imported scene's folder ({}), where the files it names are",
             output.display(),
             crate::output::atomic::parent_dir(path).display()
         );
     }
-    let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT)
-        .with_context(|| format!("{}: cannot read scene file", path.display()))?;
-    let imported = scene::import_mitsuba(path, &text, defines)?;
+    let Some(imported) = scene::import_scene(path, &[], options)? else {
+        anyhow::bail!("{}: not a scene of another format", path.display());
+    };
     // The same checks as rendering it: a scene that will not load is not written.
-    scene::load_scene_defined(path, &[], defines)?;
+    scene::load_scene_defined(path, &[], options)?;
     crate::output::atomic::write_atomic(output, |f| {
         use std::io::Write as _;
         f.write_all(imported.ron.as_bytes())
@@ -348,9 +348,9 @@ pub fn import(
 pub fn validate(
     path: &Path,
     allowed: &[PathBuf],
-    defines: &[(String, String)],
+    options: &scene::ImportOptions,
 ) -> Result<ExitCode> {
-    let loaded = scene::load_scene_defined(path, allowed, defines)?;
+    let loaded = scene::load_scene_defined(path, allowed, options)?;
     for w in &loaded.warnings {
         note!("warning: {}: {w}", path.display());
     }

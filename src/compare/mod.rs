@@ -53,7 +53,7 @@ pub struct CompareOptions {
     /// Folders beside the scene's that it may read files from (`--allow-path`).
     pub allowed: Vec<PathBuf>,
     /// `-D` parameters of a Mitsuba XML scene.
-    pub defines: Vec<(String, String)>,
+    pub import: crate::scene::ImportOptions,
     pub contestants: Vec<Contestant>,
     pub budget: Budget,
     pub reference: ReferenceSpec,
@@ -391,7 +391,7 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
 
 fn run_into(opts: &CompareOptions) -> Result<Report> {
     output::check_writable_folder(&opts.out_dir.join("index.html"))?;
-    let loaded = crate::scene::load_scene_defined(&opts.scene, &opts.allowed, &opts.defines)?;
+    let loaded = crate::scene::load_scene_defined(&opts.scene, &opts.allowed, &opts.import)?;
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", opts.scene.display());
     }

@@ -75,8 +75,8 @@ pub struct LiveSettings {
     pub scene: PathBuf,
     /// Folders beside the scene's that it may read files from (`--allow-path`).
     pub allowed: Vec<PathBuf>,
-    /// `-D` parameters of a Mitsuba XML scene.
-    pub defines: Vec<(String, String)>,
+    /// How a Mitsuba XML or pbrt-v4 scene is read (`-D`, `--approximate`).
+    pub import: scene::ImportOptions,
     /// Image size overriding the scene's.
     pub size: Option<(u32, u32)>,
     /// Samples per pixel to stop at; `None` renders until the next change or Ctrl-C.
@@ -254,7 +254,7 @@ fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, 
 
 /// Loads and builds the scene with the selected integrator.
 fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
-    let loaded = scene::load_scene_defined(&settings.scene, &settings.allowed, &settings.defines)?;
+    let loaded = scene::load_scene_defined(&settings.scene, &settings.allowed, &settings.import)?;
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", settings.scene.display());
     }

@@ -5,6 +5,7 @@ use super::components::{
     Emitter, FlipNormals, Instanced, MaterialRef, Name, Shape, Transform, WorldShape,
 };
 use super::error::{finite, SceneError};
+use super::import::{ImportOptions, Imported};
 use super::materials::material_from_desc;
 use super::schema::{CameraDesc, EmitterDesc, RenderDesc, SceneFile, ShapeDesc};
 use super::textures::TextureLoader;
@@ -31,22 +32,25 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
 /// [`load_scene`] for a scene that may also read files under the folders `allowed`
 /// (`--allow-path`).
 pub fn load_scene_with(path: &Path, allowed: &[PathBuf]) -> Result<LoadedScene, SceneError> {
-    load_scene_defined(path, allowed, &[])
+    load_scene_defined(path, allowed, &ImportOptions::default())
 }
 
-/// [`load_scene_with`] with `-D` parameters for a Mitsuba XML scene's `<default>`s (an error
-/// for a RON scene, which has none).
+/// [`load_scene_with`] for any scene format: RON, or a Mitsuba 3 XML or pbrt-v4 scene read
+/// with `options` (`-D` parameters for a Mitsuba scene's `<default>`s, `--approximate`).
 pub fn load_scene_defined(
     path: &Path,
     allowed: &[PathBuf],
-    defines: &[(String, String)],
+    options: &ImportOptions,
 ) -> Result<LoadedScene, SceneError> {
-    let text = scene_text(path, defines)?;
+    let (text, approximated) = match import_scene(path, allowed, options)? {
+        Some(imported) => (imported.ron, imported.approximated),
+        None => (read_scene_text(path)?, Vec::new()),
+    };
     let file = parse_scene_file(&text, path).map_err(|e| match e {
-        // A place in the RON made of an XML scene is no place in the file the user has.
+        // A place in the RON made of another format is no place in the file the user has.
         SceneError::Parse {
             line, col, message, ..
-        } if is_mitsuba(path) => SceneError::Scene {
+        } if is_imported(path) => SceneError::Scene {
             path: path.to_path_buf(),
             message: format!(
                 "{message} (at {line}:{col} of the RON scene raylab made of it: see `raylab import`)"
@@ -54,50 +58,112 @@ pub fn load_scene_defined(
         },
         e => e,
     })?;
-    build_world(file, path, &SceneFiles::new(path, allowed))
+    let mut loaded = build_world(file, path, &SceneFiles::new(path, allowed))?;
+    loaded.warnings.extend(
+        approximated
+            .into_iter()
+            .map(|a| format!("--approximate: {a}")),
+    );
+    Ok(loaded)
 }
 
 /// Whether `path` names a Mitsuba 3 XML scene (by its extension).
 pub fn is_mitsuba(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+    has_extension(path, "xml")
 }
 
-/// A scene file's RON text: the file itself, or a Mitsuba 3 XML scene converted (errors at
-/// their place in the XML).
-pub fn scene_text(path: &Path, defines: &[(String, String)]) -> Result<String, SceneError> {
-    let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT).map_err(|reason| {
+/// Whether `path` names a pbrt-v4 scene (by its extension).
+pub fn is_pbrt(path: &Path) -> bool {
+    has_extension(path, "pbrt")
+}
+
+/// Whether `path` names a scene of another renderer, which raylab imports into RON.
+pub fn is_imported(path: &Path) -> bool {
+    is_mitsuba(path) || is_pbrt(path)
+}
+
+fn has_extension(path: &Path, ext: &str) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case(ext))
+}
+
+fn read_scene_text(path: &Path) -> Result<String, SceneError> {
+    crate::files::read_text_capped(path, crate::files::MAX_TEXT).map_err(|reason| {
         SceneError::Read {
             path: path.to_path_buf(),
             reason,
         }
-    })?;
-    if !is_mitsuba(path) {
-        if let Some((name, _)) = defines.first() {
-            return Err(SceneError::Scene {
-                path: path.to_path_buf(),
-                message: format!(
-                    "-D {name}=... sets a Mitsuba XML scene's <default>; this is a RON scene"
-                ),
-            });
-        }
-        return Ok(text);
-    }
-    Ok(import_mitsuba(path, &text, defines)?.ron)
+    })
 }
 
-/// Converts a Mitsuba 3 XML scene's text into RON.
-pub fn import_mitsuba(
+/// A scene file's RON text: the file itself, or a scene of another format converted (errors
+/// at their place in that file).
+pub fn scene_text(
     path: &Path,
-    text: &str,
-    defines: &[(String, String)],
-) -> Result<super::mitsuba::Imported, SceneError> {
-    super::mitsuba::to_ron(text, defines).map_err(|(line, col, message)| SceneError::Parse {
-        path: path.to_path_buf(),
-        line: line as usize,
-        col: col as usize,
-        message,
-    })
+    allowed: &[PathBuf],
+    options: &ImportOptions,
+) -> Result<String, SceneError> {
+    match import_scene(path, allowed, options)? {
+        Some(imported) => Ok(imported.ron),
+        None => read_scene_text(path),
+    }
+}
+
+/// A Mitsuba 3 XML or pbrt-v4 scene converted into RON; `None` for a RON scene (which takes
+/// no import options).
+pub fn import_scene(
+    path: &Path,
+    allowed: &[PathBuf],
+    options: &ImportOptions,
+) -> Result<Option<Imported>, SceneError> {
+    if !is_imported(path) {
+        let refused = match (options.defines.first(), options.approximate) {
+            (Some((name, _)), _) => Some(format!(
+                "-D {name}=... sets a Mitsuba XML scene's <default>; this is a RON scene"
+            )),
+            (None, true) => Some(
+                "--approximate is for Mitsuba XML and pbrt-v4 scenes; this is a RON scene".into(),
+            ),
+            (None, false) => None,
+        };
+        return match refused {
+            Some(message) => Err(SceneError::Scene {
+                path: path.to_path_buf(),
+                message,
+            }),
+            None => Ok(None),
+        };
+    }
+    let text = read_scene_text(path)?;
+    if is_mitsuba(path) {
+        let imported =
+            super::mitsuba::to_ron(&text, &options.defines).map_err(|(line, col, message)| {
+                SceneError::Parse {
+                    path: path.to_path_buf(),
+                    line: line as usize,
+                    col: col as usize,
+                    message,
+                }
+            })?;
+        return Ok(Some(imported));
+    }
+    if let Some((name, _)) = options.defines.first() {
+        return Err(SceneError::Scene {
+            path: path.to_path_buf(),
+            message: format!(
+                "-D {name}=... sets a Mitsuba XML scene's <default>; this is a pbrt-v4 scene"
+            ),
+        });
+    }
+    let files = SceneFiles::new(path, allowed);
+    super::pbrt::to_ron(path, &text, &files, options)
+        .map(Some)
+        .map_err(|(file, line, col, message)| SceneError::Parse {
+            path: file,
+            line: line as usize,
+            col: col as usize,
+            message,
+        })
 }
 
 /// Parses scene text; `path` is used in messages and to resolve relative files (under its

@@ -8,10 +8,12 @@ pub mod error;
 pub mod file_materials;
 pub mod flatten;
 pub mod images;
+pub mod import;
 pub mod load;
 pub mod materials;
 pub mod mesh_files;
 pub mod mitsuba;
+pub mod pbrt;
 pub mod ply;
 pub mod procedural;
 pub mod references;
@@ -21,9 +23,10 @@ pub mod textures;
 
 pub use error::SceneError;
 pub use flatten::RenderScene;
+pub use import::{ImportOptions, Imported};
 pub use load::{
-    import_mitsuba, is_mitsuba, load_scene, load_scene_defined, load_scene_with, parse_scene,
-    scene_text,
+    import_scene, is_imported, is_mitsuba, is_pbrt, load_scene, load_scene_defined,
+    load_scene_with, parse_scene, scene_text,
 };
 pub use raylab_integrators::Camera;
 

@@ -38,8 +38,8 @@ pub fn scene_content(scene: &Path) -> std::io::Result<Vec<u8>> {
 /// `None` when the scene file cannot be read or parsed (the caller keeps what it had). Files
 /// that are missing are listed all the same: creating them must trigger a reload.
 pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
-    // A Mitsuba XML scene's files, from its RON (the defaults of its parameters).
-    let text = super::load::scene_text(scene, &[]).ok()?;
+    // An imported scene's files, from its RON (the defaults of its parameters).
+    let text = super::load::scene_text(scene, &[], &Default::default()).ok()?;
     let file = parse_scene_file(&text, scene).ok()?;
     let dir = folder_of(scene);
     let mut files: Vec<PathBuf> = Vec::new();

@@ -3,12 +3,16 @@
 
 use crate::common::{raylab_in, repo_file};
 use raylab::render::{render, Film, RenderSettings};
-use raylab::scene::{load_scene, load_scene_defined, RenderScene};
+use raylab::scene::{load_scene, load_scene_defined, ImportOptions, RenderScene};
 use raylab_integrators::registry;
 use std::path::Path;
 
 fn mean_of(scene: &Path, defines: &[(String, String)], spp: u32, seed: u64) -> Film {
-    let loaded = load_scene_defined(scene, &[], defines).unwrap();
+    let options = ImportOptions {
+        defines: defines.to_vec(),
+        approximate: false,
+    };
+    let loaded = load_scene_defined(scene, &[], &options).unwrap();
     let built = RenderScene::build(&loaded);
     let camera = loaded.camera.with_resolution(24, 24);
     let mut path = registry::find("path")
@@ -41,7 +45,10 @@ fn the_xml_cornell_box_renders_as_the_ron_one() {
     let defined = load_scene_defined(
         &repo_file("scenes/mitsuba/cornell_box.xml"),
         &[],
-        &[("spp".into(), "8".into()), ("max_depth".into(), "3".into())],
+        &ImportOptions {
+            defines: vec![("spp".into(), "8".into()), ("max_depth".into(), "3".into())],
+            approximate: false,
+        },
     )
     .unwrap();
     assert_eq!(defined.render.spp, 8);
@@ -177,7 +184,7 @@ fn import_refuses_what_it_cannot_write_well() {
         &["import", "box.xml", "-o", "elsewhere/box.ron"],
     );
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("into the XML scene's folder"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("into the imported scene's folder"));
     // A RON scene is not imported; a bad scene writes nothing.
     let out = raylab_in(dir.path(), &["import", "box.ron", "-o", "x.ron"]);
     assert_eq!(out.status.code(), Some(2));

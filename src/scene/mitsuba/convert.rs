@@ -1,18 +1,12 @@
 //! Mitsuba 3's plugins, one by one, as raylab's RON.
 
 use super::xml::{at, attr, position, value, Located, Params, Value};
+pub use crate::scene::import::Imported;
+use crate::scene::import::{matrix, num, quote, v3};
 use glam::Affine3A;
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
 use std::fmt::Write as _;
-
-/// A Mitsuba scene as RON text, with what the conversion did.
-#[derive(Debug)]
-pub struct Imported {
-    pub ron: String,
-    /// One line per mapping that is not one to one (an approximation, a changed convention).
-    pub report: Vec<String>,
-}
 
 /// A plugin's properties by name, each taken at most once; what is left is an error.
 struct Props<'a, 'input> {
@@ -174,44 +168,6 @@ impl<'a, 'input> Props<'a, 'input> {
         }
         Ok(())
     }
-}
-
-fn num(v: f32) -> String {
-    format!("{v:?}")
-}
-
-fn v3(v: [f32; 3]) -> String {
-    format!("({}, {}, {})", num(v[0]), num(v[1]), num(v[2]))
-}
-
-/// A RON string literal.
-fn quote(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            c if c.is_control() => {
-                let _ = write!(out, "\\u{{{:x}}}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
-/// The matrix as RON's `transform: (matrix: [...])`, row by row.
-fn matrix(m: &Affine3A) -> String {
-    let rows: Vec<String> = (0..3)
-        .flat_map(|r| {
-            let row = m.matrix3.row(r);
-            [row.x, row.y, row.z, m.translation[r]]
-        })
-        .map(num)
-        .collect();
-    format!("(matrix: [{}])", rows.join(", "))
 }
 
 /// The conversion's state: the output's parts and the named things seen so far.
@@ -721,22 +677,20 @@ impl<'a, 'input> Converter<'a, 'input> {
                                 ))
                             }
                         };
-                        // raylab's filters are Mitsuba's defaults (box 0.5, tent 1, gaussian
-                        // stddev 0.5 over radius 2): other sizes are refused.
+                        // Mitsuba's sizes: box and tent by radius, the Gaussian by its
+                        // standard deviation, cut off at four of them.
                         let mut r = self.props(rf)?;
-                        let default = match filter.as_str() {
-                            "tent" => ("radius", 1.0),
-                            "gaussian" => ("stddev", 0.5),
-                            _ => ("radius", 0.5),
+                        let size = if filter == "gaussian" {
+                            r.float("stddev")?
+                                .map(|s| format!("(stddev: {}, radius: {})", num(s), num(4.0 * s)))
+                        } else {
+                            r.float("radius")?.map(|v| format!("(radius: {})", num(v)))
                         };
-                        for name in ["radius", "stddev"] {
-                            if let Some(v) = r.float(name)? {
-                                if (name, v) != default {
-                                    return Err(at(self.doc, rf, format!(
-                                        "<rfilter type=\"{filter}\">: `{name}` {v} is not supported (raylab's {filter} filter is Mitsuba's default)"
-                                    )));
-                                }
-                            }
+                        if let Some(size) = size {
+                            filter.push_str(&size);
+                            filter
+                                .parse::<raylab_integrators::Filter>()
+                                .map_err(|e| at(self.doc, rf, e))?;
                         }
                         r.finish(&[])?;
                     }
@@ -950,6 +904,7 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
     Ok(Imported {
         ron,
         report: c.report,
+        approximated: Vec::new(),
     })
 }
 

@@ -1,0 +1,292 @@
+//! pbrt-v4's materials and textures as raylab's RON materials and colours.
+
+use super::params::{Colour, Located, ParamList};
+use super::tokens::Pos;
+use crate::scene::import::{num, quote, v3};
+use std::collections::HashMap;
+
+/// What the conversion notes: a changed convention (report) or an approximation (report and
+/// warning, and only with `--approximate`).
+pub trait Notes {
+    fn report(&mut self, line: String);
+    /// An approximation at `pos`: an error unless `--approximate`, else noted.
+    fn approximate(&mut self, pos: Pos, what: String) -> Result<(), Located>;
+}
+
+/// The named textures: RON colours (spectrum textures) and RON numbers or textures (float
+/// textures), by name.
+#[derive(Default)]
+pub struct Textures {
+    pub spectrum: HashMap<String, String>,
+    pub float: HashMap<String, String>,
+}
+
+/// pbrt-v4's named glasses by their refractive index at the sodium d-line (587.6 nm), which
+/// raylab uses for all wavelengths: pbrt-v4 disperses light through them, raylab does not.
+const GLASSES: [(&str, f32); 7] = [
+    ("glass-BK7", 1.5168),
+    ("glass-BAF10", 1.6700),
+    ("glass-FK51A", 1.4866),
+    ("glass-LASF9", 1.8503),
+    ("glass-F5", 1.6034),
+    ("glass-F10", 1.7283),
+    ("glass-F11", 1.7847),
+];
+
+/// pbrt-v4's named metals (`metal-Cu-eta` / `metal-Cu-k`) that raylab's metal table has.
+const METALS: [&str; 5] = ["Ag", "Al", "Au", "Cu", "MgO"];
+
+/// A colour as RON: a constant or a texture of `textures`.
+pub fn colour(
+    c: &Colour,
+    pos: Pos,
+    what: &str,
+    textures: &Textures,
+    notes: &mut dyn Notes,
+) -> Result<String, Located> {
+    Ok(match c {
+        Colour::Rgb(rgb) => v3(rgb.map(|x| x as f32)),
+        Colour::Texture(name) => textures.spectrum.get(name).cloned().ok_or_else(|| {
+            (pos, format!("{what}: no spectrum texture is named \"{name}\" (textures must be defined before they are used)"))
+        })?,
+        Colour::Sampled(pairs) if pairs.iter().all(|p| p.1 == pairs[0].1) => {
+            num(pairs[0].1 as f32)
+        }
+        Colour::Sampled(pairs) => {
+            let mean = pairs.iter().map(|p| p.1).sum::<f64>() / pairs.len() as f64;
+            notes.approximate(
+                pos,
+                format!("{what}: a spectrum by wavelength, replaced by its mean {mean:.4} (raylab does not yet integrate spectra against the CIE curves)"),
+            )?;
+            num(mean as f32)
+        }
+        Colour::Named(name) => {
+            return Err((pos, format!("{what}: the named spectrum \"{name}\" is not a colour raylab has")))
+        }
+        Colour::Blackbody(t) => {
+            notes.approximate(pos, format!("{what}: a blackbody of {t} K, replaced by white (raylab has no blackbody spectra yet)"))?;
+            "1.0".into()
+        }
+    })
+}
+
+/// A roughness parameter (`roughness`, `uroughness`, `vroughness`) as an alpha in RON, remapped
+/// by pbrt-v4's `RoughnessToAlpha` (the square root) when `remap`.
+fn alpha(
+    p: &mut ParamList,
+    name: &str,
+    remap: bool,
+    textures: &Textures,
+) -> Result<Option<(String, f64)>, Located> {
+    match p.float_or_texture(name)? {
+        None => Ok(None),
+        Some((Colour::Rgb(v), _)) => {
+            let a = if remap { v[0].max(0.0).sqrt() } else { v[0] };
+            Ok(Some((num(a as f32), a)))
+        }
+        Some((Colour::Texture(t), pos)) => {
+            if remap {
+                return Err((pos, format!("{}: a roughness texture with remaproughness true is not supported (give \"bool remaproughness\" false and a texture of alphas)", p.what)));
+            }
+            let tex = textures.float.get(&t).cloned().ok_or_else(|| {
+                (
+                    pos,
+                    format!("{}: no float texture is named \"{t}\"", p.what),
+                )
+            })?;
+            Ok(Some((tex, 1.0)))
+        }
+        Some(_) => unreachable!("float_or_texture gives numbers or textures"),
+    }
+}
+
+/// The `alpha`, or `alpha_u` and `alpha_v`, fields of a rough material; `None` when smooth.
+fn roughness(p: &mut ParamList, textures: &Textures) -> Result<Option<String>, Located> {
+    let remap = p.boolean("remaproughness")?.unwrap_or(true);
+    let r = alpha(p, "roughness", remap, textures)?;
+    let u = alpha(p, "uroughness", remap, textures)?;
+    let v = alpha(p, "vroughness", remap, textures)?;
+    let (u, v) = match (u, v) {
+        (None, None) => match r {
+            None => return Ok(None),
+            Some(r) => (r.clone(), r),
+        },
+        (u, v) => {
+            let r = r.unwrap_or(("0.0".into(), 0.0));
+            (u.unwrap_or_else(|| r.clone()), v.unwrap_or(r))
+        }
+    };
+    if u.1 == 0.0 && v.1 == 0.0 {
+        return Ok(None);
+    }
+    Ok(Some(if u.0 == v.0 {
+        format!("distribution: \"ggx\", alpha: {}", u.0)
+    } else {
+        format!("distribution: \"ggx\", alpha_u: {}, alpha_v: {}", u.0, v.0)
+    }))
+}
+
+/// A dielectric's `eta` as a RON IOR.
+fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<String, Located> {
+    match p.colour("eta")? {
+        None => Ok("1.5".into()),
+        Some((Colour::Rgb(v), pos)) => {
+            if v[0] != v[1] || v[1] != v[2] {
+                return Err((pos, format!("{}: `eta` must be one number", p.what)));
+            }
+            Ok(num(v[0] as f32))
+        }
+        Some((Colour::Named(name), pos)) => {
+            let (_, ior) = GLASSES.iter().find(|g| g.0 == name).ok_or_else(|| {
+                (
+                    pos,
+                    format!(
+                        "{}: unknown glass \"{name}\" (pbrt-v4 has {})",
+                        p.what,
+                        GLASSES.map(|g| g.0).join(", ")
+                    ),
+                )
+            })?;
+            notes.approximate(pos, format!("{}: \"{name}\" disperses light in pbrt-v4; raylab uses its index {ior} at 587.6 nm for every colour", p.what))?;
+            Ok(num(*ior))
+        }
+        Some((Colour::Sampled(pairs), pos)) => {
+            let i = pairs
+                .iter()
+                .min_by(|a, b| (a.0 - 587.6).abs().total_cmp(&(b.0 - 587.6).abs()))
+                .map_or(1.5, |p| p.1);
+            notes.approximate(
+                pos,
+                format!(
+                    "{}: a dispersive `eta`, replaced by its value {i} nearest 587.6 nm",
+                    p.what
+                ),
+            )?;
+            Ok(num(i as f32))
+        }
+        Some((_, pos)) => Err((
+            pos,
+            format!("{}: `eta` must be a number or a named glass", p.what),
+        )),
+    }
+}
+
+/// The RON of a pbrt-v4 material of `kind` with parameters `p` (its `type` already read);
+/// `None` for `interface` (no surface).
+pub fn material(
+    kind: &str,
+    p: &mut ParamList,
+    textures: &Textures,
+    notes: &mut dyn Notes,
+) -> Result<Option<String>, Located> {
+    let what = p.what.clone();
+    let at = p.at;
+    let col =
+        |p: &mut ParamList, name: &str, notes: &mut dyn Notes| -> Result<Option<String>, Located> {
+            match p.colour(name)? {
+                None => Ok(None),
+                Some((c, pos)) => {
+                    colour(&c, pos, &format!("{what}: `{name}`"), textures, notes).map(Some)
+                }
+            }
+        };
+    for name in ["displacement", "normalmap"] {
+        if let Some(pos) = p.present(name) {
+            notes.approximate(pos, format!("{what}: `{name}` ignored (raylab's bump and normal maps follow Mitsuba's conventions; pbrt-v4's are not mapped yet)"))?;
+            p.ignore(&[name]);
+        }
+    }
+    let out = match kind {
+        "diffuse" => {
+            let albedo = col(p, "reflectance", notes)?.unwrap_or_else(|| "0.5".into());
+            format!("Lambert(albedo: {albedo})")
+        }
+        "coateddiffuse" => {
+            let diffuse = col(p, "reflectance", notes)?.unwrap_or_else(|| "0.5".into());
+            let ior = eta(p, notes)?;
+            let rough = roughness(p, textures)?;
+            if let Some((c, pos)) = p.colour("albedo")? {
+                if c != Colour::Rgb([0.0; 3]) {
+                    return Err((pos, format!("{what}: a coating with a scattering medium (`albedo` above 0) is not supported")));
+                }
+            }
+            p.ignore(&["thickness", "g", "maxdepth", "nsamples", "seed"]);
+            notes.report(format!("{what}: pbrt-v4's coateddiffuse (a stochastic layered BSDF) as raylab's plastic, Mitsuba's model of a diffuse base under a dielectric coating (nonlinear, with internal reflections): the nearest raylab has"));
+            let fields = format!("diffuse_reflectance: {diffuse}, int_ior: {ior}, ext_ior: 1.0, nonlinear: true");
+            match rough {
+                None => format!("Plastic({fields})"),
+                Some(r) if !r.contains("alpha_u") => format!("RoughPlastic({fields}, {r})"),
+                Some(_) => return Err((at, format!("{what}: an anisotropic rough coating is not supported (raylab's rough plastic is isotropic)"))),
+            }
+        }
+        "conductor" => {
+            let (eta, k, refl) = (p.colour("eta")?, p.colour("k")?, p.colour("reflectance")?);
+            let base = match (eta, k, refl) {
+                (None, None, Some((Colour::Rgb(r), _))) => {
+                    // pbrt-v4: eta 1 and k = 2 sqrt(r) / sqrt(1 - r), a metal of reflectance r
+                    // at normal incidence.
+                    let k = r.map(|r| {
+                        let r = r.clamp(0.0, 0.9999);
+                        (2.0 * r.sqrt() / (1.0 - r).sqrt()) as f32
+                    });
+                    format!("eta: (1.0, 1.0, 1.0), k: {}", v3(k))
+                }
+                (None, None, Some((_, pos))) => return Err((pos, format!("{what}: `reflectance` must be an rgb constant"))),
+                (eta, k, None) => {
+                    let named = |c: &Option<(Colour, Pos)>, part: &str| match c {
+                        None => Ok(Some("Cu".to_string())),
+                        Some((Colour::Named(n), pos)) => {
+                            let metal = n.strip_prefix("metal-").and_then(|m| m.strip_suffix(&format!("-{part}")));
+                            match metal {
+                                Some(m) if METALS.contains(&m) => Ok(Some(m.to_string())),
+                                _ => Err((*pos, format!("{what}: unknown metal spectrum \"{n}\" (raylab has metal-X-{part} for X in {})", METALS.join(", ")))),
+                            }
+                        }
+                        Some(_) => Ok(None),
+                    };
+                    match (named(&eta, "eta")?, named(&k, "k")?) {
+                        (Some(a), Some(b)) if a == b => {
+                            notes.report(format!("{what}: metal-{a}: raylab's RGB constants of {a} (from Mitsuba's spectral data), not pbrt-v4's spectral ones"));
+                            format!("metal: {}", quote(&a))
+                        }
+                        (Some(a), Some(b)) => return Err((at, format!("{what}: `eta` of {a} with `k` of {b} is not supported (give both of one metal, or both as rgb)"))),
+                        _ => match (eta, k) {
+                            (Some((Colour::Rgb(e), _)), Some((Colour::Rgb(k), _))) => format!(
+                                "eta: {}, k: {}",
+                                v3(e.map(|x| x as f32)),
+                                v3(k.map(|x| x as f32))
+                            ),
+                            _ => return Err((at, format!("{what}: `eta` and `k` must both be rgb, or both named spectra of one metal"))),
+                        },
+                    }
+                }
+                (_, _, Some((_, pos))) => return Err((pos, format!("{what}: give `reflectance` or `eta` and `k`, not both"))),
+            };
+            match roughness(p, textures)? {
+                None => format!("Conductor({base})"),
+                Some(r) => format!("RoughConductor({base}, {r})"),
+            }
+        }
+        "dielectric" | "thindielectric" => {
+            let ior = eta(p, notes)?;
+            let rough = if kind == "dielectric" { roughness(p, textures)? } else { None };
+            let fields = format!("int_ior: {ior}, ext_ior: 1.0");
+            match (kind, rough) {
+                ("thindielectric", _) => format!("ThinDielectric({fields})"),
+                (_, None) => format!("Dielectric({fields})"),
+                (_, Some(r)) => format!("RoughDielectric({fields}, {r})"),
+            }
+        }
+        "diffusetransmission" => {
+            let r = col(p, "reflectance", notes)?.unwrap_or_else(|| "0.25".into());
+            p.ignore(&["transmittance", "scale"]);
+            notes.approximate(at, format!("{what}: raylab has no diffuse transmission; a diffuse reflector of the reflectance instead"))?;
+            format!("Lambert(albedo: {r})")
+        }
+        "interface" => return Ok(None),
+        other => {
+            return Err((at, format!("material `{other}` is not supported (diffuse, coateddiffuse, conductor, dielectric, thindielectric, interface are; diffusetransmission with --approximate)")))
+        }
+    };
+    Ok(Some(out))
+}
