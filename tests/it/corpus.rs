@@ -95,13 +95,17 @@ fn check(case: &Case) -> Option<String> {
     }
 }
 
-/// The bad scenes: `NN-short-name.ron` files with their `// expect:` lines, and Mitsuba XML
-/// ones, `NN-short-name.xml` with `<!-- expect: ... -->` lines.
+/// The bad scenes: `NN-short-name.ron` files with their `// expect:` lines, Mitsuba XML
+/// ones, `NN-short-name.xml` with `<!-- expect: ... -->` lines, and pbrt-v4 ones,
+/// `NN-short-name.pbrt` with `# expect: ` lines.
 fn scene_cases() -> Vec<Case> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(corpus_dir())
         .expect("tests/corpus exists")
         .map(|e| e.expect("readable entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "ron" || e == "xml"))
+        .filter(|p| {
+            p.extension()
+                .is_some_and(|e| e == "ron" || e == "xml" || e == "pbrt")
+        })
         .collect();
     files.sort();
     let mut cases = Vec::new();
@@ -119,10 +123,12 @@ fn scene_cases() -> Vec<Case> {
         let expect: Vec<String> = text
             .lines()
             .filter_map(|l| {
-                l.strip_prefix("// expect: ").or_else(|| {
-                    l.strip_prefix("<!-- expect: ")
-                        .and_then(|l| l.strip_suffix(" -->"))
-                })
+                l.strip_prefix("// expect: ")
+                    .or_else(|| l.strip_prefix("# expect: "))
+                    .or_else(|| {
+                        l.strip_prefix("<!-- expect: ")
+                            .and_then(|l| l.strip_suffix(" -->"))
+                    })
             })
             .map(str::to_string)
             .collect();

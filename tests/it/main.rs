@@ -17,6 +17,7 @@ mod lights;
 mod mitsuba;
 mod new_integrator;
 mod passes;
+mod pbrt;
 mod photons;
 mod proptest_loader;
 mod serve;

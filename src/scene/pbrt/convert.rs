@@ -562,12 +562,14 @@ impl<'a> Converter<'a> {
             "triangle" | "mitchell" => 2.0,
             "gaussian" => 1.5,
             "sinc" | "lanczos" => 4.0,
-            other => return Err((
-                d.pos,
-                format!(
+            other => {
+                return Err((
+                    d.pos,
+                    format!(
                     "PixelFilter \"{other}\" is not known (box, triangle, gaussian are supported)"
                 ),
-            )),
+                ))
+            }
         };
         let rx = p.float("xradius")?.unwrap_or(default);
         let ry = p.float("yradius")?.unwrap_or(default);
@@ -928,12 +930,14 @@ impl<'a> Converter<'a> {
                 self.environment = Some(l);
                 return Ok(());
             }
-            other => return Err((
-                d.pos,
-                format!(
+            other => {
+                return Err((
+                    d.pos,
+                    format!(
                     "LightSource \"{other}\" is not supported (point, spot, distant, infinite are)"
                 ),
-            )),
+                ))
+            }
         };
         p.finish()?;
         self.entities
@@ -1481,4 +1485,105 @@ pub fn to_ron(
         report: c.report,
         approximated: c.approximated,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    const CORNELL: &str = include_str!("../../../scenes/pbrt/cornell_box.pbrt");
+
+    fn convert(text: &str, approximate: bool) -> Result<Imported, PbrtError> {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/pbrt/mangled.pbrt");
+        let files = SceneFiles::new(&path, &[]);
+        let options = ImportOptions {
+            defines: Vec::new(),
+            approximate,
+        };
+        to_ron(&path, text, &files, &options)
+    }
+
+    proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(300))]
+        /// The shipped pbrt scene cut short, or with a piece cut out or replaced by a token:
+        /// an error, or RON that the loader takes or refuses, never a panic.
+        #[test]
+        fn mangled_pbrt_never_panics(
+            at in any::<proptest::sample::Index>(),
+            len in 0usize..40,
+            approximate in any::<bool>(),
+            token in prop::sample::select(vec![
+                "", "[", "]", "\"", "#", "1e39", "-1", "nan", "AttributeEnd", "ObjectEnd",
+                "\"float radius\"", "Scale 0 0 0", "ReverseOrientation", "Include \"cornell_box.pbrt\"",
+                "Shape \"sphere\"", "Camera \"perspective\"", "WorldBegin", "\"integer indices\" [9]",
+            ]),
+        ) {
+            let mut start = at.index(CORNELL.len() + 1);
+            while !CORNELL.is_char_boundary(start) {
+                start -= 1;
+            }
+            let mut end = (start + len).min(CORNELL.len());
+            while !CORNELL.is_char_boundary(end) {
+                end -= 1;
+            }
+            let text = if len == 0 {
+                CORNELL[..start].to_string()
+            } else {
+                format!("{}{token}{}", &CORNELL[..start], &CORNELL[end..])
+            };
+            if let Ok(imported) = convert(&text, approximate) {
+                let _ = crate::scene::parse_scene(&imported.ron, Path::new("mangled.pbrt"));
+            }
+        }
+    }
+
+    #[test]
+    fn the_ron_names_what_the_pbrt_file_names() {
+        let imported = convert(CORNELL, false).unwrap();
+        for needle in [
+            "\"white\": Lambert(albedo: (0.885809, 0.698859, 0.666422))",
+            "\"cube/0\": Mesh(positions: [",
+            "shape: Instance(mesh: \"cube/0\"), material: \"white\", transform: (matrix: [",
+            "emitter: Area(radiance: (18.387, 13.9873, 6.75357), two_sided: false)",
+            "spp: 64, filter: \"gaussian(stddev: 0.5, radius: 2)\"",
+            "\"max-depth\": 7",
+        ] {
+            assert!(
+                imported.ron.contains(needle),
+                "no {needle} in\n{}",
+                imported.ron
+            );
+        }
+    }
+
+    #[test]
+    fn textures_follow_pbrts_coordinates() {
+        let scene = |texture: &str| {
+            format!("WorldBegin\n{texture}\nMaterial \"diffuse\" \"texture reflectance\" \"t\"\nShape \"sphere\"\n")
+        };
+        // pbrt-v4 looks an image up at (s, 1 - t); raylab from the top row at (u, v).
+        let image = convert(&scene(r#"Texture "t" "spectrum" "imagemap" "string filename" "a.png" "float uscale" 2 "float vdelta" 0.25"#), false).unwrap();
+        assert!(image.ron.contains(r#"Image(path: "a.png", filter: "bilinear", wrap: "repeat", raw: false, uv_scale: (2.0, -1.0), uv_offset: (0.0, 0.75))"#), "{}", image.ron);
+        // pbrt-v4's squares are a unit wide, Mitsuba's half a unit.
+        let checks = convert(&scene(r#"Texture "t" "spectrum" "checkerboard" "rgb tex1" [1 0 0] "float uscale" 8 "float vscale" 4"#), false).unwrap();
+        assert!(checks.ron.contains("Checkerboard(color0: (1.0, 0.0, 0.0), color1: 0.0, uv_scale: (4.0, 2.0), uv_offset: (0.0, 0.0))"), "{}", checks.ron);
+    }
+
+    #[test]
+    fn materials_map_with_pbrts_defaults() {
+        for (material, expected) in [
+            ("\"conductor\"", "Conductor(metal: \"Cu\")"),
+            ("\"conductor\" \"float roughness\" 0.04", "RoughConductor(metal: \"Cu\", distribution: \"ggx\", alpha: 0.2)"),
+            ("\"conductor\" \"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\" \"bool remaproughness\" false \"float uroughness\" 0.1 \"float vroughness\" 0.3", "RoughConductor(metal: \"Au\", distribution: \"ggx\", alpha_u: 0.1, alpha_v: 0.3)"),
+            ("\"conductor\" \"rgb reflectance\" [0.5 0.5 0.5]", "Conductor(eta: (1.0, 1.0, 1.0), k: (2.0, 2.0, 2.0))"),
+            ("\"dielectric\"", "Dielectric(int_ior: 1.5, ext_ior: 1.0)"),
+            ("\"thindielectric\" \"float eta\" 1.33", "ThinDielectric(int_ior: 1.33, ext_ior: 1.0)"),
+            ("\"coateddiffuse\" \"float roughness\" 0", "Plastic(diffuse_reflectance: 0.5, int_ior: 1.5, ext_ior: 1.0, nonlinear: true)"),
+        ] {
+            let text = format!("WorldBegin\nMaterial {material}\nShape \"sphere\"\n");
+            let imported = convert(&text, false).unwrap();
+            assert!(imported.ron.contains(expected), "{material}: no {expected} in\n{}", imported.ron);
+        }
+    }
 }

@@ -127,7 +127,7 @@ impl Parser {
                                 d.numbers.push(v);
                                 self.next();
                             }
-                            _ if !bracketed => break,
+                            Err(_) if !bracketed => break,
                             _ => {
                                 return Err((
                                     *p,

@@ -73,7 +73,10 @@ pub fn tokenize(text: &str, file: usize) -> Result<Vec<(Tok, Pos)>, (Pos, String
                                 col: col - 1,
                             };
                             let Some(e) = chars.next() else {
-                                return Err((pos, "a string is not closed (no ending `\"`)".into()));
+                                return Err((
+                                    pos,
+                                    "a string is not closed (no ending `\"`)".into(),
+                                ));
                             };
                             advance(e, &mut line, &mut col);
                             s.push(match e {

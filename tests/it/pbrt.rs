@@ -1,0 +1,319 @@
+//! pbrt-v4 scenes: rendered as raylab reads them and held to closed forms and to the Mitsuba
+//! scene they were written from.
+
+use crate::common::repo_file;
+use raylab::render::{render, Film, RenderSettings};
+use raylab::scene::{load_scene, load_scene_defined, ImportOptions, LoadedScene, RenderScene};
+use raylab_integrators::registry;
+use std::f32::consts::PI;
+use std::path::Path;
+
+fn load(text: &str) -> LoadedScene {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.pbrt");
+    std::fs::write(&path, text).unwrap();
+    load_scene(&path).unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+fn render_loaded(loaded: &LoadedScene, spp: u32, seed: u64) -> Film {
+    let built = RenderScene::build(loaded);
+    let mut path = registry::find("path")
+        .unwrap()
+        .instantiate(&[("max-depth".into(), "7".into())])
+        .unwrap();
+    let settings = RenderSettings::fixed(spp, seed, None);
+    render(&built, &loaded.camera, path.as_mut(), &settings)
+        .unwrap()
+        .0
+}
+
+fn small(scene: &Path, spp: u32, seed: u64) -> Film {
+    let mut loaded = load_scene(scene).unwrap();
+    loaded.camera = loaded.camera.with_resolution(24, 24);
+    render_loaded(&loaded, spp, seed)
+}
+
+/// `scenes/pbrt/cornell_box.pbrt` is `scenes/mitsuba/cornell_box.xml` written for pbrt-v4:
+/// the same primary rays through every pixel, the same settings, the same image within noise.
+#[test]
+fn the_pbrt_cornell_box_is_the_mitsuba_one() {
+    let pbrt = load_scene(&repo_file("scenes/pbrt/cornell_box.pbrt")).unwrap();
+    let xml = load_scene(&repo_file("scenes/mitsuba/cornell_box.xml")).unwrap();
+    let (a, b) = (&pbrt.camera, &xml.camera);
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    for (x, y) in [
+        (0.0, 0.0),
+        (256.0, 0.0),
+        (0.0, 256.0),
+        (100.5, 30.25),
+        (256.0, 256.0),
+    ] {
+        let (ra, rb) = (a.ray(x, y), b.ray(x, y));
+        assert!((ra.origin - rb.origin).length() < 1e-5, "eye at {x},{y}");
+        assert!(
+            (ra.dir - rb.dir).length() < 1e-5,
+            "{x},{y}: {:?} vs {:?}",
+            ra.dir,
+            rb.dir
+        );
+    }
+    assert_eq!(pbrt.render.spp, 64);
+    assert_eq!(pbrt.render.params.get("max-depth"), Some(&7.0));
+    assert_eq!(pbrt.render.filter, xml.render.filter);
+    let (fa, fb) = (
+        small(&repo_file("scenes/pbrt/cornell_box.pbrt"), 512, 1),
+        small(&repo_file("scenes/mitsuba/cornell_box.xml"), 512, 2),
+    );
+    let (ma, mb) = (fa.mean(), fb.mean());
+    let (sa, sb) = (fa.mean_standard_error(), fb.mean_standard_error());
+    for c in 0..3 {
+        let z = (ma[c] - mb[c]) / (sa[c] * sa[c] + sb[c] * sb[c]).sqrt();
+        assert!(z.abs() < 4.0, "channel {c}: {ma} vs {mb} (z {z})");
+        assert!(sa[c] < 0.01 * ma[c], "too noisy to mean anything");
+    }
+}
+
+const HEADER: &str = r#"Film "rgb" "integer xresolution" 8 "integer yresolution" 8
+Camera "perspective" "float fov" 1
+WorldBegin
+Material "diffuse" "rgb reflectance" [0.5 0.5 0.5]
+Shape "trianglemesh" "point3 P" [-50 -50 0  50 -50 0  50 50 0  -50 50 0] "integer indices" [0 1 2 0 2 3]
+"#;
+
+/// The camera sits half a metre above a grey floor looking straight down at a light's foot.
+fn floor_under(light: &str) -> (f32, f32) {
+    let text = format!("LookAt 0 0 0.5  0 0 0  0 1 0\n{HEADER}{light}");
+    let film = render_loaded(&load(&text), 64, 3);
+    (film.mean().y, film.mean_standard_error().y)
+}
+
+#[test]
+fn a_floor_under_a_pbrt_area_light_sees_it_on_the_side_pbrt_v4_emits() {
+    // A disk or a square lamp of radiance 4 (given as 8 times a scale of 0.5) 2 m up. A disk
+    // of radius 0.5 gives the floor's foot pi L r^2 / (h^2 + r^2); a square of side 1, the
+    // form factor of a parallel square. One-sided lamps light the floor only when their
+    // normal (pbrt-v4's: the winding, turned by ReverseOrientation and by a mirroring
+    // transform) points down.
+    let disk = 0.5 * 4.0 * 0.25 / (4.0 + 0.25);
+    // The form factor from a point to a parallel square of half-side a centred h above it:
+    // (4 / pi) s atan(s) with s = a / sqrt(a^2 + h^2).
+    let (a, h) = (0.5f32, 2.0f32);
+    let s = a / (a * a + h * h).sqrt();
+    let square = 0.5 * 4.0 * (4.0 / PI) * s * s.atan();
+    let lamp = r#"AreaLightSource "diffuse" "rgb L" [8 8 8] "float scale" 0.5"#;
+    let quad = r#"Shape "trianglemesh" "point3 P" [-0.5 -0.5 0  0.5 -0.5 0  0.5 0.5 0  -0.5 0.5 0] "integer indices" [0 1 2 0 2 3]"#;
+    let patch =
+        r#"Shape "bilinearmesh" "point3 P" [-0.5 -0.5 0  0.5 -0.5 0  -0.5 0.5 0  0.5 0.5 0]"#;
+    let cases = [
+        (
+            "disk facing up",
+            format!("Translate 0 0 2 {lamp}\nShape \"disk\" \"float radius\" 0.5"),
+            0.0,
+        ),
+        (
+            "disk turned by ReverseOrientation",
+            format!(
+                "Translate 0 0 2 ReverseOrientation {lamp}\nShape \"disk\" \"float radius\" 0.5"
+            ),
+            disk,
+        ),
+        // pbrt-v4 turns a quadric's object-space normal around for a mirroring transform
+        // before transforming it (a mesh's after): a disk mirrored in z faces up, one
+        // mirrored in x faces down.
+        (
+            "disk mirrored in z",
+            format!("Translate 0 0 2 Scale 1 1 -1 {lamp}\nShape \"disk\" \"float radius\" 0.5"),
+            0.0,
+        ),
+        (
+            "disk mirrored in x",
+            format!("Translate 0 0 2 Scale -1 1 1 {lamp}\nShape \"disk\" \"float radius\" 0.5"),
+            disk,
+        ),
+        (
+            "disk by height",
+            format!(
+                "Rotate 180 1 0 0 {lamp}\nShape \"disk\" \"float radius\" 0.5 \"float height\" -2"
+            ),
+            disk,
+        ),
+        (
+            "square facing up",
+            format!("Translate 0 0 2 {lamp}\n{quad}"),
+            0.0,
+        ),
+        (
+            "square turned",
+            format!("Translate 0 0 2 ReverseOrientation {lamp}\n{quad}"),
+            square,
+        ),
+        (
+            "square mirrored in x",
+            format!("Translate 0 0 2 Scale -1 1 1 {lamp}\n{quad}"),
+            0.0,
+        ),
+        (
+            "square mirrored in z",
+            format!("Translate 0 0 2 Scale 1 1 -1 {lamp}\n{quad}"),
+            square,
+        ),
+        (
+            "patch mirrored in z",
+            format!("Translate 0 0 2 Scale 1 1 -1 {lamp}\n{patch}"),
+            square,
+        ),
+        (
+            "square two-sided",
+            format!(
+                "Translate 0 0 2 {}\n{quad}",
+                lamp.replace("0.5", "0.5 \"bool twosided\" true")
+            ),
+            square,
+        ),
+        (
+            "square facing its normals",
+            format!(
+                "Translate 0 0 2 {lamp}\n{}",
+                quad.replace(
+                    "\"integer indices\"",
+                    "\"normal N\" [0 0 -1 0 0 -1 0 0 -1 0 0 -1] \"integer indices\""
+                )
+            ),
+            square,
+        ),
+    ];
+    for (what, light, expected) in cases {
+        // The lamp itself is black: no light comes back from it.
+        let light = format!("AttributeBegin\nMaterial \"diffuse\" \"rgb reflectance\" [0 0 0]\n{light}\nAttributeEnd\n");
+        let (mean, se) = floor_under(&light);
+        println!("{what}: {mean:.5} +- {se:.5}, expected {expected:.5}");
+        assert!(
+            (mean - expected).abs() <= 4.0 * se + 2e-3 * expected,
+            "{what}: {mean} +- {se}, expected {expected}"
+        );
+    }
+}
+
+#[test]
+fn pbrts_look_at_is_left_handed_and_a_mirror_makes_it_right_handed() {
+    // A lamp on world +x, seen from +z with y up: pbrt-v4's LookAt puts +x on the image's
+    // left (its x axis is up x dir); `Scale -1 1 1` before it puts it on the right.
+    let scene = |mirror: &str| {
+        format!(
+            r#"{mirror}
+LookAt 0 0 5  0 0 0  0 1 0
+Camera "perspective" "float fov" 60
+Film "rgb" "integer xresolution" 16 "integer yresolution" 8
+WorldBegin
+AttributeBegin
+AreaLightSource "diffuse" "rgb L" [1 1 1]
+Translate 1.5 0 0
+Shape "sphere" "float radius" 0.5
+AttributeEnd
+"#
+        )
+    };
+    for (mirror, lamp_on_left) in [("", true), ("Scale -1 1 1", false)] {
+        let film = render_loaded(&load(&scene(mirror)), 4, 1);
+        let half = |left: bool| -> f32 {
+            (0..film.height)
+                .flat_map(|y| (0..film.width / 2).map(move |x| (x, y)))
+                .map(|(x, y)| {
+                    let x = if left { x } else { x + film.width / 2 };
+                    film.pixels[(y * film.width + x) as usize].y
+                })
+                .sum()
+        };
+        let (left, right) = (half(true), half(false));
+        assert_eq!(
+            left > right,
+            lamp_on_left,
+            "{mirror:?}: left {left}, right {right}"
+        );
+        assert!(left.max(right) > 0.0);
+    }
+}
+
+#[test]
+fn a_crop_window_renders_its_part_of_the_full_image() {
+    // pbrt-v4's pixel bounds of a crop window: ceil(resolution * bounds).
+    let scene = |crop: &str| {
+        format!(
+            r#"LookAt 1 2 5  0 0 0  0 1 0
+Camera "perspective" "float fov" 50
+Film "rgb" "integer xresolution" 40 "integer yresolution" 30 {crop}
+WorldBegin
+Shape "sphere"
+"#
+        )
+    };
+    let full = load(&scene("")).camera;
+    let cropped = load(&scene(r#""float cropwindow" [0.25 0.6 0.1 0.5]"#)).camera;
+    // x: ceil(10) .. ceil(24) = 10..24; y: ceil(3) .. ceil(15) = 3..15.
+    assert_eq!((cropped.width, cropped.height), (14, 12));
+    for (x, y) in [(0.0, 0.0), (14.0, 12.0), (3.5, 7.25)] {
+        let (a, b) = (cropped.ray(x, y), full.ray(x + 10.0, y + 3.0));
+        assert!(
+            (a.dir - b.dir).length() < 1e-5,
+            "{x},{y}: {:?} vs {:?}",
+            a.dir,
+            b.dir
+        );
+    }
+    // pbrt-v4's fov spans the shorter side: here the height.
+    let (top, bottom) = (full.ray(20.0, 0.0).dir, full.ray(20.0, 30.0).dir);
+    assert!((top.angle_between(bottom).to_degrees() - 50.0).abs() < 1e-3);
+}
+
+#[test]
+fn the_scenes_settings_and_defaults_come_across() {
+    let loaded = load(
+        r#"Camera "perspective"
+Sampler "zsobol" "integer pixelsamples" 7
+PixelFilter "triangle"
+Integrator "volpath" "integer maxdepth" 3
+WorldBegin
+LightSource "infinite" "rgb L" [0.5 0.5 0.5] "float scale" 2
+Shape "sphere"
+"#,
+    );
+    assert_eq!((loaded.camera.width, loaded.camera.height), (1280, 720));
+    assert_eq!(loaded.render.spp, 7);
+    assert_eq!(loaded.render.filter.to_string(), "tent(radius: 2)");
+    assert_eq!(loaded.render.params.get("max-depth"), Some(&3.0));
+    assert_eq!(loaded.environment.map(|e| e.y), Some(1.0));
+    // pbrt-v4's defaults: a 16-sample Gaussian of radius 1.5, path to depth 5.
+    let defaults = load("WorldBegin\nShape \"sphere\"\n");
+    assert_eq!(defaults.render.spp, 16);
+    assert_eq!(
+        defaults.render.filter.to_string(),
+        "gaussian(stddev: 0.5, radius: 1.5)"
+    );
+    assert_eq!(defaults.render.params.get("max-depth"), Some(&5.0));
+}
+
+#[test]
+fn approximations_need_the_flag_and_are_then_warnings() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("spot.pbrt");
+    std::fs::write(
+        &path,
+        "WorldBegin\nLightSource \"spot\" \"rgb I\" [1 1 1]\nShape \"sphere\"\n",
+    )
+    .unwrap();
+    let err = load_scene(&path).err().unwrap().to_string();
+    assert!(
+        err.contains("spot.pbrt:2:1") && err.contains("--approximate"),
+        "{err}"
+    );
+    let options = ImportOptions {
+        defines: Vec::new(),
+        approximate: true,
+    };
+    let loaded = load_scene_defined(&path, &[], &options).unwrap();
+    assert!(
+        loaded.warnings.iter().any(|w| w.contains("smoothstep")),
+        "{:?}",
+        loaded.warnings
+    );
+}
