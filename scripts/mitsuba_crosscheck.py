@@ -15,7 +15,7 @@ image means and their ratio raylab / Mitsuba.
     pip install mitsuba numpy
     cargo build --release
     python3 scripts/mitsuba_crosscheck.py [SCENES or FOLDERS...] [--spp 256] [--runs 16]
-        [--raylab target/release/raylab] [--out out/mitsuba-crosscheck]
+        [--raylab target/release/raylab] [--out out/mitsuba-crosscheck] [-D NAME=VALUE ...]
 
 Default: every .xml in scenes/mitsuba. Exit status 1 when a scene fails.
 """
@@ -57,6 +57,23 @@ def z_test(m1, v1, m2, v2, alpha=0.01):
     return float(np.mean(p > level)), level
 
 
+def render_both(mi, exe, scene, out, slug, per_run, runs, defines):
+    """Both renderers' per-pixel means and variances of the mean over `runs` runs of `per_run`
+    samples (seeds 1..runs), the scene's <default>s set by `defines`."""
+    r_imgs, m_imgs = [], []
+    mi_scene = mi.load_file(str(scene), **defines)
+    flags = [f for name, value in defines.items() for f in ("-D", f"{name}={value}")]
+    for k in range(1, runs + 1):
+        exr = out / f"{slug}-raylab-{k}.exr"
+        subprocess.run([str(exe), "render", str(scene), "--spp", str(per_run), "--seed", str(k),
+                        "-o", str(exr), "-q", *flags], check=True, capture_output=True, text=True)
+        r_imgs.append(read_exr(exr))
+        m_imgs.append(np.array(mi.render(mi_scene, spp=per_run, seed=k), dtype=np.float64)[..., :3])
+    mr, vr = mean_and_variance(r_imgs)
+    mm, vm = mean_and_variance(m_imgs)
+    return mr, vr, mm, vm
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", nargs="*", help="XML scenes or folders of them (default scenes/mitsuba)")
@@ -64,6 +81,8 @@ def main():
     ap.add_argument("--runs", type=int, default=16, help="independent runs per renderer (default 16)")
     ap.add_argument("--raylab", default="target/release/raylab", help="raylab binary")
     ap.add_argument("--out", default="out/mitsuba-crosscheck", help="folder for the EXRs")
+    ap.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                    help="a <default> parameter for both renderers (repeatable)")
     args = ap.parse_args()
     if args.runs < 2 or args.spp % args.runs:
         sys.exit("--spp must be a multiple of --runs, and --runs at least 2")
@@ -83,20 +102,12 @@ def main():
         scenes += sorted(p.glob("*.xml")) if p.is_dir() else [p]
     per_run = args.spp // args.runs
 
+    defines = dict(d.split("=", 1) for d in args.defines)
     rows, failed = [], False
     for scene in scenes:
         start = time.time()
         slug = scene.stem
-        r_imgs, m_imgs = [], []
-        mi_scene = mi.load_file(str(scene))
-        for k in range(1, args.runs + 1):
-            exr = out / f"{slug}-raylab-{k}.exr"
-            subprocess.run([str(exe), "render", str(scene), "--spp", str(per_run), "--seed", str(k),
-                            "-o", str(exr), "-q"], check=True, capture_output=True, text=True)
-            r_imgs.append(read_exr(exr))
-            m_imgs.append(np.array(mi.render(mi_scene, spp=per_run, seed=k), dtype=np.float64)[..., :3])
-        mr, vr = mean_and_variance(r_imgs)
-        mm, vm = mean_and_variance(m_imgs)
+        mr, vr, mm, vm = render_both(mi, exe, scene, out, slug, per_run, args.runs, defines)
         mi.Bitmap(mm.astype(np.float32)).write(str(out / f"{slug}-mitsuba.exr"))
         mi.Bitmap(mr.astype(np.float32)).write(str(out / f"{slug}-raylab.exr"))
         passing, level = z_test(mr, vr, mm, vm)

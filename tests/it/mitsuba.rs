@@ -212,3 +212,51 @@ fn import_refuses_what_it_cannot_write_well() {
     let text = std::fs::read_to_string(dir.path().join("box.ron")).unwrap();
     assert!(text.contains("spp: 3"), "{text}");
 }
+
+/// Veach's MIS scene with Mitsuba's `direct` integrator: its sample counts come across, and
+/// light sampling, BSDF sampling and MIS give the image that `path` gives at depth 1
+/// (direct light only).
+#[test]
+fn the_veach_scenes_strategies_agree_with_path_at_depth_one() {
+    let scene = repo_file("scenes/mitsuba/veach_mis.xml");
+    let render_with = |integrator: &str, params: &[(&str, &str)], seed: u64| {
+        let loaded = load_scene(&scene).unwrap();
+        let built = RenderScene::build(&loaded);
+        let camera = loaded.camera.with_resolution(24, 16);
+        let params: Vec<(String, String)> = params
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        let mut integrator = registry::find(integrator)
+            .unwrap()
+            .instantiate(&params)
+            .unwrap();
+        let settings = RenderSettings::fixed(256, seed, None);
+        render(&built, &camera, integrator.as_mut(), &settings)
+            .unwrap()
+            .0
+    };
+    let loaded = load_scene(&scene).unwrap();
+    assert_eq!(loaded.render.integrator, "direct");
+    assert_eq!(loaded.render.params.get("bsdf-samples"), Some(&1.0));
+    let path = render_with("path", &[("max-depth", "1")], 1);
+    for (what, params) in [
+        ("MIS", [("emitter-samples", "1"), ("bsdf-samples", "1")]),
+        (
+            "light sampling",
+            [("emitter-samples", "1"), ("bsdf-samples", "0")],
+        ),
+        (
+            "BSDF sampling",
+            [("emitter-samples", "0"), ("bsdf-samples", "1")],
+        ),
+    ] {
+        let direct = render_with("direct", &params, 2);
+        let (a, b) = (direct.mean(), path.mean());
+        let (sa, sb) = (direct.mean_standard_error(), path.mean_standard_error());
+        for c in 0..3 {
+            let z = (a[c] - b[c]) / (sa[c] * sa[c] + sb[c] * sb[c]).sqrt();
+            assert!(z.abs() < 4.0, "{what}, channel {c}: {a} vs {b} (z {z})");
+        }
+    }
+}

@@ -6,6 +6,7 @@ pub mod shading;
 
 mod albedo_view;
 mod depth_view;
+mod direct;
 mod fixed_depth;
 mod normals_view;
 mod path;

@@ -366,6 +366,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::fixed_depth::ENTRY,
     super::russian_roulette::ENTRY,
     super::path::ENTRY,
+    super::direct::ENTRY,
     super::photon::ENTRY,
     super::sppm::ENTRY,
     super::normals_view::ENTRY,

@@ -801,11 +801,49 @@ impl<'a, 'input> Converter<'a, 'input> {
                 self.render.push(format!("integrator: \"path\", params: {{\"max-depth\": {depth}, \"rr-depth\": {rr_depth}}}"));
                 self.report.push(format!("integrator: Mitsuba's path max_depth {max_depth} is raylab's max-depth {depth}"));
             }
+            "direct" => {
+                let shading = p.integer("shading_samples")?;
+                let count = |p: &mut Props<'a, 'input>, name: &str| -> Result<i64, Located> {
+                    let n = p.integer(name)?.or(shading).unwrap_or(1);
+                    if !(0..=1024).contains(&n) {
+                        return Err(at(
+                            self.doc,
+                            node,
+                            format!("{name} {n} must lie in 0..=1024"),
+                        ));
+                    }
+                    Ok(n)
+                };
+                let (emitter, bsdf) = (
+                    count(&mut p, "emitter_samples")?,
+                    count(&mut p, "bsdf_samples")?,
+                );
+                if p.boolean("hide_emitters")? == Some(true) {
+                    return Err(at(self.doc, node, "hide_emitters is not supported"));
+                }
+                self.render.push(format!("integrator: \"direct\", params: {{\"emitter-samples\": {emitter}, \"bsdf-samples\": {bsdf}}}"));
+            }
+            "moment" => {
+                // A wrapper that adds a second moment image: the estimate is its inner
+                // integrator's.
+                let inner: Vec<Node> = p.children.iter().map(|(_, n)| *n).collect();
+                p.children.clear();
+                let [inner] = inner[..] else {
+                    return Err(at(
+                        self.doc,
+                        node,
+                        "<integrator type=\"moment\"> wraps one integrator",
+                    ));
+                };
+                self.report.push("integrator: Mitsuba's moment wrapper: raylab keeps each pixel's variance already; its inner integrator renders".into());
+                p.finish(&[])?;
+                return self.integrator(inner);
+            }
             other => {
                 return Err(at(
                     self.doc,
                     node,
-                    format!("integrator `{other}` is not supported (path is)"),
+                    format!("integrator `{other}` is not supported (path, direct, moment are)"),
                 ))
             }
         }
