@@ -15,6 +15,16 @@ use std::path::{Path, PathBuf};
 /// Includes nested deeper than this are refused (a cycle is caught before).
 const MAX_INCLUDE_DEPTH: usize = 32;
 
+/// The most text a scene may read through its includes, all files together (a file that
+/// includes another twice at each level would otherwise read it 2^depth times).
+const MAX_INCLUDED_BYTES: u64 = 4 * crate::files::MAX_TEXT;
+
+/// The most files a scene may include, counting each include of a file.
+const MAX_INCLUDES: usize = 10_000;
+
+/// The most shapes a scene may place (instances multiply them).
+const MAX_ENTITIES: usize = 1 << 22;
+
 /// What `AttributeBegin` saves.
 #[derive(Clone)]
 struct State {
@@ -25,6 +35,8 @@ struct State {
     material: Current,
     /// `AreaLightSource diffuse`: (radiance, two-sided, its place).
     area: Option<([f64; 3], bool, Option<f64>, Pos)>,
+    /// After `ActiveTransform EndTime`: transforms set the shutter's end only.
+    end_time_only: bool,
 }
 
 #[derive(Clone)]
@@ -61,21 +73,28 @@ struct Converter<'a> {
     paths: Vec<PathBuf>,
     /// Canonical paths of the files being read, innermost last (cycles).
     reading: Vec<PathBuf>,
+    /// Bytes of text read through includes so far.
+    included_bytes: u64,
     state: State,
     stack: Vec<(State, &'static str, Pos)>,
     named_coords: HashMap<String, DMat4>,
     world: bool,
-    /// After `ActiveTransform EndTime`: transforms set the shutter's end only.
-    end_time_only: bool,
     camera: Option<CameraSpec>,
+    /// The shutter's open time, which scales the image.
+    exposure: f64,
     film: (i64, i64, Option<[f64; 4]>),
     filter: String,
     spp: i64,
     integrator: Option<String>,
     materials: Vec<(String, String)>,
+    /// The materials' RON by name, and the first name of each RON (anonymous materials that
+    /// are alike share one).
+    material_rons: HashMap<String, String>,
+    material_by_ron: HashMap<String, String>,
     named_materials: HashMap<String, String>,
     textures: Textures,
     meshes: Vec<(String, String)>,
+    mesh_names: std::collections::HashSet<String>,
     objects: HashMap<String, Vec<ObjectShape>>,
     /// The object being defined: its name and shapes so far.
     defining: Option<(String, Vec<ObjectShape>, Pos)>,
@@ -184,7 +203,11 @@ impl<'a> Converter<'a> {
                 ),
             ));
         }
-        let text = crate::files::read_text_capped(&file, crate::files::MAX_TEXT).map_err(|e| {
+        let text = crate::files::read_text_capped(
+            &file,
+            crate::files::MAX_TEXT.min(MAX_INCLUDED_BYTES - self.included_bytes),
+        )
+        .map_err(|e| {
             (
                 d.pos,
                 format!(
@@ -194,6 +217,26 @@ impl<'a> Converter<'a> {
                 ),
             )
         })?;
+        self.included_bytes += text.len() as u64;
+        if self.paths.len() >= MAX_INCLUDES {
+            return Err((
+                d.pos,
+                format!(
+                    "{} \"{name}\": the scene includes more than {MAX_INCLUDES} files",
+                    d.name
+                ),
+            ));
+        }
+        if self.included_bytes >= MAX_INCLUDED_BYTES {
+            return Err((
+                d.pos,
+                format!(
+                    "{} \"{name}\": the scene's includes hold more than {} MB of text",
+                    d.name,
+                    MAX_INCLUDED_BYTES >> 20
+                ),
+            ));
+        }
         self.reading.push(real);
         let saved = (d.name == "Import").then(|| self.state.clone());
         self.run_file(&file, &text)?;
@@ -230,7 +273,7 @@ impl<'a> Converter<'a> {
             "ConcatTransform",
             "CoordSysTransform",
         ];
-        if self.end_time_only && transforms.contains(&d.name.as_str()) {
+        if self.state.end_time_only && transforms.contains(&d.name.as_str()) {
             // The shutter's end: motion blur, which raylab does not render.
             return Ok(());
         }
@@ -250,7 +293,7 @@ impl<'a> Converter<'a> {
                 let (eye, look, up) = (DVec3::new(n[0], n[1], n[2]), DVec3::new(n[3], n[4], n[5]), DVec3::new(n[6], n[7], n[8]));
                 let dir = (look - eye).normalize();
                 let right = up.normalize().cross(dir);
-                if !dir.is_finite() || right.length() < 1e-9 {
+                if !dir.is_finite() || !(right.length() >= 1e-9) {
                     return Err((d.pos, "LookAt: the eye and the target coincide, or up is along the view".into()));
                 }
                 // pbrt-v4's frame: x = up x dir (the image's right), y = dir x x, z = dir.
@@ -292,22 +335,24 @@ impl<'a> Converter<'a> {
                 if kind == "ObjectEnd" {
                     return Err((d.pos, format!("{} inside an object definition closes what ObjectBegin opened: use ObjectEnd", d.name)));
                 }
-                if d.name == "TransformEnd" {
-                    self.state.ctm = saved.ctm;
-                } else {
-                    self.state = saved;
-                }
+                // pbrt-v4 reads TransformBegin/End as AttributeBegin/End: all is restored.
+                self.state = saved;
             }
             "WorldBegin" => {
                 before_world(self, &d)?;
                 self.world = true;
                 self.state.ctm = DMat4::IDENTITY;
+                self.state.end_time_only = false;
                 self.named_coords.insert("world".into(), DMat4::IDENTITY);
             }
             "WorldEnd" => self.report("WorldEnd: a pbrt-v3 directive; pbrt-v4 ends the world at the end of the file".into()),
             "Option" => {
-                let p = &d.params[0];
-                self.report(format!("Option {}: ignored (raylab has no such option)", p.name));
+                let name = d.params[0].name.clone();
+                if name == "forcediffuse" {
+                    self.approximate(d.pos, "Option forcediffuse (every material diffuse) ignored".into())?;
+                } else {
+                    self.report(format!("Option {name}: ignored (it changes how pbrt-v4 runs, not the image it converges to)"));
+                }
             }
             "ColorSpace" => {
                 if d.strings[0] != "srgb" {
@@ -319,10 +364,10 @@ impl<'a> Converter<'a> {
             }
             "TransformTimes" => {}
             "ActiveTransform" => match d.strings[0].as_str() {
-                "All" | "StartTime" => self.end_time_only = false,
+                "All" | "StartTime" => self.state.end_time_only = false,
                 "EndTime" => {
                     self.approximate(d.pos, "ActiveTransform EndTime: motion blur, ignored: raylab renders the shutter's start".into())?;
-                    self.end_time_only = true;
+                    self.state.end_time_only = true;
                 }
                 other => return Err((d.pos, format!("ActiveTransform {other}: StartTime, EndTime or All"))),
             },
@@ -344,13 +389,20 @@ impl<'a> Converter<'a> {
             "Sampler" => {
                 before_world(self, &d)?;
                 let mut p = self.params(&mut d)?;
-                if let Some(spp) = p.integer("pixelsamples")? {
-                    if spp < 1 {
-                        return Err((d.pos, format!("Sampler: pixelsamples {spp} must be at least 1")));
-                    }
-                    self.spp = spp;
+                // The stratified sampler counts xsamples x ysamples (4 x 4 by default), the
+                // others pixelsamples (16 by default).
+                let spp = if d.strings[0] == "stratified" {
+                    let x = p.integer("xsamples")?.unwrap_or(4);
+                    let y = p.integer("ysamples")?.unwrap_or(4);
+                    x.checked_mul(y).filter(|_| x > 0 && y > 0)
+                } else {
+                    Some(p.integer("pixelsamples")?.unwrap_or(16))
+                };
+                match spp {
+                    Some(spp) if (1..=1 << 24).contains(&spp) => self.spp = spp,
+                    _ => return Err((d.pos, "Sampler: the sample count must lie in 1..=16777216".into())),
                 }
-                p.ignore(&["seed", "jitter", "randomization", "dimensions", "xsamples", "ysamples"]);
+                p.ignore(&["seed", "jitter", "randomization", "dimensions"]);
                 p.finish()?;
                 self.report(format!("Sampler \"{}\": raylab's independent sampler with the same sample count", d.strings[0]));
             }
@@ -475,7 +527,24 @@ impl<'a> Converter<'a> {
                 )?;
             }
         }
-        p.ignore(&["focaldistance", "shutteropen", "shutterclose"]);
+        // The film's exposure is the shutter's open time (pbrt-v4's imaging ratio with its
+        // default ISO 100): it scales the whole image, so every emitter.
+        let open = p.float("shutteropen")?.unwrap_or(0.0);
+        let close = p.float("shutterclose")?.unwrap_or(1.0);
+        if !(close > open) {
+            return Err((
+                d.pos,
+                format!("Camera: shutterclose {close} must come after shutteropen {open}"),
+            ));
+        }
+        self.exposure = close - open;
+        if self.exposure != 1.0 {
+            self.report(format!(
+                "Camera: an exposure time of {} scales every emitter",
+                self.exposure
+            ));
+        }
+        p.ignore(&["focaldistance"]);
         p.finish()?;
         let camera_from_world = self.state.ctm;
         if camera_from_world.determinant().abs() < 1e-12 {
@@ -667,11 +736,23 @@ impl<'a> Converter<'a> {
     /// Adds a material under `name` (or a variant of it that is free) and returns the name.
     fn add_material(&mut self, name: &str, ron: String) -> String {
         let mut name = name.to_string();
-        while self.materials.iter().any(|(n, _)| *n == name) {
+        while self.material_rons.contains_key(&name) {
             name.push('\'');
         }
+        self.material_rons.insert(name.clone(), ron.clone());
+        self.material_by_ron
+            .entry(ron.clone())
+            .or_insert_with(|| name.clone());
         self.materials.push((name.clone(), ron));
         name
+    }
+
+    /// The RON description of the current material, `None` for `interface`.
+    fn current_material_ron(&self) -> Option<String> {
+        match &self.state.material {
+            Current::Desc { ron, .. } => ron.clone(),
+            Current::Named(name) => self.material_rons.get(name).cloned(),
+        }
     }
 
     /// The RON name of the current material, `None` for `interface`.
@@ -683,7 +764,7 @@ impl<'a> Converter<'a> {
                 ron: Some(ron),
                 kind,
             } => {
-                if let Some((name, _)) = self.materials.iter().find(|(_, r)| *r == ron) {
+                if let Some(name) = self.material_by_ron.get(&ron) {
                     return Some(name.clone());
                 }
                 let count = self.materials.len() + 1;
@@ -737,7 +818,10 @@ impl<'a> Converter<'a> {
                     }
                 };
                 let linear = match p.string("encoding")?.as_deref() {
-                    None => !(file.to_ascii_lowercase().ends_with(".png") || file.to_ascii_lowercase().ends_with(".jpg")),
+                    None => {
+                        let lower = file.to_ascii_lowercase();
+                        ![".png", ".jpg", ".jpeg", ".tga", ".bmp"].iter().any(|e| lower.ends_with(e))
+                    }
                     Some("linear") => true,
                     Some("sRGB") => false,
                     Some(e) => return Err((d.pos, format!("{what}: encoding \"{e}\" is not supported (sRGB, linear are)"))),
@@ -786,8 +870,10 @@ impl<'a> Converter<'a> {
                 }
             }
             "scale" => {
-                let tex = if ty == "float" { p.float_or_texture("tex")? } else { p.colour("tex")? };
-                let scale = p.float_or_texture("scale")?;
+                // Both default to 1.
+                let one = |c: Option<(Colour, Pos)>| c.or(Some((Colour::Rgb([1.0; 3]), d.pos)));
+                let tex = one(if ty == "float" { p.float_or_texture("tex")? } else { p.colour("tex")? });
+                let scale = one(p.float_or_texture("scale")?);
                 let unit = |s: &Option<(Colour, Pos)>| match s {
                     None => true,
                     Some((Colour::Rgb(v), _)) => v[0] == 1.0,
@@ -797,7 +883,6 @@ impl<'a> Converter<'a> {
                     (Some((Colour::Rgb(a), _)), Some((Colour::Rgb(s), _))) => {
                         v3([a[0] * s[0], a[1] * s[0], a[2] * s[0]].map(|x| x as f32))
                     }
-                    (None, Some((Colour::Rgb(s), _))) => num(s[0] as f32),
                     (Some((Colour::Texture(t), pos)), s) if unit(&s) => {
                         let map = if ty == "float" { &self.textures.float } else { &self.textures.spectrum };
                         map.get(&t).cloned().ok_or_else(|| (pos, format!("{what}: no texture is named \"{t}\"")))?
@@ -824,34 +909,44 @@ impl<'a> Converter<'a> {
     }
 
     /// An emitter's colour: `rgb` as it is (pbrt-v4 normalises the illuminant, so rgb
-    /// (1, 1, 1) renders as 1), times `scale`.
+    /// (1, 1, 1) renders as 1), any other spectrum as white of luminance 1 (pbrt-v4
+    /// normalises it so; raylab does not reproduce its colour), times `scale` and the
+    /// camera's exposure time.
     fn light_colour(&mut self, p: &mut ParamList, name: &str) -> Result<[f64; 3], Located> {
         let scale = p.float("scale")?.unwrap_or(1.0);
         let c = match p.colour(name)? {
             None => [1.0; 3],
             Some((Colour::Rgb(v), _)) => v,
-            Some((Colour::Named(n), pos)) if n.starts_with("stdillum-") => {
+            Some((Colour::Named(n), _)) if n == "stdillum-D65" => {
                 self.report(format!(
-                    "{}: {n} as white of luminance 1 (pbrt-v4 normalises named spectra to it)",
+                    "{}: stdillum-D65 as white of luminance 1, as pbrt-v4 renders it",
                     p.what
                 ));
-                let _ = pos;
                 [1.0; 3]
             }
+            Some((Colour::Texture(t), pos)) => {
+                return Err((
+                    pos,
+                    format!("{}: `{name}` cannot be a texture (\"{t}\")", p.what),
+                ))
+            }
             Some((c, pos)) => {
-                let what = format!("{}: `{name}`", p.what);
-                let textures = std::mem::take(&mut self.textures);
-                let r = materials::colour(&c, pos, &what, &textures, self);
-                self.textures = textures;
-                let ron = r?;
-                let v: f64 = ron.parse().unwrap_or(1.0);
-                [v; 3]
+                let what = match c {
+                    Colour::Named(n) => format!("the spectrum \"{n}\""),
+                    Colour::Blackbody(t) => format!("a blackbody of {t} K"),
+                    _ => "a spectrum by wavelength".to_string(),
+                };
+                self.approximate(
+                    pos,
+                    format!("{}: `{name}` is {what}, which pbrt-v4 normalises to luminance 1: rendered white (its colour is not reproduced)", p.what),
+                )?;
+                [1.0; 3]
             }
         };
         if c.iter().any(|x| *x < 0.0) || scale < 0.0 {
             return Err((p.at, format!("{}: negative emission", p.what)));
         }
-        Ok(c.map(|x| x * scale))
+        Ok(c.map(|x| x * scale * self.exposure))
     }
 
     fn light(&mut self, d: &mut Directive) -> Result<(), Located> {
@@ -986,6 +1081,12 @@ impl<'a> Converter<'a> {
         // pbrt-v4 turns a shape's normal around under ReverseOrientation and under a
         // transform that swaps handedness; raylab's flip_normals turns it around.
         let mut flip = self.state.reverse ^ swaps;
+        let textured = self
+            .current_material_ron()
+            .is_some_and(|r| r.contains("Image(") || r.contains("Checkerboard("));
+        if textured && matches!(kind.as_str(), "sphere" | "disk" | "cylinder") {
+            self.approximate(d.pos, format!("{what}: a texture on a {kind} is looked up at Mitsuba's texture coordinates of it, not pbrt-v4's"))?;
+        }
         let (shape, local, is_mesh, area) = match kind.as_str() {
             "sphere" => {
                 let r = p.float("radius")?.unwrap_or(1.0);
@@ -995,7 +1096,7 @@ impl<'a> Converter<'a> {
                 if partial {
                     return Err((d.pos, format!("{what}: a partial sphere (zmin, zmax, phimax) is not supported")));
                 }
-                (format!("Sphere(radius: {})", num(r as f32)), DMat4::IDENTITY, false, Area::Sphere(r))
+                (format!("Sphere(radius: {})", num(r as f32)), DMat4::IDENTITY, false, Area::Known(4.0 * std::f64::consts::PI * r * r))
             }
             "disk" => {
                 let h = p.float("height")?.unwrap_or(0.0);
@@ -1004,23 +1105,27 @@ impl<'a> Converter<'a> {
                     return Err((d.pos, format!("{what}: an annulus or a partial disk is not supported")));
                 }
                 let local = DMat4::from_translation(DVec3::new(0.0, 0.0, h)) * DMat4::from_scale(DVec3::new(r, r, 1.0));
-                ("Disk".to_string(), local, false, Area::Disk)
+                ("Disk".to_string(), local, false, Area::Known(std::f64::consts::PI * r * r))
             }
             "cylinder" => {
                 let r = p.float("radius")?.unwrap_or(1.0);
-                let z0 = p.float("zmin")?.unwrap_or(-1.0);
-                let z1 = p.float("zmax")?.unwrap_or(1.0);
+                let (za, zb) = (p.float("zmin")?.unwrap_or(-1.0), p.float("zmax")?.unwrap_or(1.0));
+                let (z0, z1) = (za.min(zb), za.max(zb));
                 if p.float("phimax")?.is_some_and(|a| a < 360.0) {
                     return Err((d.pos, format!("{what}: a partial cylinder is not supported")));
                 }
-                (format!("Cylinder(p0: (0.0, 0.0, {}), p1: (0.0, 0.0, {}), radius: {})", num(z0 as f32), num(z1 as f32), num(r as f32)), DMat4::IDENTITY, false, Area::Cylinder(r, z1 - z0))
+                (format!("Cylinder(p0: (0.0, 0.0, {}), p1: (0.0, 0.0, {}), radius: {})", num(z0 as f32), num(z1 as f32), num(r as f32)), DMat4::IDENTITY, false, Area::Known(2.0 * std::f64::consts::PI * r * (z1 - z0)))
             }
             "trianglemesh" | "bilinearmesh" => {
-                let mesh = self.mesh(&kind, &mut p, world)?;
+                let frame = MeshFrame {
+                    world,
+                    orient: if self.defining.is_some() { DMat4::IDENTITY } else { world },
+                    default_uvs: textured,
+                };
+                let mesh = self.mesh(&kind, &mut p, &frame)?;
                 // Each triangle already faces where pbrt-v4's does.
                 flip = false;
-                let area = mesh.area;
-                (mesh.ron, DMat4::IDENTITY, true, Area::Known(area))
+                (mesh.ron, DMat4::IDENTITY, true, Area::PerPrimitive(mesh.areas))
             }
             "plymesh" => {
                 let file = p.string("filename")?.ok_or_else(|| (d.pos, format!("{what} needs \"string filename\"")))?;
@@ -1028,6 +1133,10 @@ impl<'a> Converter<'a> {
                     self.approximate(pos, format!("{what}: displacement ignored"))?;
                     p.ignore(&["displacement", "edgelength"]);
                 }
+                if self.defining.is_some() && flip {
+                    return Err((d.pos, format!("{what}: a PLY mesh turned around (ReverseOrientation or a mirroring transform) inside an object definition is not supported")));
+                }
+                self.report(format!("{what}: faces by its winding; pbrt-v4 faces a PLY mesh with normals towards them"));
                 (format!("Ply(path: {})", quote(&file)), DMat4::IDENTITY, true, Area::Unknown)
             }
             other => return Err((d.pos, format!("Shape \"{other}\" is not supported (sphere, disk, cylinder, trianglemesh, bilinearmesh, plymesh are)"))),
@@ -1072,8 +1181,11 @@ impl<'a> Converter<'a> {
         if let Some((l, two, power, pos)) = self.state.area {
             let mut l = l;
             if let Some(power) = power {
-                let area = area.world(&placed).ok_or_else(|| {
-                    (pos, format!("AreaLightSource: `power` on a {kind} is not supported (its area is not known before loading)"))
+                let area = area.single().map_err(|why| {
+                    (
+                        pos,
+                        format!("AreaLightSource: `power` on this {kind} is not supported: {why}"),
+                    )
                 })?;
                 let k = power / ((if two { 2.0 } else { 1.0 }) * area * std::f64::consts::PI);
                 l = l.map(|x| x * k);
@@ -1114,7 +1226,7 @@ impl<'a> Converter<'a> {
                 .ok_or_else(|| (d.pos, "ObjectInstance: a projective transform".to_string()))?;
             let shape = if s.is_mesh {
                 let mesh = format!("{name}/{i}");
-                if !self.meshes.iter().any(|(n, _)| *n == mesh) {
+                if self.mesh_names.insert(mesh.clone()) {
                     new_meshes.push((mesh.clone(), s.shape.clone()));
                 }
                 format!("Instance(mesh: {})", quote(&mesh))
@@ -1135,49 +1247,68 @@ impl<'a> Converter<'a> {
         }
         self.meshes.extend(new_meshes);
         self.entities.extend(entities);
+        if self.entities.len() > MAX_ENTITIES {
+            return Err((
+                d.pos,
+                format!("ObjectInstance: the scene places more than {MAX_ENTITIES} shapes"),
+            ));
+        }
         Ok(())
     }
 }
 
-/// What an area light's `power` needs: the shape's area.
+/// What an area light's `power` needs: the area pbrt-v4 divides by. pbrt makes one light
+/// per triangle or patch, each of its own world-space area, and a quadric's light takes the
+/// quadric's unplaced area.
 enum Area {
-    Sphere(f64),
-    Disk,
-    Cylinder(f64, f64),
-    /// Already in world space.
     Known(f64),
+    PerPrimitive(Vec<f64>),
     Unknown,
 }
 
 impl Area {
-    /// The area after `m` (a similarity for the quadrics), if it can be known here.
-    fn world(&self, m: &DMat4) -> Option<f64> {
-        let s = m.transform_vector3(DVec3::X).length();
-        let sy = m.transform_vector3(DVec3::Y).length();
-        let pi = std::f64::consts::PI;
-        match *self {
-            Area::Sphere(r) => Some(4.0 * pi * (r * s).powi(2)),
-            Area::Disk => Some(pi * s * sy),
-            Area::Cylinder(r, h) => {
-                Some(2.0 * pi * r * s * h * m.transform_vector3(DVec3::Z).length())
+    /// The one area every light of the shape divides by, if there is one.
+    fn single(&self) -> Result<f64, &'static str> {
+        match self {
+            Area::Known(a) => Ok(*a),
+            Area::PerPrimitive(areas) => {
+                let first = areas.first().copied().unwrap_or(0.0);
+                if areas.iter().all(|a| (a - first).abs() <= 1e-4 * first) {
+                    Ok(first)
+                } else {
+                    Err("its triangles differ in area, and pbrt-v4 gives each the radiance of its own area")
+                }
             }
-            Area::Known(a) => Some(a),
-            Area::Unknown => None,
+            Area::Unknown => Err("its area is not known before loading"),
         }
     }
 }
 
-/// An inline mesh as RON, with its world-space area.
+/// An inline mesh as RON, with the world-space area of each of its primitives (triangles, or
+/// bilinear patches).
 struct Mesh {
     ron: String,
-    area: f64,
+    areas: Vec<f64>,
+}
+
+/// How a mesh is written: where it faces from, and whether it needs pbrt's default texture
+/// coordinates.
+struct MeshFrame {
+    /// The placement its areas are measured after.
+    world: DMat4,
+    /// The space its facing is decided in: the world for a shape, the object's own space for
+    /// a shape of an object definition (an instance's placement turns its normals as
+    /// normals, which keeps their side).
+    orient: DMat4,
+    /// Write pbrt-v4's default texture coordinates when the file gives none.
+    default_uvs: bool,
 }
 
 impl Converter<'_> {
     /// `trianglemesh` or `bilinearmesh` as a RON `Mesh` whose triangles each face where
-    /// pbrt-v4's do after `world` (towards the given normals, else by winding, turned by
-    /// ReverseOrientation and by a mirroring transform).
-    fn mesh(&mut self, kind: &str, p: &mut ParamList, world: DMat4) -> Result<Mesh, Located> {
+    /// pbrt-v4's do (towards the given normals, else by winding, turned by ReverseOrientation
+    /// and by a mirroring transform).
+    fn mesh(&mut self, kind: &str, p: &mut ParamList, frame: &MeshFrame) -> Result<Mesh, Located> {
         let what = p.what.clone();
         let at = p.at;
         let (pts, ppos) = p
@@ -1215,10 +1346,7 @@ impl Converter<'_> {
          -> Result<Option<Vec<f64>>, Located> {
             match p.numbers(name, types)? {
                 None => Ok(None),
-                Some((v, pos)) if v.len() == n * dim => {
-                    let _ = pos;
-                    Ok(Some(v))
-                }
+                Some((v, _)) if v.len() == n * dim => Ok(Some(v)),
                 Some((v, pos)) => Err((
                     pos,
                     format!(
@@ -1233,22 +1361,51 @@ impl Converter<'_> {
         let uvs = per_vertex(p, "uv", &["point2", "float"], 2)?;
         p.ignore(&["S", "faceIndices"]);
         let point = |i: usize| DVec3::new(pts[3 * i], pts[3 * i + 1], pts[3 * i + 2]);
+        // pbrt-v4 turns the given normals around under ReverseOrientation.
         let sign = if self.state.reverse { -1.0 } else { 1.0 };
         let normal = |i: usize| {
             normals
                 .as_ref()
                 .map(|nv| sign * DVec3::new(nv[3 * i], nv[3 * i + 1], nv[3 * i + 2]))
         };
-        let inv_t = world.inverse().transpose();
-        let flip = self.state.reverse ^ (world.determinant() < 0.0);
+        let uv = |i: usize| uvs.as_ref().map(|u| [u[2 * i], u[2 * i + 1]]);
+        let orient = frame.orient;
+        let inv_t = orient.inverse().transpose();
+        let flip = self.state.reverse ^ (orient.determinant() < 0.0);
+        let default_uvs = frame.default_uvs && uvs.is_none();
+        // The vertices written: the file's, or, for pbrt's default texture coordinates, each
+        // primitive's own corners (pbrt gives every triangle (0,0) (1,0) (1,1) and every
+        // patch its bilinear (u, v)).
+        let mut verts: Vec<(usize, Option<[f64; 2]>)> = if default_uvs {
+            Vec::with_capacity(indices.len())
+        } else {
+            (0..n).map(|i| (i, uv(i))).collect()
+        };
         let mut tris: Vec<[usize; 3]> = Vec::with_capacity(indices.len() / corners * 2);
+        let mut areas = Vec::with_capacity(indices.len() / corners);
         for c in indices.chunks(corners) {
+            let c: Vec<usize> = if default_uvs {
+                let corner_uvs: &[[f64; 2]] = if corners == 4 {
+                    &[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]
+                } else {
+                    &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+                };
+                let start = verts.len();
+                verts.extend(c.iter().zip(corner_uvs).map(|(&i, &t)| (i, Some(t))));
+                (start..start + corners).collect()
+            } else {
+                c.to_vec()
+            };
+            let at_point = |v: usize| point(verts[v].0);
             let parts: Vec<[usize; 3]> = if corners == 4 {
                 // pbrt-v4's patch p00 p10 p01 p11: its normal is (p10 - p00) x (p01 - p00).
                 let (a, b, c2, d) = (c[0], c[1], c[2], c[3]);
-                let plane = (point(b) - point(a)).cross(point(c2) - point(a));
-                let off = plane.normalize_or_zero().dot(point(d) - point(a)).abs();
-                let size = (point(d) - point(a)).length().max(1e-30);
+                let plane = (at_point(b) - at_point(a)).cross(at_point(c2) - at_point(a));
+                let off = plane
+                    .normalize_or_zero()
+                    .dot(at_point(d) - at_point(a))
+                    .abs();
+                let size = (at_point(d) - at_point(a)).length().max(1e-30);
                 if off > 1e-4 * size {
                     self.approximate(
                         at,
@@ -1259,31 +1416,29 @@ impl Converter<'_> {
             } else {
                 vec![[c[0], c[1], c[2]]]
             };
+            let mut area = 0.0;
             for t in parts {
-                let w = t.map(|i| world.transform_point3(point(i)));
-                let cross = (w[1] - w[0]).cross(w[2] - w[0]);
+                let w = t.map(|v| frame.world.transform_point3(at_point(v)));
+                area += 0.5 * (w[1] - w[0]).cross(w[2] - w[0]).length();
+                let o = t.map(|v| orient.transform_point3(at_point(v)));
+                let cross = (o[1] - o[0]).cross(o[2] - o[0]);
                 // pbrt-v4's front: towards the interpolated normal if given, else by the
-                // object-space winding (turned by ReverseOrientation).
-                let front = match (normal(t[0]), normal(t[1]), normal(t[2])) {
-                    (Some(a), Some(b), Some(c)) => {
+                // winding (turned by ReverseOrientation and a mirroring transform).
+                let ns = t.map(|v| normal(verts[v].0));
+                let front = match ns {
+                    [Some(a), Some(b), Some(c)] => {
                         (inv_t.transform_vector3(a + b + c)).dot(cross) >= 0.0
                     }
                     _ => !flip,
                 };
                 tris.push(if front { t } else { [t[0], t[2], t[1]] });
             }
+            areas.push(area);
         }
-        let area: f64 = tris
-            .iter()
-            .map(|t| {
-                let w = t.map(|i| world.transform_point3(point(i)));
-                0.5 * (w[1] - w[0]).cross(w[2] - w[0]).length()
-            })
-            .sum();
         let list = |items: Vec<String>| items.join(", ");
         let mut ron = format!(
             "Mesh(positions: [{}], indices: [{}]",
-            list((0..n).map(|i| v3(f3(point(i)))).collect()),
+            list(verts.iter().map(|v| v3(f3(point(v.0)))).collect()),
             list(
                 tris.iter()
                     .map(|t| format!("({}, {}, {})", t[0], t[1], t[2]))
@@ -1295,29 +1450,28 @@ impl Converter<'_> {
                 ron,
                 ", normals: [{}]",
                 list(
-                    (0..n)
-                        .filter_map(|i| normal(i).map(|v| v3(f3(v))))
+                    verts
+                        .iter()
+                        .filter_map(|v| normal(v.0).map(|v| v3(f3(v))))
                         .collect()
                 )
             );
         }
-        if let Some(uv) = &uvs {
+        if verts.iter().all(|v| v.1.is_some()) && !verts.is_empty() {
             let _ = write!(
                 ron,
                 ", uvs: [{}]",
                 list(
-                    (0..n)
-                        .map(|i| format!(
-                            "({}, {})",
-                            num(uv[2 * i] as f32),
-                            num(uv[2 * i + 1] as f32)
-                        ))
+                    verts
+                        .iter()
+                        .filter_map(|v| v.1)
+                        .map(|t| format!("({}, {})", num(t[0] as f32), num(t[1] as f32)))
                         .collect()
                 )
             );
         }
         ron.push(')');
-        Ok(Mesh { ron, area })
+        Ok(Mesh { ron, areas })
     }
 
     /// The camera as raylab's image-plane camera: the eye and the corners of the (cropped)
@@ -1383,6 +1537,7 @@ pub fn to_ron(
         files,
         options,
         paths: Vec::new(),
+        included_bytes: 0,
         reading: vec![path.canonicalize().unwrap_or_else(|_| path.to_path_buf())],
         state: State {
             ctm: DMat4::IDENTITY,
@@ -1392,20 +1547,24 @@ pub fn to_ron(
                 kind: "diffuse".into(),
             },
             area: None,
+            end_time_only: false,
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
         world: false,
-        end_time_only: false,
         camera: None,
+        exposure: 1.0,
         film: (1280, 720, None),
         filter: "gaussian(stddev: 0.5, radius: 1.5)".into(),
         spp: 16,
         integrator: None,
         materials: Vec::new(),
+        material_rons: HashMap::new(),
+        material_by_ron: HashMap::new(),
         named_materials: HashMap::new(),
         textures: Textures::default(),
         meshes: Vec::new(),
+        mesh_names: std::collections::HashSet::new(),
         objects: HashMap::new(),
         defining: None,
         entities: Vec::new(),
@@ -1560,7 +1719,7 @@ mod tests {
     #[test]
     fn textures_follow_pbrts_coordinates() {
         let scene = |texture: &str| {
-            format!("WorldBegin\n{texture}\nMaterial \"diffuse\" \"texture reflectance\" \"t\"\nShape \"sphere\"\n")
+            format!("WorldBegin\n{texture}\nMaterial \"diffuse\" \"texture reflectance\" \"t\"\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n")
         };
         // pbrt-v4 looks an image up at (s, 1 - t); raylab from the top row at (u, v).
         let image = convert(&scene(r#"Texture "t" "spectrum" "imagemap" "string filename" "a.png" "float uscale" 2 "float vdelta" 0.25"#), false).unwrap();
@@ -1585,5 +1744,59 @@ mod tests {
             let imported = convert(&text, false).unwrap();
             assert!(imported.ron.contains(expected), "{material}: no {expected} in\n{}", imported.ron);
         }
+    }
+
+    #[test]
+    fn states_lights_samplers_and_uvs_follow_pbrt_v4() {
+        let quad = r#"Shape "bilinearmesh" "point3 P" [0 0 0  2 0 0  0 1 0  2 1 0]"#;
+        // TransformBegin/End restore everything, as AttributeBegin/End.
+        let text = format!("WorldBegin\nTransformBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\nTransformEnd\n{quad}\n");
+        assert!(!convert(&text, false).unwrap().ron.contains("emitter"));
+        // `power` over each primitive's own area: a 2 x 1 patch, 2 pi W -> 1.
+        let text =
+            format!("WorldBegin\nAreaLightSource \"diffuse\" \"float power\" 6.2831853\n{quad}\n");
+        let ron = convert(&text, false).unwrap().ron;
+        assert!(ron.contains("Area(radiance: (1.0, 1.0, 1.0)"), "{ron}");
+        // The shutter's open time scales the image.
+        let text = format!("Camera \"perspective\" \"float shutterclose\" 0.5\nWorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n{quad}\n");
+        assert!(convert(&text, false)
+            .unwrap()
+            .ron
+            .contains("Area(radiance: (2.0, 2.0, 2.0)"));
+        // A spectrum on a light is normalised to luminance 1 by pbrt-v4: white, approximately.
+        let text = format!(
+            "WorldBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 8 800 8]\n{quad}\n"
+        );
+        assert!(convert(&text, false)
+            .unwrap_err()
+            .3
+            .contains("--approximate"));
+        assert!(convert(&text, true)
+            .unwrap()
+            .ron
+            .contains("Area(radiance: (1.0, 1.0, 1.0)"));
+        // The stratified sampler takes xsamples x ysamples.
+        let text = format!("Sampler \"stratified\" \"integer xsamples\" 8 \"integer ysamples\" 8\nWorldBegin\n{quad}\n");
+        assert!(convert(&text, false).unwrap().ron.contains("spp: 64"));
+        // A textured patch without uv gets pbrt's (u, v) at its corners.
+        let text = format!("WorldBegin\nTexture \"c\" \"spectrum\" \"checkerboard\"\nMaterial \"diffuse\" \"texture reflectance\" \"c\"\n{quad}\n");
+        let ron = convert(&text, false).unwrap().ron;
+        assert!(
+            ron.contains("uvs: [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]"),
+            "{ron}"
+        );
+        // A mesh of an object definition keeps its own winding under a mirroring transform
+        // (an instance turns its normals as normals).
+        let text = "WorldBegin\nObjectBegin \"o\"\nScale 1 1 -1\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\nObjectEnd\nObjectInstance \"o\"\n";
+        assert!(convert(text, false)
+            .unwrap()
+            .ron
+            .contains("indices: [(0, 1, 2)]"));
+        let text =
+            "WorldBegin\nScale 1 1 -1\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n";
+        assert!(convert(text, false)
+            .unwrap()
+            .ron
+            .contains("indices: [(0, 2, 1)]"));
     }
 }

@@ -278,8 +278,14 @@ pub fn material(
             }
         }
         "diffusetransmission" => {
-            let r = col(p, "reflectance", notes)?.unwrap_or_else(|| "0.25".into());
-            p.ignore(&["transmittance", "scale"]);
+            let scale = p.float("scale")?.unwrap_or(1.0);
+            let r = match p.colour("reflectance")? {
+                None => num((0.25 * scale).clamp(0.0, 1.0) as f32),
+                Some((Colour::Rgb(v), _)) => v3(v.map(|x| (x * scale).clamp(0.0, 1.0) as f32)),
+                Some((c, pos)) if scale == 1.0 => colour(&c, pos, &format!("{what}: `reflectance`"), textures, notes)?,
+                Some((_, pos)) => return Err((pos, format!("{what}: a scaled reflectance texture is not supported"))),
+            };
+            p.ignore(&["transmittance"]);
             notes.approximate(at, format!("{what}: raylab has no diffuse transmission; a diffuse reflector of the reflectance instead"))?;
             format!("Lambert(albedo: {r})")
         }

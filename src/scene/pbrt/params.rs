@@ -63,8 +63,9 @@ pub struct ParamList {
 
 impl ParamList {
     pub fn new(at: Pos, what: String, params: Vec<Param>) -> Result<ParamList, Located> {
-        for (i, p) in params.iter().enumerate() {
-            if params[..i].iter().any(|q| q.name == p.name) {
+        let mut seen = std::collections::HashSet::new();
+        for p in &params {
+            if !seen.insert(p.name.as_str()) {
                 return Err((p.pos, format!("{what}: `{}` is given twice", p.name)));
             }
             let ok = match (&p.values, p.ty.as_str()) {
