@@ -293,7 +293,7 @@ impl<'a> Converter<'a> {
                 let (eye, look, up) = (DVec3::new(n[0], n[1], n[2]), DVec3::new(n[3], n[4], n[5]), DVec3::new(n[6], n[7], n[8]));
                 let dir = (look - eye).normalize();
                 let right = up.normalize().cross(dir);
-                if !dir.is_finite() || !(right.length() >= 1e-9) {
+                if !dir.is_finite() || right.length().is_nan() || right.length() < 1e-9 {
                     return Err((d.pos, "LookAt: the eye and the target coincide, or up is along the view".into()));
                 }
                 // pbrt-v4's frame: x = up x dir (the image's right), y = dir x x, z = dir.
@@ -531,7 +531,7 @@ impl<'a> Converter<'a> {
         // default ISO 100): it scales the whole image, so every emitter.
         let open = p.float("shutteropen")?.unwrap_or(0.0);
         let close = p.float("shutterclose")?.unwrap_or(1.0);
-        if !(close > open) {
+        if close.partial_cmp(&open) != Some(std::cmp::Ordering::Greater) {
             return Err((
                 d.pos,
                 format!("Camera: shutterclose {close} must come after shutteropen {open}"),
