@@ -18,6 +18,8 @@ pub mod ply;
 pub mod procedural;
 pub mod references;
 pub mod schema;
+pub mod spectra;
+mod spectra_tables;
 pub mod systems;
 pub mod textures;
 

@@ -3,6 +3,7 @@
 use super::xml::{at, attr, position, value, Located, Params, Value};
 pub use crate::scene::import::Imported;
 use crate::scene::import::{matrix, num, quote, v3};
+use crate::scene::spectra::{self, Use};
 use glam::Affine3A;
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
@@ -108,11 +109,50 @@ impl<'a, 'input> Props<'a, 'input> {
     }
 
     fn vector(&mut self, name: &str) -> Result<Option<[f32; 3]>, Located> {
-        self.typed(name, "a colour or a vector", |v| match v {
-            Value::Vector(x) => Some(x),
-            Value::Float(x) => Some([x; 3]),
-            _ => None,
-        })
+        self.colour_as(name, Use::Reflectance)
+    }
+
+    /// A conductor's `eta` or `k`: RGB or uniform (spectra of optical constants are not
+    /// colours, and raylab does not turn them into RGB).
+    fn optical_constant(&mut self, name: &str) -> Result<Option<[f32; 3]>, Located> {
+        self.typed(
+            name,
+            "rgb or one number (a spectrum of optical constants is not supported)",
+            |v| match v {
+                Value::Vector(x) => Some(x),
+                Value::Float(x) | Value::Uniform(x) => Some([x; 3]),
+                _ => None,
+            },
+        )
+    }
+
+    /// An emitter's colour: a spectrum turned into RGB without D65's weighting, as
+    /// Mitsuba's RGB variants turn an emitter's (a uniform one is equal-energy white).
+    fn emission(&mut self, name: &str) -> Result<Option<[f32; 3]>, Located> {
+        self.colour_as(name, Use::Emission)
+    }
+
+    fn colour_as(&mut self, name: &str, what: Use) -> Result<Option<[f32; 3]>, Located> {
+        let Some((v, n)) = self.take(name) else {
+            return Ok(None);
+        };
+        let rgb = match v {
+            Value::Vector(x) => x,
+            Value::Float(x) => [x; 3],
+            Value::Uniform(x) if what == Use::Reflectance => [x; 3],
+            Value::Uniform(x) => spectra::uniform_emission(x as f64).map(|c| c as f32),
+            Value::Spectrum(pairs) => spectra::to_srgb(&pairs, what)
+                .map_err(|e| at(self.doc, n, format!("`{name}`: {e}")))?
+                .map(|c| c as f32),
+            _ => {
+                return Err(at(
+                    self.doc,
+                    n,
+                    format!("`{name}` must be a colour or a vector"),
+                ))
+            }
+        };
+        Ok(Some(rgb))
     }
 
     fn transform(&mut self, name: &str) -> Result<Option<Affine3A>, Located> {
@@ -345,7 +385,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                     }
                     Some((_, n)) => return Err(at(self.doc, n, "`material` must be a string")),
                 };
-                match (metal, p.vector("eta")?, p.vector("k")?) {
+                match (metal, p.optical_constant("eta")?, p.optical_constant("k")?) {
                     (Some(m), None, None) => { let _ = write!(out, "metal: {}", quote(&m)); }
                     (None, Some(eta), Some(k)) => { let _ = write!(out, "eta: {}, k: {}", v3(eta), v3(k)); }
                     (None, None, None) => out.push_str("metal: \"none\""),
@@ -511,7 +551,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                         ));
                     }
                     let mut e = self.props(child)?;
-                    let radiance = e.vector("radiance")?.ok_or_else(|| at(self.doc, child, "<emitter type=\"area\"> needs a constant `radiance` (a texture is not supported)"))?;
+                    let radiance = e.emission("radiance")?.ok_or_else(|| at(self.doc, child, "<emitter type=\"area\"> needs a constant `radiance` (a texture is not supported)"))?;
                     e.finish(&[])?;
                     emitter = Some(format!("Area(radiance: {})", v3(radiance)));
                 }
@@ -579,7 +619,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         };
         let entity = match kind.as_str() {
             "constant" => {
-                let r = p.vector("radiance")?.unwrap_or([1.0; 3]);
+                let r = p.emission("radiance")?.unwrap_or([1.0; 3]);
                 if self.environment.replace(v3(r)).is_some() {
                     return Err(at(self.doc, node, "a second environment emitter: raylab's scene has one"));
                 }
@@ -591,7 +631,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 Some(format!("emitter: Environment(path: {}, scale: {}){}", quote(&file), num(scale), placed(to_world)))
             }
             "point" => {
-                let i = p.vector("intensity")?.unwrap_or([1.0; 3]);
+                let i = p.emission("intensity")?.unwrap_or([1.0; 3]);
                 let m = match p.vector("position")? {
                     Some(pos) => Affine3A::from_translation(pos.into()),
                     None => to_world.unwrap_or(Affine3A::IDENTITY),
@@ -599,13 +639,13 @@ impl<'a, 'input> Converter<'a, 'input> {
                 Some(format!("emitter: Point(intensity: {}), transform: {}", v3(i), matrix(&m)))
             }
             "spot" => {
-                let i = p.vector("intensity")?.unwrap_or([1.0; 3]);
+                let i = p.emission("intensity")?.unwrap_or([1.0; 3]);
                 let cutoff = p.float("cutoff_angle")?.unwrap_or(20.0);
                 let beam = p.float("beam_width")?.unwrap_or(cutoff * 0.75);
                 Some(format!("emitter: Spot(intensity: {}, cutoff_angle: {}, beam_width: {}){}", v3(i), num(cutoff), num(beam), placed(to_world)))
             }
             "directional" => {
-                let e = p.vector("irradiance")?.unwrap_or([1.0; 3]);
+                let e = p.emission("irradiance")?.unwrap_or([1.0; 3]);
                 let d = p.vector("direction")?.unwrap_or([0.0, 0.0, 1.0]);
                 Some(format!("emitter: Directional(direction: {}, irradiance: {}){}", v3(d), v3(e), placed(to_world)))
             }

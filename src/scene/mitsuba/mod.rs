@@ -4,8 +4,8 @@
 //!
 //! What is read: `<default>` and `$name` substitution (with `-D name=value` overrides),
 //! `<ref>` and ids, `<transform>` (translate, rotate, scale, matrix, lookat, in order), `rgb`,
-//! uniform `spectrum`, `float`, `integer`, `boolean`, `string`, `point`, `vector`; the
-//! `perspective` sensor with its `hdrfilm`, `rfilter` and sampler; the `path` integrator;
+//! `spectrum` (uniform or by wavelength, through `scene::spectra`), `float`, `integer`, `boolean`, `string`, `point`, `vector`; the
+//! `perspective` sensor with its `hdrfilm`, `rfilter` and sampler; the `path`, `direct` and `moment` integrators;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere`, `disk`, `cylinder` with
 //! `flip_normals`; BSDFs `diffuse`, `conductor`, `roughconductor`, `dielectric`,
 //! `roughdielectric`, `thindielectric`, `plastic`, `roughplastic`, `twosided`; emitters

@@ -102,8 +102,12 @@ pub enum Value {
     Integer(i64),
     Boolean(bool),
     String(String),
-    /// `rgb`, a uniform `spectrum`, `point` or `vector`.
+    /// `rgb`, `point` or `vector`.
     Vector([f32; 3]),
+    /// A uniform `spectrum` (one number).
+    Uniform(f32),
+    /// A `spectrum` as `wavelength:value` pairs (nm).
+    Spectrum(Vec<(f64, f64)>),
     Transform(Affine3A),
 }
 
@@ -185,16 +189,44 @@ pub fn value(params: &Params, doc: &Document, node: Node) -> Result<Value, Locat
             }
         }
         "spectrum" => {
+            if node.attribute("filename").is_some() {
+                return Err(at(doc, node, "<spectrum filename=...>: spectra from files are not supported (give wavelength:value pairs)"));
+            }
             let v = text("value")?;
-            match numbers(&v).ok().as_deref() {
-                Some([x]) => Value::Vector([*x; 3]),
-                _ => {
-                    return Err(at(
-                        doc,
-                        node,
-                        format!("<spectrum value=\"{v}\">: only a uniform spectrum (one number) is supported"),
-                    ))
+            if !v.contains(':') {
+                match numbers(&v).ok().as_deref() {
+                    Some([x]) => Value::Uniform(*x),
+                    _ => {
+                        return Err(at(
+                            doc,
+                            node,
+                            format!(
+                                "<spectrum value=\"{v}\">: one number, or wavelength:value pairs"
+                            ),
+                        ))
+                    }
                 }
+            } else {
+                let mut pairs = Vec::new();
+                for entry in v
+                    .split(|c: char| c == ',' || c.is_whitespace())
+                    .filter(|e| !e.is_empty())
+                {
+                    let pair = entry.split_once(':').and_then(|(w, x)| {
+                        Some((w.trim().parse::<f64>().ok()?, x.trim().parse::<f64>().ok()?))
+                    });
+                    match pair {
+                        Some(p) if p.0.is_finite() && p.1.is_finite() => pairs.push(p),
+                        _ => {
+                            return Err(at(
+                                doc,
+                                node,
+                                format!("<spectrum>: `{entry}` is not a wavelength:value pair"),
+                            ))
+                        }
+                    }
+                }
+                Value::Spectrum(pairs)
             }
         }
         "point" | "vector" => Value::Vector(xyz(params, doc, node, 0.0)?),

@@ -53,12 +53,13 @@ pub fn colour(
             num(pairs[0].1 as f32)
         }
         Colour::Sampled(pairs) => {
-            let mean = pairs.iter().map(|p| p.1).sum::<f64>() / pairs.len() as f64;
+            let rgb = crate::scene::spectra::to_srgb(pairs, crate::scene::spectra::Use::Reflectance)
+                .map_err(|e| (pos, format!("{what}: {e}")))?;
             notes.approximate(
                 pos,
-                format!("{what}: a spectrum by wavelength, replaced by its mean {mean:.4} (raylab does not yet integrate spectra against the CIE curves)"),
+                format!("{what}: a spectrum by wavelength, rendered as its RGB under D65 ({:.4}, {:.4}, {:.4}; pbrt-v4 renders it spectrally)", rgb[0], rgb[1], rgb[2]),
             )?;
-            num(mean as f32)
+            v3(rgb.map(|x| x as f32))
         }
         Colour::Named(name) => {
             return Err((pos, format!("{what}: the named spectrum \"{name}\" is not a colour raylab has")))
