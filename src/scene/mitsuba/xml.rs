@@ -415,10 +415,17 @@ mod tests {
             assert!(e.2.contains("takes one number"), "{e:?}");
         });
         with(
-            r#"<scene><spectrum name="x" value="400:1, 700:2"/></scene>"#,
+            r#"<scene><spectrum name="x" value="400:1, 700:nan"/></scene>"#,
             |d, n| {
                 let e = value(&Params::new(&[]), d, n.first_element_child().unwrap()).unwrap_err();
-                assert!(e.2.contains("only a uniform spectrum"), "{e:?}");
+                assert!(e.2.contains("is not a wavelength:value pair"), "{e:?}");
+            },
+        );
+        with(
+            r#"<scene><spectrum name="x" value="400:1, 700:2"/></scene>"#,
+            |d, n| {
+                let v = value(&Params::new(&[]), d, n.first_element_child().unwrap()).unwrap();
+                assert!(matches!(v, Value::Spectrum(p) if p == [(400.0, 1.0), (700.0, 2.0)]));
             },
         );
         with(r#"<t><rotate angle="30"/></t>"#, |d, n| {
