@@ -260,3 +260,42 @@ fn the_veach_scenes_strategies_agree_with_path_at_depth_one() {
         }
     }
 }
+
+/// Mitsuba's `normalmap` and `bumpmap` wrap a BSDF with a texture: raylab's `NormalMap` and
+/// `BumpMap` around the same material, with the texture as written.
+#[test]
+fn normal_and_bump_maps_wrap_their_bsdf() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([128, 128, 255]))
+        .save(dir.path().join("n.png"))
+        .unwrap();
+    let scene = dir.path().join("maps.xml");
+    std::fs::write(
+        &scene,
+        r#"<scene version="3.0.0">
+            <sensor type="perspective"><float name="fov" value="40"/>
+                <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+            <bsdf type="normalmap" id="n">
+                <texture name="normalmap" type="bitmap"><string name="filename" value="n.png"/><boolean name="raw" value="true"/></texture>
+                <bsdf type="roughconductor"/>
+            </bsdf>
+            <texture type="bitmap" id="h"><string name="filename" value="n.png"/></texture>
+            <bsdf type="bumpmap" id="b"><ref id="h"/><float name="scale" value="0.5"/><bsdf type="diffuse"/></bsdf>
+            <shape type="sphere"><ref id="n"/></shape>
+            <shape type="rectangle"><ref id="b"/></shape>
+        </scene>"#,
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let imported = raylab::scene::mitsuba::to_ron(&text, &[]).unwrap();
+    for needle in [
+        "\"n\": NormalMap(texture: Image(path: \"n.png\", filter: \"bilinear\", wrap: \"repeat\", raw: true",
+        "material: RoughConductor(metal: \"none\"",
+        "\"b\": BumpMap(texture: Image(path: \"n.png\"",
+        "scale: 0.5, material: Lambert(albedo: (0.5, 0.5, 0.5)))",
+    ] {
+        assert!(imported.ron.contains(needle), "no {needle} in\n{}", imported.ron);
+    }
+    let loaded = load_scene(&scene).unwrap();
+    assert_eq!(loaded.material_names.len(), 2);
+}

@@ -444,8 +444,31 @@ impl<'a, 'input> Converter<'a, 'input> {
                 let inner = self.resolve(inner)?;
                 format!("TwoSided({})", self.bsdf(inner)?)
             }
+            "normalmap" | "bumpmap" => {
+                // One nested BSDF and one texture (nested or referenced).
+                let mut inner = None;
+                let mut texture = None;
+                for (_, child) in std::mem::take(&mut p.children) {
+                    let child = self.resolve(child)?;
+                    match child.tag_name().name() {
+                        "bsdf" if inner.is_none() => inner = Some(child),
+                        "texture" if texture.is_none() => texture = Some(child),
+                        tag => return Err(at(self.doc, child, format!("<bsdf type=\"{kind}\"> takes one <bsdf> and one <texture>, not this <{tag}>"))),
+                    }
+                }
+                let (Some(inner), Some(texture)) = (inner, texture) else {
+                    return Err(at(self.doc, node, format!("<bsdf type=\"{kind}\"> needs a nested <bsdf> and a <texture>")));
+                };
+                let (material, texture) = (self.bsdf(inner)?, self.texture(texture)?);
+                if kind == "normalmap" {
+                    format!("NormalMap(texture: {texture}, material: {material})")
+                } else {
+                    let scale = p.float("scale")?.unwrap_or(1.0);
+                    format!("BumpMap(texture: {texture}, scale: {}, material: {material})", num(scale))
+                }
+            }
             other => {
-                return Err(at(self.doc, node, format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided are)")))
+                return Err(at(self.doc, node, format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap are)")))
             }
         };
         if let Some((name, child)) = p.children.first() {
