@@ -64,7 +64,8 @@ impl std::str::FromStr for Filter {
     type Err = String;
 
     /// `box`, `tent` or `gaussian`, optionally with parameters in parentheses:
-    /// `box(radius: 1)`, `tent(radius: 2)`, `gaussian(stddev: 0.5, radius: 1.5)`.
+    /// `box(radius: 1)`, `tent(radius: 2)`, `gaussian(stddev: 0.5, radius: 1.5)` (a
+    /// Gaussian's radius defaults to four standard deviations, as Mitsuba's).
     fn from_str(text: &str) -> Result<Filter, String> {
         let (name, args) = match text.split_once('(') {
             None => (text.trim(), None),
@@ -76,6 +77,7 @@ impl std::str::FromStr for Filter {
                 (name.trim(), Some(args))
             }
         };
+        let mut radius_given = false;
         let (mut radius, mut stddev) = match name {
             "box" => (0.5, None),
             "tent" => (1.0, None),
@@ -99,7 +101,10 @@ impl std::str::FromStr for Filter {
                 .parse()
                 .map_err(|_| format!("filter `{text}`: `{}` is not a number", value.trim()))?;
             match (key.trim(), stddev.is_some()) {
-                ("radius", _) => radius = value,
+                ("radius", _) => {
+                    radius = value;
+                    radius_given = true;
+                }
                 ("stddev", true) => stddev = Some(value),
                 (key, _) => {
                     return Err(format!(
@@ -112,6 +117,13 @@ impl std::str::FromStr for Filter {
                     ))
                 }
             }
+        }
+        if stddev.is_some_and(|s| !(s > 0.0 && s.is_finite())) {
+            return Err(format!("filter `{text}`: the stddev must be above 0"));
+        }
+        // Mitsuba's Gaussian reaches four standard deviations.
+        if let (Some(s), false) = (stddev, radius_given) {
+            radius = 4.0 * s;
         }
         if !(radius > 0.0 && radius <= MAX_RADIUS) {
             return Err(format!(
@@ -262,6 +274,13 @@ mod tests {
             assert_eq!(filter.to_string(), text);
         }
         assert_eq!("box(radius: 0.5)".parse::<Filter>(), Ok(Filter::Box));
+        assert_eq!(
+            "gaussian(stddev: 0.25)".parse::<Filter>(),
+            Ok(Filter::Gaussian {
+                stddev: 0.25,
+                radius: 1.0
+            })
+        );
         for (bad, says) in [
             ("tent(radius: 0)", "above 0"),
             ("tent(radius: 9)", "at most 6"),

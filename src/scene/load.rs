@@ -137,7 +137,7 @@ pub fn import_scene(
     let text = read_scene_text(path)?;
     if is_mitsuba(path) {
         let imported =
-            super::mitsuba::to_ron(&text, &options.defines).map_err(|(line, col, message)| {
+            super::mitsuba::to_ron_with(&text, options).map_err(|(line, col, message)| {
                 SceneError::Parse {
                     path: path.to_path_buf(),
                     line: line as usize,

@@ -299,3 +299,80 @@ fn normal_and_bump_maps_wrap_their_bsdf() {
     let loaded = load_scene(&scene).unwrap();
     assert_eq!(loaded.material_names.len(), 2);
 }
+
+/// A `shapegroup` placed by two `instance`s renders as the same shapes placed one by one:
+/// its cube becomes one mesh asset that both instances share, its sphere an entity each.
+#[test]
+fn shapegroup_instances_render_as_the_shapes_they_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let head = r#"<scene version="3.0.0">
+        <sensor type="perspective"><float name="fov" value="50"/>
+            <transform name="to_world"><lookat origin="0, 3, 8" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="16"/></film></sensor>
+        <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+        <bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.5"/></bsdf>"#;
+    let cube = |t: &str| {
+        format!(
+            r#"<shape type="cube"><ref id="grey"/><transform name="to_world"><scale value="0.5"/>{t}</transform></shape>
+                   <shape type="sphere"><float name="radius" value="0.4"/><ref id="grey"/><transform name="to_world"><translate y="1"/>{t}</transform></shape>"#
+        )
+    };
+    let (left, right) = (
+        r#"<rotate y="1" angle="30"/><translate x="-1.5"/>"#,
+        r#"<translate x="1.5"/>"#,
+    );
+    let grouped = format!(
+        r#"{head}
+        <shape type="shapegroup" id="g">{}</shape>
+        <shape type="instance"><ref id="g"/><transform name="to_world">{left}</transform></shape>
+        <shape type="instance"><ref id="g"/><transform name="to_world">{right}</transform></shape>
+        </scene>"#,
+        cube("")
+    );
+    let flat = format!("{head}{}{}</scene>", cube(left), cube(right));
+    let (a, b) = (dir.path().join("grouped.xml"), dir.path().join("flat.xml"));
+    std::fs::write(&a, &grouped).unwrap();
+    std::fs::write(&b, &flat).unwrap();
+    let imported = raylab::scene::mitsuba::to_ron(&grouped, &[]).unwrap();
+    assert!(imported.ron.contains("\"g/0\": Box("), "{}", imported.ron);
+    assert_eq!(imported.ron.matches("Instance(mesh: \"g/0\")").count(), 2);
+    let (fa, fb) = (mean_of(&a, &[], 256, 1), mean_of(&b, &[], 256, 2));
+    let (ma, mb) = (fa.mean(), fb.mean());
+    let (sa, sb) = (fa.mean_standard_error(), fb.mean_standard_error());
+    for c in 0..3 {
+        let z = (ma[c] - mb[c]) / (sa[c] * sa[c] + sb[c] * sb[c]).sqrt();
+        assert!(z.abs() < 4.0, "channel {c}: {ma} vs {mb} (z {z})");
+    }
+}
+
+/// `--approximate` renders what raylab does not have as the nearest thing it has, and says so.
+#[test]
+fn approximations_of_mitsuba_plugins_are_warnings() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("hair.xml");
+    std::fs::write(
+        &scene,
+        r#"<scene version="3.0.0">
+            <integrator type="volpath"/>
+            <sensor type="perspective"><float name="fov" value="40"/></sensor>
+            <shape type="sphere"><bsdf type="hair"/></shape>
+        </scene>"#,
+    )
+    .unwrap();
+    let err = load_scene(&scene).err().unwrap().to_string();
+    assert!(
+        err.contains("integrator `volpath` is not supported") && err.contains("--approximate"),
+        "{err}"
+    );
+    let options = ImportOptions {
+        defines: Vec::new(),
+        approximate: true,
+    };
+    let loaded = load_scene_defined(&scene, &[], &options).unwrap();
+    assert_eq!(loaded.render.integrator, "path");
+    let warned = loaded.warnings.join("\n");
+    assert!(
+        warned.contains("2:13: integrator `volpath`") && warned.contains("4:34: BSDF `hair`"),
+        "{warned}"
+    );
+}

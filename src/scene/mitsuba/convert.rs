@@ -2,7 +2,7 @@
 
 use super::xml::{at, attr, position, value, Located, Params, Value};
 pub use crate::scene::import::Imported;
-use crate::scene::import::{matrix, num, quote, v3};
+use crate::scene::import::{matrix, num, quote, v3, ImportOptions};
 use crate::scene::spectra::{self, Use};
 use glam::Affine3A;
 use roxmltree::{Document, Node};
@@ -210,6 +210,16 @@ impl<'a, 'input> Props<'a, 'input> {
     }
 }
 
+/// A shape as the pieces of a RON entity.
+struct ShapeParts {
+    name: String,
+    shape: String,
+    to_world: Affine3A,
+    material: Option<String>,
+    emitter: Option<String>,
+    flip: bool,
+}
+
 /// The conversion's state: the output's parts and the named things seen so far.
 struct Converter<'a, 'input> {
     doc: &'a Document<'input>,
@@ -222,6 +232,11 @@ struct Converter<'a, 'input> {
     /// The name given to Mitsuba's default BSDF, once a shape needs it.
     default_material: Option<String>,
     entities: Vec<String>,
+    /// `--approximate`, and what it replaced.
+    approximate: bool,
+    approximated: Vec<String>,
+    /// Mesh assets of shapegroups: (name, RON shape).
+    meshes: Vec<(String, String)>,
     environment: Option<String>,
     camera: Option<String>,
     render: Vec<String>,
@@ -229,6 +244,22 @@ struct Converter<'a, 'input> {
 }
 
 impl<'a, 'input> Converter<'a, 'input> {
+    /// An approximation at `node`: an error unless `--approximate`, else noted in the report.
+    fn approximate(&mut self, node: Node<'a, 'input>, what: String) -> Result<(), Located> {
+        if !self.approximate {
+            return Err(at(
+                self.doc,
+                node,
+                format!("{what}; give --approximate to render it so"),
+            ));
+        }
+        let (line, col) = position(self.doc, node);
+        let note = format!("{line}:{col}: {what} (approximated)");
+        self.report.push(note.clone());
+        self.approximated.push(note);
+        Ok(())
+    }
+
     fn props(&self, node: Node<'a, 'input>) -> Result<Props<'a, 'input>, Located> {
         Props::read(&self.params, self.doc, node)
     }
@@ -372,11 +403,17 @@ impl<'a, 'input> Converter<'a, 'input> {
         };
         let out = match kind.as_str() {
             "diffuse" => {
-                let albedo = self.colour(&mut p, "reflectance", Some([0.5; 3]))?.unwrap_or_default();
+                let albedo = self
+                    .colour(&mut p, "reflectance", Some([0.5; 3]))?
+                    .unwrap_or_default();
                 format!("Lambert(albedo: {albedo})")
             }
             "conductor" | "roughconductor" => {
-                let mut out = String::from(if kind == "conductor" { "Conductor(" } else { "RoughConductor(" });
+                let mut out = String::from(if kind == "conductor" {
+                    "Conductor("
+                } else {
+                    "RoughConductor("
+                });
                 let metal = match p.take("material") {
                     None => None,
                     Some((Value::String(m), n)) => {
@@ -386,10 +423,20 @@ impl<'a, 'input> Converter<'a, 'input> {
                     Some((_, n)) => return Err(at(self.doc, n, "`material` must be a string")),
                 };
                 match (metal, p.optical_constant("eta")?, p.optical_constant("k")?) {
-                    (Some(m), None, None) => { let _ = write!(out, "metal: {}", quote(&m)); }
-                    (None, Some(eta), Some(k)) => { let _ = write!(out, "eta: {}, k: {}", v3(eta), v3(k)); }
+                    (Some(m), None, None) => {
+                        let _ = write!(out, "metal: {}", quote(&m));
+                    }
+                    (None, Some(eta), Some(k)) => {
+                        let _ = write!(out, "eta: {}, k: {}", v3(eta), v3(k));
+                    }
                     (None, None, None) => out.push_str("metal: \"none\""),
-                    _ => return Err(at(self.doc, node, "a conductor takes `material`, or `eta` and `k`")),
+                    _ => {
+                        return Err(at(
+                            self.doc,
+                            node,
+                            "a conductor takes `material`, or `eta` and `k`",
+                        ))
+                    }
                 }
                 if let Some(c) = self.colour(&mut p, "specular_reflectance", None)? {
                     let _ = write!(out, ", specular_reflectance: {c}");
@@ -432,7 +479,11 @@ impl<'a, 'input> Converter<'a, 'input> {
                 if kind == "roughplastic" {
                     rough(&mut p, &mut fields)?;
                 }
-                let name = if kind == "plastic" { "Plastic" } else { "RoughPlastic" };
+                let name = if kind == "plastic" {
+                    "Plastic"
+                } else {
+                    "RoughPlastic"
+                };
                 format!("{name}({})", fields.trim_start_matches(", "))
             }
             "twosided" => {
@@ -457,18 +508,30 @@ impl<'a, 'input> Converter<'a, 'input> {
                     }
                 }
                 let (Some(inner), Some(texture)) = (inner, texture) else {
-                    return Err(at(self.doc, node, format!("<bsdf type=\"{kind}\"> needs a nested <bsdf> and a <texture>")));
+                    return Err(at(
+                        self.doc,
+                        node,
+                        format!("<bsdf type=\"{kind}\"> needs a nested <bsdf> and a <texture>"),
+                    ));
                 };
                 let (material, texture) = (self.bsdf(inner)?, self.texture(texture)?);
                 if kind == "normalmap" {
                     format!("NormalMap(texture: {texture}, material: {material})")
                 } else {
                     let scale = p.float("scale")?.unwrap_or(1.0);
-                    format!("BumpMap(texture: {texture}, scale: {}, material: {material})", num(scale))
+                    format!(
+                        "BumpMap(texture: {texture}, scale: {}, material: {material})",
+                        num(scale)
+                    )
                 }
             }
             other => {
-                return Err(at(self.doc, node, format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap are)")))
+                let message = format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap are)");
+                self.approximate(
+                    node,
+                    format!("{message}: replaced by Mitsuba's default, diffuse 0.5"),
+                )?;
+                return Ok("Lambert(albedo: 0.5)".into());
             }
         };
         if let Some((name, child)) = p.children.first() {
@@ -510,6 +573,102 @@ impl<'a, 'input> Converter<'a, 'input> {
     }
 
     fn shape(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
+        let parts = self.shape_parts(node, index)?;
+        let mut e = format!(
+            "(name: {}, transform: {}, shape: {}",
+            quote(&parts.name),
+            matrix(&parts.to_world),
+            parts.shape,
+        );
+        if let Some(material) = parts.material {
+            let _ = write!(e, ", material: {}", quote(&material));
+        }
+        if parts.flip {
+            e.push_str(", flip_normals: true");
+        }
+        if let Some(em) = parts.emitter {
+            let _ = write!(e, ", emitter: {em}");
+        }
+        e.push_str("),");
+        self.entities.push(e);
+        Ok(())
+    }
+
+    /// An `instance` of a `shapegroup`: each shape of the group placed by the instance's
+    /// `to_world` after its own, a mesh (`obj`, `ply`, `rectangle`, `cube`) as an instance of
+    /// one mesh asset shared by every instance, an analytic shape as an entity of its own.
+    fn instance(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
+        let name = attr(&self.params, self.doc, node, "id")?
+            .unwrap_or_else(|| format!("instance #{index}"));
+        let mut p = self.props(node)?;
+        let to_world = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
+        let refs: Vec<Node> = std::mem::take(&mut p.children)
+            .into_iter()
+            .map(|(_, n)| n)
+            .collect();
+        p.finish(&[])?;
+        let [group] = refs[..] else {
+            return Err(at(
+                self.doc,
+                node,
+                "<shape type=\"instance\"> takes one shapegroup (a <ref> to it)",
+            ));
+        };
+        let group = self.resolve(group)?;
+        if group.tag_name().name() != "shape" || self.kind(group)? != "shapegroup" {
+            return Err(at(
+                self.doc,
+                group,
+                "an instance places a <shape type=\"shapegroup\">",
+            ));
+        }
+        let gid = attr(&self.params, self.doc, group, "id")?.unwrap_or_else(|| name.clone());
+        let shapes: Vec<Node> = group.children().filter(Node::is_element).collect();
+        for (i, child) in shapes.into_iter().enumerate() {
+            if child.tag_name().name() != "shape" {
+                return Err(at(self.doc, child, "a shapegroup holds shapes only"));
+            }
+            let kind = self.kind(child)?;
+            let parts = self.shape_parts(child, i)?;
+            if parts.emitter.is_some() {
+                return Err(at(
+                    self.doc,
+                    child,
+                    "a shape of a shapegroup cannot emit light (in Mitsuba neither)",
+                ));
+            }
+            let placed = to_world * parts.to_world;
+            let shape = if matches!(kind.as_str(), "obj" | "ply" | "rectangle" | "cube") {
+                if parts.flip {
+                    return Err(at(self.doc, child, "a mesh of a shapegroup turned around (flip_normals, or a mirrored rectangle) is not supported"));
+                }
+                let mesh = format!("{gid}/{i}");
+                if !self.meshes.iter().any(|(n, _)| *n == mesh) {
+                    self.meshes.push((mesh.clone(), parts.shape.clone()));
+                }
+                format!("Instance(mesh: {})", quote(&mesh))
+            } else {
+                parts.shape.clone()
+            };
+            let mut e = format!(
+                "(name: {}, transform: {}, shape: {shape}",
+                quote(&format!("{name} / {}", parts.name)),
+                matrix(&placed),
+            );
+            if let Some(material) = parts.material {
+                let _ = write!(e, ", material: {}", quote(&material));
+            }
+            if parts.flip && !shape.starts_with("Instance") {
+                e.push_str(", flip_normals: true");
+            }
+            e.push_str("),");
+            self.entities.push(e);
+        }
+        Ok(())
+    }
+
+    /// A shape's parts: its RON shape, placement, material, emitter and orientation.
+    fn shape_parts(&mut self, node: Node<'a, 'input>, index: usize) -> Result<ShapeParts, Located> {
         let kind = self.kind(node)?;
         let name =
             attr(&self.params, self.doc, node, "id")?.unwrap_or_else(|| format!("{kind} #{index}"));
@@ -611,23 +770,14 @@ impl<'a, 'input> Converter<'a, 'input> {
                 }
             }),
         };
-        let mut e = format!(
-            "(name: {}, transform: {}, shape: {shape}",
-            quote(&name),
-            matrix(&to_world),
-        );
-        if let Some(material) = material {
-            let _ = write!(e, ", material: {}", quote(&material));
-        }
-        if flip {
-            e.push_str(", flip_normals: true");
-        }
-        if let Some(em) = emitter {
-            let _ = write!(e, ", emitter: {em}");
-        }
-        e.push_str("),");
-        self.entities.push(e);
-        Ok(())
+        Ok(ShapeParts {
+            name,
+            shape,
+            to_world,
+            material,
+            emitter,
+            flip,
+        })
     }
 
     fn emitter(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
@@ -852,7 +1002,10 @@ impl<'a, 'input> Converter<'a, 'input> {
                 }
                 let rr_depth = p.integer("rr_depth")?.unwrap_or(5);
                 if p.boolean("hide_emitters")? == Some(true) {
-                    return Err(at(self.doc, node, "hide_emitters is not supported"));
+                    self.approximate(
+                        node,
+                        "hide_emitters is not supported: emitters seen directly are shown".into(),
+                    )?;
                 }
                 // Mitsuba's max_depth counts the segments of a path, raylab's the scattering
                 // events: one less; -1 is unlimited in both.
@@ -882,7 +1035,10 @@ impl<'a, 'input> Converter<'a, 'input> {
                     count(&mut p, "bsdf_samples")?,
                 );
                 if p.boolean("hide_emitters")? == Some(true) {
-                    return Err(at(self.doc, node, "hide_emitters is not supported"));
+                    self.approximate(
+                        node,
+                        "hide_emitters is not supported: emitters seen directly are shown".into(),
+                    )?;
                 }
                 self.render.push(format!("integrator: \"direct\", params: {{\"emitter-samples\": {emitter}, \"bsdf-samples\": {bsdf}}}"));
             }
@@ -903,20 +1059,26 @@ impl<'a, 'input> Converter<'a, 'input> {
                 return self.integrator(inner);
             }
             other => {
-                return Err(at(
-                    self.doc,
-                    node,
-                    format!("integrator `{other}` is not supported (path, direct, moment are)"),
-                ))
+                self.approximate(node, format!("integrator `{other}` is not supported (path, direct, moment are): rendered with path"))?;
+                self.render.push("integrator: \"path\"".into());
+                return Ok(());
             }
         }
         p.finish(&[])
     }
 }
 
-/// Converts the Mitsuba XML `text` (of `file`, for messages) into RON; `overrides` are `-D`
-/// parameters.
+/// Converts the Mitsuba XML `text` into RON; `overrides` are `-D` parameters.
 pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Located> {
+    let options = ImportOptions {
+        defines: overrides.to_vec(),
+        approximate: false,
+    };
+    to_ron_with(text, &options)
+}
+
+/// [`to_ron`] with every import option (`-D`, `--approximate`).
+pub fn to_ron_with(text: &str, options: &ImportOptions) -> Result<Imported, Located> {
     let doc = Document::parse(text).map_err(|e| {
         let p = e.pos();
         (p.row, p.col, format!("malformed XML: {e}"))
@@ -931,12 +1093,15 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
     }
     let mut c = Converter {
         doc: &doc,
-        params: Params::new(overrides),
+        params: Params::new(&options.defines),
         ids: HashMap::new(),
         materials: Vec::new(),
         material_of: HashMap::new(),
         default_material: None,
         entities: Vec::new(),
+        approximate: options.approximate,
+        approximated: Vec::new(),
+        meshes: Vec::new(),
         environment: None,
         camera: None,
         render: Vec::new(),
@@ -964,7 +1129,12 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
                 // Written when a shape uses it (unused ones are left out).
             }
             "texture" => {}
-            "shape" => c.shape(node, index)?,
+            "shape" => match c.kind(node)?.as_str() {
+                // Placed by its instances.
+                "shapegroup" => {}
+                "instance" => c.instance(node, index)?,
+                _ => c.shape(node, index)?,
+            },
             "emitter" => c.emitter(node, index)?,
             "sensor" => c.sensor(node)?,
             "integrator" => c.integrator(node)?,
@@ -997,7 +1167,15 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
     for (name, desc) in &c.materials {
         let _ = writeln!(ron, "        {}: {desc},", quote(name));
     }
-    ron.push_str("    },\n    entities: [\n");
+    ron.push_str("    },\n");
+    if !c.meshes.is_empty() {
+        ron.push_str("    meshes: {\n");
+        for (name, desc) in &c.meshes {
+            let _ = writeln!(ron, "        {}: {desc},", quote(name));
+        }
+        ron.push_str("    },\n");
+    }
+    ron.push_str("    entities: [\n");
     for e in &c.entities {
         let _ = writeln!(ron, "        {e}");
     }
@@ -1005,7 +1183,7 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
     Ok(Imported {
         ron,
         report: c.report,
-        approximated: Vec::new(),
+        approximated: c.approximated,
     })
 }
 

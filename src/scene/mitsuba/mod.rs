@@ -15,4 +15,4 @@
 mod convert;
 mod xml;
 
-pub use convert::{to_ron, Imported};
+pub use convert::{to_ron, to_ron_with, Imported};
