@@ -136,15 +136,22 @@ pub fn import_scene(
     }
     let text = read_scene_text(path)?;
     if is_mitsuba(path) {
+        let files = SceneFiles::new(path, allowed);
+        let located = |(file, line, col, message): (PathBuf, u32, u32, String)| SceneError::Parse {
+            path: file,
+            line: line as usize,
+            col: col as usize,
+            message,
+        };
+        let expanded = super::mitsuba::include::expand(path, &text, &files).map_err(located)?;
+        let base = path.parent().filter(|p| !p.as_os_str().is_empty());
+        let base = base.unwrap_or(Path::new("."));
         let imported =
-            super::mitsuba::to_ron_with(&text, options).map_err(|(line, col, message)| {
-                SceneError::Parse {
-                    path: path.to_path_buf(),
-                    line: line as usize,
-                    col: col as usize,
-                    message,
-                }
-            })?;
+            super::mitsuba::to_ron_in(&expanded.text, options, Some(base), &expanded.search)
+                .map_err(|(line, col, message)| {
+                    let (file, line, col) = expanded.locate(line, col);
+                    located((file, line, col, message))
+                })?;
         return Ok(Some(imported));
     }
     if let Some((name, _)) = options.defines.first() {

@@ -376,3 +376,44 @@ fn approximations_of_mitsuba_plugins_are_warnings() {
         "{warned}"
     );
 }
+
+/// `<include>` splices another file's `<scene>` in, `<path>` adds a folder to find files in,
+/// and an error inside an included file names that file, line and column.
+#[test]
+fn includes_and_paths_are_read_and_errors_name_the_included_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("parts")).unwrap();
+    std::fs::write(
+        dir.path().join("parts/tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("parts/lamp.xml"),
+        r#"<scene version="3.0.0">
+    <shape type="obj"><string name="filename" value="tri.obj"/>
+        <emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>
+</scene>"#,
+    )
+    .unwrap();
+    let main = dir.path().join("main.xml");
+    std::fs::write(
+        &main,
+        r#"<scene version="3.0.0">
+    <path value="parts"/>
+    <sensor type="perspective"><float name="fov" value="40"/></sensor>
+    <include filename="lamp.xml"/>
+</scene>"#,
+    )
+    .unwrap();
+    let loaded = load_scene(&main).unwrap();
+    let built = RenderScene::build(&loaded);
+    assert_eq!(built.stats.triangles, 1);
+    std::fs::write(
+        dir.path().join("parts/lamp.xml"),
+        "<scene version=\"3.0.0\">\n    <shape type=\"obj\"><float name=\"bogus\" value=\"1\"/></shape>\n</scene>",
+    )
+    .unwrap();
+    let err = load_scene(&main).err().unwrap().to_string();
+    assert!(err.contains("lamp.xml:2:5:"), "{err}");
+}

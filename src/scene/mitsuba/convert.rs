@@ -235,6 +235,9 @@ struct Converter<'a, 'input> {
     /// `--approximate`, and what it replaced.
     approximate: bool,
     approximated: Vec<String>,
+    /// The scene's folder and its `<path>` folders, to find the files it names.
+    base: Option<std::path::PathBuf>,
+    search: Vec<String>,
     /// Mesh assets of shapegroups: (name, RON shape).
     meshes: Vec<(String, String)>,
     environment: Option<String>,
@@ -244,6 +247,22 @@ struct Converter<'a, 'input> {
 }
 
 impl<'a, 'input> Converter<'a, 'input> {
+    /// A file the scene names, as a path from the scene's folder: itself if it is there, else
+    /// under the first `<path>` folder that holds it.
+    fn file_name(&self, name: String) -> String {
+        let Some(base) = &self.base else {
+            return name;
+        };
+        if base.join(&name).exists() {
+            return name;
+        }
+        self.search
+            .iter()
+            .map(|dir| format!("{dir}/{name}"))
+            .find(|candidate| base.join(candidate).exists())
+            .unwrap_or(name)
+    }
+
     /// An approximation at `node`: an error unless `--approximate`, else noted in the report.
     fn approximate(&mut self, node: Node<'a, 'input>, what: String) -> Result<(), Located> {
         if !self.approximate {
@@ -335,9 +354,9 @@ impl<'a, 'input> Converter<'a, 'input> {
         );
         let out = match kind.as_str() {
             "bitmap" => {
-                let file = p.string("filename")?.ok_or_else(|| {
+                let file = self.file_name(p.string("filename")?.ok_or_else(|| {
                     at(self.doc, node, "<texture type=\"bitmap\"> needs `filename`")
-                })?;
+                })?);
                 let filter = p
                     .string("filter_type")?
                     .unwrap_or_else(|| "bilinear".into());
@@ -684,8 +703,8 @@ impl<'a, 'input> Converter<'a, 'input> {
             })
         };
         let shape = match kind.as_str() {
-            "obj" => format!("Obj(path: {})", quote(&file(&mut p)?)),
-            "ply" => format!("Ply(path: {})", quote(&file(&mut p)?)),
+            "obj" => format!("Obj(path: {})", quote(&self.file_name(file(&mut p)?))),
+            "ply" => format!("Ply(path: {})", quote(&self.file_name(file(&mut p)?))),
             "rectangle" => "Rectangle".to_string(),
             "cube" => "Box(min: (-1, -1, -1), max: (1, 1, 1))".to_string(),
             "disk" => "Disk".to_string(),
@@ -799,7 +818,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 None
             }
             "envmap" => {
-                let file = p.string("filename")?.ok_or_else(|| at(self.doc, node, "<emitter type=\"envmap\"> needs `filename`"))?;
+                let file = self.file_name(p.string("filename")?.ok_or_else(|| at(self.doc, node, "<emitter type=\"envmap\"> needs `filename`"))?);
                 let scale = p.float("scale")?.unwrap_or(1.0);
                 Some(format!("emitter: Environment(path: {}, scale: {}){}", quote(&file), num(scale), placed(to_world)))
             }
@@ -1079,6 +1098,18 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
 
 /// [`to_ron`] with every import option (`-D`, `--approximate`).
 pub fn to_ron_with(text: &str, options: &ImportOptions) -> Result<Imported, Located> {
+    to_ron_in(text, options, None, &[])
+}
+
+/// [`to_ron_with`] for a scene in the folder `base` whose `<path>` folders are `search`:
+/// a file named by a shape or texture that is not in `base` but in one of those folders is
+/// named by its path from `base`.
+pub fn to_ron_in(
+    text: &str,
+    options: &ImportOptions,
+    base: Option<&std::path::Path>,
+    search: &[String],
+) -> Result<Imported, Located> {
     let doc = Document::parse(text).map_err(|e| {
         let p = e.pos();
         (p.row, p.col, format!("malformed XML: {e}"))
@@ -1101,6 +1132,8 @@ pub fn to_ron_with(text: &str, options: &ImportOptions) -> Result<Imported, Loca
         entities: Vec::new(),
         approximate: options.approximate,
         approximated: Vec::new(),
+        base: base.map(std::path::Path::to_path_buf),
+        search: search.to_vec(),
         meshes: Vec::new(),
         environment: None,
         camera: None,
@@ -1129,6 +1162,15 @@ pub fn to_ron_with(text: &str, options: &ImportOptions) -> Result<Imported, Loca
                 // Written when a shape uses it (unused ones are left out).
             }
             "texture" => {}
+            // The search folders, read with the includes.
+            "path" => {}
+            "include" => {
+                return Err(at(
+                    &doc,
+                    node,
+                    "<include> is read only in a scene file (the text given has no file)",
+                ));
+            }
             "shape" => match c.kind(node)?.as_str() {
                 // Placed by its instances.
                 "shapegroup" => {}

@@ -2,7 +2,8 @@
 //! loaded by the one RON loader, with its checks and messages, and `raylab import` writes it
 //! out for a person to edit).
 //!
-//! What is read: `<default>` and `$name` substitution (with `-D name=value` overrides),
+//! What is read: `<include>` and `<path>` (see [`include`]), `<default>` and `$name`
+//! substitution (with `-D name=value` overrides),
 //! `<ref>` and ids, `<transform>` (translate, rotate, scale, matrix, lookat, in order), `rgb`,
 //! `spectrum` (uniform or by wavelength, through `scene::spectra`), `float`, `integer`, `boolean`, `string`, `point`, `vector`; the
 //! `perspective` sensor with its `hdrfilm`, `rfilter` and sampler; the `path`, `direct` and `moment` integrators;
@@ -13,6 +14,7 @@
 //! its line and column: raylab does not guess.
 
 mod convert;
+pub mod include;
 mod xml;
 
-pub use convert::{to_ron, to_ron_with, Imported};
+pub use convert::{to_ron, to_ron_in, to_ron_with, Imported};
