@@ -165,6 +165,7 @@ pub enum Emitter {
         look_at: Option<Vec3A>,
         cutoff_angle: f32,
         beam_width: f32,
+        falloff: raylab_integrators::light::Falloff,
     },
     /// Parallel light travelling along `direction` (before the entity's rotation).
     Directional { direction: Vec3A, irradiance: Rgb },

@@ -240,11 +240,21 @@ fn emitter_from_desc(
             look_at,
             cutoff_angle,
             beam_width,
+            falloff,
         } => Emitter::Spot {
             intensity: v3(intensity),
             look_at: look_at.map(v3),
             cutoff_angle,
             beam_width: beam_width.unwrap_or(0.75 * cutoff_angle),
+            falloff: match falloff.as_deref() {
+                None | Some("linear") => raylab_integrators::light::Falloff::Linear,
+                Some("smoothstep") => raylab_integrators::light::Falloff::Smoothstep,
+                Some(other) => {
+                    return Err(format!(
+                        "a spot's falloff is \"linear\" or \"smoothstep\", not \"{other}\""
+                    ))
+                }
+            },
         },
         EmitterDesc::Directional {
             direction,

@@ -568,13 +568,17 @@ pub enum EmitterDesc {
     /// A spot light at the entity's translation (Mitsuba's `spot`), pointing at `look_at` or,
     /// without it, along the entity's rotated `+z`. `intensity` (W/sr per channel) on the
     /// axis, falling off linearly in the angle from `beam_width` to `cutoff_angle` (degrees).
-    /// Defaults: `cutoff_angle: 20`, `beam_width: 3/4 of cutoff_angle`.
+    /// Defaults: `cutoff_angle: 20`, `beam_width: 3/4 of cutoff_angle`, `falloff: "linear"`.
     Spot {
         intensity: V3,
         look_at: Option<V3>,
         #[serde(default = "default_cutoff")]
         cutoff_angle: f32,
         beam_width: Option<f32>,
+        /// `"linear"` in the angle (Mitsuba 3's, the default) or `"smoothstep"` in its
+        /// cosine (pbrt-v4's).
+        #[serde(default)]
+        falloff: Option<String>,
     },
     /// Parallel light from infinitely far away (a sun, Mitsuba's `directional`) travelling
     /// along `direction` (turned by the entity's rotation), with `irradiance` (W m^-2 per

@@ -850,6 +850,7 @@ pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight,
         look_at,
         cutoff_angle,
         beam_width,
+        falloff,
     } = emitter
     else {
         return Err("not a spot light".into());
@@ -859,5 +860,8 @@ pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight,
         Some(target) => *target - position,
         None => transform.direction(Vec3::Z).into(),
     };
-    SpotLight::new(position, axis, *intensity, *cutoff_angle, *beam_width)
+    Ok(
+        SpotLight::new(position, axis, *intensity, *cutoff_angle, *beam_width)?
+            .with_falloff(*falloff),
+    )
 }

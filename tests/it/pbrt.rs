@@ -298,12 +298,12 @@ fn approximations_need_the_flag_and_are_then_warnings() {
     let path = dir.path().join("spot.pbrt");
     std::fs::write(
         &path,
-        "WorldBegin\nLightSource \"spot\" \"rgb I\" [1 1 1]\nShape \"sphere\"\n",
+        "Integrator \"bdpt\"\nWorldBegin\nLightSource \"spot\" \"rgb I\" [1 1 1]\nShape \"sphere\"\n",
     )
     .unwrap();
     let err = load_scene(&path).err().unwrap().to_string();
     assert!(
-        err.contains("spot.pbrt:2:1") && err.contains("--approximate"),
+        err.contains("spot.pbrt:1:1") && err.contains("--approximate"),
         "{err}"
     );
     let options = ImportOptions {
@@ -312,7 +312,7 @@ fn approximations_need_the_flag_and_are_then_warnings() {
     };
     let loaded = load_scene_defined(&path, &[], &options).unwrap();
     assert!(
-        loaded.warnings.iter().any(|w| w.contains("smoothstep")),
+        loaded.warnings.iter().any(|w| w.contains("\"bdpt\"")),
         "{:?}",
         loaded.warnings
     );

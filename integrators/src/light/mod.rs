@@ -45,7 +45,7 @@ pub use environment::EnvironmentLight;
 pub use planar::{Planar, PlanarShape};
 pub use point::PointLight;
 pub use sphere::SphereLight;
-pub use spot::SpotLight;
+pub use spot::{Falloff, SpotLight};
 pub use table::LightTable;
 
 use crate::{Frame, Rgb};

@@ -1,12 +1,24 @@
 //! A spot light (Mitsuba 3's `spot`, RON `Spot`): a point light whose intensity falls off
 //! with the angle `theta` from its axis. Full `intensity` (W sr^-1 per channel) inside
 //! `beam_width`, none outside `cutoff_angle`, and in between a falloff linear in the angle,
-//! `(cutoff - theta) / (cutoff - beam_width)`, exactly as Mitsuba's. A delta in position.
+//! `(cutoff - theta) / (cutoff - beam_width)`, exactly as Mitsuba's; or, as pbrt-v4's, a
+//! smoothstep in the cosine, `t^2 (3 - 2 t)` with
+//! `t = (cos theta - cos cutoff) / (cos beam_width - cos cutoff)`. A delta in position.
 
 use super::{lum, LeSample, LightSample};
 use crate::{Frame, Rgb};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
+
+/// How a spot's intensity falls from its beam width to its cutoff.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Falloff {
+    /// Linear in the angle (Mitsuba 3's).
+    #[default]
+    Linear,
+    /// A smoothstep in the cosine of the angle (pbrt-v4's).
+    Smoothstep,
+}
 
 /// A spot light at `position` pointing along `axis` (unit).
 #[derive(Clone, Debug, PartialEq)]
@@ -17,6 +29,7 @@ pub struct SpotLight {
     /// Angles from the axis in radians, `0 <= beam_width <= cutoff <= pi`.
     pub cutoff: f32,
     pub beam_width: f32,
+    pub falloff: Falloff,
 }
 
 impl SpotLight {
@@ -49,20 +62,38 @@ impl SpotLight {
             intensity,
             cutoff: cutoff_angle.to_radians(),
             beam_width: beam_width.to_radians(),
+            falloff: Falloff::Linear,
         })
     }
 
-    /// The falloff towards unit direction `w` (from the light).
+    /// The same spot with another falloff.
+    pub fn with_falloff(self, falloff: Falloff) -> SpotLight {
+        SpotLight { falloff, ..self }
+    }
+
+    /// The falloff at angle `theta` (radians) from the axis.
     #[inline]
-    pub fn falloff(&self, w: Vec3A) -> f32 {
-        let theta = w.dot(self.axis).clamp(-1.0, 1.0).acos();
+    fn falloff_at(&self, theta: f32) -> f32 {
         if theta <= self.beam_width {
             1.0
         } else if theta >= self.cutoff {
             0.0
         } else {
-            (self.cutoff - theta) / (self.cutoff - self.beam_width)
+            match self.falloff {
+                Falloff::Linear => (self.cutoff - theta) / (self.cutoff - self.beam_width),
+                Falloff::Smoothstep => {
+                    let (c, lo, hi) = (theta.cos(), self.cutoff.cos(), self.beam_width.cos());
+                    let t = ((c - lo) / (hi - lo)).clamp(0.0, 1.0);
+                    t * t * (3.0 - 2.0 * t)
+                }
+            }
         }
+    }
+
+    /// The falloff towards unit direction `w` (from the light).
+    #[inline]
+    pub fn falloff(&self, w: Vec3A) -> f32 {
+        self.falloff_at(w.dot(self.axis).clamp(-1.0, 1.0).acos())
     }
 
     pub fn sample_li(&self, p: Vec3A, _u: Vec2) -> Option<LightSample> {
@@ -138,7 +169,7 @@ impl SpotLight {
         let ring: f64 = (0..N)
             .map(|i| {
                 let t = b + (c - b) * (i as f64 + 0.5) / N as f64;
-                (c - t) / (c - b) * t.sin()
+                self.falloff_at(t as f32) as f64 * t.sin()
             })
             .sum::<f64>()
             * (c - b)
@@ -192,24 +223,43 @@ mod tests {
     }
 
     #[test]
+    fn pbrts_falloff_is_a_smoothstep_in_the_cosine() {
+        // pbrt-v4's SpotLight::I: SmoothStep(cos theta, cos cutoff, cos(cutoff - delta)).
+        let s = spot().with_falloff(Falloff::Smoothstep);
+        let frame = Frame::from_normal(s.axis);
+        let (lo, hi) = (20f32.to_radians().cos(), 15f32.to_radians().cos());
+        for deg in [0.0f32, 15.0, 16.0, 17.5, 19.0, 20.0, 30.0] {
+            let c = deg.to_radians().cos();
+            let t = ((c - lo) / (hi - lo)).clamp(0.0, 1.0);
+            let expected = t * t * (3.0 - 2.0 * t);
+            let (sin, cos) = deg.to_radians().sin_cos();
+            let w = frame.to_world(Vec3A::new(sin, 0.0, cos));
+            let got = s.sample_li(w, Vec2::ZERO).map_or(0.0, |ls| ls.radiance.x);
+            assert!((got - expected).abs() < 1e-4, "{deg}: {got} vs {expected}");
+        }
+    }
+
+    #[test]
     fn power_is_the_integral_of_the_falloff() {
         // Without a ramp: a cone of full intensity.
         let cone = SpotLight::new(Vec3A::ZERO, Vec3A::Z, Rgb::ONE, 30.0, 30.0).unwrap();
         let expected = 2.0 * std::f64::consts::PI * (1.0 - 30f64.to_radians().cos());
         assert!((cone.power() - expected).abs() < 1e-6);
-        // With one: the mean of emitted-ray weights estimates it.
-        let s = spot();
-        let mut sampler = crate::Sampler::new(2201, 0, 0);
-        let n = 200_000;
-        let mean: f64 = (0..n)
-            .map(|_| s.sample_le(sampler.next_2d()).weight.x as f64)
-            .sum::<f64>()
-            / n as f64;
-        assert!(
-            (mean - s.power()).abs() < 2e-3 * s.power(),
-            "{mean} vs {}",
-            s.power()
-        );
+        // With one, of either kind: the mean of emitted-ray weights estimates it.
+        for s in [spot(), spot().with_falloff(Falloff::Smoothstep)] {
+            let mut sampler = crate::Sampler::new(2201, 0, 0);
+            let n = 200_000;
+            let mean: f64 = (0..n)
+                .map(|_| s.sample_le(sampler.next_2d()).weight.x as f64)
+                .sum::<f64>()
+                / n as f64;
+            assert!(
+                (mean - s.power()).abs() < 2e-3 * s.power(),
+                "{:?}: {mean} vs {}",
+                s.falloff,
+                s.power()
+            );
+        }
     }
 
     #[test]

@@ -975,11 +975,11 @@ impl<'a> Converter<'a> {
                 let to = d3(p.point("to")?.unwrap_or([0.0, 0.0, 1.0]));
                 let cone = p.float("coneangle")?.unwrap_or(30.0);
                 let delta = p.float("conedeltaangle")?.unwrap_or(5.0);
-                self.approximate(d.pos, format!("{}: pbrt-v4's smoothstep falloff as raylab's (Mitsuba's) linear falloff in angle over the same cone", p.what))?;
+                // pbrt-v4's falloff: a smoothstep in the cosine over the same cone.
                 let pos = m.transform_point3(from);
                 let target = m.transform_point3(to);
                 format!(
-                    "emitter: Spot(intensity: {}, look_at: {}, cutoff_angle: {}, beam_width: {}), transform: (translate: {})",
+                    "emitter: Spot(intensity: {}, look_at: {}, cutoff_angle: {}, beam_width: {}, falloff: \"smoothstep\"), transform: (translate: {})",
                     v3(i.map(|x| x as f32)), v3(f3(target)), num(cone as f32), num((cone - delta).max(0.0) as f32), v3(f3(pos))
                 )
             }
@@ -1775,6 +1775,13 @@ mod tests {
             .unwrap()
             .ron
             .contains("Area(radiance: (1.0, 1.0, 1.0)"));
+        // A spot light falls off as pbrt-v4's: a smoothstep in the cosine.
+        let text = "WorldBegin\nLightSource \"spot\" \"float coneangle\" 40 \"float conedeltaangle\" 10\nShape \"sphere\"\n";
+        let ron = convert(text, false).unwrap().ron;
+        assert!(
+            ron.contains("cutoff_angle: 40.0, beam_width: 30.0, falloff: \"smoothstep\""),
+            "{ron}"
+        );
         // The stratified sampler takes xsamples x ysamples.
         let text = format!("Sampler \"stratified\" \"integer xsamples\" 8 \"integer ysamples\" 8\nWorldBegin\n{quad}\n");
         assert!(convert(&text, false).unwrap().ron.contains("spp: 64"));

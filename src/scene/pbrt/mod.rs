@@ -11,7 +11,8 @@
 //! their radii, the sampler's pixel samples; the `path` family of integrators with maxdepth
 //! and `sppm`; materials `diffuse`, `coateddiffuse` (as plastic), `conductor`, `dielectric`,
 //! `thindielectric`; textures `imagemap`, `checkerboard`, `constant`, `scale`; lights
-//! `point`, `distant`, constant `infinite`, `diffuse` area lights, `spot` (approximated);
+//! `point`, `spot` (with pbrt's smoothstep falloff), `distant`, constant `infinite`, `diffuse`
+//! area lights;
 //! shapes `trianglemesh`, `bilinearmesh`, `plymesh`, `sphere`, `disk`, `cylinder`.
 //! Anything else is an error at its file, line and column, or with `--approximate` the
 //! nearest thing raylab has, listed in the report.
