@@ -169,7 +169,14 @@ impl SpotLight {
         let ring: f64 = (0..N)
             .map(|i| {
                 let t = b + (c - b) * (i as f64 + 0.5) / N as f64;
-                self.falloff_at(t as f32) as f64 * t.sin()
+                let f = match self.falloff {
+                    Falloff::Linear => (c - t) / (c - b),
+                    Falloff::Smoothstep => {
+                        let x = ((t.cos() - c.cos()) / (b.cos() - c.cos())).clamp(0.0, 1.0);
+                        x * x * (3.0 - 2.0 * x)
+                    }
+                };
+                f * t.sin()
             })
             .sum::<f64>()
             * (c - b)
