@@ -263,7 +263,11 @@ fn emitter_from_desc(
             direction: v3(direction),
             irradiance: v3(irradiance),
         },
-        EmitterDesc::Environment { path, scale } => {
+        EmitterDesc::Environment {
+            path,
+            scale,
+            mapping,
+        } => {
             if transform.mirrors() {
                 return Err(
                     "an environment map cannot be mirrored: its transform.matrix has a negative determinant"
@@ -272,8 +276,27 @@ fn emitter_from_desc(
             }
             let file = files.named(&path)?;
             let image = super::images::read_linear_rgb(&file, false)?;
+            let (width, height, texels) = match mapping.as_deref() {
+                None | Some("latlong") => (image.width, image.height, image.texels),
+                Some("octahedral") => {
+                    if image.width != image.height || image.width < 1 {
+                        return Err(format!(
+                            "environment map `{}`: an octahedral map is square, this one is {} x {}",
+                            file.display(),
+                            image.width,
+                            image.height
+                        ));
+                    }
+                    super::octahedral::to_lat_long(image.width, &image.texels)
+                }
+                Some(other) => {
+                    return Err(format!(
+                        "an environment map's mapping is \"latlong\" or \"octahedral\", not \"{other}\""
+                    ))
+                }
+            };
             let rotation = glam::Mat3A::from_quat(transform.rotation());
-            let map = EnvMap::new(image.width, image.height, image.texels, scale, rotation)
+            let map = EnvMap::new(width, height, texels, scale, rotation)
                 .map_err(|e| format!("environment map `{}`: {e}", file.display()))?;
             Emitter::Environment(std::sync::Arc::new(map))
         }

@@ -13,6 +13,7 @@ pub mod load;
 pub mod materials;
 pub mod mesh_files;
 pub mod mitsuba;
+pub mod octahedral;
 pub mod pbrt;
 pub mod ply;
 pub mod procedural;

@@ -592,6 +592,11 @@ pub enum EmitterDesc {
         path: String,
         #[serde(default = "one")]
         scale: f32,
+        /// `"latlong"` (the default) or `"octahedral"`: a square image in pbrt-v4's
+        /// equal-area octahedral mapping (`+z` up in its frame, i.e. raylab's map `+y`),
+        /// resampled at load into a latitude-longitude map at its nearest pixels.
+        #[serde(default)]
+        mapping: Option<String>,
     },
 }
 

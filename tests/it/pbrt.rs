@@ -317,3 +317,65 @@ fn approximations_need_the_flag_and_are_then_warnings() {
         loaded.warnings
     );
 }
+
+/// pbrt-v4's environment maps are square, equal-area octahedral, `+z` up in the light's
+/// frame: the upper hemisphere is the inner diamond, `+x` its right, `+y` its bottom half
+/// (v grows with y). A map red towards `+x`, green towards `+y`, blue below, seen along each
+/// axis through the light's transform.
+#[test]
+fn an_octahedral_environment_map_is_seen_where_pbrt_v4_puts_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 64;
+    let map = image::RgbImage::from_fn(n, n, |x, y| {
+        let p = [(x as f64 + 0.5) / n as f64, (y as f64 + 0.5) / n as f64];
+        let d = raylab::scene::octahedral::square_to_sphere(p);
+        if d[2] < -0.5 {
+            image::Rgb([0, 0, 255])
+        } else if d[0] > 0.7 {
+            image::Rgb([255, 0, 0])
+        } else if d[1] > 0.7 {
+            image::Rgb([0, 255, 0])
+        } else {
+            image::Rgb([0, 0, 0])
+        }
+    });
+    map.save(dir.path().join("sky.png")).unwrap();
+    let scene = |look: &str, light: &str| {
+        format!(
+            r#"LookAt 0 0 0  {look}
+Camera "perspective" "float fov" 5
+Film "rgb" "integer xresolution" 4 "integer yresolution" 4
+WorldBegin
+AttributeBegin
+{light}
+LightSource "infinite" "string filename" "sky.png"
+AttributeEnd
+# Something to hit, off every view.
+Translate 50 -50 30
+Shape "sphere" "float radius" 0.01
+"#
+        )
+    };
+    let seen = |look: &str, light: &str| -> [f32; 3] {
+        let path = dir.path().join("scene.pbrt");
+        std::fs::write(&path, scene(look, light)).unwrap();
+        let loaded = load_scene(&path).unwrap();
+        render_loaded(&loaded, 4, 1).mean().to_array()
+    };
+    for (look, light, expected) in [
+        ("1 0 0  0 0 1", "", [1.0, 0.0, 0.0]),
+        ("0 1 0  0 0 1", "", [0.0, 1.0, 0.0]),
+        ("0 0 -1  0 1 0", "", [0.0, 0.0, 1.0]),
+        ("0 0 1  0 1 0", "", [0.0, 0.0, 0.0]),
+        // Turned a quarter about z, the light's +x looks along the world's +y.
+        ("0 1 0  0 0 1", "Rotate 90 0 0 1", [1.0, 0.0, 0.0]),
+    ] {
+        let got = seen(look, light);
+        for c in 0..3 {
+            assert!(
+                (got[c] - expected[c]).abs() < 1e-3,
+                "looking at {look} ({light}): {got:?}"
+            );
+        }
+    }
+}

@@ -1004,8 +1004,34 @@ impl<'a> Converter<'a> {
                 )
             }
             "infinite" => {
-                if let Some(pos) = p.present("filename") {
-                    return Err((pos, "LightSource \"infinite\" with an image: pbrt-v4's equal-area octahedral maps are not supported yet (raylab reads latitude-longitude maps)".into()));
+                if let Some((file, pos)) = p.string_at("filename")? {
+                    if p.present("L").is_some() || p.present("illuminance").is_some() {
+                        return Err((pos, "LightSource \"infinite\": give `filename`, or `L` (and `illuminance`), not both".into()));
+                    }
+                    let scale = p.float("scale")?.unwrap_or(1.0) * self.exposure;
+                    if let Some(portal) = p.present("portal") {
+                        p.ignore(&["portal"]);
+                        self.report(format!(
+                            "{}: portal ignored at line {} (a sampling aid)",
+                            p.what, portal.line
+                        ));
+                    }
+                    p.finish()?;
+                    // raylab's map frame has +y up where pbrt's light frame has +z: the
+                    // resampled map is read through that turn, so the placement carries it.
+                    let turn = DMat4::from_cols(DVec4::X, DVec4::Z, -DVec4::Y, DVec4::W);
+                    let placed = affine(&(m * turn)).ok_or_else(|| {
+                        (
+                            d.pos,
+                            "LightSource \"infinite\": a projective transform".to_string(),
+                        )
+                    })?;
+                    self.report(format!("{}: pbrt-v4's equal-area octahedral map resampled at load into a latitude-longitude map (its nearest pixels, 4 texels across per map pixel)", p.what));
+                    self.entities.push(format!(
+                        "(name: {}, emitter: Environment(path: {}, scale: {}, mapping: \"octahedral\"), transform: {}),",
+                        quote(&name), quote(&file), num(scale as f32), matrix(&placed)
+                    ));
+                    return Ok(());
                 }
                 let mut l = self.light_colour(&mut p, "L")?;
                 if let Some(illum) = p.float("illuminance")? {

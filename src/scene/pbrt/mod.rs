@@ -11,7 +11,7 @@
 //! their radii, the sampler's pixel samples; the `path` family of integrators with maxdepth
 //! and `sppm`; materials `diffuse`, `coateddiffuse` (as plastic), `conductor`, `dielectric`,
 //! `thindielectric`; textures `imagemap`, `checkerboard`, `constant`, `scale`; lights
-//! `point`, `spot` (with pbrt's smoothstep falloff), `distant`, constant `infinite`, `diffuse`
+//! `point`, `spot` (with pbrt's smoothstep falloff), `distant`, `infinite` (constant, or an octahedral image), `diffuse`
 //! area lights;
 //! shapes `trianglemesh`, `bilinearmesh`, `plymesh`, `sphere`, `disk`, `cylinder`.
 //! Anything else is an error at its file, line and column, or with `--approximate` the
