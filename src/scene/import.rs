@@ -64,3 +64,43 @@ pub fn matrix(m: &Affine3A) -> String {
         .collect();
     format!("(matrix: [{}])", rows.join(", "))
 }
+
+/// The parts of an imported scene, written out as one RON scene by [`RonScene::write`].
+pub struct RonScene<'a> {
+    /// The comment line that says where the scene came from.
+    pub header: String,
+    pub camera: &'a str,
+    /// The inside of `render: (...)`.
+    pub render: &'a str,
+    pub environment: Option<String>,
+    pub materials: &'a [(String, String)],
+    pub meshes: &'a [(String, String)],
+    pub entities: &'a [String],
+}
+
+impl RonScene<'_> {
+    /// The scene as RON text, one material, mesh and entity per line.
+    pub fn write(&self) -> String {
+        let mut ron = format!("// {}\n(\n    camera: {},\n", self.header, self.camera);
+        let _ = writeln!(ron, "    render: ({}),", self.render);
+        if let Some(env) = &self.environment {
+            let _ = writeln!(ron, "    environment: {env},");
+        }
+        for (field, table) in [("materials", self.materials), ("meshes", self.meshes)] {
+            if field == "meshes" && table.is_empty() {
+                continue;
+            }
+            let _ = writeln!(ron, "    {field}: {{");
+            for (name, desc) in table {
+                let _ = writeln!(ron, "        {}: {desc},", quote(name));
+            }
+            ron.push_str("    },\n");
+        }
+        ron.push_str("    entities: [\n");
+        for e in self.entities {
+            let _ = writeln!(ron, "        {e}");
+        }
+        ron.push_str("    ],\n)\n");
+        ron
+    }
+}

@@ -2,7 +2,7 @@
 
 use super::xml::{at, attr, position, value, Located, Params, Value};
 pub use crate::scene::import::Imported;
-use crate::scene::import::{matrix, num, quote, v3, ImportOptions};
+use crate::scene::import::{matrix, num, quote, v3, ImportOptions, RonScene};
 use crate::scene::spectra::{self, Use};
 use glam::Affine3A;
 use roxmltree::{Document, Node};
@@ -1200,28 +1200,16 @@ pub fn to_ron_in(
         return Err((1, 1, "the scene has no shapes or emitters".into()));
     }
     let (line, col) = position(&doc, root);
-    let mut ron = format!("// Imported by raylab from a Mitsuba 3 scene (its <scene> at {line}:{col}).\n(\n    camera: {camera},\n");
-    let _ = writeln!(ron, "    render: ({}),", c.render.join(", "));
-    if let Some(env) = &c.environment {
-        let _ = writeln!(ron, "    environment: {env},");
+    let ron = RonScene {
+        header: format!("Imported by raylab from a Mitsuba 3 scene (its <scene> at {line}:{col})."),
+        camera: &camera,
+        render: &c.render.join(", "),
+        environment: c.environment.clone(),
+        materials: &c.materials,
+        meshes: &c.meshes,
+        entities: &c.entities,
     }
-    ron.push_str("    materials: {\n");
-    for (name, desc) in &c.materials {
-        let _ = writeln!(ron, "        {}: {desc},", quote(name));
-    }
-    ron.push_str("    },\n");
-    if !c.meshes.is_empty() {
-        ron.push_str("    meshes: {\n");
-        for (name, desc) in &c.meshes {
-            let _ = writeln!(ron, "        {}: {desc},", quote(name));
-        }
-        ron.push_str("    },\n");
-    }
-    ron.push_str("    entities: [\n");
-    for e in &c.entities {
-        let _ = writeln!(ron, "        {e}");
-    }
-    ron.push_str("    ],\n)\n");
+    .write();
     Ok(Imported {
         ron,
         report: c.report,

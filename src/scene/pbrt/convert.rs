@@ -6,7 +6,7 @@ use super::materials::{self, Notes, Textures};
 use super::params::{Colour, Located, ParamList};
 use super::tokens::{tokenize, Pos};
 use crate::scene::access::SceneFiles;
-use crate::scene::import::{matrix, num, quote, v3, ImportOptions, Imported};
+use crate::scene::import::{matrix, num, quote, v3, ImportOptions, Imported, RonScene};
 use glam::{Affine3A, DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -1634,37 +1634,20 @@ pub fn to_ron(
         .integrator
         .clone()
         .unwrap_or_else(|| "integrator: \"path\", params: {\"max-depth\": 5}".into());
-    let mut ron = format!(
-        "// Imported by raylab from a pbrt-v4 scene ({}).\n(\n    camera: {camera},\n",
-        path.file_name()
-            .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
-    );
-    let _ = writeln!(
-        ron,
-        "    render: ({integrator}, spp: {}, filter: {}),",
-        c.spp,
-        quote(&c.filter)
-    );
-    if let Some(env) = c.environment {
-        let _ = writeln!(ron, "    environment: {},", v3(env.map(|x| x as f32)));
+    let ron = RonScene {
+        header: format!(
+            "Imported by raylab from a pbrt-v4 scene ({}).",
+            path.file_name()
+                .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
+        ),
+        camera: &camera,
+        render: &format!("{integrator}, spp: {}, filter: {}", c.spp, quote(&c.filter)),
+        environment: c.environment.map(|env| v3(env.map(|x| x as f32))),
+        materials: &c.materials,
+        meshes: &c.meshes,
+        entities: &c.entities,
     }
-    ron.push_str("    materials: {\n");
-    for (name, desc) in &c.materials {
-        let _ = writeln!(ron, "        {}: {desc},", quote(name));
-    }
-    ron.push_str("    },\n");
-    if !c.meshes.is_empty() {
-        ron.push_str("    meshes: {\n");
-        for (name, desc) in &c.meshes {
-            let _ = writeln!(ron, "        {}: {desc},", quote(name));
-        }
-        ron.push_str("    },\n");
-    }
-    ron.push_str("    entities: [\n");
-    for e in &c.entities {
-        let _ = writeln!(ron, "        {e}");
-    }
-    ron.push_str("    ],\n)\n");
+    .write();
     Ok(Imported {
         ron,
         report: c.report,
