@@ -97,7 +97,7 @@ fn alpha(
             })?;
             Ok(Some((tex, 1.0)))
         }
-        Some(_) => unreachable!("float_or_texture gives numbers or textures"),
+        Some((_, pos)) => Err((pos, format!("{}: `{name}` must be a float or a texture", p.what))),
     }
 }
 
