@@ -417,3 +417,42 @@ fn includes_and_paths_are_read_and_errors_name_the_included_file() {
     let err = load_scene(&main).err().unwrap().to_string();
     assert!(err.contains("lamp.xml:2:5:"), "{err}");
 }
+
+/// An `hdrfilm` crop renders its part of the full image: the same rays through its pixels.
+#[test]
+fn a_film_crop_renders_its_part_of_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |crop: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+            <sensor type="perspective"><float name="fov" value="50"/>
+                <transform name="to_world"><lookat origin="1, 2, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+                <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="30"/>{crop}</film></sensor>
+            <shape type="sphere"/>
+        </scene>"#
+        )
+    };
+    let load = |name: &str, text: String| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        load_scene(&path).unwrap().camera
+    };
+    let full = load("full.xml", scene(""));
+    let cropped = load(
+        "crop.xml",
+        scene(
+            r#"<integer name="crop_offset_x" value="10"/><integer name="crop_offset_y" value="3"/><integer name="crop_width" value="14"/><integer name="crop_height" value="12"/>"#,
+        ),
+    );
+    assert_eq!((cropped.width, cropped.height), (14, 12));
+    for (x, y) in [(0.0, 0.0), (14.0, 12.0), (3.5, 7.25)] {
+        let (a, b) = (cropped.ray(x, y), full.ray(x + 10.0, y + 3.0));
+        assert!(
+            (a.dir - b.dir).length() < 1e-5,
+            "{x},{y}: {:?} vs {:?}",
+            a.dir,
+            b.dir
+        );
+        assert!((a.origin - b.origin).length() < 1e-5);
+    }
+}

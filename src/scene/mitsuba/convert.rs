@@ -877,6 +877,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
         let (mut width, mut height, mut filter, mut spp) =
             (768i64, 576i64, "gaussian".to_string(), None);
+        let mut crop: Option<(i64, i64, i64, i64)> = None;
         for (_, child) in std::mem::take(&mut p.children) {
             match child.tag_name().name() {
                 "film" => {
@@ -891,6 +892,16 @@ impl<'a, 'input> Converter<'a, 'input> {
                     let mut f = self.props(child)?;
                     width = f.integer("width")?.unwrap_or(width);
                     height = f.integer("height")?.unwrap_or(height);
+                    let offset = (f.integer("crop_offset_x")?, f.integer("crop_offset_y")?);
+                    let size = (f.integer("crop_width")?, f.integer("crop_height")?);
+                    if offset != (None, None) || size != (None, None) {
+                        let (x, y) = (offset.0.unwrap_or(0), offset.1.unwrap_or(0));
+                        let (w, h) = (size.0.unwrap_or(width - x), size.1.unwrap_or(height - y));
+                        if x < 0 || y < 0 || w < 1 || h < 1 || x + w > width || y + h > height {
+                            return Err(at(self.doc, child, format!("the crop {w}x{h} at ({x}, {y}) must lie inside the {width}x{height} film")));
+                        }
+                        crop = Some((x, y, w, h));
+                    }
                     for (_, rf) in std::mem::take(&mut f.children) {
                         if rf.tag_name().name() != "rfilter" {
                             return Err(at(self.doc, rf, "only an <rfilter> goes inside the film"));
@@ -992,13 +1003,34 @@ impl<'a, 'input> Converter<'a, 'input> {
             ));
         }
         let dir = dir.normalize();
-        self.camera = Some(format!(
-            "LookAt(eye: {}, look_at: {}, up: {}, fov: {}, resolution: ({width}, {height}))",
-            v3(eye.into()),
-            v3((eye + dir).into()),
-            v3(up.normalize().into()),
-            num(fov_y)
-        ));
+        self.camera = Some(match crop {
+            None => format!(
+                "LookAt(eye: {}, look_at: {}, up: {}, fov: {}, resolution: ({width}, {height}))",
+                v3(eye.into()),
+                v3((eye + dir).into()),
+                v3(up.normalize().into()),
+                num(fov_y)
+            ),
+            // A crop: the film's part of the image plane at distance 1, as an image-plane
+            // camera (Mitsuba writes the crop alone).
+            Some((x, y, cw, ch)) => {
+                let (up, right) = (up.normalize(), -left.normalize());
+                let th = (fov_y.to_radians() * 0.5).tan();
+                let tw = th * w / h;
+                let at = |px: i64, py: i64| {
+                    let (fx, fy) = (px as f32 / w, py as f32 / h);
+                    eye + dir + right * (tw * (2.0 * fx - 1.0)) + up * (th * (1.0 - 2.0 * fy))
+                };
+                format!(
+                    "ImagePlane(eye: {}, top_left: {}, top_right: {}, bottom_left: {}, bottom_right: {}, resolution: ({cw}, {ch}))",
+                    v3(eye.into()),
+                    v3(at(x, y).into()),
+                    v3(at(x + cw, y).into()),
+                    v3(at(x, y + ch).into()),
+                    v3(at(x + cw, y + ch).into())
+                )
+            }
+        });
         self.render.push(format!("filter: {}", quote(&filter)));
         if let Some(spp) = spp {
             self.render.push(format!("spp: {spp}"));

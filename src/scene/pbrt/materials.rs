@@ -97,7 +97,10 @@ fn alpha(
             })?;
             Ok(Some((tex, 1.0)))
         }
-        Some((_, pos)) => Err((pos, format!("{}: `{name}` must be a float or a texture", p.what))),
+        Some((_, pos)) => Err((
+            pos,
+            format!("{}: `{name}` must be a float or a texture", p.what),
+        )),
     }
 }
 
