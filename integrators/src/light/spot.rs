@@ -71,29 +71,34 @@ impl SpotLight {
         SpotLight { falloff, ..self }
     }
 
-    /// The falloff at angle `theta` (radians) from the axis.
+    /// The falloff towards unit direction `w` (from the light): linear in the angle, or a
+    /// smoothstep in its cosine (read straight from `w`, no angle needed).
     #[inline]
-    fn falloff_at(&self, theta: f32) -> f32 {
-        if theta <= self.beam_width {
-            1.0
-        } else if theta >= self.cutoff {
-            0.0
-        } else {
-            match self.falloff {
-                Falloff::Linear => (self.cutoff - theta) / (self.cutoff - self.beam_width),
-                Falloff::Smoothstep => {
-                    let (c, lo, hi) = (theta.cos(), self.cutoff.cos(), self.beam_width.cos());
-                    let t = ((c - lo) / (hi - lo)).clamp(0.0, 1.0);
+    pub fn falloff(&self, w: Vec3A) -> f32 {
+        let cos = w.dot(self.axis).clamp(-1.0, 1.0);
+        match self.falloff {
+            Falloff::Linear => {
+                let theta = cos.acos();
+                if theta <= self.beam_width {
+                    1.0
+                } else if theta >= self.cutoff {
+                    0.0
+                } else {
+                    (self.cutoff - theta) / (self.cutoff - self.beam_width)
+                }
+            }
+            Falloff::Smoothstep => {
+                let (lo, hi) = (self.cutoff.cos(), self.beam_width.cos());
+                if cos >= hi {
+                    1.0
+                } else if cos <= lo {
+                    0.0
+                } else {
+                    let t = (cos - lo) / (hi - lo);
                     t * t * (3.0 - 2.0 * t)
                 }
             }
         }
-    }
-
-    /// The falloff towards unit direction `w` (from the light).
-    #[inline]
-    pub fn falloff(&self, w: Vec3A) -> f32 {
-        self.falloff_at(w.dot(self.axis).clamp(-1.0, 1.0).acos())
     }
 
     pub fn sample_li(&self, p: Vec3A, _u: Vec2) -> Option<LightSample> {

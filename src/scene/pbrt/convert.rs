@@ -725,6 +725,7 @@ impl<'a> Converter<'a> {
     }
 
     fn material(&mut self, kind: &str, p: &mut ParamList) -> Result<Option<String>, Located> {
+        // The textures are lent out while the converter takes the notes.
         let textures = std::mem::take(&mut self.textures);
         let out = materials::material(kind, p, &textures, self);
         self.textures = textures;
@@ -771,6 +772,18 @@ impl<'a> Converter<'a> {
                 Some(self.add_material(&format!("{kind} {count}"), ron))
             }
         }
+    }
+
+    /// The RON of the texture `name` of type `ty` (`float` or `spectrum`).
+    fn named_texture(&self, ty: &str, name: &str, pos: Pos, what: &str) -> Result<String, Located> {
+        let map = if ty == "float" {
+            &self.textures.float
+        } else {
+            &self.textures.spectrum
+        };
+        map.get(name)
+            .cloned()
+            .ok_or_else(|| (pos, format!("{what}: no {ty} texture is named \"{name}\"")))
     }
 
     fn texture(&mut self, d: &mut Directive) -> Result<(), Located> {
@@ -861,6 +874,8 @@ impl<'a> Converter<'a> {
                 let c = if ty == "float" { p.float_or_texture("value")? } else { p.colour("value")? };
                 match c {
                     None => "1.0".to_string(),
+                    Some((Colour::Texture(t), pos)) => self.named_texture(&ty, &t, pos, &what)?,
+                    Some((Colour::Rgb(v), _)) if ty == "float" => num(v[0] as f32),
                     Some((c, pos)) => {
                         let textures = std::mem::take(&mut self.textures);
                         let r = materials::colour(&c, pos, &what, &textures, self);
@@ -880,12 +895,14 @@ impl<'a> Converter<'a> {
                     _ => false,
                 };
                 match (tex, scale) {
+                    (Some((Colour::Rgb(a), _)), Some((Colour::Rgb(s), _))) if ty == "float" => {
+                        num((a[0] * s[0]) as f32)
+                    }
                     (Some((Colour::Rgb(a), _)), Some((Colour::Rgb(s), _))) => {
                         v3([a[0] * s[0], a[1] * s[0], a[2] * s[0]].map(|x| x as f32))
                     }
                     (Some((Colour::Texture(t), pos)), s) if unit(&s) => {
-                        let map = if ty == "float" { &self.textures.float } else { &self.textures.spectrum };
-                        map.get(&t).cloned().ok_or_else(|| (pos, format!("{what}: no texture is named \"{t}\"")))?
+                        self.named_texture(&ty, &t, pos, &what)?
                     }
                     _ => return Err((d.pos, format!("{what}: a scale texture is supported for a constant times a constant, or a texture times 1"))),
                 }
@@ -1791,6 +1808,10 @@ mod tests {
             ron.contains("cutoff_angle: 40.0, beam_width: 30.0, falloff: \"smoothstep\""),
             "{ron}"
         );
+        // A float texture that names another reads the float textures.
+        let text = "WorldBegin\nTexture \"a\" \"float\" \"constant\" \"float value\" 0.3\nTexture \"b\" \"float\" \"constant\" \"texture value\" \"a\"\nMaterial \"conductor\" \"bool remaproughness\" false \"texture roughness\" \"b\"\nShape \"sphere\"\n";
+        let ron = convert(text, false).unwrap().ron;
+        assert!(ron.contains("alpha: 0.3"), "{ron}");
         // The stratified sampler takes xsamples x ysamples.
         let text = format!("Sampler \"stratified\" \"integer xsamples\" 8 \"integer ysamples\" 8\nWorldBegin\n{quad}\n");
         assert!(convert(&text, false).unwrap().ron.contains("spp: 64"));
