@@ -127,7 +127,7 @@ fn xyz(params: &Params, doc: &Document, node: Node, default: f32) -> Result<[f32
         if let Some(v) = attr(params, doc, node, name)? {
             out[i] = numbers(&v)
                 .ok()
-                .and_then(|n| (n.len() == 1).then_some(n[0]))
+                .and_then(|n| (n.len() == 1).then(|| n[0]))
                 .ok_or_else(|| at(doc, node, format!("`{name}`: `{v}` is not a number")))?;
         }
     }
