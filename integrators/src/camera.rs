@@ -42,6 +42,13 @@ pub struct Camera {
 #[derive(Clone, Debug, PartialEq)]
 enum View {
     LookAt(LookAt),
+    /// Parallel rays along `forward` from a rectangle centred on the eye, spanned by the
+    /// half extents `right` and `up` (Mitsuba's `orthographic` sensor).
+    Orthographic {
+        forward: Vec3A,
+        right: Vec3A,
+        up: Vec3A,
+    },
     /// A fixed parallelogram in world space (the report's camera).
     Plane {
         top_left: Vec3A,
@@ -178,6 +185,33 @@ impl Camera {
         Camera::new(eye, view, size)
     }
 
+    /// An orthographic camera: rays parallel to `look_at - eye` from the `width` x `height`
+    /// rectangle (world units) centred on `eye`, its top edge towards `up`. The caller has
+    /// checked that the vectors are finite, distinct and not parallel, and the sizes positive.
+    pub fn orthographic(
+        eye: Vec3A,
+        look_at: Vec3A,
+        up: Vec3A,
+        (width, height): (f32, f32),
+        size: (u32, u32),
+    ) -> Self {
+        let forward = (look_at - eye).normalize();
+        let right = forward.cross(up).normalize();
+        let up = right.cross(forward);
+        let view = View::Orthographic {
+            forward,
+            right: right * (0.5 * width),
+            up: up * (0.5 * height),
+        };
+        Camera::new(eye, view, size)
+    }
+
+    /// True for a pinhole camera (a point lens): only it can be connected to a point of the
+    /// scene ([`Camera::sample_wi`]); an orthographic camera's directions are a delta.
+    pub fn is_pinhole(&self) -> bool {
+        !matches!(self.view, View::Orthographic { .. })
+    }
+
     fn new(eye: Vec3A, view: View, size: (u32, u32)) -> Self {
         Camera {
             eye,
@@ -204,12 +238,24 @@ impl Camera {
                 right_edge,
                 down_edge,
             } => FilmPlane::new(eye, top_left, right_edge, down_edge),
+            // No film a point connects to: the plane at unit distance only keeps the fields
+            // defined (`raster` refuses every direction).
+            View::Orthographic { forward, right, up } => {
+                FilmPlane::new(eye, eye + forward - right + up, right * 2.0, -up * 2.0)
+            }
         }
     }
 
-    /// The same view at another resolution (a look-at camera keeps its vertical field of view).
+    /// The same view at another resolution (a look-at camera keeps its vertical field of view,
+    /// an orthographic one its height).
     pub fn with_resolution(&self, width: u32, height: u32) -> Self {
-        Camera::new(self.eye, self.view.clone(), (width, height))
+        let mut view = self.view.clone();
+        // An orthographic view keeps its height and its pixels' shape, as a look-at camera.
+        if let View::Orthographic { right, .. } = &mut view {
+            let aspect = |w: u32, h: u32| w as f32 / h as f32;
+            *right *= aspect(width, height) / aspect(self.width, self.height);
+        }
+        Camera::new(self.eye, view, (width, height))
     }
 
     /// The primary ray through film position `(x, y)` in pixels, `(0, 0)` the top-left corner.
@@ -217,8 +263,13 @@ impl Camera {
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         let u = x / self.width as f32;
         let v = y / self.height as f32;
+        if let View::Orthographic { forward, right, up } = &self.view {
+            let origin = self.eye + *right * (2.0 * u - 1.0) + *up * (1.0 - 2.0 * v);
+            return Ray::new(origin, *forward);
+        }
         let dir = match &self.view {
             View::LookAt(look) => look.dir(u, v, self.width as f32 / self.height as f32),
+            View::Orthographic { forward, .. } => *forward,
             View::Plane {
                 top_left,
                 right_edge,
@@ -235,8 +286,12 @@ impl Camera {
     }
 
     /// Film position (pixels) at which the direction `w` from the eye meets the film, and the
-    /// cosine between `w` and the film's normal; `None` outside the film or behind the eye.
+    /// cosine between `w` and the film's normal; `None` outside the film or behind the eye,
+    /// and always for an orthographic camera (whose rays leave no single eye).
     pub fn raster(&self, w: Vec3A) -> Option<(Vec2, f32)> {
+        if !self.is_pinhole() {
+            return None;
+        }
         let cos = w.dot(self.film.normal);
         if cos.is_nan() || cos <= 0.0 {
             return None;
@@ -386,6 +441,24 @@ mod tests {
             assert!(cam.importance(-back).is_none() && cam.pdf_we(-back) == (0.0, 0.0));
             assert!(cam.sample_wi(cam.eye - back).is_none());
         }
+    }
+
+    #[test]
+    fn orthographic_rays_are_parallel_and_span_the_rectangle() {
+        let eye = Vec3A::new(1.0, 2.0, 3.0);
+        let cam = Camera::orthographic(eye, eye - Vec3A::Z, Vec3A::Y, (4.0, 2.0), (200, 100));
+        let centre = cam.ray(100.0, 50.0);
+        assert!((centre.origin - eye).length() < 1e-6 && centre.dir == -Vec3A::Z);
+        // Top-left corner: 2 to the left (-x, looking down -z with y up), 1 up.
+        let corner = cam.ray(0.0, 0.0);
+        assert!((corner.origin - (eye + Vec3A::new(-2.0, 1.0, 0.0))).length() < 1e-6);
+        assert_eq!(corner.dir, centre.dir);
+        let right = cam.ray(200.0, 100.0);
+        assert!((right.origin - (eye + Vec3A::new(2.0, -1.0, 0.0))).length() < 1e-6);
+        // No point connects to it, and a wider image keeps the height and the pixels' shape.
+        assert!(!cam.is_pinhole() && cam.sample_wi(eye - Vec3A::Z).is_none());
+        let wide = cam.with_resolution(400, 100);
+        assert!((wide.ray(0.0, 0.0).origin - (eye + Vec3A::new(-4.0, 1.0, 0.0))).length() < 1e-5);
     }
 
     #[test]

@@ -33,9 +33,12 @@ pub struct Part {
 /// a reflectance.
 pub fn file_parts(desc: &ShapeDesc, files: &SceneFiles) -> Result<Vec<Part>, String> {
     let (mesh, file) = match desc {
-        ShapeDesc::Obj { path } => {
+        ShapeDesc::Obj { path, normals } => {
             let file = files.named(path)?;
-            (mesh_files::load_obj(&file, true, files)?, file)
+            (
+                mesh_files::load_obj(&file, true, files)?.shaded(*normals),
+                file,
+            )
         }
         ShapeDesc::Gltf { path } => {
             let file = files.named(path)?;

@@ -398,23 +398,42 @@ fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
                     "fov is the vertical field of view in degrees, in (0, 180); got {fov}"
                 ));
             }
-            let forward = v3(*look_at) - v3(*eye);
-            if forward.length() < 1e-6 {
-                return Err("eye and look_at must differ".into());
-            }
-            if forward
-                .normalize()
-                .cross(v3(*up).normalize_or_zero())
-                .length()
-                < 1e-4
-            {
-                return Err("up must not be zero or parallel to the view direction".into());
-            }
+            check_view(eye, look_at, up)?;
             Ok(Camera::look_at(
                 v3(*eye),
                 v3(*look_at),
                 v3(*up),
                 *fov,
+                *resolution,
+            ))
+        }
+        CameraDesc::Orthographic {
+            eye,
+            look_at,
+            up,
+            width,
+            height,
+            resolution,
+        } => {
+            for (what, v) in [("eye", eye), ("look_at", look_at), ("up", up)] {
+                finite(what, v)?;
+            }
+            check_resolution(*resolution)?;
+            let height = height.unwrap_or(width * resolution.1 as f32 / resolution.0 as f32);
+            for (what, v) in [("width", *width), ("height", height)] {
+                if !(v > 0.0 && v < 1e7) {
+                    return Err(format!(
+                        "an orthographic camera's {what} is its view's size in scene units, \
+                         in (0, 1e7); got {v}"
+                    ));
+                }
+            }
+            check_view(eye, look_at, up)?;
+            Ok(Camera::orthographic(
+                v3(*eye),
+                v3(*look_at),
+                v3(*up),
+                (*width, height),
                 *resolution,
             ))
         }
@@ -458,6 +477,27 @@ fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
     }
 }
 
+/// A view direction from `eye` to `look_at` that `up` is not parallel to.
+fn check_view(
+    eye: &super::schema::V3,
+    look_at: &super::schema::V3,
+    up: &super::schema::V3,
+) -> Result<(), String> {
+    let forward = v3(*look_at) - v3(*eye);
+    if forward.length() < 1e-6 {
+        return Err("eye and look_at must differ".into());
+    }
+    if forward
+        .normalize()
+        .cross(v3(*up).normalize_or_zero())
+        .length()
+        < 1e-4
+    {
+        return Err("up must not be zero or parallel to the view direction".into());
+    }
+    Ok(())
+}
+
 /// Exactly `N` points, or an error naming the shape.
 fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A; N], String> {
     let points: Vec<Vec3A> = vertices.iter().copied().map(v3).collect();
@@ -474,10 +514,21 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
         ShapeDesc::Gltf { path } => {
             mesh_files::load_gltf(&files.named(&path)?, files)?.into_shape()
         }
-        ShapeDesc::Obj { path } => {
-            mesh_files::load_obj(&files.named(&path)?, false, files)?.into_shape()
+        ShapeDesc::Obj { path, normals } => {
+            mesh_files::load_obj(&files.named(&path)?, false, files)?
+                .shaded(normals)
+                .into_shape()
         }
-        ShapeDesc::Ply { path } => super::ply::load_ply(&files.named(&path)?)?.into_shape(),
+        ShapeDesc::Ply { path, normals } => super::ply::load_ply(&files.named(&path)?)?
+            .shaded(normals)
+            .into_shape(),
+        ShapeDesc::Serialized {
+            path,
+            shape_index,
+            normals,
+        } => super::serialized::load_serialized(&files.named(&path)?, shape_index)?
+            .shaded(normals)
+            .into_shape(),
         ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),

@@ -9,6 +9,7 @@
 
 use super::access::{relative_uri, SceneFiles};
 use super::components::Shape;
+use super::schema::MeshNormals;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
 use std::panic::UnwindSafe;
 use std::path::Path;
@@ -42,6 +43,19 @@ pub struct FileMesh {
 }
 
 impl FileMesh {
+    /// The mesh with its normals as `mode` asks (see [`MeshNormals`]).
+    pub fn shaded(mut self, mode: MeshNormals) -> Self {
+        match mode {
+            MeshNormals::File => {}
+            MeshNormals::Flat => self.normals = None,
+            MeshNormals::Smooth if self.normals.is_none() => {
+                self.normals = Some(angle_weighted_normals(&self.positions, &self.indices))
+            }
+            MeshNormals::Smooth => {}
+        }
+        self
+    }
+
     /// The geometry alone.
     pub fn into_shape(self) -> Shape {
         Shape::Mesh {
@@ -97,6 +111,29 @@ impl FileMesh {
         }
         out
     }
+}
+
+/// Vertex normals from the faces around each vertex, each face's unit normal weighted by its
+/// angle at the vertex (Thürmer and Wüthrich 1998, as Mitsuba 3 computes them for meshes
+/// without normals). Degenerate faces add nothing; a vertex they alone touch gets the normal of
+/// the first face that names it, or `+z`.
+pub fn angle_weighted_normals(positions: &[Vec3A], indices: &[[u32; 3]]) -> Vec<Vec3A> {
+    let mut sum = vec![Vec3A::ZERO; positions.len()];
+    for tri in indices {
+        let p = tri.map(|i| positions[i as usize]);
+        let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else {
+            continue;
+        };
+        for k in 0..3 {
+            let d0 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+            let d1 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+            let angle = d0.dot(d1).clamp(-1.0, 1.0).acos();
+            sum[tri[k] as usize] += n * angle;
+        }
+    }
+    sum.into_iter()
+        .map(|n| n.try_normalize().unwrap_or(Vec3A::Z))
+        .collect()
 }
 
 /// Runs a third-party parser on a user file. A panic in it becomes an error; the default
@@ -636,4 +673,62 @@ fn gltf_material(file: &Path, m: &gltf::Material, index: usize) -> Result<FileMa
         emission: emission.iter().any(|c| *c > 0.0).then_some(emission),
         two_sided: m.double_sided(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angle_weighted_normals_do_not_depend_on_the_triangulation() {
+        // A unit cube whose faces are split along different diagonals: at a corner a face
+        // meets the vertex in one triangle (90 degrees) or two (45 + 45), so weighting by angle
+        // gives every corner the diagonal direction, whatever the split (weighting by area or
+        // count would not).
+        let p: Vec<Vec3A> = (0..8)
+            .map(|i| Vec3A::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32))
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let mut tris = Vec::new();
+        for (k, q) in quads.iter().enumerate() {
+            if k % 2 == 0 {
+                tris.extend([[q[0], q[1], q[2]], [q[0], q[2], q[3]]]);
+            } else {
+                tris.extend([[q[1], q[2], q[3]], [q[1], q[3], q[0]]]);
+            }
+        }
+        let normals = angle_weighted_normals(&p, &tris);
+        for (v, n) in p.iter().zip(&normals) {
+            let diagonal = (*v - Vec3A::splat(0.5)).normalize();
+            assert!((*n - diagonal).length() < 1e-6, "{v}: {n}");
+        }
+    }
+
+    #[test]
+    fn mesh_normals_modes() {
+        let mesh = || FileMesh {
+            positions: vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y],
+            indices: vec![[0, 1, 2]],
+            normals: Some(vec![Vec3A::X; 3]),
+            ..FileMesh::default()
+        };
+        assert_eq!(mesh().shaded(MeshNormals::File).normals, mesh().normals);
+        assert_eq!(mesh().shaded(MeshNormals::Smooth).normals, mesh().normals);
+        assert_eq!(mesh().shaded(MeshNormals::Flat).normals, None);
+        let bare = FileMesh {
+            normals: None,
+            ..mesh()
+        };
+        assert_eq!(
+            bare.shaded(MeshNormals::Smooth).normals,
+            Some(vec![Vec3A::Z; 3])
+        );
+    }
 }

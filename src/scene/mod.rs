@@ -19,6 +19,7 @@ pub mod ply;
 pub mod procedural;
 pub mod references;
 pub mod schema;
+pub mod serialized;
 pub mod spectra;
 mod spectra_tables;
 pub mod systems;

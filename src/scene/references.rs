@@ -56,7 +56,7 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
         .chain(file.meshes.0.iter().map(|(_, shape)| shape));
     for shape in shapes {
         match shape {
-            ShapeDesc::Obj { path } => {
+            ShapeDesc::Obj { path, .. } => {
                 let obj = dir.join(path);
                 for mtl in obj_mtllibs(&obj) {
                     add(folder_of(&obj).join(mtl));
@@ -70,7 +70,7 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
                 }
                 add(gltf);
             }
-            ShapeDesc::Ply { path } => add(dir.join(path)),
+            ShapeDesc::Ply { path, .. } | ShapeDesc::Serialized { path, .. } => add(dir.join(path)),
             _ => {}
         }
     }

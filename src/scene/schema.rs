@@ -57,6 +57,21 @@ pub enum CameraDesc {
         #[serde(default = "default_resolution")]
         resolution: (u32, u32),
     },
+    /// Parallel rays along `look_at - eye` from a `width` x `height` rectangle (scene units)
+    /// centred on `eye`, its top edge towards `up` (Mitsuba's `orthographic` sensor). Default
+    /// `height`: `width` times the resolution's height over its width (square pixels).
+    Orthographic {
+        eye: V3,
+        look_at: V3,
+        #[serde(default = "z_up")]
+        up: V3,
+        width: f32,
+        #[serde(default)]
+        height: Option<f32>,
+        /// Image size in pixels. Default: `(400, 400)`.
+        #[serde(default = "default_resolution")]
+        resolution: (u32, u32),
+    },
     /// The report's camera: an eye point and the four corners of the image plane, which must
     /// form a parallelogram.
     ImagePlane {
@@ -526,16 +541,35 @@ pub enum ShapeDesc {
         displacement: f32,
     },
     /// A Wavefront OBJ file, `path` relative to the scene file; every object in it, triangulated,
-    /// with its normals when the file has them. Its materials are not used.
-    Obj { path: String },
+    /// with its normals when the file has them (see [`MeshNormals`]). Its materials are not
+    /// used.
+    Obj {
+        path: String,
+        #[serde(default)]
+        normals: MeshNormals,
+    },
     /// A glTF 2.0 file (`.gltf` or `.glb`), `path` relative to the scene file: the triangles of
     /// every mesh in its default scene, placed by the node transforms, with their normals when
     /// present. Its materials are not used.
     Gltf { path: String },
     /// A Stanford PLY file (ASCII or binary), `path` relative to the scene file: its faces
-    /// (polygons split into triangles), with vertex normals and texture coordinates when
-    /// present.
-    Ply { path: String },
+    /// (polygons split into triangles), with vertex normals (see [`MeshNormals`]) and texture
+    /// coordinates when present.
+    Ply {
+        path: String,
+        #[serde(default)]
+        normals: MeshNormals,
+    },
+    /// Mesh `shape_index` (default 0) of a Mitsuba `.serialized` file (versions 3 and 4),
+    /// `path` relative to the scene file, with its normals (see [`MeshNormals`]) and texture
+    /// coordinates when present.
+    Serialized {
+        path: String,
+        #[serde(default)]
+        shape_index: u32,
+        #[serde(default)]
+        normals: MeshNormals,
+    },
     /// A mesh asset of the scene's `meshes` table, placed by the entity's transform. Every
     /// instance shares one copy of the mesh and its BVH. Instances cannot emit light.
     Instance { mesh: String },
@@ -550,6 +584,33 @@ pub enum ShapeDesc {
         #[serde(default)]
         uvs: Option<Vec<[f32; 2]>>,
     },
+}
+
+/// How a mesh file's triangles are shaded: `"file"` (the default) with the file's vertex
+/// normals where it has them and flat where it has none (pbrt-v4's rule); `"smooth"` with the
+/// file's normals, or where it has none with normals computed from the faces around each
+/// vertex, weighted by their angles there (Mitsuba 3's rule); `"flat"` with each face's own
+/// normal, ignoring the file's (Mitsuba's `face_normals`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MeshNormals {
+    #[default]
+    File,
+    Smooth,
+    Flat,
+}
+
+impl<'de> Deserialize<'de> for MeshNormals {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        match name.as_str() {
+            "file" => Ok(MeshNormals::File),
+            "smooth" => Ok(MeshNormals::Smooth),
+            "flat" => Ok(MeshNormals::Flat),
+            _ => Err(de::Error::custom(format!(
+                "unknown mesh normals {name:?}; known: \"file\", \"smooth\", \"flat\""
+            ))),
+        }
+    }
 }
 
 /// Light emission attached to an entity.

@@ -144,7 +144,11 @@ fn every_supported_plugin_loads() {
         String::from_utf8_lossy(&out.stderr)
     );
     let report = String::from_utf8_lossy(&out.stdout);
-    assert!(report.contains("| tri2 | face_normals ignored"), "{report}");
+    let ron = std::fs::read_to_string(dir.path().join("all.ron")).unwrap();
+    assert!(
+        ron.contains("Obj(path: \"tri.obj\", normals: \"flat\")"),
+        "face_normals shades flat: {ron}"
+    );
     assert!(
         report.contains("| default | Mitsuba's default BSDF"),
         "{report}"
@@ -455,4 +459,137 @@ fn a_film_crop_renders_its_part_of_the_image() {
         );
         assert!((a.origin - b.origin).length() < 1e-5);
     }
+}
+
+/// `scenes/mitsuba/meshes.xml` and `orthographic.xml`: three meshes of one `.serialized`
+/// file (by `shape_index`; normals computed where the file has none, flat with
+/// `face_normals`), a blend of two diffuse BSDFs as one diffuse, an opaque mask as its BSDF,
+/// and an orthographic sensor whose size is its `to_world` scale.
+#[test]
+fn serialized_meshes_blends_masks_and_orthographic_sensors() {
+    let scene = repo_file("scenes/mitsuba/meshes.xml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let imported = raylab::scene::mitsuba::to_ron(&text, &[]).unwrap();
+    for needle in [
+        "Serialized(path: \"assets/meshes.serialized\", shape_index: 0, normals: \"smooth\")",
+        "Serialized(path: \"assets/meshes.serialized\", shape_index: 1, normals: \"flat\")",
+        "Lambert(albedo: (0.83, 0.41, 0.34))",
+        "RoughPlastic(diffuse_reflectance: (0.1, 0.3, 0.7)",
+    ] {
+        assert!(
+            imported.ron.contains(needle),
+            "no {needle} in\n{}",
+            imported.ron
+        );
+    }
+    let loaded = load_scene(&scene).unwrap();
+    let built = RenderScene::build(&loaded);
+    // Icosphere 320, torus 32 x 12 x 2 = 768, floor 2.
+    assert_eq!(built.stats.triangles, 320 + 768 + 2);
+
+    let ortho = load_scene(&repo_file("scenes/mitsuba/orthographic.xml")).unwrap();
+    let camera = &ortho.camera;
+    assert_eq!((camera.width, camera.height), (200, 150));
+    let (a, b) = (camera.ray(0.0, 0.0), camera.ray(200.0, 150.0));
+    assert!((a.dir - b.dir).length() < 1e-6, "parallel rays");
+    // x spans 2 x 3.2 across the width, y 2 x 3.2 / (200 / 150) down the height.
+    let span = b.origin - a.origin;
+    let along = |v: glam::Vec3A| span.dot(v.normalize()).abs();
+    let up = glam::Vec3A::Y - a.dir * a.dir.y;
+    let right = a.dir.cross(up);
+    assert!((along(right) - 6.4).abs() < 1e-3, "{}", along(right));
+    assert!((along(up) - 4.8).abs() < 1e-3, "{}", along(up));
+}
+
+/// What raylab's materials cannot hold is an error at its place, or with `--approximate` the
+/// nearest material and a warning: a blend of unlike BSDFs, a see-through mask.
+#[test]
+fn unlike_blends_and_see_through_masks_are_approximations() {
+    let scene = |bsdf: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+            <sensor type="perspective"><float name="fov" value="40"/></sensor>
+            <shape type="sphere">{bsdf}</shape>
+        </scene>"#
+        )
+    };
+    let cases = [
+        (
+            r#"<bsdf type="blendbsdf"><float name="weight" value="0.75"/><bsdf type="diffuse"/><bsdf type="conductor"/></bsdf>"#,
+            "blendbsdf",
+            "Conductor(metal: \"none\")",
+        ),
+        (
+            r#"<bsdf type="mask"><float name="opacity" value="0.5"/><bsdf type="plastic"/></bsdf>"#,
+            "no see-through surfaces",
+            "Plastic()",
+        ),
+    ];
+    for (bsdf, what, nearest) in cases {
+        let text = scene(bsdf);
+        let err = raylab::scene::mitsuba::to_ron(&text, &[]).unwrap_err();
+        assert!(
+            err.2.contains(what) && err.2.contains("--approximate") && err.0 == 3,
+            "{err:?}"
+        );
+        let options = ImportOptions {
+            defines: Vec::new(),
+            approximate: true,
+        };
+        let imported = raylab::scene::mitsuba::to_ron_with(&text, &options).unwrap();
+        assert!(imported.ron.contains(nearest), "{}", imported.ron);
+        assert_eq!(
+            imported.approximated.len(),
+            1,
+            "{:?}",
+            imported.approximated
+        );
+    }
+    // A blend that picks one side, or of one BSDF twice, is exact.
+    let exact = scene(
+        r#"<bsdf type="blendbsdf"><float name="weight" value="1"/><bsdf type="diffuse"/><bsdf type="conductor"/></bsdf>"#,
+    );
+    let imported = raylab::scene::mitsuba::to_ron(&exact, &[]).unwrap();
+    assert!(imported.ron.contains("Conductor(metal: \"none\")"));
+}
+
+/// A Mitsuba 0.6 scene is read through Mitsuba 3's upgrade rules: camelCase names become
+/// snake_case, `<lookAt>` is `<lookat>`, diffuse's `diffuseReflectance` its `reflectance`, and
+/// `uscale`/`voffset`... a `to_uv` transform. It imports as the same scene written for 3.0.
+#[test]
+fn mitsuba_0_6_scenes_are_upgraded_as_mitsuba_3_does() {
+    let old = r#"<scene version="0.6.0">
+        <integrator type="path"><integer name="maxDepth" value="4"/></integrator>
+        <sensor type="perspective"><float name="fov" value="40"/><string name="fovAxis" value="y"/>
+            <transform name="toWorld"><lookAt origin="0, 1, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <sampler type="independent"><integer name="sampleCount" value="8"/></sampler></sensor>
+        <shape type="sphere"><bsdf type="dielectric"><float name="intIOR" value="1.33"/></bsdf></shape>
+        <shape type="rectangle"><bsdf type="diffuse"><texture name="diffuseReflectance" type="checkerboard">
+            <float name="uscale" value="4"/><float name="vscale" value="2"/><float name="uoffset" value="0.5"/><float name="voffset" value="0.25"/>
+        </texture></bsdf></shape>
+    </scene>"#;
+    let new = r#"<scene version="3.0.0">
+        <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+        <sensor type="perspective"><float name="fov" value="40"/><string name="fov_axis" value="y"/>
+            <transform name="to_world"><lookat origin="0, 1, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <sampler type="independent"><integer name="sample_count" value="8"/></sampler></sensor>
+        <shape type="sphere"><bsdf type="dielectric"><float name="int_ior" value="1.33"/></bsdf></shape>
+        <shape type="rectangle"><bsdf type="diffuse"><texture name="reflectance" type="checkerboard">
+            <transform name="to_uv"><translate x="0.5" y="0.25"/><scale x="4" y="2"/></transform>
+        </texture></bsdf></shape>
+    </scene>"#;
+    let (a, b) = (
+        raylab::scene::mitsuba::to_ron(old, &[]).unwrap(),
+        raylab::scene::mitsuba::to_ron(new, &[]).unwrap(),
+    );
+    let body = |ron: &str| ron.lines().skip(1).collect::<Vec<_>>().join("\n");
+    assert_eq!(body(&a.ron), body(&b.ron));
+    assert!(
+        a.ron.contains("int_ior: 1.33") && a.ron.contains("spp: 8"),
+        "{}",
+        a.ron
+    );
+    // A 3.0 scene keeps its names: camelCase there is an unknown parameter.
+    let err = raylab::scene::mitsuba::to_ron(&old.replace("0.6.0", "3.0.0"), &[]).unwrap_err();
+    assert!(err.2.contains("maxDepth"), "{err:?}");
 }

@@ -1,6 +1,6 @@
 //! Mitsuba 3's plugins, one by one, as raylab's RON.
 
-use super::xml::{at, attr, position, value, Located, Params, Value};
+use super::xml::{at, attr, major_version, position, snake_case, value, Located, Params, Value};
 pub use crate::scene::import::Imported;
 use crate::scene::import::{matrix, num, quote, v3, ImportOptions, RonScene};
 use crate::scene::spectra::{self, Use};
@@ -27,7 +27,16 @@ impl<'a, 'input> Props<'a, 'input> {
         let (mut values, mut children) = (HashMap::new(), Vec::new());
         for child in node.children().filter(Node::is_element) {
             let tag = child.tag_name().name();
-            let name = attr(params, doc, child, "name")?.unwrap_or_default();
+            let mut name = attr(params, doc, child, "name")?.unwrap_or_default();
+            if params.legacy {
+                name = snake_case(&name);
+                if name == "diffuse_reflectance"
+                    && node.tag_name().name() == "bsdf"
+                    && node.attribute("type") == Some("diffuse")
+                {
+                    name = "reflectance".into();
+                }
+            }
             match tag {
                 "bsdf" | "emitter" | "texture" | "film" | "sampler" | "rfilter" | "ref"
                 | "shape" | "sensor" | "integrator" | "medium" | "phase" | "volume" => {
@@ -220,6 +229,51 @@ struct ShapeParts {
     flip: bool,
 }
 
+/// The constant albedo of a `Lambert` material's RON, if it is one.
+fn lambert_albedo(ron: &str) -> Option<[f32; 3]> {
+    let inner = ron.strip_prefix("Lambert(albedo: ")?.strip_suffix(')')?;
+    let numbers: Vec<f32> = inner
+        .trim_matches(|c| c == '(' || c == ')')
+        .split(',')
+        .map(|x| x.trim().parse().ok())
+        .collect::<Option<_>>()?;
+    match numbers[..] {
+        [g] => Some([g; 3]),
+        [r, g, b] => Some([r, g, b]),
+        _ => None,
+    }
+}
+
+/// Mitsuba's `orthographic` sensor as raylab's `Orthographic` camera. Its camera space maps
+/// `x` in `[-1, 1]` across the film's width and `y` in `[-1/aspect, 1/aspect]` across its
+/// height (aspect = width / height), from `+x` (`to_world`'s left) on the image's left; so
+/// `to_world`'s scales set the view's size. A crop is the crop's part of that rectangle.
+fn orthographic(
+    m: &Affine3A,
+    (width, height): (i64, i64),
+    crop: Option<(i64, i64, i64, i64)>,
+) -> String {
+    let (w, h) = (width as f32, height as f32);
+    let (left, up, dir) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
+    // Half the view's size in world units, and its unit axes.
+    let (half_w, half_h) = (left.length(), up.length() * h / w);
+    let (right, up, dir) = (-left.normalize(), up.normalize(), dir.normalize());
+    let (x, y, cw, ch) = crop.unwrap_or((0, 0, width, height));
+    let (u, v) = (
+        (x as f32 + 0.5 * cw as f32) / w,
+        (y as f32 + 0.5 * ch as f32) / h,
+    );
+    let eye = m.translation + right * (half_w * (2.0 * u - 1.0)) + up * (half_h * (1.0 - 2.0 * v));
+    format!(
+        "Orthographic(eye: {}, look_at: {}, up: {}, width: {}, height: {}, resolution: ({cw}, {ch}))",
+        v3(eye.into()),
+        v3((eye + dir).into()),
+        v3(up.into()),
+        num(2.0 * half_w * cw as f32 / w),
+        num(2.0 * half_h * ch as f32 / h),
+    )
+}
+
 /// The conversion's state: the output's parts and the named things seen so far.
 struct Converter<'a, 'input> {
     doc: &'a Document<'input>,
@@ -335,7 +389,23 @@ impl<'a, 'input> Converter<'a, 'input> {
     fn texture(&self, node: Node<'a, 'input>) -> Result<String, Located> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
+        let legacy_uv = if self.params.legacy {
+            let mut get = |name: &str, default: f32| p.float(name).map(|v| v.unwrap_or(default));
+            let (u, v) = (get("uoffset", 0.0)?, get("voffset", 0.0)?);
+            let (su, sv) = (get("uscale", 1.0)?, get("vscale", 1.0)?);
+            ([su, sv], [u, v])
+        } else {
+            ([1.0, 1.0], [0.0, 0.0])
+        };
         let (scale, offset) = match p.transform("to_uv")? {
+            // Mitsuba 0.x's `uoffset`... become to_uv = translate(offset) then scale.
+            None if self.params.legacy => (
+                legacy_uv.0,
+                [
+                    legacy_uv.0[0] * legacy_uv.1[0],
+                    legacy_uv.0[1] * legacy_uv.1[1],
+                ],
+            ),
             None => ([1.0, 1.0], [0.0, 0.0]),
             Some(m) => {
                 let c = m.matrix3;
@@ -544,8 +614,53 @@ impl<'a, 'input> Converter<'a, 'input> {
                     )
                 }
             }
+            "blendbsdf" => {
+                // (1 - weight) f_a + weight f_b, which raylab's materials hold when the weight
+                // picks one, both are the same, or both are constant diffuse reflectances.
+                let weight = self.constant_weight(&mut p, node, "weight")?;
+                let inner = self.nested_bsdfs(&mut p, node, 2)?;
+                let (a, b) = (self.bsdf(inner[0])?, self.bsdf(inner[1])?);
+                let w = weight.unwrap_or(0.5);
+                match (weight, lambert_albedo(&a), lambert_albedo(&b)) {
+                    (Some(0.0), ..) => a,
+                    (Some(1.0), ..) => b,
+                    _ if a == b => a,
+                    (Some(w), Some(ka), Some(kb)) => format!(
+                        "Lambert(albedo: {})",
+                        v3(std::array::from_fn(|i| {
+                            let w = w as f64;
+                            ((1.0 - w) * ka[i] as f64 + w * kb[i] as f64) as f32
+                        }))
+                    ),
+                    _ => {
+                        self.approximate(
+                            node,
+                            format!("<bsdf type=\"blendbsdf\"> of these BSDFs (with this weight) has no raylab material; replaced by the one weighted more ({})", if w > 0.5 { "the second" } else { "the first" }),
+                        )?;
+                        if w > 0.5 {
+                            b
+                        } else {
+                            a
+                        }
+                    }
+                }
+            }
+            "mask" => {
+                // Mitsuba's cut-out: the BSDF where opaque, nothing where not. raylab has no
+                // transparent surfaces, so only a fully opaque mask is exact.
+                let opacity = self.constant_weight(&mut p, node, "opacity")?;
+                let inner = self.nested_bsdfs(&mut p, node, 1)?;
+                let material = self.bsdf(inner[0])?;
+                if opacity != Some(1.0) {
+                    self.approximate(
+                        node,
+                        "<bsdf type=\"mask\"> with an opacity below 1: raylab has no see-through surfaces; rendered opaque".to_string(),
+                    )?;
+                }
+                material
+            }
             other => {
-                let message = format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap are)");
+                let message = format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, blendbsdf and mask where raylab's materials hold them are)");
                 self.approximate(
                     node,
                     format!("{message}: replaced by Mitsuba's default, diffuse 0.5"),
@@ -562,6 +677,62 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
         p.finish(&[])?;
         Ok(out)
+    }
+
+    /// A blend weight or opacity in `[0, 1]`: the number, `None` when it is a texture (the
+    /// texture is consumed), Mitsuba's 0.5 when absent.
+    fn constant_weight(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+        name: &str,
+    ) -> Result<Option<f32>, Located> {
+        if let Some(i) = p.children.iter().position(|(n, _)| n == name) {
+            p.children.remove(i);
+            return Ok(None);
+        }
+        let w = p.float(name)?.unwrap_or(0.5);
+        if !(0.0..=1.0).contains(&w) {
+            return Err(at(
+                self.doc,
+                node,
+                format!("`{name}` must lie in [0, 1], not {w}"),
+            ));
+        }
+        Ok(Some(w))
+    }
+
+    /// Exactly `n` nested (or referenced) BSDFs of `node`.
+    fn nested_bsdfs(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+        n: usize,
+    ) -> Result<Vec<Node<'a, 'input>>, Located> {
+        let mut inner = Vec::new();
+        for (_, child) in std::mem::take(&mut p.children) {
+            let child = self.resolve(child)?;
+            if child.tag_name().name() != "bsdf" {
+                return Err(at(
+                    self.doc,
+                    child,
+                    format!("<{}> is not a BSDF", child.tag_name().name()),
+                ));
+            }
+            inner.push(child);
+        }
+        if inner.len() != n {
+            let kind = self.kind(node)?;
+            return Err(at(
+                self.doc,
+                node,
+                format!(
+                    "<bsdf type=\"{kind}\"> takes {n} nested BSDF(s), not {}",
+                    inner.len()
+                ),
+            ));
+        }
+        Ok(inner)
     }
 
     /// The material name for a BSDF node (written once, however many shapes use it).
@@ -702,9 +873,30 @@ impl<'a, 'input> Converter<'a, 'input> {
                 )
             })
         };
+        // Mitsuba shades a mesh with its file's normals, or with normals it computes when the
+        // file has none; flat with `face_normals`.
+        let normals = |p: &mut Props<'a, 'input>| -> Result<&str, Located> {
+            Ok(match p.boolean("face_normals")? {
+                Some(true) => "flat",
+                _ => "smooth",
+            })
+        };
         let shape = match kind.as_str() {
-            "obj" => format!("Obj(path: {})", quote(&self.file_name(file(&mut p)?))),
-            "ply" => format!("Ply(path: {})", quote(&self.file_name(file(&mut p)?))),
+            "obj" | "ply" => {
+                let path = quote(&self.file_name(file(&mut p)?));
+                let normals = normals(&mut p)?;
+                let variant = if kind == "obj" { "Obj" } else { "Ply" };
+                format!("{variant}(path: {path}, normals: \"{normals}\")")
+            }
+            "serialized" => {
+                let path = quote(&self.file_name(file(&mut p)?));
+                let index = p.integer("shape_index")?.unwrap_or(0);
+                let index = u32::try_from(index).map_err(|_| {
+                    at(self.doc, node, format!("shape_index {index} must be 0 or more"))
+                })?;
+                let normals = normals(&mut p)?;
+                format!("Serialized(path: {path}, shape_index: {index}, normals: \"{normals}\")")
+            }
             "rectangle" => "Rectangle".to_string(),
             "cube" => "Box(min: (-1, -1, -1), max: (1, 1, 1))".to_string(),
             "disk" => "Disk".to_string(),
@@ -720,12 +912,9 @@ impl<'a, 'input> Converter<'a, 'input> {
                 format!("Cylinder(p0: {}, p1: {}, radius: {})", v3(p0), v3(p1), num(r))
             }
             other => {
-                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, rectangle, cube, disk, sphere, cylinder are)")))
+                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, serialized, rectangle, cube, disk, sphere, cylinder are)")))
             }
         };
-        if matches!(kind.as_str(), "obj" | "ply") && p.boolean("face_normals")? == Some(true) {
-            self.report.push(format!("{name}: face_normals ignored: raylab shades with the file's vertex normals where it has them"));
-        }
         let mut flip = p.boolean("flip_normals")?.unwrap_or(false);
         // Mitsuba's rectangle faces its inverse transpose's +z; raylab's Rectangle is two
         // triangles facing their winding, which a mirroring to_world turns the other way.
@@ -853,22 +1042,29 @@ impl<'a, 'input> Converter<'a, 'input> {
 
     fn sensor(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
         let kind = self.kind(node)?;
-        if kind != "perspective" {
+        if kind != "perspective" && kind != "orthographic" {
             return Err(at(
                 self.doc,
                 node,
-                format!("sensor `{kind}` is not supported (perspective is)"),
+                format!("sensor `{kind}` is not supported (perspective and orthographic are)"),
             ));
         }
         let mut p = self.props(node)?;
-        let fov = p.float("fov")?.ok_or_else(|| {
-            at(
-                self.doc,
-                node,
-                "the sensor needs `fov` (raylab does not read `focal_length`)",
-            )
-        })?;
-        let axis = p.string("fov_axis")?.unwrap_or_else(|| "x".into());
+        let fov = if kind == "perspective" {
+            Some(p.float("fov")?.ok_or_else(|| {
+                at(
+                    self.doc,
+                    node,
+                    "the sensor needs `fov` (raylab does not read `focal_length`)",
+                )
+            })?)
+        } else {
+            None
+        };
+        let axis = match fov {
+            Some(_) => p.string("fov_axis")?.unwrap_or_else(|| "x".into()),
+            None => String::new(),
+        };
         let m = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
         if p.float("near_clip")?.is_some() | p.float("far_clip")?.is_some() {
             self.report.push(
@@ -963,6 +1159,18 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
         // A pinhole's focus distance changes nothing.
         p.finish(&["focus_distance"])?;
+        let (left, up, dir) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
+        if up.cross(dir).dot(left) <= 0.0 {
+            return Err(at(
+                self.doc,
+                node,
+                "the sensor's to_world mirrors the image, which raylab's camera cannot",
+            ));
+        }
+        let Some(fov) = fov else {
+            self.camera = Some(orthographic(&m, (width, height), crop));
+            return self.sensor_settings(filter, spp);
+        };
         let (w, h) = (width as f32, height as f32);
         // raylab's fov is vertical.
         let half = (fov.to_radians() * 0.5).tan();
@@ -994,14 +1202,6 @@ impl<'a, 'input> Converter<'a, 'input> {
         };
         let fov_y = 2.0 * vertical.atan().to_degrees();
         let eye = m.translation;
-        let (left, up, dir) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
-        if up.cross(dir).dot(left) <= 0.0 {
-            return Err(at(
-                self.doc,
-                node,
-                "the sensor's to_world mirrors the image, which raylab's camera cannot",
-            ));
-        }
         let dir = dir.normalize();
         self.camera = Some(match crop {
             None => format!(
@@ -1031,6 +1231,11 @@ impl<'a, 'input> Converter<'a, 'input> {
                 )
             }
         });
+        self.sensor_settings(filter, spp)
+    }
+
+    /// The sensor's film filter and sample count, as render settings.
+    fn sensor_settings(&mut self, filter: String, spp: Option<i64>) -> Result<(), Located> {
         self.render.push(format!("filter: {}", quote(&filter)));
         if let Some(spp) = spp {
             self.render.push(format!("spp: {spp}"));
@@ -1154,9 +1359,12 @@ pub fn to_ron_in(
             format!("expected a <scene>, found <{}>", root.tag_name().name()),
         ));
     }
+    let mut params = Params::new(&options.defines);
+    // Mitsuba 3 reads a 0.x scene through its upgrade rules; so does raylab.
+    params.legacy = major_version(&doc, root)?.is_some_and(|major| major < 2);
     let mut c = Converter {
         doc: &doc,
-        params: Params::new(&options.defines),
+        params,
         ids: HashMap::new(),
         materials: Vec::new(),
         material_of: HashMap::new(),

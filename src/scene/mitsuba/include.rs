@@ -75,6 +75,8 @@ struct Expander<'f> {
     files: &'f SceneFiles,
     out: Expanded,
     stack: Vec<PathBuf>,
+    /// Whether the scene file is Mitsuba 0.x's (read through the upgrade rules).
+    legacy: bool,
 }
 
 /// The text of `path` with its includes expanded.
@@ -88,6 +90,7 @@ pub fn expand(path: &Path, text: &str, files: &SceneFiles) -> Result<Expanded, F
             files: Vec::new(),
         },
         stack: vec![path.canonicalize().unwrap_or_else(|_| path.to_path_buf())],
+        legacy: false,
     };
     e.file(path, text.to_string(), None)?;
     Ok(e.out)
@@ -137,6 +140,23 @@ impl Expander<'_> {
             (path.to_path_buf(), p.row, p.col, message)
         };
         let root = doc.root_element();
+        // The upgrade from Mitsuba 0.x applies to the whole expanded text: an included file
+        // must be of the same generation as the scene.
+        let legacy = super::xml::major_version(&doc, root)
+            .map_err(|(l, c, m)| (path.to_path_buf(), l, c, m))?
+            .is_some_and(|major| major < 2);
+        if included_at.is_none() {
+            self.legacy = legacy;
+        } else if legacy != self.legacy {
+            return Err(at(
+                root,
+                format!(
+                    "an included file of Mitsuba {} in a scene of Mitsuba {}: give both the same major version",
+                    if legacy { "0.x" } else { "2 or 3" },
+                    if self.legacy { "0.x" } else { "2 or 3" }
+                ),
+            ));
+        }
         let range = if included_at.is_some() {
             if root.tag_name().name() != "scene" {
                 return Err(at(

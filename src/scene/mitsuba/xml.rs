@@ -18,6 +18,9 @@ pub fn position(doc: &Document, node: Node) -> (u32, u32) {
 pub struct Params {
     values: HashMap<String, String>,
     overridden: HashMap<String, String>,
+    /// The scene is Mitsuba 0.x's: property names are read through Mitsuba 3's upgrade
+    /// (camelCase to snake_case, `<lookAt>`, diffuse's `diffuse_reflectance`, `uscale`...).
+    pub legacy: bool,
 }
 
 impl Params {
@@ -25,6 +28,7 @@ impl Params {
         Params {
             values: HashMap::new(),
             overridden: overrides.iter().cloned().collect(),
+            legacy: false,
         }
     }
 
@@ -74,6 +78,46 @@ pub fn attr(
     node.attribute(name)
         .map(|v| params.substitute(v).map_err(|e| at(doc, node, e)))
         .transpose()
+}
+
+/// The major version of a `<scene version="X.Y.Z">` (Mitsuba's file versions); `None` when
+/// the attribute is absent.
+pub fn major_version(doc: &Document, scene: Node) -> Result<Option<u32>, Located> {
+    let Some(v) = scene.attribute("version") else {
+        return Ok(None);
+    };
+    let parts: Option<Vec<u32>> = v.split('.').map(|p| p.trim().parse().ok()).collect();
+    match parts.as_deref() {
+        Some([major, ..]) if v.split('.').count() <= 3 => Ok(Some(*major)),
+        _ => Err(at(
+            doc,
+            scene,
+            format!("could not read the version number {v:?} (as \"3.0.0\")"),
+        )),
+    }
+}
+
+/// Mitsuba 3's upgrade of a 0.x property name: each lower-case letter followed by capitals
+/// gets an underscore and the capitals become lower case (`maxDepth` is `max_depth`,
+/// `intIOR` is `int_ior`).
+pub fn snake_case(name: &str) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    let mut out = String::with_capacity(name.len() + 4);
+    let mut i = 0;
+    while i < chars.len() {
+        out.push(chars[i]);
+        if chars[i].is_ascii_lowercase() && chars.get(i + 1).is_some_and(char::is_ascii_uppercase) {
+            out.push('_');
+            i += 1;
+            while let Some(c) = chars.get(i).filter(|c| c.is_ascii_uppercase()) {
+                out.push(c.to_ascii_lowercase());
+                i += 1;
+            }
+            continue;
+        }
+        i += 1;
+    }
+    out
 }
 
 /// An error at `node`.
@@ -293,7 +337,7 @@ pub fn transform(params: &Params, doc: &Document, node: Node) -> Result<Affine3A
                 let col = |c: usize| DVec3::new(e(0, c), e(1, c), e(2, c));
                 DAffine3::from_cols(col(0), col(1), col(2), col(3))
             }
-            "lookat" => {
+            "lookat" | "lookAt" if op.tag_name().name() == "lookat" || params.legacy => {
                 let get = |name: &str| -> Result<DVec3, Located> {
                     let v = attr(params, doc, op, name)?
                         .ok_or_else(|| at(doc, op, format!("<lookat> needs `{name}`")))?;
