@@ -409,12 +409,9 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
     let mut most = 0;
     for c in &opts.contestants {
         let entry = registry::find(&c.integrator)?;
-        most = most.max(
-            entry
-                .build_checked(&entry.resolve(&c.params)?)?
-                .demand()
-                .memory,
-        );
+        let demand = entry.build_checked(&entry.resolve(&c.params)?)?.demand();
+        render::check_camera(&camera, &demand, entry.name)?;
+        most = most.max(demand.memory);
     }
     render::check_memory(camera.width, camera.height, most)?;
     if let Some(r) = opts.region {

@@ -266,6 +266,7 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
     };
     let integrator = entry.build_checked(&params)?;
     render::check_memory(camera.width, camera.height, integrator.demand().memory)?;
+    render::check_camera(&camera, &integrator.demand(), entry.name)?;
     let built = RenderScene::build_on_threads(&loaded, settings.accel, settings.threads)?;
     let info = RenderInfo {
         integrator: entry.name,

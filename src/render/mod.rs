@@ -143,6 +143,23 @@ pub fn memory_needed(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * 208
 }
 
+/// Refuses a camera the integrator `name` cannot use: light-path integrators connect points
+/// to the lens, which an orthographic camera does not have.
+pub fn check_camera(
+    camera: &raylab_integrators::Camera,
+    demand: &raylab_integrators::integrator::Demand,
+    name: &str,
+) -> anyhow::Result<()> {
+    if demand.pinhole && !camera.is_pinhole() {
+        anyhow::bail!(
+            "integrator `{name}` connects light paths to the lens, which an orthographic camera \
+             does not have; use a LookAt or ImagePlane camera, or a camera-path integrator \
+             (path)"
+        );
+    }
+    Ok(())
+}
+
 /// Refuses a render whose buffers would not fit in the memory this process may still
 /// allocate (Linux: the least of the machine's available memory, the cgroup's limit and
 /// `ulimit -v`), so an absurd resolution or photon count is an error before anything is

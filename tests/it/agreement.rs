@@ -220,3 +220,31 @@ fn no_light_leaks_through_smooth_shaded_surfaces() {
         );
     }
 }
+
+/// Light tracing estimates the same image as path tracing from the other end: on the Cornell
+/// box (all diffuse, so no `L S* E` path is missed) through the LookAt camera and through a
+/// skewed, tilted image-plane camera, where a wrong importance `We` or lens density would show
+/// first.
+#[test]
+fn lighttracer_agrees_with_path_through_both_cameras() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string("scenes/cornell_box.ron").unwrap();
+    let (start, end) = (
+        text.find("camera: LookAt(").unwrap(),
+        text.find("    ),\n").unwrap(),
+    );
+    let skewed = format!(
+        "{}camera: ImagePlane(eye: (0.1, -0.05, 3.9), top_left: (-0.35, 0.38, 2.9), \
+         top_right: (0.35, 0.33, 3.0), bottom_left: (-0.3, -0.35, 2.95), \
+         bottom_right: (0.4, -0.4, 3.05)),\n{}",
+        &text[..start],
+        &text[end + "    ),\n".len()..]
+    );
+    let plane = dir.path().join("cornell_image_plane.ron");
+    std::fs::write(&plane, skewed).unwrap();
+    for scene in ["scenes/cornell_box.ron", plane.to_str().unwrap()] {
+        let path = render_mean(scene, "path", &[("max-depth", "4")], 1024, 6);
+        let light = render_mean(scene, "lighttracer", &[("max-depth", "4")], 1024, 7);
+        assert_agree(scene, ("path", &path), ("lighttracer", &light));
+    }
+}

@@ -34,7 +34,37 @@ fn tolerance(integrator: &str, expected: f32, se: f32) -> f32 {
 }
 
 fn check_all(what: &str, scene: &str, files: &[(&str, Vec<u8>)], expected: f32, spp: u32) {
-    for name in transport_integrators() {
+    check(what, scene, files, expected, spp, &transport_integrators());
+}
+
+/// [`check_all`] for a closed form at one point, seen through [`CAMERA`]'s 2-degree view: by
+/// the integrators that trace paths from the camera. A light tracer would have to land its
+/// paths on a spot a few centimetres wide on a 100 m floor; it is checked against `path` on
+/// the same lights with a wide view instead
+/// (`the_light_tracer_agrees_with_path_under_every_kind_of_light`).
+fn check_narrow_view(what: &str, scene: &str, expected: f32, spp: u32) {
+    let camera_paths: Vec<&str> = transport_integrators()
+        .into_iter()
+        .filter(|n| !connects_to_the_lens(n))
+        .collect();
+    check(what, scene, &[], expected, spp, &camera_paths);
+}
+
+/// True for the integrators whose paths start at the lights and connect to the lens.
+fn connects_to_the_lens(name: &str) -> bool {
+    let entry = REGISTRY.iter().find(|e| e.name == name).unwrap();
+    entry.instantiate(&[]).unwrap().demand().pinhole
+}
+
+fn check(
+    what: &str,
+    scene: &str,
+    files: &[(&str, Vec<u8>)],
+    expected: f32,
+    spp: u32,
+    integrators: &[&str],
+) {
+    for &name in integrators {
         let (mean, se) = mean_green(scene, files, name, spp);
         println!("{what}, {name}: {mean:.5} +- {se:.5} (expected {expected:.5})");
         assert!(
@@ -60,7 +90,7 @@ fn a_floor_under_a_directional_light_has_radiance_a_e_cos_over_pi() {
             ])"#
     );
     let expected = 0.5 / PI * 2.0 * std::f32::consts::FRAC_1_SQRT_2;
-    check_all("directional", &scene, &[], expected, 16);
+    check_narrow_view("directional", &scene, expected, 16);
 }
 
 #[test]
@@ -76,7 +106,7 @@ fn a_floor_under_a_spot_light_has_radiance_a_i_over_pi_h2() {
     );
     // The 2-degree view sees the floor within 0.018 m of the centre: cos^3 > 0.9999.
     let expected = 0.5 / PI * 8.0 / 4.0;
-    check_all("spot", &scene, &[], expected, 16);
+    check_narrow_view("spot", &scene, expected, 16);
 }
 
 /// A Radiance HDR file of `w x h` texels, all of value `v` (flat scanlines).
@@ -167,7 +197,7 @@ fn a_floor_under_a_disk_light_has_radiance_a_l_r2_over_h2_plus_r2() {
                      flip_normals: {flip}, emitter: Area(radiance: (4, 4, 4))),
                 ])"#
         );
-        check_all(what, &scene, &[], expected, 16);
+        check_narrow_view(what, &scene, expected, 16);
     }
 }
 
@@ -212,5 +242,77 @@ fn a_disk_light_placed_by_a_mirroring_matrix_faces_its_normal() {
                  emitter: Area(radiance: (4, 4, 4))),
             ])"#
     );
-    check_all("mirrored disk", &scene, &[], expected, 16);
+    check_narrow_view("mirrored disk", &scene, expected, 16);
+}
+
+/// Light tracing starts where next-event estimation ends: at each light's emission sampling
+/// (`sample_le`: positions, directions, densities and power). Under every kind of light, a
+/// floor and a box seen through a wide view render the same in `lighttracer` as in `path`
+/// (a z-test on the image mean, standard errors from the films).
+#[test]
+fn the_light_tracer_agrees_with_path_under_every_kind_of_light() {
+    let lights = [
+        (
+            "directional",
+            r#"(name: "sun", emitter: Directional(direction: (1, -2, -1), irradiance: (2, 2, 2)))"#,
+        ),
+        (
+            "spot",
+            r#"(name: "spot", transform: (translate: (0.5, 2, 0.5)), emitter: Spot(intensity: (8, 8, 8), look_at: (0, 0, 0), cutoff_angle: 40))"#,
+        ),
+        // Out of view: a point light in view lights its pixel in a light tracer only.
+        (
+            "point",
+            r#"(name: "bulb", transform: (translate: (0, 3.5, 3)), emitter: Point(intensity: (3, 3, 3)))"#,
+        ),
+        (
+            "disk",
+            r#"(name: "lamp", shape: Disk, transform: (translate: (0, 2, 0), scale: (0.5, 0.5, 1), rotate: (90, 0, 0)), emitter: Area(radiance: (4, 4, 4)))"#,
+        ),
+        (
+            "sphere",
+            r#"(name: "ball lamp", shape: Sphere(center: (0.8, 1.2, -0.5), radius: 0.2), emitter: Area(radiance: (6, 6, 6)))"#,
+        ),
+        (
+            "tube",
+            r#"(name: "tube", shape: Cylinder(p0: (-1, 1.5, -1), p1: (1, 1.5, -1), radius: 0.05), emitter: Area(radiance: (10, 10, 10)))"#,
+        ),
+        ("sky", ""),
+    ];
+    for (what, light) in lights {
+        let light = if light.is_empty() {
+            String::new()
+        } else {
+            format!("{light},")
+        };
+        let sky = if what == "sky" {
+            "environment: (0.5, 0.6, 0.7),"
+        } else {
+            ""
+        };
+        let scene = format!(
+            r#"(camera: LookAt(eye: (0, 2.5, 4), look_at: (0, 0.3, 0), up: (0, 1, 0), fov: 45, resolution: (24, 24)),
+                {sky}
+                materials: {{"grey": Lambert(albedo: (0.5, 0.5, 0.5)), "red": Lambert(albedo: (0.7, 0.2, 0.1))}},
+                entities: [
+                    (name: "floor", shape: Quad(vertices: [(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)]), material: "grey"),
+                    (name: "box", shape: Box(min: (-0.4, 0, -0.4), max: (0.4, 0.8, 0.4)), material: "red"),
+                    {light}
+                ])"#
+        );
+        let path = render_text(&scene, &[], "path", 256, 1, AccelKind::Raylab);
+        let light = render_text(&scene, &[], "lighttracer", 256, 2, AccelKind::Raylab);
+        let (a, sa) = (path.mean().y, path.mean_standard_error().y);
+        let (b, sb) = (light.mean().y, light.mean_standard_error().y);
+        let se = (sa * sa + sb * sb).sqrt();
+        println!("{what}: path {a:.5} +- {sa:.5}, lighttracer {b:.5} +- {sb:.5}");
+        assert!(
+            se < 0.02 * a,
+            "{what}: too noisy to mean anything ({se} of {a})"
+        );
+        assert!(
+            (a - b).abs() < 4.5 * se,
+            "{what}: path {a} +- {sa}, lighttracer {b} +- {sb}"
+        );
+    }
 }

@@ -158,7 +158,7 @@ fn every_supported_plugin_loads() {
         "{report}"
     );
     assert!(
-        report.contains("max_depth -1 is raylab's max-depth inf"),
+        report.contains("max_depth -1 is raylab's path max-depth inf"),
         "{report}"
     );
     // An emitter without a BSDF is black in Mitsuba (not its default grey): no material.
@@ -592,4 +592,33 @@ fn mitsuba_0_6_scenes_are_upgraded_as_mitsuba_3_does() {
     // A 3.0 scene keeps its names: camelCase there is an unknown parameter.
     let err = raylab::scene::mitsuba::to_ron(&old.replace("0.6.0", "3.0.0"), &[]).unwrap_err();
     assert!(err.2.contains("maxDepth"), "{err:?}");
+}
+
+/// Mitsuba's `ptracer` is raylab's `lighttracer` (its max_depth one more than raylab's), and
+/// pbrt-v4's `lightpath` is too (its maxdepth the same as raylab's).
+#[test]
+fn light_tracers_of_both_formats_are_raylabs_lighttracer() {
+    let xml = r#"<scene version="3.0.0">
+        <integrator type="ptracer"><integer name="max_depth" value="4"/><integer name="samples_per_pass" value="8"/></integrator>
+        <sensor type="perspective"><float name="fov" value="40"/></sensor>
+        <shape type="sphere"/>
+    </scene>"#;
+    let imported = raylab::scene::mitsuba::to_ron(xml, &[]).unwrap();
+    assert!(
+        imported
+            .ron
+            .contains(r#"integrator: "lighttracer", params: {"max-depth": 3, "rr-depth": 5}"#),
+        "{}",
+        imported.ron
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let pbrt = dir.path().join("light.pbrt");
+    std::fs::write(
+        &pbrt,
+        "Integrator \"lightpath\" \"integer maxdepth\" 3\nCamera \"perspective\"\nWorldBegin\nShape \"sphere\"\n",
+    )
+    .unwrap();
+    let loaded = load_scene(&pbrt).unwrap();
+    assert_eq!(loaded.render.integrator, "lighttracer");
+    assert_eq!(loaded.render.params.get("max-depth"), Some(&3.0));
 }

@@ -26,17 +26,8 @@ const CORNELL: &str = "scenes/cornell_box.ron";
 #[test]
 fn every_integrator_is_bit_identical_at_1_2_and_8_threads() {
     let dir = tempfile::tempdir().unwrap();
-    for integrator in [
-        "whitted",
-        "fixed-depth",
-        "russian-roulette",
-        "path",
-        "photon",
-        "sppm",
-        "normals",
-        "albedo",
-        "depth",
-    ] {
+    // Every integrator of the registry: none can be forgotten.
+    for integrator in raylab_integrators::REGISTRY.iter().map(|e| e.name) {
         let mut images: Vec<Vec<u8>> = Vec::new();
         for threads in ["1", "2", "8"] {
             let out = dir.path().join(format!("{integrator}-{threads}.exr"));
@@ -133,6 +124,21 @@ fn checkpoint_then_resume_equals_a_direct_render() {
         "photons=5000",
     ];
     checkpoint_then_resume(&d.join("sppm"), &sppm);
+    // lighttracer too: its splats are part of each pass's sums.
+    let light = [
+        "render",
+        CORNELL,
+        "--size",
+        "96x96",
+        "--spp",
+        "40",
+        "--seed",
+        "9",
+        "-q",
+        "-i",
+        "lighttracer",
+    ];
+    checkpoint_then_resume(&d.join("lighttracer"), &light);
     let common = [
         "render", CORNELL, "--size", "96x96", "--spp", "40", "--seed", "9", "-q",
     ];

@@ -136,6 +136,7 @@ impl RayIntegrator for Direct {
         Demand {
             rays_per_sample: 1.0 + (self.emitter_samples + self.bsdf_samples) as f64,
             memory: 0,
+            ..Demand::default()
         }
     }
 }

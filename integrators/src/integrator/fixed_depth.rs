@@ -172,6 +172,7 @@ impl RayIntegrator for FixedDepth {
         Demand {
             rays_per_sample: (0..=levels).map(|k| b.powi(k)).sum(),
             memory: 0,
+            ..Demand::default()
         }
     }
 

@@ -8,6 +8,7 @@ mod albedo_view;
 mod depth_view;
 mod direct;
 mod fixed_depth;
+mod light_tracer;
 mod normals_view;
 mod path;
 mod path_state;
@@ -240,6 +241,9 @@ pub struct Demand {
     pub rays_per_sample: f64,
     /// Memory it holds during a pass beyond the film (photon maps), bytes, about.
     pub memory: u64,
+    /// It connects points of the scene to the lens ([`Camera::sample_wi`]), which only a
+    /// pinhole camera has: an orthographic one is refused before rendering.
+    pub pinhole: bool,
 }
 
 /// An integrator that estimates the radiance arriving along a camera ray (Nori's and

@@ -98,6 +98,7 @@ impl RayIntegrator for PhotonMapping {
         Demand {
             rays_per_sample: 1.0,
             memory: photon_map_bytes(self.photons as u64 + self.caustic_photons as u64),
+            ..Demand::default()
         }
     }
 

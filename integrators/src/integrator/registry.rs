@@ -367,6 +367,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::russian_roulette::ENTRY,
     super::path::ENTRY,
     super::direct::ENTRY,
+    super::light_tracer::ENTRY,
     super::photon::ENTRY,
     super::sppm::ENTRY,
     super::normals_view::ENTRY,

@@ -91,6 +91,7 @@ impl RayIntegrator for Sppm {
         Demand {
             rays_per_sample: 1.0,
             memory: photon_map_bytes(self.photons as u64),
+            ..Demand::default()
         }
     }
 

@@ -249,6 +249,69 @@ fn camera_ray(camera: &Probe, sampler: &mut Sampler) -> Ray {
     }
 }
 
+/// A pinhole camera of `side` x `side` pixels that sees what `probe` probes: from an
+/// omnidirectional probe's point a 90 degree view (the analytic scenes are uniform there),
+/// within a sphere's silhouette, or a hair's breadth around a fixed ray.
+fn probe_camera(probe: &Probe, side: u32) -> crate::Camera {
+    let (eye, forward, tan_half) = match *probe {
+        Probe::Omni(o) => (o, Vec3A::X, 1.0),
+        Probe::Fixed(r) => (r.origin, r.dir, 1e-4),
+        Probe::AtSphere {
+            eye,
+            center,
+            radius,
+        } => {
+            let d = (center - eye).length();
+            let silhouette = (radius / d).asin().tan();
+            // The image's corners stay inside the silhouette.
+            (eye, (center - eye) / d, 0.9 * silhouette / 2f32.sqrt())
+        }
+    };
+    let up = if forward.cross(Vec3A::Z).length() > 1e-3 {
+        Vec3A::Z
+    } else {
+        Vec3A::X
+    };
+    let fov = 2.0 * f32::atan(tan_half).to_degrees();
+    crate::Camera::look_at(eye, eye + forward, up, fov, (side, side))
+}
+
+/// One pass's image mean (green): every pixel of `camera` sampled once at a random film
+/// position, its estimate plus all the splats of the pass, over the pixel count (the image
+/// mean of a box-filtered film).
+fn image_pass_mean(
+    name: &str,
+    integrator: &dyn Integrator,
+    camera: &crate::Camera,
+    scene: &TestScene,
+    pass: u32,
+) -> f64 {
+    let mut tracer = Tracer::new(scene);
+    let mut splats = crate::Splats::default();
+    let mut sum = 0.0f64;
+    for y in 0..camera.height {
+        for x in 0..camera.width {
+            let index = (y * camera.width + x) as u64;
+            let mut sampler = Sampler::new(12345, index, pass as u64);
+            let film = glam::Vec2::new(x as f32, y as f32) + sampler.next_2d();
+            let pixel = crate::PixelSample {
+                x,
+                y,
+                film,
+                index: pass,
+            };
+            let l = integrator.sample(&pixel, camera, &mut tracer, &mut sampler, &mut splats);
+            assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
+            sum += l.y as f64;
+        }
+    }
+    for (_, l) in splats.entries() {
+        assert!(l.is_finite(), "{name}: non-finite splat {l:?}");
+        sum += l.y as f64;
+    }
+    sum / (camera.width * camera.height) as f64
+}
+
 /// The integrator `name` as an estimator of radiance along probe rays.
 fn as_ray_integrator<'a>(name: &str, integrator: &'a dyn Integrator) -> &'a dyn RayIntegrator {
     integrator
@@ -346,6 +409,19 @@ pub fn estimate_passes(
     let mut means = Vec::with_capacity(passes as usize);
     for pass in 0..passes {
         integrator.prepare_pass(scene, 12345, pass, crate::Stop::NEVER);
+        if integrator.as_ray_integrator().is_none() {
+            // Light-path integrators: a camera's whole image, splats and all.
+            let side = (per_pass as f64).sqrt().ceil() as u32;
+            let camera = probe_camera(&scene.camera, side);
+            means.push(image_pass_mean(
+                name,
+                integrator.as_ref(),
+                &camera,
+                scene,
+                pass,
+            ));
+            continue;
+        }
         let ray_integrator = as_ray_integrator(name, integrator.as_ref());
         let mut tracer = Tracer::new(scene);
         let mut sum = 0.0f64;

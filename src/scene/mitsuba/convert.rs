@@ -1247,7 +1247,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         match kind.as_str() {
-            "path" => {
+            "path" | "ptracer" => {
                 let max_depth = p.integer("max_depth")?.unwrap_or(-1);
                 if max_depth == 0 || max_depth < -1 {
                     return Err(at(
@@ -1270,8 +1270,18 @@ impl<'a, 'input> Converter<'a, 'input> {
                 } else {
                     (max_depth - 1).max(0).to_string()
                 };
-                self.render.push(format!("integrator: \"path\", params: {{\"max-depth\": {depth}, \"rr-depth\": {rr_depth}}}"));
-                self.report.push(format!("integrator: Mitsuba's path max_depth {max_depth} is raylab's max-depth {depth}"));
+                // Mitsuba's ptracer is raylab's lighttracer (paths from the lights, each vertex
+                // connected to the sensor); its passes are raylab's passes.
+                let name = if kind == "path" {
+                    "path"
+                } else {
+                    "lighttracer"
+                };
+                if kind == "ptracer" {
+                    p.integer("samples_per_pass")?;
+                }
+                self.render.push(format!("integrator: \"{name}\", params: {{\"max-depth\": {depth}, \"rr-depth\": {rr_depth}}}"));
+                self.report.push(format!("integrator: Mitsuba's {kind} max_depth {max_depth} is raylab's {name} max-depth {depth}"));
             }
             "direct" => {
                 let shading = p.integer("shading_samples")?;
@@ -1315,7 +1325,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 return self.integrator(inner);
             }
             other => {
-                self.approximate(node, format!("integrator `{other}` is not supported (path, direct, moment are): rendered with path"))?;
+                self.approximate(node, format!("integrator `{other}` is not supported (path, ptracer, direct, moment are): rendered with path"))?;
                 self.render.push("integrator: \"path\"".into());
                 return Ok(());
             }

@@ -682,11 +682,13 @@ impl<'a> Converter<'a> {
         let name = match kind.as_str() {
             "path" | "volpath" | "simplepath" | "simplevolpath" | "randomwalk" => "path",
             "sppm" => "sppm",
-            "bdpt" | "lightpath" | "mlt" => {
+            // pbrt-v4's light tracer; its maxdepth counts scattering events too.
+            "lightpath" => "lighttracer",
+            "bdpt" | "mlt" => {
                 self.approximate(d.pos, format!("Integrator \"{kind}\": not in raylab yet, rendered with path (the same image, other noise)"))?;
                 "path"
             }
-            other => return Err((d.pos, format!("Integrator \"{other}\" is not supported (path, volpath, simplepath, randomwalk, sppm are)"))),
+            other => return Err((d.pos, format!("Integrator \"{other}\" is not supported (path, volpath, simplepath, randomwalk, lightpath, sppm are)"))),
         };
         if p.boolean("regularize")? == Some(true) {
             self.approximate(d.pos, "Integrator: regularize (a bias) ignored".into())?;

@@ -1,0 +1,226 @@
+//! `lighttracer`: light tracing, or particle tracing (Mitsuba 3's `ptracer`, pbrt-v4's
+//! `lightpath`; Arvo and Kirk 1990, Veach's thesis section 10.2 with t = 1).
+//!
+//! **Estimates** the measurement equation from the lights' side. Each camera sample traces one
+//! path from a light (chosen in proportion to power; a ray leaving it by `sample_le`), carrying
+//! power in importance transport mode, and connects every vertex to the lens: the BSDF towards
+//! the eye, the shading-normal correction, `We cos_lens / dist^2`, and an unoccluded segment.
+//! Each connection is splatted at the film position it lands on; with one light path per
+//! pixel sample, each splat is the path's estimate of the whole image's measurement restricted
+//! to its pixel (see `camera.rs`). Emitters seen directly are one connection more per sample:
+//! a point on a light chosen in proportion to power, sampled as seen from the eye (point and
+//! spot lights included: a pinhole sees a point light as one lit pixel, which camera-path
+//! integrators cannot find). Lights at infinity (environments, directional lights) cannot be
+//! connected to a point lens: what the camera sees of an environment directly comes from the
+//! sample's camera ray instead, traced only when the scene has one.
+//!
+//! Connections need a pinhole: an orthographic camera is refused before rendering.
+//!
+//! **Parameters**: `max-depth` (scattering events between light and camera, default
+//! unlimited), `rr-depth` (scattering events before Russian roulette, default 3; the survival
+//! probability is the path's throughput relative to what it left the light with, at most
+//! 0.95).
+//! **Bias**: none with unlimited `max-depth`. Mirrors and glass seen by the camera stay black:
+//! a path through a Dirac lobe cannot be connected (`L S* E` paths are missed, as in every
+//! light tracer); caustics (`L S+ D E`), which the path tracer finds slowly, come fast.
+
+use crate::bsdf::TransportMode;
+use crate::integrator::{
+    escaped, stays_on_viewer_side, Demand, Integrator, PixelSample, ShadingPoint, Splats, Tracer,
+    MAX_SURVIVAL,
+};
+use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
+use crate::{Camera, Hit, Rgb, Sampler};
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "lighttracer",
+    summary: "light tracing: paths from the lights, each vertex connected to the camera and splatted (Mitsuba's ptracer, pbrt's lightpath)",
+    params: &[MAX_DEPTH, RR_DEPTH],
+    build: |p: &Params| {
+        Box::new(LightTracer {
+            max_depth: p.get_depth("max-depth"),
+            rr_depth: p.get_u32("rr-depth"),
+        })
+    },
+    analytic: Some(Analytic {
+        params: &[],
+        // Images of 80 x 80 (100 x 100) pixels per pass: light paths spread their
+        // connections over the image, so a pass's mean needs many.
+        furnace: expect(2.0, 40, 6400),
+        point_in_sphere: expect(1.0, 40, 400),
+        sphere_under_sky: expect(1.2, 40, 10000),
+    }),
+};
+
+struct LightTracer {
+    max_depth: u32,
+    rr_depth: u32,
+}
+
+impl Integrator for LightTracer {
+    fn sample(
+        &self,
+        pixel: &PixelSample,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        splats: &mut Splats,
+    ) -> Rgb {
+        // The environment seen straight through the pixel: the one path no light path reaches.
+        let mut seen = Rgb::ZERO;
+        if tracer.scene.lights().environment().is_some() {
+            let ray = camera.ray(pixel.film.x, pixel.film.y);
+            if tracer.camera(&ray).is_none() {
+                seen = escaped(tracer.scene, &ray);
+            }
+        }
+        if camera.is_pinhole() {
+            self.emitters_seen_directly(camera, tracer, sampler, splats);
+            self.light_path(camera, tracer, sampler, splats);
+        }
+        seen
+    }
+
+    fn demand(&self) -> Demand {
+        Demand {
+            pinhole: true,
+            ..Demand::default()
+        }
+    }
+}
+
+impl LightTracer {
+    /// Paths with no scattering: a point on a light, sampled as seen from the eye, splatted
+    /// where it lands on the film (`We cos_lens L / pdf`, the pdf per solid angle at the eye).
+    fn emitters_seen_directly(
+        &self,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        splats: &mut Splats,
+    ) {
+        let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
+        let lights = tracer.scene.lights();
+        let Some((index, pmf)) = lights.sample(u_light) else {
+            return;
+        };
+        let Some(ls) = lights.get(index).sample_li(camera.eye, u) else {
+            return;
+        };
+        // Lights at infinity are seen by camera rays (see `sample`).
+        if !ls.dist.is_finite() || ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+            return;
+        }
+        let Some((we, raster)) = camera.importance(ls.wi) else {
+            return;
+        };
+        let cos_lens = ls.wi.dot(camera.normal());
+        let eye = Hit::new(0.0, camera.eye, glam::Vec3A::ZERO, 0, None);
+        if tracer.unoccluded(&eye, &ls) {
+            splats.add(raster, ls.radiance * we * (cos_lens / (ls.pdf * pmf)));
+        }
+    }
+
+    /// One path from a light, each vertex connected to the lens.
+    fn light_path(
+        &self,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        splats: &mut Splats,
+    ) {
+        let scene = tracer.scene;
+        // Emission: a light in proportion to power, a ray leaving it.
+        let (u_light, u_pos, u_dir, u_side) = (
+            sampler.next_1d(),
+            sampler.next_2d(),
+            sampler.next_2d(),
+            sampler.next_1d(),
+        );
+        let Some((index, pmf)) = scene.lights().sample(u_light) else {
+            return;
+        };
+        let (lo, hi) = scene.bounds();
+        let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3));
+        let Some(emission) = scene
+            .lights()
+            .get(index)
+            .sample_le(u_pos, u_dir, u_side, center, radius)
+        else {
+            return;
+        };
+        // Power the path carries: Le cos / (pdf_pos pdf_dir pmf).
+        let emitted = emission.weight / pmf;
+        let mut beta = emitted;
+        let mut ray = emission.ray;
+        let mut bounces = 0u32;
+        while bounces < self.max_depth {
+            // Trace the next segment.
+            let Some(hit) = tracer.light(&ray) else {
+                return;
+            };
+            bounces += 1;
+            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            // Connect this vertex to the lens.
+            if !sp.material.is_specular() {
+                if let Some(l) = connect_to_lens(&sp, beta, camera, tracer) {
+                    splats.add(l.0, l.1);
+                }
+            }
+            if bounces >= self.max_depth {
+                return;
+            }
+            // Scatter in importance mode (power is not compressed by refraction).
+            let Some(s) = sp.sample(
+                sampler.next_1d(),
+                sampler.next_2d(),
+                TransportMode::Importance,
+            ) else {
+                return;
+            };
+            beta = s.throughput(beta);
+            if !(beta.is_finite() && beta != Rgb::ZERO) {
+                return;
+            }
+            // Russian roulette on the throughput relative to the emitted power.
+            if bounces >= self.rr_depth {
+                let survive = (beta.max_element() / emitted.max_element()).min(MAX_SURVIVAL);
+                if survive.is_nan() || sampler.next_1d() >= survive {
+                    return;
+                }
+                beta /= survive;
+            }
+            ray = sp.hit.spawn_ray(s.wi);
+        }
+    }
+}
+
+/// The light-path vertex `sp`, reached with power `beta`, seen by the camera: where it lands
+/// on the film and the radiance it sends there, `beta f |wi.ns| corr We cos_lens / dist^2`
+/// with Veach's shading-normal correction `corr = |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)` (`wo`
+/// back towards the light, `wi` towards the eye). `None` when the eye cannot see it.
+fn connect_to_lens(
+    sp: &ShadingPoint,
+    beta: Rgb,
+    camera: &Camera,
+    tracer: &mut Tracer,
+) -> Option<(glam::Vec2, Rgb)> {
+    let cs = camera.sample_wi(sp.hit.p)?;
+    let (hit, wo) = (&sp.hit, sp.wo_world);
+    if !stays_on_viewer_side(&sp.material, hit.ng, wo, cs.wi) {
+        return None;
+    }
+    // The BSDF for radiance leaving towards the eye from light arriving along `wo`.
+    let wi_local = sp.frame.to_local(cs.wi);
+    let f = sp.material.eval(wi_local, sp.wo);
+    if f == Rgb::ZERO {
+        return None;
+    }
+    let denom = wo.dot(hit.ng).abs() * cs.wi.dot(hit.ns).abs();
+    if denom <= 0.0 {
+        return None;
+    }
+    let correction = wo.dot(hit.ns).abs() * cs.wi.dot(hit.ng).abs() / denom;
+    let l = beta * f * cs.we * (wi_local.z.abs() * correction / cs.pdf);
+    (l != Rgb::ZERO && tracer.connected(hit, cs.point)).then_some((cs.raster, l))
+}
