@@ -310,6 +310,43 @@ mod tests {
         );
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(300))]
+        /// Files with bytes replaced, before or after compression, or cut short: an error or
+        /// a mesh, never a panic or a huge allocation.
+        #[test]
+        fn damaged_files_never_panic(
+            version in 3u16..5,
+            compressed in proptest::prelude::any::<bool>(),
+            cut in proptest::prelude::any::<proptest::sample::Index>(),
+            at in proptest::prelude::any::<proptest::sample::Index>(),
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..9),
+        ) {
+            let mut file = two_meshes(version);
+            if compressed {
+                let at = at.index(file.len());
+                let end = (at + bytes.len()).min(file.len());
+                file.splice(at..end, bytes);
+            } else {
+                // The first mesh's stream, damaged, then compressed again.
+                let mut body = Vec::new();
+                let _ = ZlibDecoder::new(&file[4..]).read_to_end(&mut body);
+                let at = at.index(body.len());
+                let end = (at + bytes.len()).min(body.len());
+                body.splice(at..end, bytes);
+                let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+                let _ = std::io::Write::write_all(&mut z, &body);
+                file.truncate(4);
+                file.extend(z.finish().unwrap_or_default());
+            }
+            for index in [0, 1] {
+                let _ = parse_serialized(Path::new("damaged.serialized"), &file, index);
+            }
+            file.truncate(cut.index(file.len() + 1));
+            let _ = parse_serialized(Path::new("cut.serialized"), &file, 0);
+        }
+    }
+
     #[test]
     fn damaged_files_are_errors() {
         let path = Path::new("m.serialized");
