@@ -41,7 +41,7 @@ fn check_all(what: &str, scene: &str, files: &[(&str, Vec<u8>)], expected: f32, 
 /// the integrators that trace paths from the camera. A light tracer would have to land its
 /// paths on a spot a few centimetres wide on a 100 m floor; it is checked against `path` on
 /// the same lights with a wide view instead
-/// (`the_light_tracer_agrees_with_path_under_every_kind_of_light`).
+/// (`light_path_integrators_agree_with_path_under_every_kind_of_light`).
 fn check_narrow_view(what: &str, scene: &str, expected: f32, spp: u32) {
     let camera_paths: Vec<&str> = transport_integrators()
         .into_iter()
@@ -245,12 +245,14 @@ fn a_disk_light_placed_by_a_mirroring_matrix_faces_its_normal() {
     check_narrow_view("mirrored disk", &scene, expected, 16);
 }
 
-/// Light tracing starts where next-event estimation ends: at each light's emission sampling
-/// (`sample_le`: positions, directions, densities and power). Under every kind of light, a
-/// floor and a box seen through a wide view render the same in `lighttracer` as in `path`
-/// (a z-test on the image mean, standard errors from the films).
+/// Light paths start where next-event estimation ends: at each light's emission sampling
+/// (`sample_le`: positions, directions, densities and power), and bidirectional weights need
+/// those densities again (`pdf_le`). Under every kind of light, a floor and a box seen
+/// through a wide view render the same in every integrator that traces light paths to the
+/// lens (`lighttracer`, `bdpt`) as in `path` (a z-test on the image mean, standard errors
+/// from the films).
 #[test]
-fn the_light_tracer_agrees_with_path_under_every_kind_of_light() {
+fn light_path_integrators_agree_with_path_under_every_kind_of_light() {
     let lights = [
         (
             "directional",
@@ -300,19 +302,24 @@ fn the_light_tracer_agrees_with_path_under_every_kind_of_light() {
                     {light}
                 ])"#
         );
-        let path = render_text(&scene, &[], "path", 256, 1, AccelKind::Raylab);
-        let light = render_text(&scene, &[], "lighttracer", 256, 2, AccelKind::Raylab);
+        let path = render_text(&scene, &[], "path", 1024, 1, AccelKind::Raylab);
         let (a, sa) = (path.mean().y, path.mean_standard_error().y);
-        let (b, sb) = (light.mean().y, light.mean_standard_error().y);
-        let se = (sa * sa + sb * sb).sqrt();
-        println!("{what}: path {a:.5} +- {sa:.5}, lighttracer {b:.5} +- {sb:.5}");
-        assert!(
-            se < 0.02 * a,
-            "{what}: too noisy to mean anything ({se} of {a})"
-        );
-        assert!(
-            (a - b).abs() < 4.5 * se,
-            "{what}: path {a} +- {sa}, lighttracer {b} +- {sb}"
-        );
+        for name in transport_integrators() {
+            if !connects_to_the_lens(name) {
+                continue;
+            }
+            let light = render_text(&scene, &[], name, 1024, 2, AccelKind::Raylab);
+            let (b, sb) = (light.mean().y, light.mean_standard_error().y);
+            let se = (sa * sa + sb * sb).sqrt();
+            println!("{what}: path {a:.5} +- {sa:.5}, {name} {b:.5} +- {sb:.5}");
+            assert!(
+                se < 0.02 * a,
+                "{what}, {name}: too noisy to mean anything ({se} of {a})"
+            );
+            assert!(
+                (a - b).abs() < 4.5 * se,
+                "{what}: path {a} +- {sa}, {name} {b} +- {sb}"
+            );
+        }
     }
 }

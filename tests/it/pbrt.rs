@@ -298,7 +298,7 @@ fn approximations_need_the_flag_and_are_then_warnings() {
     let path = dir.path().join("spot.pbrt");
     std::fs::write(
         &path,
-        "Integrator \"bdpt\"\nWorldBegin\nLightSource \"spot\" \"rgb I\" [1 1 1]\nShape \"sphere\"\n",
+        "Integrator \"mlt\"\nWorldBegin\nLightSource \"spot\" \"rgb I\" [1 1 1]\nShape \"sphere\"\n",
     )
     .unwrap();
     let err = load_scene(&path).err().unwrap().to_string();
@@ -312,7 +312,7 @@ fn approximations_need_the_flag_and_are_then_warnings() {
     };
     let loaded = load_scene_defined(&path, &[], &options).unwrap();
     assert!(
-        loaded.warnings.iter().any(|w| w.contains("\"bdpt\"")),
+        loaded.warnings.iter().any(|w| w.contains("\"mlt\"")),
         "{:?}",
         loaded.warnings
     );

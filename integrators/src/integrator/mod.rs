@@ -5,6 +5,7 @@ pub mod registry;
 pub mod shading;
 
 mod albedo_view;
+mod bdpt;
 mod depth_view;
 mod direct;
 mod fixed_depth;

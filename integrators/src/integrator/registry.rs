@@ -368,6 +368,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::path::ENTRY,
     super::direct::ENTRY,
     super::light_tracer::ENTRY,
+    super::bdpt::ENTRY,
     super::photon::ENTRY,
     super::sppm::ENTRY,
     super::normals_view::ENTRY,

@@ -346,6 +346,18 @@ impl Light {
         }
     }
 
+    /// The emitting normal at the point `q` of the light's surface (what [`Light::pdf_le`]
+    /// takes): a flat light's normal, a sphere's or cylinder's normal there on its emitting
+    /// side; zero for point, spot and lights at infinity.
+    pub fn emitting_normal_at(&self, q: Vec3A) -> Vec3A {
+        match self {
+            Light::Planar(l) => l.n,
+            Light::Cylinder(l) => l.normal_at(q),
+            Light::Sphere(l) => l.emitting_normal((q - l.center).normalize_or_zero()),
+            _ => Vec3A::ZERO,
+        }
+    }
+
     /// Emitted power (luminance, watts) used to choose lights; `scene_radius` bounds the
     /// environment's contribution. Never negative; NaN powers become 0.
     pub fn power(&self, scene_radius: f32) -> f64 {

@@ -122,7 +122,7 @@ impl SphereLight {
 
     /// The emitting normal at the surface point whose outward normal is `n`.
     #[inline]
-    fn emitting_normal(&self, n: Vec3A) -> Vec3A {
+    pub(super) fn emitting_normal(&self, n: Vec3A) -> Vec3A {
         if self.inward {
             -n
         } else {

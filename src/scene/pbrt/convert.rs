@@ -684,11 +684,22 @@ impl<'a> Converter<'a> {
             "sppm" => "sppm",
             // pbrt-v4's light tracer; its maxdepth counts scattering events too.
             "lightpath" => "lighttracer",
-            "bdpt" | "mlt" => {
+            "bdpt" => "bdpt",
+            "mlt" => {
                 self.approximate(d.pos, format!("Integrator \"{kind}\": not in raylab yet, rendered with path (the same image, other noise)"))?;
                 "path"
             }
-            other => return Err((d.pos, format!("Integrator \"{other}\" is not supported (path, volpath, simplepath, randomwalk, lightpath, sppm are)"))),
+            other => return Err((d.pos, format!("Integrator \"{other}\" is not supported (path, volpath, simplepath, randomwalk, lightpath, bdpt, sppm are)"))),
+        };
+        // raylab's bdpt keeps its subpaths in fixed arrays: at most 30 scattering events.
+        let depth = if name == "bdpt" && depth > 30 {
+            self.approximate(
+                d.pos,
+                format!("Integrator \"bdpt\": maxdepth {depth} cut to raylab's bdpt's 30 (paths of more bounces are left out)"),
+            )?;
+            30
+        } else {
+            depth
         };
         if p.boolean("regularize")? == Some(true) {
             self.approximate(d.pos, "Integrator: regularize (a bias) ignored".into())?;

@@ -1,0 +1,771 @@
+//! `bdpt`: bidirectional path tracing (Veach and Guibas 1995; Veach's thesis, chapter 10;
+//! pbrt-v4's `bdpt`, whose structure this follows).
+//!
+//! **Estimates** the measurement equation by every way of building a path from two
+//! subpaths. Each camera sample traces a camera subpath (from the lens, radiance mode) and a
+//! light subpath (from a light chosen in proportion to power, importance mode), then joins
+//! every prefix of one with every prefix of the other: strategy `(s, t)` takes `s` light
+//! vertices and `t` camera vertices, for paths of `s + t - 2` scattering events.
+//! * `s = 0`: the camera subpath reached an emitter (or escaped to the environment);
+//! * `s = 1`: a camera vertex connected to a new sample on a light (next-event estimation);
+//! * `t = 1`: a light vertex connected to the lens, splatted where it lands (light tracing);
+//! * otherwise a light vertex and a camera vertex joined by a segment.
+//!
+//! Every strategy's estimate is weighted by the power heuristic over the densities with which
+//! each strategy could have made the same path, computed by Veach's recursive ratios of the
+//! vertices' forward and reverse area densities (pbrt-v4's `MISWeight`). Vertices sampled
+//! from Dirac lobes and delta lights cannot be joined, and the weights leave out the
+//! strategies that would need to. Subpaths take Russian roulette from `rr-depth` on.
+//!
+//! To look at one strategy, `-p strategy-s=S -p strategy-t=T` keeps only the contribution of
+//! `(S, T)` (pbrt-v4's `visualizestrategies`/`visualizeweights`): MIS-weighted, so that the
+//! strategies' images add up to the full image, or with `-p mis=0` unweighted, an image of its
+//! own estimate of every path of `S + T - 2` scattering events it can build. Every strategy is
+//! still computed (the random numbers stay those of the full image).
+//!
+//! Connections to the lens need a pinhole camera: an orthographic one is refused.
+//!
+//! **Parameters**: `max-depth` (scattering events, default 16, at most 30), `rr-depth`
+//! (default 3), `strategy-s` and `strategy-t` (default -1: every strategy), `mis` (1; 0
+//! leaves the one strategy unweighted).
+//! **Bias**: truncation at `max-depth`, otherwise none.
+
+use crate::bsdf::TransportMode;
+use crate::integrator::{
+    escaped, stays_on_viewer_side, Demand, Integrator, PixelSample, ShadingPoint, Splats, Tracer,
+    MAX_SURVIVAL,
+};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
+};
+use crate::{Camera, Hit, Rgb, Sampler, Scene};
+use arrayvec::ArrayVec;
+use glam::Vec3A;
+use std::f32::consts::PI;
+
+/// The deepest paths `bdpt` builds: its subpaths live in fixed arrays (no allocation).
+const DEPTH_LIMIT: u32 = 30;
+/// Vertices of a camera subpath: the lens and up to `DEPTH_LIMIT + 1` more.
+const MAX_VERTICES: usize = DEPTH_LIMIT as usize + 2;
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "bdpt",
+    summary: "bidirectional path tracing: every (s, t) join of a camera and a light subpath, MIS (power heuristic)",
+    params: &[
+        MAX_DEPTH
+            .with_default(16.0)
+            .with_max(DEPTH_LIMIT as f64)
+            .with_doc("scattering events per path (at most 30)"),
+        RR_DEPTH,
+        STRATEGY,
+        STRATEGY
+            .with_name("strategy-t")
+            .with_doc("with strategy-s: keep only strategy (s, t), t camera vertices"),
+        ParamSpec {
+            name: "mis",
+            kind: ParamKind::Int,
+            default: 1.0,
+            min: 0.0,
+            max: 1.0,
+            doc: "1: the kept strategy MIS-weighted; 0: unweighted",
+        },
+    ],
+    build: |p: &Params| {
+        let (s, t) = (p.get("strategy-s"), p.get("strategy-t"));
+        Box::new(Bdpt {
+            max_depth: p.get_depth("max-depth"),
+            rr_depth: p.get_u32("rr-depth"),
+            only: (s >= 0.0 && t >= 0.0).then_some((s as usize, t as usize)),
+            mis: p.get("mis") != 0.0,
+        })
+    },
+    analytic: Some(Analytic {
+        params: &[],
+        furnace: expect(2.0, 40, 1600),
+        point_in_sphere: expect(1.0, 40, 400),
+        sphere_under_sky: expect(1.2, 40, 1600),
+    }),
+};
+
+const STRATEGY: ParamSpec = ParamSpec {
+    name: "strategy-s",
+    kind: ParamKind::Int,
+    default: -1.0,
+    min: -1.0,
+    max: DEPTH_LIMIT as f64 + 2.0,
+    doc: "with strategy-t: keep only strategy (s, t), s light vertices (-1: all)",
+};
+
+struct Bdpt {
+    max_depth: u32,
+    rr_depth: u32,
+    /// Keep only this `(s, t)`.
+    only: Option<(usize, usize)>,
+    /// Weight it by MIS (always, when every strategy is kept).
+    mis: bool,
+}
+
+/// What a vertex is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    /// The lens (a pinhole).
+    Camera,
+    /// A point on a light where a light subpath starts, or a new light sample (`s = 1`), or
+    /// the environment a camera subpath escaped to.
+    Light,
+    /// A surface hit.
+    Surface,
+}
+
+/// One vertex of a subpath (pbrt-v4's `Vertex`).
+#[derive(Clone, Debug)]
+struct Vertex<'a> {
+    kind: Kind,
+    p: Vec3A,
+    /// Geometric normal; for a light its emitting normal (zero for point lights and lights
+    /// at infinity).
+    ng: Vec3A,
+    /// Surfaces: the shading point (hit, frame, direction back along the subpath, BSDF).
+    sp: Option<ShadingPoint<'a>>,
+    /// The light this vertex lies on or is (lights, and surfaces that emit).
+    light: Option<u32>,
+    /// A light at infinity: the environment (`p` is then a point one unit past the
+    /// vertex it was reached from, `ng` the direction back) or a directional light.
+    infinite: bool,
+    /// Throughput from the subpath's start up to this vertex.
+    beta: Rgb,
+    /// Area density of sampling this vertex from the previous one, and of sampling it from
+    /// the next one in the reverse direction.
+    pdf_fwd: f32,
+    pdf_rev: f32,
+    /// Sampled from a Dirac lobe (or, for a light, a delta light).
+    delta: bool,
+}
+
+type Subpath<'a> = ArrayVec<Vertex<'a>, MAX_VERTICES>;
+
+impl<'a> Vertex<'a> {
+    fn new(kind: Kind, p: Vec3A, ng: Vec3A, beta: Rgb) -> Self {
+        Vertex {
+            kind,
+            p,
+            ng,
+            sp: None,
+            light: None,
+            infinite: false,
+            beta,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+        }
+    }
+
+    /// True where an area density and a cosine make sense: surfaces and area lights.
+    fn on_surface(&self) -> bool {
+        match self.kind {
+            Kind::Surface => true,
+            Kind::Light => !self.infinite && self.ng != Vec3A::ZERO,
+            Kind::Camera => false,
+        }
+    }
+
+    /// True when a segment may end here: not a mirror or glass, not a directional light.
+    fn connectible(&self, scene: &dyn Scene) -> bool {
+        match self.kind {
+            Kind::Camera => true,
+            Kind::Surface => self
+                .sp
+                .as_ref()
+                .is_some_and(|sp| !sp.material.is_specular()),
+            Kind::Light => !(self.infinite && self.is_delta_light(scene)),
+        }
+    }
+
+    fn is_delta_light(&self, scene: &dyn Scene) -> bool {
+        self.kind == Kind::Light && self.light.is_some_and(|i| scene.lights().get(i).is_delta())
+    }
+
+    /// The hit to spawn a segment from (lights and the lens: a point with no offset normal).
+    fn hit(&self) -> Hit {
+        match &self.sp {
+            Some(sp) => sp.hit,
+            None => Hit::new(0.0, self.p, Vec3A::ZERO, 0, None),
+        }
+    }
+
+    /// Converts a solid-angle density at this vertex towards `next` into an area density
+    /// at `next` (unchanged when `next` is at infinity).
+    fn to_area(&self, pdf: f32, next: &Vertex) -> f32 {
+        if next.infinite {
+            return pdf;
+        }
+        let w = next.p - self.p;
+        let d2 = w.length_squared();
+        if d2.is_nan() || d2 <= 0.0 {
+            return 0.0;
+        }
+        let mut pdf = pdf / d2;
+        if next.on_surface() {
+            pdf *= next.ng.dot(w).abs() / d2.sqrt();
+        }
+        pdf
+    }
+
+    /// Area density at `next` with which this vertex samples it, having been reached from
+    /// `prev` (pbrt-v4's `Vertex::PDF`).
+    fn pdf(&self, scene: &dyn Scene, camera: &Camera, prev: Option<&Vertex>, next: &Vertex) -> f32 {
+        if self.kind == Kind::Light {
+            return self.pdf_light(scene, next);
+        }
+        let w = (next.p - self.p).normalize_or_zero();
+        let pdf = match (&self.sp, self.kind) {
+            (_, Kind::Camera) => camera.pdf_we(w).1,
+            (Some(sp), _) => {
+                let Some(prev) = prev else { return 0.0 };
+                let wo = sp.frame.to_local((prev.p - self.p).normalize_or_zero());
+                sp.material.pdf(wo, sp.frame.to_local(w))
+            }
+            _ => 0.0,
+        };
+        self.to_area(pdf, next)
+    }
+
+    /// Area density at `v` of a light subpath leaving this light vertex towards it (without
+    /// the light's selection probability): the direction density over the squared distance,
+    /// or for lights at infinity the density of the disk the rays start from.
+    fn pdf_light(&self, scene: &dyn Scene, v: &Vertex) -> f32 {
+        let Some(index) = self.light else { return 0.0 };
+        let radius = scene_radius(scene);
+        let w = v.p - self.p;
+        let d2 = w.length_squared();
+        if d2.is_nan() || d2 <= 0.0 {
+            return 0.0;
+        }
+        let w = w / d2.sqrt();
+        let mut pdf = if self.infinite {
+            1.0 / (PI * radius * radius)
+        } else {
+            // The light's own emitting normal (a surface vertex's `ng` is the geometry's,
+            // which an inward-emitting sphere or tube turns the other way).
+            let light = scene.lights().get(index);
+            let (_, dir) = light.pdf_le(light.emitting_normal_at(self.p), w, radius);
+            dir / d2
+        };
+        if v.on_surface() {
+            pdf *= v.ng.dot(w).abs();
+        }
+        pdf
+    }
+
+    /// Density of this light vertex as the start of a light subpath aimed at `v`: the
+    /// light's selection probability times its position density (for the environment, the
+    /// density of its direction).
+    fn pdf_light_origin(&self, scene: &dyn Scene, v: &Vertex) -> f32 {
+        let Some(index) = self.light else { return 0.0 };
+        let lights = scene.lights();
+        let light = lights.get(index);
+        let w = (v.p - self.p).normalize_or_zero();
+        if self.infinite {
+            return lights.pmf(index) * light.pdf_li(v.p, -w, self.p);
+        }
+        let (pos, _) = light.pdf_le(light.emitting_normal_at(self.p), w, scene_radius(scene));
+        lights.pmf(index) * pos
+    }
+
+    /// Radiance this emitting vertex sends towards `v`.
+    fn le(&self, scene: &dyn Scene, v: &Vertex) -> Rgb {
+        let Some(index) = self.light else {
+            return Rgb::ZERO;
+        };
+        if self.infinite {
+            let ray = crate::Ray::new(v.p, -self.ng);
+            return escaped(scene, &ray);
+        }
+        let w = (v.p - self.p).normalize_or_zero();
+        scene.lights().get(index).emitted(self.ng, w)
+    }
+}
+
+fn scene_radius(scene: &dyn Scene) -> f32 {
+    let (lo, hi) = scene.bounds();
+    ((hi - lo).length() * 0.5).max(1e-3)
+}
+
+/// `x`, or 1 where it is 0 (a density that does not exist leaves a ratio unchanged).
+#[inline]
+fn remap0(x: f32) -> f32 {
+    if x != 0.0 {
+        x
+    } else {
+        1.0
+    }
+}
+
+/// The BSDF factor of joining surface vertex `v` to the point `to`, times `|cos|` at `v`
+/// against its shading normal, with Veach's shading-normal correction on the light side
+/// (`mode` Importance); zero across an opaque surface.
+fn joined(v: &Vertex, to: Vec3A, mode: TransportMode) -> Rgb {
+    let Some(sp) = &v.sp else { return Rgb::ZERO };
+    let w = (to - v.p).normalize_or_zero();
+    if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, w) {
+        return Rgb::ZERO;
+    }
+    let local = sp.frame.to_local(w);
+    // Radiance order: outgoing towards the camera side, incident from the light side.
+    let f = match mode {
+        TransportMode::Radiance => sp.material.eval(sp.wo, local),
+        TransportMode::Importance => sp.material.eval(local, sp.wo),
+    };
+    let cos = local.z.abs();
+    match mode {
+        TransportMode::Radiance => f * cos,
+        TransportMode::Importance => {
+            let (hit, wo) = (&sp.hit, sp.wo_world);
+            let denom = wo.dot(hit.ng).abs() * w.dot(hit.ns).abs();
+            if denom <= 0.0 {
+                return Rgb::ZERO;
+            }
+            f * (cos * wo.dot(hit.ns).abs() * w.dot(hit.ng).abs() / denom)
+        }
+    }
+}
+
+impl Integrator for Bdpt {
+    fn sample(
+        &self,
+        pixel: &PixelSample,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        splats: &mut Splats,
+    ) -> Rgb {
+        if !camera.is_pinhole() {
+            return Rgb::ZERO;
+        }
+        let scene = tracer.scene;
+        // The two subpaths.
+        let mut cam: Subpath = ArrayVec::new();
+        let mut light: Subpath = ArrayVec::new();
+        self.camera_subpath(pixel, camera, tracer, sampler, &mut cam);
+        self.light_subpath(tracer, sampler, &mut light);
+        // Every join of a camera prefix (t vertices) and a light prefix (s vertices).
+        let mut l = Rgb::ZERO;
+        for t in 1..=cam.len() {
+            for s in 0..=light.len() {
+                let depth = (s + t) as i64 - 2;
+                if (s == 1 && t == 1) || depth < 0 || depth > self.max_depth as i64 {
+                    continue;
+                }
+                let (c, weight, raster) =
+                    connect(scene, camera, &light, &cam, s, t, tracer, sampler);
+                let c = match self.only {
+                    None => c * weight,
+                    Some(only) if only != (s, t) => continue,
+                    Some(_) if self.mis => c * weight,
+                    Some(_) => c,
+                };
+                if c == Rgb::ZERO {
+                    continue;
+                }
+                match raster {
+                    Some(film) => splats.add(film, c),
+                    None => l += c,
+                }
+            }
+        }
+        l
+    }
+
+    fn demand(&self) -> Demand {
+        Demand {
+            rays_per_sample: 2.0,
+            pinhole: true,
+            ..Demand::default()
+        }
+    }
+}
+
+impl Bdpt {
+    /// The camera subpath: the lens, then up to `max-depth + 1` vertices from the ray
+    /// through the sample's film position.
+    fn camera_subpath<'a>(
+        &self,
+        pixel: &PixelSample,
+        camera: &Camera,
+        tracer: &mut Tracer<'a>,
+        sampler: &mut Sampler,
+        path: &mut Subpath<'a>,
+    ) {
+        let ray = camera.ray(pixel.film.x, pixel.film.y);
+        let (_, pdf_dir) = camera.pdf_we(ray.dir);
+        let mut lens = Vertex::new(Kind::Camera, camera.eye, camera.normal(), Rgb::ONE);
+        lens.pdf_fwd = 1.0;
+        path.push(lens);
+        self.random_walk(
+            ray,
+            Rgb::ONE,
+            pdf_dir,
+            self.max_depth + 1,
+            TransportMode::Radiance,
+            tracer,
+            sampler,
+            path,
+        );
+    }
+
+    /// The light subpath: a point on a light chosen in proportion to power, then up to
+    /// `max-depth` vertices along the ray it emits.
+    fn light_subpath<'a>(
+        &self,
+        tracer: &mut Tracer<'a>,
+        sampler: &mut Sampler,
+        path: &mut Subpath<'a>,
+    ) {
+        let scene = tracer.scene;
+        let (u_light, u_pos, u_dir, u_side) = (
+            sampler.next_1d(),
+            sampler.next_2d(),
+            sampler.next_2d(),
+            sampler.next_1d(),
+        );
+        let Some((index, pmf)) = scene.lights().sample(u_light) else {
+            return;
+        };
+        let light = scene.lights().get(index);
+        let (lo, hi) = scene.bounds();
+        let (center, radius) = ((lo + hi) * 0.5, scene_radius(scene));
+        let Some(le) = light.sample_le(u_pos, u_dir, u_side, center, radius) else {
+            return;
+        };
+        let infinite = light.is_environment() || matches!(light, crate::Light::Directional(_));
+        let mut start = Vertex::new(Kind::Light, le.ray.origin, le.normal, le.radiance);
+        start.light = Some(index);
+        start.infinite = infinite;
+        start.pdf_fwd = le.pdf_pos * pmf;
+        if infinite {
+            // Seen from the scene, it is a direction: the normal points along the rays.
+            start.ng = le.ray.dir;
+        }
+        path.push(start);
+        self.random_walk(
+            le.ray,
+            le.weight / pmf,
+            le.pdf_dir,
+            self.max_depth,
+            TransportMode::Importance,
+            tracer,
+            sampler,
+            path,
+        );
+        if infinite {
+            // A ray from infinity: its first vertex's density is that of the disk it starts
+            // from, and the light's "position" density that of its direction.
+            if path.len() > 1 {
+                let first = &mut path[1];
+                first.pdf_fwd = le.pdf_pos;
+                if first.on_surface() {
+                    first.pdf_fwd *= le.ray.dir.dot(first.ng).abs();
+                }
+            }
+            path[0].pdf_fwd = if light.is_delta() {
+                0.0
+            } else {
+                pmf * light.pdf_li(Vec3A::ZERO, -le.ray.dir, Vec3A::ZERO)
+            };
+        }
+    }
+
+    /// Extends `path` from its last vertex along `ray` (direction density `pdf`): up to
+    /// `max_vertices` more vertices, each BSDF-sampled in `mode`, with the densities MIS
+    /// needs (pbrt-v4's `RandomWalk`). A camera subpath that escapes ends at the environment.
+    #[allow(clippy::too_many_arguments)]
+    fn random_walk<'a>(
+        &self,
+        mut ray: crate::Ray,
+        mut beta: Rgb,
+        pdf: f32,
+        max_vertices: u32,
+        mode: TransportMode,
+        tracer: &mut Tracer<'a>,
+        sampler: &mut Sampler,
+        path: &mut Subpath<'a>,
+    ) {
+        let scene = tracer.scene;
+        let start = beta.max_element();
+        let mut pdf_fwd = pdf;
+        let mut added = 0u32;
+        while added < max_vertices && !path.is_full() {
+            // Trace the next segment.
+            let found = match (mode, path.len()) {
+                (TransportMode::Radiance, 1) => tracer.camera(&ray),
+                (TransportMode::Radiance, _) => tracer.extend(&ray),
+                (TransportMode::Importance, _) => tracer.light(&ray),
+            };
+            let Some(hit) = found else {
+                // Escaped: the environment, for camera subpaths.
+                if let (TransportMode::Radiance, Some(env)) = (mode, scene.lights().environment()) {
+                    let mut v = Vertex::new(Kind::Light, ray.origin + ray.dir, -ray.dir, beta);
+                    v.light = Some(env);
+                    v.infinite = true;
+                    v.pdf_fwd = pdf_fwd;
+                    path.push(v);
+                }
+                return;
+            };
+            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            let mut v = Vertex::new(Kind::Surface, sp.hit.p, sp.hit.ng, beta);
+            v.light = hit.light;
+            let prev = path.len() - 1;
+            v.pdf_fwd = path[prev].to_area(pdf_fwd, &v);
+            v.sp = Some(sp);
+            path.push(v);
+            added += 1;
+            if added >= max_vertices || path.is_full() {
+                return;
+            }
+            // Scatter: a BSDF sample, and the density of the reverse direction.
+            let last = path.len() - 1;
+            let Some(sp) = path[last].sp.as_ref() else {
+                return;
+            };
+            let Some(s) = sp.sample(sampler.next_1d(), sampler.next_2d(), mode) else {
+                return;
+            };
+            beta = s.throughput(beta);
+            if !(beta.is_finite() && beta != Rgb::ZERO) {
+                return;
+            }
+            let wi_local = sp.frame.to_local(s.wi);
+            let (mut fwd, mut rev) = (s.bsdf.pdf, sp.material.pdf(wi_local, sp.wo));
+            let next_origin = sp.hit.spawn_ray(s.wi);
+            if s.bsdf.specular {
+                path[last].delta = true;
+                fwd = 0.0;
+                rev = 0.0;
+            }
+            let rev_area = path[last].to_area(rev, &path[last - 1]);
+            path[last - 1].pdf_rev = rev_area;
+            pdf_fwd = fwd;
+            // Russian roulette, relative to what the subpath started with.
+            if added >= self.rr_depth {
+                let survive = (beta.max_element() / start).min(MAX_SURVIVAL);
+                if survive.is_nan() || sampler.next_1d() >= survive {
+                    return;
+                }
+                beta /= survive;
+            }
+            ray = next_origin;
+        }
+    }
+}
+
+/// Strategy `(s, t)`: its contribution, its MIS weight, and the film position for `t = 1`
+/// (a splat), `None` for the sample's own pixel.
+#[allow(clippy::too_many_arguments)]
+fn connect(
+    scene: &dyn Scene,
+    camera: &Camera,
+    light: &Subpath,
+    cam: &Subpath,
+    s: usize,
+    t: usize,
+    tracer: &mut Tracer,
+    sampler: &mut Sampler,
+) -> (Rgb, f32, Option<glam::Vec2>) {
+    const NONE: (Rgb, f32, Option<glam::Vec2>) = (Rgb::ZERO, 0.0, None);
+    let pt = &cam[t - 1];
+    // A camera vertex that lies on the environment can only be taken whole (s = 0).
+    if pt.infinite && s > 0 {
+        return NONE;
+    }
+    let mut raster = None;
+    let mut sampled = None;
+    let contribution = if s == 0 {
+        // The camera subpath found an emitter.
+        if pt.light.is_none() || t < 2 {
+            return NONE;
+        }
+        pt.beta * pt.le(scene, &cam[t - 2])
+    } else if t == 1 {
+        // A light vertex joined to the lens.
+        let qs = &light[s - 1];
+        if !qs.connectible(scene) || qs.kind != Kind::Surface {
+            return NONE;
+        }
+        let Some(cs) = camera.sample_wi(qs.p) else {
+            return NONE;
+        };
+        let mut lens = Vertex::new(Kind::Camera, cs.point, camera.normal(), cs.we / cs.pdf);
+        lens.pdf_fwd = 1.0;
+        let c = qs.beta * joined(qs, cs.point, TransportMode::Importance) * lens.beta;
+        if c == Rgb::ZERO || !tracer.connected(&qs.hit(), cs.point) {
+            return NONE;
+        }
+        raster = Some(cs.raster);
+        sampled = Some(lens);
+        c
+    } else if s == 1 {
+        // A camera vertex joined to a new sample on a light.
+        if !pt.connectible(scene) || pt.kind != Kind::Surface {
+            return NONE;
+        }
+        let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
+        let lights = scene.lights();
+        let Some((index, pmf)) = lights.sample(u_light) else {
+            return NONE;
+        };
+        let light_ref = lights.get(index);
+        let Some(sp) = pt.sp.as_ref() else {
+            return NONE;
+        };
+        if !sp.can_receive(index, lights) {
+            return NONE;
+        }
+        let Some(ls) = light_ref.sample_li(pt.p, u) else {
+            return NONE;
+        };
+        if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+            return NONE;
+        }
+        let infinite = !ls.dist.is_finite();
+        let mut v = Vertex::new(
+            Kind::Light,
+            if infinite { pt.p + ls.wi } else { ls.point },
+            if infinite {
+                -ls.wi
+            } else {
+                light_ref.emitting_normal_at(ls.point)
+            },
+            ls.radiance / (ls.pdf * pmf),
+        );
+        v.light = Some(index);
+        v.infinite = infinite;
+        v.pdf_fwd = v.pdf_light_origin(scene, pt);
+        let c = pt.beta * joined(pt, pt.p + ls.wi, TransportMode::Radiance) * v.beta;
+        if c == Rgb::ZERO || !tracer.unoccluded(&sp.hit, &ls) {
+            return NONE;
+        }
+        sampled = Some(v);
+        c
+    } else {
+        // A light vertex and a camera vertex joined by a segment.
+        let qs = &light[s - 1];
+        if !qs.connectible(scene) || !pt.connectible(scene) || qs.kind != Kind::Surface {
+            return NONE;
+        }
+        if pt.kind != Kind::Surface {
+            return NONE;
+        }
+        let d2 = (qs.p - pt.p).length_squared();
+        if d2.is_nan() || d2 <= 0.0 {
+            return NONE;
+        }
+        let c = qs.beta
+            * joined(qs, pt.p, TransportMode::Importance)
+            * joined(pt, qs.p, TransportMode::Radiance)
+            * pt.beta
+            / d2;
+        if c == Rgb::ZERO || !tracer.connected(&qs.hit(), pt.p) {
+            return NONE;
+        }
+        c
+    };
+    let weight = mis_weight(scene, camera, light, cam, s, t, sampled.as_ref());
+    (contribution, weight, raster)
+}
+
+/// The power-heuristic weight of strategy `(s, t)` against every other strategy that could
+/// have built the same path (pbrt-v4's `MISWeight`, squared ratios): walking from the join
+/// towards each end, each step multiplies the ratio by the vertex's reverse over forward
+/// density; steps at Dirac vertices and delta lights add nothing. `sampled` is the vertex
+/// a strategy sampled anew (`s = 1`: on a light; `t = 1`: the lens).
+#[allow(clippy::too_many_arguments)]
+fn mis_weight(
+    scene: &dyn Scene,
+    camera: &Camera,
+    light: &Subpath,
+    cam: &Subpath,
+    s: usize,
+    t: usize,
+    sampled: Option<&Vertex>,
+) -> f32 {
+    if s + t == 2 {
+        return 1.0;
+    }
+    // The join's vertices, the new vertex in place of a subpath's end.
+    let qs = if s == 1 {
+        sampled.or(light.first())
+    } else {
+        s.checked_sub(1).map(|i| &light[i])
+    };
+    let pt = if t == 1 {
+        sampled.unwrap_or(&cam[0])
+    } else {
+        &cam[t - 1]
+    };
+    let qs_minus = if s >= 2 { Some(&light[s - 2]) } else { None };
+    let pt_minus = if t >= 2 { Some(&cam[t - 2]) } else { None };
+
+    // The reverse densities the join creates.
+    let pt_rev = match qs {
+        Some(qs) => qs.pdf(scene, camera, qs_minus, pt),
+        None => pt.pdf_light_origin(scene, pt_minus.unwrap_or(pt)),
+    };
+    let pt_minus_rev = pt_minus.map(|pm| match qs {
+        Some(qs) => pt.pdf(scene, camera, Some(qs), pm),
+        None => pt.pdf_light(scene, pm),
+    });
+    let qs_rev = qs.map(|qs| pt.pdf(scene, camera, pt_minus, qs));
+    let qs_minus_rev = qs_minus.and_then(|qm| qs.map(|qs| qs.pdf(scene, camera, Some(pt), qm)));
+
+    let mut sum = 0.0f32;
+    // Camera side: the strategies with fewer camera vertices.
+    let mut ri = 1.0f32;
+    for i in (1..t).rev() {
+        let (rev, fwd) = if i == t - 1 {
+            (pt_rev, pt.pdf_fwd)
+        } else if i + 2 == t {
+            (pt_minus_rev.unwrap_or(0.0), cam[i].pdf_fwd)
+        } else {
+            (cam[i].pdf_rev, cam[i].pdf_fwd)
+        };
+        ri *= remap0(rev) / remap0(fwd);
+        let delta_here = i != t - 1 && cam[i].delta;
+        let delta_before = cam[i - 1].delta;
+        if !delta_here && !delta_before {
+            sum += ri * ri;
+        }
+    }
+    // Light side: the strategies with fewer light vertices.
+    ri = 1.0;
+    for i in (0..s).rev() {
+        let vertex = if i == s - 1 {
+            qs.unwrap_or(&light[i])
+        } else {
+            &light[i]
+        };
+        let rev = if i == s - 1 {
+            qs_rev.unwrap_or(0.0)
+        } else if i + 2 == s {
+            qs_minus_rev.unwrap_or(0.0)
+        } else {
+            vertex.pdf_rev
+        };
+        ri *= remap0(rev) / remap0(vertex.pdf_fwd);
+        let delta_here = i != s - 1 && vertex.delta;
+        let delta_before = if i > 0 {
+            light[i - 1].delta
+        } else {
+            vertex.is_delta_light(scene)
+        };
+        if !delta_here && !delta_before {
+            sum += ri * ri;
+        }
+    }
+    let w = 1.0 / (1.0 + sum);
+    if w.is_finite() {
+        w
+    } else {
+        0.0
+    }
+}
