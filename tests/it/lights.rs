@@ -262,10 +262,10 @@ fn light_path_integrators_agree_with_path_under_every_kind_of_light() {
             "spot",
             r#"(name: "spot", transform: (translate: (0.5, 2, 0.5)), emitter: Spot(intensity: (8, 8, 8), look_at: (0, 0, 0), cutoff_angle: 40))"#,
         ),
-        // Out of view: a point light in view lights its pixel in a light tracer only.
+        // In view: no integrator draws the point itself.
         (
             "point",
-            r#"(name: "bulb", transform: (translate: (0, 3.5, 3)), emitter: Point(intensity: (3, 3, 3)))"#,
+            r#"(name: "bulb", transform: (translate: (-0.5, 1.5, 0.5)), emitter: Point(intensity: (3, 3, 3)))"#,
         ),
         (
             "disk",

@@ -8,11 +8,12 @@
 //! Each connection is splatted at the film position it lands on; with one light path per
 //! pixel sample, each splat is the path's estimate of the whole image's measurement restricted
 //! to its pixel (see `camera.rs`). Emitters seen directly are one connection more per sample:
-//! a point on a light chosen in proportion to power, sampled as seen from the eye (point and
-//! spot lights included: a pinhole sees a point light as one lit pixel, which camera-path
-//! integrators cannot find). Lights at infinity (environments, directional lights) cannot be
-//! connected to a point lens: what the camera sees of an environment directly comes from the
-//! sample's camera ray instead, traced only when the scene has one.
+//! a point on a light chosen in proportion to power, sampled as seen from the eye. Point and
+//! spot lights are not drawn (a pinhole would see one as a single lit pixel; pbrt-v4's
+//! `lightpath` draws it, but no other integrator here can, `bdpt` included, so they would
+//! disagree). Lights at infinity (environments, directional lights) cannot be connected to a
+//! point lens: what the camera sees of an environment directly comes from the sample's camera
+//! ray instead, traced only when the scene has one.
 //!
 //! Connections need a pinhole: an orthographic camera is refused before rendering.
 //!
@@ -104,7 +105,11 @@ impl LightTracer {
         let Some((index, pmf)) = lights.sample(u_light) else {
             return;
         };
-        let Some(ls) = lights.get(index).sample_li(camera.eye, u) else {
+        let light = lights.get(index);
+        if light.is_delta() {
+            return;
+        }
+        let Some(ls) = light.sample_li(camera.eye, u) else {
             return;
         };
         // Lights at infinity are seen by camera rays (see `sample`).
