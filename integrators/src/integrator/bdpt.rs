@@ -14,11 +14,14 @@
 //! Every strategy's estimate is weighted by the power heuristic over the densities with which
 //! each strategy could have made the same path, computed by Veach's recursive ratios of the
 //! vertices' forward and reverse area densities (pbrt-v4's `MISWeight`). Vertices sampled
-//! from Dirac lobes and delta lights cannot be joined, and the weights leave out the
-//! strategies that would need to. Subpaths take Russian roulette from `rr-depth` on.
+//! from Dirac lobes cannot be joined, delta lights cannot be hit (no `s = 0`) and a
+//! directional light's vertex cannot be joined either; the weights leave out the strategies
+//! that would need to. The `s = 1` strategy's weight takes the light point's density as
+//! uniform in area (as pbrt-v4's does) although spheres are sampled by their cone: the
+//! weights still add up to 1, so this costs variance, never bias. Subpaths take Russian roulette from `rr-depth` on.
 //!
 //! To look at one strategy, `-p strategy-s=S -p strategy-t=T` keeps only the contribution of
-//! `(S, T)` (pbrt-v4's `visualizestrategies`/`visualizeweights`): MIS-weighted, so that the
+//! `(S, T)` (one of the two keeps every strategy with that many vertices on its side) (pbrt-v4's `visualizestrategies`/`visualizeweights`): MIS-weighted, so that the
 //! strategies' images add up to the full image, or with `-p mis=0` unweighted, an image of its
 //! own estimate of every path of `S + T - 2` scattering events it can build. Every strategy is
 //! still computed (the random numbers stay those of the full image).
@@ -60,7 +63,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         STRATEGY,
         STRATEGY
             .with_name("strategy-t")
-            .with_doc("with strategy-s: keep only strategy (s, t), t camera vertices"),
+            .with_doc("keep only the strategies of t camera vertices (-1: all)"),
         ParamSpec {
             name: "mis",
             kind: ParamKind::Int,
@@ -71,11 +74,12 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         },
     ],
     build: |p: &Params| {
-        let (s, t) = (p.get("strategy-s"), p.get("strategy-t"));
+        let chosen = |name| (p.get(name) >= 0.0).then(|| p.get(name) as usize);
         Box::new(Bdpt {
             max_depth: p.get_depth("max-depth"),
             rr_depth: p.get_u32("rr-depth"),
-            only: (s >= 0.0 && t >= 0.0).then_some((s as usize, t as usize)),
+            only_s: chosen("strategy-s"),
+            only_t: chosen("strategy-t"),
             mis: p.get("mis") != 0.0,
         })
     },
@@ -93,15 +97,16 @@ const STRATEGY: ParamSpec = ParamSpec {
     default: -1.0,
     min: -1.0,
     max: DEPTH_LIMIT as f64 + 2.0,
-    doc: "with strategy-t: keep only strategy (s, t), s light vertices (-1: all)",
+    doc: "keep only the strategies of s light vertices (-1: all)",
 };
 
 struct Bdpt {
     max_depth: u32,
     rr_depth: u32,
-    /// Keep only this `(s, t)`.
-    only: Option<(usize, usize)>,
-    /// Weight it by MIS (always, when every strategy is kept).
+    /// Keep only the strategies with this many light (`s`) and camera (`t`) vertices.
+    only_s: Option<usize>,
+    only_t: Option<usize>,
+    /// Weight them by MIS (always, when every strategy is kept).
     mis: bool,
 }
 
@@ -122,15 +127,16 @@ enum Kind {
 struct Vertex<'a> {
     kind: Kind,
     p: Vec3A,
-    /// Geometric normal; for a light its emitting normal (zero for point lights and lights
-    /// at infinity).
+    /// Geometric normal; for a light its emitting normal (zero for point and spot lights; for
+    /// lights at infinity, see `infinite`).
     ng: Vec3A,
     /// Surfaces: the shading point (hit, frame, direction back along the subpath, BSDF).
     sp: Option<ShadingPoint<'a>>,
     /// The light this vertex lies on or is (lights, and surfaces that emit).
     light: Option<u32>,
-    /// A light at infinity: the environment (`p` is then a point one unit past the
-    /// vertex it was reached from, `ng` the direction back) or a directional light.
+    /// A light at infinity (the environment, a directional light): `ng` is then the
+    /// direction its light travels into the scene (the sky lies towards `-ng`), and `p` only
+    /// a point along the way, never used for directions.
     infinite: bool,
     /// Throughput from the subpath's start up to this vertex.
     beta: Rgb,
@@ -217,7 +223,12 @@ impl<'a> Vertex<'a> {
         if self.kind == Kind::Light {
             return self.pdf_light(scene, next);
         }
-        let w = (next.p - self.p).normalize_or_zero();
+        // Towards the sky, the direction the vertex keeps (never rebuilt from positions).
+        let w = if next.infinite {
+            -next.ng
+        } else {
+            (next.p - self.p).normalize_or_zero()
+        };
         let pdf = match (&self.sp, self.kind) {
             (_, Kind::Camera) => camera.pdf_we(w).1,
             (Some(sp), _) => {
@@ -236,21 +247,24 @@ impl<'a> Vertex<'a> {
     fn pdf_light(&self, scene: &dyn Scene, v: &Vertex) -> f32 {
         let Some(index) = self.light else { return 0.0 };
         let radius = scene_radius(scene);
+        if self.infinite {
+            let mut pdf = 1.0 / (PI * radius * radius);
+            if v.on_surface() {
+                pdf *= v.ng.dot(self.ng).abs();
+            }
+            return pdf;
+        }
         let w = v.p - self.p;
         let d2 = w.length_squared();
         if d2.is_nan() || d2 <= 0.0 {
             return 0.0;
         }
         let w = w / d2.sqrt();
-        let mut pdf = if self.infinite {
-            1.0 / (PI * radius * radius)
-        } else {
-            // The light's own emitting normal (a surface vertex's `ng` is the geometry's,
-            // which an inward-emitting sphere or tube turns the other way).
-            let light = scene.lights().get(index);
-            let (_, dir) = light.pdf_le(light.emitting_normal_at(self.p), w, radius);
-            dir / d2
-        };
+        // The light's own emitting normal (a surface vertex's `ng` is the geometry's, which
+        // an inward-emitting sphere or tube turns the other way).
+        let light = scene.lights().get(index);
+        let (_, dir) = light.pdf_le(light.emitting_normal_at(self.p), w, radius);
+        let mut pdf = dir / d2;
         if v.on_surface() {
             pdf *= v.ng.dot(w).abs();
         }
@@ -264,10 +278,10 @@ impl<'a> Vertex<'a> {
         let Some(index) = self.light else { return 0.0 };
         let lights = scene.lights();
         let light = lights.get(index);
-        let w = (v.p - self.p).normalize_or_zero();
         if self.infinite {
-            return lights.pmf(index) * light.pdf_li(v.p, -w, self.p);
+            return lights.pmf(index) * light.pdf_li(v.p, -self.ng, self.p);
         }
+        let w = (v.p - self.p).normalize_or_zero();
         let (pos, _) = light.pdf_le(light.emitting_normal_at(self.p), w, scene_radius(scene));
         lights.pmf(index) * pos
     }
@@ -351,22 +365,24 @@ impl Integrator for Bdpt {
         // Every join of a camera prefix (t vertices) and a light prefix (s vertices).
         let mut l = Rgb::ZERO;
         for t in 1..=cam.len() {
-            for s in 0..=light.len() {
+            // s = 1 samples a light of its own: it runs even when the light subpath is empty.
+            for s in 0..=light.len().max(1) {
                 let depth = (s + t) as i64 - 2;
                 if (s == 1 && t == 1) || depth < 0 || depth > self.max_depth as i64 {
                     continue;
                 }
                 let (c, weight, raster) =
                     connect(scene, camera, &light, &cam, s, t, tracer, sampler);
-                let c = match self.only {
-                    None => c * weight,
-                    Some(only) if only != (s, t) => continue,
-                    Some(_) if self.mis => c * weight,
-                    Some(_) => c,
-                };
-                if c == Rgb::ZERO {
+                // A strategy that overflowed is dropped alone, not with the whole sample.
+                if c == Rgb::ZERO || !c.is_finite() || weight <= 0.0 {
                     continue;
                 }
+                let kept = self.only_s.is_none_or(|k| k == s) && self.only_t.is_none_or(|k| k == t);
+                let c = match (kept, self.mis || (self.only_s, self.only_t) == (None, None)) {
+                    (false, _) => continue,
+                    (true, true) => c * weight,
+                    (true, false) => c,
+                };
                 match raster {
                     Some(film) => splats.add(film, c),
                     None => l += c,
@@ -442,10 +458,7 @@ impl Bdpt {
         start.light = Some(index);
         start.infinite = infinite;
         start.pdf_fwd = le.pdf_pos * pmf;
-        if infinite {
-            // Seen from the scene, it is a direction: the normal points along the rays.
-            start.ng = le.ray.dir;
-        }
+        // For lights at infinity `le.normal` is the rays' direction, as `infinite` asks.
         path.push(start);
         self.random_walk(
             le.ray,
@@ -477,7 +490,8 @@ impl Bdpt {
 
     /// Extends `path` from its last vertex along `ray` (direction density `pdf`): up to
     /// `max_vertices` more vertices, each BSDF-sampled in `mode`, with the densities MIS
-    /// needs (pbrt-v4's `RandomWalk`). A camera subpath that escapes ends at the environment.
+    /// needs (pbrt-v4's `RandomWalk`). A camera subpath that escapes ends at the environment
+    /// when the scene has one.
     #[allow(clippy::too_many_arguments)]
     fn random_walk<'a>(
         &self,
@@ -585,7 +599,11 @@ fn connect(
         if pt.light.is_none() || t < 2 {
             return NONE;
         }
-        pt.beta * pt.le(scene, &cam[t - 2])
+        let c = pt.beta * pt.le(scene, &cam[t - 2]);
+        if c == Rgb::ZERO {
+            return NONE;
+        }
+        c
     } else if t == 1 {
         // A light vertex joined to the lens.
         let qs = &light[s - 1];

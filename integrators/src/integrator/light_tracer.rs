@@ -21,9 +21,11 @@
 //! unlimited), `rr-depth` (scattering events before Russian roulette, default 3; the survival
 //! probability is the path's throughput relative to what it left the light with, at most
 //! 0.95).
-//! **Bias**: none with unlimited `max-depth`. Mirrors and glass seen by the camera stay black:
-//! a path through a Dirac lobe cannot be connected (`L S* E` paths are missed, as in every
-//! light tracer); caustics (`L S+ D E`), which the path tracer finds slowly, come fast.
+//! **Bias**: whenever a mirror or glass is in view, light is missing: a vertex on a Dirac lobe
+//! cannot be connected to the lens, so every path whose last bounce before the eye is
+//! specular (`L (D|S)* S E`: a wall seen in a mirror, the room through a glass) is missed,
+//! as in every light tracer. Otherwise none with unlimited `max-depth`. Caustics
+//! (`L S+ D E`), which the path tracer finds slowly, come fast.
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
