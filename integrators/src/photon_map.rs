@@ -122,17 +122,7 @@ fn trace_one(
 ) {
     let scene = tracer.scene;
     // Emission: a light in proportion to power, a ray leaving it.
-    let (lo, hi) = scene.bounds();
-    let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3));
-    let Some((index, pmf)) = scene.lights().sample(sampler.next_1d()) else {
-        return;
-    };
-    let (u_pos, u_dir, u_side) = (sampler.next_2d(), sampler.next_2d(), sampler.next_1d());
-    let Some(emission) = scene
-        .lights()
-        .get(index)
-        .sample_le(u_pos, u_dir, u_side, center, radius)
-    else {
+    let Some((_, pmf, emission)) = crate::integrator::emit_from_a_light(scene, sampler) else {
         return;
     };
     let mut beta = emission.weight / (pmf * count as f32);

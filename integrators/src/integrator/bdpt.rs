@@ -35,8 +35,8 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    escaped, stays_on_viewer_side, Demand, Integrator, PixelSample, ShadingPoint, Splats, Tracer,
-    MAX_SURVIVAL,
+    emit_from_a_light, escaped, scene_radius, stays_on_viewer_side, Demand, Integrator,
+    PixelSample, ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
@@ -300,11 +300,6 @@ impl<'a> Vertex<'a> {
     }
 }
 
-fn scene_radius(scene: &dyn Scene) -> f32 {
-    let (lo, hi) = scene.bounds();
-    ((hi - lo).length() * 0.5).max(1e-3)
-}
-
 /// `x`, or 1 where it is 0 (a density that does not exist leaves a ratio unchanged).
 #[inline]
 fn remap0(x: f32) -> f32 {
@@ -438,21 +433,10 @@ impl Bdpt {
         path: &mut Subpath<'a>,
     ) {
         let scene = tracer.scene;
-        let (u_light, u_pos, u_dir, u_side) = (
-            sampler.next_1d(),
-            sampler.next_2d(),
-            sampler.next_2d(),
-            sampler.next_1d(),
-        );
-        let Some((index, pmf)) = scene.lights().sample(u_light) else {
+        let Some((index, pmf, le)) = emit_from_a_light(scene, sampler) else {
             return;
         };
         let light = scene.lights().get(index);
-        let (lo, hi) = scene.bounds();
-        let (center, radius) = ((lo + hi) * 0.5, scene_radius(scene));
-        let Some(le) = light.sample_le(u_pos, u_dir, u_side, center, radius) else {
-            return;
-        };
         let infinite = light.is_environment() || matches!(light, crate::Light::Directional(_));
         let mut start = Vertex::new(Kind::Light, le.ray.origin, le.normal, le.radiance);
         start.light = Some(index);

@@ -29,8 +29,8 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    escaped, stays_on_viewer_side, Demand, Integrator, PixelSample, ShadingPoint, Splats, Tracer,
-    MAX_SURVIVAL,
+    emit_from_a_light, escaped, stays_on_viewer_side, Demand, Integrator, PixelSample,
+    ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Camera, Hit, Rgb, Sampler};
@@ -138,22 +138,7 @@ impl LightTracer {
     ) {
         let scene = tracer.scene;
         // Emission: a light in proportion to power, a ray leaving it.
-        let (u_light, u_pos, u_dir, u_side) = (
-            sampler.next_1d(),
-            sampler.next_2d(),
-            sampler.next_2d(),
-            sampler.next_1d(),
-        );
-        let Some((index, pmf)) = scene.lights().sample(u_light) else {
-            return;
-        };
-        let (lo, hi) = scene.bounds();
-        let (center, radius) = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3));
-        let Some(emission) = scene
-            .lights()
-            .get(index)
-            .sample_le(u_pos, u_dir, u_side, center, radius)
-        else {
+        let Some((_, pmf, emission)) = emit_from_a_light(scene, sampler) else {
             return;
         };
         // Power the path carries: Le cos / (pdf_pos pdf_dir pmf).

@@ -298,6 +298,33 @@ impl<T: RayIntegrator> Integrator for T {
     }
 }
 
+/// Half the diagonal of the scene's bounding box (at least 1e-3): the radius of the disk that
+/// lights at infinity emit from.
+pub fn scene_radius(scene: &dyn Scene) -> f32 {
+    let (lo, hi) = scene.bounds();
+    ((hi - lo).length() * 0.5).max(1e-3)
+}
+
+/// How photons and light paths start: a light chosen in proportion to power and a ray leaving
+/// it (`sample_le`); the light's index, its selection probability and the sample. `None`
+/// when the scene has no light or the sample carries nothing.
+pub fn emit_from_a_light(
+    scene: &dyn Scene,
+    sampler: &mut Sampler,
+) -> Option<(u32, f32, crate::LeSample)> {
+    let (index, pmf) = scene.lights().sample(sampler.next_1d())?;
+    let (u_pos, u_dir, u_side) = (sampler.next_2d(), sampler.next_2d(), sampler.next_1d());
+    let (lo, hi) = scene.bounds();
+    let le = scene.lights().get(index).sample_le(
+        u_pos,
+        u_dir,
+        u_side,
+        (lo + hi) * 0.5,
+        scene_radius(scene),
+    )?;
+    Some((index, pmf, le))
+}
+
 /// Radiance emitted by the surface at `hit` towards the ray's origin.
 #[inline]
 pub fn emitted_at(scene: &dyn Scene, hit: &Hit, ray: &Ray) -> Rgb {
