@@ -357,6 +357,12 @@ impl Integrator for Bdpt {
         let mut light: Subpath = ArrayVec::new();
         self.camera_subpath(pixel, camera, tracer, sampler, &mut cam);
         self.light_subpath(tracer, sampler, &mut light);
+        let paths = Subpaths {
+            scene,
+            camera,
+            light: &light,
+            cam: &cam,
+        };
         // Every join of a camera prefix (t vertices) and a light prefix (s vertices).
         let mut l = Rgb::ZERO;
         for t in 1..=cam.len() {
@@ -366,8 +372,7 @@ impl Integrator for Bdpt {
                 if (s == 1 && t == 1) || depth < 0 || depth > self.max_depth as i64 {
                     continue;
                 }
-                let (c, weight, raster) =
-                    connect(scene, camera, &light, &cam, s, t, tracer, sampler);
+                let (c, weight, raster) = paths.connect(s, t, tracer, sampler);
                 // A strategy that overflowed is dropped alone, not with the whole sample.
                 if c == Rgb::ZERO || !c.is_finite() || weight <= 0.0 {
                     continue;
@@ -557,217 +562,216 @@ impl Bdpt {
     }
 }
 
-/// Strategy `(s, t)`: its contribution, its MIS weight, and the film position for `t = 1`
-/// (a splat), `None` for the sample's own pixel.
-#[allow(clippy::too_many_arguments)]
-fn connect(
-    scene: &dyn Scene,
-    camera: &Camera,
-    light: &Subpath,
-    cam: &Subpath,
-    s: usize,
-    t: usize,
-    tracer: &mut Tracer,
-    sampler: &mut Sampler,
-) -> (Rgb, f32, Option<glam::Vec2>) {
-    const NONE: (Rgb, f32, Option<glam::Vec2>) = (Rgb::ZERO, 0.0, None);
-    let pt = &cam[t - 1];
-    // A camera vertex that lies on the environment can only be taken whole (s = 0).
-    if pt.infinite && s > 0 {
-        return NONE;
-    }
-    let mut raster = None;
-    let mut sampled = None;
-    let contribution = if s == 0 {
-        // The camera subpath found an emitter.
-        if pt.light.is_none() || t < 2 {
-            return NONE;
-        }
-        let c = pt.beta * pt.le(scene, &cam[t - 2]);
-        if c == Rgb::ZERO {
-            return NONE;
-        }
-        c
-    } else if t == 1 {
-        // A light vertex joined to the lens.
-        let qs = &light[s - 1];
-        if !qs.connectible(scene) || qs.kind != Kind::Surface {
-            return NONE;
-        }
-        let Some(cs) = camera.sample_wi(qs.p) else {
-            return NONE;
-        };
-        let mut lens = Vertex::new(Kind::Camera, cs.point, camera.normal(), cs.we / cs.pdf);
-        lens.pdf_fwd = 1.0;
-        let c = qs.beta * joined(qs, cs.point, TransportMode::Importance) * lens.beta;
-        if c == Rgb::ZERO || !tracer.connected(&qs.hit(), cs.point) {
-            return NONE;
-        }
-        raster = Some(cs.raster);
-        sampled = Some(lens);
-        c
-    } else if s == 1 {
-        // A camera vertex joined to a new sample on a light.
-        if !pt.connectible(scene) || pt.kind != Kind::Surface {
-            return NONE;
-        }
-        let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
-        let lights = scene.lights();
-        let Some((index, pmf)) = lights.sample(u_light) else {
-            return NONE;
-        };
-        let light_ref = lights.get(index);
-        let Some(sp) = pt.sp.as_ref() else {
-            return NONE;
-        };
-        if !sp.can_receive(index, lights) {
-            return NONE;
-        }
-        let Some(ls) = light_ref.sample_li(pt.p, u) else {
-            return NONE;
-        };
-        if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
-            return NONE;
-        }
-        let infinite = !ls.dist.is_finite();
-        let mut v = Vertex::new(
-            Kind::Light,
-            if infinite { pt.p + ls.wi } else { ls.point },
-            if infinite {
-                -ls.wi
-            } else {
-                light_ref.emitting_normal_at(ls.point)
-            },
-            ls.radiance / (ls.pdf * pmf),
-        );
-        v.light = Some(index);
-        v.infinite = infinite;
-        v.pdf_fwd = v.pdf_light_origin(scene, pt);
-        let c = pt.beta * joined(pt, pt.p + ls.wi, TransportMode::Radiance) * v.beta;
-        if c == Rgb::ZERO || !tracer.unoccluded(&sp.hit, &ls) {
-            return NONE;
-        }
-        sampled = Some(v);
-        c
-    } else {
-        // A light vertex and a camera vertex joined by a segment.
-        let qs = &light[s - 1];
-        if !qs.connectible(scene) || !pt.connectible(scene) || qs.kind != Kind::Surface {
-            return NONE;
-        }
-        if pt.kind != Kind::Surface {
-            return NONE;
-        }
-        let d2 = (qs.p - pt.p).length_squared();
-        if d2.is_nan() || d2 <= 0.0 {
-            return NONE;
-        }
-        let c = qs.beta
-            * joined(qs, pt.p, TransportMode::Importance)
-            * joined(pt, qs.p, TransportMode::Radiance)
-            * pt.beta
-            / d2;
-        if c == Rgb::ZERO || !tracer.connected(&qs.hit(), pt.p) {
-            return NONE;
-        }
-        c
-    };
-    let weight = mis_weight(scene, camera, light, cam, s, t, sampled.as_ref());
-    (contribution, weight, raster)
+/// A camera sample's two subpaths, with what joining them needs.
+struct Subpaths<'p, 'a> {
+    scene: &'p dyn Scene,
+    camera: &'p Camera,
+    light: &'p Subpath<'a>,
+    cam: &'p Subpath<'a>,
 }
 
-/// The power-heuristic weight of strategy `(s, t)` against every other strategy that could
-/// have built the same path (pbrt-v4's `MISWeight`, squared ratios): walking from the join
-/// towards each end, each step multiplies the ratio by the vertex's reverse over forward
-/// density; steps at Dirac vertices and delta lights add nothing. `sampled` is the vertex
-/// a strategy sampled anew (`s = 1`: on a light; `t = 1`: the lens).
-#[allow(clippy::too_many_arguments)]
-fn mis_weight(
-    scene: &dyn Scene,
-    camera: &Camera,
-    light: &Subpath,
-    cam: &Subpath,
-    s: usize,
-    t: usize,
-    sampled: Option<&Vertex>,
-) -> f32 {
-    if s + t == 2 {
-        return 1.0;
-    }
-    // The join's vertices, the new vertex in place of a subpath's end.
-    let qs = if s == 1 {
-        sampled.or(light.first())
-    } else {
-        s.checked_sub(1).map(|i| &light[i])
-    };
-    let pt = if t == 1 {
-        sampled.unwrap_or(&cam[0])
-    } else {
-        &cam[t - 1]
-    };
-    let qs_minus = if s >= 2 { Some(&light[s - 2]) } else { None };
-    let pt_minus = if t >= 2 { Some(&cam[t - 2]) } else { None };
-
-    // The reverse densities the join creates.
-    let pt_rev = match qs {
-        Some(qs) => qs.pdf(scene, camera, qs_minus, pt),
-        None => pt.pdf_light_origin(scene, pt_minus.unwrap_or(pt)),
-    };
-    let pt_minus_rev = pt_minus.map(|pm| match qs {
-        Some(qs) => pt.pdf(scene, camera, Some(qs), pm),
-        None => pt.pdf_light(scene, pm),
-    });
-    let qs_rev = qs.map(|qs| pt.pdf(scene, camera, pt_minus, qs));
-    let qs_minus_rev = qs_minus.and_then(|qm| qs.map(|qs| qs.pdf(scene, camera, Some(pt), qm)));
-
-    let mut sum = 0.0f32;
-    // Camera side: the strategies with fewer camera vertices.
-    let mut ri = 1.0f32;
-    for i in (1..t).rev() {
-        let (rev, fwd) = if i == t - 1 {
-            (pt_rev, pt.pdf_fwd)
-        } else if i + 2 == t {
-            (pt_minus_rev.unwrap_or(0.0), cam[i].pdf_fwd)
-        } else {
-            (cam[i].pdf_rev, cam[i].pdf_fwd)
-        };
-        ri *= remap0(rev) / remap0(fwd);
-        let delta_here = i != t - 1 && cam[i].delta;
-        let delta_before = cam[i - 1].delta;
-        if !delta_here && !delta_before {
-            sum += ri * ri;
+impl Subpaths<'_, '_> {
+    /// Strategy `(s, t)`: its contribution, its MIS weight, and the film position for `t = 1`
+    /// (a splat), `None` for the sample's own pixel.
+    fn connect(
+        &self,
+        s: usize,
+        t: usize,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+    ) -> (Rgb, f32, Option<glam::Vec2>) {
+        let (scene, camera, light, cam) = (self.scene, self.camera, self.light, self.cam);
+        const NONE: (Rgb, f32, Option<glam::Vec2>) = (Rgb::ZERO, 0.0, None);
+        let pt = &cam[t - 1];
+        // A camera vertex that lies on the environment can only be taken whole (s = 0).
+        if pt.infinite && s > 0 {
+            return NONE;
         }
+        let mut raster = None;
+        let mut sampled = None;
+        let contribution = if s == 0 {
+            // The camera subpath found an emitter.
+            if pt.light.is_none() || t < 2 {
+                return NONE;
+            }
+            let c = pt.beta * pt.le(scene, &cam[t - 2]);
+            if c == Rgb::ZERO {
+                return NONE;
+            }
+            c
+        } else if t == 1 {
+            // A light vertex joined to the lens.
+            let qs = &light[s - 1];
+            if !qs.connectible(scene) || qs.kind != Kind::Surface {
+                return NONE;
+            }
+            let Some(cs) = camera.sample_wi(qs.p) else {
+                return NONE;
+            };
+            let mut lens = Vertex::new(Kind::Camera, cs.point, camera.normal(), cs.we / cs.pdf);
+            lens.pdf_fwd = 1.0;
+            let c = qs.beta * joined(qs, cs.point, TransportMode::Importance) * lens.beta;
+            if c == Rgb::ZERO || !tracer.connected(&qs.hit(), cs.point) {
+                return NONE;
+            }
+            raster = Some(cs.raster);
+            sampled = Some(lens);
+            c
+        } else if s == 1 {
+            // A camera vertex joined to a new sample on a light.
+            if !pt.connectible(scene) || pt.kind != Kind::Surface {
+                return NONE;
+            }
+            let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
+            let lights = scene.lights();
+            let Some((index, pmf)) = lights.sample(u_light) else {
+                return NONE;
+            };
+            let light_ref = lights.get(index);
+            let Some(sp) = pt.sp.as_ref() else {
+                return NONE;
+            };
+            if !sp.can_receive(index, lights) {
+                return NONE;
+            }
+            let Some(ls) = light_ref.sample_li(pt.p, u) else {
+                return NONE;
+            };
+            if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+                return NONE;
+            }
+            let infinite = !ls.dist.is_finite();
+            let mut v = Vertex::new(
+                Kind::Light,
+                if infinite { pt.p + ls.wi } else { ls.point },
+                if infinite {
+                    -ls.wi
+                } else {
+                    light_ref.emitting_normal_at(ls.point)
+                },
+                ls.radiance / (ls.pdf * pmf),
+            );
+            v.light = Some(index);
+            v.infinite = infinite;
+            v.pdf_fwd = v.pdf_light_origin(scene, pt);
+            let c = pt.beta * joined(pt, pt.p + ls.wi, TransportMode::Radiance) * v.beta;
+            if c == Rgb::ZERO || !tracer.unoccluded(&sp.hit, &ls) {
+                return NONE;
+            }
+            sampled = Some(v);
+            c
+        } else {
+            // A light vertex and a camera vertex joined by a segment.
+            let qs = &light[s - 1];
+            if !qs.connectible(scene) || !pt.connectible(scene) || qs.kind != Kind::Surface {
+                return NONE;
+            }
+            if pt.kind != Kind::Surface {
+                return NONE;
+            }
+            let d2 = (qs.p - pt.p).length_squared();
+            if d2.is_nan() || d2 <= 0.0 {
+                return NONE;
+            }
+            let c = qs.beta
+                * joined(qs, pt.p, TransportMode::Importance)
+                * joined(pt, qs.p, TransportMode::Radiance)
+                * pt.beta
+                / d2;
+            if c == Rgb::ZERO || !tracer.connected(&qs.hit(), pt.p) {
+                return NONE;
+            }
+            c
+        };
+        let weight = self.mis_weight(s, t, sampled.as_ref());
+        (contribution, weight, raster)
     }
-    // Light side: the strategies with fewer light vertices.
-    ri = 1.0;
-    for i in (0..s).rev() {
-        let vertex = if i == s - 1 {
-            qs.unwrap_or(&light[i])
-        } else {
-            &light[i]
-        };
-        let rev = if i == s - 1 {
-            qs_rev.unwrap_or(0.0)
-        } else if i + 2 == s {
-            qs_minus_rev.unwrap_or(0.0)
-        } else {
-            vertex.pdf_rev
-        };
-        ri *= remap0(rev) / remap0(vertex.pdf_fwd);
-        let delta_here = i != s - 1 && vertex.delta;
-        let delta_before = if i > 0 {
-            light[i - 1].delta
-        } else {
-            vertex.is_delta_light(scene)
-        };
-        if !delta_here && !delta_before {
-            sum += ri * ri;
+
+    /// The power-heuristic weight of strategy `(s, t)` against every other strategy that could
+    /// have built the same path (pbrt-v4's `MISWeight`, squared ratios): walking from the join
+    /// towards each end, each step multiplies the ratio by the vertex's reverse over forward
+    /// density; steps at Dirac vertices and delta lights add nothing. `sampled` is the vertex
+    /// a strategy sampled anew (`s = 1`: on a light; `t = 1`: the lens).
+    fn mis_weight(&self, s: usize, t: usize, sampled: Option<&Vertex>) -> f32 {
+        let (scene, camera, light, cam) = (self.scene, self.camera, self.light, self.cam);
+        if s + t == 2 {
+            return 1.0;
         }
-    }
-    let w = 1.0 / (1.0 + sum);
-    if w.is_finite() {
-        w
-    } else {
-        0.0
+        // The join's vertices, the new vertex in place of a subpath's end.
+        let qs = if s == 1 {
+            sampled.or(light.first())
+        } else {
+            s.checked_sub(1).map(|i| &light[i])
+        };
+        let pt = if t == 1 {
+            sampled.unwrap_or(&cam[0])
+        } else {
+            &cam[t - 1]
+        };
+        let qs_minus = if s >= 2 { Some(&light[s - 2]) } else { None };
+        let pt_minus = if t >= 2 { Some(&cam[t - 2]) } else { None };
+
+        // The reverse densities the join creates.
+        let pt_rev = match qs {
+            Some(qs) => qs.pdf(scene, camera, qs_minus, pt),
+            None => pt.pdf_light_origin(scene, pt_minus.unwrap_or(pt)),
+        };
+        let pt_minus_rev = pt_minus.map(|pm| match qs {
+            Some(qs) => pt.pdf(scene, camera, Some(qs), pm),
+            None => pt.pdf_light(scene, pm),
+        });
+        let qs_rev = qs.map(|qs| pt.pdf(scene, camera, pt_minus, qs));
+        let qs_minus_rev = qs_minus.and_then(|qm| qs.map(|qs| qs.pdf(scene, camera, Some(pt), qm)));
+
+        let mut sum = 0.0f32;
+        // Camera side: the strategies with fewer camera vertices.
+        let mut ri = 1.0f32;
+        for i in (1..t).rev() {
+            let (rev, fwd) = if i == t - 1 {
+                (pt_rev, pt.pdf_fwd)
+            } else if i + 2 == t {
+                (pt_minus_rev.unwrap_or(0.0), cam[i].pdf_fwd)
+            } else {
+                (cam[i].pdf_rev, cam[i].pdf_fwd)
+            };
+            ri *= remap0(rev) / remap0(fwd);
+            let delta_here = i != t - 1 && cam[i].delta;
+            let delta_before = cam[i - 1].delta;
+            if !delta_here && !delta_before {
+                sum += ri * ri;
+            }
+        }
+        // Light side: the strategies with fewer light vertices.
+        ri = 1.0;
+        for i in (0..s).rev() {
+            let vertex = if i == s - 1 {
+                qs.unwrap_or(&light[i])
+            } else {
+                &light[i]
+            };
+            let rev = if i == s - 1 {
+                qs_rev.unwrap_or(0.0)
+            } else if i + 2 == s {
+                qs_minus_rev.unwrap_or(0.0)
+            } else {
+                vertex.pdf_rev
+            };
+            ri *= remap0(rev) / remap0(vertex.pdf_fwd);
+            let delta_here = i != s - 1 && vertex.delta;
+            let delta_before = if i > 0 {
+                light[i - 1].delta
+            } else {
+                vertex.is_delta_light(scene)
+            };
+            if !delta_here && !delta_before {
+                sum += ri * ri;
+            }
+        }
+        let w = 1.0 / (1.0 + sum);
+        if w.is_finite() {
+            w
+        } else {
+            0.0
+        }
     }
 }
