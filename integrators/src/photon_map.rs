@@ -264,15 +264,42 @@ pub fn photon_map_bytes(photons: u64) -> u64 {
     photons * 2 * std::mem::size_of::<Photon>() as u64
 }
 
-/// Photons in a hashed grid, for gathers of radius up to the one the map was built for.
-#[derive(Clone, Debug, Default)]
-pub struct PhotonMap {
-    /// Photons sorted by bucket.
-    photons: Vec<Photon>,
-    /// `starts[b]..starts[b + 1]` are the photons of bucket `b`.
+/// Where an item of a [`PointGrid`] lies.
+pub trait Located {
+    fn position(&self) -> Vec3A;
+}
+
+impl Located for Photon {
+    #[inline]
+    fn position(&self) -> Vec3A {
+        Vec3A::from(self.p)
+    }
+}
+
+/// Points (photons, light-path vertices) in a hashed grid, for gathers of radius up to the
+/// one the grid was built for.
+#[derive(Clone, Debug)]
+pub struct PointGrid<T> {
+    /// Items sorted by bucket.
+    items: Vec<T>,
+    /// `starts[b]..starts[b + 1]` are the items of bucket `b`.
     starts: Vec<u32>,
     inv_cell: f32,
     radius: f32,
+}
+
+/// Photons in a hashed grid.
+pub type PhotonMap = PointGrid<Photon>;
+
+impl<T> Default for PointGrid<T> {
+    fn default() -> Self {
+        PointGrid {
+            items: Vec::new(),
+            starts: Vec::new(),
+            inv_cell: 0.0,
+            radius: 0.0,
+        }
+    }
 }
 
 /// Integer coordinates of the grid cell containing `p`.
@@ -291,18 +318,18 @@ fn bucket_of(c: [i64; 3], mask: usize) -> usize {
     (h as u64 as usize) & mask
 }
 
-impl PhotonMap {
-    /// Builds the map for gathers of radius `radius` (> 0).
-    pub fn build(photons: Vec<Photon>, radius: f32) -> PhotonMap {
+impl<T: Located + Copy + Send + Sync> PointGrid<T> {
+    /// Builds the grid for gathers of radius `radius` (> 0).
+    pub fn build(items: Vec<T>, radius: f32) -> PointGrid<T> {
         let radius = radius.max(f32::MIN_POSITIVE);
         let inv_cell = 1.0 / (2.0 * radius);
-        let buckets = (photons.len() * 2).next_power_of_two().max(1);
+        let buckets = (items.len() * 2).next_power_of_two().max(1);
         let mask = buckets - 1;
         // Buckets in parallel, then a counting sort by bucket (linear, and stable, so the
-        // map does not depend on the thread count).
-        let keys: Vec<u32> = photons
+        // grid does not depend on the thread count).
+        let keys: Vec<u32> = items
             .par_iter()
-            .map(|ph| bucket_of(cell_of(Vec3A::from(ph.p), inv_cell), mask) as u32)
+            .map(|ph| bucket_of(cell_of(ph.position(), inv_cell), mask) as u32)
             .collect();
         let mut starts = vec![0u32; buckets + 1];
         for &k in &keys {
@@ -312,36 +339,28 @@ impl PhotonMap {
             starts[b + 1] += starts[b];
         }
         let mut next = starts.clone();
-        let mut sorted = vec![
-            Photon {
-                p: Vec3::ZERO,
-                wi: Vec3::ZERO,
-                power: Vec3::ZERO,
-                bounces: 0,
-                caustic: false,
-            };
-            photons.len()
-        ];
-        for (ph, &k) in photons.iter().zip(&keys) {
-            sorted[next[k as usize] as usize] = *ph;
+        let mut order = vec![0u32; items.len()];
+        for (i, &k) in keys.iter().enumerate() {
+            order[next[k as usize] as usize] = i as u32;
             next[k as usize] += 1;
         }
-        PhotonMap {
-            photons: sorted,
+        let sorted = order.iter().map(|&i| items[i as usize]).collect();
+        PointGrid {
+            items: sorted,
             starts,
             inv_cell,
             radius,
         }
     }
 
-    /// Number of photons stored.
+    /// Number of items stored.
     pub fn len(&self) -> usize {
-        self.photons.len()
+        self.items.len()
     }
 
-    /// True if no photon is stored.
+    /// True if nothing is stored.
     pub fn is_empty(&self) -> bool {
-        self.photons.is_empty()
+        self.items.is_empty()
     }
 
     /// The gather radius the map was built for.
@@ -349,10 +368,10 @@ impl PhotonMap {
         self.radius
     }
 
-    /// Calls `f` on every photon within the map's radius of `p`, each once.
+    /// Calls `f` on every item within the grid's radius of `p`, each once.
     #[inline]
-    pub fn for_each_near(&self, p: Vec3A, mut f: impl FnMut(&Photon)) {
-        if self.photons.is_empty() {
+    pub fn for_each_near(&self, p: Vec3A, mut f: impl FnMut(&T)) {
+        if self.items.is_empty() {
             return;
         }
         let r = self.radius;
@@ -374,8 +393,8 @@ impl PhotonMap {
                         n_seen += 1;
                     }
                     let range = self.starts[b] as usize..self.starts[b + 1] as usize;
-                    for ph in &self.photons[range] {
-                        if (Vec3A::from(ph.p) - p).length_squared() < r * r {
+                    for ph in &self.items[range] {
+                        if (ph.position() - p).length_squared() < r * r {
                             f(ph);
                         }
                     }
@@ -383,7 +402,9 @@ impl PhotonMap {
             }
         }
     }
+}
 
+impl PhotonMap {
     /// Radiance reflected at `hit` towards `wo` (local frame of `frame`) by the photons near it
     /// that `accept` admits: `sum f(wo, wi) Phi / (pi r^2)`.
     #[inline]

@@ -124,7 +124,13 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     };
     let seed = args.session.seed.unwrap_or(loaded.render.seed);
 
-    render::check_memory(camera.width, camera.height, integrator.demand().memory)?;
+    render::check_memory(
+        camera.width,
+        camera.height,
+        integrator
+            .demand()
+            .memory_for(camera.width as u64 * camera.height as u64),
+    )?;
     render::check_camera(&camera, &integrator.demand(), entry.name)?;
     let built =
         RenderScene::build_on_threads(&loaded, args.session.trace.accel, args.session.threads)?;

@@ -411,7 +411,7 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
         let entry = registry::find(&c.integrator)?;
         let demand = entry.build_checked(&entry.resolve(&c.params)?)?.demand();
         render::check_camera(&camera, &demand, entry.name)?;
-        most = most.max(demand.memory);
+        most = most.max(demand.memory_for(camera.width as u64 * camera.height as u64));
     }
     render::check_memory(camera.width, camera.height, most)?;
     if let Some(r) = opts.region {

@@ -265,7 +265,13 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
         None => loaded.camera.clone(),
     };
     let integrator = entry.build_checked(&params)?;
-    render::check_memory(camera.width, camera.height, integrator.demand().memory)?;
+    render::check_memory(
+        camera.width,
+        camera.height,
+        integrator
+            .demand()
+            .memory_for(camera.width as u64 * camera.height as u64),
+    )?;
     render::check_camera(&camera, &integrator.demand(), entry.name)?;
     let built = RenderScene::build_on_threads(&loaded, settings.accel, settings.threads)?;
     let info = RenderInfo {

@@ -172,7 +172,7 @@ pub fn check_memory(width: u32, height: u32, integrator: u64) -> anyhow::Result<
             let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             let maps = if integrator > 0 {
                 format!(
-                    " and its integrator's photon maps about {:.1} GiB",
+                    " and its integrator's photon maps or light paths about {:.1} GiB",
                     gib(integrator)
                 )
             } else {
@@ -555,7 +555,9 @@ pub fn render_passes(
         // pixel, tiles in parallel.
         let pass = acc.spp_done;
         stats.rays.add(
-            &pool.install(|| integrator.prepare_pass(scene, settings.seed, pass, abandon_pass)),
+            &pool.install(|| {
+                integrator.prepare_pass(scene, camera, settings.seed, pass, abandon_pass)
+            }),
         );
         if abandon() {
             abandoned(acc, &mut stats);

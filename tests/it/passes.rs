@@ -139,6 +139,11 @@ fn checkpoint_then_resume_equals_a_direct_render() {
         "lighttracer",
     ];
     checkpoint_then_resume(&d.join("lighttracer"), &light);
+    // vcm too: its light subpaths and radius depend only on the seed and the pass number.
+    let vcm = [
+        "render", CORNELL, "--size", "48x48", "--spp", "12", "--seed", "9", "-q", "-i", "vcm",
+    ];
+    checkpoint_then_resume(&d.join("vcm"), &vcm);
     let common = [
         "render", CORNELL, "--size", "96x96", "--spp", "40", "--seed", "9", "-q",
     ];

@@ -35,8 +35,8 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    emit_from_a_light, escaped, scene_radius, stays_on_viewer_side, Demand, Integrator,
-    PixelSample, ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
+    emit_from_a_light, escaped, scene_radius, Demand, Integrator, PixelSample, ShadingPoint,
+    Splats, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
@@ -311,31 +311,11 @@ fn remap0(x: f32) -> f32 {
 }
 
 /// The BSDF factor of joining surface vertex `v` to the point `to`, times `|cos|` at `v`
-/// against its shading normal, with Veach's shading-normal correction on the light side
-/// (`mode` Importance); zero across an opaque surface.
+/// (see [`ShadingPoint::connection_factor`]).
 fn joined(v: &Vertex, to: Vec3A, mode: TransportMode) -> Rgb {
-    let Some(sp) = &v.sp else { return Rgb::ZERO };
-    let w = (to - v.p).normalize_or_zero();
-    if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, w) {
-        return Rgb::ZERO;
-    }
-    let local = sp.frame.to_local(w);
-    // Radiance order: outgoing towards the camera side, incident from the light side.
-    let f = match mode {
-        TransportMode::Radiance => sp.material.eval(sp.wo, local),
-        TransportMode::Importance => sp.material.eval(local, sp.wo),
-    };
-    let cos = local.z.abs();
-    match mode {
-        TransportMode::Radiance => f * cos,
-        TransportMode::Importance => {
-            let (hit, wo) = (&sp.hit, sp.wo_world);
-            let denom = wo.dot(hit.ng).abs() * w.dot(hit.ns).abs();
-            if denom <= 0.0 {
-                return Rgb::ZERO;
-            }
-            f * (cos * wo.dot(hit.ns).abs() * w.dot(hit.ng).abs() / denom)
-        }
+    match &v.sp {
+        Some(sp) => sp.connection_factor((to - v.p).normalize_or_zero(), mode),
+        None => Rgb::ZERO,
     }
 }
 

@@ -29,8 +29,8 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    emit_from_a_light, escaped, stays_on_viewer_side, Demand, Integrator, PixelSample,
-    ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
+    emit_from_a_light, escaped, Demand, Integrator, PixelSample, ShadingPoint, Splats, Tracer,
+    MAX_SURVIVAL,
 };
 use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Camera, Hit, Rgb, Sampler};
@@ -198,21 +198,6 @@ fn connect_to_lens(
     tracer: &mut Tracer,
 ) -> Option<(glam::Vec2, Rgb)> {
     let cs = camera.sample_wi(sp.hit.p)?;
-    let (hit, wo) = (&sp.hit, sp.wo_world);
-    if !stays_on_viewer_side(&sp.material, hit.ng, wo, cs.wi) {
-        return None;
-    }
-    // The BSDF for radiance leaving towards the eye from light arriving along `wo`.
-    let wi_local = sp.frame.to_local(cs.wi);
-    let f = sp.material.eval(wi_local, sp.wo);
-    if f == Rgb::ZERO {
-        return None;
-    }
-    let denom = wo.dot(hit.ng).abs() * cs.wi.dot(hit.ns).abs();
-    if denom <= 0.0 {
-        return None;
-    }
-    let correction = wo.dot(hit.ns).abs() * cs.wi.dot(hit.ng).abs() / denom;
-    let l = beta * f * cs.we * (wi_local.z.abs() * correction / cs.pdf);
-    (l != Rgb::ZERO && tracer.connected(hit, cs.point)).then_some((cs.raster, l))
+    let l = beta * sp.connection_factor(cs.wi, TransportMode::Importance) * (cs.we / cs.pdf);
+    (l != Rgb::ZERO && tracer.connected(&sp.hit, cs.point)).then_some((cs.raster, l))
 }

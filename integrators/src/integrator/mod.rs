@@ -6,6 +6,7 @@ pub mod shading;
 
 mod albedo_view;
 mod bdpt;
+mod bpm;
 mod depth_view;
 mod direct;
 mod fixed_depth;
@@ -16,6 +17,7 @@ mod path_state;
 mod photon;
 mod russian_roulette;
 mod sppm;
+mod vcm;
 mod whitted;
 
 pub use path_state::PathState;
@@ -208,14 +210,16 @@ pub trait Integrator: Send + Sync {
         splats: &mut Splats,
     ) -> Rgb;
 
-    /// Called before the pass in which every pixel takes sample number `pass`. Whatever it
-    /// computes must depend only on (`scene`, `seed`, `pass`), so that images stay the same
+    /// Called before the pass in which every pixel of `camera`'s image takes sample number
+    /// `pass`. Whatever it computes must depend only on (`scene`, `camera`, `seed`, `pass`),
+    /// so that images stay the same
     /// whatever the thread count and across a checkpoint and resume. It may use rayon: the
     /// render loop calls it inside its own thread pool. Long work checks `stop` and may end
     /// early when it asks (the pass is then abandoned). Returns the rays it cast.
     fn prepare_pass(
         &mut self,
         _scene: &dyn Scene,
+        _camera: &Camera,
         _seed: u64,
         _pass: u32,
         _stop: Stop,
@@ -242,9 +246,20 @@ pub struct Demand {
     pub rays_per_sample: f64,
     /// Memory it holds during a pass beyond the film (photon maps), bytes, about.
     pub memory: u64,
+    /// Memory it holds during a pass per pixel of the image, bytes, about (light paths
+    /// stored one per pixel).
+    pub memory_per_pixel: u64,
     /// It connects points of the scene to the lens ([`Camera::sample_wi`]), which only a
     /// pinhole camera has: an orthographic one is refused before rendering.
     pub pinhole: bool,
+}
+
+impl Demand {
+    /// The memory it holds during a pass of an image of `pixels` pixels, bytes, about.
+    pub fn memory_for(&self, pixels: u64) -> u64 {
+        self.memory
+            .saturating_add(pixels.saturating_mul(self.memory_per_pixel))
+    }
 }
 
 /// An integrator that estimates the radiance arriving along a camera ray (Nori's and
@@ -263,6 +278,7 @@ pub trait RayIntegrator: Send + Sync {
     fn prepare_pass(
         &mut self,
         _scene: &dyn Scene,
+        _camera: &Camera,
         _seed: u64,
         _pass: u32,
         _stop: Stop,
@@ -285,8 +301,15 @@ impl<T: RayIntegrator> Integrator for T {
         self.radiance(&ray, tracer, sampler)
     }
 
-    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32, stop: Stop) -> RayCounters {
-        RayIntegrator::prepare_pass(self, scene, seed, pass, stop)
+    fn prepare_pass(
+        &mut self,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
+        RayIntegrator::prepare_pass(self, scene, camera, seed, pass, stop)
     }
 
     fn demand(&self) -> Demand {

@@ -31,7 +31,7 @@ use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep
 use crate::registry::{
     IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
 };
-use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "photon",
@@ -105,6 +105,7 @@ impl RayIntegrator for PhotonMapping {
     fn prepare_pass(
         &mut self,
         scene: &dyn Scene,
+        _camera: &Camera,
         seed: u64,
         _pass: u32,
         stop: Stop,

@@ -369,6 +369,8 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::direct::ENTRY,
     super::light_tracer::ENTRY,
     super::bdpt::ENTRY,
+    super::bpm::ENTRY,
+    super::vcm::ENTRY,
     super::photon::ENTRY,
     super::sppm::ENTRY,
     super::normals_view::ENTRY,

@@ -94,6 +94,32 @@ impl<'a> ShadingPoint<'a> {
         })
     }
 
+    /// The BSDF factor of a connection leaving this point along `w` (unit, world), times
+    /// `|cos|` against the shading normal: for `Radiance`, light arriving along `w` and leaving
+    /// towards `wo`; for `Importance` (a light subpath's vertex), light arriving along `wo`
+    /// and leaving along `w`, with Veach's shading-normal correction
+    /// `|wo.ns| |w.ng| / (|wo.ng| |w.ns|)`. Zero across an opaque surface.
+    #[inline]
+    pub fn connection_factor(&self, w: Vec3A, mode: TransportMode) -> Rgb {
+        if !stays_on_viewer_side(&self.material, self.hit.ng, self.wo_world, w) {
+            return Rgb::ZERO;
+        }
+        let local = self.frame.to_local(w);
+        let cos = local.z.abs();
+        match mode {
+            TransportMode::Radiance => self.material.eval(self.wo, local) * cos,
+            TransportMode::Importance => {
+                let (hit, wo) = (&self.hit, self.wo_world);
+                let denom = wo.dot(hit.ng).abs() * w.dot(hit.ns).abs();
+                if denom <= 0.0 {
+                    return Rgb::ZERO;
+                }
+                let correction = wo.dot(hit.ns).abs() * w.dot(hit.ng).abs() / denom;
+                self.material.eval(local, self.wo) * (cos * correction)
+            }
+        }
+    }
+
     /// False when light `index` cannot light this point: it is the emitter the point lies on,
     /// and flat or convex (only a concave emitter, a sphere emitting inwards, lights itself).
     /// Skipped exactly rather than left to rounding, which would produce grazing samples of

@@ -27,7 +27,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
     PHOTONS, RR_DEPTH,
 };
-use crate::{Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "sppm",
@@ -95,7 +95,14 @@ impl RayIntegrator for Sppm {
         }
     }
 
-    fn prepare_pass(&mut self, scene: &dyn Scene, seed: u64, pass: u32, stop: Stop) -> RayCounters {
+    fn prepare_pass(
+        &mut self,
+        scene: &dyn Scene,
+        _camera: &Camera,
+        seed: u64,
+        pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
         // This pass's radius and photons (landings after one bounce or more).
         let r0 = if self.radius > 0.0 {
             self.radius

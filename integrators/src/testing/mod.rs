@@ -335,7 +335,13 @@ pub fn estimate_integrator(
     scene: &TestScene,
     n: u32,
 ) -> (f64, f64) {
-    integrator.prepare_pass(scene, 12345, 0, crate::Stop::NEVER);
+    integrator.prepare_pass(
+        scene,
+        &probe_camera(&scene.camera, 1),
+        12345,
+        0,
+        crate::Stop::NEVER,
+    );
     let ray_integrator = integrator
         .as_ray_integrator()
         .expect("the analytic scenes probe integrators with rays: implement RayIntegrator");
@@ -408,11 +414,11 @@ pub fn estimate_passes(
     let mut integrator = find(name).unwrap().instantiate(&given).unwrap();
     let mut means = Vec::with_capacity(passes as usize);
     for pass in 0..passes {
-        integrator.prepare_pass(scene, 12345, pass, crate::Stop::NEVER);
         if integrator.as_ray_integrator().is_none() {
             // Light-path integrators: a camera's whole image, splats and all.
             let side = (per_pass as f64).sqrt().ceil() as u32;
             let camera = probe_camera(&scene.camera, side);
+            integrator.prepare_pass(scene, &camera, 12345, pass, crate::Stop::NEVER);
             means.push(image_pass_mean(
                 name,
                 integrator.as_ref(),
@@ -422,6 +428,13 @@ pub fn estimate_passes(
             ));
             continue;
         }
+        integrator.prepare_pass(
+            scene,
+            &probe_camera(&scene.camera, 1),
+            12345,
+            pass,
+            crate::Stop::NEVER,
+        );
         let ray_integrator = as_ray_integrator(name, integrator.as_ref());
         let mut tracer = Tracer::new(scene);
         let mut sum = 0.0f64;

@@ -262,6 +262,19 @@ pub fn render_text(
     seed: u64,
     kind: raylab::accel::AccelKind,
 ) -> raylab::output::Film {
+    render_text_with(text, files, integrator, &[], spp, seed, kind)
+}
+
+/// [`render_text`] with integrator parameters.
+pub fn render_text_with(
+    text: &str,
+    files: &[(&str, Vec<u8>)],
+    integrator: &str,
+    params: &[(&str, &str)],
+    spp: u32,
+    seed: u64,
+    kind: raylab::accel::AccelKind,
+) -> raylab::output::Film {
     let dir = tempfile::tempdir().unwrap();
     for (name, bytes) in files {
         std::fs::write(dir.path().join(name), bytes).unwrap();
@@ -274,7 +287,12 @@ pub fn render_text(
         .iter()
         .find(|e| e.name == integrator)
         .unwrap()
-        .instantiate(&[])
+        .instantiate(
+            &params
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect::<Vec<_>>(),
+        )
         .unwrap();
     let settings = raylab::render::RenderSettings::fixed(spp, seed, None);
     raylab::render::render(&built, &loaded.camera, integrator.as_mut(), &settings)
