@@ -37,7 +37,7 @@ fn mean_green(scene: &str, files: &[(&str, Vec<u8>)], integrator: &str, spp: u32
 
 /// Photon density estimation blurs and is biased by its radius; everything else is unbiased.
 fn tolerance(integrator: &str, expected: f32, se: f32) -> f32 {
-    let bias = if matches!(integrator, "photon" | "sppm" | "bpm" | "vcm") {
+    let bias = if matches!(integrator, "photon" | "sppm" | "sppm-pixel" | "bpm" | "vcm") {
         0.03 * expected
     } else {
         0.0

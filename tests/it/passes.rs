@@ -144,6 +144,23 @@ fn checkpoint_then_resume_equals_a_direct_render() {
         "render", CORNELL, "--size", "48x48", "--spp", "12", "--seed", "9", "-q", "-i", "vcm",
     ];
     checkpoint_then_resume(&d.join("vcm"), &vcm);
+    // sppm-pixel too: its pixels' radii and fluxes are rebuilt by replaying the passes.
+    let sppm_pixel = [
+        "render",
+        CORNELL,
+        "--size",
+        "48x48",
+        "--spp",
+        "12",
+        "--seed",
+        "9",
+        "-q",
+        "-i",
+        "sppm-pixel",
+        "-p",
+        "photons=5000",
+    ];
+    checkpoint_then_resume(&d.join("sppm-pixel"), &sppm_pixel);
     let common = [
         "render", CORNELL, "--size", "96x96", "--spp", "40", "--seed", "9", "-q",
     ];

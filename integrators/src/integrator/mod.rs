@@ -17,6 +17,7 @@ mod path_state;
 mod photon;
 mod russian_roulette;
 mod sppm;
+mod sppm_pixel;
 mod vcm;
 mod whitted;
 

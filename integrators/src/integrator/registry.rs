@@ -373,6 +373,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::vcm::ENTRY,
     super::photon::ENTRY,
     super::sppm::ENTRY,
+    super::sppm_pixel::ENTRY,
     super::normals_view::ENTRY,
     super::albedo_view::ENTRY,
     super::depth_view::ENTRY,

@@ -1,0 +1,324 @@
+//! `sppm-pixel`: stochastic progressive photon mapping with a radius per pixel (Hachisuka and
+//! Jensen 2009, in pbrt-v4's form), beside `sppm`'s global radius.
+//!
+//! **Estimates** the full rendering equation, consistently. Every pass, each pixel traces a
+//! camera path through specular bounces to its first non-specular surface, its visible
+//! point, adding the emission met on the way and direct light there by next-event
+//! estimation (`Ld`). Then a new set of photons is traced (landings after at least one
+//! bounce), and each pixel gathers the photons within its own radius `R` at its visible
+//! point: `M` photons bringing flux `Phi`. The pixel keeps a photon count `N` and a flux
+//! `tau`, updated as Hachisuka and Jensen's progressive radiance estimate: `N' = N + gamma M`,
+//! `R' = R sqrt(N' / (N + M))`, `tau' = (tau + beta Phi) (R' / R)^2`. Each pixel's radius thus
+//! shrinks as fast as photons arrive there: bright, well-covered pixels sharpen quickly,
+//! dark ones keep their blur (`sppm` shrinks one radius for all). After `n` passes a pixel's
+//! estimate is `Ld / n + tau / (n pi R^2)`, with photon powers already divided by the
+//! photons per pass.
+//!
+//! The state lives in the pixels, not in the passes: the render loop averages what each pass
+//! returns, so pass `n` returns `n E_n - (n - 1) E_{n-1}` (`E_n` the estimate after `n`
+//! passes), whose average is exactly `E_n` with the box filter (the default; a wider filter
+//! mixes neighbouring pixels' increments with the weights of each pass's film positions).
+//! Per-pixel variances are therefore those of increments, not of independent samples. The
+//! state is rebuilt from the seed after a resume (the passes are replayed), so resumed renders
+//! equal direct ones.
+//!
+//! **Parameters**: `photons` per pass (default 100000), `radius` (first radius per pixel in
+//! scene units; 0 = 1% of the bounding-box diagonal), `gamma` (default 2/3: the fraction of
+//! new photons kept), `max-depth` (default unlimited), `rr-depth` for the camera's specular
+//! chain (default 3).
+//! **Bias**: a blur of each pixel's radius, which shrinks as photons arrive (consistent, not
+//! unbiased); truncation with a finite `max-depth`.
+
+use crate::integrator::{sample_one_light, Demand, Integrator, PixelSample, ShadingPoint};
+use crate::integrator::{Splats, Stop, Tracer};
+use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
+    PHOTONS, RR_DEPTH,
+};
+use crate::{Camera, Hit, Ray, RayCounters, Rgb, Sampler, Scene};
+use glam::{Vec2, Vec3A};
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "sppm-pixel",
+    summary: "stochastic progressive photon mapping with a radius per pixel, shrinking as photons arrive there (pbrt-v4's SPPM); consistent",
+    params: &[
+        PHOTONS,
+        GATHER_RADIUS
+            .with_doc("first radius of every pixel, scene units (0 = 1% of the bounding-box diagonal)"),
+        ParamSpec {
+            name: "gamma",
+            kind: ParamKind::Float,
+            default: 2.0 / 3.0,
+            min: 0.01,
+            max: 1.0,
+            doc: "fraction of a pass's photons a pixel keeps: N' = N + gamma M",
+        },
+        MAX_DEPTH.with_doc("scattering events per path, camera and photon sides together"),
+        RR_DEPTH.with_doc("specular bounces of a camera path before Russian roulette starts"),
+    ],
+    build: |p: &Params| {
+        Box::new(SppmPixel {
+            photons: p.get_u32("photons"),
+            radius: p.get("radius") as f32,
+            gamma: p.get("gamma") as f32,
+            max_depth: p.get_depth("max-depth"),
+            rr_depth: p.get_u32("rr-depth"),
+            pixels: Vec::new(),
+            width: 0,
+            passes: 0,
+        })
+    },
+    analytic: Some(Analytic {
+        params: &[("photons", "20000")],
+        furnace: expect(2.0, 40, 400),
+        point_in_sphere: expect(1.0, 40, 400),
+        sphere_under_sky: None,
+    }),
+};
+
+/// Pixels whose visible points are traced per parallel work item.
+const BLOCK: usize = 256;
+
+/// Seed offset separating the visible points' random numbers from the render loop's.
+const VISIBLE_POINT_SEED: u64 = 0x7370_706d_7069_7865;
+
+struct SppmPixel {
+    photons: u32,
+    /// First radius; 0 = automatic.
+    radius: f32,
+    gamma: f32,
+    max_depth: u32,
+    rr_depth: u32,
+    /// Each pixel's state, row by row.
+    pixels: Vec<Pixel>,
+    width: u32,
+    /// Passes folded into `pixels` (0: none, or the state must be rebuilt).
+    passes: u32,
+}
+
+/// What a pixel keeps across passes, and this pass's visible point.
+#[derive(Clone, Copy, Debug)]
+struct Pixel {
+    radius: f32,
+    /// Photons counted so far (`N`).
+    count: f32,
+    /// Flux gathered so far, rescaled to the current radius (`tau`).
+    flux: Rgb,
+    /// Emission and direct light summed over passes (`Ld`).
+    direct: Rgb,
+    /// The estimate after the passes so far, and after one pass fewer.
+    estimate: Rgb,
+    previous: Rgb,
+    /// This pass's visible point: the hit, the ray that found it, the throughput to it, and
+    /// the specular bounces before it.
+    visible: Option<(Hit, Ray, Rgb, u32)>,
+}
+
+impl SppmPixel {
+    /// Folds pass `pass` into every pixel's state.
+    fn run_pass(
+        &mut self,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
+        let (width, max_depth, rr_depth) = (camera.width as usize, self.max_depth, self.rr_depth);
+        // Every pixel's visible point, with the emission and direct light on the way.
+        let mut rays = RayCounters::default();
+        let direct: Vec<(Vec<Rgb>, RayCounters)> = self
+            .pixels
+            .par_chunks_mut(BLOCK)
+            .enumerate()
+            .map(|(b, chunk)| {
+                let mut tracer = Tracer::new(scene);
+                let mut direct = Vec::with_capacity(chunk.len());
+                for (k, px) in chunk.iter_mut().enumerate() {
+                    if stop.requested() {
+                        break;
+                    }
+                    let index = b * BLOCK + k;
+                    let mut sampler =
+                        Sampler::new(seed ^ VISIBLE_POINT_SEED, pass as u64, index as u64);
+                    let film = Vec2::new((index % width) as f32, (index / width) as f32)
+                        + sampler.next_2d();
+                    let ray = camera.ray(film.x, film.y);
+                    let mut l = Rgb::ZERO;
+                    px.visible = None;
+                    if let Some(x) = land(
+                        ray,
+                        true,
+                        max_depth,
+                        rr_depth,
+                        Some(&mut l),
+                        &mut tracer,
+                        &mut sampler,
+                    ) {
+                        if x.bounces < max_depth {
+                            let sp = ShadingPoint::new(&x.hit, x.ray.dir, scene);
+                            l += x.beta * sample_one_light(&sp, false, &mut tracer, &mut sampler);
+                            px.visible = Some((x.hit, x.ray, x.beta, x.bounces));
+                        }
+                    }
+                    direct.push(l);
+                }
+                (direct, tracer.counters)
+            })
+            .collect();
+        if stop.requested() {
+            return rays;
+        }
+        // This pass's photons (landings after one bounce or more), in a map wide enough for
+        // the widest pixel.
+        let widest = self.pixels.iter().map(|p| p.radius).fold(0.0f32, f32::max);
+        let max_bounces = self.max_depth.saturating_sub(1);
+        let (photons, photon_rays) = trace_photons(
+            scene,
+            self.photons,
+            Keep::Indirect,
+            max_bounces,
+            seed,
+            pass as u64,
+            stop,
+        );
+        rays.add(&photon_rays);
+        if stop.requested() {
+            return rays;
+        }
+        let map = PhotonMap::build(photons, widest);
+        // Each pixel gathers the photons within its own radius and updates its estimate.
+        let (gamma, n) = (self.gamma, pass as f32 + 1.0);
+        let direct: Vec<Rgb> = direct
+            .into_iter()
+            .flat_map(|(d, r)| {
+                rays.add(&r);
+                d
+            })
+            .collect();
+        self.pixels
+            .par_iter_mut()
+            .zip(direct.par_iter())
+            .for_each(|(px, &ld)| {
+                px.direct += ld;
+                if let Some((hit, ray, beta, bounces)) = px.visible {
+                    let sp = ShadingPoint::new(&hit, ray.dir, scene);
+                    let max_photon_bounces = max_depth.saturating_sub(bounces + 1);
+                    let (flux, count) = gather(&map, &sp, px.radius, max_photon_bounces);
+                    if count > 0 {
+                        let m = count as f32;
+                        let kept = px.count + gamma * m;
+                        let radius = px.radius * (kept / (px.count + m)).sqrt();
+                        let shrink = (radius / px.radius).powi(2);
+                        px.flux = (px.flux + beta * flux) * shrink;
+                        px.count = kept;
+                        px.radius = radius;
+                    }
+                }
+                px.previous = px.estimate;
+                px.estimate = px.direct / n + px.flux / (n * PI * px.radius * px.radius);
+            });
+        rays
+    }
+}
+
+/// The flux the photons within `radius` of the visible point `sp` bring towards its viewer
+/// (`sum f Phi`), and their number; photons of more than `max_bounces` bounces are skipped.
+fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> (Rgb, u32) {
+    let (mut flux, mut count) = (Rgb::ZERO, 0u32);
+    let r2 = radius * radius;
+    map.for_each_near(sp.hit.p, |ph| {
+        if (ph.bounces as u32) > max_bounces
+            || (Vec3A::from(ph.p) - sp.hit.p).length_squared() >= r2
+        {
+            return;
+        }
+        let wi = Vec3A::from(ph.wi);
+        if !crate::integrator::stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, wi) {
+            return;
+        }
+        flux += sp.material.eval(sp.wo, sp.frame.to_local(wi)) * Vec3A::from(ph.power);
+        count += 1;
+    });
+    (flux, count)
+}
+
+impl Integrator for SppmPixel {
+    fn sample(
+        &self,
+        pixel: &PixelSample,
+        _camera: &Camera,
+        _tracer: &mut Tracer,
+        _sampler: &mut Sampler,
+        _splats: &mut Splats,
+    ) -> Rgb {
+        // The increment that makes the render loop's average the estimate after this pass.
+        let index = pixel.y as usize * self.width as usize + pixel.x as usize;
+        let Some(px) = self.pixels.get(index) else {
+            return Rgb::ZERO;
+        };
+        let n = pixel.index as f32 + 1.0;
+        px.estimate * n - px.previous * (n - 1.0)
+    }
+
+    fn prepare_pass(
+        &mut self,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
+        // A new render (or a resumed one, or one after an abandoned pass) starts the pixels
+        // afresh and replays the passes before `pass`.
+        let count = camera.width as usize * camera.height as usize;
+        if pass < self.passes
+            || self.passes == 0
+            || self.pixels.len() != count
+            || self.width != camera.width
+        {
+            let r0 = if self.radius > 0.0 {
+                self.radius
+            } else {
+                auto_radius(scene, 0.01)
+            };
+            self.pixels = vec![
+                Pixel {
+                    radius: r0,
+                    count: 0.0,
+                    flux: Rgb::ZERO,
+                    direct: Rgb::ZERO,
+                    estimate: Rgb::ZERO,
+                    previous: Rgb::ZERO,
+                    visible: None,
+                };
+                count
+            ];
+            self.width = camera.width;
+            self.passes = 0;
+        }
+        let mut rays = RayCounters::default();
+        while self.passes <= pass {
+            rays.add(&self.run_pass(scene, camera, seed, self.passes, stop));
+            if stop.requested() {
+                // The pixels hold part of a pass: rebuild them next time.
+                self.passes = 0;
+                return rays;
+            }
+            self.passes += 1;
+        }
+        rays
+    }
+
+    fn demand(&self) -> Demand {
+        Demand {
+            rays_per_sample: 1.0,
+            memory: photon_map_bytes(self.photons as u64),
+            memory_per_pixel: std::mem::size_of::<Pixel>() as u64 + 16,
+            ..Demand::default()
+        }
+    }
+}
