@@ -7,6 +7,17 @@
 
 #![deny(clippy::undocumented_unsafe_blocks)]
 
+/// `println!` for the program's output, which ignores a failure to print (a reader that went
+/// away, `raylab integrators | head`) where `println!` would panic (see `cli::print_out`).
+macro_rules! say {
+    () => {
+        $crate::cli::print_out(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::print_out(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 pub mod accel;
 pub mod bench;
 pub mod cli;

@@ -282,7 +282,7 @@ fn compare_obvhs(
 pub fn run(opts: &BenchOptions) -> Result<String> {
     let mut out = String::new();
     let mut say = |line: String| {
-        println!("{line}");
+        say!("{line}");
         out.push_str(&line);
         out.push('\n');
     };

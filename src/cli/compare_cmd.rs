@@ -160,7 +160,7 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     let mut non_finite = false;
     for (name, path, film) in [("A", &args.a, &a), ("B", &args.b, &b)] {
         if let Some((count, (x, y))) = film.non_finite() {
-            println!(
+            say!(
                 "non-finite: image {name} ({}) has {count} pixel(s) with NaN or infinite values, the first at ({x}, {y})",
                 path.display()
             );
@@ -168,7 +168,7 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
         }
     }
     if non_finite {
-        println!("differs: an image holds values that are not finite");
+        say!("differs: an image holds values that are not finite");
         return Ok(ExitCode::from(1));
     }
     let (m, map) = metrics::compare(&a, &b)
@@ -176,9 +176,9 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     if let Some(path) = &args.output {
         output::write_png(path, &metrics::error_map_image(&map, a.width, a.height))?;
     }
-    println!("RMSE    {:.6}", m.rmse);
-    println!("relMSE  {:.6}", m.rel_mse);
-    println!(
+    say!("RMSE    {:.6}", m.rmse);
+    say!("relMSE  {:.6}", m.rel_mse);
+    say!(
         "PSNR    {} dB",
         if m.psnr.is_infinite() {
             "inf".to_string()
@@ -186,10 +186,10 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
             format!("{:.3}", m.psnr)
         }
     );
-    println!("FLIP    {:.6}", m.flip);
+    say!("FLIP    {:.6}", m.flip);
     let (ma, mb) = (a.mean(), b.mean());
-    println!("mean A  ({:.5}, {:.5}, {:.5})", ma.x, ma.y, ma.z);
-    println!("mean B  ({:.5}, {:.5}, {:.5})", mb.x, mb.y, mb.z);
+    say!("mean A  ({:.5}, {:.5}, {:.5})", ma.x, ma.y, ma.z);
+    say!("mean B  ({:.5}, {:.5}, {:.5})", mb.x, mb.y, mb.z);
     if let Some(t) = args.tolerance {
         let (value, exceeded) = match args.metric {
             Metric::Rmse => (m.rmse, m.rmse > t),
@@ -199,7 +199,7 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
             Metric::Psnr => (m.psnr, m.psnr < t),
         };
         if exceeded {
-            println!(
+            say!(
                 "differs: {:?} {value} is beyond the tolerance {t}",
                 args.metric
             );

@@ -224,7 +224,7 @@ pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
             })
             .context("cannot start the render thread")?
     };
-    println!("serving {}", server.url());
+    say!("serving {}", server.url());
     let _ = std::io::stdout().flush();
     server.run();
     if session.join().is_err() {

@@ -316,7 +316,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Render(args) => render_cmd::render(&args),
         Command::Serve(args) => live_cmd::serve(&args),
         Command::Integrators => {
-            print!("{}", render_cmd::integrators_listing());
+            print_out(format_args!("{}", render_cmd::integrators_listing()));
             Ok(ExitCode::SUCCESS)
         }
         Command::Validate {
@@ -397,6 +397,16 @@ fn check_threads(threads: Option<usize>) -> anyhow::Result<()> {
         ),
         _ => Ok(()),
     }
+}
+
+/// Writes the program's output to standard output (see the `say!` macro), ignoring a
+/// failure, as [`note`] does: a reader that went away (`raylab integrators | head`) or a
+/// terminal gone after SIGHUP must neither panic the program (as `println!` would) nor stop
+/// an image from being written.
+pub fn print_out(args: std::fmt::Arguments) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    let _ = out.write_fmt(args).and_then(|()| out.flush());
 }
 
 /// Prints a line on stderr, ignoring a failure: after SIGHUP the terminal may be gone, and a

@@ -342,11 +342,11 @@ pub fn import(
     })?;
     note!("{}: wrote {}", path.display(), output.display());
     if report {
-        println!("| what | how raylab reads it |");
-        println!("|---|---|");
+        say!("| what | how raylab reads it |");
+        say!("|---|---|");
         for line in &imported.report {
             let (what, how) = line.split_once(": ").unwrap_or(("", line));
-            println!("| {what} | {how} |");
+            say!("| {what} | {how} |");
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -364,16 +364,16 @@ pub fn validate(
     let built = RenderScene::build(&loaded);
     let s = &built.stats;
     let (lo, hi) = raylab_integrators::Scene::bounds(&built);
-    println!("{}: ok", path.display());
-    println!("  entities   {}", s.entities);
-    println!("  materials  {}", loaded.material_names.len());
-    println!("  triangles  {}", s.triangles);
-    println!("  spheres    {}", s.spheres);
+    say!("{}: ok", path.display());
+    say!("  entities   {}", s.entities);
+    say!("  materials  {}", loaded.material_names.len());
+    say!("  triangles  {}", s.triangles);
+    say!("  spheres    {}", s.spheres);
     if s.quadrics > 0 {
-        println!("  disks and cylinders {}", s.quadrics);
+        say!("  disks and cylinders {}", s.quadrics);
     }
     if s.instances > 0 {
-        println!(
+        say!(
             "  instances  {} of {} mesh(es): {} triangles held once, {} placed",
             s.instances,
             loaded.meshes.len(),
@@ -381,23 +381,30 @@ pub fn validate(
             s.placed_triangles
         );
     }
-    println!(
+    say!(
         "  memory     {:.1} MB of geometry and BVHs",
         built.memory_bytes() as f64 / 1e6
     );
-    println!(
+    say!(
         "  emitters   {} ({} light table entries)",
-        s.emitters, s.lights
+        s.emitters,
+        s.lights
     );
-    println!(
+    say!(
         "  camera     {}x{}",
-        loaded.camera.width, loaded.camera.height
+        loaded.camera.width,
+        loaded.camera.height
     );
-    println!(
+    say!(
         "  bounds     ({:.3}, {:.3}, {:.3}) .. ({:.3}, {:.3}, {:.3})",
-        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        lo.x,
+        lo.y,
+        lo.z,
+        hi.x,
+        hi.y,
+        hi.z
     );
-    println!(
+    say!(
         "  bvh        {} nodes, built in {:.2} ms",
         s.bvh_nodes,
         s.build_time.as_secs_f64() * 1e3

@@ -422,3 +422,31 @@ fn photon_rays_are_counted_as_light_rays() {
     assert_eq!(count("path", "connection"), 0);
     assert!(count("path", "extension") > 0);
 }
+
+/// A reader that goes away before the output is written (`raylab integrators | head -1`)
+/// neither panics the program nor changes its exit status.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    for args in [
+        &["integrators"][..],
+        &["validate", "scenes/cornell_box.ron"],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close the reading end before the program writes.
+        drop(child.stdout.take());
+        let o = child.wait_with_output().unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {:?} {}",
+            o.status,
+            stderr(&o)
+        );
+        assert!(!stderr(&o).contains("panicked"), "{args:?}: {}", stderr(&o));
+    }
+}

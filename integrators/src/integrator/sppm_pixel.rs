@@ -322,3 +322,54 @@ impl Integrator for SppmPixel {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{floor_under_sphere_light, furnace_sphere, TestScene};
+
+    /// Every pixel's radius after `passes` passes of 20000 photons from a first radius of 0.1.
+    fn radii_after(scene: &TestScene, camera: &Camera, passes: u32) -> Vec<f32> {
+        let mut sppm = SppmPixel {
+            photons: 20000,
+            radius: 0.1,
+            gamma: 2.0 / 3.0,
+            max_depth: u32::MAX,
+            rr_depth: 3,
+            pixels: Vec::new(),
+            width: 0,
+            passes: 0,
+        };
+        for pass in 0..passes {
+            sppm.prepare_pass(scene, camera, 1, pass, Stop::NEVER);
+        }
+        assert!(sppm.pixels.iter().all(|p| p.estimate.is_finite()));
+        sppm.pixels.iter().map(|p| p.radius).collect()
+    }
+
+    #[test]
+    fn radii_shrink_where_photons_arrive_and_nowhere_else() {
+        // Inside the furnace every visible point receives bounced photons: every radius
+        // shrinks, by sqrt(gamma) at the most per pass.
+        let inside = Camera::look_at(Vec3A::ZERO, Vec3A::X, Vec3A::Z, 60.0, (8, 8));
+        let radii = radii_after(&furnace_sphere(0.5, 1.0), &inside, 6);
+        assert!(radii.iter().all(|&r| r < 0.09), "{radii:?}");
+        assert!(
+            radii
+                .iter()
+                .all(|&r| r >= 0.1 * (2.0f32 / 3.0).powf(3.0) - 1e-6),
+            "{radii:?}"
+        );
+        // A floor lit only directly by a black sphere: no photon lands on it after a bounce,
+        // so no pixel's radius moves.
+        let above = Camera::look_at(
+            Vec3A::new(3.0, 0.0, 1.0),
+            Vec3A::ZERO,
+            Vec3A::Z,
+            20.0,
+            (8, 8),
+        );
+        let radii = radii_after(&floor_under_sphere_light(0.5, 1.0, 0.2, 1.0), &above, 6);
+        assert!(radii.iter().all(|&r| r == 0.1), "{radii:?}");
+    }
+}
