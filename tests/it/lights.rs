@@ -123,13 +123,19 @@ fn a_floor_under_a_spot_light_has_radiance_a_i_over_pi_h2() {
 
 /// A Radiance HDR file of `w x h` texels, all of value `v` (flat scanlines).
 fn uniform_hdr(w: usize, h: usize, v: f32) -> Vec<u8> {
-    let (m, e) = {
-        let e = v.log2().floor() as i32 + 1;
-        ((v / 2f32.powi(e) * 256.0) as u8, (e + 128) as u8)
-    };
+    hdr(w, h, |_, _| v)
+}
+
+/// A Radiance HDR file of `w x h` grey texels of value `v(x, y)` (> 0; flat scanlines).
+fn hdr(w: usize, h: usize, v: impl Fn(usize, usize) -> f32) -> Vec<u8> {
     let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
-    for _ in 0..w * h {
-        bytes.extend_from_slice(&[m, m, m, e]);
+    for y in 0..h {
+        for x in 0..w {
+            let v = v(x, y);
+            let e = v.log2().floor() as i32 + 1;
+            let m = (v / 2f32.powi(e) * 256.0) as u8;
+            bytes.extend_from_slice(&[m, m, m, (e + 128) as u8]);
+        }
     }
     bytes
 }
@@ -292,8 +298,26 @@ fn light_path_integrators_agree_with_path_under_every_kind_of_light() {
             r#"(name: "tube", shape: Cylinder(p0: (-1, 1.5, -1), p1: (1, 1.5, -1), radius: 0.05), emitter: Area(radiance: (10, 10, 10)))"#,
         ),
         ("sky", ""),
+        // A map 50 times brighter in one patch of its upper half than elsewhere: light paths
+        // start where it is bright, camera paths sample it by its importance.
+        (
+            "sky map",
+            r#"(name: "sky", transform: (rotate: (0, 30, 0)), emitter: Environment(path: "sky.hdr"))"#,
+        ),
     ];
+    let map = hdr(32, 16, |x, y| {
+        if (4..8).contains(&y) && (8..14).contains(&x) {
+            10.0
+        } else {
+            0.2
+        }
+    });
     for (what, light) in lights {
+        let files = if what == "sky map" {
+            vec![("sky.hdr", map.clone())]
+        } else {
+            vec![]
+        };
         let light = if light.is_empty() {
             String::new()
         } else {
@@ -314,7 +338,7 @@ fn light_path_integrators_agree_with_path_under_every_kind_of_light() {
                     {light}
                 ])"#
         );
-        let path = render_text(&scene, &[], "path", 1024, 1, AccelKind::Raylab);
+        let path = render_text(&scene, &files, "path", 1024, 1, AccelKind::Raylab);
         let (a, sa) = (path.mean().y, path.mean_standard_error().y);
         for name in transport_integrators() {
             if !connects_to_the_lens(name) {
@@ -322,7 +346,7 @@ fn light_path_integrators_agree_with_path_under_every_kind_of_light() {
             }
             let light = render_text_with(
                 &scene,
-                &[],
+                &files,
                 name,
                 params_for(name),
                 1024,
