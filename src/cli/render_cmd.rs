@@ -42,6 +42,16 @@ pub(super) fn parse_param(text: &str) -> Result<(String, String)> {
 }
 
 /// `NAME.png` for scene `NAME.ron`, in the current folder.
+/// Where the image of a layer named `name` goes: beside `output`, as `STEM_NAME.EXT`.
+fn layer_path(output: &Path, name: &str) -> PathBuf {
+    let stem = output.file_stem().unwrap_or_default().to_string_lossy();
+    let ext = output
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    output.with_file_name(format!("{stem}_{name}{ext}"))
+}
+
 pub(super) fn default_output(scene: &Path) -> PathBuf {
     let stem = scene
         .file_stem()
@@ -106,6 +116,28 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let (entry, params) =
         crate::live::choose_integrator(&loaded, args.session.integrator.as_deref(), &cli_params)?;
     let mut integrator = entry.build_checked(&params)?;
+    // Images the integrator writes beside the output (`bdpt`'s strategies): checked as
+    // outputs too, and not kept by checkpoints.
+    let layers: Vec<(u32, PathBuf)> = integrator
+        .layers()
+        .into_iter()
+        .map(|(id, name)| (id, layer_path(&output_path, &name)))
+        .collect();
+    if !layers.is_empty() {
+        if args.checkpoint.is_some() {
+            bail!(
+                "integrator `{}` writes an image per layer (write-strategies), which checkpoints do not keep; render without --checkpoint",
+                entry.name
+            );
+        }
+        let mut plan = render::scene_inputs(&args.session.scene)?;
+        plan.output("the image", &output_path)?;
+        for (_, path) in &layers {
+            output::check_output_path(path)?;
+            plan.output("a layer's image", path)?;
+        }
+        plan.check()?;
+    }
     // Target: --spp, else open-ended under --time, else the scene's spp.
     let spp = match (args.session.spp, args.time) {
         (Some(n), _) => Some(n),
@@ -180,7 +212,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             }
             acc
         }
-        _ => Accumulation::new(camera.width, camera.height),
+        _ => Accumulation::new(camera.width, camera.height)
+            .with_layers(&layers.iter().map(|(id, _)| *id).collect::<Vec<_>>()),
     };
 
     // Ctrl-C, SIGTERM, SIGHUP: the first abandons the pass in progress and writes the image
@@ -233,6 +266,19 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             tonemap: args.session.tonemap,
         },
     )?;
+
+    for (id, path) in &layers {
+        if let Some(film) = acc.layer_film(*id) {
+            output::write_image(
+                path,
+                &film,
+                DisplaySettings {
+                    exposure: args.session.exposure,
+                    tonemap: args.session.tonemap,
+                },
+            )?;
+        }
+    }
 
     match stats.stopped {
         Some(StopReason::Interrupted) => note!(

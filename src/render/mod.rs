@@ -281,6 +281,9 @@ pub struct Accumulation {
     pub dropped: Dropped,
     /// Per tile, the pass in progress (empty between passes).
     scratch: Vec<TileScratch>,
+    /// The integrator's layers (see [`Accumulation::with_layers`]): per layer, its id and the
+    /// sum of its splats in every pixel, row by row.
+    layers: Vec<(u32, Vec<DVec3>)>,
 }
 
 impl Accumulation {
@@ -306,7 +309,33 @@ impl Accumulation {
             spp_done: 0,
             dropped: Dropped::default(),
             scratch: Vec::new(),
+            layers: Vec::new(),
         }
+    }
+
+    /// The same accumulation also gathering the splats of the integrator's layers `ids`
+    /// (not kept by checkpoints).
+    pub fn with_layers(mut self, ids: &[u32]) -> Accumulation {
+        let pixels = self.width as usize * self.height as usize;
+        self.layers = ids
+            .iter()
+            .map(|&id| (id, vec![DVec3::ZERO; pixels]))
+            .collect();
+        self
+    }
+
+    /// The image of layer `id` so far: its splats averaged over passes (with the box filter,
+    /// the layers of an integrator that splats its whole estimate into them add up to the
+    /// image). `None` for a layer it does not gather.
+    pub fn layer_film(&self, id: u32) -> Option<Film> {
+        let (_, sums) = self.layers.iter().find(|(i, _)| *i == id)?;
+        let mut film = Film::new(self.width, self.height);
+        let n = self.spp_done.max(1) as f64;
+        for (pixel, sum) in film.pixels.iter_mut().zip(sums) {
+            let mean = *sum / n;
+            *pixel = glam::Vec3::new(mean.x as f32, mean.y as f32, mean.z as f32);
+        }
+        Some(film)
     }
 
     /// The tile holding pixel `(x, y)` and the pixel's index within it.
@@ -339,6 +368,16 @@ impl Accumulation {
                 filter.footprint(pos.x, pos.y, self.width, self.height, |x, y, w| {
                     let (tt, k) = self.locate(x, y);
                     self.scratch[tt].pass[k].splat += d * (w as f64 * splat_norm);
+                });
+            }
+            for &(id, pos, l) in splats.layered_entries() {
+                let Some(layer) = self.layers.iter_mut().find(|(i, _)| *i == id) else {
+                    continue;
+                };
+                let d = DVec3::new(l.x as f64, l.y as f64, l.z as f64);
+                let width = self.width;
+                filter.footprint(pos.x, pos.y, self.width, self.height, |x, y, w| {
+                    layer.1[(y * width + x) as usize] += d * (w as f64 * splat_norm);
                 });
             }
             self.scratch[t].splats = splats;
@@ -424,7 +463,7 @@ fn render_tile_pass(
                 film,
                 index: pass,
             };
-            let splats_before = scratch.splats.entries().len();
+            let splats_before = scratch.splats.mark();
             let mut l = integrator.sample(
                 &sample,
                 camera,
@@ -432,11 +471,9 @@ fn render_tile_pass(
                 &mut sampler,
                 &mut scratch.splats,
             );
-            let splats_finite = scratch.splats.entries()[splats_before..]
-                .iter()
-                .all(|(p, v)| p.is_finite() && v.is_finite());
+            let splats_finite = scratch.splats.all_finite_since(splats_before);
             if !(l.is_finite() && splats_finite) {
-                scratch.splats.truncate(splats_before);
+                scratch.splats.rollback(splats_before);
                 l = Vec3A::ZERO;
                 out.dropped.note(BadSample { x, y, sample: pass });
             }

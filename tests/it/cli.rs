@@ -450,3 +450,78 @@ fn a_closed_output_pipe_is_not_a_panic() {
         assert!(!stderr(&o).contains("panicked"), "{args:?}: {}", stderr(&o));
     }
 }
+
+/// `bdpt -p write-strategies=1` writes one image per strategy `(s, t)` of at most
+/// `max-depth` scattering events beside the output; with the box filter they add up to the
+/// image, pixel by pixel. Checkpoints do not keep them: asking for both is refused.
+#[test]
+fn bdpt_writes_its_strategies_images_and_they_add_up_to_the_image() {
+    let d = tmp();
+    let out = d.path().join("b.exr");
+    let o = raylab(&[
+        "render",
+        CORNELL,
+        "-i",
+        "bdpt",
+        "-p",
+        "max-depth=3",
+        "-p",
+        "write-strategies=1",
+        "--spp",
+        "8",
+        "--size",
+        "32x32",
+        "-q",
+        "-o",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let image = raylab::output::read_image(&out).unwrap();
+    let mut sum = vec![glam::Vec3::ZERO; image.pixels.len()];
+    let mut count = 0;
+    for depth in 0..=3 {
+        for st in 0..=depth + 1 {
+            let t = depth + 2 - st;
+            if st == 1 && t == 1 {
+                continue;
+            }
+            let layer = raylab::output::read_image(&d.path().join(format!("b_s{st}_t{t}.exr")))
+                .unwrap_or_else(|e| panic!("s{st}_t{t}: {e}"));
+            for (a, b) in sum.iter_mut().zip(&layer.pixels) {
+                *a += *b;
+            }
+            count += 1;
+        }
+    }
+    assert_eq!(count, 13);
+    for (i, (a, b)) in sum.iter().zip(&image.pixels).enumerate() {
+        assert!(
+            (*a - *b).abs().max_element() <= 1e-4 * (1.0 + b.max_element()),
+            "pixel {i}: strategies add up to {a}, the image is {b}"
+        );
+    }
+    let ck = d.path().join("ck");
+    let o = raylab(&[
+        "render",
+        CORNELL,
+        "-i",
+        "bdpt",
+        "-p",
+        "write-strategies=1",
+        "--spp",
+        "2",
+        "--size",
+        "8x8",
+        "--checkpoint",
+        s(&ck),
+        "-o",
+        s(&d.path().join("c.exr")),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("checkpoints do not keep"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!d.path().join("c.exr").exists());
+}

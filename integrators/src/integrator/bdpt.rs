@@ -26,11 +26,15 @@
 //! own estimate of every path of `S + T - 2` scattering events it can build. Every strategy is
 //! still computed (the random numbers stay those of the full image).
 //!
+//! With `-p write-strategies=1` every strategy's MIS-weighted contribution also goes into an
+//! image of its own, written beside the output as `OUT_sS_tT` (pbrt-v4's
+//! `visualizestrategies`): with the box filter they add up to the image.
+//!
 //! Connections to the lens need a pinhole camera: an orthographic one is refused.
 //!
 //! **Parameters**: `max-depth` (scattering events, default 16, at most 30), `rr-depth`
 //! (default 3), `strategy-s` and `strategy-t` (default -1: every strategy), `mis` (1; 0
-//! leaves the one strategy unweighted).
+//! leaves the one strategy unweighted), `write-strategies` (0).
 //! **Bias**: truncation at `max-depth`, otherwise none.
 
 use crate::bsdf::TransportMode;
@@ -72,6 +76,14 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             max: 1.0,
             doc: "1: the kept strategy MIS-weighted; 0: unweighted",
         },
+        ParamSpec {
+            name: "write-strategies",
+            kind: ParamKind::Int,
+            default: 0.0,
+            min: 0.0,
+            max: 1.0,
+            doc: "1: also write each strategy's MIS-weighted image beside the output (OUT_sS_tT)",
+        },
     ],
     build: |p: &Params| {
         let chosen = |name| (p.get(name) >= 0.0).then(|| p.get(name) as usize);
@@ -81,6 +93,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             only_s: chosen("strategy-s"),
             only_t: chosen("strategy-t"),
             mis: p.get("mis") != 0.0,
+            write_strategies: p.get("write-strategies") != 0.0,
         })
     },
     analytic: Some(Analytic {
@@ -108,6 +121,13 @@ struct Bdpt {
     only_t: Option<usize>,
     /// Weight them by MIS (always, when every strategy is kept).
     mis: bool,
+    /// Splat every strategy's weighted contribution into a layer of its own too.
+    write_strategies: bool,
+}
+
+/// The layer of strategy `(s, t)` (see [`Integrator::layers`]).
+fn strategy_layer(s: usize, t: usize) -> u32 {
+    (s * 256 + t) as u32
 }
 
 /// What a vertex is.
@@ -357,6 +377,10 @@ impl Integrator for Bdpt {
                 if c == Rgb::ZERO || !c.is_finite() || weight <= 0.0 {
                     continue;
                 }
+                if self.write_strategies {
+                    let film = raster.unwrap_or(pixel.film);
+                    splats.add_to_layer(strategy_layer(s, t), film, c * weight);
+                }
                 let kept = self.only_s.is_none_or(|k| k == s) && self.only_t.is_none_or(|k| k == t);
                 let c = match (kept, self.mis || (self.only_s, self.only_t) == (None, None)) {
                     (false, _) => continue,
@@ -378,6 +402,24 @@ impl Integrator for Bdpt {
             pinhole: true,
             ..Demand::default()
         }
+    }
+
+    /// With `write-strategies`, one layer per strategy `(s, t)` of at most `max-depth`
+    /// scattering events (pbrt-v4's `visualizestrategies`).
+    fn layers(&self) -> Vec<(u32, String)> {
+        if !self.write_strategies {
+            return Vec::new();
+        }
+        let mut layers = Vec::new();
+        for depth in 0..=self.max_depth.min(DEPTH_LIMIT) as usize {
+            for s in 0..=depth + 1 {
+                let t = depth + 2 - s;
+                if !(s == 1 && t == 1) {
+                    layers.push((strategy_layer(s, t), format!("s{s}_t{t}")));
+                }
+            }
+        }
+        layers
     }
 }
 

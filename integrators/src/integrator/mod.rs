@@ -159,10 +159,19 @@ pub struct PixelSample {
 /// per work unit and adds them to the image in a fixed order, so images stay bit-identical at
 /// any thread count; they are averaged over passes (divided by the samples per pixel), as
 /// pbrt-v4's film does with splats.
+///
+/// An integrator may also splat into images of its own beside the main one, its layers
+/// ([`Integrator::layers`]: `bdpt`'s image per strategy); the render loop keeps one
+/// accumulation per declared layer and the command line writes each to a file.
 #[derive(Clone, Debug, Default)]
 pub struct Splats {
     entries: Vec<(Vec2, Rgb)>,
+    layered: Vec<(u32, Vec2, Rgb)>,
 }
+
+/// How many splats a [`Splats`] held at some moment, to drop those added since.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SplatMark(usize, usize);
 
 impl Splats {
     /// Adds `radiance` at film position `film` (pixels).
@@ -171,19 +180,47 @@ impl Splats {
         self.entries.push((film, radiance));
     }
 
-    /// The splats in the order they were added.
+    /// Adds `radiance` at film position `film` of layer `layer` (one the integrator declared).
+    #[inline]
+    pub fn add_to_layer(&mut self, layer: u32, film: Vec2, radiance: Rgb) {
+        self.layered.push((layer, film, radiance));
+    }
+
+    /// The splats of the main image in the order they were added.
     pub fn entries(&self) -> &[(Vec2, Rgb)] {
         &self.entries
+    }
+
+    /// The splats of the layers in the order they were added.
+    pub fn layered_entries(&self) -> &[(u32, Vec2, Rgb)] {
+        &self.layered
     }
 
     /// Forgets every splat, keeping the memory for the next work unit.
     pub fn clear(&mut self) {
         self.entries.clear();
+        self.layered.clear();
     }
 
-    /// Forgets the splats added after the first `len` (those of a sample that is dropped).
-    pub fn truncate(&mut self, len: usize) {
-        self.entries.truncate(len);
+    /// Where the splats stand now (see [`Splats::all_finite_since`], [`Splats::rollback`]).
+    pub fn mark(&self) -> SplatMark {
+        SplatMark(self.entries.len(), self.layered.len())
+    }
+
+    /// True if every splat added since `mark` has a finite position and value.
+    pub fn all_finite_since(&self, mark: SplatMark) -> bool {
+        self.entries[mark.0..]
+            .iter()
+            .all(|(p, v)| p.is_finite() && v.is_finite())
+            && self.layered[mark.1..]
+                .iter()
+                .all(|(_, p, v)| p.is_finite() && v.is_finite())
+    }
+
+    /// Forgets the splats added since `mark` (those of a sample that is dropped).
+    pub fn rollback(&mut self, mark: SplatMark) {
+        self.entries.truncate(mark.0);
+        self.layered.truncate(mark.1);
     }
 }
 
@@ -231,6 +268,12 @@ pub trait Integrator: Send + Sync {
     /// What it demands of the machine, for refusing a configuration that cannot run.
     fn demand(&self) -> Demand {
         Demand::default()
+    }
+
+    /// The images it splats into beside the main one ([`Splats::add_to_layer`]), each with a
+    /// name for its file (`s2_t3`); none by default.
+    fn layers(&self) -> Vec<(u32, String)> {
+        Vec::new()
     }
 
     /// The integrator as an estimator of radiance along a ray, if it is one (for tests that
