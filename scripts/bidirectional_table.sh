@@ -6,7 +6,7 @@
 # reference per scene, rendered twice with independent seeds: the first is the reference of
 # every row, and the relMSE between the two, halved, is the reference's own share of every
 # row's relMSE (the noise floor printed under each table). References: `path` on the Cornell
-# box, `vcm` on the caustics (path cannot converge them), `bdpt` through the door. About 20
+# box, `vcm` on the caustics (path cannot converge them), `bdpt` through the door. About 11
 # minutes on 2 cores. Writes out/pages/bidirectional/SCENE/ (git ignores out/);
 # docs/integrators.md shows the tables.
 # Usage: scripts/bidirectional_table.sh [integrators...]
