@@ -554,6 +554,7 @@ pub fn render_passes(
         ..Default::default()
     };
     let progress = progress_bar(settings, acc.spp_done, acc.tiles.len());
+    let first_pass = acc.spp_done;
     let start = Instant::now();
     loop {
         if settings.spp.is_some_and(|spp| acc.spp_done >= spp) || acc.spp_done == u32::MAX {
@@ -568,11 +569,12 @@ pub fn render_passes(
             break;
         }
         // The pass in progress is abandoned when `stop` asks, or when the time budget is
-        // spent. The first pass of a render gets longer, to give the image the budget
-        // promises: until ten times the budget and ten seconds more (a pass still running
-        // then would take hours). Long work inside the pass checks the same question.
+        // spent. The first pass of a render, or of a resumed one (which may first rebuild
+        // state from the passes before: `sppm-pixel`), gets longer, to give the image the
+        // budget promises: until ten times the budget and ten seconds more (a pass still
+        // running then would take hours). Long work inside the pass checks the same question.
         let deadline = settings.time_budget.map(|b| {
-            if acc.spp_done == 0 {
+            if acc.spp_done == first_pass {
                 b * 10 + Duration::from_secs(10)
             } else {
                 b

@@ -69,6 +69,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             pixels: Vec::new(),
             width: 0,
             passes: 0,
+            seed: 0,
+            camera: None,
         })
     },
     analytic: Some(Analytic {
@@ -97,6 +99,9 @@ struct SppmPixel {
     width: u32,
     /// Passes folded into `pixels` (0: none, or the state must be rebuilt).
     passes: u32,
+    /// The seed and camera they were rendered with.
+    seed: u64,
+    camera: Option<Camera>,
 }
 
 /// What a pixel keeps across passes, and this pass's visible point.
@@ -174,7 +179,12 @@ impl SppmPixel {
         }
         // This pass's photons (landings after one bounce or more), in a map wide enough for
         // the widest pixel.
-        let widest = self.pixels.iter().map(|p| p.radius).fold(0.0f32, f32::max);
+        let widest = self
+            .pixels
+            .iter()
+            .filter(|p| p.visible.is_some())
+            .map(|p| p.radius)
+            .fold(0.0f32, f32::max);
         let max_bounces = self.max_depth.saturating_sub(1);
         let (photons, photon_rays) = trace_photons(
             scene,
@@ -199,16 +209,24 @@ impl SppmPixel {
                 d
             })
             .collect();
+        // A pass cut short is abandoned by the render loop; should it not be, no pixel may
+        // take another's direct light.
+        if direct.len() != self.pixels.len() {
+            return rays;
+        }
         self.pixels
             .par_iter_mut()
             .zip(direct.par_iter())
             .for_each(|(px, &ld)| {
-                px.direct += ld;
+                // A non-finite value would stay in the pixel for good: it counts as black.
+                if ld.is_finite() {
+                    px.direct += ld;
+                }
                 if let Some((hit, ray, beta, bounces)) = px.visible {
                     let sp = ShadingPoint::new(&hit, ray.dir, scene);
                     let max_photon_bounces = max_depth.saturating_sub(bounces + 1);
                     let (flux, count) = gather(&map, &sp, px.radius, max_photon_bounces);
-                    if count > 0 {
+                    if count > 0 && flux.is_finite() {
                         let m = count as f32;
                         let kept = px.count + gamma * m;
                         let radius = px.radius * (kept / (px.count + m)).sqrt();
@@ -275,11 +293,12 @@ impl Integrator for SppmPixel {
         // A new render (or a resumed one, or one after an abandoned pass) starts the pixels
         // afresh and replays the passes before `pass`.
         let count = camera.width as usize * camera.height as usize;
-        if pass < self.passes
-            || self.passes == 0
-            || self.pixels.len() != count
-            || self.width != camera.width
-        {
+        let fresh = self.passes == 0
+            || pass + 1 < self.passes
+            || self.seed != seed
+            || self.camera.as_ref() != Some(camera)
+            || self.pixels.len() != count;
+        if fresh {
             let r0 = if self.radius > 0.0 {
                 self.radius
             } else {
@@ -298,6 +317,8 @@ impl Integrator for SppmPixel {
                 count
             ];
             self.width = camera.width;
+            self.seed = seed;
+            self.camera = Some(camera.clone());
             self.passes = 0;
         }
         let mut rays = RayCounters::default();
@@ -339,6 +360,8 @@ mod tests {
             pixels: Vec::new(),
             width: 0,
             passes: 0,
+            seed: 0,
+            camera: None,
         };
         for pass in 0..passes {
             sppm.prepare_pass(scene, camera, 1, pass, Stop::NEVER);

@@ -48,7 +48,6 @@ use crate::registry::{
 use crate::{Camera, Hit, Light, Ray, RayCounters, Rgb, Sampler, Scene};
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
-use std::f32::consts::PI;
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "vcm",
@@ -91,9 +90,12 @@ const LIGHT_PATH_SEED: u64 = 0x7663_6d5f_6c69_6768;
 /// SmallVCM's default first radius, relative to the scene's bounding radius.
 const RADIUS_FACTOR: f32 = 0.003;
 
-/// The power heuristic's exponent applied to a density or a ratio of densities.
+/// The power heuristic's exponent applied to a density or a ratio of densities, in f64:
+/// the weights multiply squares of distances, densities and `pi r^2 N` along a whole path,
+/// beyond f32's range in large scenes.
 #[inline]
-fn mis(x: f32) -> f32 {
+fn mis(x: impl Into<f64>) -> f64 {
+    let x = x.into();
     x * x
 }
 
@@ -132,9 +134,9 @@ struct Pass {
 #[derive(Clone, Copy, Debug, Default)]
 struct Weights {
     /// `mis(pi r^2 N)`: a merge against a connection.
-    vm: f32,
+    vm: f64,
     /// `mis(1 / (pi r^2 N))` with connections, 0 without: a connection against a merge.
-    vc: f32,
+    vc: f64,
     /// `1 / (pi r^2 N)`: the density estimate's normalisation.
     normalization: f32,
 }
@@ -142,9 +144,9 @@ struct Weights {
 /// The partial MIS weights a subpath carries (the report's `dVCM`, `dVC`, `dVM`).
 #[derive(Clone, Copy, Debug, Default)]
 struct Partial {
-    vcm: f32,
-    vc: f32,
-    vm: f32,
+    vcm: f64,
+    vc: f64,
+    vm: f64,
 }
 
 impl Partial {
@@ -175,7 +177,7 @@ struct LightVertex {
     mis: Partial,
 }
 
-/// A light-subpath vertex as merging needs it (48 bytes).
+/// A light-subpath vertex as merging needs it (56 bytes).
 #[derive(Clone, Copy, Debug)]
 struct MergeVertex {
     p: Vec3,
@@ -183,8 +185,8 @@ struct MergeVertex {
     wi: Vec3,
     beta: Vec3,
     length: u32,
-    vcm: f32,
-    vm: f32,
+    vcm: f64,
+    vm: f64,
 }
 
 impl Located for MergeVertex {
@@ -534,11 +536,11 @@ impl Integrator for VertexMerging {
         // The pass's radius and weights: one light subpath per pixel.
         let count = camera.width as usize * camera.height as usize;
         let radius = self.radius_of_pass(scene, pass);
-        let eta = PI * radius * radius * count as f32;
+        let eta = std::f64::consts::PI * (radius as f64).powi(2) * count as f64;
         let weights = Weights {
             vm: mis(eta),
             vc: if self.connect { mis(1.0 / eta) } else { 0.0 },
-            normalization: 1.0 / eta,
+            normalization: (1.0 / eta) as f32,
         };
         self.pass = Pass {
             width: camera.width,
@@ -572,21 +574,28 @@ impl Integrator for VertexMerging {
         let mut rays = RayCounters::default();
         let mut merge = Vec::with_capacity(blocks.iter().map(|b| b.merge.len()).sum());
         let p = &mut self.pass;
-        for b in blocks {
+        for mut b in blocks {
             let (v0, s0) = (p.vertices.len() as u32, p.splats.len() as u32);
             p.vertex_ends.extend(b.vertex_ends.iter().map(|e| e + v0));
             p.splat_ends.extend(b.splat_ends.iter().map(|e| e + s0));
-            p.vertices.extend_from_slice(&b.vertices);
-            p.splats.extend_from_slice(&b.splats);
-            merge.extend_from_slice(&b.merge);
+            p.vertices.append(&mut b.vertices);
+            p.splats.append(&mut b.splats);
+            merge.append(&mut b.merge);
             rays.add(&b.rays);
+        }
+        // A pass cut short is abandoned by the render loop; should it not be, no pixel may be
+        // paired with another's light subpath.
+        if p.vertex_ends.len() != count {
+            *p = Pass::default();
+            return rays;
         }
         p.grid = PointGrid::build(merge, radius);
         rays
     }
 
     fn demand(&self) -> Demand {
-        // About three stored vertices per light subpath, held twice while the grid is built.
+        // About three stored vertices per light subpath, the merging copies held twice while
+        // the grid is built.
         let per_vertex = std::mem::size_of::<MergeVertex>() * 2
             + if self.connect {
                 std::mem::size_of::<LightVertex>()
@@ -602,11 +611,11 @@ impl Integrator for VertexMerging {
     }
 }
 
-/// `x`, or 0 where it is not finite (a weight whose densities overflowed).
+/// `x` as f32, or 0 where it is not finite (a weight whose densities overflowed even f64).
 #[inline]
-fn finite_or_zero(x: f32) -> f32 {
+fn finite_or_zero(x: f64) -> f32 {
     if x.is_finite() {
-        x
+        x as f32
     } else {
         0.0
     }
