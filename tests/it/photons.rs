@@ -1,4 +1,4 @@
-//! Photon mapping on real scenes: `sppm` converges to the `path` reference as passes
+//! Photon mapping on real scenes: `sppm` and `sppm-pixel` converge to the `path` reference as passes
 //! accumulate (its error against a high-spp `path` render falls pass after pass, and its image
 //! mean agrees with `path`'s within statistical error), and `photon` agrees with `path` up to
 //! its density-estimation blur.
@@ -104,36 +104,48 @@ fn assert_means_agree(what: &str, a: &Run, b: &Run, z: f64, relative: f64) {
     }
 }
 
+/// Both forms of SPPM: one radius for all pixels (`sppm`), a radius per pixel
+/// (`sppm-pixel`).
+const SPPMS: [&str; 2] = ["sppm", "sppm-pixel"];
+
 #[test]
 fn sppm_error_falls_pass_after_pass_on_the_caustics_scene() {
     let scene = load("scenes/caustics.ron", 40, 30);
     let reference = run(&scene, "path", &[], 8192, &[8192]);
-    let checkpoints = [1, 4, 16, 64, 256];
-    let sppm = run(&scene, "sppm", &[("photons", "20000")], 256, &checkpoints);
-    let rmse: Vec<f64> = sppm
-        .snapshots
-        .iter()
-        .map(|f| metrics::compare(f, &reference.snapshots[0]).unwrap().0.rmse)
-        .collect();
     // The reference's own noise: the RMSE a perfect image would show against it.
     let reference_noise = {
         let v = &reference.snapshots[0].variance;
         (v.iter().map(|p| p.x + p.y + p.z).sum::<f32>() as f64 / (3 * v.len()) as f64).sqrt()
     };
-    println!(
-        "sppm RMSE after {checkpoints:?} passes: {rmse:?}; the reference's noise: {reference_noise}"
-    );
-    for w in rmse.windows(2) {
-        assert!(w[1] < w[0], "RMSE did not fall: {rmse:?}");
+    let checkpoints = [1, 4, 16, 64, 256];
+    for name in SPPMS {
+        let sppm = run(&scene, name, &[("photons", "20000")], 256, &checkpoints);
+        let rmse: Vec<f64> = sppm
+            .snapshots
+            .iter()
+            .map(|f| metrics::compare(f, &reference.snapshots[0]).unwrap().0.rmse)
+            .collect();
+        println!(
+            "{name} RMSE after {checkpoints:?} passes: {rmse:?}; the reference's noise: {reference_noise}"
+        );
+        for w in rmse.windows(2) {
+            assert!(w[1] < w[0], "{name}: RMSE did not fall: {rmse:?}");
+        }
+        // Its own error, once the reference's noise is taken out, has fallen by half or more.
+        let own = |r: f64| (r * r - reference_noise * reference_noise).max(0.0).sqrt();
+        assert!(
+            own(rmse[rmse.len() - 1]) < 0.5 * own(rmse[0]),
+            "{name}: {rmse:?} (reference noise {reference_noise})"
+        );
+        // Consistent: the image mean agrees with the path tracer's.
+        assert_means_agree(
+            &format!("caustics, {name} vs path"),
+            &sppm,
+            &reference,
+            4.0,
+            0.0,
+        );
     }
-    // sppm's own error, once the reference's noise is taken out, has fallen by half or more.
-    let own = |r: f64| (r * r - reference_noise * reference_noise).max(0.0).sqrt();
-    assert!(
-        own(rmse[rmse.len() - 1]) < 0.5 * own(rmse[0]),
-        "{rmse:?} (reference noise {reference_noise})"
-    );
-    // Consistent: the image mean agrees with the path tracer's.
-    assert_means_agree("caustics, sppm vs path", &sppm, &reference, 4.0, 0.0);
 }
 
 #[test]
@@ -141,14 +153,22 @@ fn sppm_agrees_with_path_on_the_cornell_box() {
     let scene = load("scenes/cornell_box.ron", 24, 24);
     let depth = [("max-depth", "7")];
     let reference = run(&scene, "path", &depth, 2048, &[]);
-    let sppm = run(
-        &scene,
-        "sppm",
-        &[("photons", "10000"), ("max-depth", "7")],
-        256,
-        &[],
-    );
-    assert_means_agree("Cornell box, sppm vs path", &sppm, &reference, 4.0, 0.0);
+    for name in SPPMS {
+        let sppm = run(
+            &scene,
+            name,
+            &[("photons", "10000"), ("max-depth", "7")],
+            256,
+            &[],
+        );
+        assert_means_agree(
+            &format!("Cornell box, {name} vs path"),
+            &sppm,
+            &reference,
+            4.0,
+            0.0,
+        );
+    }
 }
 
 #[test]
