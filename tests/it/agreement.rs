@@ -1,8 +1,10 @@
 //! The unbiased integrators agree on real scenes: `path`, `russian-roulette` and
 //! `fixed-depth` estimate the same truncated rendering equation at the same depth, so their
 //! image means must agree within statistical error (a z-test on each channel, standard errors
-//! from the film's per-pixel variances).
+//! from the film's per-pixel variances). The light-path family is checked the same way with
+//! standard errors from the passes' image means, since merges correlate a pass's pixels.
 
+use crate::common::pass_means::{assert_means_agree, assert_power, load, run};
 use raylab::render::{render, Film, RenderSettings};
 use raylab::scene::load_scene;
 use raylab::scene::RenderScene;
@@ -251,19 +253,25 @@ fn light_path_integrators_agree_with_path_through_both_cameras() {
     let plane = dir.path().join("cornell_image_plane.ron");
     std::fs::write(&plane, skewed).unwrap();
     for scene in ["scenes/cornell_box.ron", plane.to_str().unwrap()] {
-        let path = render_mean(scene, "path", &[("max-depth", "4")], 1024, 6);
+        let data = load(scene, 24, 24);
+        let path = run(&data, "path", &[("max-depth", "4")], 1024, &[]);
         for (name, params) in [
             ("lighttracer", &[("max-depth", "4")][..]),
             ("bdpt", &[("max-depth", "4")]),
             ("vcm", &[("max-depth", "4"), ("radius", "0.05")]),
             ("bpm", &[("max-depth", "4"), ("radius", "0.05")]),
         ] {
-            let light = render_mean(scene, name, params, 1024, 7);
-            assert_agree(scene, ("path", &path), (name, &light));
+            let light = run(&data, name, params, 1024, &[]);
+            let what = format!("{scene}: {name} vs path");
+            assert_power(&what, &light, 0.01);
+            assert_means_agree(&what, &light, &path, 4.0, 0.0);
         }
     }
 }
 
+/// Standard errors here come from the passes' image means (`common::pass_means`): the merging
+/// integrators' pixels share a pass's light subpaths.
+///
 /// Bidirectional path tracing joins subpaths at every non-specular vertex and weights the
 /// strategies by MIS; mirrors, glass and smooth coatings are followed, never joined. On
 /// every material of the field and on the caustics scene (a glass ball and a mirror under a
@@ -282,10 +290,14 @@ fn bidirectional_integrators_agree_with_path_on_every_material_and_on_caustics()
         ("scenes/materials.ron", 1024, 0.01, &[bdpt, vcm][..]),
         ("scenes/caustics.ron", 3072, 0.02, &[bdpt, vcm, bpm]),
     ] {
-        let path = render_mean(scene, "path", &[("max-depth", "4")], spp, 8);
+        let data = load(scene, 24, 24);
+        let path = run(&data, "path", &[("max-depth", "4")], spp, &[]);
         for &(name, params) in integrators {
-            let film = render_mean(scene, name, params, spp, 9);
-            assert_agree_to(scene, ("path", &path), (name, &film), power);
+            let other = run(&data, name, params, spp, &[]);
+            let what = format!("{scene}: {name} vs path");
+            assert_power(&what, &other, power);
+            assert_power(&what, &path, power);
+            assert_means_agree(&what, &other, &path, 4.0, 0.0);
         }
     }
 }

@@ -4,6 +4,8 @@
 
 #![allow(dead_code)] // each test module uses its own subset
 
+pub mod pass_means;
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
