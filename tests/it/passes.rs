@@ -107,60 +107,21 @@ fn checkpoint_then_resume(d: &Path, common: &[&str]) -> std::path::PathBuf {
 fn checkpoint_then_resume_equals_a_direct_render() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // sppm too: each pass's photon map depends only on the seed and the pass number.
-    let sppm = [
-        "render",
-        CORNELL,
-        "--size",
-        "48x48",
-        "--spp",
-        "12",
-        "--seed",
-        "9",
-        "-q",
-        "-i",
-        "sppm",
-        "-p",
-        "photons=5000",
-    ];
-    checkpoint_then_resume(&d.join("sppm"), &sppm);
-    // lighttracer too: its splats are part of each pass's sums.
-    let light = [
-        "render",
-        CORNELL,
-        "--size",
-        "96x96",
-        "--spp",
-        "40",
-        "--seed",
-        "9",
-        "-q",
-        "-i",
-        "lighttracer",
-    ];
-    checkpoint_then_resume(&d.join("lighttracer"), &light);
-    // vcm too: its light subpaths and radius depend only on the seed and the pass number.
-    let vcm = [
-        "render", CORNELL, "--size", "48x48", "--spp", "12", "--seed", "9", "-q", "-i", "vcm",
-    ];
-    checkpoint_then_resume(&d.join("vcm"), &vcm);
-    // sppm-pixel too: its pixels' radii and fluxes are rebuilt by replaying the passes.
-    let sppm_pixel = [
-        "render",
-        CORNELL,
-        "--size",
-        "48x48",
-        "--spp",
-        "12",
-        "--seed",
-        "9",
-        "-q",
-        "-i",
-        "sppm-pixel",
-        "-p",
-        "photons=5000",
-    ];
-    checkpoint_then_resume(&d.join("sppm-pixel"), &sppm_pixel);
+    // The integrators with state across a pass's pixels or across passes: sppm's photon map
+    // and vcm's light subpaths depend only on the seed and the pass number; lighttracer's
+    // splats are part of each pass's sums; sppm-pixel rebuilds its pixels by replaying passes.
+    for (integrator, size, spp, params) in [
+        ("sppm", "48x48", "12", &["-p", "photons=5000"][..]),
+        ("lighttracer", "96x96", "40", &[]),
+        ("vcm", "48x48", "12", &[]),
+        ("sppm-pixel", "48x48", "12", &["-p", "photons=5000"]),
+    ] {
+        let mut args = vec![
+            "render", CORNELL, "--size", size, "--spp", spp, "--seed", "9", "-q", "-i", integrator,
+        ];
+        args.extend_from_slice(params);
+        checkpoint_then_resume(&d.join(integrator), &args);
+    }
     let common = [
         "render", CORNELL, "--size", "96x96", "--spp", "40", "--seed", "9", "-q",
     ];

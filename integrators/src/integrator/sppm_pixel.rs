@@ -67,7 +67,6 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             max_depth: p.get_depth("max-depth"),
             rr_depth: p.get_u32("rr-depth"),
             pixels: Vec::new(),
-            width: 0,
             passes: 0,
             seed: 0,
             camera: None,
@@ -96,7 +95,6 @@ struct SppmPixel {
     rr_depth: u32,
     /// Each pixel's state, row by row.
     pixels: Vec<Pixel>,
-    width: u32,
     /// Passes folded into `pixels` (0: none, or the state must be rebuilt).
     passes: u32,
     /// The seed and camera they were rendered with.
@@ -274,7 +272,8 @@ impl Integrator for SppmPixel {
         _splats: &mut Splats,
     ) -> Rgb {
         // The increment that makes the render loop's average the estimate after this pass.
-        let index = pixel.y as usize * self.width as usize + pixel.x as usize;
+        let width = self.camera.as_ref().map_or(0, |c| c.width as usize);
+        let index = pixel.y as usize * width + pixel.x as usize;
         let Some(px) = self.pixels.get(index) else {
             return Rgb::ZERO;
         };
@@ -316,7 +315,6 @@ impl Integrator for SppmPixel {
                 };
                 count
             ];
-            self.width = camera.width;
             self.seed = seed;
             self.camera = Some(camera.clone());
             self.passes = 0;
@@ -358,7 +356,6 @@ mod tests {
             max_depth: u32::MAX,
             rr_depth: 3,
             pixels: Vec::new(),
-            width: 0,
             passes: 0,
             seed: 0,
             camera: None,

@@ -236,7 +236,6 @@ impl VertexMerging {
     }
 
     /// Traces light subpath `index` of the pass, appending to `out`.
-    #[allow(clippy::too_many_arguments)]
     fn light_subpath(
         &self,
         camera: &Camera,
@@ -316,7 +315,7 @@ impl VertexMerging {
             if length.saturating_add(2) > max {
                 return;
             }
-            let Some(_) = scatter(
+            let scattered = scatter(
                 &sp,
                 TransportMode::Importance,
                 w,
@@ -324,9 +323,10 @@ impl VertexMerging {
                 &mut weights,
                 &mut ray,
                 sampler,
-            ) else {
+            );
+            if scattered.is_none() {
                 return;
-            };
+            }
             // Russian roulette, relative to the power the subpath left the light with.
             if length >= self.rr_depth {
                 let survive = (beta.max_element() / start).min(MAX_SURVIVAL);
@@ -341,7 +341,6 @@ impl VertexMerging {
 
     /// The camera subpath of one sample and everything it gathers: emission, light samples,
     /// connections to `light` (its pixel's light subpath) and merges.
-    #[allow(clippy::too_many_arguments)]
     fn camera_subpath(
         &self,
         pixel: &PixelSample,
