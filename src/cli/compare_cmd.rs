@@ -53,9 +53,12 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         .iter()
         .map(|p| parse_scoped_param(p))
         .collect::<Result<Vec<_>>>()?;
+    // `-p reference.NAME=VALUE` goes to the reference's integrator.
+    let (reference_params, params): (Vec<_>, Vec<_>) =
+        params.into_iter().partition(|(i, _, _)| i == "reference");
     for (i, _, _) in &params {
         if !args.integrators.contains(i) {
-            bail!("-p names integrator `{i}`, which is not compared (add -i {i})");
+            bail!("-p names integrator `{i}`, which is not compared (add -i {i}, or -p reference.NAME=VALUE for the reference)");
         }
     }
     let sweep = args.sweep.as_deref().map(parse_sweep).transpose()?;
@@ -76,9 +79,15 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         }
         (None, None) => Budget::Spp(16),
     };
-    let reference = match (&args.reference, args.reference_spp) {
-        (Some(_), Some(_)) => bail!("give either --reference or --reference-spp, not both"),
-        (Some(f), None) => {
+    let rendered = args.reference_spp.is_some()
+        || args.reference_time.is_some()
+        || args.reference_integrator != "path"
+        || !reference_params.is_empty();
+    let reference = match &args.reference {
+        Some(_) if rendered => bail!(
+            "--reference names a file; --reference-spp, --reference-time, --reference-integrator and -p reference.* describe a reference to render: give one or the other"
+        ),
+        Some(f) => {
             if !f.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
                 bail!(
                     "{}: the reference must be an EXR of linear radiance (a PNG is tonemapped and clipped; render the reference with -o NAME.exr)",
@@ -87,9 +96,42 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
             }
             ReferenceSpec::File(f.clone())
         }
-        (None, Some(0)) => bail!("--reference-spp must be at least 1"),
-        (None, n) => ReferenceSpec::Spp(n.unwrap_or(1024)),
+        None => {
+            let budget = match (args.reference_spp, args.reference_time) {
+                (Some(_), Some(_)) => {
+                    bail!("give either --reference-spp or --reference-time, not both")
+                }
+                (Some(0), _) => bail!("--reference-spp must be at least 1"),
+                (Some(n), None) => Budget::Spp(n),
+                (None, Some(t)) if t.is_finite() && t > 0.0 && t <= 1e9 => {
+                    Budget::Time(Duration::from_secs_f64(t))
+                }
+                (None, Some(t)) => bail!(
+                    "--reference-time must be a positive number of seconds, at most 1e9, got {t}"
+                ),
+                (None, None) => Budget::Spp(1024),
+            };
+            let params: Vec<(String, String)> =
+                reference_params.into_iter().map(|(_, k, v)| (k, v)).collect();
+            // Checked now, not after the renders.
+            raylab_integrators::registry::find(&args.reference_integrator)
+                .and_then(|e| e.resolve(&params).map(|_| ()))
+                .map_err(|e| anyhow!("--reference-integrator: {e}"))?;
+            ReferenceSpec::Render {
+                integrator: args.reference_integrator.clone(),
+                params,
+                budget,
+            }
+        }
     };
+    if args.runs == 0 || args.runs > 10_000 {
+        bail!("--runs must be between 1 and 10000, got {}", args.runs);
+    }
+    if let Some(t) = args.target_error {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--target-error must be a positive MSE, got {t}");
+        }
+    }
     super::check_threads(args.threads)?;
     super::check_allowed(&args.allow_path)?;
     let size = args
@@ -104,6 +146,8 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         import: args.import.options(),
         contestants,
         budget,
+        runs: args.runs,
+        target_error: args.target_error,
         reference,
         cache_dir: cache_dir(&args.output),
         out_dir: args.output.clone(),
@@ -133,6 +177,9 @@ fn parse_region(text: &str) -> Result<Region> {
 
 pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     // Everything that can be refused before reading the images.
+    if !(args.significance > 0.0 && args.significance < 1.0) {
+        bail!("--significance must lie strictly between 0 and 1, got {}", args.significance);
+    }
     if let Some(t) = args.tolerance {
         if !t.is_finite() || (t < 0.0 && args.metric != Metric::Psnr) {
             bail!("--tolerance must be a finite number, at least 0 (for PSNR, any finite dB)");
@@ -173,8 +220,16 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     }
     let (m, map) = metrics::compare(&a, &b)
         .map_err(|e| anyhow!("{} vs {}: {e}", args.a.display(), args.b.display()))?;
+    let ztest = args
+        .ztest
+        .then(|| compare::ztest::z_test(&a, &b, args.significance))
+        .transpose()
+        .map_err(|e| anyhow!("{} vs {}: {e}", args.a.display(), args.b.display()))?;
     if let Some(path) = &args.output {
-        output::write_png(path, &metrics::error_map_image(&map, a.width, a.height))?;
+        match &ztest {
+            Some(z) => output::write_png(path, &compare::ztest::failure_map(z, &b))?,
+            None => output::write_png(path, &metrics::error_map_image(&map, a.width, a.height))?,
+        }
     }
     say!("RMSE    {:.6}", m.rmse);
     say!("relMSE  {:.6}", m.rel_mse);
@@ -187,9 +242,29 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
         }
     );
     say!("FLIP    {:.6}", m.flip);
+    say!("HDR-FLIP {:.6}", metrics::hdr_flip(&a, &b).0);
     let (ma, mb) = (a.mean(), b.mean());
     say!("mean A  ({:.5}, {:.5}, {:.5})", ma.x, ma.y, ma.z);
     say!("mean B  ({:.5}, {:.5}, {:.5})", mb.x, mb.y, mb.z);
+    if let Some(z) = &ztest {
+        let noise = match (a.has_variance, b.has_variance) {
+            (true, true) => "both images' variance",
+            (true, false) => "A's variance only (B has no variance layer)",
+            _ => "B's variance only (A has no variance layer)",
+        };
+        say!(
+            "z-test  {} of {} pixels fail at significance {} ({noise}; per channel p < {:.2e}); smallest p {:.2e}",
+            z.failed_pixels,
+            a.width as u64 * a.height as u64,
+            args.significance,
+            z.alpha,
+            z.min_p
+        );
+        if let Some((x, y)) = z.first_failure {
+            say!("differs: pixel ({x}, {y}) is the first beyond the noise (z-test)");
+            return Ok(ExitCode::from(1));
+        }
+    }
     if let Some(t) = args.tolerance {
         let (value, exceeded) = match args.metric {
             Metric::Rmse => (m.rmse, m.rmse > t),

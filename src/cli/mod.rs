@@ -192,9 +192,23 @@ pub struct CompareArgs {
     /// Reference image (EXR, linear radiance) of the same size.
     #[arg(long, value_name = "FILE")]
     pub reference: Option<PathBuf>,
-    /// Render the reference with `path` at this many spp (default 1024; cached by scene).
+    /// Render the reference at this many spp (default 1024; cached by scene and settings).
     #[arg(long, value_name = "N")]
     pub reference_spp: Option<u32>,
+    /// Render the reference for this many seconds instead (cached like --reference-spp).
+    #[arg(long, value_name = "SECONDS")]
+    pub reference_time: Option<f64>,
+    /// The integrator that renders the reference (default `path`): a consistent one where
+    /// `path` cannot converge (caustics: `sppm`, `vcm`). Its parameters: -p reference.NAME=VALUE.
+    #[arg(long, value_name = "NAME", default_value = "path")]
+    pub reference_integrator: String,
+    /// Independent runs per integrator (seeds derived from --seed): metrics become means
+    /// with 95% intervals, and variance and squared bias are measured.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    pub runs: u32,
+    /// Report the time each integrator needs to reach this MSE (default: the best final MSE).
+    #[arg(long, value_name = "MSE")]
+    pub target_error: Option<f64>,
     /// Render one image per value of a parameter: NAME=V1,V2,...
     #[arg(long, value_name = "NAME=V1,V2,...")]
     pub sweep: Option<String>,
@@ -277,9 +291,16 @@ pub struct DiffArgs {
     pub a: PathBuf,
     /// Second image, the reference (EXR or PNG).
     pub b: PathBuf,
-    /// Write FLIP's error map here (PNG).
+    /// Write FLIP's error map here (PNG); with --ztest, the map of failing pixels.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// Per-pixel z-test of A against B with the variance layers the images carry (Mitsuba's
+    /// render-test method): exit 1 when a pixel differs beyond the noise.
+    #[arg(long)]
+    pub ztest: bool,
+    /// The z-test's significance over the whole image (Šidák-corrected per pixel channel).
+    #[arg(long, default_value_t = 0.01, requires = "ztest")]
+    pub significance: f64,
     /// Metric the tolerance applies to.
     #[arg(long, value_enum, default_value_t = Metric::Flip)]
     pub metric: Metric,

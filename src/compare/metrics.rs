@@ -7,6 +7,10 @@
 //!   (exposure 0, clamp, sRGB, 8 bits). PSNR is `10 log10(1 / MSE)` on values in [0, 1]; FLIP is
 //!   NVIDIA's perceptual difference (LDR-FLIP, mean over the image, 0 = identical), computed by
 //!   the `nv-flip` crate at 67 pixels per degree (its default viewing conditions).
+//! * HDR-FLIP (Andersson et al. 2021) on the radiance itself: LDR-FLIP after each exposure of
+//!   a bracket chosen from the reference (from the exposure that maps its brightest pixel to
+//!   0.85 after the ACES curve to the one that maps its median there, one stop apart), the
+//!   largest error per pixel kept. The bracketed images are 8-bit sRGB, as `nv-flip` takes.
 
 use crate::output::tonemap::{to_srgb8, Tonemap};
 use crate::render::Film;
@@ -85,6 +89,79 @@ pub fn compare(test: &Film, reference: &Film) -> Result<(Metrics, Vec<f32>)> {
         },
         map,
     ))
+}
+
+/// The ACES filmic curve (Narkowicz's fit, the 0.6 pre-exposure folded into the constants,
+/// as HDR-FLIP uses it).
+const ACES: [f64; 6] = [0.6 * 0.6 * 2.51, 0.6 * 0.03, 0.0, 0.6 * 0.6 * 2.43, 0.6 * 0.59, 0.14];
+
+fn aces(x: f64) -> f64 {
+    let [k0, k1, k2, k3, k4, k5] = ACES;
+    ((x * (k0 * x + k1) + k2) / (x * (k3 * x + k4) + k5)).clamp(0.0, 1.0)
+}
+
+/// The exposures (stops) HDR-FLIP brackets for `reference`: from the one that maps the
+/// brightest luminance to 0.85 after the ACES curve to the one that maps the median there.
+pub fn hdr_exposures(reference: &Film) -> Vec<f64> {
+    let [k0, k1, k2, k3, k4, k5] = ACES;
+    let t = 0.85;
+    let c0 = (k1 - k4 * t) / (k0 - k3 * t);
+    let c1 = (k2 - k5 * t) / (k0 - k3 * t);
+    let x = -0.5 * c0 + ((0.5 * c0).powi(2) - c1).sqrt();
+    let mut lum: Vec<f64> = reference
+        .pixels
+        .iter()
+        .map(|p| 0.2126 * p.x as f64 + 0.7152 * p.y as f64 + 0.0722 * p.z as f64)
+        .filter(|y| y.is_finite())
+        .collect();
+    lum.sort_by(f64::total_cmp);
+    let hi = lum.last().copied().unwrap_or(0.0);
+    if hi <= 0.0 {
+        return vec![0.0];
+    }
+    // The median, or the darkest lit pixel when more than half the image is black.
+    let mid = lum[lum.len() / 2];
+    let lo = if mid > 0.0 {
+        mid
+    } else {
+        lum.iter().copied().find(|y| *y > 0.0).unwrap_or(hi)
+    };
+    let (start, stop) = ((x / hi).log2(), (x / lo).log2());
+    let count = ((stop - start).ceil() as usize).clamp(2, 24);
+    (0..count)
+        .map(|i| start + (stop - start) * i as f64 / (count - 1) as f64)
+        .collect()
+}
+
+/// HDR-FLIP of `test` against `reference`: the mean over pixels of the largest LDR-FLIP error
+/// across the exposure bracket, and that per-pixel error map.
+pub fn hdr_flip(test: &Film, reference: &Film) -> (f64, Vec<f32>) {
+    let (w, h) = (test.width, test.height);
+    let mut worst = vec![0.0f32; test.pixels.len()];
+    let ldr = |film: &Film, scale: f64| -> Vec<u8> {
+        film.pixels
+            .iter()
+            .flat_map(|p| {
+                p.to_array().map(|v| {
+                    let v = aces((v as f64 * scale).max(0.0)) as f32;
+                    (crate::output::tonemap::srgb_encode(v) * 255.0 + 0.5) as u8
+                })
+            })
+            .collect()
+    };
+    for e in hdr_exposures(reference) {
+        let scale = e.exp2();
+        let error = nv_flip::flip(
+            nv_flip::FlipImageRgb8::with_data(w, h, &ldr(reference, scale)),
+            nv_flip::FlipImageRgb8::with_data(w, h, &ldr(test, scale)),
+            nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+        );
+        for (m, v) in worst.iter_mut().zip(error.to_vec()) {
+            *m = m.max(v);
+        }
+    }
+    let mean = worst.iter().map(|v| *v as f64).sum::<f64>() / worst.len().max(1) as f64;
+    (mean, worst)
 }
 
 /// FLIP's error map in its magma colour scale (black = no difference, yellow = large).

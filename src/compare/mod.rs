@@ -6,12 +6,13 @@ pub mod metrics;
 mod mosaic;
 mod page;
 mod plot;
+pub mod stats;
+pub mod ztest;
 
 use crate::output::{self, DisplaySettings};
 use crate::render::{self, checkpoint::stable_hash, Accumulation, Film, RenderSettings};
 use crate::scene::RenderScene;
 use anyhow::{anyhow, bail, Context, Result};
-use metrics::Metrics;
 use raylab_integrators::registry;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -42,8 +43,13 @@ pub enum Budget {
 #[derive(Clone, Debug)]
 pub enum ReferenceSpec {
     File(PathBuf),
-    /// A `path` render at this many spp (unlimited depth), cached by scene and settings.
-    Spp(u32),
+    /// A render by a consistent integrator (`path` by default) under its own budget, cached
+    /// by scene and settings.
+    Render {
+        integrator: String,
+        params: Vec<(String, String)>,
+        budget: Budget,
+    },
 }
 
 /// Everything `raylab compare` needs.
@@ -56,6 +62,10 @@ pub struct CompareOptions {
     pub import: crate::scene::ImportOptions,
     pub contestants: Vec<Contestant>,
     pub budget: Budget,
+    /// Independent runs per contestant (seeds derived from `seed`), at least 1.
+    pub runs: u32,
+    /// The MSE whose time to reach is reported; `None`: the best contestant's final MSE.
+    pub target_error: Option<f64>,
     pub reference: ReferenceSpec,
     pub out_dir: PathBuf,
     pub threads: Option<usize>,
@@ -89,7 +99,9 @@ impl std::fmt::Display for Region {
     }
 }
 
-/// One row of the results.
+/// One row of the results: a contestant's figures over its runs. Values measured per run are
+/// means over the runs with the half-width of their 95% interval (`*_ci95`, absent from one
+/// run); errors are the reference's noise subtracted (see [`stats`]).
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
     pub label: String,
@@ -97,8 +109,45 @@ pub struct Row {
     pub params: String,
     pub swept_param: Option<String>,
     pub swept_value: Option<String>,
-    pub spp: u32,
-    pub time_s: f64,
+    pub runs: u32,
+    /// Samples (passes) per pixel, mean over the runs.
+    pub spp: f64,
+    /// Render time in seconds (measuring excluded), mean over the runs.
+    pub time: f64,
+    pub time_ci95: Option<f64>,
+    pub mse: f64,
+    pub mse_ci95: Option<f64>,
+    /// Per-pixel variance of one run's image across the runs, mean over pixels and channels.
+    pub variance: Option<f64>,
+    /// Squared bias: MSE of the runs' mean image less `variance / runs`.
+    pub bias2: Option<f64>,
+    pub relmse: f64,
+    pub relmse_ci95: Option<f64>,
+    /// LDR-FLIP on the displayed images.
+    pub flip: f64,
+    pub flip_ci95: Option<f64>,
+    /// HDR-FLIP on the radiance.
+    pub hdrflip: f64,
+    pub hdrflip_ci95: Option<f64>,
+    /// `1 / (mse x time)`: how much error each second buys away; `None` when the MSE is not
+    /// positive (below the reference's noise).
+    pub efficiency: Option<f64>,
+    /// Seconds to reach the report's target MSE, from the convergence curve.
+    pub time_to_target: Option<f64>,
+    /// Whether that time lies past the curve's end, along its fitted slope.
+    pub time_to_target_extrapolated: bool,
+    /// Slope of log MSE against log time (about -1 for an unbiased estimator).
+    pub slope: Option<f64>,
+    /// As measured, the reference's noise included: RMSE on radiance, PSNR on the displayed
+    /// images (means over the runs).
+    pub rmse: f64,
+    pub psnr: f64,
+    /// The reference's mean variance over this row's measured MSE: how much of the error is
+    /// the reference's own noise.
+    pub reference_share: Option<f64>,
+    /// Pixels of the first run that fail the per-pixel z-test against the reference (1%
+    /// significance over the image); `None` when neither image has a variance layer.
+    pub ztest_failed_pixels: Option<usize>,
     pub rays_camera: u64,
     pub rays_extension: u64,
     pub rays_shadow: u64,
@@ -106,12 +155,22 @@ pub struct Row {
     pub rays_connection: u64,
     pub rays_per_s: f64,
     pub samples_per_s: f64,
+    /// Mean radiance of the runs' mean image.
     pub mean: [f32; 3],
-    #[serde(flatten)]
-    pub metrics: Metrics,
-    /// The same metrics inside the region, if one was given.
+    /// The errors inside the region, if one was given.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub region: Option<Metrics>,
+    pub region: Option<RegionRow>,
+    /// The mean convergence curve over the runs.
+    pub convergence: Vec<stats::CurvePoint>,
+}
+
+/// A row's errors inside `--region`.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct RegionRow {
+    pub mse: f64,
+    pub mse_ci95: Option<f64>,
+    pub relmse: f64,
+    pub flip: f64,
 }
 
 impl Row {
@@ -137,6 +196,14 @@ pub struct Report {
     pub height: u32,
     pub budget: String,
     pub reference: String,
+    /// The reference's per-pixel variance, mean over pixels and channels; `None` when it has
+    /// no variance layer (its noise then stays in every error).
+    pub reference_variance: Option<f64>,
+    /// Said when the reference is too noisy to rank the contestants, or its noise unknown.
+    pub reference_warning: Option<String>,
+    /// The MSE `time_to_target` refers to.
+    pub target_error: Option<f64>,
+    pub runs: u32,
     pub threads: usize,
     pub seed: u64,
     pub note: Option<String>,
@@ -205,13 +272,33 @@ pub fn contestants(
     Ok(out)
 }
 
+/// The seed of run `k`: the comparison's own for the first, so that one run renders what it
+/// always did; the others spread across the seed space.
+pub fn run_seed(seed: u64, k: u32) -> u64 {
+    seed ^ (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+}
+
+/// One finished render.
+struct Rendered {
+    film: Film,
+    stats: render::RenderStats,
+    /// Seconds spent rendering, the convergence measurements excluded.
+    time: f64,
+    params: String,
+    curve: Vec<stats::CurvePoint>,
+}
+
+/// Renders one contestant with `seed`; with a reference, its error is recorded after every
+/// log-spaced pass (and at the end) for the convergence curve.
 fn render_one(
     built: &RenderScene,
     camera: &crate::scene::Camera,
     c: &Contestant,
     budget: Budget,
+    seed: u64,
+    reference: Option<&Film>,
     opts: &CompareOptions,
-) -> Result<(Film, render::RenderStats, String)> {
+) -> Result<Rendered> {
     let entry = registry::find(&c.integrator)?;
     let params = entry.resolve(&c.params)?;
     let mut integrator = entry.build_checked(&params)?;
@@ -219,11 +306,11 @@ fn render_one(
         Budget::Spp(n) => RenderSettings {
             progress: opts.progress,
             filter: opts.filter.unwrap_or_default(),
-            ..RenderSettings::fixed(n, opts.seed, opts.threads)
+            ..RenderSettings::fixed(n, seed, opts.threads)
         },
         Budget::Time(t) => RenderSettings {
             spp: None,
-            seed: opts.seed,
+            seed,
             threads: opts.threads,
             progress: opts.progress,
             time_budget: Some(t),
@@ -231,6 +318,9 @@ fn render_one(
         },
     };
     let mut acc = Accumulation::new(camera.width, camera.height);
+    let mut curve = Vec::new();
+    // Time spent measuring, which the curve's times and the row's time leave out.
+    let mut measuring = Duration::ZERO;
     let stats = render::render_passes(
         built,
         camera,
@@ -238,12 +328,44 @@ fn render_one(
         &settings,
         &mut acc,
         &|| false,
-        &mut |_, _| Ok(()),
+        &mut |acc, stats| {
+            if let Some(r) = reference.filter(|_| stats::records(acc.spp_done)) {
+                let started = std::time::Instant::now();
+                let e = stats::linear_error(&acc.film(), r);
+                curve.push(stats::CurvePoint {
+                    spp: acc.spp_done,
+                    time: stats.elapsed.saturating_sub(measuring).as_secs_f64(),
+                    mse: e.mse,
+                    relmse: e.relmse,
+                });
+                measuring += started.elapsed();
+            }
+            Ok(())
+        },
     )?;
-    Ok((acc.film(), stats, params.describe(entry.params)))
+    let film = acc.film();
+    let time = stats.elapsed.saturating_sub(measuring).as_secs_f64();
+    if let Some(r) = reference {
+        if curve.last().is_none_or(|p| p.spp != stats.spp_done) && stats.spp_done > 0 {
+            let e = stats::linear_error(&film, r);
+            curve.push(stats::CurvePoint {
+                spp: stats.spp_done,
+                time,
+                mse: e.mse,
+                relmse: e.relmse,
+            });
+        }
+    }
+    Ok(Rendered {
+        film,
+        stats,
+        time,
+        params: params.describe(entry.params),
+        curve,
+    })
 }
 
-/// The reference image: a file, or a cached high-spp `path` render.
+/// The reference image: a file, or a cached render by a consistent integrator.
 fn reference(
     opts: &CompareOptions,
     built: &RenderScene,
@@ -270,15 +392,25 @@ fn reference(
             }
             Ok((film, format!("file {}", file_name(path))))
         }
-        ReferenceSpec::Spp(spp) => {
+        ReferenceSpec::Render {
+            integrator,
+            params,
+            budget,
+        } => {
+            let entry = registry::find(integrator)?;
+            let described = entry.resolve(params)?.describe(entry.params);
             // The scene file and the mesh files it names: editing either renders anew.
             let scene_bytes = crate::scene::references::scene_content(&opts.scene)
                 .with_context(|| format!("{}: cannot read scene file", opts.scene.display()))?;
             // A seed of its own, so that its noise is independent of the renders'.
             let seed = opts.seed ^ 0x5eed_5eed_5eed_5eed;
+            let size = match budget {
+                Budget::Spp(n) => format!("{n} spp"),
+                Budget::Time(t) => format!("{:.3} s", t.as_secs_f64()),
+            };
             // The version too: a light-transport fix must not reuse an old reference.
             let key = format!(
-                "raylab {} reference path max-depth=unlimited spp={spp} seed={seed} {}x{} filter={}",
+                "raylab {} reference {integrator} {described} {size} seed={seed} {}x{} filter={}",
                 env!("CARGO_PKG_VERSION"),
                 camera.width,
                 camera.height,
@@ -289,7 +421,7 @@ fn reference(
             // The page names the cache entry, not the folder: a page must not print a path
             // of the machine that made it.
             let what = format!(
-                "path, {spp} spp, unlimited depth (cached as {})",
+                "{integrator} ({described}), {size} (cached as {})",
                 file_name(&cached)
             );
             if cached.exists() {
@@ -301,16 +433,12 @@ fn reference(
             }
             let c = Contestant {
                 label: "reference".into(),
-                integrator: "path".into(),
-                params: Vec::new(),
+                integrator: integrator.clone(),
+                params: params.clone(),
                 swept: None,
             };
-            let ref_opts = CompareOptions {
-                seed,
-                ..opts.clone()
-            };
             eprintln!("rendering the reference: {what}");
-            let (film, _, _) = render_one(built, camera, &c, Budget::Spp(*spp), &ref_opts)?;
+            let film = render_one(built, camera, &c, *budget, seed, None, opts)?.film;
             std::fs::create_dir_all(&opts.cache_dir).with_context(|| {
                 format!(
                     "{}: cannot create the cache folder",
@@ -337,12 +465,20 @@ fn output_files(opts: &CompareOptions) -> Vec<(String, PathBuf)> {
         ),
     ];
     for c in &opts.contestants {
-        for suffix in [".exr", ".png", "-error.png"] {
+        for suffix in [".exr", ".png", "-error.png", "-ztest.png"] {
             let name = format!("{}{suffix}", c.label);
             files.push((format!("the comparison's {name}"), dir.join(name)));
         }
     }
-    let mut pages = vec!["metrics.json", "metrics.csv", "mosaic.png", "index.html"];
+    let mut pages = vec![
+        "metrics.json",
+        "metrics.csv",
+        "mosaic.png",
+        "index.html",
+        "convergence.csv",
+        "convergence.svg",
+        "convergence.png",
+    ];
     if opts.contestants.iter().any(|c| c.swept.is_some()) {
         pages.extend(["sweep.svg", "sweep.png"]);
     }
@@ -442,63 +578,51 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
     let mut rows = Vec::new();
     let mut threads = 0;
     for c in &opts.contestants {
-        let (film, stats, params) = render_one(&built, &camera, c, opts.budget, opts)?;
-        threads = stats.threads;
-        let (m, error) = metrics::compare(&film, &reference)?;
-        let dir = &opts.out_dir;
-        output::write_image(
-            &dir.join(format!("{}.exr", c.label)),
-            &film,
-            DisplaySettings::default(),
-        )?;
-        output::write_image(
-            &dir.join(format!("{}.png", c.label)),
-            &film,
-            DisplaySettings::default(),
-        )?;
-        output::write_png(
-            &dir.join(format!("{}-error.png", c.label)),
-            &metrics::error_map_image(&error, film.width, film.height),
-        )?;
-        let region = match opts.region {
-            Some(r) => {
-                let crop = |f: &Film| f.crop(r.x, r.y, r.w, r.h).context("region outside image");
-                Some(metrics::compare(&crop(&film)?, &crop(&reference)?)?.0)
-            }
-            None => None,
-        };
-        let mean = film.mean();
-        let row = Row {
-            label: c.label.clone(),
-            integrator: c.integrator.clone(),
-            params,
-            swept_param: c.swept.as_ref().map(|s| s.0.clone()),
-            swept_value: c.swept.as_ref().map(|s| s.1.clone()),
-            spp: stats.spp_done,
-            time_s: stats.elapsed.as_secs_f64(),
-            rays_camera: stats.rays.camera,
-            rays_extension: stats.rays.extension,
-            rays_shadow: stats.rays.shadow,
-            rays_light: stats.rays.light,
-            rays_connection: stats.rays.connection,
-            rays_per_s: stats.rays_per_second(),
-            samples_per_s: stats.samples_per_second(),
-            mean: mean.to_array(),
-            metrics: m,
-            region,
-        };
-        let in_region = region.map_or(String::new(), |m| {
-            format!(
-                "  region: RMSE {:.4}  relMSE {:.4}  FLIP {:.4}",
-                m.rmse, m.rel_mse, m.flip
-            )
-        });
-        eprintln!(
-            "{:<28} {:>6} spp {:>9.2} s {:>8.2} M rays/s  RMSE {:.4}  relMSE {:.4}  PSNR {:>6.2} dB  FLIP {:.4}{in_region}",
-            row.label, row.spp, row.time_s, row.rays_per_s / 1e6, m.rmse, m.rel_mse, m.psnr, m.flip
-        );
+        let (row, used) = measure(opts, &built, &camera, c, &reference)?;
+        threads = used;
+        print_row(&row);
         rows.push(row);
     }
+
+    // The time each needs to reach the target error: the given one, else the best final MSE.
+    let target_error = opts.target_error.or_else(|| {
+        rows.iter()
+            .map(|r| r.mse)
+            .filter(|m| *m > 0.0)
+            .min_by(f64::total_cmp)
+    });
+    if let Some(target) = target_error {
+        for r in &mut rows {
+            if let Some((t, extrapolated)) = stats::time_to_reach(&r.convergence, target) {
+                r.time_to_target = Some(t);
+                r.time_to_target_extrapolated = extrapolated;
+            }
+        }
+    }
+    let reference_variance = reference.has_variance.then(|| stats::mean_variance(&reference));
+    let reference_warning = match reference_variance {
+        None => Some(
+            "the reference has no variance layer, so its own noise is counted in every error; render references with raylab (2 spp or more) to have it subtracted"
+                .to_string(),
+        ),
+        Some(v) => {
+            let smallest = rows
+                .iter()
+                .map(|r| r.mse + v)
+                .filter(|m| *m > 0.0)
+                .min_by(f64::total_cmp);
+            smallest.filter(|m| v > 0.25 * m).map(|m| {
+                format!(
+                    "the reference is too noisy to rank these renders: its own variance is {:.0}% of the smallest error it judges (subtracted, but what remains is uncertain); render it longer with --reference-spp or --reference-time",
+                    100.0 * v / m
+                )
+            })
+        }
+    };
+    if let Some(w) = &reference_warning {
+        eprintln!("warning: {w}");
+    }
+    print_summary(&rows, target_error);
 
     let report = Report {
         scene: file_name(&opts.scene),
@@ -509,6 +633,10 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
             Budget::Time(t) => format!("equal time: {:.2} s", t.as_secs_f64()),
         },
         reference: reference_what,
+        reference_variance,
+        reference_warning,
+        target_error,
+        runs: opts.runs,
         threads,
         seed: opts.seed,
         note: opts.note.clone(),
@@ -516,14 +644,205 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
         rows,
     };
     write_tables(&opts.out_dir, &report)?;
+    write_convergence_csv(&opts.out_dir, &report)?;
+    let convergence = plot::write_convergence_plots(&opts.out_dir, &report)?;
     let plots = if report.rows.iter().any(|r| r.swept_param.is_some()) {
         plot::write_sweep_plots(&opts.out_dir, &report)?
     } else {
         None
     };
     mosaic::write(&opts.out_dir, &report)?;
-    page::write(&opts.out_dir, &report, plots.as_deref())?;
+    page::write(&opts.out_dir, &report, &convergence, plots.as_deref())?;
     Ok(report)
+}
+
+/// What one run of a contestant measured.
+struct RunFigures {
+    error: stats::LinearError,
+    flip: f64,
+    hdrflip: f64,
+    psnr: f64,
+    time: f64,
+    spp: u32,
+    region: Option<(stats::LinearError, f64)>,
+}
+
+/// Renders `c` `opts.runs` times, writes its first run's images (render, error map, z-test
+/// map) and returns its row and the threads used.
+fn measure(
+    opts: &CompareOptions,
+    built: &RenderScene,
+    camera: &crate::scene::Camera,
+    c: &Contestant,
+    reference: &Film,
+) -> Result<(Row, usize)> {
+    let dir = &opts.out_dir;
+    let mut images = stats::RunImages::new(camera.width, camera.height);
+    let mut figures = Vec::new();
+    let mut curves = Vec::new();
+    let mut first: Option<(Rendered, Option<usize>)> = None;
+    for k in 0..opts.runs {
+        if opts.progress && opts.runs > 1 {
+            eprintln!("{}: run {} of {}", c.label, k + 1, opts.runs);
+        }
+        let seed = run_seed(opts.seed, k);
+        let r = render_one(built, camera, c, opts.budget, seed, Some(reference), opts)?;
+        let (m, flip_map) = metrics::compare(&r.film, reference)?;
+        let region = match opts.region {
+            Some(g) => {
+                let crop = |f: &Film| f.crop(g.x, g.y, g.w, g.h).context("region outside image");
+                let (t, rf) = (crop(&r.film)?, crop(reference)?);
+                Some((stats::linear_error(&t, &rf), metrics::compare(&t, &rf)?.0.flip))
+            }
+            None => None,
+        };
+        figures.push(RunFigures {
+            error: stats::linear_error(&r.film, reference),
+            flip: m.flip,
+            hdrflip: metrics::hdr_flip(&r.film, reference).0,
+            psnr: m.psnr,
+            time: r.time,
+            spp: r.stats.spp_done,
+            region,
+        });
+        images.add(&r.film);
+        curves.push(r.curve.clone());
+        if k == 0 {
+            let name = |suffix: &str| dir.join(format!("{}{suffix}", c.label));
+            output::write_image(&name(".exr"), &r.film, DisplaySettings::default())?;
+            output::write_image(&name(".png"), &r.film, DisplaySettings::default())?;
+            output::write_png(
+                &name("-error.png"),
+                &metrics::error_map_image(&flip_map, r.film.width, r.film.height),
+            )?;
+            let z = ztest::z_test(&r.film, reference, 0.01).ok();
+            if let Some(z) = &z {
+                output::write_png(&name("-ztest.png"), &ztest::failure_map(z, reference))?;
+            }
+            let failed = z.map(|z| z.failed_pixels);
+            first = Some((r, failed));
+        }
+    }
+    let (first, ztest_failed_pixels) = first.context("at least one run")?;
+    let of = |f: &dyn Fn(&RunFigures) -> f64| {
+        stats::Estimate::of(&figures.iter().map(f).collect::<Vec<f64>>())
+    };
+    let (mse, relmse) = (of(&|f| f.error.mse), of(&|f| f.error.relmse));
+    let (flip, hdrflip, time) = (of(&|f| f.flip), of(&|f| f.hdrflip), of(&|f| f.time));
+    let mse_raw = of(&|f| f.error.mse_raw).mean;
+    let region = opts.region.map(|_| {
+        let in_region = |f: &RunFigures| f.region.expect("measured in every run");
+        let mse = of(&|f| in_region(f).0.mse);
+        RegionRow {
+            mse: mse.mean,
+            mse_ci95: mse.ci95,
+            relmse: of(&|f| in_region(f).0.relmse).mean,
+            flip: of(&|f| in_region(f).1).mean,
+        }
+    });
+    let convergence = stats::mean_curve(&curves);
+    let runs_done = figures.len() as f64;
+    let stats = &first.stats;
+    let row = Row {
+        label: c.label.clone(),
+        integrator: c.integrator.clone(),
+        params: first.params.clone(),
+        swept_param: c.swept.as_ref().map(|s| s.0.clone()),
+        swept_value: c.swept.as_ref().map(|s| s.1.clone()),
+        runs: opts.runs,
+        spp: figures.iter().map(|f| f.spp as f64).sum::<f64>() / runs_done,
+        time: time.mean,
+        time_ci95: time.ci95,
+        mse: mse.mean,
+        mse_ci95: mse.ci95,
+        variance: images.variance(),
+        bias2: images.bias2(reference),
+        relmse: relmse.mean,
+        relmse_ci95: relmse.ci95,
+        flip: flip.mean,
+        flip_ci95: flip.ci95,
+        hdrflip: hdrflip.mean,
+        hdrflip_ci95: hdrflip.ci95,
+        efficiency: (mse.mean > 0.0 && time.mean > 0.0).then(|| 1.0 / (mse.mean * time.mean)),
+        time_to_target: None,
+        time_to_target_extrapolated: false,
+        slope: stats::fitted_slope(&convergence),
+        rmse: of(&|f| f.error.mse_raw.sqrt()).mean,
+        psnr: of(&|f| f.psnr).mean,
+        reference_share: (reference.has_variance && mse_raw > 0.0)
+            .then(|| stats::mean_variance(reference) / mse_raw),
+        ztest_failed_pixels,
+        rays_camera: stats.rays.camera,
+        rays_extension: stats.rays.extension,
+        rays_shadow: stats.rays.shadow,
+        rays_light: stats.rays.light,
+        rays_connection: stats.rays.connection,
+        rays_per_s: stats.rays_per_second(),
+        samples_per_s: stats.samples_per_second(),
+        mean: images.mean_film().mean().to_array(),
+        region,
+        convergence,
+    };
+    Ok((row, stats.threads))
+}
+
+/// `value ± ci95`, or the value alone from one run.
+fn with_interval(value: f64, ci95: Option<f64>, digits: usize) -> String {
+    match ci95 {
+        Some(ci) => format!("{value:.digits$e} ± {ci:.1e}"),
+        None => format!("{value:.digits$e}"),
+    }
+}
+
+fn print_row(r: &Row) {
+    let in_region = r.region.map_or(String::new(), |m| {
+        format!(
+            "  region: MSE {}  relMSE {:.4}  FLIP {:.4}",
+            with_interval(m.mse, m.mse_ci95, 3),
+            m.relmse,
+            m.flip
+        )
+    });
+    let bias = match (r.variance, r.bias2) {
+        (Some(v), Some(b)) => format!("  variance {v:.3e}  bias² {b:.2e}"),
+        _ => String::new(),
+    };
+    eprintln!(
+        "{:<28} {:>7.1} spp {:>8.2} s  MSE {}  relMSE {:.4}  FLIP {:.4}  HDR-FLIP {:.4}{bias}{}{in_region}",
+        r.label,
+        r.spp,
+        r.time,
+        with_interval(r.mse, r.mse_ci95, 3),
+        r.relmse,
+        r.flip,
+        r.hdrflip,
+        r.slope.map_or(String::new(), |s| format!("  slope {s:.2}")),
+    );
+}
+
+/// Efficiency and time to the target error, relative to the most efficient contestant.
+fn print_summary(rows: &[Row], target: Option<f64>) {
+    let best = rows
+        .iter()
+        .filter_map(|r| r.efficiency)
+        .max_by(f64::total_cmp);
+    if let Some(t) = target {
+        eprintln!("time to reach MSE {t:.3e} (~: extrapolated along the fitted slope):");
+    }
+    for r in rows {
+        let eff = match (r.efficiency, best) {
+            (Some(e), Some(b)) => format!("efficiency {e:.3e} ({:.2}x the best)", e / b),
+            _ => "efficiency -".to_string(),
+        };
+        let reach = match r.time_to_target {
+            Some(t) => format!(
+                "{}{t:.2} s",
+                if r.time_to_target_extrapolated { "~" } else { "" }
+            ),
+            None => "never (the error does not fall)".to_string(),
+        };
+        eprintln!("  {:<28} {eff}  reaches it in {reach}", r.label);
+    }
 }
 
 /// `metrics.json` and `metrics.csv`.
@@ -531,37 +850,72 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
     let json =
         serde_json::to_string_pretty(report).map_err(|e| anyhow!("cannot encode metrics: {e}"))?;
     write_text(&dir.join("metrics.json"), &json)?;
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = String::from(
-        "label,integrator,params,swept_param,swept_value,spp,time_s,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,rmse,rel_mse,psnr,flip,region_rmse,region_rel_mse,region_psnr,region_flip\n",
+        "label,integrator,params,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip\n",
     );
     for r in &report.rows {
         let _ = writeln!(
             csv,
-            "{},{},\"{}\",{},{},{},{:.4},{},{:.0},{:.0},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.6},{}",
+            "{},{},\"{}\",{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{}",
             r.label,
             r.integrator,
             r.params,
             r.swept_param.as_deref().unwrap_or(""),
             r.swept_value.as_deref().unwrap_or(""),
+            r.runs,
             r.spp,
-            r.time_s,
+            r.time,
+            opt(r.time_ci95),
+            r.mse,
+            opt(r.mse_ci95),
+            opt(r.variance),
+            opt(r.bias2),
+            r.relmse,
+            opt(r.relmse_ci95),
+            r.flip,
+            opt(r.flip_ci95),
+            r.hdrflip,
+            opt(r.hdrflip_ci95),
+            opt(r.efficiency),
+            opt(r.time_to_target),
+            r.time_to_target_extrapolated,
+            opt(r.slope),
+            r.rmse,
+            r.psnr,
+            opt(r.reference_share),
+            r.ztest_failed_pixels.map_or(String::new(), |n| n.to_string()),
             r.rays_joined(","),
             r.rays_per_s,
             r.samples_per_s,
             r.mean[0],
             r.mean[1],
             r.mean[2],
-            r.metrics.rmse,
-            r.metrics.rel_mse,
-            r.metrics.psnr,
-            r.metrics.flip,
             r.region.map_or(",,,".to_string(), |m| format!(
-                "{:.6},{:.6},{:.3},{:.6}",
-                m.rmse, m.rel_mse, m.psnr, m.flip
+                "{:.6e},{},{:.6e},{:.6}",
+                m.mse,
+                opt(m.mse_ci95),
+                m.relmse,
+                m.flip
             ))
         );
     }
     write_text(&dir.join("metrics.csv"), &csv)
+}
+
+/// `convergence.csv`: every contestant's mean curve over its runs.
+fn write_convergence_csv(dir: &Path, report: &Report) -> Result<()> {
+    let mut csv = String::from("label,integrator,spp,time,mse,relmse\n");
+    for r in &report.rows {
+        for p in &r.convergence {
+            let _ = writeln!(
+                csv,
+                "{},{},{},{:.6},{:.6e},{:.6e}",
+                r.label, r.integrator, p.spp, p.time, p.mse, p.relmse
+            );
+        }
+    }
+    write_text(&dir.join("convergence.csv"), &csv)
 }
 
 /// Writes a text file atomically.

@@ -33,8 +33,8 @@ pub fn write(dir: &Path, report: &Report) -> Result<()> {
             load(&r.label)?,
             [
                 r.label.clone(),
-                format!("{} spp, {:.2} s", r.spp, r.time_s),
-                format!("RMSE {:.4}  FLIP {:.3}", r.metrics.rmse, r.metrics.flip),
+                format!("{} spp, {:.2} s", r.spp, r.time),
+                format!("MSE {:.2e}  FLIP {:.3}", r.mse, r.flip),
             ],
         ));
     }

@@ -1,11 +1,18 @@
-//! `index.html`: one self-contained page (images embedded, no network) with the renders side
-//! by side, a viewer that flips or slides between any two images with pixel-exact zoom, a
-//! false-colour error view, the metrics table and the sweep plot.
+//! `index.html`: one self-contained page (no network, no other file) that is the viewer of a
+//! comparison. Every image is embedded as linear radiance (RGBE, 8-bit mantissas sharing an
+//! exponent: about 1% precision), so the page tonemaps it itself: an exposure slider, a
+//! per-channel view, false-colour error maps computed from the radiance, FLIP's and the
+//! z-test's maps, A/B slider and toggle views and a grid of every image, all sharing one zoom
+//! and pan (wheel to zoom at the cursor, drag to pan). Below: the metrics table with 95%
+//! intervals, the convergence plot and, for sweeps, the sweep plot.
 //!
-//! Opening the page with `#selftest` makes it check its own viewer (the slider must change the
-//! shown image) and put the verdict in the title; the headless-Chromium test reads it.
+//! Opening the page with `#selftest` makes it drive its own controls through their events
+//! (switch images, move the slider, change exposure, zoom in the grid) and check what the
+//! canvases show; it puts the verdict in the title and each check in `#selftest`, which the
+//! headless-Chromium test reads.
 
 use super::Report;
+use crate::render::Film;
 use anyhow::{Context, Result};
 use base64::Engine as _;
 use std::fmt::Write as _;
@@ -18,114 +25,168 @@ fn escape(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-fn data_uri(path: &Path) -> Result<String> {
+fn base64(bytes: &[u8]) -> String {
+    base64::engine::general_purpose::STANDARD.encode(bytes)
+}
+
+fn png_uri(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    Ok(format!(
-        "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(bytes)
-    ))
+    Ok(format!("data:image/png;base64,{}", base64(&bytes)))
 }
 
-fn fmt_metric(v: f64, digits: usize) -> String {
-    if v.is_infinite() {
-        "inf".into()
-    } else {
-        format!("{v:.digits$}")
+/// Radiance as RGBE (Ward's shared exponent): four bytes a pixel, negative values as zero.
+pub fn rgbe(film: &Film) -> Vec<u8> {
+    let mut out = Vec::with_capacity(film.pixels.len() * 4);
+    for p in &film.pixels {
+        let p = p.max(glam::Vec3::ZERO);
+        let m = p.max_element();
+        if !(m > 1e-32 && m.is_finite()) {
+            out.extend_from_slice(&[0, 0, 0, 0]);
+            continue;
+        }
+        // m = f * 2^e with f in [0.5, 1).
+        let mut e = m.log2().floor() as i32 + 1;
+        if m / (e as f32).exp2() >= 1.0 {
+            e += 1;
+        }
+        let e = e.clamp(-127, 127);
+        let scale = 256.0 / (e as f32).exp2();
+        let byte = |v: f32| (v * scale).min(255.0) as u8;
+        out.extend_from_slice(&[byte(p.x), byte(p.y), byte(p.z), (e + 128) as u8]);
+    }
+    out
+}
+
+/// `value ± ci`, or the value alone.
+fn pm(value: f64, ci: Option<f64>) -> String {
+    match ci {
+        Some(ci) => format!("{value:.3e} ± {ci:.1e}"),
+        None => format!("{value:.3e}"),
     }
 }
 
-pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()> {
-    // Images, embedded: the reference and every render with its error map.
-    let mut images = serde_json::Map::new();
-    let mut entry = serde_json::Map::new();
-    entry.insert("src".into(), data_uri(&dir.join("reference.png"))?.into());
-    images.insert("reference".into(), entry.into());
-    for r in &report.rows {
-        let mut entry = serde_json::Map::new();
-        entry.insert(
-            "src".into(),
-            data_uri(&dir.join(format!("{}.png", r.label)))?.into(),
-        );
-        entry.insert(
-            "error".into(),
-            data_uri(&dir.join(format!("{}-error.png", r.label)))?.into(),
-        );
-        images.insert(r.label.clone(), entry.into());
+fn pm_fixed(value: f64, ci: Option<f64>) -> String {
+    match ci {
+        Some(ci) => format!("{value:.4} ± {ci:.4}"),
+        None => format!("{value:.4}"),
     }
-    let order: Vec<String> = std::iter::once("reference".to_string())
-        .chain(report.rows.iter().map(|r| r.label.clone()))
-        .collect();
-    let data = serde_json::json!({ "order": order, "images": images, "width": report.width, "height": report.height });
-    // `</` cannot appear in the JSON of base64 strings and labels, but be safe inside <script>.
-    let data = data.to_string().replace("</", "<\\/");
+}
 
-    let mut table = String::from(
-        "<table id=\"metrics\"><thead><tr><th>render</th><th>parameters</th><th>spp</th><th>time (s)</th>\
-         <th>rays (camera / extension / shadow / light / connection)</th><th>M rays/s</th><th>mean radiance</th>\
-         <th>RMSE</th><th>relMSE</th><th>PSNR (dB)</th><th>FLIP</th>",
+fn opt(v: Option<f64>) -> String {
+    v.map_or("–".into(), |v| format!("{v:.2e}"))
+}
+
+fn table(report: &Report) -> String {
+    let best = report
+        .rows
+        .iter()
+        .filter_map(|r| r.efficiency)
+        .max_by(f64::total_cmp);
+    let mut t = String::from(
+        "<table id=\"metrics\"><thead><tr><th>render</th><th>parameters</th><th>runs</th><th>spp</th><th>time (s)</th>\
+         <th>MSE</th><th>variance</th><th>bias²</th><th>relMSE</th><th>FLIP</th><th>HDR-FLIP</th>\
+         <th>efficiency (× best)</th><th>time to target (s)</th><th>slope</th><th>z-test: failing pixels</th>\
+         <th>M rays/s</th><th>mean radiance</th>",
     );
     if let Some(region) = report.region {
         let _ = write!(
-            table,
-            "<th>RMSE in {region}</th><th>relMSE in region</th><th>FLIP in region</th>"
+            t,
+            "<th>MSE in {region}</th><th>relMSE in region</th><th>FLIP in region</th>"
         );
     }
-    table.push_str("</tr></thead><tbody>");
+    t.push_str("</tr></thead><tbody>");
     for r in &report.rows {
+        let efficiency = match (r.efficiency, best) {
+            (Some(e), Some(b)) => format!("{e:.3e} ({:.2}×)", e / b),
+            _ => "–".into(),
+        };
+        let reach = r.time_to_target.map_or("–".into(), |s| {
+            format!("{}{s:.2}", if r.time_to_target_extrapolated { "~" } else { "" })
+        });
         let _ = write!(
-            table,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{:.2}</td>\
-             <td>{:.4}, {:.4}, {:.4}</td><td>{:.5}</td><td>{:.5}</td><td>{}</td><td>{:.4}</td>",
+            t,
+            "<tr data-label=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
+             <td>{}</td><td>{}</td><td>{}</td><td>{efficiency}</td><td>{reach}</td><td>{}</td><td>{}</td><td>{:.2}</td>\
+             <td>{:.4}, {:.4}, {:.4}</td>",
+            escape(&r.label),
             escape(&r.label),
             escape(&r.params),
+            r.runs,
             r.spp,
-            r.time_s,
-            r.rays_joined(" / "),
+            pm_fixed(r.time, r.time_ci95),
+            pm(r.mse, r.mse_ci95),
+            opt(r.variance),
+            opt(r.bias2),
+            pm(r.relmse, r.relmse_ci95),
+            pm_fixed(r.flip, r.flip_ci95),
+            pm_fixed(r.hdrflip, r.hdrflip_ci95),
+            r.slope.map_or("–".into(), |s| format!("{s:.2}")),
+            r.ztest_failed_pixels
+                .map_or("–".into(), |n| format!("{n} of {}", report.width * report.height)),
             r.rays_per_s / 1e6,
             r.mean[0],
             r.mean[1],
             r.mean[2],
-            r.metrics.rmse,
-            r.metrics.rel_mse,
-            fmt_metric(r.metrics.psnr, 2),
-            r.metrics.flip
         );
         if let Some(m) = r.region {
             let _ = write!(
-                table,
-                "<td>{:.5}</td><td>{:.5}</td><td>{:.4}</td>",
-                m.rmse, m.rel_mse, m.flip
+                t,
+                "<td>{}</td><td>{:.3e}</td><td>{:.4}</td>",
+                pm(m.mse, m.mse_ci95),
+                m.relmse,
+                m.flip
             );
         }
-        table.push_str("</tr>");
+        t.push_str("</tr>");
     }
-    table.push_str("</tbody></table>");
+    t.push_str("</tbody></table>");
+    t
+}
 
-    let mut gallery = String::new();
+pub fn write(
+    dir: &Path,
+    report: &Report,
+    convergence_svg: &str,
+    sweep_svg: Option<&str>,
+) -> Result<()> {
+    // Every image as radiance, with its error maps.
+    let mut images = serde_json::Map::new();
+    let order: Vec<String> = std::iter::once("reference".to_string())
+        .chain(report.rows.iter().map(|r| r.label.clone()))
+        .collect();
     for name in &order {
-        let caption = match report.rows.iter().find(|r| &r.label == name) {
-            Some(r) => format!(
-                "{} — {} spp, {:.2} s, FLIP {:.4}",
-                escape(name),
-                r.spp,
-                r.time_s,
-                r.metrics.flip
-            ),
-            None => "reference".to_string(),
-        };
-        let _ = write!(
-            gallery,
-            "<figure><img class=\"full\" data-name=\"{}\" width=\"{}\" height=\"{}\" alt=\"{}\"><figcaption>{caption}</figcaption></figure>",
-            escape(name),
-            report.width,
-            report.height,
-            escape(name)
-        );
+        let film = crate::output::read_image(&dir.join(format!("{name}.exr")))?;
+        let mut entry = serde_json::Map::new();
+        entry.insert("rgbe".into(), base64(&rgbe(&film)).into());
+        for (key, suffix) in [("flip", "-error.png"), ("ztest", "-ztest.png")] {
+            let file = dir.join(format!("{name}{suffix}"));
+            if name != "reference" && file.exists() {
+                entry.insert(key.into(), png_uri(&file)?.into());
+            }
+        }
+        images.insert(name.clone(), entry.into());
     }
+    let data = serde_json::json!({ "order": order, "images": images, "width": report.width, "height": report.height });
+    // `</` cannot appear in the JSON of base64 strings and labels, but be safe inside <script>.
+    let data = data.to_string().replace("</", "<\\/");
 
     let sweep = sweep_svg
         .map(|svg| format!("<h2>Sweep</h2><div class=\"plot\">{svg}</div><p>Also as <a href=\"sweep.svg\">sweep.svg</a> and <a href=\"sweep.png\">sweep.png</a>.</p>"))
         .unwrap_or_default();
+    let reference_noise = match report.reference_variance {
+        Some(v) => format!(
+            "Its per-pixel variance (mean {v:.3e}) is subtracted from every MSE and relMSE."
+        ),
+        None => "It carries no variance layer: its own noise is counted in every error.".into(),
+    };
+    let warning = report
+        .reference_warning
+        .as_deref()
+        .map(|w| format!("<p class=\"warning\" id=\"warning\">Warning: {}</p>", escape(w)))
+        .unwrap_or_default();
+    let target = report.target_error.map_or(String::new(), |t| {
+        format!(" Time to target: seconds to reach MSE {t:.3e} on the convergence curve (~: extrapolated along its fitted slope).")
+    });
 
     let html = format!(
         r##"<!doctype html>
@@ -134,118 +195,293 @@ pub fn write(dir: &Path, report: &Report, sweep_svg: Option<&str>) -> Result<()>
 <style>
 body {{ font: 14px/1.4 system-ui, sans-serif; margin: 1.5em; color: #222; background: #fafafa; }}
 h1 {{ font-size: 1.4em; }}
-.controls {{ display: flex; flex-wrap: wrap; gap: 1em; align-items: center; margin: 0.8em 0; }}
-#viewport {{ overflow: auto; max-width: 100%; max-height: 80vh; border: 1px solid #ccc; background: #333; display: inline-block; }}
-canvas, img.full {{ image-rendering: pixelated; image-rendering: crisp-edges; display: block; }}
+.controls {{ display: flex; flex-wrap: wrap; gap: 0.6em 1.2em; align-items: center; margin: 0.6em 0; }}
+.views {{ display: flex; flex-wrap: wrap; gap: 8px; }}
+.panel {{ display: inline-block; }}
+.panel canvas {{ display: block; background: #333; cursor: grab; border: 1px solid #999; }}
+.panel .name {{ font-size: 0.9em; }}
 table {{ border-collapse: collapse; margin: 1em 0; }}
-th, td {{ border: 1px solid #ccc; padding: 0.3em 0.6em; text-align: right; }}
+th, td {{ border: 1px solid #ccc; padding: 0.3em 0.6em; text-align: right; white-space: nowrap; }}
 th:first-child, td:first-child, td:nth-child(2) {{ text-align: left; }}
-figure {{ display: inline-block; margin: 0 1em 1em 0; vertical-align: top; }}
-figcaption {{ font-size: 0.9em; }}
 .note {{ color: #555; }}
+.warning {{ background: #fff3cd; border: 1px solid #e0c36b; padding: 0.5em; }}
+#readout {{ font-family: ui-monospace, monospace; font-size: 0.9em; min-height: 1.4em; }}
 </style></head>
 <body>
 <h1>raylab compare: {scene}</h1>
-{note}<p class="note">{w}x{h}, {budget}, {threads} threads, seed {seed}. Reference: {reference}. Errors are measured against the reference: RMSE and relMSE on linear radiance, PSNR and FLIP on the displayed (clamped sRGB) images.</p>
+{note}<p class="note">{w}x{h}, {budget}, {runs} run(s) each, {threads} threads, seed {seed}. Reference: {reference}. {reference_noise} MSE and relMSE are on linear radiance, the mean over pixels and channels; FLIP on the displayed images, HDR-FLIP on the radiance over an exposure bracket. With several runs: means with 95% intervals, the per-pixel variance of one run, and the squared bias of the runs' mean.{target}</p>
+{warning}
 <div class="controls">
+  <label>view <select id="mode">
+    <option value="slider">A | B slider</option>
+    <option value="toggle">A / B toggle (click or space)</option>
+    <option value="grid">all images side by side</option>
+  </select></label>
   <label>A <select id="a"></select></label>
   <label>B <select id="b"></select></label>
-  <label>view <select id="mode">
-    <option value="slider">slider: A left, B right</option>
-    <option value="toggle">toggle: click or space flips A/B</option>
-    <option value="error">error of A (FLIP, magma)</option>
+  <label>show <select id="show">
+    <option value="image">image</option>
+    <option value="relerr">relative error against the reference (false colour)</option>
+    <option value="flip">FLIP error map</option>
+    <option value="ztest">z-test: failing pixels in red</option>
   </select></label>
+  <label>channel <select id="channel">
+    <option value="rgb">RGB</option><option value="r">R</option><option value="g">G</option><option value="b">B</option><option value="y">luminance</option>
+  </select></label>
+  <label>exposure <input type="range" id="exposure" min="-10" max="10" step="0.1" value="0"> <span id="ev">0.0</span> EV</label>
   <label>split <input type="range" id="split" min="0" max="100" value="50"></label>
-  <label>zoom <select id="zoom"><option>1</option><option>2</option><option>4</option><option>8</option><option>16</option></select></label>
-  <span id="shown"></span>
+  <label>zoom <select id="zoom"><option value="1">fit</option><option>2</option><option>4</option><option>8</option><option>16</option><option>32</option></select></label>
+  <button id="reset">reset view</button>
 </div>
-<div id="viewport"><canvas id="view"></canvas></div>
+<div id="readout"></div>
+<div class="views" id="views"></div>
 <h2>Metrics</h2>
 {table}
-<p class="note">Also as <a href="metrics.json">metrics.json</a> and <a href="metrics.csv">metrics.csv</a>; a picture of it all in <a href="mosaic.png">mosaic.png</a>.</p>
+<p class="note">Also as <a href="metrics.json">metrics.json</a> and <a href="metrics.csv">metrics.csv</a>; a picture of the renders in <a href="mosaic.png">mosaic.png</a>.</p>
+<h2>Convergence</h2>
+<div class="plot">{convergence_svg}</div>
+<p class="note">The mean over the runs of each render's MSE after log-spaced passes, against its render time; the data in <a href="convergence.csv">convergence.csv</a>, the plot also as <a href="convergence.svg">convergence.svg</a> and <a href="convergence.png">convergence.png</a>. An unbiased estimator falls with slope -1; a consistent one more slowly at first.</p>
 {sweep}
-<h2>All images at full size</h2>
-<div id="gallery">{gallery}</div>
+<pre id="selftest" hidden></pre>
 <script>
 "use strict";
 const DATA = {data};
 const $ = (id) => document.getElementById(id);
-const canvas = $("view"), ctx = canvas.getContext("2d", {{ willReadFrequently: true }});
-const loaded = {{}};
+const W = DATA.width, H = DATA.height;
+// Shared view: zoom relative to fit, and the image point at the canvases' centre.
+const view = {{ zoom: 1, cx: W / 2, cy: H / 2 }};
 let flipped = false;
+const hdr = {{}}, maps = {{}};
 
-function load(src) {{
+function decode(b64) {{
+  const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+  const out = new Float32Array(W * H * 3);
+  for (let i = 0; i < W * H; i++) {{
+    const e = bytes[4 * i + 3];
+    if (e === 0) continue;
+    const f = Math.pow(2, e - 136);
+    for (let c = 0; c < 3; c++) out[3 * i + c] = (bytes[4 * i + c] + 0.5) * f;
+  }}
+  return out;
+}}
+
+function loadImage(src) {{
   return new Promise((ok, fail) => {{ const i = new Image(); i.onload = () => ok(i); i.onerror = fail; i.src = src; }});
 }}
 
-function draw() {{
-  const a = $("a").value, b = $("b").value, mode = $("mode").value;
-  const w = DATA.width, h = DATA.height, zoom = Number($("zoom").value);
-  canvas.width = w; canvas.height = h;
-  canvas.style.width = (w * zoom) + "px"; canvas.style.height = (h * zoom) + "px";
-  ctx.imageSmoothingEnabled = false;
-  let label;
-  if (mode === "slider") {{
-    const x = Math.round(w * Number($("split").value) / 100);
-    ctx.drawImage(loaded[b].src, 0, 0);
-    ctx.drawImage(loaded[a].src, 0, 0, x, h, 0, 0, x, h);
-    ctx.fillStyle = "rgba(255,255,255,0.8)"; ctx.fillRect(Math.min(x, w - 1), 0, 1, h);
-    label = "left: " + a + ", right: " + b;
-  }} else if (mode === "toggle") {{
-    const n = flipped ? b : a;
-    ctx.drawImage(loaded[n].src, 0, 0);
-    label = "showing " + n;
-  }} else {{
-    const e = loaded[a].error;
-    if (e) {{ ctx.drawImage(e, 0, 0); label = "FLIP error of " + a; }}
-    else {{ ctx.drawImage(loaded[a].src, 0, 0); label = a + " is the reference: no error map"; }}
+const srgb = (x) => x <= 0.0031308 ? 12.92 * x : 1.055 * Math.pow(x, 1 / 2.4) - 0.055;
+const byte = (x) => Math.max(0, Math.min(255, Math.round(255 * srgb(Math.max(0, Math.min(1, x))))));
+// A perceptual ramp (viridis at five stops) for false colour, t in [0, 1].
+const RAMP = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
+function ramp(t) {{
+  t = Math.max(0, Math.min(1, t)) * (RAMP.length - 1);
+  const i = Math.min(RAMP.length - 2, Math.floor(t)), f = t - i;
+  return RAMP[i].map((v, c) => Math.round(v + f * (RAMP[i + 1][c] - v)));
+}}
+
+// The 8-bit RGBA pixels of image `name` as the controls ask for them.
+function pixels(name) {{
+  const show = $("show").value, ch = $("channel").value;
+  const scale = Math.pow(2, Number($("exposure").value));
+  const out = new ImageData(W, H), d = out.data, src = hdr[name], ref = hdr[DATA.order[0]];
+  for (let i = 0; i < W * H; i++) {{
+    let rgb;
+    if (show === "relerr") {{
+      let e = 0;
+      for (let c = 0; c < 3; c++) {{ const r = ref[3 * i + c], x = src[3 * i + c] - r; e += x * x / (r * r + 0.01); }}
+      // 1e-4 to 1 on a log scale.
+      rgb = ramp((Math.log10(e / 3 + 1e-12) + 4) / 4);
+    }} else {{
+      let [r, g, b] = [src[3 * i] * scale, src[3 * i + 1] * scale, src[3 * i + 2] * scale];
+      if (ch === "r") g = b = r; else if (ch === "g") r = b = g; else if (ch === "b") r = g = b;
+      else if (ch === "y") r = g = b = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+      rgb = [byte(r), byte(g), byte(b)];
+    }}
+    d[4 * i] = rgb[0]; d[4 * i + 1] = rgb[1]; d[4 * i + 2] = rgb[2]; d[4 * i + 3] = 255;
   }}
-  $("shown").textContent = label;
+  return out;
 }}
 
-function pixelOf(img, x, y) {{
-  const c = document.createElement("canvas"); c.width = DATA.width; c.height = DATA.height;
-  const g = c.getContext("2d", {{ willReadFrequently: true }}); g.drawImage(img, 0, 0);
-  return Array.from(g.getImageData(x, y, 1, 1).data);
+// An offscreen canvas with image `name` at its own resolution.
+function source(name) {{
+  const show = $("show").value;
+  const c = document.createElement("canvas"); c.width = W; c.height = H;
+  const g = c.getContext("2d");
+  const map = maps[name] && maps[name][show];
+  if (show === "flip" || show === "ztest") {{
+    if (map) g.drawImage(map, 0, 0); else g.putImageData(pixels(name), 0, 0);
+  }} else {{
+    g.putImageData(pixels(name), 0, 0);
+  }}
+  return c;
 }}
 
-function shownPixel(x, y) {{ return Array.from(ctx.getImageData(x, y, 1, 1).data); }}
+function panelSize() {{
+  const grid = $("mode").value === "grid";
+  const max = grid ? 360 : 720;
+  const fit = Math.min(max / W, max / H);
+  return {{ fit, w: Math.round(W * fit), h: Math.round(H * fit) }};
+}}
+
+// Draws `src` into `canvas` under the shared view.
+function paint(canvas, src, clipTo) {{
+  const {{ fit, w, h }} = panelSize();
+  canvas.width = w; canvas.height = h;
+  const g = canvas.getContext("2d", {{ willReadFrequently: true }});
+  g.imageSmoothingEnabled = false;
+  const s = fit * view.zoom;
+  g.setTransform(1, 0, 0, 1, 0, 0);
+  g.fillStyle = "#333"; g.fillRect(0, 0, w, h);
+  if (clipTo !== undefined) {{ g.save(); g.beginPath(); g.rect(0, 0, clipTo, h); g.clip(); }}
+  g.setTransform(s, 0, 0, s, w / 2 - view.cx * s, h / 2 - view.cy * s);
+  g.drawImage(src, 0, 0);
+  if (clipTo !== undefined) g.restore();
+  canvas.dataset.view = [view.zoom, view.cx, view.cy].join(",");
+}}
+
+// The image pixel under canvas position (x, y).
+function imagePoint(x, y) {{
+  const {{ fit, w, h }} = panelSize();
+  const s = fit * view.zoom;
+  return [Math.floor(view.cx + (x - w / 2) / s), Math.floor(view.cy + (y - h / 2) / s)];
+}}
+
+function panel(name, label) {{
+  const p = document.createElement("div"); p.className = "panel";
+  const c = document.createElement("canvas"); c.dataset.name = name;
+  const t = document.createElement("div"); t.className = "name"; t.textContent = label;
+  p.appendChild(c); p.appendChild(t); $("views").appendChild(p);
+  attach(c);
+  return c;
+}}
+
+function draw() {{
+  $("ev").textContent = Number($("exposure").value).toFixed(1);
+  const mode = $("mode").value, a = $("a").value, b = $("b").value;
+  $("views").innerHTML = "";
+  if (mode === "grid") {{
+    for (const n of DATA.order) paint(panel(n, n), source(n));
+  }} else if (mode === "slider") {{
+    const c = panel(a + "|" + b, "left: " + a + ", right: " + b);
+    const {{ w }} = panelSize();
+    const x = Math.round(w * Number($("split").value) / 100);
+    paint(c, source(b));
+    const g = c.getContext("2d");
+    const tmp = document.createElement("canvas"); paint(tmp, source(a));
+    g.setTransform(1, 0, 0, 1, 0, 0);
+    if (x > 0) g.drawImage(tmp, 0, 0, x, c.height, 0, 0, x, c.height);
+    g.fillStyle = "rgba(255,255,255,0.8)"; g.fillRect(Math.min(x, c.width - 1), 0, 1, c.height);
+  }} else {{
+    const n = flipped ? b : a;
+    paint(panel(n, "showing " + n + " (click or space: flip)"), source(n));
+  }}
+}}
+
+function readout(x, y) {{
+  const [i, j] = imagePoint(x, y);
+  if (i < 0 || j < 0 || i >= W || j >= H) {{ $("readout").textContent = ""; return; }}
+  const k = 3 * (j * W + i), f = (n) => Array.from(hdr[n].slice(k, k + 3)).map((v) => v.toPrecision(4)).join(", ");
+  $("readout").textContent = "(" + i + ", " + j + ")  A " + $("a").value + ": " + f($("a").value) + "   B " + $("b").value + ": " + f($("b").value);
+}}
+
+// Dragging pans; the state lives outside the canvases, which every draw replaces.
+let drag = null, moved = false;
+window.addEventListener("mouseup", () => {{ drag = null; }});
+window.addEventListener("mousemove", (e) => {{
+  if (!drag) return;
+  const s = panelSize().fit * view.zoom;
+  view.cx -= (e.clientX - drag.x) / s; view.cy -= (e.clientY - drag.y) / s;
+  drag.x = e.clientX; drag.y = e.clientY; moved = true;
+  draw();
+}});
+
+function attach(c) {{
+  c.addEventListener("wheel", (e) => {{
+    e.preventDefault();
+    const r = c.getBoundingClientRect(), [px, py] = [e.clientX - r.left, e.clientY - r.top];
+    const {{ fit, w, h }} = panelSize(), s0 = fit * view.zoom;
+    const ix = view.cx + (px - w / 2) / s0, iy = view.cy + (py - h / 2) / s0;
+    view.zoom = Math.max(1, Math.min(64, view.zoom * (e.deltaY < 0 ? 1.25 : 0.8)));
+    const s1 = fit * view.zoom;
+    view.cx = ix - (px - w / 2) / s1; view.cy = iy - (py - h / 2) / s1;
+    draw();
+  }}, {{ passive: false }});
+  c.addEventListener("mousedown", (e) => {{ drag = {{ x: e.clientX, y: e.clientY }}; moved = false; e.preventDefault(); }});
+  c.addEventListener("mousemove", (e) => {{ const r = c.getBoundingClientRect(); readout(e.clientX - r.left, e.clientY - r.top); }});
+  c.addEventListener("click", () => {{ if ($("mode").value === "toggle" && !moved) {{ flipped = !flipped; draw(); }} }});
+}}
+
+// ---- self-test: drives the controls through their events and checks the canvases ----
+function fire(id, value, kind) {{ $(id).value = value; $(id).dispatchEvent(new Event(kind)); }}
+function shown(canvas, x, y) {{ return Array.from(canvas.getContext("2d").getImageData(x, y, 1, 1).data).slice(0, 3); }}
+function expected(name, i, j) {{
+  const d = pixels(name).data, k = 4 * (j * W + i);
+  return [d[k], d[k + 1], d[k + 2]];
+}}
+const same = (p, q) => p.every((v, i) => v === q[i]);
 
 function selftest() {{
-  // Pick A and B that differ somewhere, find such a pixel, move the slider both ways through
-  // its input event, and check that the viewer shows A's pixel, then B's.
-  const names = DATA.order;
-  const a = names[names.length - 1], b = names[0];
-  $("a").value = a; $("b").value = b; $("mode").value = "slider";
-  const same = (p, q) => p.every((v, i) => v === q[i]);
+  const checks = {{}};
+  const names = DATA.order, a = names[names.length - 1], ref = names[0];
+  fire("mode", "slider", "change"); fire("a", a, "change"); fire("b", ref, "change");
+  // A pixel where A and the reference differ, away from the canvas's edges.
   let spot = null;
-  for (let y = 0; y < DATA.height && !spot; y += 3)
-    for (let x = 0; x < DATA.width && !spot; x += 3)
-      if (!same(pixelOf(loaded[a].src, x, y), pixelOf(loaded[b].src, x, y))) spot = [x, y];
-  if (!spot) {{ document.title = "selftest: inconclusive (A and B are identical)"; return; }}
-  const slide = (v) => {{ $("split").value = v; $("split").dispatchEvent(new Event("input")); }};
-  slide(100);
-  const left = shownPixel(spot[0], spot[1]);
-  slide(0);
-  const right = shownPixel(spot[0], spot[1]);
-  const ok = same(left, pixelOf(loaded[a].src, spot[0], spot[1])) && same(right, pixelOf(loaded[b].src, spot[0], spot[1])) && !same(left, right);
-  document.title = ok ? "selftest: ok" : "selftest: FAIL at " + spot + ": " + left + " / " + right;
+  for (let j = 1; j < H - 1 && !spot; j += 2)
+    for (let i = 1; i < W - 1 && !spot; i += 2)
+      if (!same(expected(a, i, j), expected(ref, i, j))) spot = [i, j];
+  if (!spot) {{ document.title = "selftest: inconclusive (the images are identical)"; return; }}
+  // The spot at the canvases' centre, at least two canvas pixels to an image pixel.
+  view.zoom = Math.max(1, Math.ceil(2 / panelSize().fit)); view.cx = spot[0] + 0.5; view.cy = spot[1] + 0.5;
+  const canvas = () => document.querySelector("#views canvas");
+  const at = () => [Math.floor(canvas().width / 2), Math.floor(canvas().height / 2)];
+  fire("split", 100, "input");
+  checks.slider_shows_a = same(shown(canvas(), ...at()), expected(a, ...spot));
+  fire("split", 0, "input");
+  checks.slider_shows_b = same(shown(canvas(), ...at()), expected(ref, ...spot));
+  // Switching image A through its menu shows the new image.
+  const other = names.length > 2 ? names[1] : ref;
+  fire("split", 100, "input"); fire("a", other, "change");
+  checks.switching_images = same(shown(canvas(), ...at()), expected(other, ...spot));
+  fire("a", a, "change");
+  // Exposure brightens: some channel of a lit pixel grows (or is already white).
+  const before = shown(canvas(), ...at());
+  fire("exposure", 2, "input");
+  const after = shown(canvas(), ...at());
+  checks.exposure = after.some((v, c) => v > before[c]) || before.every((v) => v === 255);
+  fire("exposure", 0, "input");
+  // Grid: every image shown, zoomed in and panned together.
+  fire("mode", "grid", "change");
+  view.zoom = Math.max(4, Math.ceil(2 / panelSize().fit)); view.cx = spot[0] + 0.5; view.cy = spot[1] + 0.5;
+  fire("mode", "grid", "change");
+  const panels = Array.from(document.querySelectorAll("#views canvas"));
+  checks.grid_shows_every_image = panels.length === names.length;
+  checks.zoom_and_pan_shared = panels.every((p) => p.dataset.view === panels[0].dataset.view) && panels[0].dataset.view.startsWith(String(view.zoom));
+  checks.grid_pixels_match = panels.every((p) => same(shown(p, Math.floor(p.width / 2), Math.floor(p.height / 2)), expected(p.dataset.name, ...spot)));
+  fire("mode", "slider", "change");
+  // The metrics table has a row for every render.
+  const rows = Array.from(document.querySelectorAll("#metrics tbody tr")).map((r) => r.dataset.label);
+  checks.table_rows = rows.length === names.length - 1 && rows.every((r, i) => r === names[i + 1]);
+  $("selftest").textContent = JSON.stringify(checks);
+  const failed = Object.keys(checks).filter((k) => !checks[k]);
+  document.title = failed.length === 0 ? "selftest: ok" : "selftest: FAIL " + failed.join(", ");
 }}
 
 async function main() {{
   for (const n of DATA.order) {{
     const d = DATA.images[n];
-    loaded[n] = {{ src: await load(d.src), error: d.error ? await load(d.error) : null }};
+    hdr[n] = decode(d.rgbe);
+    maps[n] = {{}};
+    for (const k of ["flip", "ztest"]) if (d[k]) maps[n][k] = await loadImage(d[k]);
   }}
-  for (const img of document.querySelectorAll("img.full")) img.src = DATA.images[img.dataset.name].src;
   for (const id of ["a", "b"]) {{
     for (const n of DATA.order) {{ const o = document.createElement("option"); o.value = o.textContent = n; $(id).appendChild(o); }}
   }}
   $("a").value = DATA.order[DATA.order.length > 1 ? 1 : 0];
   $("b").value = DATA.order[0];
-  for (const id of ["a", "b", "mode", "zoom"]) $(id).addEventListener("change", draw);
-  $("split").addEventListener("input", draw);
-  canvas.addEventListener("click", () => {{ flipped = !flipped; draw(); }});
+  for (const id of ["a", "b", "mode", "show", "channel"]) $(id).addEventListener("change", draw);
+  $("zoom").addEventListener("change", () => {{ view.zoom = Number($("zoom").value); draw(); }});
+  for (const id of ["split", "exposure"]) $(id).addEventListener("input", draw);
+  $("reset").addEventListener("click", () => {{ view.zoom = 1; view.cx = W / 2; view.cy = H / 2; $("zoom").value = "1"; draw(); }});
   document.addEventListener("keydown", (e) => {{
     if (e.code === "Space" && $("mode").value === "toggle") {{ e.preventDefault(); flipped = !flipped; draw(); }}
   }});
@@ -260,9 +496,11 @@ main();
         w = report.width,
         h = report.height,
         budget = escape(&report.budget),
+        runs = report.runs,
         threads = report.threads,
         seed = report.seed,
         reference = escape(&report.reference),
+        table = table(report),
         note = report
             .note
             .as_deref()

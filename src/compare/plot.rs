@@ -33,14 +33,14 @@ where
     let colours = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK];
 
     // Left: FLIP against time (log), each point labelled with its swept value.
-    let t_max = rows.iter().map(|r| r.time_s).fold(1e-3, f64::max) * 2.0;
+    let t_max = rows.iter().map(|r| r.time).fold(1e-3, f64::max) * 2.0;
     let t_min = rows
         .iter()
-        .map(|r| r.time_s)
+        .map(|r| r.time)
         .fold(f64::INFINITY, f64::min)
         .max(1e-4)
         / 2.0;
-    let e_max = rows.iter().map(|r| r.metrics.flip).fold(1e-6, f64::max) * 1.2;
+    let e_max = rows.iter().map(|r| r.flip).fold(1e-6, f64::max) * 1.2;
     let mut chart = ChartBuilder::on(&left)
         .caption("error against time", ("sans-serif", 20))
         .margin(12)
@@ -62,8 +62,8 @@ where
             .filter(|r| &r.integrator == name)
             .map(|r| {
                 (
-                    r.time_s,
-                    r.metrics.flip,
+                    r.time,
+                    r.flip,
                     r.swept_value.clone().unwrap_or_default(),
                 )
             })
@@ -132,7 +132,7 @@ where
             .iter()
             .zip(&x_of)
             .filter(|(r, _)| &r.integrator == name)
-            .filter_map(|(r, x)| Some(((*x)?, r.time_s)))
+            .filter_map(|(r, x)| Some(((*x)?, r.time)))
             .collect();
         chart
             .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
@@ -203,4 +203,92 @@ pub fn write_sweep_plots(dir: &Path, report: &Report) -> Result<Option<String>> 
         image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer).expect("buffer matches the plot size");
     crate::output::write_png(&dir.join("sweep.png"), &img)?;
     Ok(Some(svg))
+}
+
+/// The convergence plot: MSE against time on log-log axes, one curve per contestant (the
+/// mean over its runs), its fitted slope in the legend. Points whose MSE is not positive (the
+/// reference's noise subtracted, below it) cannot be drawn on a log axis and are left out.
+fn draw_convergence<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, report: &Report) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("plot: {e}");
+    root.fill(&WHITE).map_err(err)?;
+    let points = |r: &Row| -> Vec<(f64, f64)> {
+        r.convergence
+            .iter()
+            .filter(|p| p.mse > 0.0 && p.time > 0.0)
+            .map(|p| (p.time, p.mse))
+            .collect()
+    };
+    let all: Vec<(f64, f64)> = report.rows.iter().flat_map(points).collect();
+    let range = |f: fn(&(f64, f64)) -> f64| {
+        all.iter().map(f).fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)))
+    };
+    let (t0, t1) = range(|p| p.0);
+    let (e0, e1) = range(|p| p.1);
+    let (t0, t1) = if t0.is_finite() { (t0 / 1.5, t1 * 1.5) } else { (1e-3, 1.0) };
+    let (e0, e1) = if e0.is_finite() { (e0 / 1.5, e1 * 1.5) } else { (1e-6, 1.0) };
+    let mut chart = ChartBuilder::on(&root)
+        .caption("convergence: MSE against time", ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d((t0..t1).log_scale(), (e0..e1).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("MSE (lower is better)")
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    let colours = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK, RGBColor(230, 140, 0), RGBColor(120, 60, 160)];
+    for (i, r) in report.rows.iter().enumerate() {
+        let c = colours[i % colours.len()];
+        let pts = points(r);
+        let label = match r.slope {
+            Some(s) => format!("{} (slope {s:.2})", r.label),
+            None => r.label.clone(),
+        };
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+            .map_err(err)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart
+            .draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))
+            .map_err(err)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .border_style(BLACK)
+        .background_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+const CONVERGENCE_SIZE: (u32, u32) = (720, 480);
+
+/// Writes `convergence.svg` and `convergence.png`; returns the SVG text for the page.
+pub fn write_convergence_plots(dir: &Path, report: &Report) -> Result<String> {
+    let mut svg = String::new();
+    draw_convergence(
+        SVGBackend::with_string(&mut svg, CONVERGENCE_SIZE).into_drawing_area(),
+        report,
+    )?;
+    super::write_text(&dir.join("convergence.svg"), &svg)?;
+    let (w, h) = CONVERGENCE_SIZE;
+    let mut buffer = vec![0u8; (w * h * 3) as usize];
+    draw_convergence(
+        BitMapBackend::with_buffer(&mut buffer, CONVERGENCE_SIZE).into_drawing_area(),
+        report,
+    )?;
+    let img = image::RgbImage::from_raw(w, h, buffer).expect("buffer matches the plot size");
+    crate::output::write_png(&dir.join("convergence.png"), &img)?;
+    Ok(svg)
 }

@@ -12,6 +12,9 @@ pub struct Film {
     pub pixels: Vec<Vec3>,
     /// Variance of each pixel's mean (sample variance / sample count), per channel.
     pub variance: Vec<Vec3>,
+    /// Whether `variance` was measured: false for a 1-spp render, a PNG, or an EXR without
+    /// a variance layer (its zeros then mean "unknown", not "exact").
+    pub has_variance: bool,
 }
 
 impl Film {
@@ -22,6 +25,7 @@ impl Film {
             height,
             pixels: vec![Vec3::ZERO; n],
             variance: vec![Vec3::ZERO; n],
+            has_variance: false,
         }
     }
 
@@ -54,6 +58,7 @@ impl Film {
             return None;
         }
         let mut out = Film::new(w, h);
+        out.has_variance = self.has_variance;
         for j in 0..h {
             let from = ((y + j) * self.width + x) as usize;
             let to = (j * w) as usize;

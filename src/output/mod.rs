@@ -3,6 +3,7 @@
 //! failure never leaves a partial file and an old file survives intact.
 
 pub mod atomic;
+mod exr_file;
 pub mod film;
 pub mod plan;
 pub mod tonemap;
@@ -10,7 +11,7 @@ pub mod tonemap;
 use anyhow::{bail, Context, Result};
 use atomic::parent_dir;
 pub use film::Film;
-use image::{ImageFormat, Rgb32FImage, RgbImage};
+use image::{ImageFormat, RgbImage};
 use std::io::Write;
 use std::path::Path;
 pub use tonemap::Tonemap;
@@ -118,15 +119,7 @@ pub fn to_srgb_image(film: &Film, display: DisplaySettings) -> RgbImage {
 pub fn write_image(path: &Path, film: &Film, display: DisplaySettings) -> Result<()> {
     let format = check_output_path(path)?;
     match format {
-        OutputFormat::Exr => {
-            let data: Vec<f32> = film.pixels.iter().flat_map(|p| p.to_array()).collect();
-            let img = Rgb32FImage::from_raw(film.width, film.height, data)
-                .expect("buffer matches the film size");
-            write_buffered(path, |w| {
-                img.write_to(w, ImageFormat::OpenExr)?;
-                Ok(())
-            })
-        }
+        OutputFormat::Exr => write_buffered(path, |w| exr_file::encode(film, w)),
         OutputFormat::Png => {
             let img = to_srgb_image(film, display);
             write_buffered(path, |w| {
@@ -145,10 +138,10 @@ pub fn read_image(path: &Path) -> Result<Film> {
         .map(|e| e.to_ascii_lowercase());
     let cannot = || format!("{}: cannot read the image", path.display());
     // A regular file of sane size, decoded as its extension says (a pipe would block).
-    let (file, _) =
+    let (mut file, _) =
         crate::files::open_capped(path, crate::files::MAX_BINARY).with_context(cannot)?;
     let format = ImageFormat::from_path(path).with_context(cannot)?;
-    let img = image::ImageReader::with_format(std::io::BufReader::new(file), format)
+    let img = image::ImageReader::with_format(std::io::BufReader::new(&mut file), format)
         .decode()
         .with_context(cannot)?;
     let (w, h) = (img.width(), img.height());
@@ -157,6 +150,21 @@ pub fn read_image(path: &Path) -> Result<Film> {
         Some("exr") => {
             for (p, q) in film.pixels.iter_mut().zip(img.to_rgb32f().pixels()) {
                 *p = glam::Vec3::new(q[0], q[1], q[2]);
+            }
+            // The variance layer raylab writes beside the radiance, if the file has one.
+            use std::io::Seek;
+            file.rewind().with_context(cannot)?;
+            if let Some(variance) = exr_file::read_variance(file, w, h).with_context(cannot)? {
+                if let Some(i) = variance.iter().position(|v| !v.is_finite() || v.min_element() < 0.0) {
+                    bail!(
+                        "{}: the variance layer holds a value that is negative or not finite at ({}, {})",
+                        path.display(),
+                        i % w as usize,
+                        i / w as usize
+                    );
+                }
+                film.variance = variance;
+                film.has_variance = true;
             }
         }
         _ => {

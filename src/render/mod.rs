@@ -406,6 +406,7 @@ impl Accumulation {
     /// The image so far: the mean of the samples taken (dropped ones count as zero).
     pub fn film(&self) -> Film {
         let mut film = Film::new(self.width, self.height);
+        film.has_variance = self.spp_done >= 2;
         for t in &self.tiles {
             for j in 0..t.h {
                 for i in 0..t.w {

@@ -1,0 +1,169 @@
+//! The per-pixel z-test of an image against a reference, the method of Mitsuba 3's render
+//! tests: every pixel channel's difference over the standard error the two images' variance
+//! layers give it, a two-sided p-value, and a Šidák-corrected significance level so that a
+//! correct image fails anywhere with probability `significance` in all.
+//!
+//! The variances are estimates (batch means over the render's passes), so the statistic is
+//! only approximately normal: images of a few dozen passes or more are tested fairly.
+
+use crate::render::Film;
+use anyhow::{bail, Result};
+use image::RgbImage;
+
+/// What the test found.
+#[derive(Clone, Debug)]
+pub struct ZTest {
+    /// Pixel channels tested.
+    pub tested: usize,
+    /// Pixels with at least one failing channel.
+    pub failed_pixels: usize,
+    /// The first failing pixel in raster order, as (x, y).
+    pub first_failure: Option<(u32, u32)>,
+    /// The smallest p-value found.
+    pub min_p: f64,
+    /// The per-channel significance level after the Šidák correction.
+    pub alpha: f64,
+    /// One flag per pixel: failed.
+    pub failed: Vec<bool>,
+}
+
+/// `erfc(x)` for `x >= 0` (Numerical Recipes' Chebyshev fit, relative error below 1.2e-7).
+fn erfc(x: f64) -> f64 {
+    let t = 1.0 / (1.0 + 0.5 * x);
+    let poly = -x * x - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    t * poly.exp()
+}
+
+/// Two-sided p-value of a standard normal statistic.
+pub fn p_value(z: f64) -> f64 {
+    erfc(z.abs() / std::f64::consts::SQRT_2)
+}
+
+/// Tests `test` against `reference` at `significance` (0.01: a correct image fails one time
+/// in a hundred). At least one of the two must carry a variance layer.
+pub fn z_test(test: &Film, reference: &Film, significance: f64) -> Result<ZTest> {
+    if (test.width, test.height) != (reference.width, reference.height) {
+        bail!(
+            "the images differ in size: {}x{} against {}x{}",
+            test.width,
+            test.height,
+            reference.width,
+            reference.height
+        );
+    }
+    if !test.has_variance && !reference.has_variance {
+        bail!("neither image has a variance layer (raylab writes one into EXRs of 2 spp or more); a z-test needs the images' noise");
+    }
+    let tested = test.pixels.len() * 3;
+    // Šidák: 1 - (1 - alpha)^N = significance over all N channels.
+    let alpha = -(-significance).ln_1p() / tested as f64;
+    let alpha = -(-alpha).exp_m1();
+    let mut out = ZTest {
+        tested,
+        failed_pixels: 0,
+        first_failure: None,
+        min_p: 1.0,
+        alpha,
+        failed: vec![false; test.pixels.len()],
+    };
+    let w = test.width as usize;
+    for i in 0..test.pixels.len() {
+        let mut failed = false;
+        for c in 0..3 {
+            let d = test.pixels[i][c] as f64 - reference.pixels[i][c] as f64;
+            let mut var = 0.0;
+            if test.has_variance {
+                var += test.variance[i][c] as f64;
+            }
+            if reference.has_variance {
+                var += reference.variance[i][c] as f64;
+            }
+            let p = if var > 0.0 {
+                p_value(d / var.sqrt())
+            } else if d.abs() <= 1e-6 * (reference.pixels[i][c].abs() as f64).max(1.0) {
+                1.0
+            } else {
+                // No noise measured and still a difference.
+                0.0
+            };
+            out.min_p = out.min_p.min(p);
+            failed |= p < alpha;
+        }
+        if failed {
+            out.failed[i] = true;
+            out.failed_pixels += 1;
+            out.first_failure.get_or_insert(((i % w) as u32, (i / w) as u32));
+        }
+    }
+    Ok(out)
+}
+
+/// The failing pixels in red over the reference in grey (its displayed luminance, dimmed).
+pub fn failure_map(result: &ZTest, reference: &Film) -> RgbImage {
+    let bytes = super::metrics::display_bytes(reference);
+    let mut data = Vec::with_capacity(bytes.len());
+    for (i, px) in bytes.chunks_exact(3).enumerate() {
+        if result.failed[i] {
+            data.extend_from_slice(&[255, 32, 32]);
+        } else {
+            let y = (0.2126 * px[0] as f32 + 0.7152 * px[1] as f32 + 0.0722 * px[2] as f32) * 0.5;
+            data.extend_from_slice(&[y as u8; 3]);
+        }
+    }
+    RgbImage::from_raw(reference.width, reference.height, data).expect("one RGB triple per pixel")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn p_values_of_the_normal() {
+        assert!((p_value(1.959964) - 0.05).abs() < 1e-6);
+        assert!((p_value(-2.575829) - 0.01).abs() < 1e-6);
+        assert!((p_value(0.0) - 1.0).abs() < 1e-6);
+    }
+
+    /// Images drawn around the same truth with the noise their variance layers state pass at
+    /// about the stated rate; a shift of a few standard errors in one pixel fails there.
+    #[test]
+    fn correct_images_pass_and_a_shifted_pixel_fails() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let (w, h) = (64u32, 64u32);
+        let sigma = 0.1f32;
+        let noisy = |rng: &mut rand::rngs::StdRng| {
+            let mut f = Film::new(w, h);
+            f.has_variance = true;
+            for (p, v) in f.pixels.iter_mut().zip(&mut f.variance) {
+                // Sums of 12 uniforms: close to normal, variance 1.
+                let mut n = || (0..12).map(|_| rng.random::<f32>()).sum::<f32>() - 6.0;
+                *p = Vec3::new(1.0 + sigma * n(), 1.0 + sigma * n(), 1.0 + sigma * n());
+                *v = Vec3::splat(sigma * sigma);
+            }
+            f
+        };
+        let mut failures = 0;
+        for _ in 0..20 {
+            let (a, b) = (noisy(&mut rng), noisy(&mut rng));
+            failures += (z_test(&a, &b, 0.05).unwrap().failed_pixels > 0) as u32;
+        }
+        assert!(failures <= 4, "{failures} of 20 correct pairs failed at 5%");
+        let (mut a, b) = (noisy(&mut rng), noisy(&mut rng));
+        a.pixels[5 * w as usize + 9].y += 12.0 * sigma;
+        let r = z_test(&a, &b, 0.01).unwrap();
+        assert!(r.failed[5 * w as usize + 9] && r.first_failure.is_some());
+        let (mut x, mut y) = (noisy(&mut rng), noisy(&mut rng));
+        x.has_variance = false;
+        y.has_variance = false;
+        assert!(z_test(&x, &y, 0.01).is_err());
+    }
+}
