@@ -178,7 +178,10 @@ fn parse_region(text: &str) -> Result<Region> {
 pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     // Everything that can be refused before reading the images.
     if !(args.significance > 0.0 && args.significance < 1.0) {
-        bail!("--significance must lie strictly between 0 and 1, got {}", args.significance);
+        bail!(
+            "--significance must lie strictly between 0 and 1, got {}",
+            args.significance
+        );
     }
     if let Some(t) = args.tolerance {
         if !t.is_finite() || (t < 0.0 && args.metric != Metric::Psnr) {

@@ -93,7 +93,14 @@ pub fn compare(test: &Film, reference: &Film) -> Result<(Metrics, Vec<f32>)> {
 
 /// The ACES filmic curve (Narkowicz's fit, the 0.6 pre-exposure folded into the constants,
 /// as HDR-FLIP uses it).
-const ACES: [f64; 6] = [0.6 * 0.6 * 2.51, 0.6 * 0.03, 0.0, 0.6 * 0.6 * 2.43, 0.6 * 0.59, 0.14];
+const ACES: [f64; 6] = [
+    0.6 * 0.6 * 2.51,
+    0.6 * 0.03,
+    0.0,
+    0.6 * 0.6 * 2.43,
+    0.6 * 0.59,
+    0.14,
+];
 
 fn aces(x: f64) -> f64 {
     let [k0, k1, k2, k3, k4, k5] = ACES;

@@ -599,7 +599,9 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
             }
         }
     }
-    let reference_variance = reference.has_variance.then(|| stats::mean_variance(&reference));
+    let reference_variance = reference
+        .has_variance
+        .then(|| stats::mean_variance(&reference));
     let reference_warning = match reference_variance {
         None => Some(
             "the reference has no variance layer, so its own noise is counted in every error; render references with raylab (2 spp or more) to have it subtracted"
@@ -692,7 +694,10 @@ fn measure(
             Some(g) => {
                 let crop = |f: &Film| f.crop(g.x, g.y, g.w, g.h).context("region outside image");
                 let (t, rf) = (crop(&r.film)?, crop(reference)?);
-                Some((stats::linear_error(&t, &rf), metrics::compare(&t, &rf)?.0.flip))
+                Some((
+                    stats::linear_error(&t, &rf),
+                    metrics::compare(&t, &rf)?.0.flip,
+                ))
             }
             None => None,
         };
@@ -837,7 +842,11 @@ fn print_summary(rows: &[Row], target: Option<f64>) {
         let reach = match r.time_to_target {
             Some(t) => format!(
                 "{}{t:.2} s",
-                if r.time_to_target_extrapolated { "~" } else { "" }
+                if r.time_to_target_extrapolated {
+                    "~"
+                } else {
+                    ""
+                }
             ),
             None => "never (the error does not fall)".to_string(),
         };

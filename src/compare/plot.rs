@@ -60,13 +60,7 @@ where
         let pts: Vec<(f64, f64, String)> = rows
             .iter()
             .filter(|r| &r.integrator == name)
-            .map(|r| {
-                (
-                    r.time,
-                    r.flip,
-                    r.swept_value.clone().unwrap_or_default(),
-                )
-            })
+            .map(|r| (r.time, r.flip, r.swept_value.clone().unwrap_or_default()))
             .collect();
         chart
             .draw_series(LineSeries::new(
@@ -223,12 +217,24 @@ where
     };
     let all: Vec<(f64, f64)> = report.rows.iter().flat_map(points).collect();
     let range = |f: fn(&(f64, f64)) -> f64| {
-        all.iter().map(f).fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)))
+        all.iter()
+            .map(f)
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            })
     };
     let (t0, t1) = range(|p| p.0);
     let (e0, e1) = range(|p| p.1);
-    let (t0, t1) = if t0.is_finite() { (t0 / 1.5, t1 * 1.5) } else { (1e-3, 1.0) };
-    let (e0, e1) = if e0.is_finite() { (e0 / 1.5, e1 * 1.5) } else { (1e-6, 1.0) };
+    let (t0, t1) = if t0.is_finite() {
+        (t0 / 1.5, t1 * 1.5)
+    } else {
+        (1e-3, 1.0)
+    };
+    let (e0, e1) = if e0.is_finite() {
+        (e0 / 1.5, e1 * 1.5)
+    } else {
+        (1e-6, 1.0)
+    };
     let mut chart = ChartBuilder::on(&root)
         .caption("convergence: MSE against time", ("sans-serif", 20))
         .margin(12)
@@ -244,7 +250,16 @@ where
         .light_line_style(WHITE)
         .draw()
         .map_err(err)?;
-    let colours = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK, RGBColor(230, 140, 0), RGBColor(120, 60, 160)];
+    let colours = [
+        RED,
+        BLUE,
+        GREEN,
+        MAGENTA,
+        CYAN,
+        BLACK,
+        RGBColor(230, 140, 0),
+        RGBColor(120, 60, 160),
+    ];
     for (i, r) in report.rows.iter().enumerate() {
         let c = colours[i % colours.len()];
         let pts = points(r);

@@ -225,7 +225,10 @@ pub fn mean_curve(curves: &[Vec<CurvePoint>]) -> Vec<CurvePoint> {
     let lasts: Vec<&CurvePoint> = curves.iter().filter_map(|c| c.last()).collect();
     if lasts.len() == curves.len() {
         let last = average(&lasts);
-        if out.last().is_none_or(|p| p.spp < last.spp && p.time < last.time) {
+        if out
+            .last()
+            .is_none_or(|p| p.spp < last.spp && p.time < last.time)
+        {
             out.push(last);
         }
     }
@@ -255,7 +258,7 @@ pub fn fitted_slope(curve: &[CurvePoint]) -> Option<f64> {
 
 /// When a curve first reaches `target` MSE: interpolated on log-log axes between the two
 /// points around it, or, past the curve's end, extrapolated along the fitted slope (the flag
-/// says so). `None` when it is not reached and does not fall.
+/// says so). `None` when it is not reached and does not fall (slope above -0.1).
 pub fn time_to_reach(curve: &[CurvePoint], target: f64) -> Option<(f64, bool)> {
     if target <= 0.0 || !target.is_finite() {
         return None;
@@ -274,7 +277,8 @@ pub fn time_to_reach(curve: &[CurvePoint], target: f64) -> Option<(f64, bool)> {
     }
     let last = curve.last()?;
     let slope = fitted_slope(curve)?;
-    (slope < 0.0 && last.mse > 0.0)
+    // A curve flatter than this is not falling (a biased estimator's floor): it never gets there.
+    (slope < -0.1 && last.mse > 0.0)
         .then(|| (last.time * (target / last.mse).powf(1.0 / slope), true))
 }
 
@@ -319,7 +323,12 @@ mod tests {
         let curve: Vec<CurvePoint> = (1..=8)
             .map(|k| {
                 let t = k as f64 * 0.25;
-                CurvePoint { spp: k, time: t, mse: 0.5 / t, relmse: 0.0 }
+                CurvePoint {
+                    spp: k,
+                    time: t,
+                    mse: 0.5 / t,
+                    relmse: 0.0,
+                }
             })
             .collect();
         assert!((fitted_slope(&curve).unwrap() + 1.0).abs() < 1e-9);

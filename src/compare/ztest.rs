@@ -99,7 +99,8 @@ pub fn z_test(test: &Film, reference: &Film, significance: f64) -> Result<ZTest>
         if failed {
             out.failed[i] = true;
             out.failed_pixels += 1;
-            out.first_failure.get_or_insert(((i % w) as u32, (i / w) as u32));
+            out.first_failure
+                .get_or_insert(((i % w) as u32, (i / w) as u32));
         }
     }
     Ok(out)

@@ -40,7 +40,11 @@ pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
 
 /// The variance layer of an EXR file, if it has one of `width x height` pixels; `None` when
 /// it has none (a file from another renderer, or a 1-spp render).
-pub fn read_variance(file: impl Read + Seek, width: u32, height: u32) -> Result<Option<Vec<glam::Vec3>>> {
+pub fn read_variance(
+    file: impl Read + Seek,
+    width: u32,
+    height: u32,
+) -> Result<Option<Vec<glam::Vec3>>> {
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

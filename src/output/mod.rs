@@ -155,7 +155,10 @@ pub fn read_image(path: &Path) -> Result<Film> {
             use std::io::Seek;
             file.rewind().with_context(cannot)?;
             if let Some(variance) = exr_file::read_variance(file, w, h).with_context(cannot)? {
-                if let Some(i) = variance.iter().position(|v| !v.is_finite() || v.min_element() < 0.0) {
+                if let Some(i) = variance
+                    .iter()
+                    .position(|v| !v.is_finite() || v.min_element() < 0.0)
+                {
                     bail!(
                         "{}: the variance layer holds a value that is negative or not finite at ({}, {})",
                         path.display(),

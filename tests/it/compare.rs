@@ -24,13 +24,26 @@ fn s(p: &Path) -> &str {
 
 const CORNELL: &str = "scenes/cornell_box.ron";
 
-/// Loads `index.html#selftest` in headless Chromium: the page must run without console
-/// messages and report that its slider changes the shown image. Skipped (loudly) where
-/// Chromium is missing, except under CI, which installs it.
-fn check_page_in_chromium(page: &Path) {
-    let Some(chromium) = common::chromium() else {
-        return;
-    };
+/// The page's self-test checks, each of which must pass: the slider shows A, then B;
+/// switching A through its menu shows the new image; exposure brightens; the grid shows every
+/// image, zoomed and panned together, each canvas showing its own image's pixel at the shared
+/// point; the table has a row per render.
+const PAGE_CHECKS: [&str; 8] = [
+    "slider_shows_a",
+    "slider_shows_b",
+    "switching_images",
+    "exposure",
+    "grid_shows_every_image",
+    "zoom_and_pan_shared",
+    "grid_pixels_match",
+    "table_rows",
+];
+
+/// Loads `index.html#selftest` in headless Chromium, which drives the page's controls through
+/// their events; every check must pass, without console messages. Returns the DOM after the
+/// test, or `None` (loudly) where Chromium is missing, except under CI, which installs it.
+fn check_page_in_chromium(page: &Path) -> Option<String> {
+    let chromium = common::chromium()?;
     let url = format!("file://{}#selftest", page.canonicalize().unwrap().display());
     let (dom, console) = common::chromium_dump_dom(chromium, &url, 20000);
     assert!(
@@ -40,8 +53,18 @@ fn check_page_in_chromium(page: &Path) {
             .find(|l| l.contains("<title>"))
             .unwrap_or("no title")
     );
+    let results = dom
+        .split("<pre id=\"selftest\" hidden=\"\">")
+        .nth(1)
+        .and_then(|r| r.split("</pre>").next())
+        .expect("the self-test writes its checks");
+    let checks: serde_json::Value = serde_json::from_str(results).unwrap();
+    for name in PAGE_CHECKS {
+        assert_eq!(checks[name], true, "page check {name}: {results}");
+    }
     assert!(console.is_empty(), "console messages: {console:#?}");
     assert!(dom.contains("<table id=\"metrics\">"));
+    Some(dom)
 }
 
 #[test]
@@ -96,11 +119,45 @@ fn compare_writes_images_metrics_mosaic_and_a_working_page() {
     assert_eq!(rows[1]["params"], "max-depth=4 rr-depth=3");
     // Path tracing is closer to the reference than Whitted's direct light on every metric.
     let m = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
-    assert!(m(&rows[1], "rmse") < m(&rows[0], "rmse") && m(&rows[1], "flip") < m(&rows[0], "flip"));
-    assert!(m(&rows[0], "rays_per_s") > 0.0 && rows[0]["spp"] == 4);
+    for k in ["mse", "rmse", "relmse", "flip", "hdrflip"] {
+        assert!(m(&rows[1], k) < m(&rows[0], k), "{k}");
+    }
+    assert!(m(&rows[0], "rays_per_s") > 0.0 && m(&rows[0], "spp") == 4.0);
+    // One run: no intervals, no variance or bias; the reference's noise is known.
+    for k in ["mse_ci95", "variance", "bias2"] {
+        assert!(rows[0][k].is_null(), "{k}");
+    }
+    assert_eq!(rows[0]["runs"], 1);
+    assert!(json["reference_variance"].as_f64().unwrap() > 0.0);
+    // The curve: log-spaced passes 1, 2, 3, 4, in time order.
+    let curve = rows[1]["convergence"].as_array().unwrap();
+    let spp: Vec<u64> = curve.iter().map(|p| p["spp"].as_u64().unwrap()).collect();
+    assert_eq!(spp, [1, 2, 3, 4]);
+    assert!(curve
+        .windows(2)
+        .all(|w| m(&w[0], "time") < m(&w[1], "time")));
     let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
     assert_eq!(csv.lines().count(), 3);
-    assert!(csv.starts_with("label,integrator,params"));
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for name in [
+        "runs",
+        "mse",
+        "mse_ci95",
+        "variance",
+        "bias2",
+        "relmse",
+        "flip",
+        "hdrflip",
+        "efficiency",
+        "time",
+        "spp",
+    ] {
+        assert!(header.contains(&name), "metrics.csv lacks {name}");
+    }
+    let convergence = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    assert_eq!(convergence.lines().count(), 1 + 4 + 4);
+    let svg = std::fs::read_to_string(out.join("convergence.svg")).unwrap();
+    assert!(svg.contains("convergence: MSE against time") && svg.contains("path (slope"));
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(
         html.contains("a &lt;small&gt; test"),
@@ -202,7 +259,7 @@ fn equal_time_gives_every_integrator_at_least_one_pass() {
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     assert!(json["budget"].as_str().unwrap().starts_with("equal time"));
     for r in json["rows"].as_array().unwrap() {
-        assert!(r["spp"].as_u64().unwrap() >= 1);
+        assert!(r["spp"].as_f64().unwrap() >= 1.0);
     }
 }
 
@@ -372,4 +429,237 @@ fn a_sweep_to_unlimited_depth_finishes_and_labels_it() {
     assert!(run.child.wait().unwrap().success(), "{}", run.stderr());
     let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
     assert!(svg.contains("unlimited"), "the unlimited value is labelled");
+}
+
+/// pbrt-v4's furnace (radiance 2 everywhere), small.
+const FURNACE: &str = r#"(camera: LookAt(eye: (0.1, -0.2, 0.3), look_at: (1, 0.4, 0), up: (0, 0, 1), fov: 60, resolution: (24, 24)),
+    materials: {"white": Lambert(albedo: (0.5, 0.5, 0.5))},
+    entities: [
+        (name: "furnace", shape: Sphere(radius: 1), material: "white", flip_normals: true,
+         emitter: Area(radiance: (1, 1, 1))),
+    ])"#;
+
+/// The statistics on a case where the answers are known. The furnace's radiance is 2; the
+/// reference is that plus Gaussian noise of variance 0.09, which its variance layer states.
+/// `whitted` is biased on purpose (it sums emission and one bounce: 1.5, so bias^2 = 0.25
+/// per channel, and its answer is exact, so its variance is 0); `path` is unbiased. Over 4
+/// runs the squared bias and variance must come out as those, and the reference's noise
+/// (0.09, a third of whitted's error) must not be in the MSE.
+#[test]
+fn bias_and_variance_come_out_as_known_and_the_references_noise_is_subtracted() {
+    use rand::{Rng, SeedableRng};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("furnace.ron");
+    // 48x48: the reference's noise averages over 6912 values (its cross term with whitted's
+    // bias has a standard deviation of 0.0036).
+    common::save(&scene, &FURNACE.replace("(24, 24)", "(48, 48)"));
+    let reference = dir.path().join("noisy-reference.exr");
+    let mut film = raylab::output::Film::new(48, 48);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(4);
+    for (p, v) in film.pixels.iter_mut().zip(&mut film.variance) {
+        // Box-Muller, sigma 0.3.
+        let mut normal = || {
+            let (u, w): (f32, f32) = (1.0 - rng.random::<f32>(), rng.random());
+            (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * w).cos()
+        };
+        *p = glam::Vec3::new(
+            2.0 + 0.3 * normal(),
+            2.0 + 0.3 * normal(),
+            2.0 + 0.3 * normal(),
+        );
+        *v = glam::Vec3::splat(0.09);
+    }
+    film.has_variance = true;
+    raylab::output::write_image(&reference, &film, Default::default()).unwrap();
+    let out = dir.path().join("stats");
+    let o = raylab(
+        &[
+            "compare",
+            s(&scene),
+            "-i",
+            "whitted",
+            "-i",
+            "path",
+            "--spp",
+            "16",
+            "--runs",
+            "4",
+            "--reference",
+            s(&reference),
+            "-o",
+            s(&out),
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let m = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+    let (whitted, path) = (&json["rows"][0], &json["rows"][1]);
+    println!("whitted: {whitted:#}\npath: {path:#}");
+    assert!((m(&json, "reference_variance") - 0.09).abs() < 1e-6);
+    // The reference's noise is a third of whitted's error: left in, the MSE would be 0.34.
+    assert!((m(whitted, "mse") - 0.25).abs() < 0.015, "whitted MSE");
+    assert!((m(whitted, "bias2") - 0.25).abs() < 0.015, "whitted bias^2");
+    assert!(m(whitted, "variance") < 1e-9, "whitted's answer is exact");
+    assert!(m(whitted, "mse_ci95") < 1e-6, "the same error every run");
+    // path: no bias beyond what the reference's noise allows, a variance of its own, and an
+    // MSE that is its variance over... its own runs: MSE = variance + bias^2.
+    assert!(m(path, "bias2").abs() < 0.015, "path bias^2");
+    assert!(m(path, "variance") > 0.005, "path has noise");
+    assert!(
+        (m(path, "mse") - m(path, "variance") - m(path, "bias2")).abs() < 0.02,
+        "MSE = variance + bias^2"
+    );
+    assert!(m(path, "mse_ci95") > 0.0);
+    // MSE against time falls as 1/t for path, not at all for whitted.
+    assert!((-1.5..-0.5).contains(&m(path, "slope")), "path slope");
+    assert!(m(whitted, "slope").abs() < 0.1, "whitted slope");
+    // The target is the best final MSE (path's): whitted never reaches it.
+    assert!(whitted["time_to_target"].is_null());
+    assert!(m(path, "time_to_target") > 0.0 && m(path, "efficiency") > 0.0);
+    // The reference is far noisier than path's error: the page and the log say so.
+    assert!(json["reference_warning"]
+        .as_str()
+        .unwrap()
+        .contains("too noisy"));
+    assert!(stderr(&o).contains("too noisy"));
+    if let Some(dom) = check_page_in_chromium(&out.join("index.html")) {
+        assert!(dom.contains("id=\"warning\""));
+        // The table shows the intervals.
+        assert!(dom.contains(" ± "));
+    }
+}
+
+/// `diff --ztest`: two independent renders of the same scene agree within their noise; an
+/// integrator that misses light fails, with the failing pixels drawn.
+#[test]
+fn the_z_test_passes_independent_renders_and_fails_a_biased_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = d.join("furnace.ron");
+    common::save(&scene, FURNACE);
+    let render = |name: &str, integrator: &str, seed: &str| {
+        let file = d.join(name);
+        let o = raylab(
+            &[
+                "render",
+                s(&scene),
+                "-i",
+                integrator,
+                "--spp",
+                "256",
+                "--seed",
+                seed,
+                "-o",
+                s(&file),
+                "-q",
+            ],
+            d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        file
+    };
+    let (a, b) = (render("a.exr", "path", "1"), render("b.exr", "path", "2"));
+    let biased = render("w.exr", "whitted", "1");
+    let map = d.join("z.png");
+    let o = raylab(&["diff", "--ztest", s(&a), s(&b), "-o", s(&map)], d);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("z-test  0 of 576 pixels fail"), "{out}");
+    let o = raylab(&["diff", "--ztest", s(&biased), s(&b), "-o", s(&map)], d);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(
+        out.contains("z-test  576 of 576 pixels fail") && out.contains("differs: pixel (0, 0)"),
+        "{out}"
+    );
+    // Every pixel failed: the map is all red.
+    let img = image::open(&map).unwrap().to_rgb8();
+    assert!(img.pixels().all(|p| p.0 == [255, 32, 32]));
+    // Without any variance layer there is nothing to test against.
+    let png = d.join("b.png");
+    let o = raylab(&["render", s(&scene), "--spp", "1", "-o", s(&png), "-q"], d);
+    assert!(o.status.success());
+    let o = raylab(&["diff", "--ztest", s(&png), s(&png)], d);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("neither image has a variance layer"),
+        "{}",
+        stderr(&o)
+    );
+    let o = raylab(
+        &["diff", "--ztest", "--significance", "1.5", s(&a), s(&b)],
+        d,
+    );
+    assert_eq!(o.status.code(), Some(2));
+}
+
+/// The reference can come from another integrator, sized by time, with its own parameters;
+/// contradictory or bad reference flags are refused before anything renders.
+#[test]
+fn the_reference_integrator_and_its_budget_are_chosen_by_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = raylab(
+        &[
+            "compare",
+            CORNELL,
+            "-i",
+            "path",
+            "--size",
+            "16x16",
+            "--spp",
+            "2",
+            "--reference-integrator",
+            "sppm",
+            "-p",
+            "reference.photons=2000",
+            "--reference-time",
+            "0.5",
+            "-o",
+            s(&out),
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let what = json["reference"].as_str().unwrap();
+    assert!(
+        what.starts_with("sppm (photons=2000") && what.contains("0.500 s"),
+        "{what}"
+    );
+    for (args, expected) in [
+        (
+            vec!["--reference-integrator", "nope"],
+            "unknown integrator `nope`",
+        ),
+        (vec!["-p", "reference.bogus=1"], "no parameter `bogus`"),
+        (
+            vec!["--reference-spp", "4", "--reference-time", "1"],
+            "either --reference-spp or --reference-time",
+        ),
+        (
+            vec!["--reference", "x.exr", "--reference-spp", "4"],
+            "give one or the other",
+        ),
+        (
+            vec!["--reference-time", "0"],
+            "--reference-time must be a positive",
+        ),
+        (vec!["--runs", "0"], "--runs must be between 1"),
+        (
+            vec!["--target-error", "0"],
+            "--target-error must be a positive",
+        ),
+    ] {
+        let mut all = vec!["compare", CORNELL, "-i", "path", "-o", s(&out), "-q"];
+        all.extend(args);
+        let o = raylab(&all, dir.path());
+        assert_eq!(o.status.code(), Some(2), "{all:?}");
+        assert!(stderr(&o).contains(expected), "{all:?}: {}", stderr(&o));
+    }
 }
