@@ -1,25 +1,12 @@
 //! `raylab compare` and `raylab diff`.
 
-use super::{CompareArgs, DiffArgs, Metric};
+use super::{CompareArgs, DiffArgs, Metric, SuiteArgs};
 use crate::compare::{self, metrics, Budget, CompareOptions, ReferenceSpec, Region};
 use crate::output;
 use crate::output::plan::FilePlan;
 use anyhow::{anyhow, bail, Result};
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
-
-/// `INTEGRATOR.key=value`.
-fn parse_scoped_param(text: &str) -> Result<(String, String, String)> {
-    let err = || anyhow!("-p `{text}`: expected INTEGRATOR.NAME=VALUE, e.g. -p path.max-depth=8");
-    let (lhs, value) = text.split_once('=').ok_or_else(err)?;
-    let (integrator, name) = lhs.split_once('.').ok_or_else(err)?;
-    Ok((
-        integrator.trim().into(),
-        name.trim().into(),
-        value.trim().into(),
-    ))
-}
 
 /// `NAME=v1,v2,...`.
 fn parse_sweep(text: &str) -> Result<(String, Vec<String>)> {
@@ -37,21 +24,11 @@ fn parse_sweep(text: &str) -> Result<(String, Vec<String>)> {
     Ok((name.trim().to_string(), values))
 }
 
-fn cache_dir(out: &std::path::Path) -> PathBuf {
-    let base = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")));
-    match base {
-        Some(b) => b.join("raylab"),
-        None => out.join(".cache"),
-    }
-}
-
 pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
     let params = args
         .params
         .iter()
-        .map(|p| parse_scoped_param(p))
+        .map(|p| compare::parse_scoped_param(p))
         .collect::<Result<Vec<_>>>()?;
     // `-p reference.NAME=VALUE` goes to the reference's integrator.
     let (reference_params, params): (Vec<_>, Vec<_>) =
@@ -149,7 +126,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         runs: args.runs,
         target_error: args.target_error,
         reference,
-        cache_dir: cache_dir(&args.output),
+        cache_dir: compare::cache_dir(&args.output),
         out_dir: args.output.clone(),
         threads: args.threads,
         seed: args.seed,
@@ -284,5 +261,26 @@ pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(1));
         }
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn suite(args: &SuiteArgs) -> Result<ExitCode> {
+    super::check_threads(args.threads)?;
+    super::check_allowed(&args.allow_path)?;
+    let opts = compare::suite::SuiteOptions {
+        file: args.file.clone(),
+        out_dir: args.output.clone(),
+        threads: args.threads,
+        progress: !args.quiet,
+        allowed: args.allow_path.clone(),
+    };
+    let standings = compare::suite::run(&opts)?;
+    for s in standings.iter().filter(|s| s.rank == 1) {
+        say!(
+            "{:<24} {} wins (MSE {:.3e} in {:.2} s)",
+            s.entry, s.label, s.mse, s.time
+        );
+    }
+    eprintln!("wrote {}", args.output.join("index.html").display());
     Ok(ExitCode::SUCCESS)
 }

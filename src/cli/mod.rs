@@ -45,6 +45,9 @@ pub enum Command {
     Integrators,
     /// Render a scene with several integrators and compare them against a reference.
     Compare(CompareArgs),
+    /// Run a matrix of comparisons described in a RON file (scenes x integrators x
+    /// settings): one compare page per entry and a summary of who wins where.
+    Suite(SuiteArgs),
     /// Print the error metrics between two images (EXR or PNG); exit 1 when they are beyond
     /// --tolerance or either image holds NaN or infinite values.
     Diff(DiffArgs),
@@ -245,6 +248,24 @@ pub struct CompareArgs {
 }
 
 #[derive(clap::Args, Debug, Clone)]
+pub struct SuiteArgs {
+    /// Suite file (RON): see docs/compare.md#suites.
+    pub file: PathBuf,
+    /// Output folder: the summary page and one folder per entry (created if missing).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Let the scenes read files under DIR too (repeatable).
+    #[arg(long = "allow-path", value_name = "DIR")]
+    pub allow_path: Vec<PathBuf>,
+    /// No progress bars.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+#[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
     /// Rays per measurement.
     #[arg(long, default_value_t = 1 << 20)]
@@ -356,6 +377,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         } => render_cmd::import(&scene, &output, report, &import.options()),
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
+        Command::Suite(args) => compare_cmd::suite(&args),
         Command::Bench(args) => {
             if args.embree && !cfg!(feature = "embree") {
                 anyhow::bail!(

@@ -7,6 +7,7 @@ mod mosaic;
 mod page;
 mod plot;
 pub mod stats;
+pub mod suite;
 pub mod ztest;
 
 use crate::output::{self, DisplaySettings};
@@ -210,6 +211,30 @@ pub struct Report {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub region: Option<Region>,
     pub rows: Vec<Row>,
+}
+
+/// Parses `INTEGRATOR.NAME=VALUE` into its three parts.
+pub fn parse_scoped_param(text: &str) -> Result<(String, String, String)> {
+    let err = || anyhow!("-p `{text}`: expected INTEGRATOR.NAME=VALUE, e.g. -p path.max-depth=8");
+    let (lhs, value) = text.split_once('=').ok_or_else(err)?;
+    let (integrator, name) = lhs.split_once('.').ok_or_else(err)?;
+    Ok((
+        integrator.trim().into(),
+        name.trim().into(),
+        value.trim().into(),
+    ))
+}
+
+/// Where rendered references are cached: `$XDG_CACHE_HOME/raylab`, else
+/// `~/.cache/raylab`, else a `.cache` folder in the output folder `out`.
+pub fn cache_dir(out: &Path) -> PathBuf {
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")));
+    match base {
+        Some(b) => b.join("raylab"),
+        None => out.join(".cache"),
+    }
 }
 
 /// Builds the contestants of a comparison: each integrator with the shared parameters that

@@ -464,11 +464,11 @@ function selftest() {{
   fire("split", 100, "input"); fire("a", other, "change");
   checks.switching_images = same(shown(canvas(), ...at()), expected(other, ...spot));
   fire("a", a, "change");
-  // Exposure brightens: some channel of a lit pixel grows (or is already white).
-  const before = shown(canvas(), ...at());
+  // Two stops more exposure brighten the canvas (unless it is black or white throughout).
+  const total = () => {{ const c = canvas(); return c.getContext("2d").getImageData(0, 0, c.width, c.height).data.reduce((s, v) => s + v, 0); }};
+  const before = total();
   fire("exposure", ev + 2, "input");
-  const after = shown(canvas(), ...at());
-  checks.exposure = after.some((v, c) => v > before[c]) || before.every((v) => v === 255);
+  checks.exposure = total() > before;
   fire("exposure", ev, "input");
   // Grid: every image shown, zoomed in and panned together.
   fire("mode", "grid", "change");

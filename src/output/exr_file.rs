@@ -26,10 +26,17 @@ pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
             channels.push(channel(name, plane(&film.variance, c)));
         }
     }
+    // ZIP over blocks of 16 lines, written in increasing order: the same render gives the
+    // same bytes (with an unspecified order, blocks land as the compressing threads finish).
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
     let layer = Layer::new(
         size,
         LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
+        encoding,
         AnyChannels::sort(channels),
     );
     Image::from_layer(layer)
