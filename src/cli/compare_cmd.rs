@@ -278,7 +278,10 @@ pub fn suite(args: &SuiteArgs) -> Result<ExitCode> {
     for s in standings.iter().filter(|s| s.rank == 1) {
         say!(
             "{:<24} {} wins (MSE {:.3e} in {:.2} s)",
-            s.entry, s.label, s.mse, s.time
+            s.entry,
+            s.label,
+            s.mse,
+            s.time
         );
     }
     eprintln!("wrote {}", args.output.join("index.html").display());

@@ -464,11 +464,15 @@ function selftest() {{
   fire("split", 100, "input"); fire("a", other, "change");
   checks.switching_images = same(shown(canvas(), ...at()), expected(other, ...spot));
   fire("a", a, "change");
-  // Two stops more exposure brighten the canvas (unless it is black or white throughout).
+  // Two stops less exposure darken the canvas, or two more brighten it (one of the two
+  // unless it is black throughout).
   const total = () => {{ const c = canvas(); return c.getContext("2d").getImageData(0, 0, c.width, c.height).data.reduce((s, v) => s + v, 0); }};
   const before = total();
+  fire("exposure", ev - 2, "input");
+  const darker = total();
   fire("exposure", ev + 2, "input");
-  checks.exposure = total() > before;
+  const brighter = total();
+  checks.exposure = darker < before || brighter > before;
   fire("exposure", ev, "input");
   // Grid: every image shown, zoomed in and panned together.
   fire("mode", "grid", "change");

@@ -124,8 +124,8 @@ pub fn load(opts: &SuiteOptions) -> Result<(SuiteDesc, Vec<(String, CompareOptio
     let path = &opts.file;
     let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT)
         .with_context(|| format!("{}: cannot read the suite file", path.display()))?;
-    let ron = ron::Options::default()
-        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+    let ron =
+        ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
     let desc: SuiteDesc = ron.from_str(&text).map_err(|e| {
         anyhow!(
             "{}:{}:{}: {}",
@@ -141,7 +141,13 @@ pub fn load(opts: &SuiteOptions) -> Result<(SuiteDesc, Vec<(String, CompareOptio
     let folder = path.parent().unwrap_or(Path::new("."));
     let mut entries: Vec<(String, CompareOptions)> = Vec::new();
     for (k, e) in desc.scenes.iter().enumerate() {
-        let at = |what: String| anyhow!("{}: scenes[{k}] ({}): {what}", path.display(), e.scene.display());
+        let at = |what: String| {
+            anyhow!(
+                "{}: scenes[{k}] ({}): {what}",
+                path.display(),
+                e.scene.display()
+            )
+        };
         let entry = entry_options(&desc, e, folder, opts).map_err(|err| at(format!("{err:#}")))?;
         if entries.iter().any(|(n, _)| n == &entry.0) {
             return Err(at(format!(
@@ -229,7 +235,10 @@ fn entry_options(
             .unwrap_or_default(),
     };
     check_name(&name)?;
-    let integrators = e.integrators.clone().unwrap_or_else(|| desc.integrators.clone());
+    let integrators = e
+        .integrators
+        .clone()
+        .unwrap_or_else(|| desc.integrators.clone());
     let parse = |list: &[String]| {
         list.iter()
             .map(|p| super::parse_scoped_param(p))
@@ -243,7 +252,11 @@ fn entry_options(
         .collect();
     for p in parse(&e.params)? {
         if !integrators.contains(&p.0) {
-            bail!("parameter `{}.{}` names an integrator this entry does not compare", p.0, p.1);
+            bail!(
+                "parameter `{}.{}` names an integrator this entry does not compare",
+                p.0,
+                p.1
+            );
         }
         params.push(p);
     }
@@ -341,10 +354,17 @@ fn standings(entry: &str, report: &Report) -> Vec<Standing> {
 pub fn run(opts: &SuiteOptions) -> Result<Vec<Standing>> {
     let (desc, entries) = load(opts)?;
     if opts.out_dir.exists() && !opts.out_dir.is_dir() {
-        bail!("{}: the output folder is a file, not a folder", opts.out_dir.display());
+        bail!(
+            "{}: the output folder is a file, not a folder",
+            opts.out_dir.display()
+        );
     }
-    std::fs::create_dir_all(&opts.out_dir)
-        .with_context(|| format!("{}: cannot create the output folder", opts.out_dir.display()))?;
+    std::fs::create_dir_all(&opts.out_dir).with_context(|| {
+        format!(
+            "{}: cannot create the output folder",
+            opts.out_dir.display()
+        )
+    })?;
     let mut all = Vec::new();
     let mut pages = Vec::new();
     for (k, (name, compare)) in entries.iter().enumerate() {
@@ -380,8 +400,9 @@ fn write_summary(
     let json = serde_json::to_string_pretty(all).map_err(|e| anyhow!("cannot encode: {e}"))?;
     super::write_text(&dir.join("summary.json"), &json)?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
-    let mut csv =
-        String::from("entry,scene,label,integrator,rank,mse,mse_ci95,relmse,time,efficiency,efficiency_ratio\n");
+    let mut csv = String::from(
+        "entry,scene,label,integrator,rank,mse,mse_ci95,relmse,time,efficiency,efficiency_ratio\n",
+    );
     for s in all {
         let _ = writeln!(
             csv,
@@ -396,7 +417,8 @@ fn write_summary(
             s.relmse,
             s.time,
             opt(s.efficiency),
-            s.efficiency_ratio.map_or(String::new(), |r| format!("{r:.4}"))
+            s.efficiency_ratio
+                .map_or(String::new(), |r| format!("{r:.4}"))
         );
     }
     super::write_text(&dir.join("summary.csv"), &csv)?;
@@ -408,14 +430,19 @@ fn write_summary(
             labels.push(s.label.clone());
         }
     }
-    let mut matrix = String::from("<table id=\"summary\"><thead><tr><th>scene</th><th>budget</th><th>winner</th>");
+    let mut matrix = String::from(
+        "<table id=\"summary\"><thead><tr><th>scene</th><th>budget</th><th>winner</th>",
+    );
     for l in &labels {
         let _ = write!(matrix, "<th>{}</th>", escape(l));
     }
     matrix.push_str("</tr></thead><tbody>");
     for (name, report) in pages {
         let here: Vec<&Standing> = all.iter().filter(|s| &s.entry == name).collect();
-        let winner = here.iter().find(|s| s.rank == 1).map_or("–".to_string(), |s| escape(&s.label));
+        let winner = here
+            .iter()
+            .find(|s| s.rank == 1)
+            .map_or("–".to_string(), |s| escape(&s.label));
         let _ = write!(
             matrix,
             "<tr data-entry=\"{n}\"><td><a href=\"{n}/index.html\">{n}</a></td><td>{}</td><td>{winner}</td>",
@@ -425,7 +452,9 @@ fn write_summary(
         for l in &labels {
             match here.iter().find(|s| &s.label == l) {
                 Some(s) => {
-                    let ratio = s.efficiency_ratio.map_or("–".to_string(), |r| format!("{r:.2}"));
+                    let ratio = s
+                        .efficiency_ratio
+                        .map_or("–".to_string(), |r| format!("{r:.2}"));
                     let shade = s.efficiency_ratio.map_or(0.0, |r| r.clamp(0.0, 1.0));
                     let _ = write!(
                         matrix,

@@ -663,3 +663,105 @@ fn the_reference_integrator_and_its_budget_are_chosen_by_flags() {
         assert!(stderr(&o).contains(expected), "{all:?}: {}", stderr(&o));
     }
 }
+
+/// `raylab suite`: a matrix from one file, a page per entry and a summary of who wins where;
+/// mistakes in the file are refused, naming the file and where, before anything renders.
+#[test]
+fn a_suite_writes_a_page_per_entry_and_a_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::save(&d.join("furnace.ron"), FURNACE);
+    let cornell = common::repo_file(CORNELL);
+    let suite = d.join("suite.ron");
+    common::save(
+        &suite,
+        &format!(
+            r#"(
+    title: "a test",
+    budget: Spp(4),
+    runs: 2,
+    integrators: ["path", "whitted"],
+    params: ["path.max-depth=4", "bdpt.max-depth=3"],
+    reference: (integrator: "path", spp: 16),
+    scenes: [
+        (scene: "{}", size: (16, 16)),
+        (scene: "furnace.ron", name: "furnace-bdpt", integrators: ["path", "bdpt"], budget: Spp(2)),
+    ],
+)"#,
+            cornell.display()
+        ),
+    );
+    let out = d.join("out");
+    let o = raylab(&["suite", s(&suite), "-o", s(&out), "-q"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("cornell_box") && stdout.contains("furnace-bdpt"),
+        "{stdout}"
+    );
+    for page in [
+        "index.html",
+        "cornell_box/index.html",
+        "furnace-bdpt/index.html",
+    ] {
+        assert!(out.join(page).exists(), "{page}");
+    }
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("<a href=\"furnace-bdpt/index.html\">") && html.contains("a test"));
+    // One line per entry and integrator, ranked, the winner at efficiency ratio 1.
+    let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(lines.len(), 4, "{csv}");
+    for entry in ["cornell_box", "furnace-bdpt"] {
+        let winner = lines
+            .iter()
+            .find(|l| l.starts_with(&format!("{entry},")) && l.split(',').nth(4) == Some("1"))
+            .unwrap_or_else(|| panic!("{entry} has a winner: {csv}"));
+        assert_eq!(winner.split(',').nth(10), Some("1.0000"), "{winner}");
+    }
+    // The entry's settings reached its comparison.
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("furnace-bdpt/metrics.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(json["runs"], 2);
+    assert_eq!(
+        json["rows"][1]["params"]
+            .as_str()
+            .unwrap()
+            .split(' ')
+            .next(),
+        Some("max-depth=3")
+    );
+    assert!(json["budget"].as_str().unwrap().contains("2 spp"));
+
+    // Mistakes, each refused with exit 2 before anything renders.
+    for (text, expected) in [
+        ("(budget: Spp(1), scenes: [(scene: \"furnace.ron\")], colour: 1)", "suite.ron:1:"),
+        ("(budget: Spp(1), scenes: [])", "names no scenes"),
+        ("(budget: Spp(1), scenes: [(scene: \"nope.ron\")])", "no such scene file"),
+        (
+            "(budget: Spp(1), integrators: [\"nope\"], scenes: [(scene: \"furnace.ron\")])",
+            "scenes[0] (furnace.ron): unknown integrator `nope`",
+        ),
+        (
+            "(budget: Spp(1), integrators: [\"path\"], scenes: [(scene: \"furnace.ron\"), (scene: \"furnace.ron\")])",
+            "the name `furnace` is used twice",
+        ),
+        (
+            "(budget: Time(-1), integrators: [\"path\"], scenes: [(scene: \"furnace.ron\")])",
+            "Time must be a positive",
+        ),
+        (
+            "(budget: Spp(1), integrators: [\"path\"], scenes: [(scene: \"furnace.ron\", params: [\"bdpt.max-depth=2\"])])",
+            "does not compare",
+        ),
+    ] {
+        common::save(&suite, text);
+        let bad_out = d.join("bad");
+        let o = raylab(&["suite", s(&suite), "-o", s(&bad_out), "-q"], d);
+        assert_eq!(o.status.code(), Some(2), "{text}");
+        assert!(stderr(&o).contains(expected), "{text}: {}", stderr(&o));
+        assert!(!bad_out.exists(), "{text}: nothing is written");
+    }
+}
