@@ -6,7 +6,6 @@ use crate::output;
 use crate::output::plan::FilePlan;
 use anyhow::{anyhow, bail, Result};
 use std::process::ExitCode;
-use std::time::Duration;
 
 /// `NAME=v1,v2,...`.
 fn parse_sweep(text: &str) -> Result<(String, Vec<String>)> {
@@ -44,18 +43,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         &params,
         sweep.as_ref().map(|(n, v)| (n.as_str(), v.as_slice())),
     )?;
-    let budget = match (args.spp, args.time) {
-        (Some(_), Some(_)) => bail!("give either --spp or --time, not both"),
-        (Some(0), _) => bail!("--spp must be at least 1"),
-        (Some(n), None) => Budget::Spp(n),
-        (None, Some(t)) if t.is_finite() && t > 0.0 && t <= 1e9 => {
-            Budget::Time(Duration::from_secs_f64(t))
-        }
-        (None, Some(t)) => {
-            bail!("--time must be a positive number of seconds, at most 1e9, got {t}")
-        }
-        (None, None) => Budget::Spp(16),
-    };
+    let budget = Budget::choose(args.spp, args.time, Budget::Spp(16), ("--spp", "--time"))?;
     let rendered = args.reference_spp.is_some()
         || args.reference_time.is_some()
         || args.reference_integrator != "path"
@@ -74,20 +62,12 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
             ReferenceSpec::File(f.clone())
         }
         None => {
-            let budget = match (args.reference_spp, args.reference_time) {
-                (Some(_), Some(_)) => {
-                    bail!("give either --reference-spp or --reference-time, not both")
-                }
-                (Some(0), _) => bail!("--reference-spp must be at least 1"),
-                (Some(n), None) => Budget::Spp(n),
-                (None, Some(t)) if t.is_finite() && t > 0.0 && t <= 1e9 => {
-                    Budget::Time(Duration::from_secs_f64(t))
-                }
-                (None, Some(t)) => bail!(
-                    "--reference-time must be a positive number of seconds, at most 1e9, got {t}"
-                ),
-                (None, None) => Budget::Spp(1024),
-            };
+            let budget = Budget::choose(
+                args.reference_spp,
+                args.reference_time,
+                Budget::Spp(1024),
+                ("--reference-spp", "--reference-time"),
+            )?;
             let params: Vec<(String, String)> =
                 reference_params.into_iter().map(|(_, k, v)| (k, v)).collect();
             // Checked now, not after the renders.
@@ -154,6 +134,19 @@ fn parse_region(text: &str) -> Result<Region> {
 
 pub fn diff(args: &DiffArgs) -> Result<ExitCode> {
     // Everything that can be refused before reading the images.
+    if args.ztest {
+        for path in [&args.a, &args.b] {
+            if !path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+            {
+                bail!(
+                    "{}: the z-test compares linear radiance with its variance: give EXR files (a PNG is tonemapped and has none)",
+                    path.display()
+                );
+            }
+        }
+    }
     if !(args.significance > 0.0 && args.significance < 1.0) {
         bail!(
             "--significance must lie strictly between 0 and 1, got {}",

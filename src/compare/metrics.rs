@@ -48,15 +48,7 @@ pub fn compare(test: &Film, reference: &Film) -> Result<(Metrics, Vec<f32>)> {
         );
     }
     let n = (test.pixels.len() * 3) as f64;
-    let (mut se, mut rel) = (0.0f64, 0.0f64);
-    for (t, r) in test.pixels.iter().zip(&reference.pixels) {
-        for c in 0..3 {
-            let (t, r) = (t[c] as f64, r[c] as f64);
-            let d = t - r;
-            se += d * d;
-            rel += d * d / (r * r + 0.01);
-        }
-    }
+    let linear = super::stats::linear_error(test, reference);
     let (a, b) = (display_bytes(test), display_bytes(reference));
     let display_mse = a
         .iter()
@@ -82,8 +74,8 @@ pub fn compare(test: &Film, reference: &Film) -> Result<(Metrics, Vec<f32>)> {
     let map = error.to_vec();
     Ok((
         Metrics {
-            rmse: (se / n).sqrt(),
-            rel_mse: rel / n,
+            rmse: linear.mse_raw.sqrt(),
+            rel_mse: linear.relmse_raw,
             psnr,
             flip,
         },

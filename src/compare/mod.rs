@@ -40,6 +40,31 @@ pub enum Budget {
     Time(Duration),
 }
 
+impl Budget {
+    /// A budget from a choice of samples per pixel or seconds (`spp_flag` and `time_flag`
+    /// name them in messages), `default` when neither is given; both, zero samples, or a time
+    /// that is not a positive number of seconds (at most 1e9) are refused.
+    pub fn choose(
+        spp: Option<u32>,
+        time: Option<f64>,
+        default: Budget,
+        (spp_flag, time_flag): (&str, &str),
+    ) -> Result<Budget> {
+        match (spp, time) {
+            (Some(_), Some(_)) => bail!("give either {spp_flag} or {time_flag}, not both"),
+            (Some(0), _) => bail!("{spp_flag} must be at least 1"),
+            (Some(n), None) => Ok(Budget::Spp(n)),
+            (None, Some(t)) if t.is_finite() && t > 0.0 && t <= 1e9 => {
+                Ok(Budget::Time(Duration::from_secs_f64(t)))
+            }
+            (None, Some(t)) => {
+                bail!("{time_flag} must be a positive number of seconds, at most 1e9, got {t}")
+            }
+            (None, None) => Ok(default),
+        }
+    }
+}
+
 /// Where the reference comes from.
 #[derive(Clone, Debug)]
 pub enum ReferenceSpec {
@@ -139,6 +164,8 @@ pub struct Row {
     pub time_to_target_extrapolated: bool,
     /// Slope of log MSE against log time (about -1 for an unbiased estimator).
     pub slope: Option<f64>,
+    /// The same for relMSE, which a few bright fireflies sway less.
+    pub slope_relmse: Option<f64>,
     /// As measured, the reference's noise included: RMSE on radiance, PSNR on the displayed
     /// images (means over the runs).
     pub rmse: f64,
@@ -147,7 +174,8 @@ pub struct Row {
     /// the reference's own noise.
     pub reference_share: Option<f64>,
     /// Pixels of the first run that fail the per-pixel z-test against the reference (1%
-    /// significance over the image); `None` when neither image has a variance layer.
+    /// significance over the image); `None` below 100 passes (the passes' variance estimates
+    /// are then too rough) or when neither image has a variance layer.
     pub ztest_failed_pixels: Option<usize>,
     pub rays_camera: u64,
     pub rays_extension: u64,
@@ -619,6 +647,10 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
     if let Some(target) = target_error {
         for r in &mut rows {
             if let Some((t, extrapolated)) = stats::time_to_reach(&r.convergence, target) {
+                // No extrapolation below a measured bias: the error's floor.
+                if extrapolated && r.bias2.is_some_and(|b| b >= target) {
+                    continue;
+                }
                 r.time_to_target = Some(t);
                 r.time_to_target_extrapolated = extrapolated;
             }
@@ -683,6 +715,9 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
     Ok(report)
 }
 
+/// The fewest passes a render needs for its z-test against the reference to be reported.
+const ZTEST_MIN_PASSES: u32 = 100;
+
 /// What one run of a contestant measured.
 struct RunFigures {
     error: stats::LinearError,
@@ -745,9 +780,19 @@ fn measure(
                 &name("-error.png"),
                 &metrics::error_map_image(&flip_map, r.film.width, r.film.height),
             )?;
-            let z = ztest::z_test(&r.film, reference, 0.01).ok();
-            if let Some(z) = &z {
-                output::write_png(&name("-ztest.png"), &ztest::failure_map(z, reference))?;
+            // The test's variances come from the passes: with few, their estimates are too
+            // rough (heavy-tailed) for a per-pixel test at a Šidák-corrected level.
+            let z = (r.stats.spp_done >= ZTEST_MIN_PASSES)
+                .then(|| ztest::z_test(&r.film, reference, 0.01).ok())
+                .flatten();
+            match &z {
+                Some(z) => {
+                    output::write_png(&name("-ztest.png"), &ztest::failure_map(z, reference))?
+                }
+                // No map from an earlier comparison may pass for this one's.
+                None => {
+                    let _ = std::fs::remove_file(name("-ztest.png"));
+                }
             }
             let failed = z.map(|z| z.failed_pixels);
             first = Some((r, failed));
@@ -796,7 +841,8 @@ fn measure(
         efficiency: (mse.mean > 0.0 && time.mean > 0.0).then(|| 1.0 / (mse.mean * time.mean)),
         time_to_target: None,
         time_to_target_extrapolated: false,
-        slope: stats::fitted_slope(&convergence),
+        slope: stats::fitted_slope(&convergence, stats::MSE),
+        slope_relmse: stats::fitted_slope(&convergence, stats::RELMSE),
         rmse: of(&|f| f.error.mse_raw.sqrt()).mean,
         psnr: of(&|f| f.psnr).mean,
         reference_share: (reference.has_variance && mse_raw > 0.0)
@@ -846,7 +892,10 @@ fn print_row(r: &Row) {
         r.relmse,
         r.flip,
         r.hdrflip,
-        r.slope.map_or(String::new(), |s| format!("  slope {s:.2}")),
+        r.slope.map_or(String::new(), |s| format!(
+            "  slope {s:.2} (relMSE {})",
+            r.slope_relmse.map_or("-".into(), |s| format!("{s:.2}"))
+        )),
     );
 }
 
@@ -873,7 +922,7 @@ fn print_summary(rows: &[Row], target: Option<f64>) {
                     ""
                 }
             ),
-            None => "never (the error does not fall)".to_string(),
+            None => "not within reach (its error does not fall that far)".to_string(),
         };
         eprintln!("  {:<28} {eff}  reaches it in {reach}", r.label);
     }
@@ -886,12 +935,12 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
     write_text(&dir.join("metrics.json"), &json)?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = String::from(
-        "label,integrator,params,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip\n",
+        "label,integrator,params,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,slope_relmse,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip\n",
     );
     for r in &report.rows {
         let _ = writeln!(
             csv,
-            "{},{},\"{}\",{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{}",
+            "{},{},\"{}\",{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{}",
             r.label,
             r.integrator,
             r.params,
@@ -915,6 +964,7 @@ fn write_tables(dir: &Path, report: &Report) -> Result<()> {
             opt(r.time_to_target),
             r.time_to_target_extrapolated,
             opt(r.slope),
+            opt(r.slope_relmse),
             r.rmse,
             r.psnr,
             opt(r.reference_share),

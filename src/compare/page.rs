@@ -18,7 +18,7 @@ use base64::Engine as _;
 use std::fmt::Write as _;
 use std::path::Path;
 
-fn escape(s: &str) -> String {
+pub(super) fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -161,8 +161,21 @@ pub fn write(
     let order: Vec<String> = std::iter::once("reference".to_string())
         .chain(report.rows.iter().map(|r| r.label.clone()))
         .collect();
+    // A few pixels' radiance as written, which the self-test checks the decoder against.
+    let mut probes = Vec::new();
     for name in &order {
         let film = crate::output::read_image(&dir.join(format!("{name}.exr")))?;
+        let brightest = (0..film.pixels.len())
+            .max_by(|&i, &j| {
+                film.pixels[i]
+                    .max_element()
+                    .total_cmp(&film.pixels[j].max_element())
+            })
+            .unwrap_or(0);
+        for index in [0, film.pixels.len() / 2, brightest] {
+            let p = film.pixels[index].max(glam::Vec3::ZERO);
+            probes.push(serde_json::json!({ "name": name, "index": index, "rgb": p.to_array() }));
+        }
         let mut entry = serde_json::Map::new();
         entry.insert("rgbe".into(), base64(&rgbe(&film)).into());
         for (key, suffix) in [("flip", "-error.png"), ("ztest", "-ztest.png")] {
@@ -173,7 +186,7 @@ pub fn write(
         }
         images.insert(name.clone(), entry.into());
     }
-    let data = serde_json::json!({ "order": order, "images": images, "width": report.width, "height": report.height });
+    let data = serde_json::json!({ "order": order, "images": images, "probes": probes, "width": report.width, "height": report.height });
     // `</` cannot appear in the JSON of base64 strings and labels, but be safe inside <script>.
     let data = data.to_string().replace("</", "<\\/");
 
@@ -295,8 +308,19 @@ function ramp(t) {{
   return RAMP[i].map((v, c) => Math.round(v + f * (RAMP[i + 1][c] - v)));
 }}
 
+// What the controls ask of an image, as a cache key: tonemapping every image again on every
+// mouse move would make panning a large image crawl.
+const settings = () => [$("show").value, $("channel").value, $("exposure").value].join("|");
+const cache = new Map();
+function cached(kind, name, make) {{
+  const key = kind + "|" + name + "|" + settings();
+  if (!cache.has(key)) {{ if (cache.size > 8 * DATA.order.length) cache.clear(); cache.set(key, make()); }}
+  return cache.get(key);
+}}
+
 // The 8-bit RGBA pixels of image `name` as the controls ask for them.
-function pixels(name) {{
+function pixels(name) {{ return cached("pixels", name, () => tonemap(name)); }}
+function tonemap(name) {{
   const show = $("show").value, ch = $("channel").value;
   const scale = Math.pow(2, Number($("exposure").value));
   const out = new ImageData(W, H), d = out.data, src = hdr[name], ref = hdr[DATA.order[0]];
@@ -319,7 +343,8 @@ function pixels(name) {{
 }}
 
 // An offscreen canvas with image `name` at its own resolution.
-function source(name) {{
+function source(name) {{ return cached("source", name, () => offscreen(name)); }}
+function offscreen(name) {{
   const show = $("show").value;
   const c = document.createElement("canvas"); c.width = W; c.height = H;
   const g = c.getContext("2d");
@@ -403,12 +428,14 @@ function readout(x, y) {{
 // Dragging pans; the state lives outside the canvases, which every draw replaces.
 let drag = null, moved = false;
 window.addEventListener("mouseup", () => {{ drag = null; }});
+let frame = false;
 window.addEventListener("mousemove", (e) => {{
   if (!drag) return;
   const s = panelSize().fit * view.zoom;
   view.cx -= (e.clientX - drag.x) / s; view.cy -= (e.clientY - drag.y) / s;
   drag.x = e.clientX; drag.y = e.clientY; moved = true;
-  draw();
+  // One redraw per frame however many moves arrive.
+  if (!frame) {{ frame = true; requestAnimationFrame(() => {{ frame = false; draw(); }}); }}
 }});
 
 function attach(c) {{
@@ -420,6 +447,7 @@ function attach(c) {{
     view.zoom = Math.max(1, Math.min(64, view.zoom * (e.deltaY < 0 ? 1.25 : 0.8)));
     const s1 = fit * view.zoom;
     view.cx = ix - (px - w / 2) / s1; view.cy = iy - (py - h / 2) / s1;
+    $("zoom").value = [1, 2, 4, 8, 16, 32].includes(view.zoom) ? String(view.zoom) : $("zoom").value;
     draw();
   }}, {{ passive: false }});
   c.addEventListener("mousedown", (e) => {{ drag = {{ x: e.clientX, y: e.clientY }}; moved = false; e.preventDefault(); }});
@@ -435,10 +463,16 @@ function expected(name, i, j) {{
   return [d[k], d[k + 1], d[k + 2]];
 }}
 const same = (p, q) => p.every((v, i) => v === q[i]);
+const centre = (c) => [Math.floor(c.width / 2), Math.floor(c.height / 2)];
+const panels = () => Array.from(document.querySelectorAll("#views canvas"));
+// Every panel shows, at its centre, its own image's pixel (i, j).
+const panelsShow = (i, j) => panels().every((p) => same(shown(p, ...centre(p)), expected(p.dataset.name.split("|")[0], i, j)));
 
 function selftest() {{
   const checks = {{}};
   const names = DATA.order, a = names[names.length - 1], ref = names[0];
+  // The radiance decodes to what raylab wrote, within RGBE's precision.
+  checks.radiance_decodes = DATA.probes.every((p) => p.rgb.every((v, c) => Math.abs(hdr[p.name][3 * p.index + c] - v) <= 0.01 * Math.max(...p.rgb) + 1e-30));
   fire("mode", "slider", "change"); fire("a", a, "change"); fire("b", ref, "change");
   // A pixel where A and the reference differ on screen, darkening the exposure until one
   // does (bright images clip to the same white).
@@ -453,19 +487,18 @@ function selftest() {{
   if (!spot) {{ document.title = "selftest: inconclusive (the images are identical)"; return; }}
   // The spot at the canvases' centre, at least two canvas pixels to an image pixel.
   view.zoom = Math.max(1, Math.ceil(2 / panelSize().fit)); view.cx = spot[0] + 0.5; view.cy = spot[1] + 0.5;
-  const canvas = () => document.querySelector("#views canvas");
-  const at = () => [Math.floor(canvas().width / 2), Math.floor(canvas().height / 2)];
+  const canvas = () => panels()[0];
+  const at = () => centre(canvas());
   fire("split", 100, "input");
   checks.slider_shows_a = same(shown(canvas(), ...at()), expected(a, ...spot));
   fire("split", 0, "input");
   checks.slider_shows_b = same(shown(canvas(), ...at()), expected(ref, ...spot));
-  // Switching image A through its menu shows the new image.
-  const other = names.length > 2 ? names[1] : ref;
+  // Switching image A through its menu shows the new image (one that differs there).
+  const other = names.find((n) => n !== a && !same(expected(n, ...spot), expected(a, ...spot)));
   fire("split", 100, "input"); fire("a", other, "change");
   checks.switching_images = same(shown(canvas(), ...at()), expected(other, ...spot));
   fire("a", a, "change");
-  // Two stops less exposure darken the canvas, or two more brighten it (one of the two
-  // unless it is black throughout).
+  // Two stops less exposure darken the canvas, or two more brighten it.
   const total = () => {{ const c = canvas(); return c.getContext("2d").getImageData(0, 0, c.width, c.height).data.reduce((s, v) => s + v, 0); }};
   const before = total();
   fire("exposure", ev - 2, "input");
@@ -474,15 +507,27 @@ function selftest() {{
   const brighter = total();
   checks.exposure = darker < before || brighter > before;
   fire("exposure", ev, "input");
-  // Grid: every image shown, zoomed in and panned together.
+  // The red channel alone: grey levels of the red.
+  fire("channel", "r", "change");
+  const red = shown(canvas(), ...at());
+  checks.channel_view = red[0] === red[1] && red[1] === red[2] && red[0] === expected(a, ...spot)[0];
+  fire("channel", "rgb", "change");
+  // Grid: every image, each showing its own pixel at the shared point.
   fire("mode", "grid", "change");
-  view.zoom = Math.max(4, Math.ceil(2 / panelSize().fit)); view.cx = spot[0] + 0.5; view.cy = spot[1] + 0.5;
-  fire("mode", "grid", "change");
-  const panels = Array.from(document.querySelectorAll("#views canvas"));
-  checks.grid_shows_every_image = panels.length === names.length;
-  checks.zoom_and_pan_shared = panels.every((p) => p.dataset.view === panels[0].dataset.view) && panels[0].dataset.view.startsWith(String(view.zoom));
-  checks.grid_pixels_match = panels.every((p) => same(shown(p, Math.floor(p.width / 2), Math.floor(p.height / 2)), expected(p.dataset.name, ...spot)));
-  fire("mode", "slider", "change");
+  checks.grid_shows_every_image = panels().length === names.length && panelsShow(...spot);
+  // The wheel over one panel zooms every panel about the cursor: the point under it stays.
+  const zoom = view.zoom, p0 = canvas(), r0 = p0.getBoundingClientRect(), [cx, cy] = centre(p0);
+  p0.dispatchEvent(new WheelEvent("wheel", {{ deltaY: -100, clientX: r0.left + cx + 0.5, clientY: r0.top + cy + 0.5, bubbles: true, cancelable: true }}));
+  checks.wheel_zooms_every_panel = view.zoom > zoom && panelsShow(...spot);
+  // Dragging one panel pans them all: three image pixels towards the image's middle.
+  const step = spot[0] < W / 2 ? 3 : -3, s = panelSize().fit * view.zoom, p1 = canvas(), r1 = p1.getBoundingClientRect();
+  const x0 = r1.left + cx, y0 = r1.top + cy;
+  p1.dispatchEvent(new MouseEvent("mousedown", {{ clientX: x0, clientY: y0, bubbles: true }}));
+  window.dispatchEvent(new MouseEvent("mousemove", {{ clientX: x0 - step * s, clientY: y0 }}));
+  window.dispatchEvent(new MouseEvent("mouseup", {{ clientX: x0 - step * s, clientY: y0 }}));
+  draw();
+  checks.drag_pans_every_panel = Math.floor(view.cx) === spot[0] + step && panelsShow(spot[0] + step, spot[1]);
+  fire("zoom", "1", "change"); fire("mode", "slider", "change");
   // The metrics table has a row for every render.
   const rows = Array.from(document.querySelectorAll("#metrics tbody tr")).map((r) => r.dataset.label);
   checks.table_rows = rows.length === names.length - 1 && rows.every((r, i) => r === names[i + 1]);

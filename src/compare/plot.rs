@@ -1,7 +1,7 @@
 //! Sweep plots: error (FLIP, which follows what a person sees; RMSE is often dominated by a
 //! few aliased emitter edges) against time, and time against the swept value, as SVG and PNG.
 
-use super::{Report, Row};
+use super::{stats, Report, Row};
 use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -30,7 +30,6 @@ where
         v.dedup();
         v
     };
-    let colours = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK];
 
     // Left: FLIP against time (log), each point labelled with its swept value.
     let t_max = rows.iter().map(|r| r.time).fold(1e-3, f64::max) * 2.0;
@@ -56,7 +55,7 @@ where
         .draw()
         .map_err(err)?;
     for (i, name) in series.iter().enumerate() {
-        let c = colours[i % colours.len()];
+        let c = COLOURS[i % COLOURS.len()];
         let pts: Vec<(f64, f64, String)> = rows
             .iter()
             .filter(|r| &r.integrator == name)
@@ -121,7 +120,7 @@ where
         .draw()
         .map_err(err)?;
     for (i, name) in series.iter().enumerate() {
-        let c = colours[i % colours.len()];
+        let c = COLOURS[i % COLOURS.len()];
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .zip(&x_of)
@@ -199,95 +198,115 @@ pub fn write_sweep_plots(dir: &Path, report: &Report) -> Result<Option<String>> 
     Ok(Some(svg))
 }
 
-/// The convergence plot: MSE against time on log-log axes, one curve per contestant (the
-/// mean over its runs), its fitted slope in the legend. Points whose MSE is not positive (the
-/// reference's noise subtracted, below it) cannot be drawn on a log axis and are left out.
+/// The convergence plot: error against time on log-log axes, MSE on the left and relMSE on
+/// the right (a few bright fireflies sway the first far more than the second), one curve per
+/// contestant (the mean over its runs), its fitted slope in the legend. Points whose error is
+/// not positive (the reference's noise subtracted, below it) cannot be drawn on a log axis and
+/// are left out.
 fn draw_convergence<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, report: &Report) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("plot: {e}");
     root.fill(&WHITE).map_err(err)?;
-    let points = |r: &Row| -> Vec<(f64, f64)> {
-        r.convergence
-            .iter()
-            .filter(|p| p.mse > 0.0 && p.time > 0.0)
-            .map(|p| (p.time, p.mse))
-            .collect()
-    };
-    let all: Vec<(f64, f64)> = report.rows.iter().flat_map(points).collect();
-    let range = |f: fn(&(f64, f64)) -> f64| {
-        all.iter()
-            .map(f)
-            .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            })
-    };
-    let (t0, t1) = range(|p| p.0);
-    let (e0, e1) = range(|p| p.1);
-    let (t0, t1) = if t0.is_finite() {
-        (t0 / 1.5, t1 * 1.5)
-    } else {
-        (1e-3, 1.0)
-    };
-    let (e0, e1) = if e0.is_finite() {
-        (e0 / 1.5, e1 * 1.5)
-    } else {
-        (1e-6, 1.0)
-    };
-    let mut chart = ChartBuilder::on(&root)
-        .caption("convergence: MSE against time", ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d((t0..t1).log_scale(), (e0..e1).log_scale())
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc("MSE (lower is better)")
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .light_line_style(WHITE)
-        .draw()
-        .map_err(err)?;
-    let colours = [
-        RED,
-        BLUE,
-        GREEN,
-        MAGENTA,
-        CYAN,
-        BLACK,
-        RGBColor(230, 140, 0),
-        RGBColor(120, 60, 160),
-    ];
-    for (i, r) in report.rows.iter().enumerate() {
-        let c = colours[i % colours.len()];
-        let pts = points(r);
-        let label = match r.slope {
-            Some(s) => format!("{} (slope {s:.2})", r.label),
-            None => r.label.clone(),
+    let (left, right) = root.split_horizontally(CONVERGENCE_SIZE.0 / 2);
+    for (area, metric, name, slope_of) in [
+        (
+            left,
+            stats::MSE,
+            "MSE",
+            (|r: &Row| r.slope) as fn(&Row) -> Option<f64>,
+        ),
+        (right, stats::RELMSE, "relMSE", |r: &Row| r.slope_relmse),
+    ] {
+        let points = |r: &Row| -> Vec<(f64, f64)> {
+            r.convergence
+                .iter()
+                .filter(|p| metric(p) > 0.0 && p.time > 0.0)
+                .map(|p| (p.time, metric(p)))
+                .collect()
         };
+        let all: Vec<(f64, f64)> = report.rows.iter().flat_map(points).collect();
+        let range = |f: fn(&(f64, f64)) -> f64| {
+            all.iter()
+                .map(f)
+                .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+                    (lo.min(v), hi.max(v))
+                })
+        };
+        let (t0, t1) = range(|p| p.0);
+        let (e0, e1) = range(|p| p.1);
+        let (t0, t1) = if t0.is_finite() {
+            (t0 / 1.5, t1 * 1.5)
+        } else {
+            (1e-3, 1.0)
+        };
+        let (e0, e1) = if e0.is_finite() {
+            (e0 / 1.5, e1 * 1.5)
+        } else {
+            (1e-6, 1.0)
+        };
+        let mut chart = ChartBuilder::on(&area)
+            .caption(
+                format!("convergence: {name} against time"),
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d((t0..t1).log_scale(), (e0..e1).log_scale())
+            .map_err(err)?;
         chart
-            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
-            .map_err(err)?
-            .label(label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            .configure_mesh()
+            .x_desc("time (s)")
+            .y_desc(format!("{name} (lower is better)"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(err)?;
+        for (i, r) in report.rows.iter().enumerate() {
+            let c = COLOURS[i % COLOURS.len()];
+            let pts = points(r);
+            let label = match slope_of(r) {
+                Some(s) => format!("{} (slope {s:.2})", r.label),
+                None => r.label.clone(),
+            };
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+                .map_err(err)?
+                .label(label)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
+            chart
+                .draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))
+                .map_err(err)?;
+        }
         chart
-            .draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()
             .map_err(err)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .border_style(BLACK)
-        .background_style(WHITE)
-        .draw()
-        .map_err(err)?;
     root.present().map_err(err)?;
     Ok(())
 }
 
-const CONVERGENCE_SIZE: (u32, u32) = (720, 480);
+/// One colour per contestant.
+const COLOURS: [RGBColor; 8] = [
+    RED,
+    BLUE,
+    GREEN,
+    MAGENTA,
+    CYAN,
+    BLACK,
+    RGBColor(230, 140, 0),
+    RGBColor(120, 60, 160),
+];
+
+const CONVERGENCE_SIZE: (u32, u32) = (1200, 480);
 
 /// Writes `convergence.svg` and `convergence.png`; returns the SVG text for the page.
 pub fn write_convergence_plots(dir: &Path, report: &Report) -> Result<String> {

@@ -57,10 +57,12 @@ impl Estimate {
 pub struct LinearError {
     /// Mean squared error, the reference's own variance subtracted when it has one.
     pub mse: f64,
-    /// Relative MSE `(x - r)^2 / (r^2 + 0.01)`, corrected the same way.
+    /// Relative MSE `(x - r)^2 / (r^2 + 0.01)`, corrected the same way (to first order: the
+    /// weight itself is taken from the noisy reference).
     pub relmse: f64,
-    /// The MSE as measured, with the reference's noise in it.
+    /// The MSE and relMSE as measured, with the reference's noise in them.
     pub mse_raw: f64,
+    pub relmse_raw: f64,
 }
 
 /// MSE and relMSE of `test` against `reference` (same size, checked by the caller).
@@ -85,6 +87,7 @@ pub fn linear_error(test: &Film, reference: &Film) -> LinearError {
         mse: (se - noise) / n,
         relmse: (rel - rel_noise) / n,
         mse_raw: se / n,
+        relmse_raw: rel / n,
     }
 }
 
@@ -99,6 +102,12 @@ pub fn mean_variance(film: &Film) -> f64 {
         .map(|v| v.x as f64 + v.y as f64 + v.z as f64)
         .sum();
     sum / (film.variance.len() * 3) as f64
+}
+
+/// The unbiased sample variance of `k` values from their sum and sum of squares.
+fn sample_variance(sum: DVec3, sum_sq: DVec3, k: f64) -> DVec3 {
+    let mean = sum / k;
+    ((sum_sq / k - mean * mean) * (k / (k - 1.0))).max(DVec3::ZERO)
 }
 
 /// Per-pixel sums over independent runs of one integrator: their mean image and the
@@ -138,11 +147,9 @@ impl RunImages {
         let mut film = Film::new(self.width, self.height);
         film.has_variance = self.runs >= 2;
         for (i, (s, q)) in self.sum.iter().zip(&self.sum_sq).enumerate() {
-            let mean = *s / k;
-            film.pixels[i] = mean.as_vec3();
+            film.pixels[i] = (*s / k).as_vec3();
             if self.runs >= 2 {
-                let var = ((*q / k - mean * mean) * (k / (k - 1.0))).max(DVec3::ZERO);
-                film.variance[i] = (var / k).as_vec3();
+                film.variance[i] = (sample_variance(*s, *q, k) / k).as_vec3();
             }
         }
         film
@@ -157,8 +164,7 @@ impl RunImages {
         let k = self.runs as f64;
         let mut total = 0.0;
         for (s, q) in self.sum.iter().zip(&self.sum_sq) {
-            let mean = *s / k;
-            let var = ((*q / k - mean * mean) * (k / (k - 1.0))).max(DVec3::ZERO);
+            let var = sample_variance(*s, *q, k);
             total += var.x + var.y + var.z;
         }
         Some(total / (self.sum.len() * 3) as f64)
@@ -235,14 +241,19 @@ pub fn mean_curve(curves: &[Vec<CurvePoint>]) -> Vec<CurvePoint> {
     out
 }
 
-/// The slope of log(MSE) against log(time) by least squares, over the points with a positive
-/// error after the first pass (which carries start-up work); `None` from fewer than three.
-/// About -1 for an unbiased estimator, flatter for a consistent one.
-pub fn fitted_slope(curve: &[CurvePoint]) -> Option<f64> {
+/// The error a curve is read by: MSE or relMSE.
+pub type Metric = fn(&CurvePoint) -> f64;
+pub const MSE: Metric = |p| p.mse;
+pub const RELMSE: Metric = |p| p.relmse;
+
+/// The slope of log(error) against log(time) by least squares, over the points with a
+/// positive error after the first pass (which carries start-up work); `None` from fewer than
+/// three. About -1 for an unbiased estimator, flatter for a consistent one.
+pub fn fitted_slope(curve: &[CurvePoint], metric: Metric) -> Option<f64> {
     let pts: Vec<(f64, f64)> = curve
         .iter()
-        .filter(|p| p.spp >= 2 && p.mse > 0.0 && p.time > 0.0)
-        .map(|p| (p.time.ln(), p.mse.ln()))
+        .filter(|p| p.spp >= 2 && metric(p) > 0.0 && p.time > 0.0)
+        .map(|p| (p.time.ln(), metric(p).ln()))
         .collect();
     if pts.len() < 3 {
         return None;
@@ -276,7 +287,7 @@ pub fn time_to_reach(curve: &[CurvePoint], target: f64) -> Option<(f64, bool)> {
         }
     }
     let last = curve.last()?;
-    let slope = fitted_slope(curve)?;
+    let slope = fitted_slope(curve, MSE)?;
     // A curve flatter than this is not falling (a biased estimator's floor): it never gets there.
     (slope < -0.1 && last.mse > 0.0)
         .then(|| (last.time * (target / last.mse).powf(1.0 / slope), true))
@@ -331,7 +342,7 @@ mod tests {
                 }
             })
             .collect();
-        assert!((fitted_slope(&curve).unwrap() + 1.0).abs() < 1e-9);
+        assert!((fitted_slope(&curve, MSE).unwrap() + 1.0).abs() < 1e-9);
         // Reached inside the curve: 0.5 / t = 0.4 at t = 1.25.
         let (t, extrapolated) = time_to_reach(&curve, 0.4).unwrap();
         assert!((t - 1.25).abs() < 1e-9 && !extrapolated);

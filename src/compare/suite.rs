@@ -22,12 +22,12 @@
 //! Scene files are relative to the suite file's folder. Every entry is checked (file, names,
 //! integrators, parameters, budgets) before anything renders.
 
+use super::page::escape;
 use super::{Budget, CompareOptions, ReferenceSpec, Region, Report};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 /// How much work each integrator of an entry gets.
 #[derive(Clone, Copy, Debug, Deserialize)]
@@ -161,13 +161,10 @@ pub fn load(opts: &SuiteOptions) -> Result<(SuiteDesc, Vec<(String, CompareOptio
 }
 
 fn budget(b: BudgetDesc) -> Result<Budget> {
+    let default = Budget::Spp(1);
     match b {
-        BudgetDesc::Spp(0) => bail!("Spp must be at least 1"),
-        BudgetDesc::Spp(n) => Ok(Budget::Spp(n)),
-        BudgetDesc::Time(t) if t.is_finite() && t > 0.0 && t <= 1e9 => {
-            Ok(Budget::Time(Duration::from_secs_f64(t)))
-        }
-        BudgetDesc::Time(t) => bail!("Time must be a positive number of seconds, got {t}"),
+        BudgetDesc::Spp(n) => Budget::choose(Some(n), None, default, ("Spp", "Time")),
+        BudgetDesc::Time(t) => Budget::choose(None, Some(t), default, ("Spp", "Time")),
     }
 }
 
@@ -190,12 +187,12 @@ fn reference(desc: Option<&ReferenceDesc>) -> Result<ReferenceSpec> {
         .collect::<Result<Vec<_>>>()?;
     let entry = raylab_integrators::registry::find(&r.integrator)?;
     entry.resolve(&params)?;
-    let budget = match (r.spp, r.time) {
-        (Some(_), Some(_)) => bail!("the reference takes spp or time, not both"),
-        (Some(n), None) => budget(BudgetDesc::Spp(n))?,
-        (None, Some(t)) => budget(BudgetDesc::Time(t))?,
-        (None, None) => Budget::Spp(1024),
-    };
+    let budget = Budget::choose(
+        r.spp,
+        r.time,
+        Budget::Spp(1024),
+        ("the reference's spp", "time"),
+    )?;
     Ok(ReferenceSpec::Render {
         integrator: r.integrator.clone(),
         params,
@@ -213,6 +210,9 @@ fn check_name(name: &str) -> Result<()> {
     if !ok {
         bail!("`{name}` cannot name a folder: use letters, digits, '-', '_' and '.'");
     }
+    if ["index.html", "summary.csv", "summary.json"].contains(&name) {
+        bail!("`{name}` is the name of a file the summary writes; name the entry otherwise");
+    }
     Ok(())
 }
 
@@ -226,6 +226,8 @@ fn entry_options(
     if !scene.is_file() {
         bail!("{}: no such scene file", scene.display());
     }
+    // Parsed now, so that a mistake in the last scene stops the suite before the first renders.
+    crate::scene::load_scene_defined(&scene, &opts.allowed, &Default::default())?;
     let name = match &e.name {
         Some(n) => n.clone(),
         None => e
@@ -239,6 +241,10 @@ fn entry_options(
         .integrators
         .clone()
         .unwrap_or_else(|| desc.integrators.clone());
+    for p in &desc.params {
+        // A typo in a suite-wide parameter's integrator would otherwise apply nowhere.
+        raylab_integrators::registry::find(&super::parse_scoped_param(p)?.0)?;
+    }
     let parse = |list: &[String]| {
         list.iter()
             .map(|p| super::parse_scoped_param(p))
@@ -311,15 +317,27 @@ pub struct Standing {
     pub efficiency_ratio: Option<f64>,
     /// 1 for the most efficient.
     pub rank: usize,
+    /// Whether its MSE interval overlaps the winner's, so that the runs cannot tell the two
+    /// apart (only with several runs, and only meaningful at equal time).
+    pub tied_with_winner: bool,
 }
 
-/// The standings of one entry's report, best first.
+/// The standings of one entry's report, best first. An error at or below zero (the
+/// reference's noise subtracted) is below what the reference can resolve: such an integrator
+/// has no efficiency figure but ranks first, as the best the comparison can see.
 fn standings(entry: &str, report: &Report) -> Vec<Standing> {
     let best = report
         .rows
         .iter()
         .filter_map(|r| r.efficiency)
         .max_by(f64::total_cmp);
+    let key = |s: &Standing| {
+        if s.mse <= 0.0 {
+            f64::INFINITY
+        } else {
+            s.efficiency.unwrap_or(f64::NEG_INFINITY)
+        }
+    };
     let mut out: Vec<Standing> = report
         .rows
         .iter()
@@ -335,17 +353,17 @@ fn standings(entry: &str, report: &Report) -> Vec<Standing> {
             efficiency: r.efficiency,
             efficiency_ratio: r.efficiency.zip(best).map(|(e, b)| e / b),
             rank: 0,
+            tied_with_winner: false,
         })
         .collect();
-    // Most efficient first; an integrator without an efficiency (error below the
-    // reference's noise) last, in file order.
-    out.sort_by(|a, b| {
-        b.efficiency
-            .unwrap_or(f64::NEG_INFINITY)
-            .total_cmp(&a.efficiency.unwrap_or(f64::NEG_INFINITY))
-    });
+    // Most efficient first (a stable sort: ties keep the file's order).
+    out.sort_by(|a, b| key(b).total_cmp(&key(a)));
+    let winner = out.first().map(|w| (w.mse, w.mse_ci95));
     for (k, s) in out.iter_mut().enumerate() {
         s.rank = k + 1;
+        if let (Some((m, Some(c))), Some(own)) = (winner, s.mse_ci95) {
+            s.tied_with_winner = k > 0 && s.mse - own <= m + c;
+        }
     }
     out
 }
@@ -383,13 +401,6 @@ pub fn run(opts: &SuiteOptions) -> Result<Vec<Standing>> {
     Ok(all)
 }
 
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
 fn write_summary(
     opts: &SuiteOptions,
     desc: &SuiteDesc,
@@ -401,17 +412,18 @@ fn write_summary(
     super::write_text(&dir.join("summary.json"), &json)?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = String::from(
-        "entry,scene,label,integrator,rank,mse,mse_ci95,relmse,time,efficiency,efficiency_ratio\n",
+        "entry,scene,label,integrator,rank,tied_with_winner,mse,mse_ci95,relmse,time,efficiency,efficiency_ratio\n",
     );
     for s in all {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{:.6e},{},{:.6e},{:.4},{},{}",
+            "{},{},{},{},{},{},{:.6e},{},{:.6e},{:.4},{},{}",
             s.entry,
             s.scene,
             s.label,
             s.integrator,
             s.rank,
+            s.tied_with_winner,
             s.mse,
             opt(s.mse_ci95),
             s.relmse,
@@ -439,10 +451,25 @@ fn write_summary(
     matrix.push_str("</tr></thead><tbody>");
     for (name, report) in pages {
         let here: Vec<&Standing> = all.iter().filter(|s| &s.entry == name).collect();
+        let tied: Vec<String> = here
+            .iter()
+            .filter(|s| s.tied_with_winner)
+            .map(|s| escape(&s.label))
+            .collect();
         let winner = here
             .iter()
             .find(|s| s.rank == 1)
-            .map_or("–".to_string(), |s| escape(&s.label));
+            .map_or("–".to_string(), |s| {
+                if tied.is_empty() {
+                    escape(&s.label)
+                } else {
+                    format!(
+                        "{} (within the runs' noise of {})",
+                        escape(&s.label),
+                        tied.join(", ")
+                    )
+                }
+            });
         let _ = write!(
             matrix,
             "<tr data-entry=\"{n}\"><td><a href=\"{n}/index.html\">{n}</a></td><td>{}</td><td>{winner}</td>",
@@ -452,10 +479,14 @@ fn write_summary(
         for l in &labels {
             match here.iter().find(|s| &s.label == l) {
                 Some(s) => {
-                    let ratio = s
+                    let ratio = match s.efficiency_ratio {
+                        Some(r) => format!("{r:.2}"),
+                        None if s.mse <= 0.0 => "below the reference's noise".to_string(),
+                        None => "–".to_string(),
+                    };
+                    let shade = s
                         .efficiency_ratio
-                        .map_or("–".to_string(), |r| format!("{r:.2}"));
-                    let shade = s.efficiency_ratio.map_or(0.0, |r| r.clamp(0.0, 1.0));
+                        .map_or(if s.mse <= 0.0 { 1.0 } else { 0.0 }, |r| r.clamp(0.0, 1.0));
                     let _ = write!(
                         matrix,
                         "<td title=\"MSE {:.3e}, {:.2} s\" style=\"background: rgba(40, 160, 80, {:.2})\">{ratio}</td>",

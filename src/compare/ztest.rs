@@ -93,8 +93,13 @@ pub fn z_test(test: &Film, reference: &Film, significance: f64) -> Result<ZTest>
                 // No noise measured and still a difference.
                 0.0
             };
-            out.min_p = out.min_p.min(p);
-            failed |= p < alpha;
+            // A NaN (in a value or a variance) fails: it is no evidence of agreement.
+            if p.is_nan() {
+                out.min_p = 0.0;
+            } else {
+                out.min_p = out.min_p.min(p);
+            }
+            failed |= p.is_nan() || p < alpha;
         }
         if failed {
             out.failed[i] = true;

@@ -5,7 +5,7 @@
 //! (Mitsuba's render tests keep the same in a second file).
 
 use super::Film;
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use exr::prelude::*;
 use std::io::{Read, Seek};
 
@@ -46,41 +46,60 @@ pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
 }
 
 /// The variance layer of an EXR file, if it has one of `width x height` pixels; `None` when
-/// it has none (a file from another renderer, or a 1-spp render).
+/// it has none (a file from another renderer, or a 1-spp render). The header is read first:
+/// a file declaring absurdly many channels is refused before any pixel is.
 pub fn read_variance(
-    file: impl Read + Seek,
+    mut file: impl Read + Seek,
     width: u32,
     height: u32,
 ) -> Result<Option<Vec<glam::Vec3>>> {
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(&mut file), false)
+        .map_err(|e| anyhow!("{e}"))?;
+    let names = |h: &exr::meta::header::Header| -> Vec<String> {
+        h.channels.list.iter().map(|c| c.name.to_string()).collect()
+    };
+    let Some(header) = meta
+        .headers
+        .iter()
+        .find(|h| VARIANCE.iter().all(|v| names(h).iter().any(|n| n == v)))
+    else {
+        return Ok(None);
+    };
+    if header.channels.list.len() > 64 {
+        bail!(
+            "its layer of variance has {} channels (at most 64 are read)",
+            header.channels.list.len()
+        );
+    }
+    let size = header.layer_size;
+    if (size.width(), size.height()) != (width as usize, height as usize) {
+        bail!(
+            "its variance layer is {}x{}, its image {width}x{height}",
+            size.width(),
+            size.height()
+        );
+    }
+    file.rewind()?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
-        .all_channels()
+        .specific_channels()
+        .required(VARIANCE[0])
+        .required(VARIANCE[1])
+        .required(VARIANCE[2])
+        .collect_pixels(
+            |size, _| (size.width(), vec![glam::Vec3::ZERO; size.area()]),
+            |(w, values): &mut (usize, Vec<glam::Vec3>), at, (r, g, b): (f32, f32, f32)| {
+                values[at.y() * *w + at.x()] = glam::Vec3::new(r, g, b);
+            },
+        )
         .first_valid_layer()
         .all_attributes()
         .from_buffered(std::io::BufReader::new(file))
         .map_err(|e| anyhow!("{e}"))?;
-    let layer = &image.layer_data;
-    if (layer.size.x(), layer.size.y()) != (width as usize, height as usize) {
-        return Ok(None);
+    let (_, values) = image.layer_data.channel_data.pixels;
+    if values.len() != width as usize * height as usize {
+        bail!("its variance layer is not the image's size");
     }
-    let find = |name: &str| {
-        layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.eq(name))
-            .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
-    };
-    let (Some(r), Some(g), Some(b)) = (find(VARIANCE[0]), find(VARIANCE[1]), find(VARIANCE[2]))
-    else {
-        return Ok(None);
-    };
-    Ok(Some(
-        r.into_iter()
-            .zip(g)
-            .zip(b)
-            .map(|((r, g), b)| glam::Vec3::new(r, g, b))
-            .collect(),
-    ))
+    Ok(Some(values))
 }
