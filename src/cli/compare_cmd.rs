@@ -270,10 +270,11 @@ pub fn suite(args: &SuiteArgs) -> Result<ExitCode> {
     let standings = compare::suite::run(&opts)?;
     for s in standings.iter().filter(|s| s.rank == 1) {
         say!(
-            "{:<24} {} wins (MSE {:.3e} in {:.2} s)",
+            "{:<24} {} wins (MSE {:.3e}, relMSE {:.3e} in {:.2} s)",
             s.entry,
             s.label,
             s.mse,
+            s.relmse,
             s.time
         );
     }

@@ -1,7 +1,7 @@
 //! `raylab suite FILE.ron`: a matrix of comparisons described in one file (scenes x
 //! integrators x settings), one compare page per entry and a summary page that says which
-//! integrator wins on which scene and by how much (efficiency, `1 / (MSE x time)`, relative to
-//! the best on that scene): SmallVCM's `--report`, made quantitative.
+//! integrator wins on which scene and by how much (efficiency, `1 / (MSE x time)` or, with
+//! `rank_by: RelMse`, `1 / (relMSE x time)`, relative to the best on that scene): SmallVCM's `--report`, made quantitative.
 //!
 //! ```ron
 //! (
@@ -107,6 +107,9 @@ pub struct SuiteDesc {
     pub params: Vec<String>,
     #[serde(default)]
     pub reference: Option<ReferenceDesc>,
+    /// The error the summary ranks by (`Mse` or `RelMse`; default `Mse`).
+    #[serde(default)]
+    pub rank_by: RankBy,
     pub scenes: Vec<EntryDesc>,
 }
 
@@ -301,6 +304,27 @@ fn entry_options(
     ))
 }
 
+/// The error a suite ranks by.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub enum RankBy {
+    /// Mean squared error: what the issue's efficiency is, and what a few bright pixels
+    /// (emitters, caustic fireflies) dominate.
+    #[default]
+    Mse,
+    /// Relative MSE, which weighs an error against the pixel's brightness.
+    RelMse,
+}
+
+impl RankBy {
+    fn name(self) -> &'static str {
+        match self {
+            RankBy::Mse => "MSE",
+            RankBy::RelMse => "relMSE",
+        }
+    }
+}
+
 /// One integrator's standing on one entry.
 #[derive(Clone, Debug, Serialize)]
 pub struct Standing {
@@ -311,33 +335,33 @@ pub struct Standing {
     pub mse: f64,
     pub mse_ci95: Option<f64>,
     pub relmse: f64,
+    pub relmse_ci95: Option<f64>,
     pub time: f64,
+    /// `1 / (error x time)` in the suite's error (MSE or relMSE); `None` when the error is
+    /// not positive (below the reference's noise).
     pub efficiency: Option<f64>,
     /// Efficiency over the entry's best: 1 for the winner.
     pub efficiency_ratio: Option<f64>,
     /// 1 for the most efficient.
     pub rank: usize,
-    /// Whether its MSE interval overlaps the winner's, so that the runs cannot tell the two
-    /// apart (only with several runs, and only meaningful at equal time).
+    /// Whether its error's interval overlaps the winner's, so that the runs cannot tell the
+    /// two apart (only with several runs, and only meaningful at equal time).
     pub tied_with_winner: bool,
+}
+
+impl Standing {
+    fn error(&self, by: RankBy) -> (f64, Option<f64>) {
+        match by {
+            RankBy::Mse => (self.mse, self.mse_ci95),
+            RankBy::RelMse => (self.relmse, self.relmse_ci95),
+        }
+    }
 }
 
 /// The standings of one entry's report, best first. An error at or below zero (the
 /// reference's noise subtracted) is below what the reference can resolve: such an integrator
 /// has no efficiency figure but ranks first, as the best the comparison can see.
-fn standings(entry: &str, report: &Report) -> Vec<Standing> {
-    let best = report
-        .rows
-        .iter()
-        .filter_map(|r| r.efficiency)
-        .max_by(f64::total_cmp);
-    let key = |s: &Standing| {
-        if s.mse <= 0.0 {
-            f64::INFINITY
-        } else {
-            s.efficiency.unwrap_or(f64::NEG_INFINITY)
-        }
-    };
+fn standings(entry: &str, report: &Report, by: RankBy) -> Vec<Standing> {
     let mut out: Vec<Standing> = report
         .rows
         .iter()
@@ -349,20 +373,39 @@ fn standings(entry: &str, report: &Report) -> Vec<Standing> {
             mse: r.mse,
             mse_ci95: r.mse_ci95,
             relmse: r.relmse,
+            relmse_ci95: r.relmse_ci95,
             time: r.time,
-            efficiency: r.efficiency,
-            efficiency_ratio: r.efficiency.zip(best).map(|(e, b)| e / b),
+            efficiency: None,
+            efficiency_ratio: None,
             rank: 0,
             tied_with_winner: false,
         })
         .collect();
+    for s in &mut out {
+        let (e, _) = s.error(by);
+        s.efficiency = (e > 0.0 && s.time > 0.0).then(|| 1.0 / (e * s.time));
+    }
+    let best = out
+        .iter()
+        .filter_map(|s| s.efficiency)
+        .max_by(f64::total_cmp);
+    for s in &mut out {
+        s.efficiency_ratio = s.efficiency.zip(best).map(|(e, b)| e / b);
+    }
+    let key = |s: &Standing| {
+        if s.error(by).0 <= 0.0 {
+            f64::INFINITY
+        } else {
+            s.efficiency.unwrap_or(f64::NEG_INFINITY)
+        }
+    };
     // Most efficient first (a stable sort: ties keep the file's order).
     out.sort_by(|a, b| key(b).total_cmp(&key(a)));
-    let winner = out.first().map(|w| (w.mse, w.mse_ci95));
+    let winner = out.first().map(|w| w.error(by));
     for (k, s) in out.iter_mut().enumerate() {
         s.rank = k + 1;
-        if let (Some((m, Some(c))), Some(own)) = (winner, s.mse_ci95) {
-            s.tied_with_winner = k > 0 && s.mse - own <= m + c;
+        if let (Some((m, Some(c))), (own, Some(ci))) = (winner, s.error(by)) {
+            s.tied_with_winner = k > 0 && own - ci <= m + c;
         }
     }
     out
@@ -394,7 +437,7 @@ pub fn run(opts: &SuiteOptions) -> Result<Vec<Standing>> {
         );
         let report = super::run(compare)
             .with_context(|| format!("{}: entry `{name}`", opts.file.display()))?;
-        all.extend(standings(name, &report));
+        all.extend(standings(name, &report, desc.rank_by));
         pages.push((name.clone(), report));
     }
     write_summary(opts, &desc, &pages, &all)?;
@@ -412,12 +455,12 @@ fn write_summary(
     super::write_text(&dir.join("summary.json"), &json)?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = String::from(
-        "entry,scene,label,integrator,rank,tied_with_winner,mse,mse_ci95,relmse,time,efficiency,efficiency_ratio\n",
+        "entry,scene,label,integrator,rank,tied_with_winner,mse,mse_ci95,relmse,relmse_ci95,time,efficiency,efficiency_ratio\n",
     );
     for s in all {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{:.6e},{},{:.6e},{:.4},{},{}",
+            "{},{},{},{},{},{},{:.6e},{},{:.6e},{},{:.4},{},{}",
             s.entry,
             s.scene,
             s.label,
@@ -427,6 +470,7 @@ fn write_summary(
             s.mse,
             opt(s.mse_ci95),
             s.relmse,
+            opt(s.relmse_ci95),
             s.time,
             opt(s.efficiency),
             s.efficiency_ratio
@@ -481,16 +525,24 @@ fn write_summary(
                 Some(s) => {
                     let ratio = match s.efficiency_ratio {
                         Some(r) => format!("{r:.2}"),
-                        None if s.mse <= 0.0 => "below the reference's noise".to_string(),
+                        None if s.error(desc.rank_by).0 <= 0.0 => {
+                            "below the reference's noise".to_string()
+                        }
                         None => "–".to_string(),
                     };
-                    let shade = s
-                        .efficiency_ratio
-                        .map_or(if s.mse <= 0.0 { 1.0 } else { 0.0 }, |r| r.clamp(0.0, 1.0));
+                    let shade = s.efficiency_ratio.map_or(
+                        if s.error(desc.rank_by).0 <= 0.0 {
+                            1.0
+                        } else {
+                            0.0
+                        },
+                        |r| r.clamp(0.0, 1.0),
+                    );
                     let _ = write!(
                         matrix,
-                        "<td title=\"MSE {:.3e}, {:.2} s\" style=\"background: rgba(40, 160, 80, {:.2})\">{ratio}</td>",
+                        "<td title=\"MSE {:.3e}, relMSE {:.3e}, {:.2} s\" style=\"background: rgba(40, 160, 80, {:.2})\">{ratio}</td>",
                         s.mse,
+                        s.relmse,
                         s.time,
                         0.1 + 0.6 * shade
                     );
@@ -524,13 +576,14 @@ th:first-child, td:first-child, td:nth-child(2), td:nth-child(3) {{ text-align: 
 </style></head>
 <body>
 <h1>raylab suite: {title}</h1>
-<p class="note">Each cell is an integrator's efficiency, 1 / (MSE x time), over the best on that scene's page (1.00: the winner); hover for its MSE and time. Each scene's page (linked) has the images, the viewer, the intervals and the convergence plot. Also as <a href="summary.csv">summary.csv</a> and <a href="summary.json">summary.json</a>.</p>
+<p class="note">Each cell is an integrator's efficiency, 1 / ({metric} x time), over the best on that scene's page (1.00: the winner); hover for its MSE, relMSE and time. A winner the runs cannot tell from others is named with them. Each scene's page (linked) has the images, the viewer, the intervals and the convergence plot. Also as <a href="summary.csv">summary.csv</a> and <a href="summary.json">summary.json</a>.</p>
 {matrix}
 <h2>Wins</h2>
 <ul>{wins}</ul>
 </body></html>
 "#,
-        title = escape(&title)
+        title = escape(&title),
+        metric = desc.rank_by.name()
     );
     super::write_text(&dir.join("index.html"), &html)
 }

@@ -692,6 +692,7 @@ fn a_suite_writes_a_page_per_entry_and_a_summary() {
     integrators: ["path", "whitted"],
     params: ["path.max-depth=4", "bdpt.max-depth=3"],
     reference: (integrator: "path", spp: 16),
+    rank_by: RelMse,
     scenes: [
         (scene: "{}", size: (16, 16)),
         (scene: "furnace.ron", name: "furnace-bdpt", integrators: ["path", "bdpt"], budget: Spp(2)),
@@ -717,6 +718,7 @@ fn a_suite_writes_a_page_per_entry_and_a_summary() {
     }
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("<a href=\"furnace-bdpt/index.html\">") && html.contains("a test"));
+    assert!(html.contains("1 / (relMSE x time)"), "ranked by relMSE");
     // One line per entry and integrator, ranked, the winner at efficiency ratio 1.
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().skip(1).collect();
@@ -726,7 +728,7 @@ fn a_suite_writes_a_page_per_entry_and_a_summary() {
             .iter()
             .find(|l| l.starts_with(&format!("{entry},")) && l.split(',').nth(4) == Some("1"))
             .unwrap_or_else(|| panic!("{entry} has a winner: {csv}"));
-        assert_eq!(winner.split(',').nth(11), Some("1.0000"), "{winner}");
+        assert_eq!(winner.split(',').nth(12), Some("1.0000"), "{winner}");
     }
     // The entry's settings reached its comparison.
     let json: serde_json::Value = serde_json::from_str(
