@@ -36,8 +36,8 @@ pub fn display_bytes(film: &Film) -> Vec<u8> {
         .collect()
 }
 
-/// Metrics of `test` against `reference`, and FLIP's per-pixel error map in [0, 1].
-pub fn compare(test: &Film, reference: &Film) -> Result<(Metrics, Vec<f32>)> {
+/// Refuses two images of different sizes.
+pub fn same_size(test: &Film, reference: &Film) -> Result<()> {
     if (test.width, test.height) != (reference.width, reference.height) {
         bail!(
             "the images differ in size: {}x{} against {}x{}",
@@ -47,6 +47,12 @@ pub fn compare(test: &Film, reference: &Film) -> Result<(Metrics, Vec<f32>)> {
             reference.height
         );
     }
+    Ok(())
+}
+
+/// Metrics of `test` against `reference`, and FLIP's per-pixel error map in [0, 1].
+pub fn compare(test: &Film, reference: &Film) -> Result<(Metrics, Vec<f32>)> {
+    same_size(test, reference)?;
     let n = (test.pixels.len() * 3) as f64;
     let linear = super::stats::linear_error(test, reference);
     let (a, b) = (display_bytes(test), display_bytes(reference));

@@ -49,15 +49,7 @@ pub fn p_value(z: f64) -> f64 {
 /// Tests `test` against `reference` at `significance` (0.01: a correct image fails one time
 /// in a hundred). At least one of the two must carry a variance layer.
 pub fn z_test(test: &Film, reference: &Film, significance: f64) -> Result<ZTest> {
-    if (test.width, test.height) != (reference.width, reference.height) {
-        bail!(
-            "the images differ in size: {}x{} against {}x{}",
-            test.width,
-            test.height,
-            reference.width,
-            reference.height
-        );
-    }
+    super::metrics::same_size(test, reference)?;
     if !test.has_variance && !reference.has_variance {
         bail!("neither image has a variance layer (raylab writes one into EXRs of 2 spp or more); a z-test needs the images' noise");
     }

@@ -290,6 +290,42 @@ fn compare_rejects_bad_requests() {
             "either --spp or --time",
         ),
         (vec!["-i", "path", "-i", "path"], "named once"),
+        // The reference: its integrator, parameters and budget.
+        (
+            vec!["-i", "path", "--reference-integrator", "nope"],
+            "unknown integrator `nope`",
+        ),
+        (
+            vec!["-i", "path", "-p", "reference.bogus=1"],
+            "no parameter `bogus`",
+        ),
+        (
+            vec![
+                "-i",
+                "path",
+                "--reference-spp",
+                "4",
+                "--reference-time",
+                "1",
+            ],
+            "either --reference-spp or --reference-time",
+        ),
+        (
+            vec!["-i", "path", "--reference", "x.exr", "--reference-spp", "4"],
+            "give one or the other",
+        ),
+        (
+            vec!["-i", "path", "--reference-time", "0"],
+            "--reference-time must be a positive",
+        ),
+        (
+            vec!["-i", "path", "--runs", "0"],
+            "--runs must be between 1",
+        ),
+        (
+            vec!["-i", "path", "--target-error", "0"],
+            "--target-error must be a positive",
+        ),
     ] {
         let mut all = vec!["compare", CORNELL, "-o", s(&out), "-q"];
         all.extend(args);
@@ -605,8 +641,8 @@ fn the_z_test_passes_independent_renders_and_fails_a_biased_one() {
     assert_eq!(o.status.code(), Some(2));
 }
 
-/// The reference can come from another integrator, sized by time, with its own parameters;
-/// contradictory or bad reference flags are refused before anything renders.
+/// The reference can come from another integrator, sized by time, with its own parameters
+/// (contradictory or bad reference flags are refused in `compare_rejects_bad_requests`).
 #[test]
 fn the_reference_integrator_and_its_budget_are_chosen_by_flags() {
     let dir = tempfile::tempdir().unwrap();
@@ -641,36 +677,6 @@ fn the_reference_integrator_and_its_budget_are_chosen_by_flags() {
         what.starts_with("sppm (photons=2000") && what.contains("0.500 s"),
         "{what}"
     );
-    for (args, expected) in [
-        (
-            vec!["--reference-integrator", "nope"],
-            "unknown integrator `nope`",
-        ),
-        (vec!["-p", "reference.bogus=1"], "no parameter `bogus`"),
-        (
-            vec!["--reference-spp", "4", "--reference-time", "1"],
-            "either --reference-spp or --reference-time",
-        ),
-        (
-            vec!["--reference", "x.exr", "--reference-spp", "4"],
-            "give one or the other",
-        ),
-        (
-            vec!["--reference-time", "0"],
-            "--reference-time must be a positive",
-        ),
-        (vec!["--runs", "0"], "--runs must be between 1"),
-        (
-            vec!["--target-error", "0"],
-            "--target-error must be a positive",
-        ),
-    ] {
-        let mut all = vec!["compare", CORNELL, "-i", "path", "-o", s(&out), "-q"];
-        all.extend(args);
-        let o = raylab(&all, dir.path());
-        assert_eq!(o.status.code(), Some(2), "{all:?}");
-        assert!(stderr(&o).contains(expected), "{all:?}: {}", stderr(&o));
-    }
 }
 
 /// `raylab suite`: a matrix from one file, a page per entry and a summary of who wins where;
