@@ -146,6 +146,7 @@ impl RunImages {
         let k = self.runs.max(1) as f64;
         let mut film = Film::new(self.width, self.height);
         film.has_variance = self.runs >= 2;
+        film.variance_samples = self.runs;
         for (i, (s, q)) in self.sum.iter().zip(&self.sum_sq).enumerate() {
             film.pixels[i] = (*s / k).as_vec3();
             if self.runs >= 2 {

@@ -12,6 +12,9 @@ use std::io::{Read, Seek};
 /// The names of the variance channels, in R, G, B order.
 const VARIANCE: [&str; 3] = ["variance.R", "variance.G", "variance.B"];
 
+/// The header attribute that holds how many passes the variance was estimated from.
+const SAMPLES: &str = "raylabVarianceSamples";
+
 /// Encodes the film: three f32 radiance channels, and the variance layer if the film has one.
 pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
     let size = (film.width as usize, film.height as usize);
@@ -33,26 +36,29 @@ pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
-    let layer = Layer::new(
-        size,
-        LayerAttributes::default(),
-        encoding,
-        AnyChannels::sort(channels),
-    );
+    let mut attributes = LayerAttributes::default();
+    if film.has_variance {
+        let n = i32::try_from(film.variance_samples).unwrap_or(i32::MAX);
+        attributes
+            .other
+            .insert(Text::from(SAMPLES), AttributeValue::I32(n));
+    }
+    let layer = Layer::new(size, attributes, encoding, AnyChannels::sort(channels));
     Image::from_layer(layer)
         .write()
         .to_buffered(out)
         .map_err(|e| anyhow!("{e}"))
 }
 
-/// The variance layer of an EXR file, if it has one of `width x height` pixels; `None` when
-/// it has none (a file from another renderer, or a 1-spp render). The header is read first:
-/// a file declaring absurdly many channels is refused before any pixel is.
+/// The variance layer of an EXR file, if it has one of `width x height` pixels, with the
+/// number of passes it was estimated from (0 when the file does not say); `None` when it has
+/// none (a file from another renderer, or a 1-spp render). The header is read first: a file
+/// declaring absurdly many channels is refused before any pixel is.
 pub fn read_variance(
     mut file: impl Read + Seek,
     width: u32,
     height: u32,
-) -> Result<Option<Vec<glam::Vec3>>> {
+) -> Result<Option<(Vec<glam::Vec3>, u32)>> {
     let meta = exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(&mut file), false)
         .map_err(|e| anyhow!("{e}"))?;
     let names = |h: &exr::meta::header::Header| -> Vec<String> {
@@ -71,6 +77,10 @@ pub fn read_variance(
             header.channels.list.len()
         );
     }
+    let samples = match header.own_attributes.other.get(&Text::from(SAMPLES)) {
+        Some(AttributeValue::I32(n)) if *n >= 0 => *n as u32,
+        _ => 0,
+    };
     let size = header.layer_size;
     if (size.width(), size.height()) != (width as usize, height as usize) {
         bail!(
@@ -101,5 +111,5 @@ pub fn read_variance(
     if values.len() != width as usize * height as usize {
         bail!("its variance layer is not the image's size");
     }
-    Ok(Some(values))
+    Ok(Some((values, samples)))
 }

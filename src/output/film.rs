@@ -15,6 +15,9 @@ pub struct Film {
     /// Whether `variance` was measured: false for a 1-spp render, a PNG, or an EXR without
     /// a variance layer (its zeros then mean "unknown", not "exact").
     pub has_variance: bool,
+    /// How many independent estimates (passes, or runs) the variance comes from: its degrees
+    /// of freedom plus one, for tests that need them; 0 when not known.
+    pub variance_samples: u32,
 }
 
 impl Film {
@@ -26,6 +29,7 @@ impl Film {
             pixels: vec![Vec3::ZERO; n],
             variance: vec![Vec3::ZERO; n],
             has_variance: false,
+            variance_samples: 0,
         }
     }
 
@@ -59,6 +63,7 @@ impl Film {
         }
         let mut out = Film::new(w, h);
         out.has_variance = self.has_variance;
+        out.variance_samples = self.variance_samples;
         for j in 0..h {
             let from = ((y + j) * self.width + x) as usize;
             let to = (j * w) as usize;

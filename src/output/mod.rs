@@ -154,7 +154,9 @@ pub fn read_image(path: &Path) -> Result<Film> {
             // The variance layer raylab writes beside the radiance, if the file has one.
             use std::io::Seek;
             file.rewind().with_context(cannot)?;
-            if let Some(variance) = exr_file::read_variance(file, w, h).with_context(cannot)? {
+            if let Some((variance, samples)) =
+                exr_file::read_variance(file, w, h).with_context(cannot)?
+            {
                 if let Some(i) = variance
                     .iter()
                     .position(|v| !v.is_finite() || v.min_element() < 0.0)
@@ -168,6 +170,7 @@ pub fn read_image(path: &Path) -> Result<Film> {
                 }
                 film.variance = variance;
                 film.has_variance = true;
+                film.variance_samples = samples;
             }
         }
         _ => {

@@ -407,6 +407,7 @@ impl Accumulation {
     pub fn film(&self) -> Film {
         let mut film = Film::new(self.width, self.height);
         film.has_variance = self.spp_done >= 2;
+        film.variance_samples = self.spp_done;
         for t in &self.tiles {
             for j in 0..t.h {
                 for i in 0..t.w {
