@@ -28,6 +28,7 @@ pub mod photon_map;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod special;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod texture;

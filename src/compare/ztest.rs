@@ -12,6 +12,7 @@
 use crate::render::Film;
 use anyhow::{bail, Result};
 use image::RgbImage;
+use raylab_integrators::special::p_value_t;
 
 /// What the test found.
 #[derive(Clone, Debug)]
@@ -28,100 +29,6 @@ pub struct ZTest {
     pub alpha: f64,
     /// One flag per pixel: failed.
     pub failed: Vec<bool>,
-}
-
-/// `erfc(x)` for `x >= 0` (Numerical Recipes' Chebyshev fit, relative error below 1.2e-7).
-fn erfc(x: f64) -> f64 {
-    let t = 1.0 / (1.0 + 0.5 * x);
-    let poly = -x * x - 1.265_512_23
-        + t * (1.000_023_68
-            + t * (0.374_091_96
-                + t * (0.096_784_18
-                    + t * (-0.186_288_06
-                        + t * (0.278_868_07
-                            + t * (-1.135_203_98
-                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
-    t * poly.exp()
-}
-
-/// Two-sided p-value of a standard normal statistic.
-pub fn p_value(z: f64) -> f64 {
-    erfc(z.abs() / std::f64::consts::SQRT_2)
-}
-
-/// `ln Γ(x)` for `x >= 0.5` (Lanczos, g = 7, nine terms: relative error near 1e-15).
-fn ln_gamma(x: f64) -> f64 {
-    const P: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    let x = x - 1.0;
-    let a = P[1..]
-        .iter()
-        .enumerate()
-        .fold(P[0], |a, (i, p)| a + p / (x + i as f64 + 1.0));
-    let t = x + 7.5;
-    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// The continued fraction of the incomplete beta function (modified Lentz).
-fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
-    const TINY: f64 = 1e-300;
-    let guard = |v: f64| if v.abs() < TINY { TINY } else { v };
-    let (qab, qap, qam) = (a + b, a + 1.0, a - 1.0);
-    let mut c = 1.0;
-    let mut d = 1.0 / guard(1.0 - qab * x / qap);
-    let mut h = d;
-    for m in 1..=500 {
-        let m = m as f64;
-        let aa = m * (b - m) * x / ((qam + 2.0 * m) * (a + 2.0 * m));
-        d = 1.0 / guard(1.0 + aa * d);
-        c = guard(1.0 + aa / c);
-        h *= d * c;
-        let aa = -(a + m) * (qab + m) * x / ((a + 2.0 * m) * (qap + 2.0 * m));
-        d = 1.0 / guard(1.0 + aa * d);
-        c = guard(1.0 + aa / c);
-        let step = d * c;
-        h *= step;
-        if (step - 1.0).abs() < 1e-15 {
-            break;
-        }
-    }
-    h
-}
-
-/// The regularized incomplete beta function `I_x(a, b)`.
-fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if x >= 1.0 {
-        return 1.0;
-    }
-    let front =
-        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
-    if x < (a + 1.0) / (a + b + 2.0) {
-        front * beta_fraction(a, b, x) / a
-    } else {
-        1.0 - front * beta_fraction(b, a, 1.0 - x) / b
-    }
-}
-
-/// Two-sided p-value of Student's t with `dof` degrees of freedom (the normal's when `dof`
-/// is infinite or very large).
-pub fn p_value_t(t: f64, dof: f64) -> f64 {
-    if !dof.is_finite() || dof > 1e6 {
-        return p_value(t);
-    }
-    let dof = dof.max(1.0);
-    incomplete_beta(0.5 * dof, 0.5, dof / (dof + t * t))
 }
 
 /// Welch-Satterthwaite degrees of freedom of a sum of variance estimates `(v, n)`, each from
@@ -217,29 +124,8 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     #[test]
-    fn p_values_of_the_normal_and_students_t() {
-        assert!((p_value(1.959964) - 0.05).abs() < 1e-6);
-        assert!((p_value(-2.575829) - 0.01).abs() < 1e-6);
-        assert!((p_value(0.0) - 1.0).abs() < 1e-6);
-        // Student's t tables: t(0.975) for 1, 5 and 24 degrees of freedom, t(0.995) for 10.
-        for (t, dof, p) in [
-            (12.706, 1.0, 0.05),
-            (2.571, 5.0, 0.05),
-            (2.064, 24.0, 0.05),
-            (3.169, 10.0, 0.01),
-        ] {
-            assert!(
-                (p_value_t(t, dof) - p).abs() < 2e-4 * p / 0.01,
-                "t {t}, {dof} dof"
-            );
-        }
-        assert!((p_value_t(2.575829, f64::INFINITY) - 0.01).abs() < 1e-6);
-        assert!((p_value_t(0.0, 7.0) - 1.0).abs() < 1e-12);
-        // Far tails, where the Šidák level lies: t = 9 with 24 degrees of freedom is 3.69e-9
-        // two-sided (by numerical integration of the density).
-        let far = p_value_t(9.0, 24.0);
-        assert!((far / 3.6906e-9 - 1.0).abs() < 0.01, "{far}");
-        // Welch: two equal variances from n passes each give 2(n - 1) degrees of freedom.
+    fn welch_degrees_of_freedom() {
+        // Two equal variances from n passes each give 2(n - 1) degrees of freedom.
         assert!((welch_dof(&[(0.3, 25), (0.3, 25)]) - 48.0).abs() < 1e-9);
         assert!(welch_dof(&[(0.3, 0)]).is_infinite());
     }

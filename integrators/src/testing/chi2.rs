@@ -25,6 +25,7 @@
 //! equal `eval` and `pdf`) and [`directional_albedo`] / [`assert_energy_conserving`].
 
 use crate::bsdf::Bxdf;
+use crate::special::ln_gamma;
 use crate::{Rgb, Sampler};
 use glam::{DVec3, Vec3A};
 use std::f64::consts::PI;
@@ -47,33 +48,7 @@ pub fn per_test_threshold() -> f64 {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Special functions.
-
-/// `ln(Gamma(x))` for `x > 0` (Lanczos, g = 7, n = 9; ~15 digits).
-pub fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        // Reflection formula.
-        return (PI / (PI * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = C[0];
-    let t = x + 7.5;
-    for (i, &c) in C.iter().enumerate().skip(1) {
-        a += c / (x + i as f64);
-    }
-    0.5 * (2.0 * PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
+// Special functions (`ln_gamma` is in `crate::special`).
 
 /// Regularised upper incomplete gamma function `Q(a, x) = Gamma(a, x) / Gamma(a)`.
 pub fn gamma_q(a: f64, x: f64) -> f64 {
