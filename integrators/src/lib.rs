@@ -40,7 +40,7 @@ pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
 pub use geometry::{Frame, Hit, Pending, Ray};
 pub use integrator::{
-    Demand, Integrator, PixelSample, RayCounters, RayIntegrator, Splats, Stop, Tracer,
+    Demand, Integrator, PixelSample, RayCounters, RayIntegrator, ShardBy, Splats, Stop, Tracer,
 };
 pub use light::{LeSample, Light, LightSample, LightTable};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};

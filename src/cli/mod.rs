@@ -13,6 +13,7 @@ mod messages {
 
 mod compare_cmd;
 mod live_cmd;
+mod merge_cmd;
 mod render_cmd;
 
 use clap::{Parser, Subcommand};
@@ -53,6 +54,9 @@ pub enum Command {
     Diff(DiffArgs),
     /// Measure rays per second, samples per second, BVH build time and memory.
     Bench(BenchArgs),
+    /// Combine the shards of a render (`render --shard I/N -o part.exr`) into exactly the
+    /// image the single run writes, after checking that they belong together and cover it.
+    Merge(MergeArgs),
     /// Convert a Mitsuba 3 XML scene into a RON scene that a person can edit.
     Import {
         /// Scene file (Mitsuba 3 XML).
@@ -155,6 +159,11 @@ pub struct RenderArgs {
     /// Continue from --checkpoint FILE (refused if the scene or settings changed).
     #[arg(long)]
     pub resume: bool,
+    /// Render only shard I of N (counting from 0) of this render, into an EXR that `raylab
+    /// merge` combines with the others into exactly the image of the single run: a range of
+    /// passes, or for integrators with state per pixel (sppm-pixel) a band of rows.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
     /// Keep going: watch the scene file and the files it names (meshes) and render again on
     /// every save, rewriting the output (atomically, at most twice a second) as passes
     /// complete.
@@ -330,6 +339,20 @@ pub struct DiffArgs {
     pub tolerance: Option<f64>,
 }
 
+#[derive(clap::Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// The image to write: .exr (linear radiance and its variance) or .png (with the
+    /// render's exposure and tone curve).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The shards' EXR files, in any order.
+    #[arg(required = true)]
+    pub parts: Vec<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
 /// Runs the command line and returns the process exit code.
 pub fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
@@ -378,6 +401,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
         Command::Suite(args) => compare_cmd::suite(&args),
+        Command::Merge(args) => merge_cmd::merge(&args),
         Command::Bench(args) => {
             if args.embree && !cfg!(feature = "embree") {
                 anyhow::bail!(

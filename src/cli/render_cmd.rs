@@ -1,9 +1,11 @@
 //! `raylab render`, `raylab validate` and `raylab integrators`.
 
 use super::RenderArgs;
+use crate::output::shard_file::{self, ShardInfo};
 use crate::output::{self, DisplaySettings};
 use crate::render::{
-    self, checkpoint, Accumulation, Dropped, RenderSettings, RenderStats, StopReason,
+    self, checkpoint, Accumulation, Dropped, Part, RenderSettings, RenderStats, ShardSpec,
+    StopReason,
 };
 use crate::scene::RenderScene;
 use crate::scene::{self, load::check_size};
@@ -80,6 +82,23 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     if args.resume && args.checkpoint.is_none() {
         bail!("--resume needs --checkpoint FILE");
     }
+    let shard = args
+        .shard
+        .as_deref()
+        .map(str::parse::<ShardSpec>)
+        .transpose()?;
+    if let Some(spec) = shard {
+        if args.time.is_some() {
+            bail!("--shard {spec}: a time budget renders as many passes as a machine manages, which shards cannot agree on; give --spp (or the scene's render.spp)");
+        }
+        if output::check_output_path(&output_path)? != output::OutputFormat::Exr {
+            bail!(
+                "{}: a shard is written as EXR (its exact sums for `raylab merge`); use -o part-{}.exr",
+                output_path.display(),
+                spec.index
+            );
+        }
+    }
     if let Some(c) = &args.checkpoint {
         if !args.resume {
             output::check_writable_folder(c)?;
@@ -124,6 +143,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         .map(|(id, name)| (id, layer_path(&output_path, &name)))
         .collect();
     if !layers.is_empty() {
+        if let Some(spec) = shard {
+            bail!(
+                "--shard {spec}: integrator `{}` writes an image per layer (write-strategies), which shards do not merge; render without write-strategies",
+                entry.name
+            );
+        }
         if args.checkpoint.is_some() {
             bail!(
                 "integrator `{}` writes an image per layer (write-strategies), which checkpoints do not keep; render without --checkpoint",
@@ -164,6 +189,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             .memory_for(camera.width as u64 * camera.height as u64),
     )?;
     render::check_camera(&camera, &integrator.demand(), entry.name)?;
+    let filter = args.session.trace.filter.unwrap_or(loaded.render.filter);
+    // A shard's part: a range of passes, or of rows for an integrator with state per pixel.
+    let part = match (shard, spp) {
+        (Some(spec), Some(spp)) => Some(spec.part(integrator.shard_by(), spp, camera.height)?),
+        _ => None,
+    };
     let built =
         RenderScene::build_on_threads(&loaded, args.session.trace.accel, args.session.threads)?;
     let settings = RenderSettings {
@@ -172,35 +203,51 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         threads: args.session.threads,
         progress: !args.session.quiet,
         time_budget: args.time.map(Duration::from_secs_f64),
-        filter: args.session.trace.filter.unwrap_or(loaded.render.filter),
+        filter,
+        part: part.clone(),
     };
 
-    // Checkpoints are tied to everything that determines the image: the settings, the scene
-    // file and the mesh files it names (read and hashed only when there is a checkpoint).
-    let hash = match &args.checkpoint {
-        Some(_) => {
+    // Checkpoints and shards are tied to everything that determines the image: the settings,
+    // the scene file and the mesh files it names (read and hashed only when needed); a
+    // checkpoint also to its shard.
+    let settings_text = format!(
+        "integrator={} {} spp={} seed={seed} size={}x{} filter={} accel={}",
+        entry.name,
+        params.describe(entry.params),
+        spp.map_or("open-ended".to_string(), |n| n.to_string()),
+        camera.width,
+        camera.height,
+        settings.filter,
+        args.session.trace.accel,
+    );
+    let scene_hash = match (&args.checkpoint, shard) {
+        (None, None) => 0,
+        _ => {
             let scene_bytes = crate::scene::references::scene_content(&args.session.scene)
                 .with_context(|| {
                     format!("{}: cannot read scene file", args.session.scene.display())
                 })?;
-            let settings_text = format!(
-                "{} {:?} spp={spp:?} seed={seed} {}x{} filter={} accel={} v{}",
-                entry.name,
-                params,
-                camera.width,
-                camera.height,
-                settings.filter,
-                args.session.trace.accel,
-                env!("CARGO_PKG_VERSION")
-            );
-            checkpoint::stable_hash(&[&scene_bytes, settings_text.as_bytes()])
+            checkpoint::stable_hash(&[&scene_bytes])
         }
-        None => 0,
+    };
+    let hash = checkpoint::stable_hash(&[
+        &scene_hash.to_le_bytes(),
+        settings_text.as_bytes(),
+        env!("CARGO_PKG_VERSION").as_bytes(),
+        shard.map(|s| s.to_string()).unwrap_or_default().as_bytes(),
+    ]);
+    let first_pass = match &part {
+        Some(Part::Passes(r)) => r.start,
+        _ => 0,
     };
     let mut acc = match (&args.checkpoint, args.resume) {
         (Some(path), true) => {
             let acc = checkpoint::load(path, hash, camera.width, camera.height)?;
-            if let Some(target) = spp.filter(|t| acc.spp_done > *t) {
+            let end = match &part {
+                Some(Part::Passes(r)) => Some(r.end),
+                _ => spp,
+            };
+            if let Some(target) = end.filter(|t| acc.spp_done > *t) {
                 bail!(
                     "{}: the checkpoint has {} spp, more than the target {target}",
                     path.display(),
@@ -213,6 +260,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             acc
         }
         _ => Accumulation::new(camera.width, camera.height)
+            .starting_at(first_pass)
             .with_layers(&layers.iter().map(|(id, _)| *id).collect::<Vec<_>>()),
     };
 
@@ -221,9 +269,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     install_interrupt_handler();
     let stop = || INTERRUPTS.load(Ordering::SeqCst) > 0;
     if !args.session.quiet {
-        let target = settings
+        let mut target = settings
             .spp
             .map_or_else(|| "open-ended".to_string(), |n| format!("{n} spp"));
+        if let (Some(spec), Some(part)) = (shard, &part) {
+            target = format!("{target}, shard {spec}: {part}");
+        }
         note!(
             "rendering {}x{} with {}, {target} (Ctrl-C writes the image of the passes done)",
             camera.width,
@@ -254,18 +305,39 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     if let Some(path) = &args.checkpoint {
         checkpoint::save(path, &acc, hash)?;
     }
-    if acc.spp_done == 0 {
+    if acc.passes() == 0 {
         bail!("stopped before the first pass finished: no image written");
     }
     let film = acc.film();
-    output::write_image(
-        &output_path,
-        &film,
-        DisplaySettings {
-            exposure: args.session.exposure,
-            tonemap: args.session.tonemap,
-        },
-    )?;
+    let display = DisplaySettings {
+        exposure: args.session.exposure,
+        tonemap: args.session.tonemap,
+    };
+    match (shard, part) {
+        (Some(spec), Some(part)) => shard_file::write(
+            &output_path,
+            &acc,
+            &ShardInfo {
+                scene: format!("{scene_hash:016x}"),
+                scene_name: args
+                    .session
+                    .scene
+                    .file_name()
+                    .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+                settings: settings_text,
+                version: env!("CARGO_PKG_VERSION").to_string(),
+                spec,
+                part,
+                spp: spp.expect("shards have a pass count"),
+                passes_done: acc.spp_done,
+                dropped: acc.dropped,
+                display,
+                width: camera.width,
+                height: camera.height,
+            },
+        )?,
+        _ => output::write_image(&output_path, &film, display)?,
+    }
 
     for (id, path) in &layers {
         if let Some(film) = acc.layer_film(*id) {

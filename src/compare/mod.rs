@@ -368,6 +368,7 @@ fn render_one(
             progress: opts.progress,
             time_budget: Some(t),
             filter: opts.filter.unwrap_or_default(),
+            part: None,
         },
     };
     let mut acc = Accumulation::new(camera.width, camera.height);

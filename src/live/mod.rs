@@ -291,6 +291,7 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
             progress: false,
             time_budget: None,
             filter: settings.filter.unwrap_or(loaded.render.filter),
+            part: None,
         },
         camera,
         info,

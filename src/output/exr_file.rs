@@ -17,6 +17,16 @@ const SAMPLES: &str = "raylabVarianceSamples";
 
 /// Encodes the film: three f32 radiance channels, and the variance layer if the film has one.
 pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
+    encode_with(film, Vec::new(), Vec::new(), out)
+}
+
+/// Encodes the film with more channels and header attributes (shard files).
+pub fn encode_with(
+    film: &Film,
+    extra: Vec<AnyChannel<FlatSamples>>,
+    extra_attributes: Vec<(&str, AttributeValue)>,
+    out: &mut std::io::Cursor<Vec<u8>>,
+) -> Result<()> {
     let size = (film.width as usize, film.height as usize);
     let channel = |name: &str, values: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(values));
     let plane = |of: &[glam::Vec3], c: usize| of.iter().map(|p| p[c]).collect::<Vec<f32>>();
@@ -29,6 +39,7 @@ pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
             channels.push(channel(name, plane(&film.variance, c)));
         }
     }
+    channels.extend(extra);
     // ZIP over blocks of 16 lines, written in increasing order: the same render gives the
     // same bytes (with an unspecified order, blocks land as the compressing threads finish).
     let encoding = Encoding {
@@ -42,6 +53,9 @@ pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
         attributes
             .other
             .insert(Text::from(SAMPLES), AttributeValue::I32(n));
+    }
+    for (name, value) in extra_attributes {
+        attributes.other.insert(Text::from(name), value);
     }
     let layer = Layer::new(size, attributes, encoding, AnyChannels::sort(channels));
     Image::from_layer(layer)
@@ -71,9 +85,9 @@ pub fn read_variance(
     else {
         return Ok(None);
     };
-    if header.channels.list.len() > 64 {
+    if header.channels.list.len() > 96 {
         bail!(
-            "its layer of variance has {} channels (at most 64 are read)",
+            "its layer of variance has {} channels (at most 96 are read)",
             header.channels.list.len()
         );
     }

@@ -6,6 +6,7 @@ pub mod atomic;
 mod exr_file;
 pub mod film;
 pub mod plan;
+pub mod shard_file;
 pub mod tonemap;
 
 use anyhow::{bail, Context, Result};

@@ -1,9 +1,20 @@
 //! A render's per-pixel running sums, from which the film is made.
+//!
+//! The sums are kept in two stages, so that they do not depend on which machine added which
+//! passes. Within a block of [`BLOCK`] passes (blocks start at pass 0 and at every multiple of
+//! [`BLOCK`]), a pixel adds the passes' values in f64, in pass order, starting from zero
+//! ([`PixelAccumulator`]): cheap, and the same bits wherever the block is rendered. When a
+//! block ends its sums are added to the pixel's exact totals ([`PixelTotals`], see
+//! [`super::exact`]), whose value does not depend on the order blocks are added in: the shards
+//! of a render, each a whole number of blocks, add up to bit for bit the single run's sums.
 
-use glam::Vec3;
+use super::exact::{Exact, Exact3};
+use glam::{DVec3, Vec3};
 
-/// Running sums for one pixel over the passes, in f64 so that thousands of samples add up
-/// exactly enough.
+/// Passes per block: a shard by passes holds a whole number of blocks.
+pub const BLOCK: u32 = 8;
+
+/// One pixel's sums over the passes of the block in progress, in f64.
 ///
 /// A pixel's value is the filter-weighted mean of the camera samples around it,
 /// `sum / weight`, plus the mean of its splats per pass, `splat / passes`. Its error is
@@ -14,29 +25,29 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelAccumulator {
     /// Sum of filter weight times radiance of the samples near the pixel.
-    pub(crate) sum: glam::DVec3,
+    pub(crate) sum: DVec3,
     /// Sum of the filter weights (dropped samples count with their weight and no radiance).
     pub(crate) weight: f64,
     /// Sum of the splats (radiance integrators added at film positions in the pixel).
-    pub(crate) splat: glam::DVec3,
+    pub(crate) splat: DVec3,
     /// Sum of the passes' estimates `Y_k`, and of their squares.
-    pub(crate) batch: glam::DVec3,
-    pub(crate) batch_sq: glam::DVec3,
+    pub(crate) batch: DVec3,
+    pub(crate) batch_sq: DVec3,
 }
 
 /// What one pass adds to one pixel, before the pass is closed.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PassPixel {
-    pub(crate) sum: glam::DVec3,
+    pub(crate) sum: DVec3,
     pub(crate) weight: f64,
-    pub(crate) splat: glam::DVec3,
+    pub(crate) splat: DVec3,
 }
 
 impl PassPixel {
     /// A sample of radiance `v` with filter weight `w`.
     #[inline]
     pub fn add(&mut self, v: glam::Vec3A, w: f32) {
-        let d = glam::DVec3::new(v.x as f64, v.y as f64, v.z as f64);
+        let d = DVec3::new(v.x as f64, v.y as f64, v.z as f64);
         if w == 1.0 {
             self.sum += d;
         } else {
@@ -53,9 +64,9 @@ impl PixelAccumulator {
         let mut y = if pass.weight > 0.0 {
             pass.sum / pass.weight
         } else {
-            glam::DVec3::ZERO
+            DVec3::ZERO
         };
-        if pass.splat != glam::DVec3::ZERO {
+        if pass.splat != DVec3::ZERO {
             y += pass.splat;
         }
         self.sum += pass.sum;
@@ -65,26 +76,126 @@ impl PixelAccumulator {
         self.batch_sq += y * y;
     }
 
+    /// Whether no pass added anything.
+    pub fn is_empty(&self) -> bool {
+        *self == PixelAccumulator::default()
+    }
+}
+
+/// One pixel's exact sums over every finished block (the same five sums as
+/// [`PixelAccumulator`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelTotals {
+    pub(crate) sum: Exact3,
+    pub(crate) weight: Exact,
+    pub(crate) splat: Exact3,
+    pub(crate) batch: Exact3,
+    pub(crate) batch_sq: Exact3,
+}
+
+impl PixelTotals {
+    /// A block's sums, exactly; `None` when one is beyond what exact sums hold
+    /// ([`super::exact::LIMIT`]: estimates of 2e9 and more, whose squares are out of range).
+    #[inline]
+    fn of_block(block: &PixelAccumulator) -> Option<PixelTotals> {
+        Some(PixelTotals {
+            sum: Exact3::from_dvec3(block.sum)?,
+            weight: Exact::from_f64(block.weight)?,
+            splat: Exact3::from_dvec3(block.splat)?,
+            batch: Exact3::from_dvec3(block.batch)?,
+            batch_sq: Exact3::from_dvec3(block.batch_sq)?,
+        })
+    }
+
+    /// Adds another pixel's totals (a shard's).
+    #[inline]
+    pub fn add(&mut self, other: &PixelTotals) {
+        self.sum.add(&other.sum);
+        self.weight.add(&other.weight);
+        self.splat.add(&other.splat);
+        self.batch.add(&other.batch);
+        self.batch_sq.add(&other.batch_sq);
+    }
+
+    /// Ends a block: adds its sums and empties it. Returns false, adding nothing, when a sum
+    /// is beyond what exact sums hold (the block is dropped for this pixel).
+    #[inline]
+    pub fn absorb(&mut self, block: &mut PixelAccumulator) -> bool {
+        if block.is_empty() {
+            return true;
+        }
+        let exact = PixelTotals::of_block(block);
+        *block = PixelAccumulator::default();
+        match exact {
+            Some(e) => {
+                self.add(&e);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The totals with the unfinished `block` added (left out, as a finished block would be,
+    /// when it is beyond what exact sums hold).
+    pub fn with_block(&self, block: &PixelAccumulator) -> PixelTotals {
+        let mut out = *self;
+        out.absorb(&mut block.clone());
+        out
+    }
+
+    /// The 13 sums in a fixed order (files).
+    pub fn values(&self) -> [Exact; 13] {
+        let [s, p, b, q] = [self.sum, self.splat, self.batch, self.batch_sq].map(|v| v.0);
+        [
+            s[0],
+            s[1],
+            s[2],
+            self.weight,
+            p[0],
+            p[1],
+            p[2],
+            b[0],
+            b[1],
+            b[2],
+            q[0],
+            q[1],
+            q[2],
+        ]
+    }
+
+    /// The inverse of [`PixelTotals::values`].
+    pub fn from_values(v: [Exact; 13]) -> PixelTotals {
+        PixelTotals {
+            sum: Exact3([v[0], v[1], v[2]]),
+            weight: v[3],
+            splat: Exact3([v[4], v[5], v[6]]),
+            batch: Exact3([v[7], v[8], v[9]]),
+            batch_sq: Exact3([v[10], v[11], v[12]]),
+        }
+    }
+
     /// Mean and variance of the mean after `n` passes.
     pub fn finish(&self, n: u32) -> (Vec3, Vec3) {
         if n == 0 {
             return (Vec3::ZERO, Vec3::ZERO);
         }
         let n = n as f64;
-        let mut mean = if self.weight > 0.0 {
-            self.sum / self.weight
+        let weight = self.weight.to_f64();
+        let mut mean = if weight > 0.0 {
+            self.sum.to_dvec3() / weight
         } else {
-            glam::DVec3::ZERO
+            DVec3::ZERO
         };
-        if self.splat != glam::DVec3::ZERO {
-            mean += self.splat / n;
+        if !self.splat.is_zero() {
+            mean += self.splat.to_dvec3() / n;
         }
         let var = if n > 1.0 {
-            let batch_mean = self.batch / n;
-            ((self.batch_sq / n - batch_mean * batch_mean) * (n / (n - 1.0))).max(glam::DVec3::ZERO)
+            let batch_mean = self.batch.to_dvec3() / n;
+            ((self.batch_sq.to_dvec3() / n - batch_mean * batch_mean) * (n / (n - 1.0)))
+                .max(DVec3::ZERO)
                 / n
         } else {
-            glam::DVec3::ZERO
+            DVec3::ZERO
         };
         (mean.as_vec3(), var.as_vec3())
     }

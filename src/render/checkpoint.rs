@@ -5,36 +5,44 @@
 //! resuming to N, gives bit-identical images.
 //!
 //! Format (little-endian): magic `RAYLABCK`, version `u32`, settings hash `u64`, width and
-//! height `u32`, samples per pixel done `u32`, dropped samples `u64`, first dropped sample
-//! (`u8` present flag, then x, y, sample `u32`), then for every pixel in tile order its running
-//! sums, 13 `f64`: filter-weighted radiance (3), filter weight (1), splats (3), and the batch
-//! means' sums of the passes' estimates (3) and of their squares (3); last, a checksum `u64`
-//! (FNV-1a of everything before it).
+//! height `u32`, first pass `u32` (0, or a shard's first), passes done `u32` (counted from the
+//! render's first), dropped samples `u64`, first dropped sample (`u8` present flag, then x, y,
+//! sample `u32`), then for every pixel in tile order its running sums: 13 `f64` for the block
+//! of passes in progress and 13 exact sums of 24 bytes ([`super::exact::Exact`]) for the
+//! blocks before, each in the order filter-weighted radiance (3), filter weight (1), splats
+//! (3), and the batch means' sums of the passes' estimates (3) and of their squares (3); last,
+//! a checksum `u64` (FNV-1a of everything before it).
 //!
 //! A checkpoint is checked before it is used: the checksum (a damaged or edited file), then
 //! what a render can produce (at least one pass, a dropped-sample record inside the image,
 //! finite sums, non-negative weights), so that a bad file is refused instead of becoming an
 //! image of NaN.
 
+use super::accumulator::PixelTotals;
+use super::exact::Exact;
 use super::{Accumulation, BadSample};
 use anyhow::{bail, Context, Result};
 use std::io::Write;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"RAYLABCK";
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
+
+/// Bytes of a pixel's sums.
+const PIXEL_BYTES: u64 = 13 * 8 + 13 * 24;
 
 pub use crate::scene::references::stable_hash;
 
 /// Serialises `acc` with the settings hash `hash`.
 pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
     let pixels: usize = acc.tiles.iter().map(|t| t.pixels.len()).sum();
-    let mut out = Vec::with_capacity(64 + pixels * 104);
+    let mut out = Vec::with_capacity(64 + pixels * PIXEL_BYTES as usize);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&hash.to_le_bytes());
     out.extend_from_slice(&acc.width.to_le_bytes());
     out.extend_from_slice(&acc.height.to_le_bytes());
+    out.extend_from_slice(&acc.first_pass.to_le_bytes());
     out.extend_from_slice(&acc.spp_done.to_le_bytes());
     out.extend_from_slice(&acc.dropped.count.to_le_bytes());
     let bad = acc.dropped.first.unwrap_or(BadSample {
@@ -47,13 +55,16 @@ pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
         out.extend_from_slice(&v.to_le_bytes());
     }
     for t in &acc.tiles {
-        for p in &t.pixels {
-            let values = p.sum.to_array().into_iter().chain([p.weight]).chain(
+        for (p, totals) in t.pixels.iter().zip(&t.totals) {
+            let block = p.sum.to_array().into_iter().chain([p.weight]).chain(
                 [p.splat, p.batch, p.batch_sq]
                     .into_iter()
                     .flat_map(|v| v.to_array()),
             );
-            for v in values {
+            for v in block {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+            for v in totals.values() {
                 out.extend_from_slice(&v.to_le_bytes());
             }
         }
@@ -88,6 +99,9 @@ impl Reader<'_> {
     fn dvec3(&mut self) -> Result<glam::DVec3> {
         Ok(glam::DVec3::new(self.f64()?, self.f64()?, self.f64()?))
     }
+    fn exact(&mut self) -> Result<Exact> {
+        Ok(Exact::from_le_bytes(self.take()?))
+    }
 }
 
 /// Restores an accumulation for an image of `width x height` rendered with settings hash
@@ -119,6 +133,7 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
         bail!("the checkpoint is {w}x{h}, the render {width}x{height}");
     }
     let mut acc = Accumulation::new(width, height);
+    acc.first_pass = r.u32()?;
     acc.spp_done = r.u32()?;
     acc.dropped.count = r.u64()?;
     let has_bad = r.take::<1>()?[0] != 0;
@@ -129,12 +144,17 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
     };
     acc.dropped.first = has_bad.then_some(bad);
     for t in &mut acc.tiles {
-        for p in &mut t.pixels {
+        for (p, totals) in t.pixels.iter_mut().zip(&mut t.totals) {
             p.sum = r.dvec3()?;
             p.weight = r.f64()?;
             p.splat = r.dvec3()?;
             p.batch = r.dvec3()?;
             p.batch_sq = r.dvec3()?;
+            let mut values = [Exact::ZERO; 13];
+            for v in &mut values {
+                *v = r.exact()?;
+            }
+            *totals = PixelTotals::from_values(values);
         }
     }
     if !r.bytes.is_empty() {
@@ -147,11 +167,11 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
 /// What a render can have produced: at least one pass, dropped samples no more than were
 /// taken and the first of them inside the image and the passes, finite sums, non-negative
 /// weights and squares.
-fn check(acc: &Accumulation) -> Result<()> {
-    if acc.spp_done == 0 || acc.spp_done == u32::MAX {
-        bail!("it records {} passes", acc.spp_done);
+pub(crate) fn check(acc: &Accumulation) -> Result<()> {
+    if acc.passes() == 0 || acc.spp_done <= acc.first_pass || acc.spp_done == u32::MAX {
+        bail!("it records passes {} to {}", acc.first_pass, acc.spp_done);
     }
-    let taken = acc.spp_done as u64 * acc.width as u64 * acc.height as u64;
+    let taken = acc.passes() as u64 * acc.width as u64 * acc.height as u64;
     if acc.dropped.count > taken {
         bail!(
             "it records {} dropped samples of {taken} taken",
@@ -159,19 +179,26 @@ fn check(acc: &Accumulation) -> Result<()> {
         );
     }
     if let Some(b) = acc.dropped.first {
-        if b.x >= acc.width || b.y >= acc.height || b.sample >= acc.spp_done {
+        if b.x >= acc.width
+            || b.y >= acc.height
+            || !(acc.first_pass..acc.spp_done).contains(&b.sample)
+        {
             bail!("its first dropped sample lies outside the image or the passes");
         }
     }
     for t in &acc.tiles {
-        for (k, p) in t.pixels.iter().enumerate() {
+        for (k, (p, totals)) in t.pixels.iter().zip(&t.totals).enumerate() {
             let finite = [p.sum, p.splat, p.batch, p.batch_sq]
                 .iter()
                 .all(|v| v.is_finite())
                 && p.weight.is_finite();
-            if !finite || p.weight < 0.0 || p.batch_sq.min_element() < 0.0 {
+            let negative = p.weight < 0.0
+                || p.batch_sq.min_element() < 0.0
+                || totals.weight.is_negative()
+                || totals.batch_sq.0.iter().any(Exact::is_negative);
+            if !finite || negative {
                 let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
-                bail!("pixel ({x}, {y}) holds sums no render produces (not finite, or negative weights)");
+                bail!("pixel ({x}, {y}) holds sums no render produces (not finite, or negative weights or squares)");
             }
         }
     }
@@ -195,7 +222,7 @@ pub fn save(path: &Path, acc: &Accumulation, hash: u64) -> Result<()> {
 pub fn load(path: &Path, hash: u64, width: u32, height: u32) -> Result<Accumulation> {
     // Its size is known from the image's: a larger file is refused unread.
     let pixels = width as u64 * height as u64;
-    let size = 8 + 4 + 8 + 4 + 4 + 4 + 8 + 1 + 12 + pixels * 13 * 8 + 8;
+    let size = 8 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 1 + 12 + pixels * PIXEL_BYTES + 8;
     let bytes = crate::files::read_capped(path, size)
         .with_context(|| format!("{}: cannot read the checkpoint", path.display()))?;
     decode(&bytes, hash, width, height)
@@ -220,10 +247,12 @@ mod tests {
         pass.add(glam::Vec3A::new(1.0, 2.0, 3.0), 0.5);
         pass.splat = glam::DVec3::new(0.25, 0.0, 4.0);
         acc.tiles[1].pixels[7].close_pass(&pass);
+        acc.tiles[1].totals[8] = PixelTotals::default().with_block(&acc.tiles[1].pixels[7]);
         let bytes = encode(&acc, 42);
         let back = decode(&bytes, 42, 20, 17).unwrap();
         assert_eq!(back.film(), acc.film());
         assert_eq!(back.tiles[1].pixels[7], acc.tiles[1].pixels[7]);
+        assert_eq!(back.tiles[1].totals[7], acc.tiles[1].totals[7]);
         assert_eq!((back.spp_done, back.dropped), (3, acc.dropped));
         assert!(decode(&bytes, 43, 20, 17)
             .unwrap_err()
@@ -251,8 +280,9 @@ mod tests {
             acc
         };
         type Spoil = fn(&mut Accumulation);
-        let cases: [(&str, Spoil); 5] = [
+        let cases: [(&str, Spoil); 7] = [
             ("passes", |a| a.spp_done = 0),
+            ("passes 2 to 2", |a| a.first_pass = 2),
             ("dropped samples", |a| a.dropped.count = 1000),
             ("outside", |a| {
                 a.dropped.count = 1;
@@ -264,6 +294,9 @@ mod tests {
             }),
             ("pixel (3, 0)", |a| a.tiles[0].pixels[3].sum.x = f64::NAN),
             ("negative", |a| a.tiles[0].pixels[9].weight = -1.0),
+            ("negative", |a| {
+                a.tiles[0].totals[9].batch_sq.0[1] = Exact::from_f64(-2.0).unwrap()
+            }),
         ];
         assert!(decode(&encode(&valid(), 1), 1, 8, 8).is_ok());
         for (message, spoil) in cases {

@@ -16,19 +16,23 @@
 
 mod accumulator;
 pub mod checkpoint;
+pub mod exact;
+pub mod shard;
 
 pub use crate::output::Film;
 pub use raylab_integrators::Filter;
 
 use crate::output::plan::FilePlan;
 use crate::scene::Camera;
-use accumulator::{PassPixel, PixelAccumulator};
+use accumulator::PassPixel;
+pub use accumulator::{PixelAccumulator, PixelTotals, BLOCK};
 use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
 use raylab_integrators::{
     Integrator, PixelSample, RayCounters, Sampler, Scene, Splats, Stop, Tracer,
 };
 use rayon::prelude::*;
+pub use shard::{Part, ShardBy, ShardSpec};
 use std::time::{Duration, Instant};
 
 /// Tile side in pixels.
@@ -50,6 +54,9 @@ pub struct RenderSettings {
     pub time_budget: Option<Duration>,
     /// The pixel reconstruction filter.
     pub filter: Filter,
+    /// The part of the render this run does, for a shard (`render --shard`); `None` for all
+    /// of it. Samples are placed for the whole render's `spp` either way.
+    pub part: Option<Part>,
 }
 
 impl RenderSettings {
@@ -62,6 +69,15 @@ impl RenderSettings {
             progress: false,
             time_budget: None,
             filter: Filter::Box,
+            part: None,
+        }
+    }
+
+    /// The pass this run ends at when nothing stops it (`None`: open-ended).
+    fn last_pass(&self) -> Option<u32> {
+        match &self.part {
+            Some(Part::Passes(r)) => Some(r.end),
+            _ => self.spp,
         }
     }
 }
@@ -90,7 +106,7 @@ impl Dropped {
     }
 
     /// Adds `other`'s, keeping the first in raster order whatever order they come in.
-    fn add(&mut self, other: Dropped) {
+    pub fn add(&mut self, other: Dropped) {
         self.count += other.count;
         self.first = match (self.first, other.first) {
             (Some(a), Some(b)) => Some(if (b.y, b.x, b.sample) < (a.y, a.x, a.sample) {
@@ -256,7 +272,17 @@ pub struct TileAccumulator {
     pub y0: u32,
     pub w: u32,
     pub h: u32,
+    /// Per pixel, the sums of the block of passes in progress ...
     pub pixels: Vec<PixelAccumulator>,
+    /// ... and the exact sums of the blocks before.
+    pub totals: Vec<PixelTotals>,
+}
+
+impl TileAccumulator {
+    /// Pixel `k`'s exact sums over every pass so far.
+    pub fn pixel_totals(&self, k: usize) -> PixelTotals {
+        self.totals[k].with_block(&self.pixels[k])
+    }
 }
 
 /// What a tile's pass produces before it is added to the image: the sums of its own pixels,
@@ -276,8 +302,11 @@ pub struct Accumulation {
     pub width: u32,
     pub height: u32,
     pub tiles: Vec<TileAccumulator>,
-    /// Samples taken in every pixel so far.
+    /// Passes done so far, counted from the render's first (samples taken in every pixel,
+    /// for a render that began at pass 0).
     pub spp_done: u32,
+    /// The pass this accumulation began at: 0, or the first of a shard's pass range.
+    pub first_pass: u32,
     pub dropped: Dropped,
     /// Per tile, the pass in progress (empty between passes).
     scratch: Vec<TileScratch>,
@@ -299,6 +328,7 @@ impl Accumulation {
                     w,
                     h,
                     pixels: vec![PixelAccumulator::default(); (w * h) as usize],
+                    totals: vec![PixelTotals::default(); (w * h) as usize],
                 });
             }
         }
@@ -307,6 +337,7 @@ impl Accumulation {
             height,
             tiles,
             spp_done: 0,
+            first_pass: 0,
             dropped: Dropped::default(),
             scratch: Vec::new(),
             layers: Vec::new(),
@@ -330,12 +361,24 @@ impl Accumulation {
     pub fn layer_film(&self, id: u32) -> Option<Film> {
         let (_, sums) = self.layers.iter().find(|(i, _)| *i == id)?;
         let mut film = Film::new(self.width, self.height);
-        let n = self.spp_done.max(1) as f64;
+        let n = self.passes().max(1) as f64;
         for (pixel, sum) in film.pixels.iter_mut().zip(sums) {
             let mean = *sum / n;
             *pixel = glam::Vec3::new(mean.x as f32, mean.y as f32, mean.z as f32);
         }
         Some(film)
+    }
+
+    /// The same accumulation, empty, for a shard's passes from `first` on.
+    pub fn starting_at(mut self, first: u32) -> Accumulation {
+        self.first_pass = first;
+        self.spp_done = first;
+        self
+    }
+
+    /// Passes this accumulation holds.
+    pub fn passes(&self) -> u32 {
+        self.spp_done - self.first_pass
     }
 
     /// The tile holding pixel `(x, y)` and the pixel's index within it.
@@ -383,15 +426,42 @@ impl Accumulation {
             self.scratch[t].splats = splats;
             self.scratch[t].splats.clear();
         }
-        self.tiles
+        // The pass is closed in every pixel; a pass that ends a block of passes moves the
+        // block's sums into the exact totals (a pixel whose block is beyond what they hold is
+        // dropped like a non-finite sample).
+        let pass = self.spp_done;
+        let ends_block = (pass + 1) % BLOCK == 0;
+        let out_of_range: Vec<Dropped> = self
+            .tiles
             .par_iter_mut()
             .zip(self.scratch.par_iter_mut())
-            .for_each(|(tile, scratch)| {
-                for (acc, pass) in tile.pixels.iter_mut().zip(scratch.pass.iter_mut()) {
-                    acc.close_pass(pass);
-                    *pass = PassPixel::default();
+            .map(|(tile, scratch)| {
+                let mut dropped = Dropped::default();
+                for (acc, p) in tile.pixels.iter_mut().zip(scratch.pass.iter_mut()) {
+                    acc.close_pass(p);
+                    *p = PassPixel::default();
                 }
-            });
+                if ends_block {
+                    let (w, x0, y0) = (tile.w, tile.x0, tile.y0);
+                    for (k, (totals, block)) in tile
+                        .totals
+                        .iter_mut()
+                        .zip(tile.pixels.iter_mut())
+                        .enumerate()
+                    {
+                        if !totals.absorb(block) {
+                            let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
+                            let sample = pass + 1 - BLOCK;
+                            dropped.note(BadSample { x, y, sample });
+                        }
+                    }
+                }
+                dropped
+            })
+            .collect();
+        for d in out_of_range {
+            self.dropped.add(d);
+        }
     }
 
     /// Forgets the pass in progress: what it left in the tiles' scratch.
@@ -406,12 +476,13 @@ impl Accumulation {
     /// The image so far: the mean of the samples taken (dropped ones count as zero).
     pub fn film(&self) -> Film {
         let mut film = Film::new(self.width, self.height);
-        film.has_variance = self.spp_done >= 2;
-        film.variance_samples = self.spp_done;
+        let n = self.passes();
+        film.has_variance = n >= 2;
+        film.variance_samples = n;
         for t in &self.tiles {
             for j in 0..t.h {
                 for i in 0..t.w {
-                    let (mean, var) = t.pixels[(j * t.w + i) as usize].finish(self.spp_done);
+                    let (mean, var) = t.pixel_totals((j * t.w + i) as usize).finish(n);
                     let idx = ((t.y0 + j) * self.width + t.x0 + i) as usize;
                     film.pixels[idx] = mean;
                     film.variance[idx] = var;
@@ -513,7 +584,7 @@ fn progress_bar(settings: &RenderSettings, start_spp: u32, tiles: usize) -> Prog
     if !settings.progress {
         return ProgressBar::hidden();
     }
-    let (len, template) = match (settings.spp, settings.time_budget) {
+    let (len, template) = match (settings.last_pass(), settings.time_budget) {
         (Some(spp), _) => (
             (spp.saturating_sub(start_spp)) as u64 * tiles as u64,
             "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta} {msg}",
@@ -557,9 +628,34 @@ pub fn render_passes(
     };
     let progress = progress_bar(settings, acc.spp_done, acc.tiles.len());
     let first_pass = acc.spp_done;
+    let last_pass = settings.last_pass();
+    // A shard of rows renders the tiles of its rows and of those its filter reaches into.
+    let rows = match &settings.part {
+        Some(Part::Rows(rows)) => {
+            let rendered = shard::rendered_rows(rows, settings.filter, acc.height);
+            integrator.restrict_to_rows(rendered.clone());
+            Some(rendered)
+        }
+        _ => None,
+    };
+    let active: Vec<bool> = acc
+        .tiles
+        .iter()
+        .map(|t| rows.as_ref().is_none_or(|r| r.contains(&t.y0)))
+        .collect();
+    if acc.scratch.len() != acc.tiles.len() {
+        acc.scratch = acc
+            .tiles
+            .iter()
+            .map(|t| TileScratch {
+                pass: vec![PassPixel::default(); t.pixels.len()],
+                ..TileScratch::default()
+            })
+            .collect();
+    }
     let start = Instant::now();
     loop {
-        if settings.spp.is_some_and(|spp| acc.spp_done >= spp) || acc.spp_done == u32::MAX {
+        if last_pass.is_some_and(|end| acc.spp_done >= end) || acc.spp_done == u32::MAX {
             break;
         }
         if stop() {
@@ -605,14 +701,13 @@ pub fn render_passes(
             break;
         }
         let integrator: &dyn Integrator = integrator;
-        if acc.scratch.len() != acc.tiles.len() {
-            acc.scratch = vec![TileScratch::default(); acc.tiles.len()];
-        }
         let results: Vec<TilePass> = pool.install(|| {
             acc.tiles
                 .par_iter()
                 .zip(acc.scratch.par_iter_mut())
-                .map(|(tile, scratch)| {
+                .zip(active.par_iter())
+                .filter(|(_, active)| **active)
+                .map(|((tile, scratch), _)| {
                     let r = render_tile_pass(
                         scene,
                         camera,
@@ -638,6 +733,9 @@ pub fn render_passes(
             }
             abandoned(acc, &mut stats);
             break;
+        }
+        if rows.is_some() && acc.scratch.iter().any(|s| !s.splats.is_empty()) {
+            anyhow::bail!("the integrator splats radiance anywhere in the image, which a shard of rows cannot hold; it must shard by passes");
         }
         // Filter weights and splats that crossed tiles, in tile order; then the pass is
         // closed in every pixel.

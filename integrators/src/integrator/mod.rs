@@ -196,6 +196,11 @@ impl Splats {
         &self.layered
     }
 
+    /// Whether nothing was splatted.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty() && self.layered.is_empty()
+    }
+
     /// Forgets every splat, keeping the memory for the next work unit.
     pub fn clear(&mut self) {
         self.entries.clear();
@@ -270,6 +275,18 @@ pub trait Integrator: Send + Sync {
         Demand::default()
     }
 
+    /// How a render with it splits into shards (`render --shard`): by ranges of passes when
+    /// each pass depends only on its number (the default), by rows of tiles when it keeps
+    /// state per pixel from pass to pass.
+    fn shard_by(&self) -> ShardBy {
+        ShardBy::Passes
+    }
+
+    /// Only the pixels of image rows `rows` will be asked for (a shard by rows, with the
+    /// rows its filter reaches): an integrator that keeps state per pixel may keep it for
+    /// these alone. What it computes for them must not depend on the other rows.
+    fn restrict_to_rows(&mut self, _rows: std::ops::Range<u32>) {}
+
     /// The images it splats into beside the main one ([`Splats::add_to_layer`]), each with a
     /// name for its file (`s2_t3`); none by default.
     fn layers(&self) -> Vec<(u32, String)> {
@@ -281,6 +298,15 @@ pub trait Integrator: Send + Sync {
     fn as_ray_integrator(&self) -> Option<&dyn RayIntegrator> {
         None
     }
+}
+
+/// How a render splits into shards.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShardBy {
+    /// Each shard takes a contiguous range of passes over the whole image.
+    Passes,
+    /// Each shard takes every pass over a band of rows of tiles (no splats allowed).
+    Rows,
 }
 
 /// What an integrator's configuration demands, known before it runs.

@@ -30,7 +30,7 @@
 //! unbiased); truncation with a finite `max-depth`.
 
 use crate::integrator::{sample_one_light, Demand, Integrator, PixelSample, ShadingPoint};
-use crate::integrator::{Splats, Stop, Tracer};
+use crate::integrator::{ShardBy, Splats, Stop, Tracer};
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
@@ -67,6 +67,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             max_depth: p.get_depth("max-depth"),
             rr_depth: p.get_u32("rr-depth"),
             pixels: Vec::new(),
+            rows: None,
             passes: 0,
             seed: 0,
             camera: None,
@@ -93,8 +94,10 @@ struct SppmPixel {
     gamma: f32,
     max_depth: u32,
     rr_depth: u32,
-    /// Each pixel's state, row by row.
+    /// Each pixel's state, row by row, of the rows rendered (all, or a shard's).
     pixels: Vec<Pixel>,
+    /// The rows rendered; `None` for all.
+    rows: Option<std::ops::Range<u32>>,
     /// Passes folded into `pixels` (0: none, or the state must be rebuilt).
     passes: u32,
     /// The seed and camera they were rendered with.
@@ -131,6 +134,7 @@ impl SppmPixel {
         stop: Stop,
     ) -> RayCounters {
         let (width, max_depth, rr_depth) = (camera.width as usize, self.max_depth, self.rr_depth);
+        let first = self.first_row(camera) as usize * width;
         // Every pixel's visible point, with the emission and direct light on the way.
         let mut rays = RayCounters::default();
         let direct: Vec<(Vec<Rgb>, RayCounters)> = self
@@ -144,7 +148,7 @@ impl SppmPixel {
                     if stop.requested() {
                         break;
                     }
-                    let index = b * BLOCK + k;
+                    let index = first + b * BLOCK + k;
                     let mut sampler =
                         Sampler::new(seed ^ VISIBLE_POINT_SEED, pass as u64, index as u64);
                     let film = Vec2::new((index % width) as f32, (index / width) as f32)
@@ -175,14 +179,19 @@ impl SppmPixel {
         if stop.requested() {
             return rays;
         }
-        // This pass's photons (landings after one bounce or more), in a map wide enough for
-        // the widest pixel.
-        let widest = self
+        // This pass's photons (landings after one bounce or more), in maps whose cells depend
+        // on a pixel's own radius alone: level k is built for the radius r0 / 2^k, and a pixel
+        // gathers from the smallest level that holds its radius. (One map sized for the
+        // widest pixel would make the order its photons are summed in, and so the bits of
+        // its estimate, depend on which other pixels are rendered: a shard of rows would
+        // differ from the whole image.)
+        let r0 = self.first_radius(scene);
+        let levels: std::collections::BTreeSet<usize> = self
             .pixels
             .iter()
             .filter(|p| p.visible.is_some())
-            .map(|p| p.radius)
-            .fold(0.0f32, f32::max);
+            .map(|p| level_of(p.radius, r0))
+            .collect();
         let max_bounces = self.max_depth.saturating_sub(1);
         let (photons, photon_rays) = trace_photons(
             scene,
@@ -197,7 +206,10 @@ impl SppmPixel {
         if stop.requested() {
             return rays;
         }
-        let map = PhotonMap::build(photons, widest);
+        let mut maps: Vec<Option<PhotonMap>> = vec![None; levels.last().map_or(0, |l| l + 1)];
+        for &level in &levels {
+            maps[level] = Some(PhotonMap::build(photons.clone(), level_radius(r0, level)));
+        }
         // Each pixel gathers the photons within its own radius and updates its estimate.
         let (gamma, n) = (self.gamma, pass as f32 + 1.0);
         let direct: Vec<Rgb> = direct
@@ -223,7 +235,10 @@ impl SppmPixel {
                 if let Some((hit, ray, beta, bounces)) = px.visible {
                     let sp = ShadingPoint::new(&hit, ray.dir, scene);
                     let max_photon_bounces = max_depth.saturating_sub(bounces + 1);
-                    let (flux, count) = gather(&map, &sp, px.radius, max_photon_bounces);
+                    let map = maps[level_of(px.radius, r0)]
+                        .as_ref()
+                        .expect("a map is built for every visible pixel's level");
+                    let (flux, count) = gather(map, &sp, px.radius, max_photon_bounces);
                     if count > 0 && flux.is_finite() {
                         let m = count as f32;
                         let kept = px.count + gamma * m;
@@ -239,6 +254,24 @@ impl SppmPixel {
             });
         rays
     }
+}
+
+/// Levels of photon maps below the first radius: 2^-40 of it is far below any radius a
+/// render reaches.
+const MAX_LEVEL: usize = 40;
+
+/// The cell radius of photon-map level `level`: `r0 / 2^level`.
+fn level_radius(r0: f32, level: usize) -> f32 {
+    r0 * 0.5f32.powi(level as i32)
+}
+
+/// The smallest level whose radius holds `radius` (radii only shrink from `r0`).
+fn level_of(radius: f32, r0: f32) -> usize {
+    let mut level = 0;
+    while level < MAX_LEVEL && level_radius(r0, level + 1) >= radius {
+        level += 1;
+    }
+    level
 }
 
 /// The flux the photons within `radius` of the visible point `sp` bring towards its viewer
@@ -262,6 +295,30 @@ fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> 
     (flux, count)
 }
 
+impl SppmPixel {
+    /// The radius every pixel starts with.
+    fn first_radius(&self, scene: &dyn Scene) -> f32 {
+        if self.radius > 0.0 {
+            self.radius
+        } else {
+            auto_radius(scene, 0.01)
+        }
+    }
+
+    /// The first image row rendered.
+    fn first_row(&self, camera: &Camera) -> u32 {
+        self.rows.as_ref().map_or(0, |r| r.start.min(camera.height))
+    }
+
+    /// One past the last image row rendered.
+    fn end_row(&self, camera: &Camera) -> u32 {
+        self.rows
+            .as_ref()
+            .map_or(camera.height, |r| r.end.min(camera.height))
+            .max(self.first_row(camera))
+    }
+}
+
 impl Integrator for SppmPixel {
     fn sample(
         &self,
@@ -272,8 +329,13 @@ impl Integrator for SppmPixel {
         _splats: &mut Splats,
     ) -> Rgb {
         // The increment that makes the render loop's average the estimate after this pass.
-        let width = self.camera.as_ref().map_or(0, |c| c.width as usize);
-        let index = pixel.y as usize * width + pixel.x as usize;
+        let Some(camera) = self.camera.as_ref() else {
+            return Rgb::ZERO;
+        };
+        let Some(row) = pixel.y.checked_sub(self.first_row(camera)) else {
+            return Rgb::ZERO;
+        };
+        let index = row as usize * camera.width as usize + pixel.x as usize;
         let Some(px) = self.pixels.get(index) else {
             return Rgb::ZERO;
         };
@@ -291,18 +353,15 @@ impl Integrator for SppmPixel {
     ) -> RayCounters {
         // A new render (or a resumed one, or one after an abandoned pass) starts the pixels
         // afresh and replays the passes before `pass`.
-        let count = camera.width as usize * camera.height as usize;
+        let rows = self.first_row(camera)..self.end_row(camera);
+        let count = camera.width as usize * rows.len();
         let fresh = self.passes == 0
             || pass + 1 < self.passes
             || self.seed != seed
             || self.camera.as_ref() != Some(camera)
             || self.pixels.len() != count;
         if fresh {
-            let r0 = if self.radius > 0.0 {
-                self.radius
-            } else {
-                auto_radius(scene, 0.01)
-            };
+            let r0 = self.first_radius(scene);
             self.pixels = vec![
                 Pixel {
                     radius: r0,
@@ -332,6 +391,17 @@ impl Integrator for SppmPixel {
         rays
     }
 
+    fn shard_by(&self) -> ShardBy {
+        ShardBy::Rows
+    }
+
+    fn restrict_to_rows(&mut self, rows: std::ops::Range<u32>) {
+        if self.rows.as_ref() != Some(&rows) {
+            self.rows = Some(rows);
+            self.passes = 0;
+        }
+    }
+
     fn demand(&self) -> Demand {
         Demand {
             rays_per_sample: 1.0,
@@ -356,6 +426,7 @@ mod tests {
             max_depth: u32::MAX,
             rr_depth: 3,
             pixels: Vec::new(),
+            rows: None,
             passes: 0,
             seed: 0,
             camera: None,

@@ -1,0 +1,214 @@
+#!/usr/bin/env bash
+# Render a scene on a Slurm cluster in N shards and merge them into one image:
+#
+#   render.sh [--wait] [--parts DIR] [--cpus C] SCENE N OUT [raylab render flags...]
+#
+# Submits a job array of N tasks (shard.sbatch: task I renders shard I/N into DIR/part-I.exr,
+# checkpointing to DIR/part-I.ckpt) and a merge job (merge.sbatch) that runs once every task
+# has succeeded (--dependency=afterok) and writes OUT. Prints both job ids.
+#
+#   --wait        block until the merge job ends, print its log, exit with its status (and
+#                 fail if OUT is not there). If a shard fails the merge can never run: the
+#                 failed tasks are listed and the merge job is cancelled, exit 1.
+#   --parts DIR   folder for parts, checkpoints and Slurm logs (default: OUT.parts beside OUT)
+#   --cpus C      cpus per shard task, passed to raylab as --threads (default 1)
+#
+# The cluster's file systems must show SCENE, DIR, OUT and the raylab binary at the same paths
+# as here. RAYLAB names the binary (default: `raylab` on PATH), made an absolute path.
+# Other sbatch settings: edit the #SBATCH lines of shard.sbatch/merge.sbatch, or use sbatch's
+# input environment variables (SBATCH_PARTITION, SBATCH_ACCOUNT, SBATCH_TIMELIMIT, ...), which
+# apply to both jobs.
+#
+# Exit codes: 0 submitted (or, with --wait, merged); 2 bad arguments; 1 a submission failed
+# or, with --wait, a shard failed; otherwise the merge job's exit code.
+#
+# RAYLAB_SLURM_POLL (seconds, default 2) sets how often --wait asks Slurm. Setting
+# RAYLAB_SLURM_KILL_INVALID_DEP=no submits the merge without --kill-on-invalid-dep=yes (it then
+# stays pending, reason DependencyNeverSatisfied, when a shard fails; --wait cancels it).
+set -euo pipefail
+
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+POLL=${RAYLAB_SLURM_POLL:-2}
+
+usage() {
+  sed -n '2,/^set -euo/{/^set -euo/d;s/^# \{0,1\}//;p}' "${BASH_SOURCE[0]}"
+}
+bad() {
+  echo "render.sh: $*" >&2
+  echo "usage: render.sh [--wait] [--parts DIR] [--cpus C] SCENE N OUT [raylab render flags...]" >&2
+  exit 2
+}
+is_count() { [[ $1 =~ ^[0-9]+$ ]] && [ "$((10#$1))" -ge 1 ]; }
+# An absolute path for $1 (which need not exist yet); symlinks are kept as they are.
+absolute() { case "$1" in /*) echo "$1" ;; *) echo "$PWD/$1" ;; esac; }
+
+# ---- arguments -------------------------------------------------------------------------
+wait=0 parts="" cpus=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --wait) wait=1; shift ;;
+    --parts) [ $# -ge 2 ] || bad "--parts needs a folder"; parts=$2; shift 2 ;;
+    --parts=*) parts=${1#*=}; shift ;;
+    --cpus) [ $# -ge 2 ] || bad "--cpus needs a number"; cpus=$2; shift 2 ;;
+    --cpus=*) cpus=${1#*=}; shift ;;
+    -h | --help) usage; exit 0 ;;
+    --) shift; break ;;
+    -*) bad "unknown option $1 (options come before SCENE N OUT; raylab flags after them)" ;;
+    *) break ;;
+  esac
+done
+[ $# -ge 3 ] || bad "needs SCENE N OUT"
+scene=$1 shards=$2 out=$3
+shift 3
+flags=("$@") # the rest goes to every `raylab render`
+
+[ -f "$scene" ] || bad "scene file '$scene' does not exist"
+is_count "$shards" || bad "N must be a positive integer (the number of shards), not '$shards'"
+is_count "$cpus" || bad "--cpus must be a positive integer, not '$cpus'"
+shards=$((10#$shards)) cpus=$((10#$cpus))
+[ -n "$out" ] || bad "OUT is empty"
+[ ! -d "$out" ] || bad "OUT '$out' is a folder: give the merged image's file name"
+
+RAYLAB=${RAYLAB:-raylab}
+if [[ $RAYLAB != */* ]]; then
+  found=$(command -v -- "$RAYLAB" || true)
+  [ -n "$found" ] || bad "'$RAYLAB' is not on PATH: set RAYLAB=/path/to/raylab"
+  RAYLAB=$found
+fi
+RAYLAB=$(absolute "$RAYLAB")
+[ -x "$RAYLAB" ] || bad "RAYLAB '$RAYLAB' is not an executable file"
+command -v sbatch >/dev/null || { echo "render.sh: sbatch not found: is this a Slurm login node?" >&2; exit 1; }
+
+SCENE=$(absolute "$scene")
+OUT=$(absolute "$out")
+PARTS=$(absolute "${parts:-$out.parts}")
+PARTS=${PARTS%/}
+mkdir -p "$PARTS" "$(dirname "$OUT")"
+SHARDS=$shards
+# The jobs get these through the environment (sbatch's default --export=ALL), not through
+# --export=NAME=VALUE, which cannot carry a value holding a comma.
+export RAYLAB SCENE SHARDS PARTS OUT
+
+# ---- submit ------------------------------------------------------------------------------
+# --parsable prints "JOBID" or "JOBID;CLUSTER".
+array=$(sbatch --parsable --export=ALL --array="0-$((shards - 1))" --cpus-per-task="$cpus" \
+  --output="$PARTS/shard-%A_%a.log" "$HERE/shard.sbatch" "${flags[@]}")
+array=${array%%;*}
+kill_dep=(--kill-on-invalid-dep=yes)
+[ "${RAYLAB_SLURM_KILL_INVALID_DEP:-yes}" = no ] && kill_dep=()
+merge=$(sbatch --parsable --export=ALL --dependency="afterok:$array" "${kill_dep[@]}" \
+  --output="$PARTS/merge-%j.log" "$HERE/merge.sbatch") || {
+  echo "render.sh: submitting the merge job failed: cancelling the shards ($array)" >&2
+  scancel "$array" || true
+  exit 1
+}
+merge=${merge%%;*}
+echo "shards: job array $array (tasks 0-$((shards - 1)), $cpus cpu(s) each), logs $PARTS/shard-${array}_*.log"
+echo "merge:  job $merge (after all shards succeed) -> $OUT, log $PARTS/merge-$merge.log"
+[ "$wait" = 1 ] || exit 0
+
+# ---- wait --------------------------------------------------------------------------------
+# There may be no accounting (no slurmdbd, so no sacct): states come from the controller
+# (squeue -t all / scontrol show job), which keeps a finished job for MinJobAge seconds (300
+# by default), far longer than one poll.
+
+# "STATE REASON" of job $1, "GONE" once the controller has forgotten it; fails if squeue
+# does (controller busy or restarting: the caller asks again). Listing our jobs rather than
+# `squeue -j ID` tells the two apart: -j fails for an unknown id too.
+me=$(id -un)
+job_state() {
+  local all
+  all=$(squeue -h -t all -u "$me" -o '%i %T %r' 2>/dev/null) || return 1
+  awk -v id="$1" '$1 == id { print $2, $3; found = 1; exit } END { if (!found) print "GONE" }' <<<"$all"
+}
+
+# Field $2 (e.g. ExitCode) of job $1 from scontrol.
+job_field() { scontrol show job -o "$1" 2>/dev/null | head -n 1 | tr ' ' '\n' | sed -n "s/^$2=//p"; }
+
+# Print the array's tasks that did not complete: "TASK STATE exit CODE log FILE".
+failed_tasks() {
+  scontrol show job -o "$array" 2>/dev/null | while read -r line; do
+    local task state code
+    task=$(tr ' ' '\n' <<<"$line" | sed -n 's/^ArrayTaskId=//p')
+    state=$(tr ' ' '\n' <<<"$line" | sed -n 's/^JobState=//p')
+    code=$(tr ' ' '\n' <<<"$line" | sed -n 's/^ExitCode=//p')
+    case "$state" in
+      COMPLETED | PENDING | RUNNING | CONFIGURING | COMPLETING | REQUEUED | SUSPENDED) ;;
+      *) echo "  task $task: $state (exit code $code) log $PARTS/shard-${array}_$task.log" ;;
+    esac
+  done
+}
+
+# Counts of the array's tasks by state, e.g. "2 COMPLETED, 2 RUNNING".
+progress() {
+  squeue -h -r -t all -j "$array" -o %T 2>/dev/null | sort | uniq -c \
+    | awk '{ printf "%s%d %s", (NR > 1 ? ", " : ""), $1, $2 }' || true
+}
+
+show_merge_log() {
+  local log="$PARTS/merge-$merge.log"
+  if [ -e "$log" ]; then
+    echo "----- $log -----"
+    cat "$log"
+    echo "-----"
+  fi
+}
+
+last="" misses=0
+while :; do
+  if ! now=$(job_state "$merge"); then
+    misses=$((misses + 1))
+    [ "$misses" -lt 30 ] || { echo "render.sh: squeue has failed $misses times in a row: giving up (jobs $array, $merge keep going)" >&2; exit 1; }
+    sleep "$POLL"
+    continue
+  fi
+  misses=0
+  read -r state reason <<<"$now"
+  case "$state" in
+    COMPLETED)
+      show_merge_log
+      [ -e "$OUT" ] || { echo "render.sh: the merge job completed but $OUT is not there" >&2; exit 1; }
+      echo "render.sh: done: $OUT"
+      exit 0
+      ;;
+    PENDING | CANCELLED)
+      # A shard failed, so afterok can never be met: the merge never runs. (A requeued shard
+      # does not revive it in Slurm 22.05: the dependency stays failed.)
+      if [ "${reason:-}" = DependencyNeverSatisfied ]; then
+        echo "render.sh: a shard failed, so the merge job $merge can never run; failed tasks of job array $array:" >&2
+        failed_tasks >&2
+        [ "$state" = PENDING ] && scancel "$merge" && echo "render.sh: cancelled the merge job $merge" >&2
+        exit 1
+      fi
+      if [ "$state" = CANCELLED ]; then
+        echo "render.sh: the merge job $merge was cancelled (${reason:-})" >&2
+        show_merge_log >&2
+        exit 1
+      fi
+      ;;
+    FAILED | TIMEOUT | OUT_OF_MEMORY | NODE_FAIL | BOOT_FAIL | DEADLINE | PREEMPTED)
+      show_merge_log >&2
+      code=$(job_field "$merge" ExitCode) # "EXIT:SIGNAL"
+      echo "render.sh: the merge job $merge ended $state (exit code $code)" >&2
+      status=${code%%:*} signal=${code##*:}
+      if [ "${signal:-0}" != 0 ]; then exit $((128 + signal)); fi
+      if [ "${status:-0}" != 0 ]; then exit "$status"; fi
+      exit 1
+      ;;
+    GONE)
+      # The controller no longer knows the merge job (purged, or restarted without state).
+      if [ -e "$OUT" ]; then
+        echo "render.sh: the merge job $merge is gone from the queue; $OUT exists"
+        show_merge_log
+        exit 0
+      fi
+      echo "render.sh: the merge job $merge is gone from the queue and $OUT does not exist" >&2
+      show_merge_log >&2
+      exit 1
+      ;;
+  esac
+  now="merge $state${reason:+ ($reason)}; shards: $(progress)"
+  [ "$now" = "$last" ] || echo "render.sh: $now"
+  last=$now
+  sleep "$POLL"
+done

@@ -1,0 +1,270 @@
+//! Shard files: one shard of a render (`render --shard I/N`) as an EXR that any viewer opens
+//! (its `R`, `G`, `B` are the image of the shard's own passes or rows, with their `variance`
+//! layer), carrying what `raylab merge` needs to rebuild the single run exactly:
+//!
+//! - the shard's exact per-pixel sums ([`crate::render::exact`]): 13 sums of 192 bits per
+//!   pixel, as 78 channels of 32-bit unsigned integers `raylab.VV.L` (sum `VV` in the order
+//!   of [`PixelTotals::values`], 32-bit limb `L`, least significant first);
+//! - header attributes naming what it is part of: `raylabScene` (hash of the scene file and
+//!   the files it names), `raylabSettings` (everything else that determines the image, as
+//!   `key=value` words), `raylabVersion`, `raylabShard` (`I/N`), `raylabPart` (`passes A..B`
+//!   or `rows A..B`), `raylabSpp` (the whole render's passes), `raylabPassesDone`,
+//!   `raylabDropped` and the display settings a PNG is made with.
+//!
+//! Reading checks the header before any pixel: a file that is not a shard, or declares a size
+//! or channels a shard does not have, is refused unread.
+
+use super::{DisplaySettings, Tonemap};
+use crate::render::exact::Exact;
+use crate::render::{
+    Accumulation, BadSample, Dropped, Part, PixelAccumulator, PixelTotals, ShardSpec,
+};
+use anyhow::{anyhow, bail, Context, Result};
+use clap::ValueEnum;
+use exr::prelude::*;
+use std::path::Path;
+
+/// The layout of the sums; raised when it changes.
+const FORMAT: i32 = 1;
+
+/// Channels of the exact sums: 13 sums of six 32-bit limbs.
+const SUM_CHANNELS: usize = 13 * 6;
+
+/// What a shard file says it is.
+#[derive(Clone, Debug)]
+pub struct ShardInfo {
+    /// Hash of the scene file and the files it names (hex), and the scene's file name (shown
+    /// in messages, not compared).
+    pub scene: String,
+    pub scene_name: String,
+    /// Everything else that determines the image, as `key=value` words.
+    pub settings: String,
+    pub version: String,
+    pub spec: ShardSpec,
+    pub part: Part,
+    /// Passes of the whole render.
+    pub spp: u32,
+    /// Passes the shard finished, counted from the render's first.
+    pub passes_done: u32,
+    pub dropped: Dropped,
+    pub display: DisplaySettings,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl ShardInfo {
+    /// Whether the shard rendered all of its part.
+    pub fn is_complete(&self) -> bool {
+        match &self.part {
+            Part::Passes(r) => self.passes_done == r.end,
+            Part::Rows(_) => self.passes_done == self.spp,
+        }
+    }
+}
+
+fn text(s: &str) -> AttributeValue {
+    AttributeValue::Text(Text::from_bytes_unchecked(s.as_bytes().into()))
+}
+
+/// The channel holding limb `limb` of sum `value`.
+fn sum_channel(value: usize, limb: usize) -> String {
+    format!("raylab.{value:02}.{limb}")
+}
+
+/// Writes shard `info` of a render, whose state is `acc` (for a shard of rows, only its rows
+/// are kept: the others hold partial sums of the rows its filter reaches into).
+pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
+    let mut acc = acc.clone();
+    if let Part::Rows(rows) = &info.part {
+        for t in &mut acc.tiles {
+            if !rows.contains(&t.y0) {
+                t.pixels.fill(PixelAccumulator::default());
+                t.totals.fill(PixelTotals::default());
+            }
+        }
+    }
+    let film = acc.film();
+    let (w, h) = (acc.width as usize, acc.height as usize);
+    let mut planes = vec![vec![0u32; w * h]; SUM_CHANNELS];
+    for t in &acc.tiles {
+        for k in 0..t.pixels.len() {
+            let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
+            let index = y as usize * w + x as usize;
+            for (v, sum) in t.pixel_totals(k).values().iter().enumerate() {
+                for (l, limb) in sum.0.iter().enumerate() {
+                    planes[v * 6 + 2 * l][index] = *limb as u32;
+                    planes[v * 6 + 2 * l + 1][index] = (*limb >> 32) as u32;
+                }
+            }
+        }
+    }
+    let mut extra: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(SUM_CHANNELS);
+    for (c, plane) in planes.into_iter().enumerate() {
+        extra.push(AnyChannel::new(
+            sum_channel(c / 6, c % 6).as_str(),
+            FlatSamples::U32(plane),
+        ));
+    }
+    let dropped = match acc.dropped.first {
+        Some(b) => format!("{} {} {} {}", acc.dropped.count, b.x, b.y, b.sample),
+        None => format!("{}", acc.dropped.count),
+    };
+    let tonemap = info
+        .display
+        .tonemap
+        .to_possible_value()
+        .map_or("clamp".to_string(), |v| v.get_name().to_string());
+    let attributes: Vec<(&str, AttributeValue)> = vec![
+        ("raylabShardFormat", AttributeValue::I32(FORMAT)),
+        ("raylabScene", text(&info.scene)),
+        ("raylabSceneName", text(&info.scene_name)),
+        ("raylabSettings", text(&info.settings)),
+        ("raylabVersion", text(&info.version)),
+        ("raylabShard", text(&info.spec.to_string())),
+        ("raylabPart", text(&info.part.to_string())),
+        ("raylabSpp", text(&info.spp.to_string())),
+        ("raylabPassesDone", text(&acc.spp_done.to_string())),
+        ("raylabDropped", text(&dropped)),
+        ("raylabExposure", AttributeValue::F32(info.display.exposure)),
+        ("raylabTonemap", text(&tonemap)),
+    ];
+    super::write_buffered(path, |out| {
+        super::exr_file::encode_with(&film, extra, attributes, out)
+    })
+}
+
+/// What the shard file at `path` says it is, from its header alone.
+pub fn read_info(path: &Path) -> Result<ShardInfo> {
+    let (file, _) = crate::files::open_capped(path, u64::MAX)?;
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(file), false)
+        .map_err(|e| anyhow!("not an EXR file ({e})"))?;
+    let [header] = meta.headers.as_slice() else {
+        bail!("not a raylab shard (it has {} layers)", meta.headers.len());
+    };
+    let attrs = &header.own_attributes.other;
+    let get = |name: &str| -> Result<String> {
+        match attrs.get(&Text::from(name)) {
+            Some(AttributeValue::Text(t)) => Ok(String::from_utf8_lossy(t.bytes()).into_owned()),
+            Some(_) => bail!("its attribute {name} is not text"),
+            None => bail!(
+                "not a raylab shard (no {name} attribute: render shards with `raylab render --shard I/N -o part.exr`)"
+            ),
+        }
+    };
+    match attrs.get(&Text::from("raylabShardFormat")) {
+        Some(AttributeValue::I32(FORMAT)) => {}
+        Some(AttributeValue::I32(f)) => bail!(
+            "a shard of format {f}, this raylab reads format {FORMAT} (merge with the raylab that rendered it)"
+        ),
+        _ => bail!("not a raylab shard (no raylabShardFormat attribute: render shards with `raylab render --shard I/N -o part.exr`)"),
+    }
+    let number = |name: &str| -> Result<u32> {
+        let t = get(name)?;
+        t.parse()
+            .map_err(|_| anyhow!("its attribute {name} `{t}` is not a whole number"))
+    };
+    let spec: ShardSpec = get("raylabShard")?
+        .parse()
+        .context("its attribute raylabShard")?;
+    let part: Part = get("raylabPart")?.parse()?;
+    let dropped_text = get("raylabDropped")?;
+    let words: Vec<u64> = dropped_text
+        .split(' ')
+        .map(|w| w.parse::<u64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow!("its attribute raylabDropped `{dropped_text}` is malformed"))?;
+    let dropped = match words.as_slice() {
+        [count] => Dropped {
+            count: *count,
+            first: None,
+        },
+        [count, x, y, sample] if [x, y, sample].iter().all(|v| **v <= u32::MAX as u64) => Dropped {
+            count: *count,
+            first: Some(BadSample {
+                x: *x as u32,
+                y: *y as u32,
+                sample: *sample as u32,
+            }),
+        },
+        _ => bail!("its attribute raylabDropped `{dropped_text}` is malformed"),
+    };
+    let exposure = match attrs.get(&Text::from("raylabExposure")) {
+        Some(AttributeValue::F32(e)) if e.is_finite() => *e,
+        _ => bail!("its attribute raylabExposure is missing or not finite"),
+    };
+    let tonemap_name = get("raylabTonemap")?;
+    let tonemap = Tonemap::from_str(&tonemap_name, true)
+        .map_err(|_| anyhow!("its attribute raylabTonemap `{tonemap_name}` is unknown"))?;
+    let size = header.layer_size;
+    let (width, height) = (size.width() as u32, size.height() as u32);
+    crate::scene::load::check_size(width, height).map_err(|e| anyhow!("its image: {e}"))?;
+    let expected = 3 + 3 + SUM_CHANNELS;
+    let channels = header.channels.list.len();
+    if channels != expected && channels != expected - 3 {
+        bail!(
+            "it has {channels} channels, a shard has {expected} (or {} with one pass)",
+            expected - 3
+        );
+    }
+    Ok(ShardInfo {
+        scene: get("raylabScene")?,
+        scene_name: get("raylabSceneName")?,
+        settings: get("raylabSettings")?,
+        version: get("raylabVersion")?,
+        spec,
+        part,
+        spp: number("raylabSpp")?,
+        passes_done: number("raylabPassesDone")?,
+        dropped,
+        display: DisplaySettings { exposure, tonemap },
+        width,
+        height,
+    })
+}
+
+/// Adds the exact sums of the shard file at `path` (described by `info`) into `acc`.
+pub fn add_sums(path: &Path, info: &ShardInfo, acc: &mut Accumulation) -> Result<()> {
+    // The file is at most its uncompressed size and a little more.
+    let cap =
+        (info.width as u64 * info.height as u64) * (4 * (SUM_CHANNELS as u64 + 6)) * 2 + (1 << 20);
+    let (file, _) = crate::files::open_capped(path, cap)?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::BufReader::new(file))
+        .map_err(|e| anyhow!("cannot read its pixels ({e})"))?;
+    let channels = &image.layer_data.channel_data.list;
+    let pixels = info.width as usize * info.height as usize;
+    let mut planes: Vec<&[u32]> = Vec::with_capacity(SUM_CHANNELS);
+    for c in 0..SUM_CHANNELS {
+        let name = sum_channel(c / 6, c % 6);
+        let channel = channels
+            .iter()
+            .find(|ch| ch.name.to_string() == name)
+            .ok_or_else(|| anyhow!("it has no channel {name}"))?;
+        match &channel.sample_data {
+            FlatSamples::U32(v) if v.len() == pixels => planes.push(v),
+            _ => bail!("its channel {name} is not {pixels} 32-bit integers"),
+        }
+    }
+    let width = acc.width;
+    for t in &mut acc.tiles {
+        for (k, totals) in t.totals.iter_mut().enumerate() {
+            let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
+            let index = y as usize * width as usize + x as usize;
+            let mut values = [Exact::ZERO; 13];
+            for (v, value) in values.iter_mut().enumerate() {
+                for l in 0..3 {
+                    let lo = planes[v * 6 + 2 * l][index] as u64;
+                    let hi = planes[v * 6 + 2 * l + 1][index] as u64;
+                    value.0[l] = lo | hi << 32;
+                }
+            }
+            totals.add(&PixelTotals::from_values(values));
+        }
+    }
+    Ok(())
+}
