@@ -76,7 +76,12 @@ write_config() {
   fi
   local cpus mem
   cpus=$(nproc)
-  mem=$(free -m | awk '/^Mem:/ { print $2 }') # MiB; slurmd reports the same figure
+  mem=$(free -m | awk '/^Mem:/ { print $2 }') # MiB
+  # slurmd drains a node whose configured memory is above what it finds itself (reason "Low
+  # RealMemory"): never configure more than `slurmd -C` reports (the same figure here).
+  local found
+  found=$(slurmd -C 2>/dev/null | sed -n 's/.*RealMemory=\([0-9]*\).*/\1/p' | head -n 1)
+  if [ -n "$found" ] && [ "$found" -lt "$mem" ]; then mem=$found; fi
   mkdir -p /etc/slurm "$BASE/state" "$BASE/spool" "$LOGS" "$RUN"
   local tmp
   tmp=$(mktemp "$CONF.XXXXXX")
@@ -183,8 +188,17 @@ start_slurm() {
 node_state() { sinfo -h -n "$NODE" -o %T 2>/dev/null | head -n 1; }
 
 wait_idle() {
-  local deadline=$((SECONDS + TIMEOUT)) state=""
+  local deadline=$((SECONDS + TIMEOUT)) state="" polls=0 d
   while [ "$SECONDS" -lt "$deadline" ]; do
+    # A daemon that exited (a port in use, a bad config) will not come back: say so now. (From
+    # the 5th poll on: a daemon that has just forked may not have written its pid file yet.)
+    polls=$((polls + 1))
+    for d in slurmctld slurmd; do
+      if [ "$polls" -ge 5 ] && ! alive "$d"; then
+        show_logs
+        die "$d exited (its log is above; is another Slurm running here, ports 6817/6818?)"
+      fi
+    done
     state=$(node_state)
     case "$state" in
       idle | mixed | allocated | completing) return 0 ;; # up (jobs may be running already)
@@ -229,20 +243,21 @@ stop_daemons() {
   local name pids=() pid
   for name in "$@"; do
     if alive "$name"; then pids+=("$(cat "$RUN/$name.pid")"); fi
-    rm -f "$RUN/$name.pid"
   done
-  [ ${#pids[@]} -gt 0 ] || return 0
-  kill "${pids[@]}" 2>/dev/null || true
-  for _ in $(seq 100); do
-    any_alive "${pids[@]}" || return 0
-    sleep 0.1 # slurmd takes some 3 s to shut down
-  done
-  for pid in "${pids[@]}"; do
-    if kill -0 "$pid" 2>/dev/null; then
-      say "pid $pid ($(cat "/proc/$pid/comm" 2>/dev/null)) did not stop: killing it"
-      kill -9 "$pid" 2>/dev/null || true
-    fi
-  done
+  if [ ${#pids[@]} -gt 0 ]; then
+    kill "${pids[@]}" 2>/dev/null || true
+    for _ in $(seq 100); do
+      any_alive "${pids[@]}" || break
+      sleep 0.1 # slurmd takes some 3 s to shut down
+    done
+    for pid in "${pids[@]}"; do
+      if kill -0 "$pid" 2>/dev/null; then
+        say "pid $pid ($(cat "/proc/$pid/comm" 2>/dev/null)) did not stop: killing it"
+        kill -9 "$pid" 2>/dev/null || true
+      fi
+    done
+  fi
+  for name in "$@"; do rm -f "$RUN/$name.pid"; done
 }
 
 cmd_stop() {

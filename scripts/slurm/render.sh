@@ -22,7 +22,9 @@
 # Exit codes: 0 submitted (or, with --wait, merged); 2 bad arguments; 1 a submission failed
 # or, with --wait, a shard failed; otherwise the merge job's exit code.
 #
-# RAYLAB_SLURM_POLL (seconds, default 2) sets how often --wait asks Slurm. Setting
+# RAYLAB_SLURM_POLL (seconds, default 2) sets how often --wait asks Slurm; it gives up (exit 1,
+# the jobs go on) when the controller has not answered for RAYLAB_SLURM_GIVE_UP seconds
+# (default 300). Setting
 # RAYLAB_SLURM_KILL_INVALID_DEP=no submits the merge without --kill-on-invalid-dep=yes (it then
 # stays pending, reason DependencyNeverSatisfied, when a shard fails; --wait cancels it).
 set -euo pipefail
@@ -92,7 +94,10 @@ export RAYLAB SCENE SHARDS PARTS OUT
 # ---- submit ------------------------------------------------------------------------------
 # --parsable prints "JOBID" or "JOBID;CLUSTER".
 array=$(sbatch --parsable --export=ALL --array="0-$((shards - 1))" --cpus-per-task="$cpus" \
-  --output="$PARTS/shard-%A_%a.log" "$HERE/shard.sbatch" "${flags[@]}")
+  --output="$PARTS/shard-%A_%a.log" "$HERE/shard.sbatch" "${flags[@]}") || {
+  echo "render.sh: submitting the shard array failed (sbatch's message is above)" >&2
+  exit 1
+}
 array=${array%%;*}
 kill_dep=(--kill-on-invalid-dep=yes)
 [ "${RAYLAB_SLURM_KILL_INVALID_DEP:-yes}" = no ] && kill_dep=()
@@ -154,15 +159,17 @@ show_merge_log() {
   fi
 }
 
-last="" misses=0
+last="" answered=$SECONDS
 while :; do
   if ! now=$(job_state "$merge"); then
-    misses=$((misses + 1))
-    [ "$misses" -lt 30 ] || { echo "render.sh: squeue has failed $misses times in a row: giving up (jobs $array, $merge keep going)" >&2; exit 1; }
+    if [ $((SECONDS - answered)) -ge "${RAYLAB_SLURM_GIVE_UP:-300}" ]; then
+      echo "render.sh: the Slurm controller has not answered for $((SECONDS - answered))s: giving up (jobs $array and $merge may still run)" >&2
+      exit 1
+    fi
     sleep "$POLL"
     continue
   fi
-  misses=0
+  answered=$SECONDS
   read -r state reason <<<"$now"
   case "$state" in
     COMPLETED)

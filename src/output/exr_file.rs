@@ -17,14 +17,16 @@ const SAMPLES: &str = "raylabVarianceSamples";
 
 /// Encodes the film: three f32 radiance channels, and the variance layer if the film has one.
 pub fn encode(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
-    encode_with(film, Vec::new(), Vec::new(), out)
+    encode_with(film, Vec::new(), None, out)
 }
 
-/// Encodes the film with more channels and header attributes (shard files).
+/// Encodes the film with more channels and, instead of the variance's pass count, one other
+/// header attribute (shard files). One raylab attribute at most: the exr crate writes a
+/// header's attributes in hash-map order, so two would make the bytes differ between runs.
 pub fn encode_with(
     film: &Film,
     extra: Vec<AnyChannel<FlatSamples>>,
-    extra_attributes: Vec<(&str, AttributeValue)>,
+    attribute: Option<(&str, AttributeValue)>,
     out: &mut std::io::Cursor<Vec<u8>>,
 ) -> Result<()> {
     let size = (film.width as usize, film.height as usize);
@@ -48,14 +50,13 @@ pub fn encode_with(
         line_order: LineOrder::Increasing,
     };
     let mut attributes = LayerAttributes::default();
-    if film.has_variance {
+    if let Some((name, value)) = attribute {
+        attributes.other.insert(Text::from(name), value);
+    } else if film.has_variance {
         let n = i32::try_from(film.variance_samples).unwrap_or(i32::MAX);
         attributes
             .other
             .insert(Text::from(SAMPLES), AttributeValue::I32(n));
-    }
-    for (name, value) in extra_attributes {
-        attributes.other.insert(Text::from(name), value);
     }
     let layer = Layer::new(size, attributes, encoding, AnyChannels::sort(channels));
     Image::from_layer(layer)

@@ -5,11 +5,13 @@
 //! - the shard's exact per-pixel sums ([`crate::render::exact`]): 13 sums of 192 bits per
 //!   pixel, as 78 channels of 32-bit unsigned integers `raylab.VV.L` (sum `VV` in the order
 //!   of [`PixelTotals::values`], 32-bit limb `L`, least significant first);
-//! - header attributes naming what it is part of: `raylabScene` (hash of the scene file and
-//!   the files it names), `raylabSettings` (everything else that determines the image, as
-//!   `key=value` words), `raylabVersion`, `raylabShard` (`I/N`), `raylabPart` (`passes A..B`
-//!   or `rows A..B`), `raylabSpp` (the whole render's passes), `raylabPassesDone`,
-//!   `raylabDropped` and the display settings a PNG is made with.
+//! - one header attribute, `raylabShard`, saying what it is part of, a line `key=value` each:
+//!   `format`, `scene` (hash of the scene file and the files it names) and `scene-name`,
+//!   `settings` (everything else that determines the image, as `key=value` words), `version`,
+//!   `shard` (`I/N`), `part` (`passes A..B` or `rows A..B`), `spp` (the whole render's
+//!   passes), `passes-done`, `dropped`, and the `exposure` and `tonemap` a PNG is made with.
+//!   (One attribute: the exr crate writes attributes in hash-map order, so several would make
+//!   the bytes of the same shard differ from run to run.)
 //!
 //! Reading checks the header before any pixel: a file that is not a shard, or declares a size
 //! or channels a shard does not have, is refused unread.
@@ -62,9 +64,11 @@ impl ShardInfo {
     }
 }
 
-fn text(s: &str) -> AttributeValue {
-    AttributeValue::Text(Text::from_bytes_unchecked(s.as_bytes().into()))
-}
+/// The header attribute holding a shard's description.
+const ATTRIBUTE: &str = "raylabShard";
+
+/// How to make shards, for messages about files that are not.
+const HOW: &str = "render shards with `raylab render --shard I/N -o part.exr`";
 
 /// The channel holding limb `limb` of sum `value`.
 fn sum_channel(value: usize, limb: usize) -> String {
@@ -114,22 +118,24 @@ pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
         .tonemap
         .to_possible_value()
         .map_or("clamp".to_string(), |v| v.get_name().to_string());
-    let attributes: Vec<(&str, AttributeValue)> = vec![
-        ("raylabShardFormat", AttributeValue::I32(FORMAT)),
-        ("raylabScene", text(&info.scene)),
-        ("raylabSceneName", text(&info.scene_name)),
-        ("raylabSettings", text(&info.settings)),
-        ("raylabVersion", text(&info.version)),
-        ("raylabShard", text(&info.spec.to_string())),
-        ("raylabPart", text(&info.part.to_string())),
-        ("raylabSpp", text(&info.spp.to_string())),
-        ("raylabPassesDone", text(&acc.spp_done.to_string())),
-        ("raylabDropped", text(&dropped)),
-        ("raylabExposure", AttributeValue::F32(info.display.exposure)),
-        ("raylabTonemap", text(&tonemap)),
+    let lines = [
+        ("format", FORMAT.to_string()),
+        ("scene", info.scene.clone()),
+        ("scene-name", info.scene_name.replace(['\n', '\r'], " ")),
+        ("settings", info.settings.clone()),
+        ("version", info.version.clone()),
+        ("shard", info.spec.to_string()),
+        ("part", info.part.to_string()),
+        ("spp", info.spp.to_string()),
+        ("passes-done", acc.spp_done.to_string()),
+        ("dropped", dropped),
+        ("exposure", info.display.exposure.to_string()),
+        ("tonemap", tonemap),
     ];
+    let text: String = lines.iter().map(|(k, v)| format!("{k}={v}\n")).collect();
+    let value = AttributeValue::Text(Text::from_bytes_unchecked(text.as_bytes().into()));
     super::write_buffered(path, |out| {
-        super::exr_file::encode_with(&film, extra, attributes, out)
+        super::exr_file::encode_with(&film, extra, Some((ATTRIBUTE, value)), out)
     })
 }
 
@@ -141,38 +147,34 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
     let [header] = meta.headers.as_slice() else {
         bail!("not a raylab shard (it has {} layers)", meta.headers.len());
     };
-    let attrs = &header.own_attributes.other;
-    let get = |name: &str| -> Result<String> {
-        match attrs.get(&Text::from(name)) {
-            Some(AttributeValue::Text(t)) => Ok(String::from_utf8_lossy(t.bytes()).into_owned()),
-            Some(_) => bail!("its attribute {name} is not text"),
-            None => bail!(
-                "not a raylab shard (no {name} attribute: render shards with `raylab render --shard I/N -o part.exr`)"
-            ),
-        }
+    let text = match header.own_attributes.other.get(&Text::from(ATTRIBUTE)) {
+        Some(AttributeValue::Text(t)) => String::from_utf8_lossy(t.bytes()).into_owned(),
+        _ => bail!("not a raylab shard (no {ATTRIBUTE} attribute: {HOW})"),
     };
-    match attrs.get(&Text::from("raylabShardFormat")) {
-        Some(AttributeValue::I32(FORMAT)) => {}
-        Some(AttributeValue::I32(f)) => bail!(
-            "a shard of format {f}, this raylab reads format {FORMAT} (merge with the raylab that rendered it)"
-        ),
-        _ => bail!("not a raylab shard (no raylabShardFormat attribute: render shards with `raylab render --shard I/N -o part.exr`)"),
-    }
-    let number = |name: &str| -> Result<u32> {
-        let t = get(name)?;
+    let fields: std::collections::HashMap<&str, &str> =
+        text.lines().filter_map(|l| l.split_once('=')).collect();
+    let get = |key: &str| -> Result<&str> {
+        fields.get(key).copied().ok_or_else(|| {
+            anyhow!("its {ATTRIBUTE} attribute has no `{key}`: not a raylab shard ({HOW})")
+        })
+    };
+    let number = |key: &str| -> Result<u32> {
+        let t = get(key)?;
         t.parse()
-            .map_err(|_| anyhow!("its attribute {name} `{t}` is not a whole number"))
+            .map_err(|_| anyhow!("its {key} `{t}` is not a whole number"))
     };
-    let spec: ShardSpec = get("raylabShard")?
-        .parse()
-        .context("its attribute raylabShard")?;
-    let part: Part = get("raylabPart")?.parse()?;
-    let dropped_text = get("raylabDropped")?;
+    let format = get("format")?;
+    if format != FORMAT.to_string() {
+        bail!("a shard of format {format}, this raylab reads format {FORMAT} (merge with the raylab that rendered it)");
+    }
+    let spec: ShardSpec = get("shard")?.parse().context("its shard")?;
+    let part: Part = get("part")?.parse()?;
+    let dropped_text = get("dropped")?;
     let words: Vec<u64> = dropped_text
         .split(' ')
         .map(|w| w.parse::<u64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| anyhow!("its attribute raylabDropped `{dropped_text}` is malformed"))?;
+        .map_err(|_| anyhow!("its dropped `{dropped_text}` is malformed"))?;
     let dropped = match words.as_slice() {
         [count] => Dropped {
             count: *count,
@@ -186,15 +188,16 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
                 sample: *sample as u32,
             }),
         },
-        _ => bail!("its attribute raylabDropped `{dropped_text}` is malformed"),
+        _ => bail!("its dropped `{dropped_text}` is malformed"),
     };
-    let exposure = match attrs.get(&Text::from("raylabExposure")) {
-        Some(AttributeValue::F32(e)) if e.is_finite() => *e,
-        _ => bail!("its attribute raylabExposure is missing or not finite"),
-    };
-    let tonemap_name = get("raylabTonemap")?;
-    let tonemap = Tonemap::from_str(&tonemap_name, true)
-        .map_err(|_| anyhow!("its attribute raylabTonemap `{tonemap_name}` is unknown"))?;
+    let exposure = get("exposure")?
+        .parse::<f32>()
+        .ok()
+        .filter(|e| e.is_finite())
+        .ok_or_else(|| anyhow!("its exposure is not a finite number"))?;
+    let tonemap_name = get("tonemap")?;
+    let tonemap = Tonemap::from_str(tonemap_name, true)
+        .map_err(|_| anyhow!("its tonemap `{tonemap_name}` is unknown"))?;
     let size = header.layer_size;
     let (width, height) = (size.width() as u32, size.height() as u32);
     crate::scene::load::check_size(width, height).map_err(|e| anyhow!("its image: {e}"))?;
@@ -207,14 +210,14 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
         );
     }
     Ok(ShardInfo {
-        scene: get("raylabScene")?,
-        scene_name: get("raylabSceneName")?,
-        settings: get("raylabSettings")?,
-        version: get("raylabVersion")?,
+        scene: get("scene")?.to_string(),
+        scene_name: get("scene-name")?.to_string(),
+        settings: get("settings")?.to_string(),
+        version: get("version")?.to_string(),
         spec,
         part,
-        spp: number("raylabSpp")?,
-        passes_done: number("raylabPassesDone")?,
+        spp: number("spp")?,
+        passes_done: number("passes-done")?,
         dropped,
         display: DisplaySettings { exposure, tonemap },
         width,

@@ -48,7 +48,7 @@ impl Exact {
             let m = (mantissa as u128) << shift;
             Exact([m as u64, (m >> 64) as u64, 0])
         } else {
-            if !(v.abs() < LIMIT) {
+            if !v.is_finite() || v.abs() >= LIMIT {
                 return None;
             }
             // |v| < 2^62 keeps shift <= 61 + 96 - 52 = 105: limbs 1 and 2.

@@ -21,5 +21,6 @@ mod pbrt;
 mod photons;
 mod proptest_loader;
 mod serve;
+mod shards;
 mod textures;
 mod watch;

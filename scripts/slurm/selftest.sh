@@ -1,0 +1,147 @@
+#!/usr/bin/env bash
+# Tests the Slurm scripts beside this file on a real one-node cluster (local-cluster.sh), with a
+# stand-in for raylab that takes the same arguments (render writes its argv into the -o file and
+# sleeps 1 s; merge concatenates the parts), so no build is needed. Runs as root; starts the
+# cluster if it is not running and stops it again at the end in that case.
+#
+#   scripts/slurm/selftest.sh        # closes with "N passed, N failed"; exit 1 on a failure
+set -euo pipefail
+
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+tmp=$(mktemp -d /tmp/raylab-slurm-test.XXXXXX)
+passed=0 failed=0
+
+ok() { echo "ok   $*"; passed=$((passed + 1)); }
+no() { echo "FAIL $*"; failed=$((failed + 1)); }
+check() { # check DESCRIPTION COMMAND...: pass if the command succeeds
+  local what=$1
+  shift
+  if "$@"; then ok "$what"; else no "$what"; fi
+}
+now_ns() { date +%s%N; }
+
+# ---- the cluster -------------------------------------------------------------------------
+# (`status`, not sinfo, to tell: sinfo takes seconds to give up on a controller that is down.)
+started=0
+if ! "$HERE/local-cluster.sh" status >/dev/null 2>&1; then started=1; fi
+"$HERE/local-cluster.sh" start
+cleanup() {
+  if [ "$started" = 1 ]; then "$HERE/local-cluster.sh" stop || true; fi
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+cpus=$(sinfo -h -n localhost -o %c | head -n 1)
+
+# ---- a stand-in for raylab ---------------------------------------------------------------
+cat >"$tmp/raylab" <<'EOF'
+#!/usr/bin/env bash
+# render SCENE --shard I/N -o OUT ...: argv into OUT, sleep 1 s (exit 3 if I is in STUB_FAIL)
+# merge -o OUT PARTS...: concatenate the parts into OUT (exit STUB_MERGE_EXIT if set)
+# Appends "start|end|fail NAME EPOCH-NS" to $STUB_TIMELINE.
+set -euo pipefail
+cmd=$1; shift
+args=("$@") out="" shard=""
+while [ $# -gt 0 ]; do
+  case "$1" in -o) out=$2; shift 2 ;; --shard) shard=$2; shift 2 ;; *) shift ;; esac
+done
+tl() { echo "$1 $2 $(date +%s%N)" >>"$STUB_TIMELINE"; }
+case "$cmd" in
+  render)
+    task=${shard%/*}
+    tl start "render-$task"
+    sleep 1
+    if [[ " ${STUB_FAIL:-} " == *" $task "* ]]; then tl fail "render-$task"; exit 3; fi
+    echo "render ${args[*]}" >"$out"
+    tl end "render-$task" ;;
+  merge)
+    tl start merge
+    cat "${args[@]:2}" >"$out"
+    tl end merge
+    if [ -n "${STUB_MERGE_EXIT:-}" ]; then exit "$STUB_MERGE_EXIT"; fi ;;
+esac
+EOF
+chmod +x "$tmp/raylab"
+echo scene >"$tmp/scene.ron"
+export RAYLAB="$tmp/raylab" RAYLAB_SLURM_POLL=0.5
+
+# run NAME [render.sh args...]: render.sh --wait in $tmp/NAME (its output in NAME/log, exit code
+# in $rc, seconds in $secs); a 4-shard render of scene.ron into NAME/out.exr unless args say.
+run() {
+  local name=$1 t0
+  shift
+  mkdir -p "$tmp/$name"
+  t0=$(now_ns)
+  rc=0
+  (cd "$tmp/$name" && STUB_TIMELINE="$tmp/$name/timeline" timeout 300 \
+    "$HERE/render.sh" "$@" >log 2>&1) || rc=$?
+  secs=$(awk -v d=$(($(now_ns) - t0)) 'BEGIN { printf "%.2f", d / 1e9 }')
+  touch "$tmp/$name/timeline"
+  echo "     render.sh $* -> exit $rc in ${secs}s"
+}
+# Most renders running at once, per the timeline of $1.
+max_overlap() {
+  sort -k3,3n "$1" | awk '$1 == "start" && $2 ~ /^render/ { n++; if (n > m) m = n }
+    ($1 == "end" || $1 == "fail") && $2 ~ /^render/ { n-- } END { print m + 0 }'
+}
+# Did the merge start after every render ended?
+merge_after_renders() {
+  awk '$2 ~ /^render/ && ($1 == "end" || $1 == "fail") && $3 > last { last = $3 }
+    $1 == "start" && $2 == "merge" { m = $3 } END { exit !(m > 0 && m >= last) }' "$1"
+}
+
+# ---- 1. four shards, all succeed ---------------------------------------------------------
+run ok --wait ../scene.ron 4 out.exr --spp 16
+check "4 shards + merge: --wait exits 0" [ "$rc" = 0 ]
+check "merged image holds the 4 parts in shard order" \
+  diff <(sed 's/.*--shard \([0-9]*\)\/4.*/\1/' "$tmp/ok/out.exr") <(printf '%s\n' 0 1 2 3)
+check "shard flags: --threads 1, --checkpoint, extra flags" \
+  grep -q -- "--shard 2/4 -o $tmp/ok/out.exr.parts/part-2.exr --threads 1 --checkpoint $tmp/ok/out.exr.parts/part-2.ckpt --spp 16\$" "$tmp/ok/out.exr"
+expect=$((cpus < 4 ? cpus : 4))
+check "shards ran $expect at a time (got $(max_overlap "$tmp/ok/timeline"))" \
+  [ "$(max_overlap "$tmp/ok/timeline")" = "$expect" ]
+check "merge started after every shard ended" merge_after_renders "$tmp/ok/timeline"
+check "--wait printed the merge log" grep -q "merging 4 parts" "$tmp/ok/log"
+
+# ---- 2. shard 2 fails: the merge never runs, --wait does not hang ------------------------
+STUB_FAIL=2 run fail --wait ../scene.ron 4 out.exr
+check "failed shard: --wait exits 1 (got $rc after ${secs}s)" [ "$rc" = 1 ]
+check "failed shard: task 2 is named" grep -q "task 2: FAILED" "$tmp/fail/log"
+check "failed shard: no other task is named" [ "$(grep -c 'task [0-9]*:' "$tmp/fail/log")" = 1 ]
+check "failed shard: the merge never started" bash -c "! grep -q merge '$tmp/fail/timeline'"
+merge_id=$(sed -n 's/^merge: *job \([0-9]*\).*/\1/p' "$tmp/fail/log")
+check "failed shard: the merge job is gone from the queue (cancelled)" \
+  bash -c "squeue -h -t all -j '$merge_id' -o '%T %r' | grep -qx 'CANCELLED DependencyNeverSatisfied'"
+
+# The same with the merge left pending (no --kill-on-invalid-dep): render.sh cancels it.
+RAYLAB_SLURM_KILL_INVALID_DEP=no STUB_FAIL=0 run pending --wait ../scene.ron 4 out.exr
+check "failed shard, merge pending: --wait exits 1 and cancels it" \
+  bash -c "[ $rc = 1 ] && grep -q 'task 0: FAILED' '$tmp/pending/log' && grep -q 'cancelled the merge job' '$tmp/pending/log'"
+
+# ---- 3. the merge fails: --wait exits with its status ------------------------------------
+STUB_MERGE_EXIT=7 run merge7 --wait ../scene.ron 2 out.exr
+check "failed merge: --wait exits with the merge's status 7 (got $rc)" [ "$rc" = 7 ]
+
+# ---- 4. resume: a shard whose checkpoint exists gets --resume, the others do not --------
+mkdir -p "$tmp/resume/parts" && touch "$tmp/resume/parts/part-1.ckpt"
+run resume --wait --parts parts --cpus 2 ../scene.ron 2 out.exr
+check "resume: exits 0" [ "$rc" = 0 ]
+check "resume: shard 1 got --resume, shard 0 not; --threads 2" bash -c \
+  "grep -q -- '--shard 1/2 .*--threads 2 .*part-1.ckpt --resume' '$tmp/resume/out.exr' && ! grep -q -- '--shard 0/2 .*--resume' '$tmp/resume/out.exr'"
+check "resume: logs in --parts" bash -c "ls '$tmp/resume/parts'/shard-*_1.log '$tmp/resume/parts'/merge-*.log >/dev/null"
+
+# ---- 5. bad arguments: exit 2 without submitting -----------------------------------------
+bad_args() {
+  local rc=0
+  (cd "$tmp" && "$HERE/render.sh" "$@" >/dev/null 2>&1) || rc=$?
+  [ "$rc" = 2 ]
+}
+check "bad args: missing scene -> 2" bad_args nosuch.ron 4 o.exr
+check "bad args: N=0 -> 2" bad_args scene.ron 0 o.exr
+check "bad args: N=x -> 2" bad_args scene.ron x o.exr
+check "bad args: --cpus 0 -> 2" bad_args --cpus 0 scene.ron 4 o.exr
+check "bad args: too few -> 2" bad_args scene.ron 4
+no_raylab() { RAYLAB=no-such-raylab bad_args "$@"; }
+check "bad args: RAYLAB not found -> 2" no_raylab scene.ron 4 o.exr
+
+echo "$passed passed, $failed failed"
+[ "$failed" = 0 ]
