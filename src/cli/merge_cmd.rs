@@ -5,8 +5,8 @@
 //! outside its rows) and the image is made from them as the single run makes it.
 
 use super::MergeArgs;
-use crate::output::shard_file::{self, ShardInfo};
 use crate::output::{self, plan::FilePlan};
+use crate::render::shard_file::{self, ShardInfo};
 use crate::render::{Accumulation, Part};
 use anyhow::{bail, Context, Result};
 use std::collections::BTreeMap;

@@ -1,8 +1,8 @@
 //! `raylab render`, `raylab validate` and `raylab integrators`.
 
 use super::RenderArgs;
-use crate::output::shard_file::{self, ShardInfo};
 use crate::output::{self, DisplaySettings};
+use crate::render::shard_file::{self, ShardInfo};
 use crate::render::{
     self, checkpoint, Accumulation, Dropped, Part, RenderSettings, RenderStats, ShardSpec,
     StopReason,
@@ -19,6 +19,9 @@ use std::time::{Duration, Instant};
 
 /// Shortest time between two checkpoint writes.
 const CHECKPOINT_INTERVAL: Duration = Duration::from_secs(2);
+
+/// Rendering time between two checkpoint writes, in units of the last write's time.
+const CHECKPOINT_SHARE: u32 = 10;
 
 /// Parses `WxH`.
 pub(super) fn parse_size(text: &str) -> Result<(u32, u32)> {
@@ -282,13 +285,18 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             entry.name
         );
     }
-    // Checkpoints: at most every few seconds while rendering, and once at the end.
-    let mut last_save: Option<Instant> = None;
+    // Checkpoints: while rendering, at most every few seconds and never more than a tenth of
+    // the time (a 4K render's checkpoint is gigabytes); once at the end.
+    let mut last_save: Option<(Instant, Duration)> = None;
     let mut after_pass = |acc: &Accumulation, _: &RenderStats| -> Result<()> {
         if let Some(path) = &args.checkpoint {
-            if last_save.is_none_or(|t| t.elapsed() >= CHECKPOINT_INTERVAL) {
+            let due = last_save.is_none_or(|(t, took)| {
+                t.elapsed() >= CHECKPOINT_INTERVAL.max(took * CHECKPOINT_SHARE)
+            });
+            if due {
+                let start = Instant::now();
                 checkpoint::save(path, acc, hash)?;
-                last_save = Some(Instant::now());
+                last_save = Some((Instant::now(), start.elapsed()));
             }
         }
         Ok(())

@@ -6,7 +6,6 @@ pub mod atomic;
 mod exr_file;
 pub mod film;
 pub mod plan;
-pub mod shard_file;
 pub mod tonemap;
 
 use anyhow::{bail, Context, Result};
@@ -129,6 +128,18 @@ pub fn write_image(path: &Path, film: &Film, display: DisplaySettings) -> Result
             })
         }
     }
+}
+
+/// Writes `film` as EXR with more channels and one more header attribute (shard files).
+pub fn write_exr_with(
+    path: &Path,
+    film: &Film,
+    extra: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+    attribute: (&str, exr::prelude::AttributeValue),
+) -> Result<()> {
+    write_buffered(path, |w| {
+        exr_file::encode_with(film, extra, Some(attribute), w)
+    })
 }
 
 /// Reads an image as linear radiance: EXR as stored, PNG (8 or 16 bit) decoded from sRGB.

@@ -18,6 +18,7 @@ mod accumulator;
 pub mod checkpoint;
 pub mod exact;
 pub mod shard;
+pub mod shard_file;
 
 pub use crate::output::Film;
 pub use raylab_integrators::Filter;
@@ -154,9 +155,9 @@ impl RenderStats {
 
 /// Bytes of memory a render of `width x height` needs (accumulators, film, output buffer).
 pub fn memory_needed(width: u32, height: u32) -> u64 {
-    // Accumulators 104 B, a pass's sums 56 B, film mean + variance 24 B, tile bookkeeping and
-    // the 8-bit or f32 output copy <= 24 B.
-    width as u64 * height as u64 * 208
+    // The block's sums 104 B and the exact totals 312 B, a pass's sums 56 B, film mean +
+    // variance 24 B, tile bookkeeping and the 8-bit or f32 output copy <= 24 B.
+    width as u64 * height as u64 * 520
 }
 
 /// Refuses a camera the integrator `name` cannot use: light-path integrators connect points

@@ -330,8 +330,8 @@ fn damaged_or_odd_checkpoints_are_refused() {
     bad[100] ^= 1;
     std::fs::write(d.join("c.bin"), &bad).unwrap();
     refused(&with_ck("2", true), &["cannot resume", "damaged"]);
-    std::fs::write(d.join("c.bin"), [&good[..], b"tail"].concat()).unwrap();
-    refused(&with_ck("2", true), &["more than the"]);
+    std::fs::write(d.join("c.bin"), [&good[..], &[7u8; 64][..]].concat()).unwrap();
+    refused(&with_ck("2", true), &["cannot resume", "damaged"]);
     std::fs::remove_file(d.join("c.bin")).unwrap();
     let fifo = std::process::Command::new("mkfifo")
         .arg(d.join("c.bin"))

@@ -256,7 +256,8 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
 
     // Two (here SIGINT, then SIGTERM, which counts the same): stop at once, exit 130, no
     // image, and no temporary file of the checkpoint being written when the second came
-    // (at 2048x2048 the checkpoint is 436 MB: its write leaves time for the second signal).
+    // (at 2048x2048 the checkpoint is 1.7 GB before compression: its write leaves time for
+    // the second signal).
     let (r, out) = start("twice", "albedo", "2048x2048");
     r.signal_interrupt();
     r.wait_stderr("the first interrupt's message", |e| {

@@ -16,8 +16,8 @@
 //! Reading checks the header before any pixel: a file that is not a shard, or declares a size
 //! or channels a shard does not have, is refused unread.
 
-use super::{DisplaySettings, Tonemap};
-use crate::render::exact::Exact;
+use super::exact::Exact;
+use crate::output::{DisplaySettings, Tonemap};
 use crate::render::{
     Accumulation, BadSample, Dropped, Part, PixelAccumulator, PixelTotals, ShardSpec,
 };
@@ -134,9 +134,7 @@ pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
     ];
     let text: String = lines.iter().map(|(k, v)| format!("{k}={v}\n")).collect();
     let value = AttributeValue::Text(Text::from_bytes_unchecked(text.as_bytes().into()));
-    super::write_buffered(path, |out| {
-        super::exr_file::encode_with(&film, extra, Some((ATTRIBUTE, value)), out)
-    })
+    crate::output::write_exr_with(path, &film, extra, (ATTRIBUTE, value))
 }
 
 /// What the shard file at `path` says it is, from its header alone.
