@@ -18,9 +18,7 @@
 
 use super::exact::Exact;
 use crate::output::{DisplaySettings, Tonemap};
-use crate::render::{
-    Accumulation, BadSample, Dropped, Part, PixelAccumulator, PixelTotals, ShardSpec,
-};
+use crate::render::{Accumulation, BadSample, Dropped, Part, PixelTotals, ShardSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::ValueEnum;
 use exr::prelude::*;
@@ -78,19 +76,18 @@ fn sum_channel(value: usize, limb: usize) -> String {
 /// Writes shard `info` of a render, whose state is `acc` (for a shard of rows, only its rows
 /// are kept: the others hold partial sums of the rows its filter reaches into).
 pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
-    let mut acc = acc.clone();
-    if let Part::Rows(rows) = &info.part {
-        for t in &mut acc.tiles {
-            if !rows.contains(&t.y0) {
-                t.pixels.fill(PixelAccumulator::default());
-                t.totals.fill(PixelTotals::default());
-            }
-        }
-    }
-    let film = acc.film();
+    let kept = |y: u32| match &info.part {
+        Part::Rows(rows) => rows.contains(&y),
+        Part::Passes(_) => true,
+    };
+    let mut film = acc.film();
     let (w, h) = (acc.width as usize, acc.height as usize);
+    for y in (0..h).filter(|y| !kept(*y as u32)) {
+        film.pixels[y * w..(y + 1) * w].fill(glam::Vec3::ZERO);
+        film.variance[y * w..(y + 1) * w].fill(glam::Vec3::ZERO);
+    }
     let mut planes = vec![vec![0u32; w * h]; SUM_CHANNELS];
-    for t in &acc.tiles {
+    for t in acc.tiles.iter().filter(|t| kept(t.y0)) {
         for k in 0..t.pixels.len() {
             let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
             let index = y as usize * w + x as usize;

@@ -20,7 +20,10 @@
 //! mixes neighbouring pixels' increments with the weights of each pass's film positions).
 //! Per-pixel variances are therefore those of increments, not of independent samples. The
 //! state is rebuilt from the seed after a resume (the passes are replayed), so resumed renders
-//! equal direct ones.
+//! equal direct ones. A render split into shards (`render --shard`) splits by bands of rows
+//! ([`ShardBy::Rows`]): a pixel's state depends on its own visible points and the pass's
+//! photons only, and each pixel gathers from a photon map whose cells are sized for its own
+//! radius (levels `r0 / 2^k`), so a band computes exactly the bits the whole image does.
 //!
 //! **Parameters**: `photons` per pass (default 100000), `radius` (first radius per pixel in
 //! scene units; 0 = 1% of the bounding-box diagonal), `gamma` (default 2/3: the fraction of
