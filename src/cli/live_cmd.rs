@@ -156,8 +156,10 @@ impl Observer for FileObserver {
 
 /// `raylab render SCENE --watch`.
 pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
-    if args.time.is_some() || args.checkpoint.is_some() || args.resume {
-        bail!("--watch renders until Ctrl-C: --time, --checkpoint and --resume do not apply");
+    if args.time.is_some() || args.checkpoint.is_some() || args.resume || args.shard.is_some() {
+        bail!(
+            "--watch renders until Ctrl-C: --time, --checkpoint, --resume and --shard do not apply"
+        );
     }
     let output_path = args
         .output

@@ -30,8 +30,11 @@ pub fn merge(args: &MergeArgs) -> Result<ExitCode> {
         .collect::<Result<Vec<_>>>()?;
     check_parts(&args.parts, &infos)?;
 
-    // The exact sums, shard after shard (in any order: they are exact).
+    // The exact sums, shard after shard (in any order: they are exact): the merged sums and
+    // one part's channels in memory at once.
     let first = &infos[0];
+    let part_bytes = (first.width as u64 * first.height as u64) * 4 * 84;
+    crate::render::check_memory(first.width, first.height, part_bytes)?;
     let mut acc = Accumulation::new(first.width, first.height);
     for (path, info) in args.parts.iter().zip(&infos) {
         shard_file::add_sums(path, info, &mut acc)
@@ -43,7 +46,7 @@ pub fn merge(args: &MergeArgs) -> Result<ExitCode> {
     output::write_image(&args.output, &film, first.display)?;
     if let Some(bad) = acc.dropped.first {
         note!(
-            "warning: the render dropped {} non-finite sample(s); first at pixel ({}, {}) sample {}",
+            "warning: the render dropped {} non-finite or out-of-range sample(s); first at pixel ({}, {}) sample {}",
             acc.dropped.count,
             bad.x,
             bad.y,
@@ -119,11 +122,17 @@ fn check_parts(paths: &[PathBuf], infos: &[ShardInfo]) -> Result<()> {
                 first.spp
             );
         }
-        let by = match info.part {
-            Part::Passes(_) => crate::render::ShardBy::Passes,
-            Part::Rows(_) => crate::render::ShardBy::Rows,
-        };
-        let expected = info.spec.part(by, info.spp, info.height)?;
+        if (info.display.exposure, info.display.tonemap)
+            != (first.display.exposure, first.display.tonemap)
+        {
+            bail!(
+                "{shown}: rendered with another --exposure or --tonemap than {first_path}, which a PNG would show"
+            );
+        }
+        let expected = info
+            .spec
+            .part(info.part.shard_by(), info.spp, info.height)
+            .with_context(|| format!("{shown}: its header does not describe a shard"))?;
         if expected != info.part {
             bail!(
                 "{shown}: says it holds {}, but shard {} of this render holds {expected}",
@@ -165,11 +174,7 @@ fn check_parts(paths: &[PathBuf], infos: &[ShardInfo]) -> Result<()> {
                 index,
                 count: first.spec.count,
             };
-            let by = match first.part {
-                Part::Passes(_) => crate::render::ShardBy::Passes,
-                Part::Rows(_) => crate::render::ShardBy::Rows,
-            };
-            match spec.part(by, first.spp, first.height) {
+            match spec.part(first.part.shard_by(), first.spp, first.height) {
                 Ok(part) => format!("{spec} ({part})"),
                 Err(_) => spec.to_string(),
             }

@@ -213,8 +213,14 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     // Checkpoints and shards are tied to everything that determines the image: the settings,
     // the scene file and the mesh files it names (read and hashed only when needed); a
     // checkpoint also to its shard.
+    let import = args.session.import.options();
+    let defines: Vec<String> = import
+        .defines
+        .iter()
+        .map(|(k, v)| format!("{k}:{v}"))
+        .collect();
     let settings_text = format!(
-        "integrator={} {} spp={} seed={seed} size={}x{} filter={} accel={}",
+        "integrator={} {} spp={} seed={seed} size={}x{} filter={} accel={} defines={} approximate={}",
         entry.name,
         params.describe(entry.params),
         spp.map_or("open-ended".to_string(), |n| n.to_string()),
@@ -222,6 +228,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         camera.height,
         settings.filter,
         args.session.trace.accel,
+        defines.join(",").replace([' ', '\n'], "_"),
+        import.approximate,
     );
     let scene_hash = match (&args.checkpoint, shard) {
         (None, None) => 0,
@@ -236,6 +244,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let hash = checkpoint::stable_hash(&[
         &scene_hash.to_le_bytes(),
         settings_text.as_bytes(),
+        // The parameters exactly (the text rounds floats to nine digits).
+        format!("{params:?}").as_bytes(),
         env!("CARGO_PKG_VERSION").as_bytes(),
         shard.map(|s| s.to_string()).unwrap_or_default().as_bytes(),
     ]);
@@ -246,6 +256,13 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     let mut acc = match (&args.checkpoint, args.resume) {
         (Some(path), true) => {
             let acc = checkpoint::load(path, hash, camera.width, camera.height)?;
+            if acc.first_pass != first_pass {
+                bail!(
+                    "{}: the checkpoint starts at pass {}, this render at pass {first_pass}",
+                    path.display(),
+                    acc.first_pass
+                );
+            }
             let end = match &part {
                 Some(Part::Passes(r)) => Some(r.end),
                 _ => spp,
@@ -377,7 +394,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     } = stats.dropped
     {
         note!(
-            "warning: dropped {} non-finite sample(s); first at pixel ({}, {}) sample {}",
+            "warning: dropped {} non-finite or out-of-range sample(s); first at pixel ({}, {}) sample {}",
             count,
             first.x,
             first.y,
@@ -410,8 +427,20 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             output_path.display()
         );
     }
+    // A shard that stopped before the end of its part is not done: a scheduler must see it
+    // fail (and retry it, resuming from its checkpoint), and merge refuses its part.
+    if let (Some(spec), Some(_)) = (shard, stats.stopped) {
+        note!(
+            "shard {spec} stopped before the end of its part: run it again with --checkpoint FILE --resume (exit {UNFINISHED_SHARD})"
+        );
+        return Ok(ExitCode::from(UNFINISHED_SHARD));
+    }
     Ok(ExitCode::SUCCESS)
 }
+
+/// The exit code of a shard stopped before the end of its part (BSD's EX_TEMPFAIL: try
+/// again).
+pub const UNFINISHED_SHARD: u8 = 75;
 
 /// Interrupts so far: Ctrl-C (SIGINT), SIGTERM (a timeout, a batch scheduler's preemption,
 /// `docker stop`) and SIGHUP (a closed terminal or ssh session) alike.

@@ -82,6 +82,11 @@ impl PixelAccumulator {
     }
 }
 
+/// The squares of the passes' estimates are held scaled by this (exactly: a power of two), so
+/// on a grid of 2^-64 with room up to 2^94 per block: estimates up to about 1e14 per pass fit,
+/// where squares on the linear sums' grid would stop at 2e9.
+const SQUARES_SCALE: f64 = 1.0 / 4_294_967_296.0; // 2^-32
+
 /// One pixel's exact sums over every finished block (the same five sums as
 /// [`PixelAccumulator`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -95,7 +100,8 @@ pub struct PixelTotals {
 
 impl PixelTotals {
     /// A block's sums, exactly; `None` when one is beyond what exact sums hold
-    /// ([`super::exact::LIMIT`]: estimates of 2e9 and more, whose squares are out of range).
+    /// ([`super::exact::LIMIT`], 4.6e18, for a block's sum; about 1e14 for a pass's estimate,
+    /// whose square is summed).
     #[inline]
     fn of_block(block: &PixelAccumulator) -> Option<PixelTotals> {
         Some(PixelTotals {
@@ -103,7 +109,7 @@ impl PixelTotals {
             weight: Exact::from_f64(block.weight)?,
             splat: Exact3::from_dvec3(block.splat)?,
             batch: Exact3::from_dvec3(block.batch)?,
-            batch_sq: Exact3::from_dvec3(block.batch_sq)?,
+            batch_sq: Exact3::from_dvec3(block.batch_sq * SQUARES_SCALE)?,
         })
     }
 
@@ -191,9 +197,8 @@ impl PixelTotals {
         }
         let var = if n > 1.0 {
             let batch_mean = self.batch.to_dvec3() / n;
-            ((self.batch_sq.to_dvec3() / n - batch_mean * batch_mean) * (n / (n - 1.0)))
-                .max(DVec3::ZERO)
-                / n
+            let squares = self.batch_sq.to_dvec3() / SQUARES_SCALE;
+            ((squares / n - batch_mean * batch_mean) * (n / (n - 1.0))).max(DVec3::ZERO) / n
         } else {
             DVec3::ZERO
         };

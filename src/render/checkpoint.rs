@@ -356,7 +356,8 @@ mod tests {
         pass.add(glam::Vec3A::new(1.0, 2.0, 3.0), 0.5);
         pass.splat = glam::DVec3::new(0.25, 0.0, 4.0);
         acc.tiles[1].pixels[7].close_pass(&pass);
-        acc.tiles[1].totals[8] = PixelTotals::default().with_block(&acc.tiles[1].pixels[7]);
+        acc.tiles[1].totals[7] = PixelTotals::default().with_block(&acc.tiles[1].pixels[7]);
+        assert_ne!(acc.tiles[1].totals[7], PixelTotals::default());
         let bytes = encode(&acc, 42);
         let back = decode(&bytes, 42, 20, 17).unwrap();
         assert_eq!(back.film(), acc.film());

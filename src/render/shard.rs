@@ -71,6 +71,16 @@ pub enum Part {
     Rows(Range<u32>),
 }
 
+impl Part {
+    /// How the render this is part of splits.
+    pub fn shard_by(&self) -> ShardBy {
+        match self {
+            Part::Passes(_) => ShardBy::Passes,
+            Part::Rows(_) => ShardBy::Rows,
+        }
+    }
+}
+
 impl fmt::Display for Part {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -119,7 +129,8 @@ impl ShardSpec {
                     );
                 }
                 let b = split(blocks);
-                Ok(Part::Passes(b.start * BLOCK..(b.end * BLOCK).min(spp)))
+                let pass = |block: u32| (block as u64 * BLOCK as u64).min(spp as u64) as u32;
+                Ok(Part::Passes(pass(b.start)..pass(b.end)))
             }
             ShardBy::Rows => {
                 let tile_rows = height.div_ceil(TILE);

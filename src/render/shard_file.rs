@@ -204,6 +204,10 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
             expected - 3
         );
     }
+    let spp = number("spp")?;
+    if spp == 0 || number("passes-done")? > spp {
+        bail!("its spp and passes-done are not a render's");
+    }
     Ok(ShardInfo {
         scene: get("scene")?.to_string(),
         scene_name: get("scene-name")?.to_string(),
@@ -211,7 +215,7 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
         version: get("version")?.to_string(),
         spec,
         part,
-        spp: number("spp")?,
+        spp,
         passes_done: number("passes-done")?,
         dropped,
         display: DisplaySettings { exposure, tonemap },

@@ -163,10 +163,21 @@ fn a_stopped_shard_resumes_its_own_part_and_no_other() {
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
     assert!(ck.exists(), "no checkpoint was written");
-    let _ = Command::new("kill")
+    let killed = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
-        .status();
-    child.wait().unwrap();
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    // It writes its part of the passes done and exits 75 (not done: a scheduler retries it);
+    // merge refuses the part.
+    assert_eq!(child.wait().unwrap().code(), Some(75));
+    let merged = dir.path().join("merged.exr");
+    let o = merge(
+        &merged,
+        &[direct[0].clone(), part.clone(), direct[2].clone()],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("stopped after pass"), "{}", stderr(&o));
     // Resumed as another shard: refused.
     let other = dir.path().join("other.exr");
     let o = raylab(
@@ -204,7 +215,6 @@ fn a_stopped_shard_resumes_its_own_part_and_no_other() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(std::fs::read(&part).unwrap() == std::fs::read(&direct[1]).unwrap());
-    let merged = dir.path().join("merged.exr");
     let o = merge(&merged, &[direct[0].clone(), part, direct[2].clone()]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
