@@ -338,8 +338,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         exposure: args.session.exposure,
         tonemap: args.session.tonemap,
     };
-    match (shard, part) {
-        (Some(spec), Some(part)) => shard_file::write(
+    match (shard, part, spp) {
+        (Some(spec), Some(part), Some(spp)) => shard_file::write(
             &output_path,
             &acc,
             &ShardInfo {
@@ -353,7 +353,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
                 version: env!("CARGO_PKG_VERSION").to_string(),
                 spec,
                 part,
-                spp: spp.expect("shards have a pass count"),
+                spp,
                 passes_done: acc.spp_done,
                 dropped: acc.dropped,
                 display,

@@ -34,7 +34,8 @@ const PIXEL_BYTES: u64 = 13 * 8 + 13 * 24;
 
 pub use crate::scene::references::stable_hash;
 
-/// Serialises `acc` with the settings hash `hash`.
+/// Serialises `acc` with the settings hash `hash`, uncompressed (tests).
+#[cfg(test)]
 pub fn encode(acc: &Accumulation, hash: u64) -> Vec<u8> {
     let mut out = Vec::new();
     write_to(acc, hash, &mut out).expect("writing to memory does not fail");
@@ -78,7 +79,9 @@ impl Checksum {
         }
         let mut words = bytes.chunks_exact(8);
         for w in &mut words {
-            self.word(u64::from_le_bytes(w.try_into().expect("8 bytes")));
+            let mut word = [0u8; 8];
+            word.copy_from_slice(w);
+            self.word(u64::from_le_bytes(word));
         }
         let rest = words.remainder();
         self.pending[..rest.len()].copy_from_slice(rest);

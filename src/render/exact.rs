@@ -111,8 +111,13 @@ impl Exact {
 
     /// The inverse of [`Exact::to_le_bytes`].
     pub fn from_le_bytes(bytes: [u8; 24]) -> Exact {
-        let limb = |k: usize| u64::from_le_bytes(bytes[k * 8..k * 8 + 8].try_into().unwrap());
-        Exact([limb(0), limb(1), limb(2)])
+        let mut limbs = [0u64; 3];
+        for (limb, chunk) in limbs.iter_mut().zip(bytes.chunks_exact(8)) {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(chunk);
+            *limb = u64::from_le_bytes(word);
+        }
+        Exact(limbs)
     }
 }
 

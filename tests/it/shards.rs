@@ -10,11 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn raylab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("raylab runs")
+    crate::common::raylab_in(Path::new(env!("CARGO_MANIFEST_DIR")), args)
 }
 
 fn stderr(o: &Output) -> String {
@@ -73,6 +69,14 @@ fn render_shards(dir: &Path, args: &[&str], n: u32) -> Vec<PathBuf> {
             part
         })
         .collect()
+}
+
+/// Renders `args` whole into `dir/single.exr`.
+fn render_single(dir: &Path, args: &[&str]) -> PathBuf {
+    let single = dir.join("single.exr");
+    let o = raylab(&[args, &["-o", s(&single)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    single
 }
 
 fn merge(out: &Path, parts: &[PathBuf]) -> Output {
@@ -421,10 +425,7 @@ fn gnu_parallel_renders_the_shards() {
     }
     let dir = tempfile::tempdir().unwrap();
     let args = render_args("path", &[]);
-    let single = dir.path().join("single.exr");
-    assert!(raylab(&[&args[..], &["-o", s(&single)]].concat())
-        .status
-        .success());
+    let single = render_single(dir.path(), &args);
     // The documented command: parallel raylab render ... --shard {}/N -o part-{}.exr ::: 0..N-1
     let o = Command::new("parallel")
         .args(["--halt", "now,fail=1", env!("CARGO_BIN_EXE_raylab")])
@@ -461,10 +462,7 @@ fn a_slurm_job_array_renders_and_merges_the_shards() {
     }
     let dir = tempfile::tempdir().unwrap();
     let args = render_args("path", &[]);
-    let single = dir.path().join("single.exr");
-    assert!(raylab(&[&args[..], &["-o", s(&single)]].concat())
-        .status
-        .success());
+    let single = render_single(dir.path(), &args);
     let out = dir.path().join("cluster.exr");
     // scripts/slurm/render.sh [--wait] SCENE N OUT [raylab render flags]: four shards and a
     // merge that depends on them.

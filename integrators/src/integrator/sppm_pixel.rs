@@ -235,12 +235,13 @@ impl SppmPixel {
                 if ld.is_finite() {
                     px.direct += ld;
                 }
-                if let Some((hit, ray, beta, bounces)) = px.visible {
+                // Every visible pixel's level has a map (built above from the same radii).
+                let visible = px
+                    .visible
+                    .zip(maps.get(level_of(px.radius, r0)).and_then(Option::as_ref));
+                if let Some(((hit, ray, beta, bounces), map)) = visible {
                     let sp = ShadingPoint::new(&hit, ray.dir, scene);
                     let max_photon_bounces = max_depth.saturating_sub(bounces + 1);
-                    let map = maps[level_of(px.radius, r0)]
-                        .as_ref()
-                        .expect("a map is built for every visible pixel's level");
                     let (flux, count) = gather(map, &sp, px.radius, max_photon_bounces);
                     if count > 0 && flux.is_finite() {
                         let m = count as f32;
