@@ -24,6 +24,7 @@ pub mod filter;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
+pub mod mlt;
 pub mod photon_map;
 pub mod sampler;
 pub mod sampling;

@@ -3,13 +3,25 @@
 //! Every camera sample gets its own generator, seeded only from (scene seed, pixel index,
 //! sample index). No state is shared between samples, so an image is bit-identical whatever
 //! the thread count, tile order or pass split.
+//!
+//! The Metropolis integrators drive the same code with numbers of their own: a sampler made
+//! by [`Sampler::primary`] reads them from a Markov chain's state in primary sample space
+//! ([`PrimarySamples`]), which mutates them between evaluations.
 
+use crate::mlt::PrimarySamples;
 use glam::Vec2;
 use rand::{rngs::SmallRng, Rng, SeedableRng};
 
-/// A random number source for one camera sample.
+/// A random number source for one camera sample (or one evaluation of a Metropolis chain).
 pub struct Sampler {
-    rng: SmallRng,
+    source: Source,
+}
+
+enum Source {
+    /// Fresh numbers from a generator keyed by the sample.
+    Random(SmallRng),
+    /// A Markov chain's numbers in primary sample space.
+    Primary(PrimarySamples),
 }
 
 /// SplitMix64 finaliser: a bijective 64-bit mix.
@@ -25,15 +37,40 @@ impl Sampler {
     pub fn new(seed: u64, pixel: u64, sample: u64) -> Self {
         let key = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15) ^ mix64(sample)));
         Sampler {
-            rng: SmallRng::seed_from_u64(key),
+            source: Source::Random(SmallRng::seed_from_u64(key)),
+        }
+    }
+
+    /// A sampler that reads a Markov chain's primary samples.
+    pub fn primary(samples: PrimarySamples) -> Self {
+        Sampler {
+            source: Source::Primary(samples),
+        }
+    }
+
+    /// The chain's primary samples, for a sampler made by [`Sampler::primary`].
+    pub fn primary_samples(&mut self) -> Option<&mut PrimarySamples> {
+        match &mut self.source {
+            Source::Primary(p) => Some(p),
+            Source::Random(_) => None,
+        }
+    }
+
+    /// For a Metropolis chain's sampler, reads stream `stream` from its start (numbers for
+    /// one subpath); nothing for a random one.
+    pub fn start_stream(&mut self, stream: u32) {
+        if let Source::Primary(p) = &mut self.source {
+            p.start_stream(stream);
         }
     }
 
     /// A uniform number in `[0, 1)`.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        // 24 random mantissa bits: exactly representable, never 1.0.
-        (self.rng.random::<u32>() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+        match &mut self.source {
+            Source::Random(rng) => unit_f32(rng),
+            Source::Primary(p) => p.next_1d(),
+        }
     }
 
     /// A uniform point in `[0, 1)^2`.
@@ -41,6 +78,21 @@ impl Sampler {
     pub fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_1d(), self.next_1d())
     }
+}
+
+/// A uniform number in `[0, 1)` from `rng`: 24 random mantissa bits, exactly representable,
+/// never 1.0.
+#[inline]
+pub fn unit_f32(rng: &mut SmallRng) -> f32 {
+    (rng.random::<u32>() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+/// The generator keyed by `key` and `index` (a chain, a bootstrap sample), mixed so that
+/// neighbouring keys give unrelated streams.
+pub fn keyed_rng(key: u64, index: u64) -> SmallRng {
+    SmallRng::seed_from_u64(mix64(
+        key ^ mix64(index.wrapping_add(0x6a09_e667_f3bc_c909)),
+    ))
 }
 
 #[cfg(test)]

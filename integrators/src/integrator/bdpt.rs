@@ -113,7 +113,7 @@ const STRATEGY: ParamSpec = ParamSpec {
     doc: "keep only the strategies of s light vertices (-1: all)",
 };
 
-struct Bdpt {
+pub(crate) struct Bdpt {
     max_depth: u32,
     rr_depth: u32,
     /// Keep only the strategies with this many light (`s`) and camera (`t`) vertices.
@@ -355,8 +355,9 @@ impl Integrator for Bdpt {
         // The two subpaths.
         let mut cam: Subpath = ArrayVec::new();
         let mut light: Subpath = ArrayVec::new();
-        self.camera_subpath(pixel, camera, tracer, sampler, &mut cam);
-        self.light_subpath(tracer, sampler, &mut light);
+        let depth = self.max_depth.min(DEPTH_LIMIT);
+        self.camera_subpath(pixel.film, camera, depth + 1, tracer, sampler, &mut cam);
+        self.light_subpath(depth, tracer, sampler, &mut light);
         let paths = Subpaths {
             scene,
             camera,
@@ -424,17 +425,76 @@ impl Integrator for Bdpt {
 }
 
 impl Bdpt {
-    /// The camera subpath: the lens, then up to `max-depth + 1` vertices from the ray
-    /// through the sample's film position.
+    /// Every strategy of paths up to `max_depth` scattering events, MIS-weighted, without
+    /// Russian roulette (for `mmlt`, whose paths must reach their length).
+    pub(crate) fn all_strategies(max_depth: u32) -> Bdpt {
+        Bdpt {
+            max_depth: max_depth.min(DEPTH_LIMIT),
+            rr_depth: u32::MAX,
+            only_s: None,
+            only_t: None,
+            mis: true,
+            write_strategies: false,
+        }
+    }
+
+    /// Strategy `(s, t)` alone (pbrt-v4's `MLTIntegrator::L`): a camera subpath of exactly `t`
+    /// vertices through `film` (numbers of stream 0, continued), a light subpath of exactly
+    /// `s` (stream 1) and their join (stream 2). Returns the MIS-weighted contribution (zero
+    /// when a subpath ends early) and the film position it lands at.
+    pub(crate) fn one_strategy(
+        &self,
+        s: usize,
+        t: usize,
+        film: glam::Vec2,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+    ) -> (Rgb, glam::Vec2) {
+        const NONE: Rgb = Rgb::ZERO;
+        if t == 0 || s + t < 2 || (s == 1 && t == 1) || s + t > MAX_VERTICES {
+            return (NONE, film);
+        }
+        let mut cam: Subpath = ArrayVec::new();
+        self.camera_subpath(film, camera, t as u32 - 1, tracer, sampler, &mut cam);
+        if cam.len() != t {
+            return (NONE, film);
+        }
+        let mut light: Subpath = ArrayVec::new();
+        sampler.start_stream(1);
+        // s = 1 samples its light vertex anew in the join.
+        if s >= 2 {
+            self.light_subpath(s as u32 - 1, tracer, sampler, &mut light);
+            if light.len() != s {
+                return (NONE, film);
+            }
+        }
+        sampler.start_stream(2);
+        let paths = Subpaths {
+            scene: tracer.scene,
+            camera,
+            light: &light,
+            cam: &cam,
+        };
+        let (c, weight, raster) = paths.connect(s, t, tracer, sampler);
+        if !c.is_finite() || !(weight > 0.0) {
+            return (NONE, film);
+        }
+        (c * weight, raster.unwrap_or(film))
+    }
+
+    /// The camera subpath: the lens, then up to `max_vertices` vertices from the ray through
+    /// the film position `film`.
     fn camera_subpath<'a>(
         &self,
-        pixel: &PixelSample,
+        film: glam::Vec2,
         camera: &Camera,
+        max_vertices: u32,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
         path: &mut Subpath<'a>,
     ) {
-        let ray = camera.ray(pixel.film.x, pixel.film.y);
+        let ray = camera.ray(film.x, film.y);
         let (_, pdf_dir) = camera.pdf_we(ray.dir);
         let mut lens = Vertex::new(Kind::Camera, camera.eye, camera.normal(), Rgb::ONE);
         lens.pdf_fwd = 1.0;
@@ -443,7 +503,7 @@ impl Bdpt {
             ray,
             Rgb::ONE,
             pdf_dir,
-            self.max_depth + 1,
+            max_vertices,
             TransportMode::Radiance,
             tracer,
             sampler,
@@ -452,9 +512,10 @@ impl Bdpt {
     }
 
     /// The light subpath: a point on a light chosen in proportion to power, then up to
-    /// `max-depth` vertices along the ray it emits.
+    /// `max_vertices` vertices along the ray it emits.
     fn light_subpath<'a>(
         &self,
+        max_vertices: u32,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
         path: &mut Subpath<'a>,
@@ -475,7 +536,7 @@ impl Bdpt {
             le.ray,
             le.weight / pmf,
             le.pdf_dir,
-            self.max_depth,
+            max_vertices,
             TransportMode::Importance,
             tracer,
             sampler,
@@ -766,10 +827,9 @@ impl Subpaths<'_, '_> {
         // Light side: the strategies with fewer light vertices.
         ri = 1.0;
         for i in (0..s).rev() {
-            let vertex = if i == s - 1 {
-                qs.unwrap_or(&light[i])
-            } else {
-                &light[i]
+            let vertex = match qs {
+                Some(qs) if i == s - 1 => qs,
+                _ => &light[i],
             };
             let rev = if i == s - 1 {
                 qs_rev.unwrap_or(0.0)

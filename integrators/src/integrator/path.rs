@@ -33,9 +33,9 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     }),
 };
 
-struct PathTracer {
-    max_depth: u32,
-    rr_depth: u32,
+pub(crate) struct PathTracer {
+    pub(crate) max_depth: u32,
+    pub(crate) rr_depth: u32,
 }
 
 impl RayIntegrator for PathTracer {

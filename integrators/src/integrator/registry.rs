@@ -374,6 +374,8 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::photon::ENTRY,
     super::sppm::ENTRY,
     super::sppm_pixel::ENTRY,
+    super::pssmlt::ENTRY,
+    super::mmlt::ENTRY,
     super::normals_view::ENTRY,
     super::albedo_view::ENTRY,
     super::depth_view::ENTRY,

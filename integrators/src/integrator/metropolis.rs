@@ -1,0 +1,344 @@
+//! The Metropolis driver `pssmlt` and `mmlt` share (Kelemen et al. 2002; Veach's thesis,
+//! chapter 11; pbrt-v4's `MLTIntegrator`): a bootstrap that estimates the image's
+//! brightness, then Markov chains in primary sample space whose visits, weighted by the
+//! expected-value trick, are splatted where their paths land.
+//!
+//! **Per pass, from nothing.** Each pass runs its own bootstrap and its own chains, seeded by
+//! (seed, pass, chain), so a pass depends only on its number: images are bit-identical at any
+//! thread count, across checkpoint and resume and across shards by passes. The number of
+//! chains and their lengths come from the parameters and the image size, never from the
+//! thread count.
+//!
+//! **Unbiased per pass.** A chain starts from a bootstrap sample chosen in proportion to its
+//! luminance (resampling), and the pass's image is scaled by the bootstrap's mean luminance
+//! `b`: the expectation of `b` times any function of a state so chosen is the function's
+//! integral against the path contribution, and the chain's steps keep that distribution, so
+//! every pass is an unbiased estimate of the image (no start-up bias to wait for). Within a
+//! pass, a chain's visits are correlated: short chains explore little, long chains cost
+//! parallelism.
+
+use crate::integrator::{Demand, Integrator, PixelSample, RayCounters, Splats, Stop, Tracer};
+use crate::mlt::PrimarySamples;
+use crate::registry::{ParamKind, ParamSpec, Params};
+use crate::sampler::{keyed_rng, unit_f32};
+use crate::{luminance, Camera, Rgb, Sampler, Scene};
+use glam::Vec2;
+use rayon::prelude::*;
+
+/// What a Metropolis integrator explores: points of primary sample space, each a path whose
+/// radiance lands at a film position. Paths are grouped into classes that chains never leave
+/// (path depths for `mmlt`), each with its own bootstrap samples.
+pub trait PathSpace: Send + Sync {
+    /// Streams the numbers of a state are split into.
+    fn streams(&self) -> u32;
+
+    /// Classes of paths (1 when chains may go anywhere).
+    fn classes(&self) -> u32;
+
+    /// Whether its paths join points to the lens (only a pinhole camera can).
+    fn needs_pinhole(&self) -> bool {
+        false
+    }
+
+    /// The radiance of the path that the sampler's numbers make in `class`, and the film
+    /// position (pixels) it lands at.
+    fn evaluate(
+        &self,
+        class: u32,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+    ) -> (Rgb, Vec2);
+}
+
+/// The parameters every Metropolis integrator takes.
+pub const PARAMS: [ParamSpec; 5] = [
+    ParamSpec {
+        name: "bootstrap",
+        kind: ParamKind::Int,
+        default: 0.0,
+        min: 0.0,
+        max: 1e9,
+        doc: "bootstrap samples per pass (per path depth for mmlt) for the normalisation and the chains' starts; 0: a quarter of the pixel count",
+    },
+    ParamSpec {
+        name: "chains",
+        kind: ParamKind::Int,
+        default: 64.0,
+        min: 1.0,
+        max: 1e7,
+        doc: "Markov chains per pass (at most one per pixel)",
+    },
+    ParamSpec {
+        name: "mutations-per-pixel",
+        kind: ParamKind::Float,
+        default: 1.0,
+        min: 1e-3,
+        max: 1e6,
+        doc: "mutations per pixel in each pass, shared out between the chains",
+    },
+    ParamSpec {
+        name: "large-step-probability",
+        kind: ParamKind::Float,
+        default: 0.3,
+        min: 0.0,
+        max: 1.0,
+        doc: "probability that a mutation draws every number afresh",
+    },
+    ParamSpec {
+        name: "sigma",
+        kind: ParamKind::Float,
+        default: 0.01,
+        min: 1e-6,
+        max: 1.0,
+        doc: "standard deviation of a small step in primary sample space",
+    },
+];
+
+/// Salts that keep the bootstrap's and the chains' generators apart.
+const BOOTSTRAP_SALT: u64 = 0x42_4f4f_5453;
+const CHAIN_SALT: u64 = 0x43_4841_494e;
+/// Bootstrap samples per parallel work unit (one sampler each).
+const BOOTSTRAP_CHUNK: usize = 256;
+/// Mutations between checks of a stop request.
+const STOP_CHECK: u32 = 256;
+
+/// A Metropolis integrator over a path space.
+pub struct Metropolis<S> {
+    pub space: S,
+    bootstrap: u32,
+    chains: u32,
+    mutations_per_pixel: f64,
+    large_step_probability: f32,
+    sigma: f32,
+    /// This pass's bootstrap: the running sums of its samples' luminances (one list over
+    /// every class, sample `i` of class `i % classes`), and the key its samples came from.
+    cdf: Vec<f64>,
+    key: u64,
+}
+
+impl<S: PathSpace> Metropolis<S> {
+    pub fn new(space: S, p: &Params) -> Self {
+        Metropolis {
+            space,
+            bootstrap: p.get_u32("bootstrap"),
+            chains: p.get_u32("chains"),
+            mutations_per_pixel: p.get("mutations-per-pixel"),
+            large_step_probability: p.get("large-step-probability") as f32,
+            sigma: p.get("sigma") as f32,
+            cdf: Vec::new(),
+            key: 0,
+        }
+    }
+
+    fn fresh_state(&self, rng: rand::rngs::SmallRng) -> Sampler {
+        Sampler::primary(PrimarySamples::new(
+            rng,
+            self.sigma,
+            self.large_step_probability,
+            self.space.streams(),
+        ))
+    }
+
+    /// The bootstrap of the pass: every sample's luminance, summed in order. The samples run
+    /// in parallel in fixed chunks, so the sums do not depend on the thread count.
+    fn bootstrap_pass(
+        &mut self,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
+        self.key = seed ^ (pass as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        let classes = self.space.classes();
+        let n = self.bootstrap_samples(camera) as usize * classes as usize;
+        let mut weights = vec![0.0f64; n];
+        let key = self.key ^ BOOTSTRAP_SALT;
+        let counters = weights
+            .par_chunks_mut(BOOTSTRAP_CHUNK)
+            .enumerate()
+            .map(|(chunk, out)| {
+                let mut tracer = Tracer::with_stop(scene, stop);
+                let mut sampler = self.fresh_state(keyed_rng(key, 0));
+                for (k, w) in out.iter_mut().enumerate() {
+                    if tracer.stop.requested() {
+                        break;
+                    }
+                    let i = chunk * BOOTSTRAP_CHUNK + k;
+                    if let Some(p) = sampler.primary_samples() {
+                        p.restart(keyed_rng(key, i as u64));
+                    }
+                    let class = i as u32 % classes;
+                    let (l, _) = self
+                        .space
+                        .evaluate(class, camera, &mut tracer, &mut sampler);
+                    let y = luminance(l) as f64;
+                    *w = if y.is_finite() && y > 0.0 { y } else { 0.0 };
+                }
+                tracer.counters
+            })
+            .reduce(RayCounters::default, |mut a, b| {
+                a.add(&b);
+                a
+            });
+        let mut total = 0.0f64;
+        for w in &mut weights {
+            total += *w;
+            *w = total;
+        }
+        self.cdf = weights;
+        counters
+    }
+
+    /// Bootstrap samples per pass (per class) for `camera`'s image.
+    fn bootstrap_samples(&self, camera: &Camera) -> u64 {
+        match self.bootstrap {
+            0 => (camera.width as u64 * camera.height as u64 / 4).max(1),
+            n => n as u64,
+        }
+    }
+
+    /// The bootstrap's estimate of the image's mean luminance, `b`.
+    fn normalisation(&self, camera: &Camera) -> f64 {
+        self.cdf.last().copied().unwrap_or(0.0) / self.bootstrap_samples(camera) as f64
+    }
+
+    /// Runs the chains that live at this pixel (chain `c` lives at pixel `c * P / chains` of
+    /// the `P` pixels), splatting their visits. Returns nothing for the pixel itself.
+    fn run_chains_at(
+        &self,
+        pixel: &PixelSample,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        splats: &mut Splats,
+    ) -> Rgb {
+        let pixels = camera.width as u64 * camera.height as u64;
+        let chains = (self.chains as u64).min(pixels);
+        let here = pixel.y as u64 * camera.width as u64 + pixel.x as u64;
+        let b = self.normalisation(camera);
+        if chains == 0 || b <= 0.0 || !b.is_finite() {
+            return Rgb::ZERO;
+        }
+        // The chain whose pixel this is, if any (chain pixels are distinct: chains <= P).
+        let chain = (here * chains).div_ceil(pixels);
+        if chain >= chains || chain * pixels / chains != here {
+            return Rgb::ZERO;
+        }
+        // This chain's share of the pass's mutations.
+        let total = (self.mutations_per_pixel * pixels as f64).round().max(1.0) as u64;
+        let mutations = (chain + 1) * total / chains - chain * total / chains;
+        // Every visit's radiance over its luminance, times b over the mutations per pixel.
+        let scale = (b * pixels as f64 / total as f64) as f32;
+        self.run_chain(chain, mutations, scale, camera, tracer, splats);
+        Rgb::ZERO
+    }
+
+    /// One chain: its start resampled from the bootstrap, then `mutations` proposals, each
+    /// splatting the proposal and the current state weighted by the acceptance probability
+    /// (the expected-value trick of Veach's thesis, 11.3.3).
+    fn run_chain(
+        &self,
+        chain: u64,
+        mutations: u64,
+        scale: f32,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        splats: &mut Splats,
+    ) {
+        let classes = self.space.classes() as usize;
+        let mut rng = keyed_rng(self.key ^ CHAIN_SALT, chain);
+        let total = self.cdf.last().copied().unwrap_or(0.0);
+        // The start: a bootstrap sample chosen in proportion to its luminance, re-evaluated.
+        let target = unit_f32(&mut rng) as f64 * total;
+        let start = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len().saturating_sub(1));
+        let class = (start % classes) as u32;
+        let mut sampler = self.fresh_state(keyed_rng(self.key ^ BOOTSTRAP_SALT, start as u64));
+        let (mut current, mut film) = self.space.evaluate(class, camera, tracer, &mut sampler);
+        let mut y = luminance(current);
+        if !(y > 0.0 && y.is_finite()) {
+            return;
+        }
+        let Some(state) = sampler.primary_samples() else {
+            return;
+        };
+        state.reseed(keyed_rng(self.key ^ CHAIN_SALT ^ 1, chain));
+        for m in 0..mutations {
+            if m % STOP_CHECK as u64 == 0 && tracer.stop.requested() {
+                return;
+            }
+            // Propose.
+            if let Some(state) = sampler.primary_samples() {
+                state.start_iteration();
+            }
+            let (proposed, proposed_film) =
+                self.space.evaluate(class, camera, tracer, &mut sampler);
+            let py = luminance(proposed);
+            let py = if py.is_finite() && proposed.is_finite() {
+                py.max(0.0)
+            } else {
+                0.0
+            };
+            // Splat both, by the probability of each being the next state.
+            let accept = (py / y).min(1.0);
+            if accept > 0.0 {
+                splats.add(proposed_film, proposed * (accept * scale / py));
+            }
+            if accept < 1.0 {
+                splats.add(film, current * ((1.0 - accept) * scale / y));
+            }
+            // Accept or reject.
+            let Some(state) = sampler.primary_samples() else {
+                return;
+            };
+            if unit_f32(&mut rng) < accept {
+                state.accept();
+                (current, film, y) = (proposed, proposed_film, py);
+            } else {
+                state.reject();
+            }
+        }
+    }
+}
+
+impl<S: PathSpace> Integrator for Metropolis<S> {
+    fn sample(
+        &self,
+        pixel: &PixelSample,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        _sampler: &mut Sampler,
+        splats: &mut Splats,
+    ) -> Rgb {
+        self.run_chains_at(pixel, camera, tracer, splats)
+    }
+
+    fn prepare_pass(
+        &mut self,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
+        self.bootstrap_pass(scene, camera, seed, pass, stop)
+    }
+
+    fn demand(&self) -> Demand {
+        Demand {
+            rays_per_sample: 2.0,
+            // The bootstrap's running sums.
+            memory: self.bootstrap as u64 * self.space.classes() as u64 * 8,
+            memory_per_pixel: if self.bootstrap == 0 {
+                2 * self.space.classes() as u64
+            } else {
+                0
+            },
+            pinhole: self.space.needs_pinhole(),
+            ..Demand::default()
+        }
+    }
+}

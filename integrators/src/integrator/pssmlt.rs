@@ -1,0 +1,77 @@
+//! `pssmlt`: primary-sample-space Metropolis light transport (Kelemen, Szirmay-Kalos, Antal,
+//! Csonka 2002) over unidirectional path tracing (Mitsuba 0.6's `pssmlt`, Tungsten's).
+//!
+//! **Estimates** the image by Markov chains over the uniform numbers `path` draws for one
+//! camera sample: the first two pick the film position anywhere on the image, the rest build
+//! the path, and `path`'s estimate (next-event estimation, MIS, Russian roulette) is the
+//! chain's target, its luminance the density the chain visits. A mutation moves every number
+//! by a small Gaussian step or, with `large-step-probability`, draws all anew; it is accepted
+//! with probability `min(1, y' / y)`. Where bright paths are rare and hard to find but lie
+//! close to each other (light through a door ajar), a chain that found one stays near it.
+//! The driver (bootstrap, chains, splats, why each pass is unbiased) is in `metropolis.rs`.
+//!
+//! **Parameters**: `max-depth` (default unlimited), `rr-depth` (3), `bootstrap` (0: a
+//! quarter of the pixel count, per pass), `chains` (64 per pass), `mutations-per-pixel` (1 per pass),
+//! `large-step-probability` (0.3), `sigma` (0.01).
+//! **Bias**: none (each pass's bootstrap-normalised estimate is unbiased); truncation with a
+//! finite `max-depth`. Its noise is correlated: a chain's splats cluster, so images look
+//! blotchy before they look grainy.
+
+use crate::integrator::metropolis::{Metropolis, PathSpace, PARAMS};
+use crate::integrator::path::PathTracer;
+use crate::integrator::{RayIntegrator, Tracer};
+use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
+use crate::{Camera, Rgb, Sampler};
+use glam::Vec2;
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "pssmlt",
+    summary:
+        "primary-sample-space Metropolis light transport (Kelemen et al. 2002) over path tracing",
+    params: &[
+        MAX_DEPTH, RR_DEPTH, PARAMS[0], PARAMS[1], PARAMS[2], PARAMS[3], PARAMS[4],
+    ],
+    build: |p: &Params| {
+        Box::new(Metropolis::new(
+            UnidirectionalPaths(PathTracer {
+                max_depth: p.get_depth("max-depth"),
+                rr_depth: p.get_u32("rr-depth"),
+            }),
+            p,
+        ))
+    },
+    analytic: Some(Analytic {
+        params: &[("bootstrap", "2000"), ("chains", "16")],
+        furnace: expect(2.0, 40, 400),
+        point_in_sphere: expect(1.0, 40, 400),
+        sphere_under_sky: expect(1.2, 40, 400),
+    }),
+};
+
+/// `path`'s camera samples as points of primary sample space.
+struct UnidirectionalPaths(PathTracer);
+
+impl PathSpace for UnidirectionalPaths {
+    fn streams(&self) -> u32 {
+        1
+    }
+
+    fn classes(&self) -> u32 {
+        1
+    }
+
+    fn evaluate(
+        &self,
+        _class: u32,
+        camera: &Camera,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+    ) -> (Rgb, Vec2) {
+        sampler.start_stream(0);
+        // The film position, anywhere on the image; then the path from it.
+        let u = sampler.next_2d();
+        let film = Vec2::new(u.x * camera.width as f32, u.y * camera.height as f32);
+        let ray = camera.ray(film.x, film.y);
+        (self.0.radiance(&ray, tracer, sampler), film)
+    }
+}
