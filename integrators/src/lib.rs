@@ -29,6 +29,7 @@ pub mod photon_map;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod sd_tree;
 pub mod special;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;

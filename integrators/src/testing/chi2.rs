@@ -33,8 +33,8 @@ use std::f64::consts::PI;
 /// Number of chi-square tests in the suite (for the Šidák correction). Keep in sync with the
 /// `#[test]`s that call [`assert_chi2`] and [`assert_chi2_discrete`]:
 /// sampling.rs 3, lambert.rs 1, oren_nayar.rs 4, phong.rs 6, light.rs 9, microfacet.rs 3,
-/// bsdf/verification.rs 11, light/env_map.rs 1, light/spot.rs 1.
-pub const CHI2_TESTS: u32 = 39;
+/// bsdf/verification.rs 11, light/env_map.rs 1, light/spot.rs 1, mlt.rs 1, sd_tree.rs 1.
+pub const CHI2_TESTS: u32 = 41;
 /// Family-wise significance level of the suite.
 pub const SIGNIFICANCE: f64 = 0.01;
 /// Default number of samples per test.
