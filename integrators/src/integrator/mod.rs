@@ -10,6 +10,7 @@ mod bpm;
 mod depth_view;
 mod direct;
 mod fixed_depth;
+mod guided;
 mod light_tracer;
 mod metropolis;
 mod mmlt;
@@ -22,6 +23,7 @@ mod russian_roulette;
 mod sppm;
 mod sppm_pixel;
 mod vcm;
+mod vpl;
 mod whitted;
 
 pub use path_state::PathState;
@@ -483,6 +485,18 @@ pub fn sample_one_light(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Rgb {
+    let pdf = |wi: glam::Vec3A| sp.material.pdf(sp.wo, sp.frame.to_local(wi));
+    sample_one_light_against(sp, mis.then_some(pdf), tracer, sampler)
+}
+
+/// [`sample_one_light`] weighted by the power heuristic against a strategy of the caller's
+/// whose solid-angle density towards `wi` (world) is `pdf(wi)` (`None`: unweighted).
+pub fn sample_one_light_against(
+    sp: &ShadingPoint,
+    pdf: Option<impl Fn(glam::Vec3A) -> f32>,
+    tracer: &mut Tracer,
+    sampler: &mut Sampler,
+) -> Rgb {
     let u_light = sampler.next_1d();
     let u = sampler.next_2d();
     let Some((index, pmf)) = tracer.scene.lights().sample(u_light) else {
@@ -492,13 +506,9 @@ pub fn sample_one_light(
         return Rgb::ZERO;
     };
     let light_pdf = pmf * ls.pdf;
-    let weight = if mis && !ls.delta {
-        crate::sampling::power_heuristic(
-            light_pdf,
-            sp.material.pdf(sp.wo, sp.frame.to_local(ls.wi)),
-        )
-    } else {
-        1.0
+    let weight = match pdf {
+        Some(pdf) if !ls.delta => crate::sampling::power_heuristic(light_pdf, pdf(ls.wi)),
+        _ => 1.0,
     };
     f * ls.radiance * (cos * weight / light_pdf)
 }

@@ -99,6 +99,42 @@ impl PathState {
         self.eta_scale *= bs.eta * bs.eta;
         self.specular = bs.specular;
         self.pdf = bs.pdf;
+        self.advance(sp, next, rr_depth, sampler)
+    }
+
+    /// Continues along `wi` (unit, world), a direction a strategy of the caller's sampled
+    /// with solid-angle density `pdf` at a point with no Dirac lobe (`guided`'s mixture):
+    /// multiplies the throughput by `f |cos| / pdf`, then plays Russian roulette. False ends
+    /// the path (nothing carried, or the roulette).
+    pub fn scatter_along(
+        &mut self,
+        sp: &ShadingPoint,
+        wi: Vec3A,
+        pdf: f32,
+        rr_depth: u32,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let f = sp.connection_factor(wi, crate::bsdf::TransportMode::Radiance);
+        if !(pdf > 0.0) || f == Rgb::ZERO {
+            return false;
+        }
+        self.beta *= f / pdf;
+        if !self.beta.is_finite() {
+            return false;
+        }
+        self.specular = false;
+        self.pdf = pdf;
+        self.advance(sp, sp.hit.spawn_ray(wi), rr_depth, sampler)
+    }
+
+    /// The path leaves `sp` along `next`: one more scattering event, then Russian roulette.
+    fn advance(
+        &mut self,
+        sp: &ShadingPoint,
+        next: Ray,
+        rr_depth: u32,
+        sampler: &mut Sampler,
+    ) -> bool {
         self.from = sp.hit.p;
         self.ray = next;
         self.bounces += 1;

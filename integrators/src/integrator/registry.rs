@@ -376,6 +376,8 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::sppm_pixel::ENTRY,
     super::pssmlt::ENTRY,
     super::mmlt::ENTRY,
+    super::vpl::ENTRY,
+    super::guided::ENTRY,
     super::normals_view::ENTRY,
     super::albedo_view::ENTRY,
     super::depth_view::ENTRY,

@@ -1,0 +1,327 @@
+//! `guided`: path tracing guided by a learned distribution of incident light (Müller, Gross,
+//! Novák 2017, "Practical Path Guiding"; its Mitsuba 0.6 plug-in, Open PGL in Cycles).
+//!
+//! **Estimates** the full rendering equation as `path` does (next-event estimation, MIS,
+//! Russian roulette), but at surfaces without Dirac lobes the next direction comes from a
+//! one-sample mixture: with probability `bsdf-fraction` the BSDF's sample, otherwise a sample
+//! of the SD-tree (`sd_tree.rs`), a spatial binary tree over the scene whose leaves hold
+//! quadtrees over directions, learned from where light arrived. The direction's weight is
+//! `f |cos|` over the mixture's density, and light samples are MIS-weighted against it.
+//!
+//! **Training, deterministic.** Before the first pass (and again after a resume: it is a
+//! function of the seed and the image), `training-passes` whole passes over the image train
+//! the tree: pass `i` traces `2^i` paths per pixel guided by the tree the passes before it
+//! built, and records at every guided vertex the radiance its path then found through the
+//! direction it took. Paths run in parallel, their records are added to the tree in pixel
+//! order, and the tree is refined (spatial leaves split past `spatial-threshold *
+//! sqrt(2^i)` records, quadtree cells past 1% of their leaf's energy) and frozen for the next
+//! pass. Peers train with atomics in whatever order threads arrive; here the tree, and so the
+//! image, is the same at any thread count. The rendered passes use the last tree, frozen; the
+//! training paths are not in the image (the paper's final image is its last iteration too).
+//! Training costs `2^training-passes - 1` paths per pixel, counted in a `--time` budget.
+//!
+//! **Parameters**: `max-depth` (unlimited), `rr-depth` (3), `training-passes` (4),
+//! `bsdf-fraction` (0.5; 1 is plain BSDF sampling, the baseline), `spatial-threshold`
+//! (12000, the paper's c).
+//! **Bias**: none (any mixture with the BSDF's share above 0 covers its support);
+//! truncation with a finite `max-depth`.
+
+use crate::integrator::{
+    emitted_at, escaped, sample_one_light_against, Demand, PathState, RayCounters, RayIntegrator,
+    ShadingPoint, Stop, Tracer,
+};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
+};
+use crate::sd_tree::{Record, SdTree};
+use crate::{luminance, Camera, Ray, Rgb, Sampler, Scene};
+use arrayvec::ArrayVec;
+use glam::{Vec2, Vec3A};
+use rayon::prelude::*;
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "guided",
+    summary: "practical path guiding (Müller et al. 2017): an SD-tree trained over whole passes, mixed with BSDF sampling",
+    params: &[
+        MAX_DEPTH,
+        RR_DEPTH,
+        ParamSpec {
+            name: "training-passes",
+            kind: ParamKind::Int,
+            default: 4.0,
+            min: 0.0,
+            max: 12.0,
+            doc: "training passes before rendering, pass i tracing 2^i paths per pixel",
+        },
+        ParamSpec {
+            name: "bsdf-fraction",
+            kind: ParamKind::Float,
+            default: 0.5,
+            min: 0.01,
+            max: 1.0,
+            doc: "probability of sampling the BSDF rather than the learned distribution",
+        },
+        ParamSpec {
+            name: "spatial-threshold",
+            kind: ParamKind::Float,
+            default: 12000.0,
+            min: 1.0,
+            max: 1e9,
+            doc: "records a spatial leaf takes before it splits (times sqrt(2^pass))",
+        },
+    ],
+    build: |p: &Params| {
+        Box::new(Guided {
+            max_depth: p.get_depth("max-depth"),
+            rr_depth: p.get_u32("rr-depth"),
+            training_passes: p.get_u32("training-passes"),
+            bsdf_fraction: p.get("bsdf-fraction") as f32,
+            spatial_threshold: p.get("spatial-threshold") as f32,
+            tree: None,
+        })
+    },
+    analytic: Some(Analytic {
+        params: &[],
+        furnace: expect(2.0, 40, 500),
+        point_in_sphere: expect(1.0, 40, 500),
+        sphere_under_sky: expect(1.2, 40, 500),
+    }),
+};
+
+/// A quadtree cell is split past this share of its leaf's energy (the paper's 1%).
+const FLUX_THRESHOLD: f32 = 0.01;
+/// Guided vertices a training path records, at the most.
+const MAX_RECORDED: usize = 32;
+/// Image rows whose training paths run before their records are added to the tree.
+const ROWS_PER_BATCH: u32 = 16;
+/// Salt of the training paths' generators.
+const TRAINING_SALT: u64 = 0x4755_4944_4544;
+
+struct Guided {
+    max_depth: u32,
+    rr_depth: u32,
+    training_passes: u32,
+    bsdf_fraction: f32,
+    spatial_threshold: f32,
+    /// The trained tree, frozen (`None` before training).
+    tree: Option<SdTree>,
+}
+
+/// A guided vertex of a training path: where, which way the path left, with what density,
+/// its throughput after leaving, and the radiance the path had found before it left.
+struct Visit {
+    p: Vec3A,
+    wi: Vec3A,
+    pdf: f32,
+    beta: Rgb,
+    found_before: Rgb,
+}
+
+type Visits = ArrayVec<Visit, MAX_RECORDED>;
+
+impl Guided {
+    /// One path from `camera_ray`, guided by `tree` where there is one; with `visits`, its
+    /// guided vertices are kept for training.
+    fn trace(
+        &self,
+        tree: Option<&SdTree>,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        mut visits: Option<&mut Visits>,
+    ) -> Rgb {
+        let mut l = Rgb::ZERO;
+        let mut path = PathState::from_camera(*camera_ray);
+        loop {
+            // Trace the next segment.
+            let Some(hit) = path.trace(tracer) else {
+                // Escaped: environment light, MIS-weighted against the density that chose it.
+                let le = escaped(tracer.scene, &path.ray);
+                if le != Rgb::ZERO {
+                    l += path.beta * le * path.emission_weight(tracer, None);
+                }
+                break;
+            };
+            // Emission found by the sampled direction (or the camera).
+            if hit.light.is_some() {
+                let le = emitted_at(tracer.scene, &hit, &path.ray);
+                if le != Rgb::ZERO {
+                    l += path.beta * le * path.emission_weight(tracer, Some(&hit));
+                }
+            }
+            if path.bounces >= self.max_depth {
+                break;
+            }
+            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+            let guide = tree.filter(|_| !sp.material.has_delta_lobe() && self.bsdf_fraction < 1.0);
+            let Some(tree) = guide else {
+                // Dirac lobes (or no tree): `path`'s step.
+                if !sp.material.is_specular() {
+                    let pdf = |wi: Vec3A| sp.material.pdf(sp.wo, sp.frame.to_local(wi));
+                    l += path.beta * sample_one_light_against(&sp, Some(pdf), tracer, sampler);
+                }
+                if !path.scatter(&sp, self.rr_depth, sampler) {
+                    break;
+                }
+                continue;
+            };
+            // Next-event estimation, MIS-weighted against the mixture.
+            let mixture = |wi: Vec3A| self.mixture_pdf(tree, &sp, wi);
+            l += path.beta * sample_one_light_against(&sp, Some(mixture), tracer, sampler);
+            // The next direction from the mixture: the BSDF's sample or the tree's.
+            let (u_pick, u) = (sampler.next_1d(), sampler.next_2d());
+            let wi = if u_pick < self.bsdf_fraction {
+                let u_lobe = u_pick / self.bsdf_fraction;
+                match sp.sample(u_lobe, u, crate::bsdf::TransportMode::Radiance) {
+                    Some(s) => s.wi,
+                    None => break,
+                }
+            } else {
+                match tree.sample(sp.hit.p, u) {
+                    Some((wi, _)) => wi,
+                    None => break,
+                }
+            };
+            let pdf = mixture(wi);
+            if !path.scatter_along(&sp, wi, pdf, self.rr_depth, sampler) {
+                break;
+            }
+            if let Some(v) = visits.as_deref_mut() {
+                let _ = v.try_push(Visit {
+                    p: sp.hit.p,
+                    wi,
+                    pdf,
+                    beta: path.beta,
+                    found_before: l,
+                });
+            }
+        }
+        l
+    }
+
+    /// The mixture's density towards `wi` (world) at `sp`.
+    fn mixture_pdf(&self, tree: &SdTree, sp: &ShadingPoint, wi: Vec3A) -> f32 {
+        let bsdf = sp.material.pdf(sp.wo, sp.frame.to_local(wi));
+        let a = self.bsdf_fraction;
+        a * bsdf + (1.0 - a) * tree.pdf(sp.hit.p, wi)
+    }
+
+    /// Training: whole passes over `camera`'s image, each guided by the tree the passes
+    /// before it built, their records added in pixel order. `None` if stopped.
+    fn train(
+        &self,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        stop: Stop,
+        counters: &mut RayCounters,
+    ) -> Option<SdTree> {
+        let (lo, hi) = scene.bounds();
+        let mut gathering = SdTree::new(lo, hi);
+        let mut guide: Option<SdTree> = None;
+        for pass in 0..self.training_passes {
+            let paths = 1u64 << pass;
+            let mut row = 0;
+            while row < camera.height {
+                let rows = row..(row + ROWS_PER_BATCH).min(camera.height);
+                // The batch's rows in parallel, each row's records in pixel order.
+                let traced: Vec<(Vec<Record>, RayCounters)> = rows
+                    .into_par_iter()
+                    .map(|y| {
+                        self.train_row(guide.as_ref(), scene, camera, seed, pass, paths, y, stop)
+                    })
+                    .collect();
+                for (records, c) in &traced {
+                    gathering.record(records);
+                    counters.add(c);
+                }
+                if stop.requested() {
+                    return None;
+                }
+                row += ROWS_PER_BATCH;
+            }
+            // Freeze what this pass learned for the next; keep gathering on the refined tree.
+            gathering.refine(pass, self.spatial_threshold, FLUX_THRESHOLD);
+            guide = Some(gathering.clone());
+        }
+        Some(guide.unwrap_or(gathering))
+    }
+
+    /// The training paths of one image row and their records.
+    #[allow(clippy::too_many_arguments)]
+    fn train_row(
+        &self,
+        guide: Option<&SdTree>,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        pass: u32,
+        paths: u64,
+        y: u32,
+        stop: Stop,
+    ) -> (Vec<Record>, RayCounters) {
+        let mut tracer = Tracer::with_stop(scene, stop);
+        let mut records = Vec::new();
+        let mut visits = Visits::new();
+        for x in 0..camera.width {
+            if tracer.stop.requested() {
+                break;
+            }
+            let pixel = y as u64 * camera.width as u64 + x as u64;
+            for k in 0..paths {
+                let mut sampler = Sampler::new(seed ^ TRAINING_SALT ^ pass as u64, pixel, k);
+                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                let ray = camera.ray(film.x, film.y);
+                visits.clear();
+                let l = self.trace(guide, &ray, &mut tracer, &mut sampler, Some(&mut visits));
+                // The radiance that arrived through each guided direction: what the path
+                // found after it left, over its throughput then, over the direction's density.
+                for v in &visits {
+                    let lit = v.beta.cmpgt(Rgb::ZERO);
+                    let arrived = Rgb::select(lit, (l - v.found_before) / v.beta, Rgb::ZERO);
+                    let value = luminance(arrived) / v.pdf;
+                    if value.is_finite() && value >= 0.0 {
+                        records.push(Record {
+                            p: v.p,
+                            dir: v.wi,
+                            value,
+                        });
+                    }
+                }
+            }
+        }
+        (records, tracer.counters)
+    }
+}
+
+impl RayIntegrator for Guided {
+    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+        self.trace(self.tree.as_ref(), camera_ray, tracer, sampler, None)
+    }
+
+    /// Trains the tree before the first pass (and the first after a resume).
+    fn prepare_pass(
+        &mut self,
+        scene: &dyn Scene,
+        camera: &Camera,
+        seed: u64,
+        pass: u32,
+        stop: Stop,
+    ) -> RayCounters {
+        let mut counters = RayCounters::default();
+        if pass == 0 || self.tree.is_none() {
+            self.tree = None;
+            if self.training_passes > 0 && self.bsdf_fraction < 1.0 {
+                self.tree = self.train(scene, camera, seed, stop, &mut counters);
+            }
+        }
+        counters
+    }
+
+    fn demand(&self) -> Demand {
+        Demand {
+            rays_per_sample: 2.0,
+            ..Demand::default()
+        }
+    }
+}
