@@ -90,6 +90,16 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 
 /// A quadtree cell is split past this share of its leaf's energy (the paper's 1%).
 const FLUX_THRESHOLD: f32 = 0.01;
+/// Emission that the segment leaving a guided vertex found (`c`, already in the path's sum)
+/// is left out of what the vertex records: light sampling finds emitters, and a guide that
+/// learned them would spend its samples where next-event estimation already looks, and raise
+/// the MIS weight of its own hits (the tree learns indirect light only).
+fn leave_to_light_sampling(visits: Option<&mut Visits>, guided_last: bool, c: Rgb) {
+    if let (true, Some(last)) = (guided_last, visits.and_then(|v| v.last_mut())) {
+        last.found_before += c;
+    }
+}
+
 /// Guided vertices a training path records, at the most.
 const MAX_RECORDED: usize = 32;
 /// Image rows whose training paths run before their records are added to the tree.
@@ -113,6 +123,8 @@ struct Visit {
     p: Vec3A,
     wi: Vec3A,
     pdf: f32,
+    /// `|cos|` between the direction and the shading normal.
+    cos: f32,
     beta: Rgb,
     found_before: Rgb,
 }
@@ -132,13 +144,17 @@ impl Guided {
     ) -> Rgb {
         let mut l = Rgb::ZERO;
         let mut path = PathState::from_camera(*camera_ray);
+        // Whether the segment being traced left a guided vertex.
+        let mut guided_last = false;
         loop {
             // Trace the next segment.
             let Some(hit) = path.trace(tracer) else {
                 // Escaped: environment light, MIS-weighted against the density that chose it.
                 let le = escaped(tracer.scene, &path.ray);
                 if le != Rgb::ZERO {
-                    l += path.beta * le * path.emission_weight(tracer, None);
+                    let c = path.beta * le * path.emission_weight(tracer, None);
+                    l += c;
+                    leave_to_light_sampling(visits.as_deref_mut(), guided_last, c);
                 }
                 break;
             };
@@ -146,9 +162,12 @@ impl Guided {
             if hit.light.is_some() {
                 let le = emitted_at(tracer.scene, &hit, &path.ray);
                 if le != Rgb::ZERO {
-                    l += path.beta * le * path.emission_weight(tracer, Some(&hit));
+                    let c = path.beta * le * path.emission_weight(tracer, Some(&hit));
+                    l += c;
+                    leave_to_light_sampling(visits.as_deref_mut(), guided_last, c);
                 }
             }
+            guided_last = false;
             if path.bounces >= self.max_depth {
                 break;
             }
@@ -191,10 +210,12 @@ impl Guided {
                     p: sp.hit.p,
                     wi,
                     pdf,
+                    cos: wi.dot(sp.hit.ns).abs(),
                     beta: path.beta,
                     found_before: l,
                 });
             }
+            guided_last = true;
         }
         l
     }
@@ -217,8 +238,9 @@ impl Guided {
         counters: &mut RayCounters,
     ) -> Option<SdTree> {
         let (lo, hi) = scene.bounds();
+        // The first pass is guided by a uniform distribution (the new tree's).
         let mut gathering = SdTree::new(lo, hi);
-        let mut guide: Option<SdTree> = None;
+        let mut guide = gathering.clone();
         for pass in 0..self.training_passes {
             let paths = 1u64 << pass;
             let mut row = 0;
@@ -227,9 +249,7 @@ impl Guided {
                 // The batch's rows in parallel, each row's records in pixel order.
                 let traced: Vec<(Vec<Record>, RayCounters)> = rows
                     .into_par_iter()
-                    .map(|y| {
-                        self.train_row(guide.as_ref(), scene, camera, seed, pass, paths, y, stop)
-                    })
+                    .map(|y| self.train_row(&guide, scene, camera, seed, pass, paths, y, stop))
                     .collect();
                 for (records, c) in &traced {
                     gathering.record(records);
@@ -242,16 +262,16 @@ impl Guided {
             }
             // Freeze what this pass learned for the next; keep gathering on the refined tree.
             gathering.refine(pass, self.spatial_threshold, FLUX_THRESHOLD);
-            guide = Some(gathering.clone());
+            guide = gathering.clone();
         }
-        Some(guide.unwrap_or(gathering))
+        Some(guide)
     }
 
     /// The training paths of one image row and their records.
     #[allow(clippy::too_many_arguments)]
     fn train_row(
         &self,
-        guide: Option<&SdTree>,
+        guide: &SdTree,
         scene: &dyn Scene,
         camera: &Camera,
         seed: u64,
@@ -273,13 +293,19 @@ impl Guided {
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let ray = camera.ray(film.x, film.y);
                 visits.clear();
-                let l = self.trace(guide, &ray, &mut tracer, &mut sampler, Some(&mut visits));
+                let l = self.trace(
+                    Some(guide),
+                    &ray,
+                    &mut tracer,
+                    &mut sampler,
+                    Some(&mut visits),
+                );
                 // The radiance that arrived through each guided direction: what the path
                 // found after it left, over its throughput then, over the direction's density.
                 for v in &visits {
                     let lit = v.beta.cmpgt(Rgb::ZERO);
                     let arrived = Rgb::select(lit, (l - v.found_before) / v.beta, Rgb::ZERO);
-                    let value = luminance(arrived) / v.pdf;
+                    let value = luminance(arrived) * v.cos / v.pdf;
                     if value.is_finite() && value >= 0.0 {
                         records.push(Record {
                             p: v.p,

@@ -59,20 +59,20 @@ pub const PARAMS: [ParamSpec; 5] = [
         default: 0.0,
         min: 0.0,
         max: 1e9,
-        doc: "bootstrap samples per pass (per path depth for mmlt) for the normalisation and the chains' starts; 0: a quarter of the pixel count",
+        doc: "bootstrap samples per pass (per path depth for mmlt) for the normalisation and the chains' starts; 0: a quarter of the pixel count in all (at least 16 per depth)",
     },
     ParamSpec {
         name: "chains",
         kind: ParamKind::Int,
-        default: 64.0,
+        default: 8.0,
         min: 1.0,
         max: 1e7,
-        doc: "Markov chains per pass (at most one per pixel)",
+        doc: "Markov chains per pass (at most one per pixel); longer chains explore better, more run in parallel",
     },
     ParamSpec {
         name: "mutations-per-pixel",
         kind: ParamKind::Float,
-        default: 1.0,
+        default: 4.0,
         min: 1e-3,
         max: 1e6,
         doc: "mutations per pixel in each pass, shared out between the chains",
@@ -194,7 +194,8 @@ impl<S: PathSpace> Metropolis<S> {
     /// Bootstrap samples per pass (per class) for `camera`'s image.
     fn bootstrap_samples(&self, camera: &Camera) -> u64 {
         match self.bootstrap {
-            0 => (camera.width as u64 * camera.height as u64 / 4).max(1),
+            0 => (camera.width as u64 * camera.height as u64 / 4 / self.space.classes() as u64)
+                .max(16),
             n => n as u64,
         }
     }
@@ -332,13 +333,146 @@ impl<S: PathSpace> Integrator for Metropolis<S> {
             rays_per_sample: 2.0,
             // The bootstrap's running sums.
             memory: self.bootstrap as u64 * self.space.classes() as u64 * 8,
-            memory_per_pixel: if self.bootstrap == 0 {
-                2 * self.space.classes() as u64
-            } else {
-                0
-            },
+            memory_per_pixel: if self.bootstrap == 0 { 2 } else { 0 },
             pinhole: self.space.needs_pinhole(),
             ..Demand::default()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::registry::find;
+    use crate::testing::furnace_sphere;
+    use glam::Vec3A;
+
+    /// A path space with a known image: the film position is the first two numbers, and the
+    /// radiance is 4 where the third number is below 1/4 on the image's left half, else 1/2
+    /// (left half: 4/4 + 3/4 * 1/2 = 1.375 on average; right half: 1/2).
+    struct Steps;
+
+    impl PathSpace for Steps {
+        fn streams(&self) -> u32 {
+            1
+        }
+        fn classes(&self) -> u32 {
+            1
+        }
+        fn evaluate(
+            &self,
+            _class: u32,
+            camera: &Camera,
+            _tracer: &mut Tracer,
+            sampler: &mut Sampler,
+        ) -> (Rgb, Vec2) {
+            sampler.start_stream(0);
+            let u = sampler.next_2d();
+            let bright = u.x < 0.5 && sampler.next_1d() < 0.25;
+            let film = Vec2::new(u.x * camera.width as f32, u.y * camera.height as f32);
+            (Rgb::splat(if bright { 4.0 } else { 0.5 }), film)
+        }
+    }
+
+    fn camera() -> Camera {
+        Camera::look_at(Vec3A::ZERO, Vec3A::Z, Vec3A::Y, 40.0, (16, 8))
+    }
+
+    /// One pass: every pixel's chains run, and the splats' sums on each half of the image
+    /// per pixel.
+    fn pass(m: &mut Metropolis<Steps>, pass: u32) -> (f64, f64) {
+        let scene = furnace_sphere(0.5, 1.0);
+        let camera = camera();
+        m.prepare_pass(&scene, &camera, 7, pass, Stop::NEVER);
+        let mut tracer = Tracer::new(&scene);
+        let mut splats = Splats::default();
+        for y in 0..camera.height {
+            for x in 0..camera.width {
+                let pixel = PixelSample {
+                    x,
+                    y,
+                    film: Vec2::new(x as f32, y as f32),
+                    index: pass,
+                };
+                let mut sampler = Sampler::new(0, 0, 0);
+                assert_eq!(
+                    Integrator::sample(m, &pixel, &camera, &mut tracer, &mut sampler, &mut splats),
+                    Rgb::ZERO
+                );
+            }
+        }
+        let half = (camera.width * camera.height / 2) as f64;
+        let (mut left, mut right) = (0.0, 0.0);
+        for (film, l) in splats.entries() {
+            if film.x < camera.width as f32 / 2.0 {
+                left += l.y as f64 / half;
+            } else {
+                right += l.y as f64 / half;
+            }
+        }
+        (left, right)
+    }
+
+    fn steps(params: &[(&str, &str)]) -> Metropolis<Steps> {
+        let given: Vec<(String, String)> = params
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        let p = find("pssmlt").unwrap().resolve(&given).unwrap();
+        Metropolis::new(Steps, &p)
+    }
+
+    #[test]
+    fn a_pass_splats_exactly_the_bootstrap_normalisation() {
+        // Every mutation splats weights adding to one, so the pass's image mean is b.
+        let mut m = steps(&[("bootstrap", "300"), ("chains", "5")]);
+        let (left, right) = pass(&mut m, 0);
+        let b = m.normalisation(&camera());
+        let mean = (left + right) / 2.0;
+        assert!((mean - b).abs() < 1e-4 * b, "image mean {mean} vs b {b}");
+        // b itself estimates the image mean (1.375 + 0.5) / 2.
+        assert!((b - 0.9375).abs() < 0.15, "b = {b}");
+    }
+
+    #[test]
+    fn chains_visit_the_image_in_proportion_to_its_brightness() {
+        // Pass means are independent and unbiased: a t-test on each half against the exact
+        // values, with short chains and few bootstrap samples (where a start-up bias would
+        // show) and with long ones.
+        for params in [
+            &[("bootstrap", "20"), ("chains", "32")][..],
+            &[
+                ("bootstrap", "200"),
+                ("chains", "2"),
+                ("mutations-per-pixel", "4"),
+            ],
+        ] {
+            let mut m = steps(params);
+            let passes = 400;
+            let halves: Vec<(f64, f64)> = (0..passes).map(|p| pass(&mut m, p)).collect();
+            for (side, expected) in [(0, 1.375), (1, 0.5)] {
+                let v: Vec<f64> = halves
+                    .iter()
+                    .map(|h| if side == 0 { h.0 } else { h.1 })
+                    .collect();
+                let mean = v.iter().sum::<f64>() / passes as f64;
+                let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (passes - 1) as f64;
+                let se = (var / passes as f64).sqrt();
+                assert!(
+                    (mean - expected).abs() < 4.0 * se && se < expected / 40.0,
+                    "{params:?} half {side}: {mean:.4} +- {se:.4}, expected {expected}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn passes_depend_on_their_number_only() {
+        let mut a = steps(&[("bootstrap", "50"), ("chains", "4")]);
+        let mut b = steps(&[("bootstrap", "50"), ("chains", "4")]);
+        let first = pass(&mut a, 3);
+        pass(&mut b, 0);
+        assert_eq!(pass(&mut b, 3), first);
+        assert_ne!(pass(&mut b, 4), first);
     }
 }

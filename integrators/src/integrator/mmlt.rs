@@ -14,7 +14,7 @@
 //! strategies join light vertices to the lens).
 //!
 //! **Parameters**: `max-depth` (10, at most 30), `bootstrap` (0: a quarter of the pixel
-//! count per depth and pass), `chains` (64 per pass), `mutations-per-pixel` (1 per pass),
+//! count per pass, shared by the depths), `chains` (8 per pass), `mutations-per-pixel` (4 per pass),
 //! `large-step-probability` (0.3), `sigma` (0.01).
 //! **Bias**: truncation at `max-depth`, otherwise none.
 

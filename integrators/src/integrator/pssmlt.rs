@@ -11,7 +11,7 @@
 //! The driver (bootstrap, chains, splats, why each pass is unbiased) is in `metropolis.rs`.
 //!
 //! **Parameters**: `max-depth` (default unlimited), `rr-depth` (3), `bootstrap` (0: a
-//! quarter of the pixel count, per pass), `chains` (64 per pass), `mutations-per-pixel` (1 per pass),
+//! quarter of the pixel count, per pass), `chains` (8 per pass), `mutations-per-pixel` (4 per pass),
 //! `large-step-probability` (0.3), `sigma` (0.01).
 //! **Bias**: none (each pass's bootstrap-normalised estimate is unbiased); truncation with a
 //! finite `max-depth`. Its noise is correlated: a chain's splats cluster, so images look
