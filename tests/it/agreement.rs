@@ -359,3 +359,35 @@ fn bdpt_strategies_add_up_and_each_alone_estimates_its_path_length() {
         );
     }
 }
+
+/// The Markov-chain, many-light and guided integrators agree with `path` (standard errors
+/// from pass means: a Metropolis pass's chains splat clusters of correlated pixels). On the
+/// Cornell box (an area light) and on the sky scene (an environment map, a spot light and a
+/// directional light, which `mmlt` joins through all of bdpt's strategies). `vpl` is biased
+/// by its clamp: here 0.1% of the scene's radius (the sky scene's floor is wide: 1% of its
+/// radius is half a metre, and its image mean is 3% darker).
+#[test]
+fn markov_chain_many_light_and_guided_integrators_agree_with_path() {
+    let depth = ("max-depth", "4");
+    for (scene, passes, power) in [
+        ("scenes/cornell_box.ron", 1024, 0.01),
+        ("scenes/sky.ron", 1024, 0.015),
+    ] {
+        let data = load(scene, 24, 24);
+        let path = run(&data, "path", &[depth], passes, &[]);
+        assert_power(scene, &path, power);
+        for (name, params) in [
+            // A Metropolis pass's image mean is exactly its bootstrap's estimate b: four
+            // bootstrap samples per pixel give the test its power.
+            ("pssmlt", &[depth, ("bootstrap", "2304")][..]),
+            ("mmlt", &[depth, ("bootstrap", "500")]),
+            ("vpl", &[depth, ("vpl-paths", "8"), ("clamp", "0.001")]),
+            ("guided", &[depth, ("spatial-threshold", "500")]),
+        ] {
+            let other = run(&data, name, params, passes, &[]);
+            let what = format!("{scene}: {name} vs path");
+            assert_power(&what, &other, power);
+            assert_means_agree(&what, &other, &path, 4.0, 0.0);
+        }
+    }
+}

@@ -341,7 +341,10 @@ fn light_path_integrators_agree_with_path_under_every_kind_of_light() {
         let path = render_text(&scene, &files, "path", 1024, 1, AccelKind::Raylab);
         let (a, sa) = (path.mean().y, path.mean_standard_error().y);
         for name in transport_integrators() {
-            if !connects_to_the_lens(name) {
+            // Metropolis chains splat clusters, so per-pixel variances understate the image
+            // mean's error: `mmlt` is checked on the sky's directional light, spot and
+            // environment with standard errors from pass means (agreement.rs).
+            if !connects_to_the_lens(name) || name == "mmlt" {
                 continue;
             }
             let light = render_text_with(

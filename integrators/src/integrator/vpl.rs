@@ -5,8 +5,9 @@
 //! **Estimates** the rendering equation with indirect light gathered from VPLs. Each pass
 //! traces `vpl-paths` light paths (a light chosen in proportion to power, BSDF-sampled in
 //! importance mode, Russian roulette from `rr-depth`); every non-specular vertex becomes a
-//! VPL carrying the path's power over the path count. A camera ray follows specular
-//! bounces to its first non-specular hit, takes the emission it sees there, one light sample
+//! VPL carrying the path's power over the path count. A camera ray follows Dirac lobes
+//! (mirrors, glass, smooth coatings, each chosen as the material's sampling would) to its
+//! first non-specular scattering, takes the emission it sees there, one light sample
 //! for direct light, and one shadow ray to each VPL: the two BSDFs, the two cosines and the
 //! inverse squared distance. Each pass has fresh VPLs, so passes are independent and the
 //! image converges to what the clamped estimator's expectation is.
@@ -217,16 +218,20 @@ impl RayIntegrator for Vpl {
                 break;
             }
             let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
-            if sp.material.is_specular() {
-                // Follow the mirror or the glass.
-                if !path.scatter(&sp, self.rr_depth, sampler) {
+            // A Dirac lobe (a mirror, glass, a smooth coating) is followed, chosen with the
+            // probability the material's sampling gives it; the rest of the BSDF gathers.
+            let p_delta = sp.material.delta_probability(sp.wo);
+            let u_lobe = sampler.next_1d();
+            if u_lobe < p_delta {
+                if !path.scatter_with_lobe(&sp, u_lobe, self.rr_depth, sampler) {
                     break;
                 }
                 continue;
             }
             // Direct light by one light sample, indirect light from every VPL.
-            l += path.beta * sample_one_light(&sp, false, tracer, sampler);
-            l += path.beta * self.gather(&sp, path.bounces, tracer);
+            let gathered = sample_one_light(&sp, false, tracer, sampler)
+                + self.gather(&sp, path.bounces, tracer);
+            l += path.beta * gathered / (1.0 - p_delta);
             break;
         }
         l
