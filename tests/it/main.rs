@@ -13,6 +13,7 @@ mod common;
 mod compare;
 mod corpus;
 mod files;
+mod guiding;
 mod lights;
 mod mitsuba;
 mod new_integrator;

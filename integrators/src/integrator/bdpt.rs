@@ -477,7 +477,7 @@ impl Bdpt {
             cam: &cam,
         };
         let (c, weight, raster) = paths.connect(s, t, tracer, sampler);
-        if !c.is_finite() || !(weight > 0.0) {
+        if !c.is_finite() || weight.is_nan() || weight <= 0.0 {
             return (NONE, film);
         }
         (c * weight, raster.unwrap_or(film))

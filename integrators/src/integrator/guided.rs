@@ -197,7 +197,7 @@ impl Guided {
                 }
             } else {
                 match tree.sample(sp.hit.p, u) {
-                    Some((wi, _)) => wi,
+                    Some((wi, _)) => fold(&sp, wi),
                     None => break,
                 }
             };
@@ -224,7 +224,7 @@ impl Guided {
     fn mixture_pdf(&self, tree: &SdTree, sp: &ShadingPoint, wi: Vec3A) -> f32 {
         let bsdf = sp.material.pdf(sp.wo, sp.frame.to_local(wi));
         let a = self.bsdf_fraction;
-        a * bsdf + (1.0 - a) * tree.pdf(sp.hit.p, wi)
+        a * bsdf + (1.0 - a) * folded_pdf(tree, sp, wi)
     }
 
     /// Training: whole passes over `camera`'s image, each guided by the tree the passes
@@ -317,6 +317,44 @@ impl Guided {
             }
         }
         (records, tracer.counters)
+    }
+}
+
+/// The side of an opaque surface light can arrive from: its geometric normal turned
+/// towards the viewer; `None` for a transmissive one (light arrives from both sides).
+fn open_side(sp: &ShadingPoint) -> Option<Vec3A> {
+    if sp.material.is_transmissive() {
+        return None;
+    }
+    let n = sp.hit.ng;
+    Some(if n.dot(sp.wo_world) < 0.0 { -n } else { n })
+}
+
+/// A guide direction folded onto the open side of an opaque surface: mirrored in its plane
+/// when it points into it. A spatial leaf holds surfaces of several orientations (a floor
+/// and the wall beside it) whose learned directions would otherwise point into each other;
+/// mirroring is a bijection between the two sides, so the folded density is the sum of the
+/// two ([`folded_pdf`]).
+fn fold(sp: &ShadingPoint, wi: Vec3A) -> Vec3A {
+    match open_side(sp) {
+        Some(n) if wi.dot(n) < 0.0 => wi - 2.0 * wi.dot(n) * n,
+        _ => wi,
+    }
+}
+
+/// The density of [`fold`]ed guide samples towards `wi`.
+fn folded_pdf(tree: &SdTree, sp: &ShadingPoint, wi: Vec3A) -> f32 {
+    let p = sp.hit.p;
+    match open_side(sp) {
+        None => tree.pdf(p, wi),
+        Some(n) => {
+            let c = wi.dot(n);
+            if c <= 0.0 {
+                0.0
+            } else {
+                tree.pdf(p, wi) + tree.pdf(p, wi - 2.0 * c * n)
+            }
+        }
     }
 }
 

@@ -335,7 +335,6 @@ impl<S: PathSpace> Integrator for Metropolis<S> {
             memory: self.bootstrap as u64 * self.space.classes() as u64 * 8,
             memory_per_pixel: if self.bootstrap == 0 { 2 } else { 0 },
             pinhole: self.space.needs_pinhole(),
-            ..Demand::default()
         }
     }
 }

@@ -115,7 +115,7 @@ impl PathState {
         sampler: &mut Sampler,
     ) -> bool {
         let f = sp.connection_factor(wi, crate::bsdf::TransportMode::Radiance);
-        if !(pdf > 0.0) || f == Rgb::ZERO {
+        if pdf.is_nan() || pdf <= 0.0 || f == Rgb::ZERO {
             return false;
         }
         self.beta *= f / pdf;

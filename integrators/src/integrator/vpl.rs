@@ -175,7 +175,7 @@ impl Vpl {
             }
             let to = v.hit.p - sp.hit.p;
             let d2 = to.length_squared();
-            if !(d2 > 0.0) {
+            if d2.is_nan() || d2 <= 0.0 {
                 continue;
             }
             let w = to / d2.sqrt();
