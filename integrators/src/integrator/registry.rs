@@ -405,6 +405,17 @@ mod tests {
     }
 
     #[test]
+    fn sixteen_light_transport_integrators_besides_the_debug_views() {
+        // Mitsuba 0.6, the peer with the most, has about 14.
+        let transport = REGISTRY
+            .iter()
+            .filter(|e| !e.summary.starts_with("debug view"))
+            .count();
+        assert!(transport >= 16, "{transport} light-transport integrators");
+        assert_eq!(REGISTRY.len() - transport, 3);
+    }
+
+    #[test]
     fn names_are_unique_and_every_entry_builds_with_defaults() {
         for (i, e) in REGISTRY.iter().enumerate() {
             assert!(
