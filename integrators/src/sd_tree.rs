@@ -38,6 +38,8 @@ const MAX_DIRECTIONAL_DEPTH: u32 = 20;
 /// Smallest flux threshold [`SdTree::refine`] uses (smaller ones, and NaN, are raised to it),
 /// which bounds a quadtree to about `MAX_DIRECTIONAL_DEPTH / MIN_FLUX_THRESHOLD` nodes.
 const MIN_FLUX_THRESHOLD: f64 = 1e-4;
+/// The paper's flux threshold, which shapes the first gathering tree (16 x 16 cells).
+const FIRST_FLUX_THRESHOLD: f64 = 0.01;
 /// Deepest level of the spatial tree: 20 splits per axis, a millionth of the cube's side.
 const MAX_SPATIAL_DEPTH: u32 = 60;
 /// Relative enlargement of the cube around the scene's box (as the paper does).
@@ -101,11 +103,12 @@ struct Directions {
 }
 
 impl Directions {
-    /// Both distributions uniform, no records.
+    /// Both distributions uniform, no records; the first records gather into a uniform
+    /// tree a few levels deep (the authors' first iteration), not into four quadrants.
     fn new() -> Directions {
         Directions {
             sampling: DTree::uniform(),
-            building: DTree::uniform(),
+            building: DTree::uniform().rebuilt(MAX_DIRECTIONAL_DEPTH, FIRST_FLUX_THRESHOLD),
             records: 0,
         }
     }
@@ -804,7 +807,7 @@ mod tests {
         tree.record(&bad);
         tree.refine(0, 0.0, 0.01);
         // Nothing counted: one leaf, still uniform.
-        assert_eq!(tree.size(), (1, 1));
+        assert_eq!(tree.size().0, 1);
         let mut s = Sampler::new(13, 0, 0);
         assert_uniform(&tree, c, &mut s);
 

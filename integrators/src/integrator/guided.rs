@@ -11,8 +11,10 @@
 //! **Training, deterministic.** Before the first pass (and again after a resume: it is a
 //! function of the seed and the image), `training-passes` whole passes over the image train
 //! the tree: pass `i` traces `2^i` paths per pixel guided by the tree the passes before it
-//! built, and records at every guided vertex the radiance its path then found through the
-//! direction it took. Paths run in parallel, their records are added to the tree in pixel
+//! built, and records at every guided vertex the indirect radiance its path then found
+//! through the direction it took, over that direction's density (emitters hit right after
+//! are next-event estimation's; guide samples pointing into an opaque surface are mirrored
+//! out of it, a spatial leaf holding several surfaces). Paths run in parallel, their records are added to the tree in pixel
 //! order, and the tree is refined (spatial leaves split past `spatial-threshold *
 //! sqrt(2^i)` records, quadtree cells past 1% of their leaf's energy) and frozen for the next
 //! pass. Peers train with atomics in whatever order threads arrive; here the tree, and so the
@@ -123,8 +125,6 @@ struct Visit {
     p: Vec3A,
     wi: Vec3A,
     pdf: f32,
-    /// `|cos|` between the direction and the shading normal.
-    cos: f32,
     beta: Rgb,
     found_before: Rgb,
 }
@@ -202,18 +202,23 @@ impl Guided {
                 }
             };
             let pdf = mixture(wi);
-            if !path.scatter_along(&sp, wi, pdf, self.rr_depth, sampler) {
+            if !path.turn_along(&sp, wi, pdf) {
                 break;
             }
+            // The vertex records with its throughput before the roulette: what the path
+            // finds after it carries the roulette's 1 / q, and a path the roulette ends
+            // records nothing found (so the records average the radiance, not q times it).
             if let Some(v) = visits.as_deref_mut() {
                 let _ = v.try_push(Visit {
                     p: sp.hit.p,
                     wi,
                     pdf,
-                    cos: wi.dot(sp.hit.ns).abs(),
                     beta: path.beta,
                     found_before: l,
                 });
+            }
+            if !path.roulette(self.rr_depth, sampler) {
+                break;
             }
             guided_last = true;
         }
@@ -305,7 +310,7 @@ impl Guided {
                 for v in &visits {
                     let lit = v.beta.cmpgt(Rgb::ZERO);
                     let arrived = Rgb::select(lit, (l - v.found_before) / v.beta, Rgb::ZERO);
-                    let value = luminance(arrived) * v.cos / v.pdf;
+                    let value = luminance(arrived) / v.pdf;
                     if value.is_finite() && value >= 0.0 {
                         records.push(Record {
                             p: v.p,

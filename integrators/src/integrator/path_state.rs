@@ -102,18 +102,12 @@ impl PathState {
         self.advance(sp, next, rr_depth, sampler)
     }
 
-    /// Continues along `wi` (unit, world), a direction a strategy of the caller's sampled
-    /// with solid-angle density `pdf` at a point with no Dirac lobe (`guided`'s mixture):
-    /// multiplies the throughput by `f |cos| / pdf`, then plays Russian roulette. False ends
-    /// the path (nothing carried, or the roulette).
-    pub fn scatter_along(
-        &mut self,
-        sp: &ShadingPoint,
-        wi: Vec3A,
-        pdf: f32,
-        rr_depth: u32,
-        sampler: &mut Sampler,
-    ) -> bool {
+    /// Turns along `wi` (unit, world), a direction a strategy of the caller's sampled with
+    /// solid-angle density `pdf` at a point with no Dirac lobe (`guided`'s mixture):
+    /// multiplies the throughput by `f |cos| / pdf` and counts the scattering event, without
+    /// Russian roulette (the caller plays it next, [`PathState::roulette`]). False ends the
+    /// path (nothing carried).
+    pub fn turn_along(&mut self, sp: &ShadingPoint, wi: Vec3A, pdf: f32) -> bool {
         let f = sp.connection_factor(wi, crate::bsdf::TransportMode::Radiance);
         if pdf.is_nan() || pdf <= 0.0 || f == Rgb::ZERO {
             return false;
@@ -124,7 +118,21 @@ impl PathState {
         }
         self.specular = false;
         self.pdf = pdf;
-        self.advance(sp, sp.hit.spawn_ray(wi), rr_depth, sampler)
+        self.from = sp.hit.p;
+        self.ray = sp.hit.spawn_ray(wi);
+        self.bounces += 1;
+        true
+    }
+
+    /// Russian roulette from `rr_depth` scattering events on; false ends the path.
+    pub fn roulette(&mut self, rr_depth: u32, sampler: &mut Sampler) -> bool {
+        if self.bounces >= rr_depth {
+            match russian_roulette(self.beta * self.eta_scale, sampler) {
+                Some(p) => self.beta /= p,
+                None => return false,
+            }
+        }
+        true
     }
 
     /// The path leaves `sp` along `next`: one more scattering event, then Russian roulette.
@@ -138,12 +146,6 @@ impl PathState {
         self.from = sp.hit.p;
         self.ray = next;
         self.bounces += 1;
-        if self.bounces >= rr_depth {
-            match russian_roulette(self.beta * self.eta_scale, sampler) {
-                Some(p) => self.beta /= p,
-                None => return false,
-            }
-        }
-        true
+        self.roulette(rr_depth, sampler)
     }
 }
