@@ -100,6 +100,8 @@ const BOOTSTRAP_SALT: u64 = 0x42_4f4f_5453;
 const CHAIN_SALT: u64 = 0x43_4841_494e;
 /// Bootstrap samples per parallel work unit (one sampler each).
 const BOOTSTRAP_CHUNK: usize = 256;
+/// Memory of one splat: a film position and a colour.
+const SPLAT_BYTES: usize = std::mem::size_of::<(Vec2, Rgb)>();
 /// Mutations between checks of a stop request.
 const STOP_CHECK: u32 = 256;
 
@@ -333,7 +335,10 @@ impl<S: PathSpace> Integrator for Metropolis<S> {
             rays_per_sample: 2.0,
             // The bootstrap's running sums.
             memory: self.bootstrap as u64 * self.space.classes() as u64 * 8,
-            memory_per_pixel: if self.bootstrap == 0 { 2 } else { 0 },
+            // A pass's splats (two per mutation, held until the pass adds them in order),
+            // and the bootstrap's sums when it is sized by the image.
+            memory_per_pixel: (2.0 * self.mutations_per_pixel * SPLAT_BYTES as f64) as u64
+                + if self.bootstrap == 0 { 2 } else { 0 },
             pinhole: self.space.needs_pinhole(),
         }
     }
