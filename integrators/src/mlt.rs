@@ -215,25 +215,24 @@ mod tests {
 
     #[test]
     fn streams_do_not_shift_each_other() {
-        let mut short = PrimarySamples::new(keyed_rng(3, 4), 0.01, 0.3, 3);
-        let mut long = PrimarySamples::new(keyed_rng(3, 4), 0.01, 0.3, 3);
-        short.start_stream(2);
-        long.start_stream(2);
-        // The first evaluation draws fresh numbers in the order they are read, so read the
-        // same indices in the same order; then the other stream reads more in one of them.
-        assert_eq!(read(&mut short, 2), read(&mut long, 2));
-        long.start_stream(0);
-        read(&mut long, 4);
-        for _ in 0..5 {
-            short.start_iteration();
-            long.start_iteration();
-            short.start_stream(2);
-            long.start_stream(2);
-            assert_eq!(read(&mut short, 2).len(), 2);
-            read(&mut long, 2);
-            short.accept();
-            long.accept();
-        }
+        // A stream's k-th number has its own place in the state, whatever the other streams
+        // read: a subpath that grows longer leaves the other subpath's numbers where they were.
+        let mut p = PrimarySamples::new(keyed_rng(3, 4), 0.01, 0.3, 3);
+        p.start_stream(0);
+        read(&mut p, 3);
+        p.start_stream(1);
+        let first = read(&mut p, 2);
+        // The same state read again, stream 0 now reading five numbers (two new ones).
+        p.start_stream(0);
+        let longer = read(&mut p, 5);
+        p.start_stream(1);
+        assert_eq!(read(&mut p, 2), first);
+        assert!(longer.iter().all(|v| (0.0..1.0).contains(v)));
+        // Reading the streams in the other order changes nothing either.
+        p.start_stream(1);
+        assert_eq!(read(&mut p, 2), first);
+        p.start_stream(0);
+        assert_eq!(read(&mut p, 5), longer);
     }
 
     #[test]
