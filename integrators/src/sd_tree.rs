@@ -528,26 +528,23 @@ impl SdTree {
         None
     }
 
-    /// Samples a direction from the distribution of the spatial leaf containing `p` (`u` in
-    /// `[0, 1)^2`; other values are clamped into it): the direction (unit, world space) and
-    /// its solid-angle density (> 0). `None` only if the distribution is degenerate.
-    pub fn sample(&self, p: Vec3A, u: Vec2) -> Option<(Vec3A, f32)> {
+    /// The directional distribution of the spatial leaf containing `p` (clamped into the
+    /// cube): a point's guide, looked up once and then sampled and evaluated.
+    pub fn at(&self, p: Vec3A) -> Option<Guide<'_>> {
         let leaf = self.leaves.get(self.locate(p)?)?;
-        let (s, density) = leaf.sampling.sample(u)?;
-        let pdf = (density * INV_FOUR_PI) as f32;
-        (pdf > 0.0 && pdf.is_finite()).then(|| (square_to_dir(s), pdf))
+        Some(Guide(&leaf.sampling))
     }
 
-    /// The solid-angle density with which [`SdTree::sample`] at `p` returns `dir` (0 for a
-    /// zero or non-finite `dir`; `dir` need not be normalised).
+    /// Samples a direction from the distribution of the spatial leaf containing `p`
+    /// ([`Guide::sample`]).
+    pub fn sample(&self, p: Vec3A, u: Vec2) -> Option<(Vec3A, f32)> {
+        self.at(p)?.sample(u)
+    }
+
+    /// The solid-angle density with which [`SdTree::sample`] at `p` returns `dir`
+    /// ([`Guide::pdf`]).
     pub fn pdf(&self, p: Vec3A, dir: Vec3A) -> f32 {
-        let Some(s) = dir_to_square(dir) else {
-            return 0.0;
-        };
-        match self.locate(p).and_then(|l| self.leaves.get(l)) {
-            Some(leaf) => (leaf.sampling.pdf(s) * INV_FOUR_PI) as f32,
-            None => 0.0,
-        }
+        self.at(p).map_or(0.0, |g| g.pdf(dir))
     }
 
     /// The number of spatial leaves and the total number of directional quadtree nodes of the
@@ -555,6 +552,26 @@ impl SdTree {
     pub fn size(&self) -> (usize, usize) {
         let nodes = self.leaves.iter().map(|l| l.sampling.nodes.len()).sum();
         (self.leaves.len(), nodes)
+    }
+}
+
+/// The learned directional distribution at one point ([`SdTree::at`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Guide<'a>(&'a DTree);
+
+impl Guide<'_> {
+    /// A direction (unit, world space) for `u` in `[0, 1)^2` (other values are clamped into
+    /// it) and its solid-angle density (> 0); `None` only if the distribution is degenerate.
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3A, f32)> {
+        let (s, density) = self.0.sample(u)?;
+        let pdf = (density * INV_FOUR_PI) as f32;
+        (pdf > 0.0 && pdf.is_finite()).then(|| (square_to_dir(s), pdf))
+    }
+
+    /// The solid-angle density with which [`Guide::sample`] returns `dir` (0 for a zero or
+    /// non-finite `dir`; `dir` need not be normalised).
+    pub fn pdf(&self, dir: Vec3A) -> f32 {
+        dir_to_square(dir).map_or(0.0, |s| (self.0.pdf(s) * INV_FOUR_PI) as f32)
     }
 }
 

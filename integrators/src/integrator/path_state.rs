@@ -27,6 +27,13 @@ pub struct PathState {
     /// throughput without refraction's compression of radiance (pbrt-v4's and Mitsuba 3's
     /// `rrBeta`).
     eta_scale: f32,
+    /// Product, over the vertices a caller turned along its own direction
+    /// ([`PathState::turn_along`]), of that direction's density over the BSDF's where it is
+    /// the larger: roulette plays on the throughput BSDF sampling would have carried. A guide
+    /// that sends a path towards bright light (a large density, so a small `f |cos| / pdf`)
+    /// would otherwise have the roulette end most such paths and multiply the survivors'
+    /// weight. Never below 1, so a survivor's throughput stays at most 1, as in `path`.
+    sampling_gain: f32,
     /// Whether the first ray is a camera ray (counted as one).
     from_camera: bool,
 }
@@ -42,6 +49,7 @@ impl PathState {
             pdf: 0.0,
             from: ray.origin,
             eta_scale: 1.0,
+            sampling_gain: 1.0,
             from_camera: true,
         }
     }
@@ -103,11 +111,12 @@ impl PathState {
     }
 
     /// Turns along `wi` (unit, world), a direction a strategy of the caller's sampled with
-    /// solid-angle density `pdf` at a point with no Dirac lobe (`guided`'s mixture):
-    /// multiplies the throughput by `f |cos| / pdf` and counts the scattering event, without
-    /// Russian roulette (the caller plays it next, [`PathState::roulette`]). False ends the
-    /// path (nothing carried).
-    pub fn turn_along(&mut self, sp: &ShadingPoint, wi: Vec3A, pdf: f32) -> bool {
+    /// solid-angle density `pdf` at a point with no Dirac lobe (`guided`'s mixture), where
+    /// the BSDF's own sampling has density `bsdf_pdf`: multiplies the throughput by
+    /// `f |cos| / pdf` and counts the scattering event, without Russian roulette (the caller
+    /// plays it next, [`PathState::roulette`], on the throughput BSDF sampling would have
+    /// carried). False ends the path (nothing carried).
+    pub fn turn_along(&mut self, sp: &ShadingPoint, wi: Vec3A, pdf: f32, bsdf_pdf: f32) -> bool {
         let f = sp.connection_factor(wi, crate::bsdf::TransportMode::Radiance);
         if pdf.is_nan() || pdf <= 0.0 || f == Rgb::ZERO {
             return false;
@@ -115,6 +124,10 @@ impl PathState {
         self.beta *= f / pdf;
         if !self.beta.is_finite() {
             return false;
+        }
+        let gain = self.sampling_gain * (pdf / bsdf_pdf).max(1.0);
+        if gain.is_finite() && gain > 0.0 {
+            self.sampling_gain = gain;
         }
         self.specular = false;
         self.pdf = pdf;
@@ -127,7 +140,8 @@ impl PathState {
     /// Russian roulette from `rr_depth` scattering events on; false ends the path.
     pub fn roulette(&mut self, rr_depth: u32, sampler: &mut Sampler) -> bool {
         if self.bounces >= rr_depth {
-            match russian_roulette(self.beta * self.eta_scale, sampler) {
+            let rr_beta = self.beta * (self.eta_scale * self.sampling_gain);
+            match russian_roulette(rr_beta, sampler) {
                 Some(p) => self.beta /= p,
                 None => return false,
             }
