@@ -180,7 +180,8 @@ pub fn check_camera(
 /// Refuses a render whose buffers would not fit in the memory this process may still
 /// allocate (Linux: the least of the machine's available memory, the cgroup's limit and
 /// `ulimit -v`), so an absurd resolution or photon count is an error before anything is
-/// allocated, not an abort. `integrator` is the integrator's own demand (photon maps).
+/// allocated, not an abort. `integrator` is the integrator's own demand (photon maps, light
+/// paths, Metropolis splats).
 pub fn check_memory(width: u32, height: u32, integrator: u64) -> anyhow::Result<()> {
     let film = memory_needed(width, height);
     let needed = film.saturating_add(integrator);
@@ -189,7 +190,8 @@ pub fn check_memory(width: u32, height: u32, integrator: u64) -> anyhow::Result<
             let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             let maps = if integrator > 0 {
                 format!(
-                    " and its integrator's photon maps or light paths about {:.1} GiB",
+                    " and its integrator's own buffers (photon maps, light paths or Metropolis \
+                     splats) about {:.1} GiB",
                     gib(integrator)
                 )
             } else {
