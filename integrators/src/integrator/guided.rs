@@ -21,12 +21,13 @@
 //! through the direction it took, over that direction's density (emitters hit right after
 //! are next-event estimation's). Training paths play Russian roulette only from the 8th
 //! scattering event on, so that the vertices deep in the room are learned too. Paths run in
-//! parallel, their records are added to the tree in pixel order, and the tree is refined (spatial leaves split past `spatial-threshold *
-//! sqrt(2^i)` records, quadtree cells past 1% of their leaf's energy) and frozen for the next
-//! pass. Peers train with atomics in whatever order threads arrive; here the tree, and so the
-//! image, is the same at any thread count. The rendered passes use the last tree, frozen; the
-//! training paths are not in the image (the paper's final image is its last iteration too).
-//! Training costs `2^training-passes - 1` paths per pixel, counted in a `--time` budget.
+//! parallel, their records are added to the tree in pixel order, and the tree is refined
+//! (spatial leaves split past `spatial-threshold * sqrt(2^i)` records, quadtree cells past
+//! 1% of their leaf's energy) and frozen for the next pass. Peers train with atomics in
+//! whatever order threads arrive; here the tree, and so the image, is the same at any thread
+//! count. The rendered passes use the last tree, frozen; the training paths are not in the
+//! image (the paper's final image is its last iteration too). Training costs
+//! `2^training-passes - 1` paths per pixel, counted in a `--time` budget.
 //!
 //! **Parameters**: `max-depth` (unlimited), `rr-depth` (3), `training-passes` (4),
 //! `bsdf-fraction` (0.5; 1 is plain BSDF sampling, the baseline), `spatial-threshold`

@@ -32,7 +32,8 @@ pub struct PathState {
     /// the larger: roulette plays on the throughput BSDF sampling would have carried. A guide
     /// that sends a path towards bright light (a large density, so a small `f |cos| / pdf`)
     /// would otherwise have the roulette end most such paths and multiply the survivors'
-    /// weight. Never below 1, so a survivor's throughput stays at most 1, as in `path`.
+    /// weight. Never below 1: the roulette plays on at least the path's own throughput, so
+    /// it multiplies a survivor's weight no more than `path`'s does.
     sampling_gain: f32,
     /// Whether the first ray is a camera ray (counted as one).
     from_camera: bool,
