@@ -5,8 +5,8 @@
 //! * **Space.** A binary tree over a cube enclosing the scene (slightly enlarged). A node is
 //!   split at its midpoint; the axis alternates `x`, `y`, `z` with depth. Every spatial leaf
 //!   holds two directional distributions: the *sampling* one (learned in the last iteration,
-//!   used by [`SdTree::sample`] and [`SdTree::pdf`]) and the *building* one (gathering this
-//!   iteration's records).
+//!   used through [`SdTree::at`]: [`Guide::sample`] and [`Guide::pdf`]) and the *building*
+//!   one (gathering this iteration's records).
 //! * **Directions.** A quadtree over the unit square, mapped to the sphere by the cylindrical
 //!   (equal-area) map `dir = (sqrt(1 - c^2) cos phi, sqrt(1 - c^2) sin phi, c)` with
 //!   `c = 2 s.x - 1` and `phi = 2 pi s.y`, whose Jacobian is the constant `4 pi`. Each node
@@ -535,18 +535,6 @@ impl SdTree {
         Some(Guide(&leaf.sampling))
     }
 
-    /// Samples a direction from the distribution of the spatial leaf containing `p`
-    /// ([`Guide::sample`]).
-    pub fn sample(&self, p: Vec3A, u: Vec2) -> Option<(Vec3A, f32)> {
-        self.at(p)?.sample(u)
-    }
-
-    /// The solid-angle density with which [`SdTree::sample`] at `p` returns `dir`
-    /// ([`Guide::pdf`]).
-    pub fn pdf(&self, p: Vec3A, dir: Vec3A) -> f32 {
-        self.at(p).map_or(0.0, |g| g.pdf(dir))
-    }
-
     /// The number of spatial leaves and the total number of directional quadtree nodes of the
     /// sampling distributions (for a listing and tests). A new tree is `(1, 1)`.
     pub fn size(&self) -> (usize, usize) {
@@ -581,6 +569,17 @@ mod tests {
     use crate::sampling::{uniform_sphere, UNIFORM_SPHERE_PDF};
     use crate::testing::chi2::{assert_chi2, dir, Grid, SAMPLES};
     use crate::Sampler;
+
+    /// The tests' shorthands: a point's guide sampled and evaluated in one call.
+    impl SdTree {
+        fn sample(&self, p: Vec3A, u: Vec2) -> Option<(Vec3A, f32)> {
+            self.at(p)?.sample(u)
+        }
+
+        fn pdf(&self, p: Vec3A, dir: Vec3A) -> f32 {
+            self.at(p).map_or(0.0, |g| g.pdf(dir))
+        }
+    }
 
     /// Relative closeness.
     fn close(a: f32, b: f32, tol: f32) -> bool {

@@ -56,13 +56,13 @@ fn guiding_costs_no_variance_in_a_diffuse_box() {
     );
 }
 
-/// Mean squared error (over pixels and channels) of `guided` with `params` against
+/// Mean squared error (over pixels and channels) of `guided` with `params` on `scene` against
 /// `reference`, averaged over `runs` seeds (training included: each seed trains its own tree).
-fn mse(reference: &Film, params: &[(&str, &str)], spp: u32, runs: u64) -> f64 {
+fn mse(scene: &str, reference: &Film, params: &[(&str, &str)], spp: u32, runs: u64) -> f64 {
     let n = reference.pixels.len() as f64 * 3.0;
     let total: f64 = (0..runs)
         .map(|seed| {
-            let test = film("scenes/reflector.ron", "guided", params, spp, 100 + seed);
+            let test = film(scene, "guided", params, spp, 100 + seed);
             test.pixels
                 .iter()
                 .zip(&reference.pixels)
@@ -83,15 +83,17 @@ fn mse(reference: &Film, params: &[(&str, &str)], spp: u32, runs: u64) -> f64 {
 /// error adds the same to both sides.
 #[test]
 fn guiding_beats_its_baseline_under_the_reflector() {
-    let reference = film("scenes/reflector.ron", "bdpt", &[], 1024, 7);
+    let scene = "scenes/reflector.ron";
+    let reference = film(scene, "bdpt", &[], 1024, 7);
     let runs = 4;
     let guided = mse(
+        scene,
         &reference,
         &[("training-passes", "8"), ("spatial-threshold", "4000")],
         128,
         runs,
     );
-    let baseline = mse(&reference, &[("bsdf-fraction", "1")], 128, runs);
+    let baseline = mse(scene, &reference, &[("bsdf-fraction", "1")], 128, runs);
     assert!(
         guided < 0.75 * baseline,
         "under the reflector guiding should lower the error: MSE {guided} vs {baseline}"
