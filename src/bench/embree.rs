@@ -30,14 +30,13 @@
 //! it either), and the robust or compact scene flags.
 
 use super::{rays_per_second, Case, MIN_RUN};
-use crate::scene::components::{Instanced, Transform};
+use crate::scene::components::{FileOrder, Instanced, Transform};
 use crate::scene::RenderScene;
 use anyhow::{anyhow, Result};
 use embree3::{
     BufferUsage, Config, Device, DeviceProperty, Format, GeometryKind, IntersectContext, RayHit,
 };
 use glam::Mat4;
-use hecs::Entity;
 use obvhs::triangle::Triangle;
 use raylab_integrators::{Ray, Scene};
 use rayon::prelude::*;
@@ -142,9 +141,9 @@ fn build_once(case: &Case, threads: usize) -> Result<Built> {
     }
     let mut instances = source
         .world
-        .query::<(Entity, &Instanced, &Transform)>()
+        .query::<(&FileOrder, &Instanced, &Transform)>()
         .iter()
-        .map(|(e, i, t)| (e.id(), i.mesh as usize, t.matrix()))
+        .map(|(o, i, t)| (*o, i.mesh as usize, t.matrix()))
         .collect::<Vec<_>>();
     instances.sort_by_key(|i| i.0);
     for (_, mesh, local_to_world) in instances {

@@ -2,16 +2,16 @@
 //! shared, reference-counted copy of a mesh from the scene's `meshes` table.
 //!
 //! An asset is loaded (file read, procedural mesh generated, degenerate triangles dropped) the
-//! first time an entity uses it, in entity order, and never again: every instance holds the
+//! first time an entity uses it, in file order, and never again: every instance holds the
 //! same `Arc<LocalMesh>`, and the build step gives each asset one BVH. Unused assets are not
 //! loaded (a warning says so). Errors name the entity that asked for the asset, and the asset.
 
 use super::access::SceneFiles;
-use super::components::{Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
+use super::components::{FileOrder, Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
 use super::schema::{MeshTable, ShapeDesc};
 use super::systems::{self, EntityError};
 use glam::{Affine3A, Vec3A};
-use hecs::{Entity, World};
+use hecs::{CommandBuffer, Entity, World};
 use std::sync::Arc;
 
 /// The loaded assets (in order of first use) and warnings about them.
@@ -32,18 +32,18 @@ pub fn resolve_instances(
     let mut loaded: Vec<Option<u32>> = vec![None; table.0.len()];
     let mut meshes: Vec<Arc<LocalMesh>> = Vec::new();
     let mut warnings = Vec::new();
-    let mut resolved: Vec<(Entity, Instanced)> = Vec::new();
+    let mut resolved = CommandBuffer::new();
     {
-        let mut query = world.query::<(Entity, &Name, &Transform, &Shape)>();
+        let mut query = world.query::<(Entity, &FileOrder, &Name, &Transform, &Shape)>();
         let mut items: Vec<_> = query
             .iter()
-            .filter_map(|(e, n, t, s)| match s {
-                Shape::Instance { mesh } => Some((e, n, t, mesh)),
+            .filter_map(|(e, o, n, t, s)| match s {
+                Shape::Instance { mesh } => Some((e, o, n, t, mesh)),
                 _ => None,
             })
             .collect();
-        items.sort_by_key(|(e, ..)| e.id());
-        for (entity, name, transform, mesh) in items {
+        items.sort_by_key(|(_, order, ..)| **order);
+        for (entity, _, name, transform, mesh) in items {
             let fail = |m: String| (name.0.clone(), m);
             let Some(index) = table.0.iter().position(|(n, _)| n == mesh) else {
                 let known = if table.0.is_empty() {
@@ -86,7 +86,7 @@ pub fn resolve_instances(
                     Some(_) => "transform.matrix cannot be inverted".into(),
                 }));
             }
-            resolved.push((entity, Instanced { mesh: id, asset }));
+            resolved.insert_one(entity, Instanced { mesh: id, asset });
         }
     }
     for ((name, _), used) in table.0.iter().zip(&loaded) {
@@ -96,11 +96,7 @@ pub fn resolve_instances(
             ));
         }
     }
-    for (entity, instanced) in resolved {
-        world
-            .insert_one(entity, instanced)
-            .expect("resolved entity exists");
-    }
+    resolved.run_on(world);
     Ok(ResolvedMeshes { meshes, warnings })
 }
 

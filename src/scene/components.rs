@@ -5,6 +5,17 @@ use glam::{Affine3A, EulerRot, Quat, Vec2, Vec3, Vec3A};
 use raylab_integrators::Rgb;
 use std::sync::Arc;
 
+/// Where an entity comes from in the scene file: its place in the `entities` list and, for
+/// the parts a mesh file's materials split it into (`material: "from-file"`), the part's place
+/// among them. Wherever order shows in the result (the BVH's input, the light table, which
+/// error is reported first) entities are taken in this order: it comes from the file, not
+/// from hecs's ids, which are only transiently unique and depend on the world's history.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct FileOrder {
+    pub entity: u32,
+    pub part: u32,
+}
+
 /// Display name of an entity (from the file, or `entity #N`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Name(pub String);

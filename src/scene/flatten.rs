@@ -4,7 +4,7 @@
 //! built over them. The result implements the integrators' [`Scene`] trait and is immutable
 //! and `Sync`.
 
-use super::components::{Instanced, MaterialRef, Name, Transform, WorldShape};
+use super::components::{FileOrder, Instanced, MaterialRef, Name, Transform, WorldShape};
 use super::{systems, LoadedScene};
 use crate::accel::{
     self, Accel, AccelKind, Accelerator, Geometry, InstanceDesc, Mesh, Shape, ShapeLights,
@@ -88,12 +88,12 @@ impl RenderScene {
         }
 
         // The accelerator's input: shapes and instances in entity order.
-        let mut query = world.query::<(Entity, &WorldShape, &MaterialRef)>();
-        let mut shaped: Vec<(Entity, &WorldShape, &MaterialRef)> = query.iter().collect();
-        shaped.sort_by_key(|(e, ..)| e.id());
+        let mut query = world.query::<(Entity, &FileOrder, &WorldShape, &MaterialRef)>();
+        let mut shaped: Vec<_> = query.iter().collect();
+        shaped.sort_by_key(|(_, order, ..)| **order);
         let shapes = shaped
             .iter()
-            .map(|(entity, shape, material)| Shape {
+            .map(|(entity, _, shape, material)| Shape {
                 geometry: match shape {
                     WorldShape::Triangles {
                         triangles,
@@ -121,19 +121,19 @@ impl RenderScene {
                 },
             })
             .collect();
-        let mut instances: Vec<(Entity, InstanceDesc)> = world
-            .query::<(Entity, &Instanced, &MaterialRef, &Transform)>()
+        let mut instances: Vec<(FileOrder, InstanceDesc)> = world
+            .query::<(&FileOrder, &Instanced, &MaterialRef, &Transform)>()
             .iter()
-            .map(|(e, inst, m, t)| {
+            .map(|(order, inst, m, t)| {
                 let desc = InstanceDesc {
                     mesh: inst.mesh,
                     material: m.0,
                     local_to_world: t.matrix(),
                 };
-                (e, desc)
+                (*order, desc)
             })
             .collect();
-        instances.sort_by_key(|(e, _)| e.id());
+        instances.sort_by_key(|(order, _)| *order);
         let input = accel::Input {
             shapes,
             meshes: scene
@@ -225,10 +225,9 @@ impl Scene for RenderScene {
 /// The flat (not instanced) triangles of a loaded scene, exactly as the build places them,
 /// in entity order: the geometry `raylab bench` dumps and gives Embree.
 pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
-    let mut shapes: Vec<(Entity, &WorldShape)> = Vec::new();
-    let mut query = scene.world.query::<(Entity, &WorldShape)>();
-    shapes.extend(query.iter());
-    shapes.sort_by_key(|(e, _)| e.id());
+    let mut query = scene.world.query::<(&FileOrder, &WorldShape)>();
+    let mut shapes: Vec<(&FileOrder, &WorldShape)> = query.iter().collect();
+    shapes.sort_by_key(|(order, _)| **order);
     shapes
         .iter()
         .flat_map(|(_, shape)| match shape {
@@ -241,12 +240,12 @@ pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
 
 /// The spheres of a loaded scene as (centre, radius), in entity order.
 pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
-    let mut spheres: Vec<(u32, Vec3A, f32)> = scene
+    let mut spheres: Vec<(FileOrder, Vec3A, f32)> = scene
         .world
-        .query::<(Entity, &WorldShape)>()
+        .query::<(&FileOrder, &WorldShape)>()
         .iter()
-        .filter_map(|(e, shape)| match shape {
-            WorldShape::Sphere { center, radius } => Some((e.id(), *center, *radius)),
+        .filter_map(|(order, shape)| match shape {
+            WorldShape::Sphere { center, radius } => Some((*order, *center, *radius)),
             WorldShape::Triangles { .. } | WorldShape::Quadric(_) => None,
         })
         .collect();
@@ -258,8 +257,8 @@ pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
 pub fn emitter_names(scene: &LoadedScene) -> Vec<String> {
     let mut q = scene
         .world
-        .query::<(Entity, &Name, &super::components::Emitter)>();
-    let mut v: Vec<_> = q.iter().map(|(e, n, _)| (e.id(), n.0.clone())).collect();
+        .query::<(&FileOrder, &Name, &super::components::Emitter)>();
+    let mut v: Vec<_> = q.iter().map(|(o, n, _)| (*o, n.0.clone())).collect();
     v.sort();
     v.into_iter().map(|(_, n)| n).collect()
 }

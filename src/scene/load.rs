@@ -2,7 +2,7 @@
 
 use super::access::SceneFiles;
 use super::components::{
-    Emitter, FlipNormals, Instanced, MaterialRef, Name, Shape, Transform, WorldShape,
+    Emitter, FileOrder, FlipNormals, Instanced, MaterialRef, Name, Shape, Transform, WorldShape,
 };
 use super::error::{finite, SceneError};
 use super::import::{ImportOptions, Imported};
@@ -584,6 +584,7 @@ fn spawn_file_parts(
     shape: &Option<ShapeDesc>,
     has_emitter: bool,
     name: String,
+    index: u32,
     transform: Transform,
     files: &SceneFiles,
 ) -> Result<(), (String, String)> {
@@ -604,10 +605,18 @@ fn spawn_file_parts(
             file_materials::FROM_FILE
         )));
     }
-    for part in file_materials::file_parts(shape, files).map_err(fail)? {
+    for (k, part) in file_materials::file_parts(shape, files)
+        .map_err(fail)?
+        .into_iter()
+        .enumerate()
+    {
         materials.push(part.material);
         let mut entity = hecs::EntityBuilder::new();
         entity.add_bundle((
+            FileOrder {
+                entity: index,
+                part: k as u32,
+            },
             Name(format!("{name}/{}", part.name)),
             transform,
             part.shape,
@@ -740,6 +749,7 @@ fn build_world(
                 &e.shape,
                 e.emitter.is_some(),
                 name,
+                index as u32,
                 transform,
                 files,
             )
@@ -787,7 +797,14 @@ fn build_world(
             .map_err(&entity_error)?;
         // One entity with exactly the components it has.
         let mut entity = hecs::EntityBuilder::new();
-        entity.add_bundle((Name(name), transform));
+        entity.add_bundle((
+            FileOrder {
+                entity: index as u32,
+                part: 0,
+            },
+            Name(name),
+            transform,
+        ));
         if e.flip_normals {
             entity.add(FlipNormals);
         }

@@ -6,10 +6,12 @@
 //! * [`super::assets::resolve_instances`] (in its own module) resolves `Instance` shapes to
 //!   shared mesh assets.
 //!
-//! Queries visit entities in archetype order; every system sorts by entity id so that results
-//! (and therefore images) never depend on it.
+//! Queries visit entities in archetype order, which depends on the world's history; where
+//! order shows in a result (which error is reported, the order of lights and shapes) a system
+//! takes its entities in [`FileOrder`], so that results (and therefore images) never depend on
+//! it.
 
-use super::components::{Emitter, FlipNormals, Name, Shape, Transform, WorldShape};
+use super::components::{Emitter, FileOrder, FlipNormals, Name, Shape, Transform, WorldShape};
 use super::error::finite;
 use crate::accel::{Quadric, QuadricKind};
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
@@ -23,9 +25,15 @@ pub type EntityError = (String, String);
 /// Checks every entity's components: finite numbers, positive sizes and scales, shapes that
 /// make sense, emitters with non-negative radiance on the right kind of entity.
 pub fn validate(world: &World) -> Result<(), EntityError> {
-    let mut query = world.query::<(Entity, &Name, &Transform, Option<&Shape>, Option<&Emitter>)>();
+    let mut query = world.query::<(
+        &FileOrder,
+        &Name,
+        &Transform,
+        Option<&Shape>,
+        Option<&Emitter>,
+    )>();
     let mut entities: Vec<_> = query.iter().collect();
-    entities.sort_by_key(|(e, ..)| e.id());
+    entities.sort_by_key(|(order, ..)| **order);
     for (_, name, transform, shape, emitter) in entities {
         let fail = |m: String| (name.0.clone(), m);
         validate_transform(transform).map_err(fail)?;
@@ -528,10 +536,11 @@ fn check_reach_of(reach: f32) -> Result<(), String> {
 /// with a warning (returned); an emitter left without area is an error.
 pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
     let mut warnings = Vec::new();
-    let mut baked: Vec<(Entity, WorldShape)> = Vec::new();
+    let mut baked = hecs::CommandBuffer::new();
     {
         let mut query = world.query::<(
             Entity,
+            &FileOrder,
             &Name,
             &Transform,
             &Shape,
@@ -539,11 +548,11 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
             Option<&FlipNormals>,
         )>();
         let mut items: Vec<_> = query.iter().collect();
-        items.sort_by_key(|(e, ..)| e.id());
+        items.sort_by_key(|(_, order, ..)| **order);
         // The scene's triangles, checked against memory before any shape is made: the
         // first entity past what fits is named.
         let mut triangles_so_far = 0u64;
-        for (_, name, _, shape, ..) in &items {
+        for (_, _, name, _, shape, ..) in &items {
             triangles_so_far += triangle_count(shape);
             check_triangle_memory(triangles_so_far).map_err(|e| {
                 (
@@ -552,7 +561,7 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
                 )
             })?;
         }
-        for (entity, name, transform, shape, emitter, flip) in items {
+        for (entity, _, name, transform, shape, emitter, flip) in items {
             if matches!(shape, Shape::Instance { .. }) {
                 continue;
             }
@@ -592,7 +601,7 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
                 } else {
                     None
                 };
-                baked.push((
+                baked.insert_one(
                     entity,
                     WorldShape::Triangles {
                         triangles,
@@ -600,17 +609,13 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
                         uvs,
                         parallelogram,
                     },
-                ));
+                );
             } else {
-                baked.push((entity, world_shape));
+                baked.insert_one(entity, world_shape);
             }
         }
     }
-    for (entity, shape) in baked {
-        world
-            .insert_one(entity, shape)
-            .expect("baked entity exists");
-    }
+    baked.run_on(world);
     Ok(warnings)
 }
 
@@ -736,19 +741,20 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
     }
 }
 
-/// The lights of every emitting entity, in entity order: one per sphere, one per emitting quad
+/// The lights of every emitting entity, in file order: one per sphere, one per emitting quad
 /// (a parallelogram), one per triangle otherwise, one per point light.
 pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
     let mut query = world.query::<(
         Entity,
+        &FileOrder,
         &Emitter,
         &Transform,
         Option<&WorldShape>,
         Option<&FlipNormals>,
     )>();
-    let mut out: Vec<(Entity, Vec<Light>)> = query
+    let mut out: Vec<(FileOrder, Entity, Vec<Light>)> = query
         .iter()
-        .filter_map(|(entity, emitter, transform, shape, flip)| {
+        .filter_map(|(entity, order, emitter, transform, shape, flip)| {
             let lights = match (emitter.clone(), shape) {
                 (Emitter::Point { intensity }, _) => {
                     vec![Light::point(transform.translation(), intensity)]
@@ -805,11 +811,11 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                 // step (all triangles degenerate) was already reported.
                 (Emitter::Area { .. }, None) => return None,
             };
-            Some((entity, lights))
+            Some((*order, entity, lights))
         })
         .collect();
-    out.sort_by_key(|(e, _)| e.id());
-    out
+    out.sort_by_key(|(order, ..)| *order);
+    out.into_iter().map(|(_, e, lights)| (e, lights)).collect()
 }
 
 /// The light of an emitting disk (one-sided unless `two_sided`) or cylinder (never

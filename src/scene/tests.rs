@@ -1,6 +1,6 @@
 //! ECS unit tests: spawning, querying, and each system (validate, bake, collect emitters).
 
-use super::components::{Emitter, MaterialRef, Name, Shape, Transform, WorldShape};
+use super::components::{Emitter, FileOrder, MaterialRef, Name, Shape, Transform, WorldShape};
 use super::systems::{bake_shape, bake_transforms, collect_emitters, validate};
 use super::{parse_scene, LoadedScene, RenderScene, SceneError};
 use glam::{Vec3, Vec3A};
@@ -369,6 +369,7 @@ fn validate_rejects_bad_components_and_names_the_entity() {
 fn validate_system_runs_on_a_hand_built_world() {
     let mut world = World::new();
     world.spawn((
+        FileOrder { entity: 0, part: 0 },
         Name("ok".into()),
         Transform::default(),
         Shape::Sphere {
@@ -378,6 +379,7 @@ fn validate_system_runs_on_a_hand_built_world() {
     ));
     assert!(validate(&world).is_ok());
     world.spawn((
+        FileOrder { entity: 1, part: 0 },
         Name("bad".into()),
         Transform::default(),
         Shape::Sphere {
