@@ -5,6 +5,9 @@
 //! direction, so that the local hit distance `t` is the world one: `o' + t d' = M^-1 (o + t d)`.
 //! Normals go back to world space by the inverse transpose, `(M^-1)^T`.
 //!
+//! An instance placed by the identity (a large mesh of the flat scene given a BVH of its own,
+//! see `crate::scene::flatten`) takes the world ray as it is.
+//!
 //! Traversal nests two BVH traversals; both keep their stacks on the call stack, so no ray
 //! allocates.
 
@@ -16,9 +19,13 @@ use glam::{Affine3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
 use raylab_integrators::{Hit, Pending};
+use rayon::prelude::*;
+use std::sync::Arc;
 
 /// One mesh asset's triangles as packets, one or two per leaf of their BVH.
 struct MeshBlas {
+    /// The mesh's key ([`super::Input::mesh_keys`]).
+    key: u64,
     bvh: Bvh,
     /// Each lane's `vertex_data` index is the triangle's place in the BVH's order.
     packets: Vec<Stored>,
@@ -31,6 +38,8 @@ struct MeshBlas {
 #[derive(Clone, Copy)]
 struct Instance {
     world_to_local: Affine3A,
+    /// Placed by the identity: rays are not transformed.
+    identity: bool,
     mesh: u32,
     material: u32,
 }
@@ -40,9 +49,12 @@ pub struct InstanceSet {
     tlas: Bvh,
     /// In TLAS order: slot `i` of the TLAS is `instances[i]`.
     instances: Vec<Instance>,
-    meshes: Vec<MeshBlas>,
+    /// Shared with the sets built from this one that kept a mesh.
+    meshes: Vec<Arc<MeshBlas>>,
     /// World bounds of all instances (empty when there are none).
     pub bounds: Aabb,
+    /// How many of `meshes` were taken from the set this one was built from.
+    pub reused: usize,
 }
 
 impl Default for InstanceSet {
@@ -52,20 +64,26 @@ impl Default for InstanceSet {
             instances: Vec::new(),
             meshes: Vec::new(),
             bounds: Aabb::empty(),
+            reused: 0,
         }
     }
 }
 
 impl MeshBlas {
-    fn build(mesh: &Mesh) -> MeshBlas {
+    fn build(mesh: &Mesh, key: u64) -> MeshBlas {
         let (mut bvh, order) = Bvh::build::<Packets>(mesh.triangles.len(), |i| {
             Aabb::from_points(&mesh.triangles[i])
         });
-        let packets = bvh
+        // As the flat BVH's: the runs first, then the packets in parallel, in order and into a
+        // vector of exactly their number.
+        let runs: Vec<(u32, u32)> = bvh
             .number_leaves(packet::packets_for)
             .iter()
             .flat_map(|&(first, count)| packet::runs(first, count))
-            .map(|(first, count)| {
+            .collect();
+        let packets = runs
+            .par_iter()
+            .map(|&(first, count)| {
                 let lanes: arrayvec::ArrayVec<Lane, { packet::WIDTH }> = (first..first + count)
                     .map(|k| Lane::Triangle {
                         corners: mesh.triangles[order[k as usize] as usize],
@@ -79,10 +97,11 @@ impl MeshBlas {
             })
             .collect();
         let vertex_data = order
-            .iter()
+            .par_iter()
             .filter_map(|&i| mesh.vertex_data(i as usize))
             .collect();
         MeshBlas {
+            key,
             bvh,
             packets,
             vertex_data,
@@ -99,13 +118,37 @@ impl MeshBlas {
 }
 
 impl InstanceSet {
-    /// Builds the BLAS of every mesh asset and the TLAS over `instances` (in the given
-    /// order); nothing when there are no instances.
-    pub fn build(meshes: &[Mesh], instances: &[InstanceDesc]) -> InstanceSet {
+    /// Builds the BLAS of every mesh asset (`keys[i]` is mesh `i`'s key), or takes it from
+    /// `previous` where that holds a mesh of the same key, and the TLAS over `instances` (in
+    /// the given order); nothing when there are no instances.
+    pub fn build(
+        meshes: &[Mesh],
+        keys: &[u64],
+        instances: &[InstanceDesc],
+        previous: Option<&InstanceSet>,
+    ) -> InstanceSet {
         if instances.is_empty() {
             return InstanceSet::default();
         }
-        let blas: Vec<MeshBlas> = meshes.iter().map(MeshBlas::build).collect();
+        let mut reused = 0;
+        let blas: Vec<Arc<MeshBlas>> = meshes
+            .iter()
+            .enumerate()
+            .map(|(i, mesh)| {
+                let key = keys.get(i).copied();
+                let kept = previous
+                    .zip(key)
+                    .and_then(|(p, key)| p.meshes.iter().find(|m| m.key == key).map(Arc::clone));
+                match kept {
+                    Some(m) => {
+                        reused += 1;
+                        m
+                    }
+                    // A mesh without a key is never taken by a later build.
+                    None => Arc::new(MeshBlas::build(mesh, key.unwrap_or(u64::MAX))),
+                }
+            })
+            .collect();
         let boxes: Vec<Aabb> = instances
             .iter()
             .map(|inst| {
@@ -127,6 +170,7 @@ impl InstanceSet {
                 let inst = &instances[i as usize];
                 Instance {
                     world_to_local: inst.local_to_world.inverse(),
+                    identity: inst.local_to_world == Affine3A::IDENTITY,
                     mesh: inst.mesh,
                     material: inst.material,
                 }
@@ -137,7 +181,13 @@ impl InstanceSet {
             instances,
             meshes: blas,
             bounds,
+            reused,
         }
+    }
+
+    /// How many mesh assets have a BVH here.
+    pub fn mesh_count(&self) -> usize {
+        self.meshes.len()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -173,10 +223,7 @@ impl InstanceSet {
     /// Bytes held by the meshes (once each), their BVHs, the TLAS and the instances.
     pub fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
-        self.meshes
-            .iter()
-            .map(MeshBlas::memory_bytes)
-            .sum::<usize>()
+        self.meshes.iter().map(|m| m.memory_bytes()).sum::<usize>()
             + self.tlas.memory_bytes()
             + self.instances.capacity() * size_of::<Instance>()
     }
@@ -184,6 +231,9 @@ impl InstanceSet {
     /// The ray in instance `inst`'s space, with the same `t` range.
     #[inline(always)]
     fn local_ray(inst: &Instance, ray: &Ray) -> Ray {
+        if inst.identity {
+            return *ray;
+        }
         let m = &inst.world_to_local;
         super::bvh::ray(
             m.transform_point3a(ray.origin),

@@ -99,6 +99,10 @@ pub struct Input<'a> {
     pub shapes: Vec<Shape<'a>>,
     /// Mesh assets, in the order instances refer to them.
     pub meshes: Vec<Mesh<'a>>,
+    /// Per mesh asset, a key that only the same triangles ever carry: a rebuild
+    /// ([`Accel::build_reusing`]) takes the BVH of a mesh whose key it already had from the
+    /// accelerator before, instead of building it again.
+    pub mesh_keys: Vec<u64>,
     pub instances: Vec<InstanceDesc>,
 }
 
@@ -192,9 +196,32 @@ pub enum Accel {
 impl Accel {
     /// Builds the accelerator of kind `kind` over `input`.
     pub fn build(kind: AccelKind, input: &Input) -> Accel {
+        Self::build_reusing(kind, input, None)
+    }
+
+    /// [`Accel::build`], taking from `previous` the BVH of every mesh asset whose key
+    /// (`input.mesh_keys`) it holds: the same triangles give the same BVH, so the result is
+    /// the one a build from nothing gives. (raylab's own accelerator only; the obvhs backend
+    /// builds everything.)
+    pub fn build_reusing(kind: AccelKind, input: &Input, previous: Option<&Accel>) -> Accel {
         match kind {
-            AccelKind::Raylab => Accel::Raylab(WideBvh::build(input)),
+            AccelKind::Raylab => {
+                let previous = match previous {
+                    Some(Accel::Raylab(p)) => Some(&p.instances),
+                    _ => None,
+                };
+                Accel::Raylab(WideBvh::build_reusing(input, previous))
+            }
             AccelKind::Obvhs => Accel::Obvhs(ObvhsBvh::build(input)),
+        }
+    }
+
+    /// How many mesh BVHs the accelerator holds, and how many of them it took from the
+    /// accelerator it was built from.
+    pub fn mesh_bvhs(&self) -> (usize, usize) {
+        match self {
+            Accel::Raylab(a) => (a.instances.mesh_count(), a.instances.reused),
+            Accel::Obvhs(a) => (a.mesh_count(), 0),
         }
     }
 
@@ -304,6 +331,11 @@ impl WideBvh {
     /// Builds the BVHs over `input` (in parallel on rayon's current pool, with the same result
     /// at any thread count).
     pub fn build(input: &Input) -> WideBvh {
+        Self::build_reusing(input, None)
+    }
+
+    /// [`WideBvh::build`], taking the BVHs of mesh assets whose keys `previous` holds from it.
+    fn build_reusing(input: &Input, previous: Option<&InstanceSet>) -> WideBvh {
         let shapes = &input.shapes;
         let count = |g: &Geometry| match g {
             Geometry::Triangles(mesh) => mesh.triangles.len(),
@@ -323,7 +355,8 @@ impl WideBvh {
             }));
         }
 
-        let instances = InstanceSet::build(&input.meshes, &input.instances);
+        let instances =
+            InstanceSet::build(&input.meshes, &input.mesh_keys, &input.instances, previous);
         // BVH over every primitive's box, for leaves that test a packet at a time; then one or
         // two packets per leaf, the leaves numbered in the BVH's primitive order.
         let (mut bvh, order) = Bvh::build::<bvh::Packets>(prims.len(), |i| prims[i].aabb(shapes));

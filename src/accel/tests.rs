@@ -15,7 +15,7 @@ use std::path::Path;
 
 /// The scene's accelerator, which these tests build as raylab's own.
 fn wide(scene: &RenderScene) -> &WideBvh {
-    match &scene.accel {
+    match &*scene.accel {
         Accel::Raylab(w) => w,
         Accel::Obvhs(_) => unreachable!("built with RenderScene::build"),
     }
@@ -121,7 +121,7 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
     let loaded = parse_scene(&random_scene(3000, 40, 40, 7), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);
     let mut portable = RenderScene::build(&loaded);
-    match &mut portable.accel {
+    match std::sync::Arc::get_mut(&mut portable.accel).expect("not shared") {
         Accel::Raylab(w) => w.avx2 = None,
         Accel::Obvhs(_) => unreachable!(),
     }

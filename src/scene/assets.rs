@@ -150,6 +150,7 @@ fn load_asset(
     let dropped = before - triangles.len();
     Ok((
         LocalMesh {
+            id: super::components::new_geometry_id(),
             name: name.to_string(),
             triangles,
             normals,

@@ -131,9 +131,62 @@ pub enum Shape {
     },
 }
 
+/// A key no other geometry of this process carries ([`GeometryId`], [`LocalMesh::id`]):
+/// a build may keep the BVH of geometry whose key it saw before. Only equality matters, never
+/// the order in which keys were given, so images do not depend on it.
+pub fn new_geometry_id() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The identity of an entity's baked [`WorldShape`]: a new key ([`new_geometry_id`]) each
+/// time it is baked, so a build can tell geometry it already has a BVH for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GeometryId(pub u64);
+
+/// What an edit changed on an entity (see [`crate::scene::edit`]); the rebuild after the
+/// edit reads it and removes it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Changed {
+    /// The entity is new (no entity of its name was there before).
+    pub added: bool,
+    pub transform: bool,
+    /// Its shape, its `flip_normals`, or a file its shape is read from.
+    pub shape: bool,
+    /// Which material it uses (an edit of the material itself changes no entity).
+    pub material: bool,
+    pub emitter: bool,
+    /// Its place in the file (an entity added or removed before it).
+    pub order: bool,
+}
+
+impl Changed {
+    /// Whether the change moves, adds or reshapes geometry, or changes which material or
+    /// light its primitives report: the BVH must be rebuilt.
+    pub fn geometry(&self) -> bool {
+        self.added || self.transform || self.shape || self.material || self.order
+    }
+
+    /// The parts that changed, for messages: `transform, material`.
+    pub fn describe(&self) -> String {
+        let parts = [
+            (self.added, "added"),
+            (self.transform, "transform"),
+            (self.shape, "shape"),
+            (self.material, "material"),
+            (self.emitter, "emitter"),
+            (self.order, "place in the file"),
+        ];
+        let named: Vec<&str> = parts.iter().filter(|p| p.0).map(|p| p.1).collect();
+        named.join(", ")
+    }
+}
+
 /// A mesh asset in its own space, loaded once and shared by every instance of it.
 #[derive(Debug, PartialEq)]
 pub struct LocalMesh {
+    /// A key no other mesh carries ([`new_geometry_id`]).
+    pub id: u64,
     /// The asset's name in the scene's `meshes` table.
     pub name: String,
     /// Triangles (none degenerate), right-handed winding.

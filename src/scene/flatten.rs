@@ -1,10 +1,19 @@
 //! Flattening: the ECS world becomes the render scene. Materials and lights go to their
-//! tables (one light per emitting primitive, or per quad, in entity order); the shapes and
+//! tables (one light per emitting primitive, or per quad, in file order); the shapes and
 //! instances become the accelerator's input ([`crate::accel::Input`]) and the accelerator is
 //! built over them. The result implements the integrators' [`Scene`] trait and is immutable
 //! and `Sync`.
+//!
+//! A large mesh that does not emit ([`OWN_BVH_TRIANGLES`]) gets a BVH of its own, placed as an
+//! instance by the identity, rather than a place in the flat BVH (unless it is the flat scene's
+//! only shape): so that an edit elsewhere
+//! (a moved box, an added sphere) rebuilds the small flat BVH and the top level while the
+//! large mesh keeps its BVH ([`RenderScene::build_reusing`]). A scene loaded fresh is built the
+//! same way, so an edited scene and the same scene loaded fresh are the same bits.
 
-use super::components::{FileOrder, Instanced, MaterialRef, Name, Transform, WorldShape};
+use super::components::{
+    FileOrder, GeometryId, Instanced, MaterialRef, Name, Transform, WorldShape,
+};
 use super::{systems, LoadedScene};
 use crate::accel::{
     self, Accel, AccelKind, Accelerator, Geometry, InstanceDesc, Mesh, Shape, ShapeLights,
@@ -14,7 +23,13 @@ use hecs::Entity;
 use obvhs::triangle::Triangle;
 use raylab_integrators::{Hit, Light, LightTable, Ray, Scene, SurfaceMaterial};
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+/// Meshes of at least this many triangles that do not emit get a BVH of their own (see the
+/// module's header). Instancing costs a top-level node and a call per ray that reaches the
+/// mesh, small beside the traversal of its 2^16 triangles.
+pub const OWN_BVH_TRIANGLES: usize = 1 << 16;
 
 /// Counts and timings of a build, for `raylab validate` and reports.
 #[derive(Clone, Debug, Default)]
@@ -31,6 +46,10 @@ pub struct BuildStats {
     pub bvh_nodes: usize,
     /// Leaves of the flat scene's BVH.
     pub bvh_leaves: usize,
+    /// Large meshes with a BVH of their own ([`OWN_BVH_TRIANGLES`]; counted in `triangles`).
+    pub own_bvh_meshes: usize,
+    /// Mesh BVHs this build took from the scene it was built from, not built again.
+    pub reused_bvhs: usize,
     /// Instances of mesh assets, the triangles of those assets (each once) and the triangles
     /// the instances place (each asset once per instance).
     pub instances: usize,
@@ -39,11 +58,15 @@ pub struct BuildStats {
     pub build_time: Duration,
 }
 
-/// The flattened, accelerated scene that rendering reads.
+/// The flattened, accelerated scene that rendering reads. The accelerator and the light table
+/// are shared with the scenes an edit makes of this one where the edit leaves them alone.
 pub struct RenderScene {
-    pub(crate) accel: Accel,
+    pub(crate) accel: Arc<Accel>,
     materials: Vec<SurfaceMaterial>,
-    pub(crate) lights: LightTable,
+    pub(crate) lights: Arc<LightTable>,
+    /// Per emitting entity in file order, how many lights it has: an edit that keeps this
+    /// keeps the light indices baked into the accelerator.
+    light_counts: Vec<usize>,
     bounds: (Vec3A, Vec3A),
     pub stats: BuildStats,
 }
@@ -74,26 +97,47 @@ impl RenderScene {
     /// Builds the render scene from a loaded world over an accelerator of kind `kind`. The
     /// world must have been validated and baked (as [`crate::scene::load_scene`] does).
     pub fn build_with(scene: &LoadedScene, kind: AccelKind) -> RenderScene {
+        Self::build_reusing(scene, kind, None)
+    }
+
+    /// [`RenderScene::build_with`], taking from `previous` (the scene built before an edit)
+    /// the BVH of every mesh whose triangles it already had: the same result, sooner.
+    pub fn build_reusing(
+        scene: &LoadedScene,
+        kind: AccelKind,
+        previous: Option<&RenderScene>,
+    ) -> RenderScene {
         let start = Instant::now();
         let world = &scene.world;
 
-        // Lights: one table entry per emitting primitive (or quad), in entity order.
-        let emitters = systems::collect_emitters(world);
-        let mut lights: Vec<Light> = Vec::new();
-        // Entity -> (first light, count).
-        let mut light_of: HashMap<Entity, (u32, usize)> = HashMap::new();
-        for (entity, ls) in &emitters {
-            light_of.insert(*entity, (lights.len() as u32, ls.len()));
-            lights.extend(ls.iter().cloned());
-        }
+        // Lights: one table entry per emitting primitive (or quad), in file order.
+        let (lights, light_of) = lights_of(scene);
 
-        // The accelerator's input: shapes and instances in entity order.
-        let mut query = world.query::<(Entity, &FileOrder, &WorldShape, &MaterialRef)>();
+        // The accelerator's input: shapes and instances in file order; large meshes that do
+        // not emit become instances of their own mesh, placed by the identity.
+        let mut query = world.query::<(
+            Entity,
+            &FileOrder,
+            &WorldShape,
+            &MaterialRef,
+            Option<&GeometryId>,
+        )>();
         let mut shaped: Vec<_> = query.iter().collect();
         shaped.sort_by_key(|(_, order, ..)| **order);
-        let shapes = shaped
+        let own_bvh = |(entity, _, shape, ..): &(Entity, &FileOrder, &WorldShape, _, _)| {
+            matches!(shape, WorldShape::Triangles { triangles, .. }
+                if triangles.len() >= OWN_BVH_TRIANGLES)
+                && !light_of.contains_key(entity)
+        };
+        let (mut own, mut flat): (Vec<_>, Vec<_>) = shaped.into_iter().partition(own_bvh);
+        if own.len() == 1 && flat.is_empty() {
+            // Nothing to keep apart from: one BVH, without the top level's cost per ray
+            // (13% of the rays per second of a lone 1.3 M-triangle mesh).
+            flat = std::mem::take(&mut own);
+        }
+        let shapes = flat
             .iter()
-            .map(|(entity, _, shape, material)| Shape {
+            .map(|(entity, _, shape, material, _)| Shape {
                 geometry: match shape {
                     WorldShape::Triangles {
                         triangles,
@@ -133,54 +177,165 @@ impl RenderScene {
                 (*order, desc)
             })
             .collect();
+        let mut meshes: Vec<Mesh> = scene
+            .meshes
+            .iter()
+            .map(|m| Mesh {
+                triangles: &m.triangles,
+                normals: m.normals.as_deref(),
+                uvs: m.uvs.as_deref(),
+                bounds: m.bounds,
+            })
+            .collect();
+        let mut mesh_keys: Vec<u64> = scene.meshes.iter().map(|m| m.id).collect();
+        let mut own_triangles = 0;
+        for (_, order, shape, material, id) in &own {
+            let WorldShape::Triangles {
+                triangles,
+                normals,
+                uvs,
+                ..
+            } = shape
+            else {
+                continue;
+            };
+            let mut bounds = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+            for p in triangles.iter().flatten() {
+                bounds = (bounds.0.min(*p), bounds.1.max(*p));
+            }
+            own_triangles += triangles.len();
+            instances.push((
+                **order,
+                InstanceDesc {
+                    mesh: meshes.len() as u32,
+                    material: material.0,
+                    local_to_world: glam::Affine3A::IDENTITY,
+                },
+            ));
+            meshes.push(Mesh {
+                triangles,
+                normals: normals.as_deref(),
+                uvs: uvs.as_deref(),
+                bounds,
+            });
+            // Baked geometry always has its key; `u64::MAX` is never kept.
+            mesh_keys.push(id.map_or(u64::MAX, |g| g.0));
+        }
         instances.sort_by_key(|(order, _)| *order);
         let input = accel::Input {
             shapes,
-            meshes: scene
-                .meshes
-                .iter()
-                .map(|m| Mesh {
-                    triangles: &m.triangles,
-                    normals: m.normals.as_deref(),
-                    uvs: m.uvs.as_deref(),
-                    bounds: m.bounds,
-                })
-                .collect(),
+            meshes,
+            mesh_keys,
             instances: instances.into_iter().map(|(_, d)| d).collect(),
         };
-        let accel = Accel::build(kind, &input);
+        let accel = Accel::build_reusing(kind, &input, previous.map(|p| &*p.accel));
 
         // A scene without geometry: a point at the origin.
         let bounds = accel.bounds().unwrap_or((Vec3A::ZERO, Vec3A::ZERO));
-        let radius = 0.5 * (bounds.1 - bounds.0).length();
-        if let Some(env) = scene.environment {
-            lights.push(Light::environment(env));
-        }
-        let lights = LightTable::new(lights, radius);
+        let light_counts = light_counts(&light_of, &lights);
+        let lights = table(lights, scene, bounds);
         let a = accel.stats();
+        // The large meshes with a BVH of their own are the scene's triangles, not instances.
         let stats = BuildStats {
             entities: world.len() as usize,
-            triangles: a.triangles,
+            triangles: a.triangles + own_triangles,
             spheres: a.spheres,
             quadrics: a.quadrics,
             lights: lights.len(),
-            emitters: emitters.len() + usize::from(scene.environment.is_some()),
+            emitters: light_counts.len() + usize::from(scene.environment.is_some()),
             bvh_nodes: a.bvh_nodes,
             bvh_leaves: a.bvh_leaves,
-            instances: a.instances,
-            instanced_triangles: a.instanced_triangles,
-            placed_triangles: a.placed_triangles,
+            instances: a.instances - own.len(),
+            instanced_triangles: a.instanced_triangles - own_triangles,
+            placed_triangles: a.placed_triangles - own_triangles,
+            own_bvh_meshes: own.len(),
+            reused_bvhs: accel.mesh_bvhs().1,
             build_time: start.elapsed(),
         };
         RenderScene {
-            accel,
+            accel: Arc::new(accel),
             materials: scene.materials.clone(),
-            lights,
+            lights: Arc::new(lights),
+            light_counts,
             bounds,
             stats,
         }
     }
 
+    /// This scene with the materials of `scene` (after an edit that changed no geometry and
+    /// no material index): nothing rebuilt.
+    pub fn with_materials(&self, scene: &LoadedScene) -> RenderScene {
+        RenderScene {
+            accel: Arc::clone(&self.accel),
+            materials: scene.materials.clone(),
+            lights: Arc::clone(&self.lights),
+            light_counts: self.light_counts.clone(),
+            bounds: self.bounds,
+            stats: BuildStats {
+                reused_bvhs: self.accel.mesh_bvhs().0,
+                build_time: Duration::ZERO,
+                ..self.stats.clone()
+            },
+        }
+    }
+
+    /// This scene with the materials and lights of `scene`, if its emitting entities have as
+    /// many lights each as this scene's (the indices baked into the accelerator stay right):
+    /// only the light table is made again. `None` when the layout changed.
+    pub fn with_lights(&self, scene: &LoadedScene) -> Option<RenderScene> {
+        let start = Instant::now();
+        let (lights, light_of) = lights_of(scene);
+        let counts = light_counts(&light_of, &lights);
+        if counts != self.light_counts {
+            return None;
+        }
+        let lights = table(lights, scene, self.bounds);
+        Some(RenderScene {
+            stats: BuildStats {
+                lights: lights.len(),
+                emitters: counts.len() + usize::from(scene.environment.is_some()),
+                build_time: start.elapsed(),
+                ..self.with_materials(scene).stats
+            },
+            lights: Arc::new(lights),
+            ..self.with_materials(scene)
+        })
+    }
+}
+
+/// Entity -> (first light, count), in the light list's order.
+type LightsOf = HashMap<Entity, (u32, usize)>;
+
+/// The lights of every emitting entity in file order, and where each entity's are.
+fn lights_of(scene: &LoadedScene) -> (Vec<Light>, LightsOf) {
+    let mut lights: Vec<Light> = Vec::new();
+    let mut light_of = HashMap::new();
+    for (entity, ls) in systems::collect_emitters(&scene.world) {
+        light_of.insert(entity, (lights.len() as u32, ls.len()));
+        lights.extend(ls);
+    }
+    (lights, light_of)
+}
+
+/// How many lights each emitting entity has, in the lights' order.
+fn light_counts(light_of: &LightsOf, lights: &[Light]) -> Vec<usize> {
+    let mut spans: Vec<(u32, usize)> = light_of.values().copied().collect();
+    spans.sort_unstable();
+    debug_assert_eq!(spans.iter().map(|s| s.1).sum::<usize>(), lights.len());
+    spans.into_iter().map(|(_, n)| n).collect()
+}
+
+/// The light table of `lights` and the scene's constant environment, for geometry within
+/// `bounds`.
+fn table(mut lights: Vec<Light>, scene: &LoadedScene, bounds: (Vec3A, Vec3A)) -> LightTable {
+    let radius = 0.5 * (bounds.1 - bounds.0).length();
+    if let Some(env) = scene.environment {
+        lights.push(Light::environment(env));
+    }
+    LightTable::new(lights, radius)
+}
+
+impl RenderScene {
     /// Bytes held by the geometry, its per-primitive data and the BVHs (not the materials or
     /// lights): what a benchmark reports per triangle. Each instanced mesh counts once.
     pub fn memory_bytes(&self) -> usize {

@@ -11,7 +11,10 @@
 //! takes its entities in [`FileOrder`], so that results (and therefore images) never depend on
 //! it.
 
-use super::components::{Emitter, FileOrder, FlipNormals, Name, Shape, Transform, WorldShape};
+use super::components::{
+    new_geometry_id, Emitter, FileOrder, FlipNormals, GeometryId, Name, Shape, Transform,
+    WorldShape,
+};
 use super::error::finite;
 use crate::accel::{Quadric, QuadricKind};
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
@@ -531,7 +534,8 @@ fn check_reach_of(reach: f32) -> Result<(), String> {
     }
 }
 
-/// Computes every shaped entity's world-space geometry and inserts it as a [`WorldShape`].
+/// Computes every shaped entity's world-space geometry and inserts it as a [`WorldShape`],
+/// with a new [`GeometryId`].
 /// Geometry reaching beyond [`MAX_COORDINATE`] is an error. Degenerate triangles are dropped
 /// with a warning (returned); an emitter left without area is an error.
 pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
@@ -601,17 +605,20 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
                 } else {
                     None
                 };
-                baked.insert_one(
+                baked.insert(
                     entity,
-                    WorldShape::Triangles {
-                        triangles,
-                        normals,
-                        uvs,
-                        parallelogram,
-                    },
+                    (
+                        WorldShape::Triangles {
+                            triangles,
+                            normals,
+                            uvs,
+                            parallelogram,
+                        },
+                        GeometryId(new_geometry_id()),
+                    ),
                 );
             } else {
-                baked.insert_one(entity, world_shape);
+                baked.insert(entity, (world_shape, GeometryId(new_geometry_id())));
             }
         }
     }
