@@ -30,6 +30,11 @@ impl SceneFiles {
         SceneFiles { dir, roots }
     }
 
+    /// The scene file's folder, which relative paths start from.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
     /// The file the scene names as `path` (relative to the scene's folder), if the scene
     /// may read it.
     pub fn named(&self, path: &str) -> Result<PathBuf, String> {

@@ -8,29 +8,38 @@
 
 use super::access::SceneFiles;
 use super::components::{FileOrder, Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
+use super::edit::CachedAsset;
 use super::schema::{MeshTable, ShapeDesc};
 use super::systems::{self, EntityError};
 use glam::{Affine3A, Vec3A};
 use hecs::{CommandBuffer, Entity, World};
 use std::sync::Arc;
 
-/// The loaded assets (in order of first use) and warnings about them.
+/// Warnings about the assets loaded, and the assets to keep for the next edit.
 pub struct ResolvedMeshes {
-    pub meshes: Vec<Arc<LocalMesh>>,
     pub warnings: Vec<String>,
+    pub cache: Vec<CachedAsset>,
 }
 
 /// Gives every entity whose shape is `Instance { mesh }` an [`Instanced`] component pointing at
-/// the one loaded copy of asset `mesh`, loading it on first use. Errors: an unknown name, an
-/// asset that cannot be loaded or is not made of triangles, an instance reaching beyond
-/// [`systems::MAX_COORDINATE`].
+/// the one loaded copy of asset `mesh`: the one in `cache` if its description and file did not
+/// change, else loaded now (once). Its `mesh` index is set when the world is numbered
+/// (`crate::scene::edit`). Errors: an unknown name, an asset that cannot be loaded or is not
+/// made of triangles, an instance reaching beyond [`systems::MAX_COORDINATE`].
 pub fn resolve_instances(
     world: &mut World,
     table: &MeshTable,
     files: &SceneFiles,
+    cache: &[CachedAsset],
 ) -> Result<ResolvedMeshes, EntityError> {
-    let mut loaded: Vec<Option<u32>> = vec![None; table.0.len()];
-    let mut meshes: Vec<Arc<LocalMesh>> = Vec::new();
+    let dir = files.dir();
+    // The assets still as they were, then those loaded now.
+    let mut loaded: Vec<CachedAsset> = Vec::new();
+    for (name, desc) in &table.0 {
+        if let Some(c) = cache.iter().find(|c| c.matches(name, desc, dir)) {
+            loaded.push(CachedAsset::new(name, desc, dir, Arc::clone(&c.mesh)));
+        }
+    }
     let mut warnings = Vec::new();
     let mut resolved = CommandBuffer::new();
     {
@@ -45,7 +54,7 @@ pub fn resolve_instances(
         items.sort_by_key(|(_, order, ..)| **order);
         for (entity, _, name, transform, mesh) in items {
             let fail = |m: String| (name.0.clone(), m);
-            let Some(index) = table.0.iter().position(|(n, _)| n == mesh) else {
+            let Some((asset_name, desc)) = table.0.iter().find(|(n, _)| n == mesh) else {
                 let known = if table.0.is_empty() {
                     "the scene defines no meshes (add a `meshes` table)".to_string()
                 } else {
@@ -54,26 +63,22 @@ pub fn resolve_instances(
                 };
                 return Err(fail(format!("unknown mesh `{mesh}`; {known}")));
             };
-            let id = match loaded[index] {
-                Some(id) => id,
+            let asset = match loaded.iter().find(|c| c.name == *mesh) {
+                Some(c) => Arc::clone(&c.mesh),
                 None => {
-                    let (name, desc) = &table.0[index];
-                    let asset = load_asset(name, desc, files)
+                    let (asset, dropped) = load_asset(asset_name, desc, files)
                         .map_err(|e| fail(format!("mesh `{mesh}`: {e}")))?;
-                    if asset.1 > 0 {
+                    if dropped > 0 {
                         warnings.push(format!(
-                            "mesh `{mesh}`: dropped {} degenerate triangle(s) of {}",
-                            asset.1,
-                            asset.1 + asset.0.triangles.len()
+                            "mesh `{mesh}`: dropped {dropped} degenerate triangle(s) of {}",
+                            dropped + asset.triangles.len()
                         ));
                     }
-                    meshes.push(Arc::new(asset.0));
-                    let id = (meshes.len() - 1) as u32;
-                    loaded[index] = Some(id);
-                    id
+                    let asset = Arc::new(asset);
+                    loaded.push(CachedAsset::new(asset_name, desc, dir, Arc::clone(&asset)));
+                    asset
                 }
             };
-            let asset = Arc::clone(&meshes[id as usize]);
             let m = transform.matrix();
             check_instance_reach(&asset, &m).map_err(fail)?;
             // Rays are moved into the instance's space by the inverse.
@@ -86,18 +91,14 @@ pub fn resolve_instances(
                     Some(_) => "transform.matrix cannot be inverted".into(),
                 }));
             }
-            resolved.insert_one(entity, Instanced { mesh: id, asset });
-        }
-    }
-    for ((name, _), used) in table.0.iter().zip(&loaded) {
-        if used.is_none() {
-            warnings.push(format!(
-                "mesh `{name}` is not used by any entity; not loaded"
-            ));
+            resolved.insert_one(entity, Instanced { mesh: 0, asset });
         }
     }
     resolved.run_on(world);
-    Ok(ResolvedMeshes { meshes, warnings })
+    Ok(ResolvedMeshes {
+        warnings,
+        cache: loaded,
+    })
 }
 
 /// Loads one asset in its own space: the mesh and how many degenerate triangles were dropped.

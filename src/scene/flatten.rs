@@ -342,6 +342,11 @@ impl RenderScene {
         self.accel.memory_bytes()
     }
 
+    /// How many mesh BVHs the accelerator holds (instanced assets and large meshes).
+    pub fn accel_mesh_bvhs(&self) -> usize {
+        self.accel.mesh_bvhs().0
+    }
+
     /// Which accelerator the scene was built over.
     pub fn accel_kind(&self) -> AccelKind {
         self.accel.kind()

@@ -1,20 +1,15 @@
 //! Parsing a RON scene file and spawning its entities into a hecs world.
 
 use super::access::SceneFiles;
-use super::components::{
-    Emitter, FileOrder, FlipNormals, Instanced, MaterialRef, Name, Shape, Transform, WorldShape,
-};
+use super::components::{Emitter, Shape, Transform};
 use super::error::{finite, SceneError};
 use super::import::{ImportOptions, Imported};
-use super::materials::material_from_desc;
 use super::schema::{CameraDesc, EmitterDesc, RenderDesc, SceneFile, ShapeDesc};
-use super::textures::TextureLoader;
-use super::{assets, file_materials, mesh_files, systems, LoadedScene};
+use super::{mesh_files, LoadedScene};
 use glam::{Vec3, Vec3A};
-use raylab_integrators::bsdf::{checks, Lambert};
 use raylab_integrators::light::EnvMap;
+use raylab_integrators::registry;
 use raylab_integrators::Camera;
-use raylab_integrators::{registry, Material, Rgb, SurfaceMaterial};
 use ron::extensions::Extensions;
 use std::path::{Path, PathBuf};
 
@@ -58,7 +53,7 @@ pub fn load_scene_defined(
         },
         e => e,
     })?;
-    let mut loaded = build_world(file, path, &SceneFiles::new(path, allowed))?;
+    let mut loaded = super::edit::build_world(file, path, &SceneFiles::new(path, allowed))?;
     loaded.warnings.extend(
         approximated
             .into_iter()
@@ -176,7 +171,7 @@ pub fn import_scene(
 /// Parses scene text; `path` is used in messages and to resolve relative files (under its
 /// folder).
 pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
-    build_world(
+    super::edit::build_world(
         parse_scene_file(text, path)?,
         path,
         &SceneFiles::new(path, &[]),
@@ -213,13 +208,13 @@ fn end_position(text: &str) -> (usize, usize) {
     (line, col)
 }
 
-fn v3(a: [f32; 3]) -> Vec3A {
+pub(super) fn v3(a: [f32; 3]) -> Vec3A {
     Vec3A::from_array(a)
 }
 
 /// Turns an emitter description into the component; an environment map's image is read
 /// here, and turned into the world by the entity's rotation.
-fn emitter_from_desc(
+pub(super) fn emitter_from_desc(
     desc: EmitterDesc,
     transform: &Transform,
     files: &SceneFiles,
@@ -304,7 +299,7 @@ fn emitter_from_desc(
 }
 
 /// The entity's transform: translate, rotate and scale, or a whole matrix (without them).
-fn transform_from_desc(t: &super::schema::TransformDesc) -> Result<Transform, String> {
+pub(super) fn transform_from_desc(t: &super::schema::TransformDesc) -> Result<Transform, String> {
     let mut transform = Transform {
         translate: Vec3::from_array(t.translate),
         rotate_degrees: Vec3::from_array(t.rotate),
@@ -362,7 +357,7 @@ pub fn check_size(w: u32, h: u32) -> Result<(), String> {
 
 /// Checks the render defaults: at least 1 spp, a known integrator, and parameters it takes,
 /// in range (as `raylab render` would read them, so a bad scene fails whatever the flags).
-fn check_render(render: &RenderDesc) -> Result<(), String> {
+pub(super) fn check_render(render: &RenderDesc) -> Result<(), String> {
     if render.spp == 0 {
         return Err("render.spp must be at least 1".into());
     }
@@ -379,7 +374,7 @@ fn check_render(render: &RenderDesc) -> Result<(), String> {
     Ok(())
 }
 
-fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
+pub(super) fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
     match desc {
         CameraDesc::LookAt {
             eye,
@@ -573,282 +568,5 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             normals: normals.map(|n| n.into_iter().map(v3).collect()),
             uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
         },
-    })
-}
-
-/// Spawns an entity with `material: "from-file"` as one entity per material of its mesh file
-/// (see [`file_materials`]), appending those materials to the table.
-fn spawn_file_parts(
-    world: &mut hecs::World,
-    materials: &mut Vec<SurfaceMaterial>,
-    shape: &Option<ShapeDesc>,
-    has_emitter: bool,
-    name: String,
-    index: u32,
-    transform: Transform,
-    files: &SceneFiles,
-) -> Result<(), (String, String)> {
-    let fail = |m: String| (name.clone(), m);
-    if has_emitter {
-        return Err(fail(format!(
-            "with `material: \"{}\"` the file's materials say what emits: remove `emitter`",
-            file_materials::FROM_FILE
-        )));
-    }
-    let Some(shape) = shape else {
-        return Err(fail("has a material but no shape".into()));
-    };
-    if let ShapeDesc::Instance { mesh } = shape {
-        return Err(fail(format!(
-            "instances of mesh `{mesh}` take one material: `material: \"{}\"` works only \
-             on an `Obj` or `Gltf` shape of the entity itself",
-            file_materials::FROM_FILE
-        )));
-    }
-    for (k, part) in file_materials::file_parts(shape, files)
-        .map_err(fail)?
-        .into_iter()
-        .enumerate()
-    {
-        materials.push(part.material);
-        let mut entity = hecs::EntityBuilder::new();
-        entity.add_bundle((
-            FileOrder {
-                entity: index,
-                part: k as u32,
-            },
-            Name(format!("{name}/{}", part.name)),
-            transform,
-            part.shape,
-            MaterialRef((materials.len() - 1) as u32),
-        ));
-        if let Some(emitter) = part.emitter {
-            entity.add(emitter);
-        }
-        world.spawn(entity.build());
-    }
-    Ok(())
-}
-
-fn build_world(
-    file: SceneFile,
-    path: &Path,
-    files: &SceneFiles,
-) -> Result<LoadedScene, SceneError> {
-    let path_buf = path.to_path_buf();
-
-    // Materials: the table entities refer to by name.
-    let mut textures = TextureLoader::new(files);
-    let mut materials = Vec::with_capacity(file.materials.0.len() + 1);
-    let mut material_names = Vec::with_capacity(file.materials.0.len());
-    for (name, desc) in &file.materials.0 {
-        if name == file_materials::FROM_FILE {
-            return Err(SceneError::Material {
-                path: path_buf.clone(),
-                material: name.clone(),
-                message: "this name is reserved: it asks for a mesh file's own materials".into(),
-            });
-        }
-        let m =
-            material_from_desc(desc, &mut textures).map_err(|message| SceneError::Material {
-                path: path_buf.clone(),
-                material: name.clone(),
-                message,
-            })?;
-        materials.push(m);
-        material_names.push(name.clone());
-    }
-
-    check_render(&file.render).map_err(|message| SceneError::Scene {
-        path: path_buf.clone(),
-        message,
-    })?;
-
-    let camera = camera_from_desc(&file.camera).map_err(|message| SceneError::Camera {
-        path: path_buf.clone(),
-        message,
-    })?;
-
-    let environment = match file.environment {
-        Some(e) => {
-            Some(
-                checks::colour("environment", v3(e)).map_err(|message| SceneError::Scene {
-                    path: path_buf.clone(),
-                    message,
-                })?,
-            )
-        }
-        None => None,
-    };
-
-    // One sky: the constant `environment` or one `Environment` emitter.
-    let maps: Vec<String> = file
-        .entities
-        .iter()
-        .enumerate()
-        .filter(|(_, e)| matches!(e.emitter, Some(EmitterDesc::Environment { .. })))
-        .map(|(i, e)| e.name.clone().unwrap_or_else(|| format!("entity #{i}")))
-        .collect();
-    if maps.len() + usize::from(environment.is_some()) > 1 {
-        let mut named: Vec<String> = maps.iter().map(|n| format!("`{n}`")).collect();
-        if environment.is_some() {
-            named.insert(0, "the top-level `environment`".into());
-        }
-        return Err(SceneError::Scene {
-            path: path_buf.clone(),
-            message: format!(
-                "a scene has at most one environment; {} are environments",
-                named.join(" and ")
-            ),
-        });
-    }
-
-    if file.entities.is_empty() {
-        return Err(SceneError::Scene {
-            path: path_buf,
-            message: "the scene has no entities".into(),
-        });
-    }
-
-    // Spawn: one entity per object, with the components it has.
-    let mut world = hecs::World::new();
-    let mut black: Option<u32> = None;
-    for (index, e) in file.entities.into_iter().enumerate() {
-        let name = e.name.unwrap_or_else(|| format!("entity #{index}"));
-        let entity_error = |message: String| SceneError::Entity {
-            path: path_buf.clone(),
-            entity: name.clone(),
-            message,
-        };
-        let transform = transform_from_desc(&e.transform).map_err(entity_error)?;
-        if e.flip_normals {
-            if e.material.as_deref() == Some(file_materials::FROM_FILE) {
-                return Err(entity_error(
-                    "flip_normals cannot turn the parts of a mesh file split by its materials \
-                     (\"from-file\")"
-                        .into(),
-                ));
-            }
-            let dielectric = e
-                .material
-                .as_ref()
-                .and_then(|m| material_names.iter().position(|n| n == m))
-                .is_some_and(|i| materials[i].bsdf().is_transmissive());
-            if dielectric && matches!(e.shape, Some(ShapeDesc::Sphere { .. })) {
-                return Err(entity_error(
-                    "flip_normals on a dielectric sphere is not supported: give the \
-                     dielectric the inverse IOR instead"
-                        .into(),
-                ));
-            }
-        }
-        if e.material.as_deref() == Some(file_materials::FROM_FILE) {
-            spawn_file_parts(
-                &mut world,
-                &mut materials,
-                &e.shape,
-                e.emitter.is_some(),
-                name,
-                index as u32,
-                transform,
-                files,
-            )
-            .map_err(|(entity, message)| SceneError::Entity {
-                path: path_buf.clone(),
-                entity,
-                message,
-            })?;
-            continue;
-        }
-        let material = match (&e.material, &e.shape, &e.emitter) {
-            (Some(m), _, _) => match material_names.iter().position(|n| n == m) {
-                Some(i) => Some(MaterialRef(i as u32)),
-                None => {
-                    let known = if material_names.is_empty() {
-                        "the scene defines no materials".to_string()
-                    } else {
-                        format!("defined materials: {}", material_names.join(", "))
-                    };
-                    return Err(entity_error(format!("unknown material `{m}`; {known}")));
-                }
-            },
-            (None, Some(_), Some(EmitterDesc::Area { .. })) => {
-                // A pure emitter reflects nothing.
-                let id = *black.get_or_insert_with(|| {
-                    materials.push(Material::Lambert(Lambert { albedo: Rgb::ZERO }).into());
-                    (materials.len() - 1) as u32
-                });
-                Some(MaterialRef(id))
-            }
-            (None, Some(_), _) => {
-                return Err(entity_error("has a shape but no material".into()));
-            }
-            (None, None, _) => None,
-        };
-        let emitter = e
-            .emitter
-            .map(|d| emitter_from_desc(d, &transform, files))
-            .transpose()
-            .map_err(&entity_error)?;
-        let shape = e
-            .shape
-            .map(|d| shape_from_desc(d, files))
-            .transpose()
-            .map_err(&entity_error)?;
-        // One entity with exactly the components it has.
-        let mut entity = hecs::EntityBuilder::new();
-        entity.add_bundle((
-            FileOrder {
-                entity: index as u32,
-                part: 0,
-            },
-            Name(name),
-            transform,
-        ));
-        if e.flip_normals {
-            entity.add(FlipNormals);
-        }
-        if let Some(shape) = shape {
-            entity.add(shape);
-        }
-        if let Some(m) = material {
-            entity.add(m);
-        }
-        if let Some(em) = emitter {
-            entity.add(em);
-        }
-        world.spawn(entity.build());
-    }
-
-    // Systems: validate, bake transforms into world-space geometry, resolve instances.
-    let entity_error = |(entity, message)| SceneError::Entity {
-        path: path_buf.clone(),
-        entity,
-        message,
-    };
-    systems::validate(&world).map_err(entity_error)?;
-    let mut warnings = systems::bake_transforms(&mut world).map_err(entity_error)?;
-    let resolved =
-        assets::resolve_instances(&mut world, &file.meshes, files).map_err(entity_error)?;
-    warnings.extend(resolved.warnings);
-    let has_geometry = world.query::<&WorldShape>().iter().any(|_| true)
-        || world.query::<&Instanced>().iter().any(|_| true);
-    if !has_geometry {
-        return Err(SceneError::Scene {
-            path: path_buf,
-            message: "the scene has no geometry (no entity with a shape)".into(),
-        });
-    }
-
-    Ok(LoadedScene {
-        path: path_buf,
-        world,
-        camera,
-        render: file.render,
-        materials,
-        material_names,
-        meshes: resolved.meshes,
-        environment,
-        warnings,
     })
 }

@@ -4,6 +4,7 @@
 pub mod access;
 pub mod assets;
 pub mod components;
+pub mod edit;
 pub mod error;
 pub mod file_materials;
 pub mod flatten;

@@ -43,49 +43,62 @@ pub fn referenced_files(scene: &Path) -> Option<Vec<PathBuf>> {
     let file = parse_scene_file(&text, scene).ok()?;
     let dir = folder_of(scene);
     let mut files: Vec<PathBuf> = Vec::new();
-    let mut add = |p: PathBuf| {
-        if !files.contains(&p) {
-            files.push(p);
-        }
-    };
-    // Entities' shapes, then the mesh assets they may instance.
+    // Entities' shapes, then the mesh assets they may instance, then environment maps.
     let shapes = file
         .entities
         .iter()
         .filter_map(|e| e.shape.as_ref())
         .chain(file.meshes.0.iter().map(|(_, shape)| shape));
-    for shape in shapes {
-        match shape {
-            ShapeDesc::Obj { path, .. } => {
-                let obj = dir.join(path);
-                for mtl in obj_mtllibs(&obj) {
-                    add(folder_of(&obj).join(mtl));
-                }
-                add(obj);
-            }
-            ShapeDesc::Gltf { path } => {
-                let gltf = dir.join(path);
-                for uri in gltf_uris(&gltf) {
-                    add(folder_of(&gltf).join(uri));
-                }
-                add(gltf);
-            }
-            ShapeDesc::Ply { path, .. } | ShapeDesc::Serialized { path, .. } => add(dir.join(path)),
-            _ => {}
-        }
-    }
-    // Environment maps.
-    for e in &file.entities {
-        if let Some(EmitterDesc::Environment { path, .. }) = &e.emitter {
-            add(dir.join(path));
+    let maps = file.entities.iter().filter_map(|e| e.emitter.as_ref());
+    for f in shapes
+        .flat_map(|s| shape_files(s, dir))
+        .chain(maps.flat_map(|e| emitter_files(e, dir)))
+    {
+        if !files.contains(&f) {
+            files.push(f);
         }
     }
     Some(files)
 }
 
+/// The files a shape reads, resolved against the scene's folder `dir`: a mesh file and, for
+/// an OBJ, its material libraries, for a `.gltf`, its buffers and images.
+pub fn shape_files(shape: &ShapeDesc, dir: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    match shape {
+        ShapeDesc::Obj { path, .. } => {
+            let obj = dir.join(path);
+            for mtl in obj_mtllibs(&obj) {
+                files.push(folder_of(&obj).join(mtl));
+            }
+            files.push(obj);
+        }
+        ShapeDesc::Gltf { path } => {
+            let gltf = dir.join(path);
+            for uri in gltf_uris(&gltf) {
+                files.push(folder_of(&gltf).join(uri));
+            }
+            files.push(gltf);
+        }
+        ShapeDesc::Ply { path, .. } | ShapeDesc::Serialized { path, .. } => {
+            files.push(dir.join(path))
+        }
+        _ => {}
+    }
+    files
+}
+
+/// The file an emitter reads (an environment map's image), resolved against `dir`.
+pub fn emitter_files(emitter: &EmitterDesc, dir: &Path) -> Vec<PathBuf> {
+    match emitter {
+        EmitterDesc::Environment { path, .. } => vec![dir.join(path)],
+        _ => Vec::new(),
+    }
+}
+
 /// The folder a file's relative references are resolved against: its own ("." for a bare
 /// file name).
-fn folder_of(path: &Path) -> &Path {
+pub fn folder_of(path: &Path) -> &Path {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),

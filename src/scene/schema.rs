@@ -42,7 +42,7 @@ pub struct SceneFile {
 }
 
 /// A pinhole camera.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum CameraDesc {
     /// Looks from `eye` towards `look_at`; `fov` is the vertical field of view in degrees.
@@ -95,7 +95,7 @@ fn default_resolution() -> (u32, u32) {
 }
 
 /// Render defaults.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RenderDesc {
     /// Integrator name. Default: `"path"`.
@@ -145,7 +145,7 @@ fn default_spp() -> u32 {
 /// A material model with its parameters. Colours are linear RGB reflectances in `[0, 1]`:
 /// `(r, g, b)`, a grey number, or a texture (see [`super::textures`]); so may be the rough
 /// metals' and glasses' `alpha`.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum MaterialDesc {
     /// Ideal diffuse reflector.
@@ -395,7 +395,7 @@ impl TableEntry for ShapeDesc {
 }
 
 /// A map from names to entries, in file order. Rejects a name given twice.
-#[derive(Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct NamedTable<T>(pub Vec<(String, T)>);
 
 impl<T> Default for NamedTable<T> {
@@ -438,7 +438,7 @@ impl<'de, T: Deserialize<'de> + TableEntry> Deserialize<'de> for NamedTable<T> {
 }
 
 /// One object of the scene.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EntityDesc {
     /// Name used in messages. Default: `entity #N` (N counts from 0 in file order).
@@ -465,7 +465,7 @@ pub struct EntityDesc {
 
 /// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate; or a
 /// whole affine `matrix` instead of the three.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransformDesc {
     /// Default: `(0, 0, 0)`.
@@ -496,7 +496,7 @@ impl Default for TransformDesc {
 }
 
 /// Geometry in local space.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum ShapeDesc {
     /// Sphere (analytic). Default centre: origin. Needs a uniform scale.
@@ -614,7 +614,7 @@ impl<'de> Deserialize<'de> for MeshNormals {
 }
 
 /// Light emission attached to an entity.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum EmitterDesc {
     /// Emits `radiance` (W sr^-1 m^-2 per channel) from the shape's front side, or both sides.
