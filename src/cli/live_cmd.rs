@@ -141,6 +141,12 @@ impl Observer for FileObserver {
         );
     }
 
+    fn reloaded(&mut self, line: &str) {
+        if !self.quiet {
+            note!("{line}");
+        }
+    }
+
     fn load_failed(&mut self, message: &str) {
         note!("error: {message}");
         if self.wrote {

@@ -6,11 +6,19 @@
 //! Threads talk through a [`Control`]: the file watcher asks for a reload, the web page for a
 //! new [`Selection`], Ctrl-C for the end. Any of these stops the render in progress at the end
 //! of its current pass.
+//!
+//! The session keeps the scene's world across saves ([`SceneState`]): a save is applied to it as
+//! an edit, and only what the edit changed is rebuilt (nothing for a material's colour, the
+//! small flat BVH and the top level for a moved or added entity). The render scene is made
+//! beside the one in use, which no pass ever sees change, and takes its place between two
+//! renders. A new integrator or new parameters rebuild nothing. Each reload prints what it did
+//! and how long after the save its first pass ended.
 
 pub mod serve;
 pub mod watch;
 
 use crate::render::{self, Accumulation, Film, RenderSettings, RenderStats};
+use crate::scene::edit::SceneState;
 use crate::scene::RenderScene;
 use crate::scene::{self, Camera, LoadedScene};
 use anyhow::{anyhow, Result};
@@ -18,7 +26,7 @@ use raylab_integrators::registry::{self, IntegratorEntry, ParamError, Params};
 use raylab_integrators::{Integrator, ParamKind};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Condvar, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 /// The integrator for `loaded`: `integrator`, else the scene's. The scene's parameters apply
@@ -132,26 +140,30 @@ pub trait Observer {
     /// A scene loaded and a render starts.
     fn render_started(&mut self, info: &RenderInfo);
     /// An image of the render so far (at most every `image_interval`, and after the last
-    /// pass).
+    /// pass of a render that finished or was stopped; not of one a change replaces).
     fn image(&mut self, film: &Film, info: &RenderInfo, stats: &RenderStats);
-    /// A render ended; the last image was already handed over.
+    /// A render ended; its last image was already handed over (unless a change ended it).
     fn render_ended(&mut self, info: &RenderInfo, stats: &RenderStats, why: Ended);
     /// The scene (or a file it names, or the integrator chosen) failed: `message` names the
     /// file and, for syntax errors, `line:column`. The last good image stays.
     fn load_failed(&mut self, message: &str);
+    /// What a load or reload did and how long it took, once the first pass after it ended:
+    /// `reload: 1 material changed (`white`), rebuilt nothing, first pass after 41 ms`.
+    fn reloaded(&mut self, line: &str);
 }
 
 /// Requests not yet acted on.
 #[derive(Debug, Default)]
 struct Pending {
-    reload: bool,
+    /// A reload, and when the first change that asked for it happened.
+    reload: Option<Instant>,
     selection: Option<Selection>,
     quit: bool,
 }
 
 impl Pending {
     fn any(&self) -> bool {
-        self.reload || self.selection.is_some() || self.quit
+        self.reload.is_some() || self.selection.is_some() || self.quit
     }
 }
 
@@ -187,7 +199,13 @@ impl Control {
 
     /// A watched file changed: load the scene again.
     pub fn request_reload(&self) {
-        self.request(|p| p.reload = true);
+        self.request_reload_since(Instant::now());
+    }
+
+    /// A watched file changed at `when` (the first of a burst of changes): load the scene
+    /// again, and time the reload from then.
+    pub fn request_reload_since(&self, when: Instant) {
+        self.request(|p| p.reload = Some(p.reload.map_or(when, |t| t.min(when))));
     }
 
     /// Render with another integrator or other parameters from now on.
@@ -229,7 +247,7 @@ impl Control {
 
 /// A loaded scene ready to render.
 struct Job {
-    built: RenderScene,
+    built: Arc<RenderScene>,
     camera: Camera,
     integrator: Box<dyn Integrator>,
     settings: RenderSettings,
@@ -252,14 +270,56 @@ fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, 
         .collect()
 }
 
-/// Loads and builds the scene with the selected integrator.
-fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
-    let loaded = scene::load_scene_defined(&settings.scene, &settings.allowed, &settings.import)?;
-    for w in &loaded.warnings {
-        eprintln!("warning: {}: {w}", settings.scene.display());
+/// The scene as the session holds it: its world, and the render scene built of it last.
+#[derive(Default)]
+struct Live {
+    state: Option<SceneState>,
+    built: Option<Arc<RenderScene>>,
+}
+
+impl Live {
+    /// Reads the scene file and applies it to the world (or loads it, the first time and after
+    /// a first load that failed), then builds what changed. Returns what it did, for the
+    /// reload line. On an error the world and the render scene stay as they were.
+    fn reload(&mut self, settings: &LiveSettings) -> Result<String> {
+        let start = Instant::now();
+        let (file, approximated) =
+            scene::read_scene_file(&settings.scene, &settings.allowed, &settings.import)?;
+        let (state, what) = match self.state.take() {
+            None => {
+                let files = scene::access::SceneFiles::new(&settings.scene, &settings.allowed);
+                let state = SceneState::new(file, &settings.scene, files)?;
+                (state, "load".to_string())
+            }
+            Some(mut state) => match state.apply(file) {
+                Ok(report) => (state, format!("reload: {}", report.describe())),
+                Err(e) => {
+                    self.state = Some(state);
+                    return Err(e.into());
+                }
+            },
+        };
+        let state = self.state.insert(state);
+        state.loaded.warnings.extend(approximated);
+        for w in &state.loaded.warnings {
+            eprintln!("warning: {}: {w}", settings.scene.display());
+        }
+        let (built, rebuilt) = state.render_scene(settings.accel, settings.threads)?;
+        self.built = Some(built);
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(format!("{what}, {rebuilt} ({ms:.1} ms)"))
     }
+}
+
+/// The job of rendering the scene with the selected integrator.
+fn prepare(
+    settings: &LiveSettings,
+    selection: &Selection,
+    loaded: &LoadedScene,
+    built: &Arc<RenderScene>,
+) -> Result<Job> {
     let (entry, params) =
-        choose_integrator(&loaded, selection.integrator.as_deref(), &selection.params)?;
+        choose_integrator(loaded, selection.integrator.as_deref(), &selection.params)?;
     let camera = match settings.size {
         Some((w, h)) => loaded.camera.with_resolution(w, h),
         None => loaded.camera.clone(),
@@ -273,7 +333,6 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
             .memory_for(camera.width as u64 * camera.height as u64),
     )?;
     render::check_camera(&camera, &integrator.demand(), entry.name)?;
-    let built = RenderScene::build_on_threads(&loaded, settings.accel, settings.threads)?;
     let info = RenderInfo {
         integrator: entry.name,
         params: param_values(entry, &params),
@@ -282,7 +341,7 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
         target_spp: settings.spp,
     };
     Ok(Job {
-        built,
+        built: Arc::clone(built),
         integrator,
         settings: RenderSettings {
             spp: settings.spp,
@@ -298,8 +357,16 @@ fn prepare(settings: &LiveSettings, selection: &Selection) -> Result<Job> {
     })
 }
 
-/// Renders `job` until it finishes or a request arrives, handing images to `observer`.
-fn render_job(job: Job, interval: Duration, control: &Control, observer: &mut dyn Observer) {
+/// Renders `job` until it finishes or a request arrives, handing images to `observer`; after
+/// its first pass, tells the observer `what` the reload before it did and how long after
+/// `since` (the save) that pass began (now) and ended.
+fn render_job(
+    job: Job,
+    interval: Duration,
+    control: &Control,
+    observer: &mut dyn Observer,
+    (since, what): (Instant, String),
+) {
     let Job {
         built,
         camera,
@@ -311,15 +378,25 @@ fn render_job(job: Job, interval: Duration, control: &Control, observer: &mut dy
     let mut acc = Accumulation::new(camera.width, camera.height);
     let mut last_image: Option<Instant> = None;
     let mut shown_spp = 0;
+    let mut reported = false;
+    let began = since.elapsed().as_secs_f64() * 1e3;
     let stop = || control.interrupted();
     let result = render::render_passes(
-        &built,
+        &*built,
         &camera,
         integrator.as_mut(),
         &settings,
         &mut acc,
         &stop,
         &mut |acc, stats| {
+            if !reported {
+                let ended = since.elapsed().as_secs_f64() * 1e3;
+                observer.reloaded(&format!(
+                    "{what}; first pass began {began:.0} ms after the save, ended after \
+                     {ended:.0} ms"
+                ));
+                reported = true;
+            }
             if last_image.is_none_or(|t| t.elapsed() >= interval) {
                 observer.image(&acc.film(), &info, stats);
                 last_image = Some(Instant::now());
@@ -330,9 +407,6 @@ fn render_job(job: Job, interval: Duration, control: &Control, observer: &mut dy
     );
     match result {
         Ok(stats) => {
-            if acc.spp_done > shown_spp {
-                observer.image(&acc.film(), &info, &stats);
-            }
             let why = if stats.stopped.is_none() {
                 Ended::Finished
             } else if control.is_quitting() {
@@ -340,6 +414,11 @@ fn render_job(job: Job, interval: Duration, control: &Control, observer: &mut dy
             } else {
                 Ended::Changed
             };
+            // A change replaces the image within a pass: not encoded now, between the save
+            // and the new render (the last one handed over stays until then).
+            if acc.spp_done > shown_spp && why != Ended::Changed {
+                observer.image(&acc.film(), &info, &stats);
+            }
             observer.render_ended(&info, &stats, why);
         }
         Err(e) => observer.load_failed(&format!("{e:#}")),
@@ -355,11 +434,15 @@ pub fn run(
     watcher: &watch::SceneWatcher,
     observer: &mut dyn Observer,
 ) {
+    let mut live = Live::default();
+    let mut first = true;
     loop {
         let pending = control.take();
         if pending.quit {
             return;
         }
+        let since = pending.reload.unwrap_or_else(Instant::now);
+        let mut what = String::from("integrator changed, rebuilt nothing (0.0 ms)");
         if let Some(s) = pending.selection {
             selection = s;
         }
@@ -369,8 +452,29 @@ pub fn run(
         if let Err(e) = watcher.track(files.as_deref()) {
             eprintln!("warning: {e:#}");
         }
-        match prepare(settings, &selection) {
-            Ok(job) => render_job(job, settings.image_interval, control, observer),
+        if first || pending.reload.is_some() || live.state.is_none() {
+            match live.reload(settings) {
+                Ok(line) => what = line,
+                Err(e) => {
+                    observer.load_failed(&format!("{e:#}"));
+                    control.wait();
+                    continue;
+                }
+            }
+            first = false;
+        }
+        let job = match (&live.state, &live.built) {
+            (Some(state), Some(built)) => prepare(settings, &selection, &state.loaded, built),
+            _ => Err(anyhow!("no scene loaded")),
+        };
+        match job {
+            Ok(job) => render_job(
+                job,
+                settings.image_interval,
+                control,
+                observer,
+                (since, what),
+            ),
             Err(e) => observer.load_failed(&format!("{e:#}")),
         }
         control.wait();
@@ -393,7 +497,7 @@ mod tests {
         assert!(c.interrupted());
         c.wait(); // returns at once: something is pending
         let p = c.take();
-        assert!(p.reload && !p.quit);
+        assert!(p.reload.is_some() && !p.quit);
         assert_eq!(p.selection.unwrap().integrator.as_deref(), Some("whitted"));
         assert!(!c.interrupted());
         assert!(!c.take().any());

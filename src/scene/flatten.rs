@@ -66,7 +66,10 @@ pub struct RenderScene {
     pub(crate) lights: Arc<LightTable>,
     /// Per emitting entity in file order, how many lights it has: an edit that keeps this
     /// keeps the light indices baked into the accelerator.
-    light_counts: Vec<usize>,
+    light_counts: Vec<(FileOrder, usize)>,
+    /// Bounds of the large meshes with a BVH of their own, by geometry id: a rebuild takes
+    /// them rather than going over the triangles again.
+    own_bounds: Vec<(u64, (Vec3A, Vec3A))>,
     bounds: (Vec3A, Vec3A),
     pub stats: BuildStats,
 }
@@ -189,6 +192,7 @@ impl RenderScene {
             .collect();
         let mut mesh_keys: Vec<u64> = scene.meshes.iter().map(|m| m.id).collect();
         let mut own_triangles = 0;
+        let mut own_bounds = Vec::with_capacity(own.len());
         for (_, order, shape, material, id) in &own {
             let WorldShape::Triangles {
                 triangles,
@@ -199,10 +203,21 @@ impl RenderScene {
             else {
                 continue;
             };
-            let mut bounds = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
-            for p in triangles.iter().flatten() {
-                bounds = (bounds.0.min(*p), bounds.1.max(*p));
-            }
+            // Baked geometry always has its key; `u64::MAX` is never kept.
+            let key = id.map_or(u64::MAX, |g| g.0);
+            let known = previous
+                .and_then(|p| p.own_bounds.iter().find(|(k, _)| *k == key && key != u64::MAX));
+            let bounds = match known {
+                Some(&(_, b)) => b,
+                None => {
+                    let mut b = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+                    for p in triangles.iter().flatten() {
+                        b = (b.0.min(*p), b.1.max(*p));
+                    }
+                    b
+                }
+            };
+            own_bounds.push((key, bounds));
             own_triangles += triangles.len();
             instances.push((
                 **order,
@@ -218,8 +233,7 @@ impl RenderScene {
                 uvs: uvs.as_deref(),
                 bounds,
             });
-            // Baked geometry always has its key; `u64::MAX` is never kept.
-            mesh_keys.push(id.map_or(u64::MAX, |g| g.0));
+            mesh_keys.push(key);
         }
         instances.sort_by_key(|(order, _)| *order);
         let input = accel::Input {
@@ -232,7 +246,7 @@ impl RenderScene {
 
         // A scene without geometry: a point at the origin.
         let bounds = accel.bounds().unwrap_or((Vec3A::ZERO, Vec3A::ZERO));
-        let light_counts = light_counts(&light_of, &lights);
+        let light_counts = light_counts(scene, &light_of);
         let lights = table(lights, scene, bounds);
         let a = accel.stats();
         // The large meshes with a BVH of their own are the scene's triangles, not instances.
@@ -257,6 +271,7 @@ impl RenderScene {
             materials: scene.materials.clone(),
             lights: Arc::new(lights),
             light_counts,
+            own_bounds,
             bounds,
             stats,
         }
@@ -270,6 +285,7 @@ impl RenderScene {
             materials: scene.materials.clone(),
             lights: Arc::clone(&self.lights),
             light_counts: self.light_counts.clone(),
+            own_bounds: self.own_bounds.clone(),
             bounds: self.bounds,
             stats: BuildStats {
                 reused_bvhs: self.accel.mesh_bvhs().0,
@@ -285,7 +301,7 @@ impl RenderScene {
     pub fn with_lights(&self, scene: &LoadedScene) -> Option<RenderScene> {
         let start = Instant::now();
         let (lights, light_of) = lights_of(scene);
-        let counts = light_counts(&light_of, &lights);
+        let counts = light_counts(scene, &light_of);
         if counts != self.light_counts {
             return None;
         }
@@ -317,12 +333,15 @@ fn lights_of(scene: &LoadedScene) -> (Vec<Light>, LightsOf) {
     (lights, light_of)
 }
 
-/// How many lights each emitting entity has, in the lights' order.
-fn light_counts(light_of: &LightsOf, lights: &[Light]) -> Vec<usize> {
-    let mut spans: Vec<(u32, usize)> = light_of.values().copied().collect();
-    spans.sort_unstable();
-    debug_assert_eq!(spans.iter().map(|s| s.1).sum::<usize>(), lights.len());
-    spans.into_iter().map(|(_, n)| n).collect()
+/// Which entities emit, in file order, and how many lights each has: the light indices the
+/// accelerator's primitives carry follow from it.
+fn light_counts(scene: &LoadedScene, light_of: &LightsOf) -> Vec<(FileOrder, usize)> {
+    let mut counts: Vec<(FileOrder, usize)> = light_of
+        .iter()
+        .filter_map(|(&e, &(_, n))| Some((*scene.world.get::<&FileOrder>(e).ok()?, n)))
+        .collect();
+    counts.sort_unstable();
+    counts
 }
 
 /// The light table of `lights` and the scene's constant environment, for geometry within

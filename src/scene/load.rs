@@ -37,6 +37,19 @@ pub fn load_scene_defined(
     allowed: &[PathBuf],
     options: &ImportOptions,
 ) -> Result<LoadedScene, SceneError> {
+    let (file, approximated) = read_scene_file(path, allowed, options)?;
+    let mut loaded = super::edit::build_world(file, path, &SceneFiles::new(path, allowed))?;
+    loaded.warnings.extend(approximated);
+    Ok(loaded)
+}
+
+/// Reads and parses a scene file of any format (as [`load_scene_defined`]), without making a
+/// world of it; also the `--approximate` warnings of an imported scene.
+pub fn read_scene_file(
+    path: &Path,
+    allowed: &[PathBuf],
+    options: &ImportOptions,
+) -> Result<(SceneFile, Vec<String>), SceneError> {
     let (text, approximated) = match import_scene(path, allowed, options)? {
         Some(imported) => (imported.ron, imported.approximated),
         None => (read_scene_text(path)?, Vec::new()),
@@ -53,13 +66,11 @@ pub fn load_scene_defined(
         },
         e => e,
     })?;
-    let mut loaded = super::edit::build_world(file, path, &SceneFiles::new(path, allowed))?;
-    loaded.warnings.extend(
-        approximated
-            .into_iter()
-            .map(|a| format!("--approximate: {a}")),
-    );
-    Ok(loaded)
+    let approximated = approximated
+        .into_iter()
+        .map(|a| format!("--approximate: {a}"))
+        .collect();
+    Ok((file, approximated))
 }
 
 /// Whether `path` names a Mitsuba 3 XML scene (by its extension).

@@ -31,7 +31,7 @@ pub use flatten::RenderScene;
 pub use import::{ImportOptions, Imported};
 pub use load::{
     import_scene, is_imported, is_mitsuba, is_pbrt, load_scene, load_scene_defined,
-    load_scene_with, parse_scene, scene_text,
+    load_scene_with, parse_scene, read_scene_file, scene_text,
 };
 pub use raylab_integrators::Camera;
 

@@ -243,6 +243,12 @@ impl Observer for PageObserver {
         eprintln!("error: {message}");
         self.shared.update(|s| s.error = Some(message.to_string()));
     }
+
+    fn reloaded(&mut self, line: &str) {
+        if !self.quiet {
+            eprintln!("{line}");
+        }
+    }
 }
 
 /// The `/integrators` JSON.
