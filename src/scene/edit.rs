@@ -297,6 +297,8 @@ enum Plan {
 
 struct Planned {
     key: EntityKey,
+    /// Its name: the file's, or `entity #N` by its place.
+    name: String,
     desc: EntityDesc,
     stamps: Vec<Stamp>,
     plan: Plan,
@@ -458,6 +460,7 @@ impl SceneState {
             };
             planned.push(Planned {
                 key,
+                name,
                 desc: e,
                 stamps,
                 plan,
@@ -738,8 +741,14 @@ impl SceneState {
                                 None => marks.remove_one::<MaterialRef>(entity),
                             }
                         }
+                        // An unnamed entity is named by its place.
+                        let mut name = entity_name(world, entity);
+                        if r.part_materials.is_empty() && name != p.name {
+                            name.clone_from(&p.name);
+                            marks.insert_one(entity, Name(p.name.clone()));
+                        }
                         if changed != Changed::default() {
-                            report.changed.push((entity_name(world, entity), changed));
+                            report.changed.push((name, changed));
                             marks.insert_one(entity, changed);
                         } else {
                             report.kept += 1;
@@ -916,11 +925,24 @@ fn compare(world: &World, was: Entity, now: Entity) -> Changed {
         let b = world.get::<&T>(b).ok();
         a.as_deref() != b.as_deref()
     }
+    // An instance's shape names its asset: whether the asset is the same is in `Instanced`.
+    let asset = |e| {
+        world
+            .get::<&Instanced>(e)
+            .ok()
+            .map(|i| Arc::clone(&i.asset))
+    };
+    let same_asset = match (asset(was), asset(now)) {
+        (Some(a), Some(b)) => Arc::ptr_eq(&a, &b),
+        (a, b) => a.is_none() && b.is_none(),
+    };
     Changed {
         added: false,
         transform: differs::<Transform>(world, was, now),
         // A mesh file's content is in the shape it was read into.
-        shape: differs::<Shape>(world, was, now) || differs::<FlipNormals>(world, was, now),
+        shape: differs::<Shape>(world, was, now)
+            || differs::<FlipNormals>(world, was, now)
+            || !same_asset,
         material: differs::<MaterialRef>(world, was, now),
         emitter: differs::<Emitter>(world, was, now),
         order: differs::<FileOrder>(world, was, now),
@@ -935,3 +957,7 @@ pub(super) fn build_world(
 ) -> Result<LoadedScene, SceneError> {
     Ok(SceneState::new(file, path, files.clone())?.loaded)
 }
+
+#[cfg(test)]
+#[path = "edit_tests.rs"]
+mod tests;

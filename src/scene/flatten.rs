@@ -205,8 +205,11 @@ impl RenderScene {
             };
             // Baked geometry always has its key; `u64::MAX` is never kept.
             let key = id.map_or(u64::MAX, |g| g.0);
-            let known = previous
-                .and_then(|p| p.own_bounds.iter().find(|(k, _)| *k == key && key != u64::MAX));
+            let known = previous.and_then(|p| {
+                p.own_bounds
+                    .iter()
+                    .find(|(k, _)| *k == key && key != u64::MAX)
+            });
             let bounds = match known {
                 Some(&(_, b)) => b,
                 None => {

@@ -1,7 +1,9 @@
 //! `raylab serve` over HTTP as a browser and a hostile client would use it: the routes, 404
 //! for every other path (no file is ever served), 400 with the registry's message for bad
 //! settings, clients that disconnect mid-request or mid-response, the load error shown while
-//! the scene is broken, and the page itself in headless Chromium switching the integrator.
+//! the scene is broken, saves and new settings applied to the session's world (the `reload:`
+//! line says what was rebuilt), and the page itself in headless Chromium switching the
+//! integrator.
 
 use crate::common;
 
@@ -292,10 +294,32 @@ fn shows_the_load_error_while_the_scene_is_broken_and_reloads_on_save() {
         &scene,
         &text.replace(CORNELL_LIGHT, "radiance: (1.5, 1.5, 1.5)"),
     );
-    srv.wait_state("the render after the fix", |s| {
+    let s = srv.wait_state("the render after the fix", |s| {
         s["error"].is_null() && finished(s) && s["image"]["version"] != image_version
     });
     assert_ne!(srv.get("/image.png").body, good);
+    // The session kept its world: the fix was applied as an edit of it.
+    let e = srv.run.stderr();
+    assert!(
+        e.contains("reload: 1 entity changed (emitter), rebuilt the light table"),
+        "{e}"
+    );
+
+    // Another integrator rebuilds nothing.
+    let version = s["image"]["version"].clone();
+    let r = srv.post(
+        "/settings",
+        "application/json",
+        r#"{"integrator": "whitted"}"#,
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    srv.wait_state("whitted's image", |s| {
+        s["image"]["integrator"] == "whitted" && s["image"]["version"] != version
+    });
+    assert!(eventually(|| srv
+        .run
+        .stderr()
+        .contains("integrator changed, rebuilt nothing")));
     assert_eq!(srv.run.interrupt().code(), Some(0));
 }
 

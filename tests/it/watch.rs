@@ -1,10 +1,12 @@
 //! `raylab render --watch` as a user runs it: saving the scene (or a mesh it names)
-//! re-renders and rewrites the output; a broken save reports file:line:column and keeps the
-//! last good image; fixing it resumes; Ctrl-C stops it cleanly.
+//! re-renders and rewrites the output, rebuilding only what the save changed (the `reload:`
+//! line says what), into the image a fresh render of the saved scene gives; a broken save
+//! reports file:line:column and keeps the last good image; fixing it resumes; Ctrl-C stops it
+//! cleanly.
 
 use crate::common;
 
-use common::{break_scene, eventually, save, scene_copy, Running, CORNELL_LIGHT};
+use common::{break_scene, eventually, raylab_in, save, scene_copy, Running, CORNELL_LIGHT};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -63,6 +65,12 @@ fn saving_the_scene_rerenders_and_ctrl_c_stops_cleanly() {
     run.wait_stderr("the second render", |e| done_count(e) >= 2);
     let after = brightness(&out);
     assert!(after < before * 0.5, "{after} vs {before}");
+    let e = run.stderr();
+    assert!(
+        e.contains("reload: 1 entity changed (emitter), rebuilt the light table")
+            && e.contains("first pass began"),
+        "{e}"
+    );
 
     let status = run.interrupt();
     assert_eq!(status.code(), Some(0), "Ctrl-C is a clean stop");
@@ -96,6 +104,9 @@ fn a_broken_save_reports_line_and_column_and_keeps_the_last_image() {
     );
     run.wait_stderr("the render after the fix", |e| done_count(e) >= 2);
     assert!(eventually(|| std::fs::read(&out).unwrap() != good));
+    // The broken save touched nothing: the fix is an edit of the world before it.
+    let e = run.stderr();
+    assert!(e.contains("reload: 1 entity changed (emitter)"), "{e}");
     assert_eq!(run.interrupt().code(), Some(0));
 }
 
@@ -124,7 +135,67 @@ fn saving_a_mesh_the_scene_names_rerenders() {
     std::fs::write(&obj, grown).unwrap();
     run.wait_stderr("the render after the mesh changed", |e| done_count(e) >= 2);
     assert_ne!(std::fs::read(&out).unwrap(), first);
+    let e = run.stderr();
+    assert!(e.contains("reload: 1 entity changed (shape)"), "{e}");
     assert_eq!(run.interrupt().code(), Some(0));
+}
+
+#[test]
+fn an_edited_session_writes_the_image_a_fresh_render_of_the_saved_scene_writes() {
+    let (dir, scene) = scene_copy("cornell_box.ron");
+    let out = dir.path().join("out.exr");
+    let run = watch(&scene, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+
+    // Move the small box, change the light and the red wall's colour, add a sphere.
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let edited = text
+        .replace("(0.335, -0.7, 0.38)", "(0.3, -0.7, 0.3)")
+        .replace(CORNELL_LIGHT, "radiance: (12, 12, 12)")
+        .replace("(0.570068, 0.0430135, 0.0443706)", "(0.2, 0.2, 0.6)")
+        .replace(
+            "    entities: [\n",
+            "    entities: [\n        (name: \"new\", shape: Sphere(center: (0, 0.5, 0), radius: 0.1), material: \"white\"),\n",
+        );
+    for part in [
+        "(0.3, -0.7, 0.3)",
+        "(12, 12, 12)",
+        "(0.2, 0.2, 0.6)",
+        "\"new\"",
+    ] {
+        assert!(edited.contains(part), "the edit must apply: {part}");
+    }
+    save(&scene, &edited);
+    run.wait_stderr("the render after the edit", |e| done_count(e) >= 2);
+    let e = run.stderr();
+    assert!(
+        e.contains("1 entity added") && e.contains("1 material changed"),
+        "{e}"
+    );
+    assert_eq!(run.interrupt().code(), Some(0));
+
+    let fresh = dir.path().join("fresh.exr");
+    let o = raylab_in(
+        dir.path(),
+        &[
+            "render",
+            s(&scene),
+            "--size",
+            "32x32",
+            "--spp",
+            "8",
+            "--threads",
+            "1",
+            "-q",
+            "-o",
+            s(&fresh),
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        std::fs::read(&out).unwrap() == std::fs::read(&fresh).unwrap(),
+        "the edited session's image differs from a fresh render's"
+    );
 }
 
 #[test]
