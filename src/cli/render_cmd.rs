@@ -559,8 +559,12 @@ pub fn validate(
         hi.y,
         hi.z
     );
+    let own = match s.own_bvh_meshes {
+        0 => String::new(),
+        n => format!(" ({n} large mesh(es) with a BVH of their own)"),
+    };
     say!(
-        "  bvh        {} nodes, built in {:.2} ms",
+        "  bvh        {} nodes{own}, built in {:.2} ms",
         s.bvh_nodes,
         s.build_time.as_secs_f64() * 1e3
     );

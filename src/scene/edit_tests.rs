@@ -104,6 +104,7 @@ fn every_kind_of_edit_rebuilds_only_what_it_changed_and_renders_as_a_fresh_load(
     let r = edit_to(&mut state, &text, Rebuilt::Nothing);
     assert_eq!(r.materials, ["red"]);
     assert!(r.changed.is_empty() && r.added.is_empty() && r.removed.is_empty());
+    assert_eq!(r.kept, 9, "every entity kept");
 
     // The render defaults (an integrator parameter): nothing.
     let text = replaced(&text, r#""max-depth": 4"#, r#""max-depth": 6"#);
