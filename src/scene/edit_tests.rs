@@ -230,3 +230,42 @@ fn entities_are_matched_by_name_then_by_order_among_the_unnamed() {
     assert_eq!(changed, ["entity #1", "a"], "{}", r.describe());
     assert!(r.changed.iter().all(|(_, c)| c.order && !c.shape));
 }
+
+#[test]
+fn a_saved_mesh_file_rebuilds_the_bvh_of_that_mesh_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.ron");
+    let obj = dir.path().join("m.obj");
+    let pyramid = |h: f32| {
+        format!(
+            "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 {h} 0\n\
+             f 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n"
+        )
+    };
+    std::fs::write(&obj, pyramid(1.0)).unwrap();
+    let text = r#"(
+        camera: LookAt(eye: (0, 1, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (16, 12)),
+        materials: {"w": Lambert(albedo: (0.5, 0.5, 0.5))},
+        meshes: {"pyramid": Obj(path: "m.obj"), "ball": Icosphere(subdivisions: 1)},
+        entities: [
+            (name: "floor", shape: Quad(vertices: [(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)]), material: "w"),
+            (name: "p", shape: Instance(mesh: "pyramid"), material: "w"),
+            (name: "b", transform: (translate: (2, 0.5, 0)), shape: Instance(mesh: "ball"), material: "w"),
+            (name: "lamp", transform: (translate: (0, 3, 2)), emitter: Point(intensity: (20, 20, 20))),
+        ],
+    )"#;
+    std::fs::write(&scene, text).unwrap();
+    let parse = || parse_scene_file(text, &scene).unwrap();
+    let mut state = SceneState::new(parse(), &scene, SceneFiles::new(&scene, &[])).unwrap();
+    state.render_scene(AccelKind::Raylab, Some(1)).unwrap();
+
+    // The same text, the OBJ file grown (a different length: its stamp changes).
+    std::fs::write(&obj, pyramid(2.5)).unwrap();
+    let r = state.apply(parse()).unwrap();
+    assert_eq!(r.describe(), "1 entity changed (shape)");
+    let (edited, rebuilt) = state.render_scene(AccelKind::Raylab, Some(1)).unwrap();
+    assert_eq!(rebuilt, Rebuilt::Geometry { kept: 1, meshes: 2 });
+    let fresh = super::super::load_scene(&scene).unwrap();
+    let built = RenderScene::build(&fresh);
+    assert!(film_bits(&state.loaded, &edited, "path") == film_bits(&fresh, &built, "path"));
+}
