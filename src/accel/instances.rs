@@ -135,7 +135,8 @@ impl InstanceSet {
             .iter()
             .enumerate()
             .map(|(i, mesh)| {
-                let key = keys.get(i).copied();
+                // `u64::MAX` marks a mesh without a key: never taken.
+                let key = keys.get(i).copied().filter(|&k| k != u64::MAX);
                 let kept = previous
                     .zip(key)
                     .and_then(|(p, key)| p.meshes.iter().find(|m| m.key == key).map(Arc::clone));

@@ -86,12 +86,12 @@ fn node_count(bvh: &Option<CwBvh>) -> usize {
 }
 
 impl ObvhsBvh {
-    /// Builds the BVHs over `input`.
     /// How many mesh assets have a BVH of their own.
     pub fn mesh_count(&self) -> usize {
         self.meshes.len()
     }
 
+    /// Builds the BVHs over `input`.
     pub fn build(input: &Input) -> ObvhsBvh {
         // The flat primitives in input order, and their boxes.
         let mut prims = Vec::new();

@@ -304,7 +304,15 @@ impl Live {
         for w in &state.loaded.warnings {
             eprintln!("warning: {}: {w}", settings.scene.display());
         }
-        let (built, rebuilt) = state.render_scene(settings.accel, settings.threads)?;
+        let (built, rebuilt) = match state.render_scene(settings.accel, settings.threads) {
+            Ok(b) => b,
+            Err(e) => {
+                // The world moved on without a render scene of it: load afresh next time.
+                self.state = None;
+                self.built = None;
+                return Err(e);
+            }
+        };
         self.built = Some(built);
         let ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(format!("{what}, {rebuilt} ({ms:.1} ms)"))
@@ -442,7 +450,7 @@ pub fn run(
             return;
         }
         let since = pending.reload.unwrap_or_else(Instant::now);
-        let mut what = String::from("integrator changed, rebuilt nothing (0.0 ms)");
+        let mut what = String::from("new integrator or parameters, rebuilt nothing (0.0 ms)");
         if let Some(s) = pending.selection {
             selection = s;
         }

@@ -8,7 +8,7 @@
 
 use super::access::SceneFiles;
 use super::components::{FileOrder, Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
-use super::edit::CachedAsset;
+use super::edit::{asset_stamps, CachedAsset};
 use super::schema::{MeshTable, ShapeDesc};
 use super::systems::{self, EntityError};
 use glam::{Affine3A, Vec3A};
@@ -36,8 +36,13 @@ pub fn resolve_instances(
     // The assets still as they were, then those loaded now.
     let mut loaded: Vec<CachedAsset> = Vec::new();
     for (name, desc) in &table.0 {
-        if let Some(c) = cache.iter().find(|c| c.matches(name, desc, dir)) {
-            loaded.push(CachedAsset::new(name, desc, dir, Arc::clone(&c.mesh)));
+        if let Some(c) = cache.iter().find(|c| c.matches(name, desc)) {
+            loaded.push(CachedAsset::new(
+                name,
+                desc,
+                asset_stamps(desc, dir),
+                Arc::clone(&c.mesh),
+            ));
         }
     }
     let mut warnings = Vec::new();
@@ -66,6 +71,7 @@ pub fn resolve_instances(
             let asset = match loaded.iter().find(|c| c.name == *mesh) {
                 Some(c) => Arc::clone(&c.mesh),
                 None => {
+                    let stamps = asset_stamps(desc, dir);
                     let (asset, dropped) = load_asset(asset_name, desc, files)
                         .map_err(|e| fail(format!("mesh `{mesh}`: {e}")))?;
                     if dropped > 0 {
@@ -75,7 +81,12 @@ pub fn resolve_instances(
                         ));
                     }
                     let asset = Arc::new(asset);
-                    loaded.push(CachedAsset::new(asset_name, desc, dir, Arc::clone(&asset)));
+                    loaded.push(CachedAsset::new(
+                        asset_name,
+                        desc,
+                        stamps,
+                        Arc::clone(&asset),
+                    ));
                     asset
                 }
             };

@@ -161,8 +161,9 @@ pub struct Changed {
 }
 
 impl Changed {
-    /// Whether the change moves, adds or reshapes geometry, or changes which material or
-    /// light its primitives report: the BVH must be rebuilt.
+    /// Whether the change moves, adds or reshapes geometry, or changes which material its
+    /// primitives report: the BVH must be rebuilt. (An emitter's change rebuilds the light
+    /// table, and the BVH too if the lights' indices move.)
     pub fn geometry(&self) -> bool {
         self.added || self.transform || self.shape || self.material || self.order
     }

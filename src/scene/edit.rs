@@ -45,7 +45,7 @@ use std::time::SystemTime;
 
 /// A file a description reads, with its modification time and length when it was read (`None`
 /// if it could not be looked at): a description whose files' stamps changed is made again.
-type Stamp = (PathBuf, Option<(SystemTime, u64)>);
+pub type Stamp = (PathBuf, Option<(SystemTime, u64)>);
 
 fn stamp(files: Vec<PathBuf>) -> Vec<Stamp> {
     files
@@ -56,6 +56,18 @@ fn stamp(files: Vec<PathBuf>) -> Vec<Stamp> {
             (f, when)
         })
         .collect()
+}
+
+/// The stamps of the files of `stamps` now. (Looking again at the same files, not at what
+/// the description names: finding an OBJ's material libraries reads the whole file, and a
+/// file whose own stamp changed is read again anyway.)
+fn restamp(stamps: &[Stamp]) -> Vec<Stamp> {
+    stamp(stamps.iter().map(|(f, _)| f.clone()).collect())
+}
+
+/// The stamps of the files the mesh asset `desc` reads, taken before it is read.
+pub fn asset_stamps(desc: &ShapeDesc, dir: &Path) -> Vec<Stamp> {
+    stamp(shape_files(desc, dir))
 }
 
 /// Which entity of the file an entity is: its name and how many entities of that name come
@@ -87,19 +99,20 @@ pub struct CachedAsset {
 }
 
 impl CachedAsset {
-    /// The asset `name` of description `desc`, just loaded.
-    pub fn new(name: &str, desc: &ShapeDesc, dir: &Path, mesh: Arc<LocalMesh>) -> CachedAsset {
+    /// The asset `name` of description `desc`, read from files of `stamps` (taken before it
+    /// was read: a file written meanwhile is read again next time).
+    pub fn new(name: &str, desc: &ShapeDesc, stamps: Vec<Stamp>, mesh: Arc<LocalMesh>) -> Self {
         CachedAsset {
             name: name.to_string(),
             desc: desc.clone(),
-            stamps: stamp(shape_files(desc, dir)),
+            stamps,
             mesh,
         }
     }
 
     /// Whether this is asset `name` as `desc` describes it now.
-    pub fn matches(&self, name: &str, desc: &ShapeDesc, dir: &Path) -> bool {
-        self.name == name && self.desc == *desc && stamp(shape_files(desc, dir)) == self.stamps
+    pub fn matches(&self, name: &str, desc: &ShapeDesc) -> bool {
+        self.name == name && self.desc == *desc && restamp(&self.stamps) == self.stamps
     }
 }
 
@@ -205,14 +218,23 @@ pub struct SceneState {
     pub loaded: LoadedScene,
     files: SceneFiles,
     records: Vec<Record>,
-    /// The material table's descriptions and materials, by name, in file order.
-    materials: Vec<(String, MaterialDesc, SurfaceMaterial)>,
+    /// The material table's descriptions, the stamps of the images they read, and the
+    /// materials, by name, in file order.
+    materials: Vec<KeptMaterial>,
     assets: Vec<CachedAsset>,
     /// Entities removed since the last build.
     removed: usize,
     /// The environment changed since the last build.
     environment_changed: bool,
     built: Option<Arc<RenderScene>>,
+}
+
+/// A material of the table as it was made, to keep while its description and images stay.
+struct KeptMaterial {
+    name: String,
+    desc: MaterialDesc,
+    stamps: Vec<Stamp>,
+    material: SurfaceMaterial,
 }
 
 /// The material table as the entities are gone through: the file's materials, then the parts'
@@ -224,8 +246,8 @@ struct Table {
 }
 
 impl Table {
-    /// The material entity `e` (named `name`) uses: its own, black for a pure area emitter,
-    /// none for a shapeless light.
+    /// The material entity `e` uses: its own, black for a pure area emitter, none for a
+    /// shapeless light.
     fn material_of(&mut self, e: &EntityDesc) -> Result<Option<MaterialRef>, String> {
         Ok(match (&e.material, &e.shape, &e.emitter) {
             (Some(m), _, _) => match self.names.iter().position(|n| n == m) {
@@ -362,7 +384,8 @@ impl SceneState {
     }
 
     /// Makes the world what `file` describes, changing only what differs from the version
-    /// before (see the module's header). On an error the world is left as it was.
+    /// before (see the module's header). On an error the world is left as it was. The loaded
+    /// scene's warnings become this apply's (about what it made, not what it kept).
     pub fn apply(&mut self, file: SceneFile) -> Result<EditReport, SceneError> {
         let path = self.loaded.path.clone();
         let mut report = EditReport::default();
@@ -404,19 +427,25 @@ impl SceneState {
             let name = e.name.clone().unwrap_or_else(|| format!("entity #{index}"));
             let fail = |message: String| self.entity_error(name.clone(), message);
             table.check(&e).map_err(fail)?;
-            let files_read: Vec<PathBuf> = e
-                .shape
-                .iter()
-                .flat_map(|s| shape_files(s, &dir))
-                .chain(e.emitter.iter().flat_map(|m| emitter_files(m, &dir)))
-                .collect();
-            let stamps = stamp(files_read);
             let old = before.get(&key).map(|&i| (i, &self.records[i]));
+            // The files its shape and emitter read, stamped before they are read.
+            let stamps = match old {
+                Some((_, r)) if r.desc.shape == e.shape && r.desc.emitter == e.emitter => {
+                    restamp(&r.stamps)
+                }
+                _ => stamp(
+                    e.shape
+                        .iter()
+                        .flat_map(|s| shape_files(s, &dir))
+                        .chain(e.emitter.iter().flat_map(|m| emitter_files(m, &dir)))
+                        .collect(),
+                ),
+            };
             // An instance is kept only with its asset.
             let asset_kept = match &e.shape {
                 Some(ShapeDesc::Instance { mesh }) => {
                     let desc = file.meshes.0.iter().find(|(n, _)| n == mesh);
-                    desc.is_some_and(|(n, d)| self.assets.iter().any(|a| a.matches(n, d, &dir)))
+                    desc.is_some_and(|(n, d)| self.assets.iter().any(|a| a.matches(n, d)))
                 }
                 _ => true,
             };
@@ -440,7 +469,11 @@ impl SceneState {
                     Plan::Keep { record, materials }
                 }
                 None => {
-                    let old_entity = old.and_then(|(_, r)| r.entities.first().copied());
+                    // Its match's shape and emitter may be reused: of one entity only (the
+                    // parts of a mesh file each hold a part).
+                    let single = old
+                        .filter(|(_, r)| r.entities.len() == 1 && r.part_materials.is_empty())
+                        .map(|(_, r)| (&r.desc, &r.stamps, r.entities[0]));
                     let (staged, part_materials) = self
                         .make(
                             &mut staging,
@@ -448,7 +481,7 @@ impl SceneState {
                             index as u32,
                             &name,
                             &mut table,
-                            old.map(|(_, r)| (&r.desc, &r.stamps, old_entity)),
+                            single,
                             &stamps,
                         )
                         .map_err(|(entity, message)| self.entity_error(entity, message))?;
@@ -474,7 +507,22 @@ impl SceneState {
             message,
         };
         systems::validate(&staging).map_err(to_scene)?;
-        let mut warnings = systems::bake_transforms(&mut staging).map_err(to_scene)?;
+        // The memory check counts the triangles of the entities kept as well.
+        let kept_triangles: u64 = planned
+            .iter()
+            .filter_map(|p| match &p.plan {
+                Plan::Keep { record, .. } => Some(&self.records[*record].entities),
+                Plan::Make { .. } => None,
+            })
+            .flatten()
+            .filter_map(|&e| self.loaded.world.get::<&WorldShape>(e).ok())
+            .map(|s| match &*s {
+                WorldShape::Triangles { triangles, .. } => triangles.len() as u64,
+                WorldShape::Sphere { .. } | WorldShape::Quadric(_) => 0,
+            })
+            .sum();
+        let mut warnings =
+            systems::bake_transforms(&mut staging, kept_triangles).map_err(to_scene)?;
         let resolved =
             assets::resolve_instances(&mut staging, &file.meshes, &self.files, &self.assets)
                 .map_err(to_scene)?;
@@ -513,14 +561,13 @@ impl SceneState {
         Ok(report)
     }
 
-    /// The material table of `file`, keeping the materials whose descriptions did not change;
-    /// also the (name, description, material) list to keep for the next apply.
-    #[allow(clippy::type_complexity)]
+    /// The material table of `file`, keeping the materials whose descriptions and images did
+    /// not change; also the list to keep for the next apply.
     fn material_table(
         &self,
         file: &SceneFile,
         report: &mut EditReport,
-    ) -> Result<(Table, Vec<(String, MaterialDesc, SurfaceMaterial)>), SceneError> {
+    ) -> Result<(Table, Vec<KeptMaterial>), SceneError> {
         let mut textures = TextureLoader::new(&self.files);
         let mut kept = Vec::with_capacity(file.materials.0.len());
         for (name, desc) in &file.materials.0 {
@@ -537,21 +584,28 @@ impl SceneState {
             let before = self
                 .materials
                 .iter()
-                .find(|(n, d, _)| n == name && d == desc);
-            let material = match before {
-                Some((_, _, m)) => m.clone(),
+                .find(|m| m.name == *name && m.desc == *desc && restamp(&m.stamps) == m.stamps);
+            let (material, stamps) = match before {
+                Some(m) => (m.material.clone(), m.stamps.clone()),
                 None => {
                     if !self.records.is_empty() {
                         report.materials.push(name.clone());
                     }
-                    material_from_desc(desc, &mut textures).map_err(fail)?
+                    textures.take_read();
+                    let material = material_from_desc(desc, &mut textures).map_err(fail)?;
+                    (material, stamp(textures.take_read()))
                 }
             };
-            kept.push((name.clone(), desc.clone(), material));
+            kept.push(KeptMaterial {
+                name: name.clone(),
+                desc: desc.clone(),
+                stamps,
+                material,
+            });
         }
         let table = Table {
-            materials: kept.iter().map(|(_, _, m)| m.clone()).collect(),
-            names: kept.iter().map(|(n, ..)| n.clone()).collect(),
+            materials: kept.iter().map(|m| m.material.clone()).collect(),
+            names: kept.iter().map(|m| m.name.clone()).collect(),
             black: None,
         };
         Ok((table, kept))
@@ -581,8 +635,9 @@ impl SceneState {
 
     /// Makes entity `e` (the `index`-th of the file) into components in `staging`: one entity,
     /// or one per material of its mesh file (`from-file`, whose materials join `table`).
-    /// `old` is its match in the version before (description, stamps, first entity): its
-    /// shape and emitter are reused where their descriptions and files did not change.
+    /// `old` is its match in the version before (description, stamps, entity), if that was
+    /// one entity: its shape and emitter are reused where their descriptions and files did
+    /// not change.
     #[allow(clippy::too_many_arguments)]
     fn make(
         &self,
@@ -591,7 +646,7 @@ impl SceneState {
         index: u32,
         name: &str,
         table: &mut Table,
-        old: Option<(&EntityDesc, &Vec<Stamp>, Option<Entity>)>,
+        old: Option<(&EntityDesc, &Vec<Stamp>, Entity)>,
         stamps: &[Stamp],
     ) -> Result<(Vec<Entity>, Vec<SurfaceMaterial>), (String, String)> {
         let fail = |m: String| (name.to_string(), m);
@@ -602,7 +657,7 @@ impl SceneState {
         let material = table.material_of(e).map_err(fail)?;
         let world = &self.loaded.world;
         let same_files = old.is_some_and(|(_, s, _)| s.as_slice() == stamps);
-        let reuse = |same: bool| old.filter(|_| same && same_files).and_then(|o| o.2);
+        let reuse = |same: bool| old.filter(|_| same && same_files).map(|o| o.2);
         let shape = match reuse(old.is_some_and(|(d, ..)| d.shape == e.shape)) {
             Some(entity) => world.get::<&Shape>(entity).ok().map(|s| (*s).clone()),
             None => e
@@ -864,16 +919,7 @@ impl SceneState {
         }
         let previous = self.built.as_ref().filter(|b| b.accel_kind() == kind);
         let build = |previous: Option<&RenderScene>| {
-            let scene = &self.loaded;
-            let run = || RenderScene::build_reusing(scene, kind, previous);
-            match threads {
-                None => Ok(run()),
-                Some(n) => rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
-                    .build()
-                    .map(|pool| pool.install(run))
-                    .map_err(|e| anyhow::anyhow!("cannot start {n} worker threads: {e}")),
-            }
+            RenderScene::build_reusing_on_threads(&self.loaded, kind, previous, threads)
         };
         let (scene, rebuilt) = match previous {
             None => (build(None)?, Rebuilt::Everything),

@@ -174,6 +174,9 @@ fn every_kind_of_edit_rebuilds_only_what_it_changed_and_renders_as_a_fresh_load(
         .apply(file(&replaced(&text, "radius: 0.1)", "radius: -0.1)")))
         .unwrap_err();
     assert!(e.to_string().contains("radius must be positive"), "{e}");
+    // Nothing of the failed saves stayed: the last good text again changes nothing and
+    // renders as its fresh load.
+    edit_to(&mut state, &text, Rebuilt::Nothing);
     let fixed = replaced(&text, "radius: 0.1)", "radius: 0.15)");
     edit_to(&mut state, &fixed, two(2));
 
@@ -268,4 +271,57 @@ fn a_saved_mesh_file_rebuilds_the_bvh_of_that_mesh_alone() {
     let fresh = super::super::load_scene(&scene).unwrap();
     let built = RenderScene::build(&fresh);
     assert!(film_bits(&state.loaded, &edited, "path") == film_bits(&fresh, &built, "path"));
+}
+
+#[test]
+fn a_mesh_file_split_by_its_materials_and_back_renders_as_a_fresh_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.ron");
+    std::fs::write(
+        dir.path().join("m.obj"),
+        "mtllib m.mtl\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 1 0\n\
+         usemtl a\nf 1 2 5\nf 2 3 5\nusemtl b\nf 3 4 5\nf 4 1 5\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "newmtl a\nKd 0.8 0.1 0.1\nnewmtl b\nKd 0.1 0.1 0.8\nKe 2 2 2\n",
+    )
+    .unwrap();
+    let text = |material: &str| {
+        format!(
+            r#"(
+        camera: LookAt(eye: (0, 1, 4), look_at: (0, 0.3, 0), up: (0, 1, 0), fov: 40, resolution: (16, 12)),
+        materials: {{"w": Lambert(albedo: (0.5, 0.5, 0.5))}},
+        entities: [
+            (shape: Quad(vertices: [(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)]), material: "w"),
+            (name: "p", shape: Obj(path: "m.obj"), material: "{material}"),
+            (transform: (translate: (0, 3, 2)), emitter: Point(intensity: (20, 20, 20))),
+        ],
+    )"#
+        )
+    };
+    let mut state: Option<SceneState> = None;
+    // Split, then one entity of one material, then split again.
+    for material in ["from-file", "w", "from-file"] {
+        let t = text(material);
+        std::fs::write(&scene, &t).unwrap();
+        let f = parse_scene_file(&t, &scene).unwrap();
+        let s = match state.as_mut() {
+            Some(s) => {
+                s.apply(f).unwrap();
+                s
+            }
+            None => state.insert(SceneState::new(f, &scene, SceneFiles::new(&scene, &[])).unwrap()),
+        };
+        let (edited, _) = s.render_scene(AccelKind::Raylab, Some(1)).unwrap();
+        let fresh = super::super::load_scene(&scene).unwrap();
+        let built = RenderScene::build(&fresh);
+        assert_eq!(edited.stats.triangles, built.stats.triangles, "{material}");
+        assert_eq!(edited.stats.lights, built.stats.lights, "{material}");
+        assert!(
+            film_bits(&s.loaded, &edited, "path") == film_bits(&fresh, &built, "path"),
+            "{material}"
+        );
+    }
 }

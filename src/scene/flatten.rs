@@ -82,13 +82,24 @@ impl RenderScene {
         kind: AccelKind,
         threads: Option<usize>,
     ) -> anyhow::Result<RenderScene> {
+        Self::build_reusing_on_threads(scene, kind, None, threads)
+    }
+
+    /// [`RenderScene::build_reusing`] on `threads` worker threads (every core when `None`).
+    pub fn build_reusing_on_threads(
+        scene: &LoadedScene,
+        kind: AccelKind,
+        previous: Option<&RenderScene>,
+        threads: Option<usize>,
+    ) -> anyhow::Result<RenderScene> {
+        let build = || Self::build_reusing(scene, kind, previous);
         Ok(match threads {
-            None => Self::build_with(scene, kind),
+            None => build(),
             Some(n) => rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
                 .map_err(|e| anyhow::anyhow!("cannot start {n} worker threads: {e}"))?
-                .install(|| Self::build_with(scene, kind)),
+                .install(build),
         })
     }
 
@@ -309,15 +320,16 @@ impl RenderScene {
             return None;
         }
         let lights = table(lights, scene, self.bounds);
+        let same = self.with_materials(scene);
         Some(RenderScene {
             stats: BuildStats {
                 lights: lights.len(),
                 emitters: counts.len() + usize::from(scene.environment.is_some()),
                 build_time: start.elapsed(),
-                ..self.with_materials(scene).stats
+                ..same.stats
             },
             lights: Arc::new(lights),
-            ..self.with_materials(scene)
+            ..same
         })
     }
 }
@@ -404,8 +416,9 @@ impl Scene for RenderScene {
     }
 }
 
-/// The flat (not instanced) triangles of a loaded scene, exactly as the build places them,
-/// in entity order: the geometry `raylab bench` dumps and gives Embree.
+/// The triangles of a loaded scene's own shapes (not its instances), in world space and file
+/// order: the geometry `raylab bench` dumps and gives Embree. (The build gives the large ones a
+/// BVH of their own, see the module's header.)
 pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
     let mut query = scene.world.query::<(&FileOrder, &WorldShape)>();
     let mut shapes: Vec<(&FileOrder, &WorldShape)> = query.iter().collect();
@@ -420,7 +433,7 @@ pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
         .collect()
 }
 
-/// The spheres of a loaded scene as (centre, radius), in entity order.
+/// The spheres of a loaded scene as (centre, radius), in file order.
 pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
     let mut spheres: Vec<(FileOrder, Vec3A, f32)> = scene
         .world

@@ -535,10 +535,14 @@ fn check_reach_of(reach: f32) -> Result<(), String> {
 }
 
 /// Computes every shaped entity's world-space geometry and inserts it as a [`WorldShape`],
-/// with a new [`GeometryId`].
+/// with a new [`GeometryId`]. The memory check counts `other_triangles` (the scene's triangles
+/// outside `world`, kept from before an edit) first.
 /// Geometry reaching beyond [`MAX_COORDINATE`] is an error. Degenerate triangles are dropped
 /// with a warning (returned); an emitter left without area is an error.
-pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
+pub fn bake_transforms(
+    world: &mut World,
+    other_triangles: u64,
+) -> Result<Vec<String>, EntityError> {
     let mut warnings = Vec::new();
     let mut baked = hecs::CommandBuffer::new();
     {
@@ -555,7 +559,7 @@ pub fn bake_transforms(world: &mut World) -> Result<Vec<String>, EntityError> {
         items.sort_by_key(|(_, order, ..)| **order);
         // The scene's triangles, checked against memory before any shape is made: the
         // first entity past what fits is named.
-        let mut triangles_so_far = 0u64;
+        let mut triangles_so_far = other_triangles;
         for (_, _, name, _, shape, ..) in &items {
             triangles_so_far += triangle_count(shape);
             check_triangle_memory(triangles_so_far).map_err(|e| {

@@ -190,7 +190,7 @@ fn bake_applies_transforms_and_orients_closed_shapes_outwards() {
     ))
     .unwrap();
     // Baking again is idempotent (the loader already ran it).
-    bake_transforms(&mut s.world).unwrap();
+    bake_transforms(&mut s.world, 0).unwrap();
     let w = &s.world;
     let ball = by_name(w, "ball");
     assert_eq!(

@@ -208,6 +208,8 @@ type Texels = (usize, usize, Arc<[Vec3A]>);
 pub struct TextureLoader<'a> {
     files: &'a SceneFiles,
     images: HashMap<(PathBuf, bool), Texels>,
+    /// The image files asked for since [`TextureLoader::take_read`] was last called.
+    read: Vec<PathBuf>,
 }
 
 fn uv_transform(scale: [f32; 2], offset: [f32; 2]) -> Result<Affine2, String> {
@@ -228,7 +230,14 @@ impl<'a> TextureLoader<'a> {
         TextureLoader {
             files,
             images: HashMap::new(),
+            read: Vec::new(),
         }
+    }
+
+    /// The image files the textures made since the last call read (or took from the ones
+    /// already read): what a material depends on besides its description.
+    pub fn take_read(&mut self) -> Vec<PathBuf> {
+        std::mem::take(&mut self.read)
     }
 
     /// The texture `desc` describes for a parameter of `role`, checked against the role's
@@ -241,7 +250,10 @@ impl<'a> TextureLoader<'a> {
                 to_uv: uv_transform(c.uv_scale, c.uv_offset)?,
             },
             TextureDesc::Image(i) => Texture::Image {
-                image: self.image(i, role)?,
+                image: {
+                    self.read.push(self.files.dir().join(&i.path));
+                    self.image(i, role)?
+                },
                 to_uv: uv_transform(i.uv_scale, i.uv_offset)?,
             },
         };

@@ -319,7 +319,7 @@ fn shows_the_load_error_while_the_scene_is_broken_and_reloads_on_save() {
     assert!(eventually(|| srv
         .run
         .stderr()
-        .contains("integrator changed, rebuilt nothing")));
+        .contains("new integrator or parameters, rebuilt nothing")));
     assert_eq!(srv.run.interrupt().code(), Some(0));
 }
 
