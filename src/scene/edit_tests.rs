@@ -325,3 +325,71 @@ fn a_mesh_file_split_by_its_materials_and_back_renders_as_a_fresh_load() {
         );
     }
 }
+
+#[test]
+fn edits_of_an_environment_map_and_other_lights_render_as_a_fresh_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::create_dir(dir.path().join("assets")).unwrap();
+    std::fs::copy(
+        scenes.join("assets/sky.hdr"),
+        dir.path().join("assets/sky.hdr"),
+    )
+    .unwrap();
+    let scene = dir.path().join("sky.ron");
+    let base = std::fs::read_to_string(scenes.join("sky.ron"))
+        .unwrap()
+        .replace("resolution: (400, 240)", "resolution: (20, 12)");
+    let mut state: Option<SceneState> = None;
+    let sky = r#"(name: "sky", emitter: Environment(path: "assets/sky.hdr"))"#;
+    // Each step edits the one before.
+    let scaled = replaced(
+        &base,
+        sky,
+        r#"(name: "sky", emitter: Environment(path: "assets/sky.hdr", scale: 2))"#,
+    );
+    let turned = replaced(
+        &scaled,
+        "(name: \"sky\", emitter",
+        "(name: \"sky\", transform: (rotate: (0, 40, 0)), emitter",
+    );
+    let others = replaced(
+        &replaced(
+            &turned,
+            "intensity: (60, 50, 40)",
+            "intensity: (20, 50, 40)",
+        ),
+        "direction: (0.2, -0.3, 1)",
+        "direction: (-0.2, -0.5, 1)",
+    );
+    let steps = [
+        (base.clone(), Rebuilt::Everything),
+        // The map's scale: the light table.
+        (scaled, Rebuilt::Lights),
+        // The map turned: made again (its rotation is baked into it); a transform changed.
+        (turned, Rebuilt::Geometry { kept: 0, meshes: 0 }),
+        // A spot's intensity and the moon's direction: the light table.
+        (others, Rebuilt::Lights),
+    ];
+    for (text, expected) in steps {
+        std::fs::write(&scene, &text).unwrap();
+        let f = parse_scene_file(&text, &scene).unwrap();
+        let s = match state.as_mut() {
+            Some(s) => {
+                s.apply(f).unwrap();
+                s
+            }
+            None => state.insert(SceneState::new(f, &scene, SceneFiles::new(&scene, &[])).unwrap()),
+        };
+        let (edited, rebuilt) = s.render_scene(AccelKind::Raylab, Some(1)).unwrap();
+        assert_eq!(rebuilt, expected, "{text}");
+        let fresh = super::super::load_scene(&scene).unwrap();
+        let built = RenderScene::build(&fresh);
+        for integrator in ["path", "bdpt"] {
+            assert!(
+                film_bits(&s.loaded, &edited, integrator) == film_bits(&fresh, &built, integrator),
+                "{integrator} after {expected:?}"
+            );
+        }
+    }
+}
