@@ -197,11 +197,6 @@ impl Control {
         self.wake.notify_all();
     }
 
-    /// A watched file changed: load the scene again.
-    pub fn request_reload(&self) {
-        self.request_reload_since(Instant::now());
-    }
-
     /// A watched file changed at `when` (the first of a burst of changes): load the scene
     /// again, and time the reload from then.
     pub fn request_reload_since(&self, when: Instant) {
@@ -270,52 +265,38 @@ fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, 
         .collect()
 }
 
-/// The scene as the session holds it: its world, and the render scene built of it last.
-#[derive(Default)]
-struct Live {
-    state: Option<SceneState>,
-    built: Option<Arc<RenderScene>>,
-}
-
-impl Live {
-    /// Reads the scene file and applies it to the world (or loads it, the first time and after
-    /// a first load that failed), then builds what changed. Returns what it did, for the
-    /// reload line. On an error the world and the render scene stay as they were.
-    fn reload(&mut self, settings: &LiveSettings) -> Result<String> {
-        let start = Instant::now();
-        let (file, approximated) =
-            scene::read_scene_file(&settings.scene, &settings.allowed, &settings.import)?;
-        let (state, what) = match self.state.take() {
-            None => {
-                let files = scene::access::SceneFiles::new(&settings.scene, &settings.allowed);
-                let state = SceneState::new(file, &settings.scene, files)?;
-                (state, "load".to_string())
-            }
-            Some(mut state) => match state.apply(file) {
-                Ok(report) => (state, format!("reload: {}", report.describe())),
-                Err(e) => {
-                    self.state = Some(state);
-                    return Err(e.into());
-                }
-            },
-        };
-        let state = self.state.insert(state);
-        state.loaded.warnings.extend(approximated);
-        for w in &state.loaded.warnings {
-            eprintln!("warning: {}: {w}", settings.scene.display());
+/// Reads the scene file and applies it to the session's world (or loads it, the first time
+/// and after a load that failed), then builds what changed. Returns what it did, for the
+/// reload line. On an error the world and its render scene stay as they were.
+fn reload(live: &mut Option<SceneState>, settings: &LiveSettings) -> Result<String> {
+    let start = Instant::now();
+    let (file, approximated) =
+        scene::read_scene_file(&settings.scene, &settings.allowed, &settings.import)?;
+    let (state, what) = match live {
+        None => {
+            let files = scene::access::SceneFiles::new(&settings.scene, &settings.allowed);
+            let state = SceneState::new(file, &settings.scene, files)?;
+            (live.insert(state), "load".to_string())
         }
-        let (built, rebuilt) = match state.render_scene(settings.accel, settings.threads) {
-            Ok(b) => b,
-            Err(e) => {
-                // The world moved on without a render scene of it: load afresh next time.
-                self.state = None;
-                self.built = None;
-                return Err(e);
-            }
-        };
-        self.built = Some(built);
-        let ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok(format!("{what}, {rebuilt} ({ms:.1} ms)"))
+        Some(state) => {
+            let what = format!("reload: {}", state.apply(file)?.describe());
+            (state, what)
+        }
+    };
+    state.loaded.warnings.extend(approximated);
+    for w in &state.loaded.warnings {
+        eprintln!("warning: {}: {w}", settings.scene.display());
+    }
+    match state.render_scene(settings.accel, settings.threads) {
+        Ok((_, rebuilt)) => {
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            Ok(format!("{what}, {rebuilt} ({ms:.1} ms)"))
+        }
+        Err(e) => {
+            // The world moved on without a render scene of it: load afresh next time.
+            *live = None;
+            Err(e)
+        }
     }
 }
 
@@ -442,8 +423,7 @@ pub fn run(
     watcher: &watch::SceneWatcher,
     observer: &mut dyn Observer,
 ) {
-    let mut live = Live::default();
-    let mut first = true;
+    let mut live: Option<SceneState> = None;
     loop {
         let pending = control.take();
         if pending.quit {
@@ -460,8 +440,8 @@ pub fn run(
         if let Err(e) = watcher.track(files.as_deref()) {
             eprintln!("warning: {e:#}");
         }
-        if first || pending.reload.is_some() || live.state.is_none() {
-            match live.reload(settings) {
+        if pending.reload.is_some() || live.is_none() {
+            match reload(&mut live, settings) {
                 Ok(line) => what = line,
                 Err(e) => {
                     observer.load_failed(&format!("{e:#}"));
@@ -469,11 +449,10 @@ pub fn run(
                     continue;
                 }
             }
-            first = false;
         }
-        let job = match (&live.state, &live.built) {
-            (Some(state), Some(built)) => prepare(settings, &selection, &state.loaded, built),
-            _ => Err(anyhow!("no scene loaded")),
+        let job = match live.as_ref().and_then(|s| Some((s, s.built()?))) {
+            Some((state, built)) => prepare(settings, &selection, &state.loaded, built),
+            None => Err(anyhow!("no scene loaded")),
         };
         match job {
             Ok(job) => render_job(
@@ -497,7 +476,7 @@ mod tests {
     fn requests_interrupt_and_are_taken_once() {
         let c = Control::new();
         assert!(!c.interrupted());
-        c.request_reload();
+        c.request_reload_since(Instant::now());
         c.select(Selection {
             integrator: Some("whitted".into()),
             params: vec![],

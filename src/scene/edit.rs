@@ -901,6 +901,11 @@ impl SceneState {
         self.loaded.meshes = meshes;
     }
 
+    /// The render scene built last ([`SceneState::render_scene`]), if any.
+    pub fn built(&self) -> Option<&Arc<RenderScene>> {
+        self.built.as_ref()
+    }
+
     /// The render scene of the world now, on an accelerator of kind `kind`, building only what
     /// the changes since the last call need (see the module's header), on `threads` worker
     /// threads (every core when `None`). Clears the changes' marks.

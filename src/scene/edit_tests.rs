@@ -74,17 +74,43 @@ fn edit_to(state: &mut SceneState, text: &str, expected: Rebuilt) -> EditReport 
         "the build clears the marks"
     );
     let fresh = parse_scene(text, path()).unwrap();
-    let built = RenderScene::build(&fresh);
+    assert_as_fresh(&state.loaded, &edited, &fresh, &report.describe());
+    report
+}
+
+/// Checks that `edited` (built of `loaded`) holds what the build of `fresh` holds and renders
+/// its bits, with `path` and `bdpt`; `after` names the edit in messages.
+fn assert_as_fresh(loaded: &LoadedScene, edited: &RenderScene, fresh: &LoadedScene, after: &str) {
+    let built = RenderScene::build(fresh);
+    assert_eq!(
+        edited.stats.triangles, built.stats.triangles,
+        "after {after}"
+    );
+    assert_eq!(edited.stats.lights, built.stats.lights, "after {after}");
     for integrator in ["path", "bdpt"] {
         assert!(
-            film_bits(&state.loaded, &edited, integrator) == film_bits(&fresh, &built, integrator),
-            "{integrator} after `{}` differs from a fresh load",
-            report.describe()
+            film_bits(loaded, edited, integrator) == film_bits(fresh, &built, integrator),
+            "{integrator} after {after} differs from a fresh load"
         );
     }
-    assert_eq!(edited.stats.triangles, built.stats.triangles);
-    assert_eq!(edited.stats.lights, built.stats.lights);
-    report
+}
+
+/// Writes `text` to the file `scene`, applies it to `state` (or loads it, the first time),
+/// checks that the result renders as the file loaded fresh, and returns what was rebuilt.
+fn save_and_check(state: &mut Option<SceneState>, scene: &Path, text: &str) -> Rebuilt {
+    std::fs::write(scene, text).unwrap();
+    let file = parse_scene_file(text, scene).unwrap();
+    let s = match state {
+        Some(s) => {
+            s.apply(file).unwrap();
+            s
+        }
+        None => state.insert(SceneState::new(file, scene, SceneFiles::new(scene, &[])).unwrap()),
+    };
+    let (edited, rebuilt) = s.render_scene(AccelKind::Raylab, Some(1)).unwrap();
+    let fresh = super::super::load_scene(scene).unwrap();
+    assert_as_fresh(&s.loaded, &edited, &fresh, &format!("{rebuilt:?}"));
+    rebuilt
 }
 
 fn replaced(text: &str, from: &str, to: &str) -> String {
@@ -269,8 +295,7 @@ fn a_saved_mesh_file_rebuilds_the_bvh_of_that_mesh_alone() {
     let (edited, rebuilt) = state.render_scene(AccelKind::Raylab, Some(1)).unwrap();
     assert_eq!(rebuilt, Rebuilt::Geometry { kept: 1, meshes: 2 });
     let fresh = super::super::load_scene(&scene).unwrap();
-    let built = RenderScene::build(&fresh);
-    assert!(film_bits(&state.loaded, &edited, "path") == film_bits(&fresh, &built, "path"));
+    assert_as_fresh(&state.loaded, &edited, &fresh, "the OBJ's save");
 }
 
 #[test]
@@ -301,28 +326,10 @@ fn a_mesh_file_split_by_its_materials_and_back_renders_as_a_fresh_load() {
     )"#
         )
     };
-    let mut state: Option<SceneState> = None;
+    let mut state = None;
     // Split, then one entity of one material, then split again.
     for material in ["from-file", "w", "from-file"] {
-        let t = text(material);
-        std::fs::write(&scene, &t).unwrap();
-        let f = parse_scene_file(&t, &scene).unwrap();
-        let s = match state.as_mut() {
-            Some(s) => {
-                s.apply(f).unwrap();
-                s
-            }
-            None => state.insert(SceneState::new(f, &scene, SceneFiles::new(&scene, &[])).unwrap()),
-        };
-        let (edited, _) = s.render_scene(AccelKind::Raylab, Some(1)).unwrap();
-        let fresh = super::super::load_scene(&scene).unwrap();
-        let built = RenderScene::build(&fresh);
-        assert_eq!(edited.stats.triangles, built.stats.triangles, "{material}");
-        assert_eq!(edited.stats.lights, built.stats.lights, "{material}");
-        assert!(
-            film_bits(&s.loaded, &edited, "path") == film_bits(&fresh, &built, "path"),
-            "{material}"
-        );
+        save_and_check(&mut state, &scene, &text(material));
     }
 }
 
@@ -340,7 +347,7 @@ fn edits_of_an_environment_map_and_other_lights_render_as_a_fresh_load() {
     let base = std::fs::read_to_string(scenes.join("sky.ron"))
         .unwrap()
         .replace("resolution: (400, 240)", "resolution: (20, 12)");
-    let mut state: Option<SceneState> = None;
+    let mut state = None;
     let sky = r#"(name: "sky", emitter: Environment(path: "assets/sky.hdr"))"#;
     // Each step edits the one before.
     let scaled = replaced(
@@ -372,24 +379,10 @@ fn edits_of_an_environment_map_and_other_lights_render_as_a_fresh_load() {
         (others, Rebuilt::Lights),
     ];
     for (text, expected) in steps {
-        std::fs::write(&scene, &text).unwrap();
-        let f = parse_scene_file(&text, &scene).unwrap();
-        let s = match state.as_mut() {
-            Some(s) => {
-                s.apply(f).unwrap();
-                s
-            }
-            None => state.insert(SceneState::new(f, &scene, SceneFiles::new(&scene, &[])).unwrap()),
-        };
-        let (edited, rebuilt) = s.render_scene(AccelKind::Raylab, Some(1)).unwrap();
-        assert_eq!(rebuilt, expected, "{text}");
-        let fresh = super::super::load_scene(&scene).unwrap();
-        let built = RenderScene::build(&fresh);
-        for integrator in ["path", "bdpt"] {
-            assert!(
-                film_bits(&s.loaded, &edited, integrator) == film_bits(&fresh, &built, integrator),
-                "{integrator} after {expected:?}"
-            );
-        }
+        assert_eq!(
+            save_and_check(&mut state, &scene, &text),
+            expected,
+            "{text}"
+        );
     }
 }
