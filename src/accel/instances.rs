@@ -14,7 +14,7 @@
 use super::bvh::{isa::Isa, Bvh, Packets, Singles};
 use super::packet::{self, Lane, LeafTest, Packet, PacketRay, Stored, NONE, NO_ANALYTIC};
 use super::surface::{barycentrics, parametrisation, shading_normal, Parametrisation, VertexData};
-use super::{box_corners, InstanceDesc, Mesh};
+use super::{box_corners, huge_pages, InstanceDesc, Mesh};
 use glam::{Affine3A, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::ray::Ray;
@@ -81,21 +81,18 @@ impl MeshBlas {
             .iter()
             .flat_map(|&(first, count)| packet::runs(first, count))
             .collect();
-        let packets = runs
-            .par_iter()
-            .map(|&(first, count)| {
-                let lanes: arrayvec::ArrayVec<Lane, { packet::WIDTH }> = (first..first + count)
-                    .map(|k| Lane::Triangle {
-                        corners: mesh.triangles[order[k as usize] as usize],
-                        material: 0,
-                        light: NONE,
-                        vertex_data: k,
-                    })
-                    .collect();
-                let (packet, data) = Packet::new(&lanes);
-                Stored { packet, data }
-            })
-            .collect();
+        let packets = huge_pages::collect(runs.par_iter().map(|&(first, count)| {
+            let lanes: arrayvec::ArrayVec<Lane, { packet::WIDTH }> = (first..first + count)
+                .map(|k| Lane::Triangle {
+                    corners: mesh.triangles[order[k as usize] as usize],
+                    material: 0,
+                    light: NONE,
+                    vertex_data: k,
+                })
+                .collect();
+            let (packet, data) = Packet::new(&lanes);
+            Stored { packet, data }
+        }));
         let vertex_data = order
             .par_iter()
             .filter_map(|&i| mesh.vertex_data(i as usize))

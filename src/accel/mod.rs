@@ -13,6 +13,7 @@
 //! (`crate::scene::flatten`).
 
 mod bvh;
+mod huge_pages;
 mod instances;
 mod obvhs_backend;
 mod packet;
@@ -341,8 +342,9 @@ impl WideBvh {
             Geometry::Triangles(mesh) => mesh.triangles.len(),
             Geometry::Sphere { .. } | Geometry::Quadric(_) => 1,
         };
+        // Read at random while the packets are made: on huge pages (see `huge_pages`).
         let mut prims: Vec<Prim> =
-            Vec::with_capacity(shapes.iter().map(|s| count(&s.geometry)).sum());
+            huge_pages::with_capacity(shapes.iter().map(|s| count(&s.geometry)).sum());
         for (k, shape) in shapes.iter().enumerate() {
             prims.extend((0..count(&shape.geometry)).map(|i| Prim {
                 shape: k as u32,
@@ -427,15 +429,12 @@ impl WideBvh {
             .iter()
             .flat_map(|&(first, count)| packet::runs(first, count))
             .collect();
-        let packets: Vec<Stored> = runs
-            .par_iter()
-            .map(|&(first, count)| {
-                let lanes: ArrayVec<Lane, { packet::WIDTH }> =
-                    (first..first + count).map(lane).collect();
-                let (packet, data) = Packet::new(&lanes);
-                Stored { packet, data }
-            })
-            .collect();
+        let packets: Vec<Stored> = huge_pages::collect(runs.par_iter().map(|&(first, count)| {
+            let lanes: ArrayVec<Lane, { packet::WIDTH }> =
+                (first..first + count).map(lane).collect();
+            let (packet, data) = Packet::new(&lanes);
+            Stored { packet, data }
+        }));
         let stats = AccelStats {
             triangles: prims.len() - sph_center.len() - quadrics.len(),
             spheres: sph_center.len(),

@@ -14,6 +14,7 @@
 //! min, max or integer sum, so the tree is the same whatever the thread count.
 
 use super::{Bvh, Leaves, Node, EMPTY, LANES, MAX_LEAF};
+use crate::accel::huge_pages;
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use rayon::prelude::*;
@@ -591,10 +592,11 @@ impl Bvh {
         if n == 0 {
             return (Bvh::default(), Vec::new());
         }
-        let mut items: Vec<Item> = (0..n)
-            .into_par_iter()
-            .map(|i| Item::new(&box_of(i), i as u32))
-            .collect();
+        let mut items: Vec<Item> = huge_pages::collect(
+            (0..n)
+                .into_par_iter()
+                .map(|i| Item::new(&box_of(i), i as u32)),
+        );
         let root = Range::new::<L>(&items, 0, n, 0);
         let mut nodes = Vec::new();
         if root.leaf {
@@ -610,7 +612,7 @@ impl Bvh {
         for node in &mut nodes {
             node.mark_leaves();
         }
-        nodes.shrink_to_fit();
+        let nodes = huge_pages::copy_of(nodes);
         let order = items.iter().map(Item::id).collect();
         (Bvh { nodes }, order)
     }
