@@ -1,24 +1,31 @@
 #!/usr/bin/env python3
-"""raylab `path` against Mitsuba 3 on the Cornell box: samples per second, their ratio, and
-the two images' mean values (which must agree within noise).
+"""raylab `path` against Mitsuba 3 on the Cornell box and two scenes of the field's materials:
+samples per second, their ratio, and the two images' mean values (which must agree within
+noise).
 
-Mitsuba renders its built-in `cornell_box()` (box filter, max_depth 8, rr_depth 5: its
-`path` defaults); raylab renders scenes/cornell_box.ron (the same box) with max-depth 7 and
-rr-depth 5, the same settings in raylab's convention. Mitsuba's max_depth counts path
+Scenes (`--scenes`, default all three):
+- `cornell`: Mitsuba renders its built-in `cornell_box()` (box filter, max_depth 8, rr_depth
+  5: its `path` defaults); raylab renders scenes/cornell_box.ron (the same box);
+- `textured_glossy`, `environment`: scenes/mitsuba/textured_glossy.xml (image textures, rough
+  plastic and rough conductors under an area light) and scenes/mitsuba/environment.xml
+  (glossy and diffuse objects under an environment map), the same XML file in both.
+
+raylab renders with max-depth 7 and rr-depth 5, Mitsuba's settings in raylab's convention. Mitsuba's max_depth counts path
 segments (one more than raylab's scattering events); its rr_depth, like raylab's rr-depth,
 counts the scattering events after which Russian roulette may end a path (its path.cpp adds
 one to the depth after each BSDF sample, then tests depth >= rr_depth). Russian roulette
 decides how many bounces a sample costs, so it must match for samples per second to compare:
-raylab's own default, rr-depth 3, would end paths two bounces earlier. Both at 256x256 on the
-threads the machine has.
+raylab's own default, rr-depth 3, would end paths two bounces earlier. Both at the scene's
+resolution (the Cornell box 256x256, the others 256x192) on the threads the machine has.
 
     pip install mitsuba numpy
     apt-get install libllvm19          # for llvm_ad_rgb (libLLVM 15 crashes it)
     cargo build --release
     python3 benches/mitsuba_cornell.py [--spp 256] [--variants scalar_rgb,llvm_ad_rgb] [--repeat 2]
+        [--scenes cornell,textured_glossy,environment]
         [--raylab OLD_BINARY,target/release/raylab]   # several binaries: each measured in turn
 
-Each round measures raylab, then every variant, then raylab again, so that the ratios compare
+Each round measures, scene by scene, raylab, then every variant, then raylab again, so that the ratios compare
 renders made minutes apart on the same (shared, noisy) machine. llvm_ad_rgb needs
 DRJIT_LIBLLVM_PATH pointing at libLLVM-19.so; the script sets it when Debian's file exists.
 """
@@ -39,30 +46,41 @@ if "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(DEBIAN_LLVM):
     os.environ["DRJIT_LIBLLVM_PATH"] = DEBIAN_LLVM
 
 
-def mitsuba(variant, spp):
+# Each scene: the file raylab renders, and the XML file Mitsuba loads (None: its Cornell box).
+SCENES = {
+    "cornell": ("scenes/cornell_box.ron", None),
+    "textured_glossy": ("scenes/mitsuba/textured_glossy.xml", "scenes/mitsuba/textured_glossy.xml"),
+    "environment": ("scenes/mitsuba/environment.xml", "scenes/mitsuba/environment.xml"),
+}
+
+
+def mitsuba(variant, spp, xml):
     import mitsuba as mi
     import numpy as np
 
     mi.set_variant(variant)
     mi.set_log_level(mi.LogLevel.Warn)
-    d = mi.cornell_box()
-    d["sensor"]["film"]["rfilter"] = {"type": "box"}
-    d["integrator"]["max_depth"] = MAX_DEPTH
-    d["integrator"]["rr_depth"] = RR_DEPTH
-    scene = mi.load_dict(d)
+    if xml is None:
+        d = mi.cornell_box()
+        d["sensor"]["film"]["rfilter"] = {"type": "box"}
+        d["integrator"]["max_depth"] = MAX_DEPTH
+        d["integrator"]["rr_depth"] = RR_DEPTH
+        scene = mi.load_dict(d)
+    else:
+        scene = mi.load_file(str(ROOT / xml), max_depth=MAX_DEPTH)
+    width, height = scene.sensors()[0].film().size()
     mi.render(scene, spp=4)  # warm-up (and JIT compilation for the llvm variants)
     start = time.time()
     img = np.array(mi.render(scene, spp=spp))
     seconds = time.time() - start
-    return 256 * 256 * spp / seconds, img.reshape(-1, 3).mean(0)
+    return width * height * spp / seconds, img.reshape(-1, 3).mean(0)
 
 
-def raylab(spp, exe):
-    out = ROOT / "out" / "bench-cornell.exr"
+def raylab(spp, exe, scene):
+    out = ROOT / "out" / "bench-mitsuba.exr"
     out.parent.mkdir(exist_ok=True)
     r = subprocess.run(
-        [str(exe), "render", "scenes/cornell_box.ron", "--spp", str(spp), *RAYLAB_PARAMS,
-         "-o", str(out)],
+        [str(exe), "render", scene, "--spp", str(spp), *RAYLAB_PARAMS, "-o", str(out)],
         cwd=ROOT, capture_output=True, text=True, check=True,
     )
     line = r.stderr.strip().splitlines()[-1]
@@ -78,18 +96,25 @@ def main():
     ap.add_argument("--repeat", type=int, default=1, help="rounds to run")
     ap.add_argument("--raylab", default="target/release/raylab",
                     help="raylab binaries to measure in turn, comma-separated (old and new, say)")
+    ap.add_argument("--scenes", default=",".join(SCENES),
+                    help=f"scenes to measure, comma-separated, of {', '.join(SCENES)}")
     args = ap.parse_args()
-    for round_ in range(args.repeat):
+    scenes = args.scenes.split(",")
+    unknown = [s for s in scenes if s not in SCENES]
+    if unknown:
+        ap.error(f"unknown scene {unknown[0]!r} (known: {', '.join(SCENES)})")
+    for round_, name in ((r, n) for r in range(args.repeat) for n in scenes):
+        ours_file, xml = SCENES[name]
         exes = [pathlib.Path(e).resolve() for e in args.raylab.split(",")]
-        before = {e: raylab(args.spp, e) for e in exes}
+        before = {e: raylab(args.spp, e, ours_file) for e in exes}
         theirs = {}
         for variant in args.variants.split(","):
             try:
-                theirs[variant] = mitsuba(variant, args.spp)
+                theirs[variant] = mitsuba(variant, args.spp, xml)
             except Exception as e:  # a variant that cannot load (no LLVM) is reported, not fatal
                 print(f"mitsuba {variant}: not measured ({e})")
-        after = {e: raylab(args.spp, e) for e in reversed(exes)}
-        print(f"round {round_ + 1}: 256x256, {args.spp} spp, max_depth {MAX_DEPTH} rr_depth {RR_DEPTH}"
+        after = {e: raylab(args.spp, e, ours_file) for e in reversed(exes)}
+        print(f"round {round_ + 1}, {name}: {args.spp} spp, max_depth {MAX_DEPTH} rr_depth {RR_DEPTH}"
               f" (raylab {' '.join(RAYLAB_PARAMS[1::2])})")
         for e in exes:
             ours = (before[e][0] + after[e][0]) / 2
