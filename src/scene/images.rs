@@ -3,9 +3,11 @@
 //! RGB. 8- and 16-bit images are decoded from sRGB, as Mitsuba 3 does, unless they hold data
 //! (`raw`); float images are taken as they are. Texels that are not finite are refused.
 
+use raylab_integrators::texture::Texels;
 use raylab_integrators::Rgb;
 use std::io::Cursor;
 use std::path::Path;
+use std::sync::Arc;
 
 /// The largest image side a scene may name (a 32k x 16k environment map is the largest in
 /// common use).
@@ -28,10 +30,67 @@ fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
+/// `file`'s error message for `e`.
+fn cannot(file: &Path, e: &dyn std::fmt::Display) -> String {
+    format!("cannot load image `{}`: {e}", file.display())
+}
+
+/// Reads and decodes `file` as a texture's texels: an 8-bit image as its bytes and the
+/// linear value of each byte (the values [`read_linear_rgb`] gives it, bit for bit: the
+/// table goes through the same conversions), any other as [`read_linear_rgb`] reads it. Returns
+/// (width, height, texels).
+pub fn read_texels(file: &Path, raw: bool) -> Result<(usize, usize, Texels), String> {
+    let decoded = decode(file)?;
+    // Every byte value, as a grey image of the same layout: the decoder's conversion to
+    // floats differs from layout to layout in its rounding.
+    use image::DynamicImage as D;
+    let byte = |x: u32| x as u8;
+    let ramp = match decoded {
+        D::ImageLuma8(_) => D::ImageLuma8(image::GrayImage::from_fn(256, 1, |x, _| {
+            image::Luma([byte(x)])
+        })),
+        D::ImageLumaA8(_) => D::ImageLumaA8(image::GrayAlphaImage::from_fn(256, 1, |x, _| {
+            image::LumaA([byte(x), 255])
+        })),
+        D::ImageRgb8(_) => D::ImageRgb8(image::RgbImage::from_fn(256, 1, |x, _| {
+            image::Rgb([byte(x); 3])
+        })),
+        D::ImageRgba8(_) => D::ImageRgba8(image::RgbaImage::from_fn(256, 1, |x, _| {
+            image::Rgba([byte(x), byte(x), byte(x), 255])
+        })),
+        _ => {
+            let image = to_linear(file, decoded, raw)?;
+            return Ok((
+                image.width,
+                image.height,
+                Texels::Float(image.texels.into()),
+            ));
+        }
+    };
+    let ramp = to_linear(file, ramp, raw)?;
+    let table: [f32; 256] = std::array::from_fn(|i| ramp.texels[i].x);
+    let rgba = decoded.into_rgba8();
+    let (width, height) = (rgba.width() as usize, rgba.height() as usize);
+    let bytes: Arc<[[u8; 4]]> = rgba.pixels().map(|p| p.0).collect();
+    Ok((
+        width,
+        height,
+        Texels::Bytes {
+            bytes,
+            table: Arc::new(table),
+        },
+    ))
+}
+
 /// Reads and decodes `file`; 8- and 16-bit images are decoded from sRGB unless `raw`. The
 /// error names the file and what is wrong with it.
 pub fn read_linear_rgb(file: &Path, raw: bool) -> Result<LinearImage, String> {
-    let cannot = |e: &dyn std::fmt::Display| format!("cannot load image `{}`: {e}", file.display());
+    to_linear(file, decode(file)?, raw)
+}
+
+/// Reads and decodes `file`, within the size and memory caps.
+fn decode(file: &Path) -> Result<image::DynamicImage, String> {
+    let cannot = |e: &dyn std::fmt::Display| cannot(file, e);
     let bytes =
         crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(&e))?;
     let mut reader = image::ImageReader::new(Cursor::new(&bytes))
@@ -49,7 +108,13 @@ pub fn read_linear_rgb(file: &Path, raw: bool) -> Result<LinearImage, String> {
     let room = crate::system::memory_limit().map_or(u64::MAX, |(room, _)| room / 2);
     limits.max_alloc = Some(room.min(crate::files::MAX_BINARY));
     reader.limits(limits);
-    let decoded = reader.decode().map_err(|e| cannot(&e))?;
+    reader.decode().map_err(|e| cannot(&e))
+}
+
+/// `decoded` (read from `file`) as linear RGB: 8- and 16-bit images decoded from sRGB unless
+/// `raw`; texels that are not finite refused.
+fn to_linear(file: &Path, decoded: image::DynamicImage, raw: bool) -> Result<LinearImage, String> {
+    let cannot = |e: &dyn std::fmt::Display| cannot(file, e);
     let is_float = matches!(
         decoded,
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
@@ -92,6 +157,60 @@ mod tests {
         assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-5);
     }
 
+    /// An 8-bit image read as a texture's bytes gives, texel by texel and bit for bit, what
+    /// reading it as linear floats gives, in every 8-bit layout, decoded from sRGB or raw; a
+    /// 16-bit image stays floats.
+    #[test]
+    fn texture_bytes_decode_to_the_linear_floats_exactly() {
+        use image::DynamicImage as D;
+        let dir = tempfile::tempdir().unwrap();
+        let bytes = |n: usize| (0..n).map(|i| (i * 37 % 256) as u8).collect::<Vec<u8>>();
+        let (w, h) = (64u32, 16u32);
+        let n = (w * h) as usize;
+        let images = [
+            (
+                "luma",
+                D::ImageLuma8(image::GrayImage::from_raw(w, h, bytes(n)).unwrap()),
+            ),
+            (
+                "luma-alpha",
+                D::ImageLumaA8(image::GrayAlphaImage::from_raw(w, h, bytes(2 * n)).unwrap()),
+            ),
+            (
+                "rgb",
+                D::ImageRgb8(image::RgbImage::from_raw(w, h, bytes(3 * n)).unwrap()),
+            ),
+            (
+                "rgba",
+                D::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes(4 * n)).unwrap()),
+            ),
+        ];
+        for (name, img) in images {
+            let path = dir.path().join(format!("{name}.png"));
+            img.save(&path).unwrap();
+            for raw in [false, true] {
+                let floats = read_linear_rgb(&path, raw).unwrap();
+                let (tw, th, texels) = read_texels(&path, raw).unwrap();
+                assert_eq!((tw, th), (floats.width, floats.height));
+                assert!(matches!(texels, Texels::Bytes { .. }), "{name}");
+                let bits = |t: Rgb| t.to_array().map(f32::to_bits);
+                assert!(
+                    texels
+                        .iter()
+                        .map(bits)
+                        .eq(floats.texels.iter().map(|&t| bits(t))),
+                    "{name}, raw {raw}: the bytes decode differently"
+                );
+            }
+        }
+        let path = dir.path().join("sixteen.png");
+        D::ImageRgb16(image::ImageBuffer::from_raw(2, 1, vec![0u16, 300, 65535, 7, 8, 9]).unwrap())
+            .save(&path)
+            .unwrap();
+        let (_, _, texels) = read_texels(&path, false).unwrap();
+        assert!(matches!(texels, Texels::Float(_)));
+    }
+
     #[test]
     fn images_load_as_linear_rgb_and_bad_files_are_named() {
         let dir = tempfile::tempdir().unwrap();
@@ -117,6 +236,11 @@ mod tests {
             read_linear_rgb(&exr, false).unwrap().texels[0],
             Rgb::new(5.0, 0.25, 0.0)
         );
+        // As a texture: the 8-bit PNG as bytes, giving the same texels.
+        let (w, h, texels) = read_texels(&png, false).unwrap();
+        assert_eq!((w, h), (2, 1));
+        assert!(matches!(texels, Texels::Bytes { .. }));
+        assert_eq!(texels.iter().collect::<Vec<_>>(), img.texels);
         // Not an image; missing.
         let txt = dir.path().join("a.hdr");
         std::fs::write(&txt, "hello").unwrap();

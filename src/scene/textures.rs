@@ -11,10 +11,10 @@
 //! (roughness, normal and bump maps), which sRGB decoding would distort.
 
 use super::access::SceneFiles;
-use super::images::read_linear_rgb;
+use super::images::read_texels;
 use super::schema::V3;
 use glam::{Affine2, Vec2, Vec3A};
-use raylab_integrators::texture::{ImageTexture, Texture, TextureFilter, Wrap};
+use raylab_integrators::texture::{self, ImageTexture, Texture, TextureFilter, Wrap};
 use serde::de::{self, Deserialize, Deserializer};
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
@@ -202,7 +202,7 @@ pub enum Role {
 }
 
 /// The texels of a decoded image: width, height, and the texels row by row from the top.
-type Texels = (usize, usize, Arc<[Vec3A]>);
+type Texels = (usize, usize, texture::Texels);
 
 /// Reads the scene's textures, each image file once per decoding (sRGB or raw).
 pub struct TextureLoader<'a> {
@@ -305,8 +305,7 @@ impl<'a> TextureLoader<'a> {
         let (width, height, texels) = match self.images.get(&(file.clone(), raw)) {
             Some(t) => t.clone(),
             None => {
-                let linear = read_linear_rgb(&file, raw)?;
-                let t: Texels = (linear.width, linear.height, linear.texels.into());
+                let t: Texels = read_texels(&file, raw)?;
                 self.images.insert((file.clone(), raw), t.clone());
                 t
             }

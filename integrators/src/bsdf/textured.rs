@@ -350,7 +350,7 @@ mod tests {
     fn bump_maps_tilt_the_normal_against_the_slope() {
         // Between the texel centres (u = 1/4 and 3/4) the height rises by 0.5: a slope of 1
         // per unit u, so the normal leans 45 degrees back towards -u.
-        let texels = vec![Rgb::ZERO, Rgb::splat(0.5)].into();
+        let texels = crate::texture::Texels::Float(vec![Rgb::ZERO, Rgb::splat(0.5)].into());
         let image = ImageTexture::new(2, 1, texels, TextureFilter::Bilinear, Wrap::Clamp).unwrap();
         let bump = Perturbation::BumpMap {
             height: Texture::Image {
