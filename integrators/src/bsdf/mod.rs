@@ -96,8 +96,8 @@ impl BsdfSample {
     /// vanishes or is not finite.
     #[inline]
     pub fn evaluated<B: Bxdf + ?Sized>(bxdf: &B, wo: Vec3A, wi: Vec3A) -> Option<BsdfSample> {
-        let pdf = bxdf.pdf(wo, wi);
-        (pdf > 0.0 && pdf.is_finite()).then(|| BsdfSample::reflection(wi, bxdf.eval(wo, wi), pdf))
+        let (f, pdf) = bxdf.eval_pdf(wo, wi);
+        (pdf > 0.0 && pdf.is_finite()).then(|| BsdfSample::reflection(wi, f, pdf))
     }
 
     /// Throughput weight `f * |cos(wi)| / pdf`.
@@ -114,6 +114,13 @@ pub trait Bxdf {
     /// Density with which [`Bxdf::sample`] returns `wi`, per unit solid angle. Zero for
     /// specular models.
     fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32;
+    /// `(eval, pdf)` at once, the same bits as the two calls: models whose value and density
+    /// share work (the half vector, the microfacet density) compute it once (Mitsuba's
+    /// `eval_pdf`).
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+        (self.eval(wo, wi), self.pdf(wo, wi))
+    }
     /// Samples `wi` given `wo`; `u_lobe` picks between lobes, `u` places the direction.
     fn sample(&self, wo: Vec3A, u_lobe: f32, u: Vec2) -> Option<BsdfSample>;
     /// Directional-hemispherical reflectance at normal incidence, or the base colour: what the

@@ -70,6 +70,33 @@ impl Bxdf for RoughConductor {
         self.microfacet.pdf(wo, h) / (4.0 * cos)
     }
 
+    /// [`RoughConductor::eval`] and [`RoughConductor::pdf`] with the half vector, the
+    /// microfacet density and shadowing from `wo` computed once (each expression as the two
+    /// functions write it, so the bits are theirs).
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize();
+        let mf = &self.microfacet;
+        let (d, g1_wo) = (mf.d(h), mf.g1(wo, h));
+        // eval
+        let d_g = d * (g1_wo * mf.g1(wi, h));
+        let f = if d_g == 0.0 {
+            Rgb::ZERO
+        } else {
+            self.reflectance * conductor_fresnel(self.ior, wo.dot(h)) * (d_g / (4.0 * wo.z * wi.z))
+        };
+        // pdf
+        let cos = wo.dot(h);
+        let pdf = if cos <= 0.0 {
+            0.0
+        } else {
+            g1_wo * cos.max(0.0) * d / wo.z / (4.0 * cos)
+        };
+        (f, pdf)
+    }
+
     fn sample(&self, wo: Vec3A, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;

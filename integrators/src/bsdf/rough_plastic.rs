@@ -196,6 +196,33 @@ impl Bxdf for RoughPlastic {
         p * coat + (1.0 - p) * wi.z * FRAC_1_PI
     }
 
+    /// [`RoughPlastic::eval`] and [`RoughPlastic::pdf`] with the half vector, the microfacet
+    /// density and shadowing from `wo`, and the coating's transmittance at `wo`, computed once
+    /// (each expression as the two functions write it, so the bits are theirs).
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize();
+        let mf = &self.microfacet;
+        let (d, g1_wo, t_wo) = (mf.d(h), mf.g1(wo, h), self.t(wo.z));
+        // eval
+        let coat = fresnel_dielectric(wo.dot(h), self.ior) * d * (g1_wo * mf.g1(wi, h))
+            / (4.0 * wo.z * wi.z);
+        let base = multiple_bounces(self.diffuse, self.internal, self.nonlinear)
+            * (t_wo * self.t(wi.z) * FRAC_1_PI / (self.ior * self.ior));
+        let f = self.specular * coat + base;
+        // pdf
+        let cos = wo.dot(h);
+        let p = coating_probability(1.0 - t_wo, self.specular_weight);
+        let coat_pdf = if cos > 0.0 {
+            g1_wo * cos.max(0.0) * d / wo.z / (4.0 * cos)
+        } else {
+            0.0
+        };
+        (f, p * coat_pdf + (1.0 - p) * wi.z * FRAC_1_PI)
+    }
+
     fn sample(&self, wo: Vec3A, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
