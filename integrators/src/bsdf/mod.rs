@@ -231,6 +231,20 @@ impl Material {
         }
     }
 
+    /// `(eval, pdf)` at once, the same bits as [`Material::eval`] and [`Material::pdf`].
+    #[inline]
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+        if self.two_sided_opaque() {
+            if wo.z * wi.z <= 0.0 {
+                return (Rgb::ZERO, 0.0);
+            }
+            let flip = wo.z < 0.0;
+            dispatch!(self, m => m.eval_pdf(mirror_z(wo, flip), mirror_z(wi, flip)))
+        } else {
+            dispatch!(self, m => m.eval_pdf(wo, wi))
+        }
+    }
+
     /// Density of [`Material::sample`] returning `wi`, per unit solid angle.
     #[inline]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {

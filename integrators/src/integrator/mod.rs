@@ -485,8 +485,11 @@ pub fn sample_one_light(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Rgb {
-    let pdf = |wi: glam::Vec3A| sp.material.pdf(sp.wo, sp.frame.to_local(wi));
-    sample_one_light_against(sp, mis.then_some(pdf), tracer, sampler)
+    let against = match mis {
+        true => Against::<fn(glam::Vec3A) -> f32>::Bsdf,
+        false => Against::Nothing,
+    };
+    one_light(sp, against, tracer, sampler)
 }
 
 /// [`sample_one_light`] weighted by the power heuristic against a strategy of the caller's
@@ -497,18 +500,47 @@ pub fn sample_one_light_against(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Rgb {
+    let against = match pdf {
+        Some(pdf) => Against::Strategy(pdf),
+        None => Against::Nothing,
+    };
+    one_light(sp, against, tracer, sampler)
+}
+
+/// What a light sample is weighted against.
+enum Against<F> {
+    /// Nothing: unweighted.
+    Nothing,
+    /// BSDF sampling, whose density comes with the BSDF's value
+    /// ([`ShadingPoint::connect_light_with`]).
+    Bsdf,
+    /// A strategy of the caller's, with density `F(wi)` towards `wi` (world).
+    Strategy(F),
+}
+
+/// One light sample at `sp`, weighted as `against` says (see [`sample_one_light`]).
+#[inline]
+fn one_light<F: Fn(glam::Vec3A) -> f32>(
+    sp: &ShadingPoint,
+    against: Against<F>,
+    tracer: &mut Tracer,
+    sampler: &mut Sampler,
+) -> Rgb {
     let u_light = sampler.next_1d();
     let u = sampler.next_2d();
     let Some((index, pmf)) = tracer.scene.lights().sample(u_light) else {
         return Rgb::ZERO;
     };
-    let Some((ls, f, cos)) = sp.connect_light(index, u, tracer) else {
+    let with_pdf = matches!(against, Against::Bsdf);
+    let Some((ls, f, cos, bsdf_pdf)) = sp.connect_light_with(index, u, tracer, with_pdf) else {
         return Rgb::ZERO;
     };
     let light_pdf = pmf * ls.pdf;
-    let weight = match pdf {
-        Some(pdf) if !ls.delta => crate::sampling::power_heuristic(light_pdf, pdf(ls.wi)),
-        _ => 1.0,
+    let weight = match against {
+        _ if ls.delta => 1.0,
+        Against::Nothing => 1.0,
+        Against::Bsdf => crate::sampling::power_heuristic(light_pdf, bsdf_pdf),
+        Against::Strategy(pdf) => crate::sampling::power_heuristic(light_pdf, pdf(ls.wi)),
     };
     f * ls.radiance * (cos * weight / light_pdf)
 }

@@ -140,6 +140,21 @@ impl<'a> ShadingPoint<'a> {
         u: Vec2,
         tracer: &mut Tracer,
     ) -> Option<(LightSample, Rgb, f32)> {
+        self.connect_light_with(index, u, tracer, false)
+            .map(|(ls, f, cos, _)| (ls, f, cos))
+    }
+
+    /// [`ShadingPoint::connect_light`], and with `bsdf_pdf` also the BSDF's density towards
+    /// the sample, computed with its value ([`Material::eval_pdf`]: the half vector and
+    /// microfacet density of a rough model once for both); 0 without.
+    #[inline]
+    pub fn connect_light_with(
+        &self,
+        index: u32,
+        u: Vec2,
+        tracer: &mut Tracer,
+        bsdf_pdf: bool,
+    ) -> Option<(LightSample, Rgb, f32, f32)> {
         if !self.can_receive(index, tracer.scene.lights()) {
             return None;
         }
@@ -156,11 +171,15 @@ impl<'a> ShadingPoint<'a> {
             return None;
         }
         let wi = self.frame.to_local(ls.wi);
-        let f = self.material.eval(self.wo, wi);
+        let (f, pdf) = if bsdf_pdf {
+            self.material.eval_pdf(self.wo, wi)
+        } else {
+            (self.material.eval(self.wo, wi), 0.0)
+        };
         if f == Rgb::ZERO || !tracer.unoccluded(&self.hit, &ls) {
             return None;
         }
-        Some((ls, f, wi.z.abs()))
+        Some((ls, f, wi.z.abs(), pdf))
     }
 }
 
