@@ -187,7 +187,48 @@ impl Microfacet {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        self.g1(wo, m) * wo.dot(m).max(0.0) * self.d(m) / wo.z
+        visible_density(self.d(m), self.g1(wo, m), wo.dot(m), wo.z)
+    }
+
+    /// What the value and the density of a reflection from `wo` to `wi` (both upper-side)
+    /// share, for models that compute both at once.
+    #[inline]
+    pub fn half_vector(&self, wo: Vec3A, wi: Vec3A) -> HalfVector {
+        let h = (wo + wi).normalize();
+        HalfVector {
+            h,
+            d: self.d(h),
+            g1_wo: self.g1(wo, h),
+        }
+    }
+}
+
+/// [`Microfacet::pdf`] from its parts: a normal of density `d` at cosine `cos` to `wo` (of
+/// height `wo_z > 0`), shadowed from `wo` by `g1_wo`.
+#[inline]
+fn visible_density(d: f32, g1_wo: f32, cos: f32, wo_z: f32) -> f32 {
+    g1_wo * cos.max(0.0) * d / wo_z
+}
+
+/// The half vector `h` of a reflection, its density `d` and its shadowing `g1_wo` from `wo`
+/// ([`Microfacet::half_vector`]).
+pub struct HalfVector {
+    pub h: Vec3A,
+    pub d: f32,
+    pub g1_wo: f32,
+}
+
+impl HalfVector {
+    /// The density of the reflected direction when `wo`'s visible normals are sampled and
+    /// reflected: [`Microfacet::pdf`] of `h` over the Jacobian `4 wo.h`; 0 where `wo.h <= 0`.
+    #[inline]
+    pub fn reflection_pdf(&self, wo: Vec3A) -> f32 {
+        let cos = wo.dot(self.h);
+        if cos > 0.0 {
+            visible_density(self.d, self.g1_wo, cos, wo.z) / (4.0 * cos)
+        } else {
+            0.0
+        }
     }
 }
 

@@ -16,7 +16,7 @@
 //! Two-sided like every opaque material.
 
 use super::conductor::{conductor_fresnel, ComplexIor};
-use super::microfacet::{reflect, Microfacet};
+use super::microfacet::{reflect, HalfVector, Microfacet};
 use super::{BsdfSample, Bxdf};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
@@ -44,57 +44,40 @@ impl RoughConductor {
     }
 }
 
+impl RoughConductor {
+    /// `f(wo, wi)` for upper-side directions with half vector `hv`.
+    #[inline]
+    fn value(&self, wo: Vec3A, wi: Vec3A, hv: &HalfVector) -> Rgb {
+        let d_g = hv.d * (hv.g1_wo * self.microfacet.g1(wi, hv.h));
+        if d_g == 0.0 {
+            return Rgb::ZERO;
+        }
+        self.reflectance * conductor_fresnel(self.ior, wo.dot(hv.h)) * (d_g / (4.0 * wo.z * wi.z))
+    }
+}
+
 impl Bxdf for RoughConductor {
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let h = (wo + wi).normalize();
-        let mf = &self.microfacet;
-        let d_g = mf.d(h) * mf.g(wo, wi, h);
-        if d_g == 0.0 {
-            return Rgb::ZERO;
-        }
-        self.reflectance * conductor_fresnel(self.ior, wo.dot(h)) * (d_g / (4.0 * wo.z * wi.z))
+        self.value(wo, wi, &self.microfacet.half_vector(wo, wi))
     }
 
     fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let h = (wo + wi).normalize();
-        let cos = wo.dot(h);
-        if cos <= 0.0 {
-            return 0.0;
-        }
-        self.microfacet.pdf(wo, h) / (4.0 * cos)
+        self.microfacet.half_vector(wo, wi).reflection_pdf(wo)
     }
 
-    /// [`RoughConductor::eval`] and [`RoughConductor::pdf`] with the half vector, the
-    /// microfacet density and shadowing from `wo` computed once (each expression as the two
-    /// functions write it, so the bits are theirs).
+    /// Both, with the half vector, its density and shadowing from `wo` computed once.
     fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (Rgb::ZERO, 0.0);
         }
-        let h = (wo + wi).normalize();
-        let mf = &self.microfacet;
-        let (d, g1_wo) = (mf.d(h), mf.g1(wo, h));
-        // eval
-        let d_g = d * (g1_wo * mf.g1(wi, h));
-        let f = if d_g == 0.0 {
-            Rgb::ZERO
-        } else {
-            self.reflectance * conductor_fresnel(self.ior, wo.dot(h)) * (d_g / (4.0 * wo.z * wi.z))
-        };
-        // pdf
-        let cos = wo.dot(h);
-        let pdf = if cos <= 0.0 {
-            0.0
-        } else {
-            g1_wo * cos.max(0.0) * d / wo.z / (4.0 * cos)
-        };
-        (f, pdf)
+        let hv = self.microfacet.half_vector(wo, wi);
+        (self.value(wo, wi, &hv), hv.reflection_pdf(wo))
     }
 
     fn sample(&self, wo: Vec3A, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {

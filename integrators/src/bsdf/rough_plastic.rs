@@ -23,7 +23,7 @@
 //! (> 1), `nonlinear`, the distribution. Two-sided like every opaque material.
 
 use super::fresnel::fresnel_dielectric;
-use super::microfacet::{reflect, refract, Microfacet};
+use super::microfacet::{reflect, refract, HalfVector, Microfacet};
 use super::plastic::{coating_probability, multiple_bounces, Coating};
 use super::{BsdfSample, Bxdf};
 use crate::Rgb;
@@ -167,60 +167,51 @@ impl RoughPlastic {
     }
 }
 
-impl Bxdf for RoughPlastic {
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let h = (wo + wi).normalize();
-        let mf = &self.microfacet;
-        let coat = fresnel_dielectric(wo.dot(h), self.ior) * mf.d(h) * mf.g(wo, wi, h)
+impl RoughPlastic {
+    /// `f(wo, wi)` for upper-side directions with half vector `hv`.
+    #[inline]
+    fn value(&self, wo: Vec3A, wi: Vec3A, hv: &HalfVector) -> Rgb {
+        let coat = fresnel_dielectric(wo.dot(hv.h), self.ior)
+            * hv.d
+            * (hv.g1_wo * self.microfacet.g1(wi, hv.h))
             / (4.0 * wo.z * wi.z);
         let base = multiple_bounces(self.diffuse, self.internal, self.nonlinear)
             * (self.t(wo.z) * self.t(wi.z) * FRAC_1_PI / (self.ior * self.ior));
         self.specular * coat + base
     }
 
+    /// The density of `wi` for upper-side directions with half vector `hv`: the coating's
+    /// reflected visible normals or the cosine-weighted base, in proportion to the coating's
+    /// probability at `wo`.
+    #[inline]
+    fn density(&self, wo: Vec3A, wi: Vec3A, hv: &HalfVector) -> f32 {
+        let p = self.coating_probability(wo);
+        p * hv.reflection_pdf(wo) + (1.0 - p) * wi.z * FRAC_1_PI
+    }
+}
+
+impl Bxdf for RoughPlastic {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.value(wo, wi, &self.microfacet.half_vector(wo, wi))
+    }
+
     fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let h = (wo + wi).normalize();
-        let cos = wo.dot(h);
-        let p = self.coating_probability(wo);
-        let coat = if cos > 0.0 {
-            self.microfacet.pdf(wo, h) / (4.0 * cos)
-        } else {
-            0.0
-        };
-        p * coat + (1.0 - p) * wi.z * FRAC_1_PI
+        self.density(wo, wi, &self.microfacet.half_vector(wo, wi))
     }
 
-    /// [`RoughPlastic::eval`] and [`RoughPlastic::pdf`] with the half vector, the microfacet
-    /// density and shadowing from `wo`, and the coating's transmittance at `wo`, computed once
-    /// (each expression as the two functions write it, so the bits are theirs).
+    /// Both, with what they share computed once.
     fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (Rgb::ZERO, 0.0);
         }
-        let h = (wo + wi).normalize();
-        let mf = &self.microfacet;
-        let (d, g1_wo, t_wo) = (mf.d(h), mf.g1(wo, h), self.t(wo.z));
-        // eval
-        let coat = fresnel_dielectric(wo.dot(h), self.ior) * d * (g1_wo * mf.g1(wi, h))
-            / (4.0 * wo.z * wi.z);
-        let base = multiple_bounces(self.diffuse, self.internal, self.nonlinear)
-            * (t_wo * self.t(wi.z) * FRAC_1_PI / (self.ior * self.ior));
-        let f = self.specular * coat + base;
-        // pdf
-        let cos = wo.dot(h);
-        let p = coating_probability(1.0 - t_wo, self.specular_weight);
-        let coat_pdf = if cos > 0.0 {
-            g1_wo * cos.max(0.0) * d / wo.z / (4.0 * cos)
-        } else {
-            0.0
-        };
-        (f, p * coat_pdf + (1.0 - p) * wi.z * FRAC_1_PI)
+        let hv = self.microfacet.half_vector(wo, wi);
+        (self.value(wo, wi, &hv), self.density(wo, wi, &hv))
     }
 
     fn sample(&self, wo: Vec3A, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {

@@ -36,8 +36,8 @@
 //! truncation with a finite `max-depth`.
 
 use crate::integrator::{
-    emitted_at, escaped, sample_one_light_against, Demand, PathState, RayCounters, RayIntegrator,
-    ShadingPoint, Stop, Tracer,
+    emitted_at, escaped, sample_one_light, sample_one_light_against, Demand, PathState,
+    RayCounters, RayIntegrator, ShadingPoint, Stop, Tracer,
 };
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
@@ -189,8 +189,7 @@ impl Guided {
             let Some(guide) = guide else {
                 // Dirac lobes (or no tree): `path`'s step.
                 if !sp.material.is_specular() {
-                    let pdf = |wi: Vec3A| sp.material.pdf(sp.wo, sp.frame.to_local(wi));
-                    l += path.beta * sample_one_light_against(&sp, Some(pdf), tracer, sampler);
+                    l += path.beta * sample_one_light(&sp, true, tracer, sampler);
                 }
                 if !path.scatter(&sp, self.rr_depth, sampler) {
                     break;
