@@ -368,13 +368,17 @@ impl WideBvh {
             None => instances.bounds,
         };
 
-        // Each position of the BVH's order: its index among the triangles with vertex data,
-        // the spheres or the quadrics (a running count, cheap), for the lanes to refer to.
+        // Each position of the BVH's order: its primitive, read from `prims` once here (in
+        // this order the reads are random; the passes below then read `placed` in turn),
+        // and its index among the triangles with vertex data, the spheres or the quadrics
+        // (a running count, cheap), for the lanes to refer to.
+        let mut placed: Vec<Prim> = huge_pages::with_capacity(order.len());
         let mut aux = Vec::with_capacity(order.len());
         let (mut with_data, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
         let mut quadrics = Vec::new();
         for &original in &order {
             let p = prims[original as usize];
+            placed.push(p);
             aux.push(match shapes[p.shape as usize].geometry {
                 Geometry::Triangles(mesh) if mesh.has_vertex_data() => {
                     with_data += 1;
@@ -392,19 +396,23 @@ impl WideBvh {
                 }
             });
         }
-        // Then, in parallel and in order, the vertex data and the packets.
-        let vertex_data: Vec<VertexData> = order
-            .par_iter()
-            .filter_map(|&original| {
-                let p = prims[original as usize];
-                match shapes[p.shape as usize].geometry {
+        // The primitives in their original order are not needed again (the build's peak).
+        drop(prims);
+        // Then, in parallel and in order, the vertex data (when any triangle has some) and
+        // the packets.
+        let vertex_data: Vec<VertexData> = if with_data == 0 {
+            Vec::new()
+        } else {
+            placed
+                .par_iter()
+                .filter_map(|p| match shapes[p.shape as usize].geometry {
                     Geometry::Triangles(mesh) => mesh.vertex_data(p.index as usize),
                     Geometry::Sphere { .. } | Geometry::Quadric(_) => None,
-                }
-            })
-            .collect();
+                })
+                .collect()
+        };
         let lane = |k: u32| {
-            let p = prims[order[k as usize] as usize];
+            let p = placed[k as usize];
             let shape = &shapes[p.shape as usize];
             match shape.geometry {
                 Geometry::Triangles(mesh) => Lane::Triangle {
@@ -436,7 +444,7 @@ impl WideBvh {
             Stored { packet, data }
         }));
         let stats = AccelStats {
-            triangles: prims.len() - sph_center.len() - quadrics.len(),
+            triangles: placed.len() - sph_center.len() - quadrics.len(),
             spheres: sph_center.len(),
             quadrics: quadrics.len(),
             bvh_nodes: bvh.node_count() + instances.bvh_nodes(),
