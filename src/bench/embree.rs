@@ -25,11 +25,17 @@
 //!   grazing an edge shared by two triangles, or a sphere's silhouette, may differ: the two
 //!   engines round differently there.
 //!
-//! Not done: Embree's packet and stream APIs (raylab traces single rays), flush-to-zero /
+//! - Packets (once per case, ray kind and thread count, after the rounds): the same rays in
+//!   consecutive packets of 16 through `rtcIntersect16` / `rtcOccluded16`, as Mitsuba 3's
+//!   LLVM variant calls Embree from its wavefronts (`benches/mitsuba_cornell.py` compares
+//!   raylab's `path` with it): their rates, against Embree's single rays and raylab's. Their
+//!   hit counts must be the single rays' (checked; an error otherwise).
+//!
+//! Not done: Embree's stream APIs, raylab tracing packets (it traces single rays), flush-to-zero /
 //! denormals-are-zero on the worker threads (Embree's performance advice; raylab does not set
 //! it either), and the robust or compact scene flags.
 
-use super::{rays_per_second, Case, MIN_RUN};
+use super::{rays_per_second, timed, Case, MIN_RUN};
 use crate::scene::components::{FileOrder, Instanced, Transform};
 use crate::scene::RenderScene;
 use anyhow::{anyhow, Result};
@@ -253,6 +259,100 @@ fn embree_hit(scene: &embree3::Scene, context: fn() -> IntersectContext, r: &Ray
     rh.hit.is_valid().then_some(rh.ray.tfar)
 }
 
+/// `rays` (at most 16) as one Embree packet, the rest of its lanes invalid.
+fn packet16(rays: &[Ray]) -> (embree3::Ray16, embree3::ValidMaskN<16>) {
+    let mut p = embree3::Ray16::empty();
+    let mut valid = embree3::ValidMaskN::<16>::all_active();
+    for (i, r) in rays.iter().enumerate() {
+        (p.org_x[i], p.org_y[i], p.org_z[i]) = (r.origin.x, r.origin.y, r.origin.z);
+        (p.dir_x[i], p.dir_y[i], p.dir_z[i]) = (r.dir.x, r.dir.y, r.dir.z);
+        (p.tnear[i], p.tfar[i]) = (0.0, r.tmax);
+    }
+    for lane in &mut valid.lanes_mut()[rays.len()..] {
+        *lane = embree3::ValidMask::Invalid;
+    }
+    (p, valid)
+}
+
+/// How many of `rays` (at most 16) hit, traced as one packet by `rtcIntersect16`.
+fn embree_hits16(scene: &embree3::Scene, context: fn() -> IntersectContext, rays: &[Ray]) -> usize {
+    let (ray, valid) = packet16(rays);
+    let mut rh = embree3::RayHit16 {
+        ray,
+        hit: embree3::Hit16::new(),
+    };
+    scene.intersect16(&mut context(), &mut rh, &valid);
+    (0..rays.len())
+        .filter(|&i| rh.hit.geomID[i] != embree3::INVALID_ID)
+        .count()
+}
+
+/// How many of `rays` (at most 16) are occluded, traced as one packet by `rtcOccluded16`
+/// (which sets an occluded ray's `tfar` to minus infinity).
+fn embree_occluded16(
+    scene: &embree3::Scene,
+    context: fn() -> IntersectContext,
+    rays: &[Ray],
+) -> usize {
+    let (mut ray, valid) = packet16(rays);
+    scene.occluded16(&mut context(), &mut ray, &valid);
+    (0..rays.len())
+        .filter(|&i| ray.tfar[i] == f32::NEG_INFINITY)
+        .count()
+}
+
+/// Measures Embree's packets of 16 on `rays` and prints them against its single rays' and
+/// raylab's median rates (`[closest, occlusion]` each); an error if a packet query's hit
+/// count is not its single rays'.
+fn packets(
+    (case, kind, threads): (&str, &str, usize),
+    rays: &[Ray],
+    scene: &embree3::Scene,
+    context: fn() -> IntersectContext,
+    single: [f64; 2],
+    ours: [f64; 2],
+    say: &mut dyn FnMut(String),
+) -> Result<()> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let by_packets = |trace: &(dyn Fn(&[Ray]) -> usize + Sync)| {
+        timed(rays.len(), || {
+            pool.install(|| {
+                rays.par_chunks(4096)
+                    .map(|chunk| chunk.chunks(16).map(trace).sum::<usize>())
+                    .sum::<usize>()
+            })
+        })
+    };
+    let closest = by_packets(&|p| embree_hits16(scene, context, p));
+    let occlusion = by_packets(&|p| embree_occluded16(scene, context, p));
+    let single_hits = rays
+        .par_iter()
+        .filter(|r| embree_hit(scene, context, r).is_some())
+        .count();
+    if closest.1 != single_hits || occlusion.1 != single_hits {
+        return Err(anyhow!(
+            "Embree's packets of 16 found {} and {} hits on {case}'s {kind} rays, its single rays {single_hits}",
+            closest.1,
+            occlusion.1
+        ));
+    }
+    let [(c, _), (o, _)] = [closest, occlusion];
+    say(format!(
+        "{:<6} {:<14} {kind} {threads} threads, Embree packets of 16 (rtcIntersect16 / rtcOccluded16, as Mitsuba 3's LLVM variant): closest {:.2} M/s ({:.2}x its single rays, raylab/packets {:.2}), occlusion {:.2} M/s ({:.2}x, {:.2}), same hits",
+        "embree",
+        case,
+        c / 1e6,
+        c / single[0],
+        ours[0] / c,
+        o / 1e6,
+        o / single[1],
+        ours[1] / o,
+    ));
+    Ok(())
+}
+
 /// The median of some rates (the mean of the middle two for an even count).
 fn median(values: impl Iterator<Item = f64>) -> f64 {
     let mut v: Vec<f64> = values.collect();
@@ -379,6 +479,15 @@ pub(super) fn compare(
                     "embree", case.name
                 ));
             }
+            packets(
+                (case.name, kind, t),
+                rays,
+                theirs,
+                context,
+                [their_closest, their_occl],
+                [our_closest, our_occl],
+                say,
+            )?;
         }
         last = Some(built);
     }

@@ -164,7 +164,7 @@ const MAX_PASSES: u32 = 64;
 
 /// Rays per second of `trace` over `rays` on `threads` threads: a warm-up pass, then the best
 /// of three runs, each of passes over the rays until it has lasted [`MIN_RUN`] (or made
-/// [`MAX_PASSES`]).
+/// [`MAX_PASSES`]). Also returns how many rays hit.
 fn rays_per_second(
     rays: &[Ray],
     threads: usize,
@@ -173,13 +173,18 @@ fn rays_per_second(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let pass = || {
+    Ok(timed(rays.len(), || {
         pool.install(|| {
             rays.par_chunks(4096)
                 .map(|chunk| chunk.iter().filter(|r| trace(r)).count())
                 .sum::<usize>()
         })
-    };
+    }))
+}
+
+/// `count` items per `pass`: the warm-up pass (whose result, a count of hits, is returned
+/// with the rate), then the best of three runs of [`rays_per_second`]'s length.
+fn timed(count: usize, pass: impl Fn() -> usize) -> (f64, usize) {
     let hits = pass();
     let mut best = f64::INFINITY;
     for _ in 0..3 {
@@ -191,7 +196,7 @@ fn rays_per_second(
         }
         best = best.min(start.elapsed().as_secs_f64() / f64::from(passes));
     }
-    Ok((rays.len() as f64 / best, hits))
+    (count as f64 / best, hits)
 }
 
 fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> Result<()> {

@@ -1,6 +1,6 @@
 //! `raylab bench --embree` (only with the `embree` feature): a raylab/Embree ratio line for
-//! every case (instancing too), ray kind and thread count, build lines, and hit agreement of at
-//! least 99.9%.
+//! every case (instancing too), ray kind and thread count, Embree's packets of 16 on the same
+//! rays, build lines, and hit agreement of at least 99.9%.
 //!
 //! 4,900 rays, not 5,000: coherent rays fill a square image of ceil(sqrt(n)) pixels a side,
 //! and at 71 (odd) the middle column of camera rays lies in the plane y = 0 of the report
@@ -53,6 +53,27 @@ fn bench_embree_reports_ratios_and_agrees_with_embree() {
                 // Printed to two decimals: the ratio columns match the M/s columns.
                 assert!((ratio(0) - row[2]).abs() <= 0.01 + 0.05 * row[2], "{row:?}");
                 assert!((ratio(3) - row[5]).abs() <= 0.01 + 0.05 * row[5], "{row:?}");
+                // Embree's packets of 16 on the same rays: the same hits as its single rays
+                // (the bench fails otherwise), and positive rates.
+                let packets = text
+                    .lines()
+                    .find(|l| {
+                        l.split_whitespace().take(5).collect::<Vec<_>>()
+                            == ["embree", case, kind, threads, "threads,"]
+                            && l.contains("Embree packets of 16")
+                    })
+                    .unwrap_or_else(|| {
+                        panic!("no packet line for {case} {kind} {threads}\n{text}")
+                    });
+                assert!(packets.ends_with("same hits"), "{packets}");
+                let rates: Vec<f64> = packets
+                    .split(" M/s")
+                    .filter_map(|part| part.rsplit(' ').next()?.parse().ok())
+                    .collect();
+                assert!(
+                    rates.len() == 2 && rates.iter().all(|&r| r > 0.0),
+                    "{packets}"
+                );
             }
             let agreement: f64 = text
                 .lines()
