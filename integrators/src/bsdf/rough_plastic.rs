@@ -56,6 +56,11 @@ fn over_visible_normals(mf: &Microfacet, wo: Vec3A, g: impl Fn(Vec3A) -> f32) ->
     const NT: usize = 256;
     const NP: usize = 96;
     let alpha = mf.alpha_u.max(mf.alpha_v) as f64;
+    // The azimuths' cosines and sines, the same for every theta.
+    let azimuths: [(f64, f64); NP] = std::array::from_fn(|j| {
+        let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / NP as f64;
+        (phi.cos(), phi.sin())
+    });
     let mut sum = 0.0f64;
     for i in 0..NT {
         let u = (i as f64 + 0.5) / NT as f64;
@@ -64,9 +69,8 @@ fn over_visible_normals(mf: &Microfacet, wo: Vec3A, g: impl Fn(Vec3A) -> f32) ->
         // d theta / d u = s / ((1 - u)^2 + (s u)^2)
         let dtheta = s / ((1.0 - u) * (1.0 - u) + (s * u) * (s * u)) / NT as f64;
         let (st, ct) = theta.sin_cos();
-        for j in 0..NP {
-            let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / NP as f64;
-            let m = Vec3A::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
+        for &(cos_phi, sin_phi) in &azimuths {
+            let m = Vec3A::new((st * cos_phi) as f32, (st * sin_phi) as f32, ct as f32);
             let visible = mf.g1(wo, m) * wo.dot(m).max(0.0) * mf.d(m) / wo.z;
             if visible > 0.0 {
                 sum += (visible * g(m)) as f64
