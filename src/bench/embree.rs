@@ -35,7 +35,7 @@
 //! denormals-are-zero on the worker threads (Embree's performance advice; raylab does not set
 //! it either), and the robust or compact scene flags.
 
-use super::{rays_per_second, timed, Case, MIN_RUN};
+use super::{chunks_per_second, rays_per_second, Case, MIN_RUN};
 use crate::scene::components::{FileOrder, Instanced, Transform};
 use crate::scene::RenderScene;
 use anyhow::{anyhow, Result};
@@ -313,20 +313,11 @@ fn packets(
     ours: [f64; 2],
     say: &mut dyn FnMut(String),
 ) -> Result<()> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?;
     let by_packets = |trace: &(dyn Fn(&[Ray]) -> usize + Sync)| {
-        timed(rays.len(), || {
-            pool.install(|| {
-                rays.par_chunks(4096)
-                    .map(|chunk| chunk.chunks(16).map(trace).sum::<usize>())
-                    .sum::<usize>()
-            })
-        })
+        chunks_per_second(rays, threads, &|chunk| chunk.chunks(16).map(trace).sum())
     };
-    let closest = by_packets(&|p| embree_hits16(scene, context, p));
-    let occlusion = by_packets(&|p| embree_occluded16(scene, context, p));
+    let closest = by_packets(&|p| embree_hits16(scene, context, p))?;
+    let occlusion = by_packets(&|p| embree_occluded16(scene, context, p))?;
     let single_hits = rays
         .par_iter()
         .filter(|r| embree_hit(scene, context, r).is_some())

@@ -162,29 +162,30 @@ const MIN_RUN: Duration = Duration::from_millis(200);
 /// [`MIN_RUN`].
 const MAX_PASSES: u32 = 64;
 
-/// Rays per second of `trace` over `rays` on `threads` threads: a warm-up pass, then the best
-/// of three runs, each of passes over the rays until it has lasted [`MIN_RUN`] (or made
-/// [`MAX_PASSES`]). Also returns how many rays hit.
+/// Rays per second of `trace` over `rays` on `threads` threads, and how many rays hit.
 fn rays_per_second(
     rays: &[Ray],
     threads: usize,
     trace: &(dyn Fn(&Ray) -> bool + Sync),
 ) -> Result<(f64, usize)> {
+    chunks_per_second(rays, threads, &|chunk| {
+        chunk.iter().filter(|r| trace(r)).count()
+    })
+}
+
+/// Rays per second of `trace`, which traces a chunk of `rays` and says how many hit, on
+/// `threads` threads (chunks of 4096 shared out by rayon): a warm-up pass (whose count of hits
+/// is returned with the rate), then the best of three runs, each of passes over the rays until
+/// it has lasted [`MIN_RUN`] (or made [`MAX_PASSES`]).
+fn chunks_per_second(
+    rays: &[Ray],
+    threads: usize,
+    trace: &(dyn Fn(&[Ray]) -> usize + Sync),
+) -> Result<(f64, usize)> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    Ok(timed(rays.len(), || {
-        pool.install(|| {
-            rays.par_chunks(4096)
-                .map(|chunk| chunk.iter().filter(|r| trace(r)).count())
-                .sum::<usize>()
-        })
-    }))
-}
-
-/// `count` items per `pass`: the warm-up pass (whose result, a count of hits, is returned
-/// with the rate), then the best of three runs of [`rays_per_second`]'s length.
-fn timed(count: usize, pass: impl Fn() -> usize) -> (f64, usize) {
+    let pass = || pool.install(|| rays.par_chunks(4096).map(trace).sum::<usize>());
     let hits = pass();
     let mut best = f64::INFINITY;
     for _ in 0..3 {
@@ -196,7 +197,7 @@ fn timed(count: usize, pass: impl Fn() -> usize) -> (f64, usize) {
         }
         best = best.min(start.elapsed().as_secs_f64() / f64::from(passes));
     }
-    (count as f64 / best, hits)
+    Ok((rays.len() as f64 / best, hits))
 }
 
 fn write_f32s(path: &Path, count: usize, values: impl Iterator<Item = f32>) -> Result<()> {
