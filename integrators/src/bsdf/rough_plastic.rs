@@ -28,6 +28,7 @@ use super::plastic::{coating_probability, multiple_bounces, Coating};
 use super::{BsdfSample, Bxdf};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
+use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
 
 /// Incidences at which the coating's transmittance is tabulated, `mu = i / (TABLE - 1)`.
@@ -111,20 +112,27 @@ fn rough_transmittance(mf: &Microfacet, ior: f32, mu: f32) -> f32 {
 /// and IOR 1.49); raylab keeps it so that a `RoughPlastic` is Mitsuba's `roughplastic`.
 fn internal_reflectance(mf: &Microfacet, ior: f32) -> f32 {
     const N: usize = TABLE;
+    // The nodes' terms in parallel, then summed in order (the same sum on any thread count).
+    let terms: Vec<f64> = (0..N)
+        .into_par_iter()
+        .map(|i| {
+            let mu = i as f32 / (N - 1) as f32;
+            let wo = at_incidence(mu);
+            let r = over_visible_normals(mf, wo, |m| {
+                let f = fresnel_dielectric(wo.dot(m), 1.0 / ior);
+                let wr = reflect(wo, m);
+                if wr.z > 0.0 {
+                    f * mf.g1(wr, m)
+                } else {
+                    0.0
+                }
+            });
+            r * mu as f64
+        })
+        .collect();
     let mut sum = 0.0f64;
-    for i in 0..N {
-        let mu = i as f32 / (N - 1) as f32;
-        let wo = at_incidence(mu);
-        let r = over_visible_normals(mf, wo, |m| {
-            let f = fresnel_dielectric(wo.dot(m), 1.0 / ior);
-            let wr = reflect(wo, m);
-            if wr.z > 0.0 {
-                f * mf.g1(wr, m)
-            } else {
-                0.0
-            }
-        });
-        sum += r * mu as f64;
+    for term in terms {
+        sum += term;
     }
     (2.0 * sum / N as f64).clamp(0.0, 1.0) as f32
 }
@@ -140,9 +148,12 @@ impl RoughPlastic {
         microfacet: Microfacet,
     ) -> Result<RoughPlastic, String> {
         let c = Coating::new(diffuse, specular, ior)?;
-        let transmittance = std::sync::Arc::new(std::array::from_fn(|i| {
-            rough_transmittance(&microfacet, ior, i as f32 / (TABLE - 1) as f32)
-        }));
+        // Each entry on its own (in parallel: the tables are most of a rough plastic's load).
+        let mut table = [0.0; TABLE];
+        table.par_iter_mut().enumerate().for_each(|(i, t)| {
+            *t = rough_transmittance(&microfacet, ior, i as f32 / (TABLE - 1) as f32);
+        });
+        let transmittance = std::sync::Arc::new(table);
         Ok(RoughPlastic {
             diffuse: c.diffuse,
             specular: c.specular,
