@@ -220,43 +220,43 @@ impl Material {
     /// `f(wo, wi)` in the local frame, without the cosine.
     #[inline]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
-        if self.two_sided_opaque() {
-            if wo.z * wi.z <= 0.0 {
-                return Rgb::ZERO;
-            }
-            let flip = wo.z < 0.0;
-            dispatch!(self, m => m.eval(mirror_z(wo, flip), mirror_z(wi, flip)))
-        } else {
-            dispatch!(self, m => m.eval(wo, wi))
-        }
+        let Some((wo, wi)) = self.oriented(wo, wi) else {
+            return Rgb::ZERO;
+        };
+        dispatch!(self, m => m.eval(wo, wi))
     }
 
     /// `(eval, pdf)` at once, the same bits as [`Material::eval`] and [`Material::pdf`].
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
-        if self.two_sided_opaque() {
-            if wo.z * wi.z <= 0.0 {
-                return (Rgb::ZERO, 0.0);
-            }
-            let flip = wo.z < 0.0;
-            dispatch!(self, m => m.eval_pdf(mirror_z(wo, flip), mirror_z(wi, flip)))
-        } else {
-            dispatch!(self, m => m.eval_pdf(wo, wi))
-        }
+        let Some((wo, wi)) = self.oriented(wo, wi) else {
+            return (Rgb::ZERO, 0.0);
+        };
+        dispatch!(self, m => m.eval_pdf(wo, wi))
     }
 
     /// Density of [`Material::sample`] returning `wi`, per unit solid angle.
     #[inline]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
-        if self.two_sided_opaque() {
-            if wo.z * wi.z <= 0.0 {
-                return 0.0;
-            }
-            let flip = wo.z < 0.0;
-            dispatch!(self, m => m.pdf(mirror_z(wo, flip), mirror_z(wi, flip)))
-        } else {
-            dispatch!(self, m => m.pdf(wo, wi))
+        let Some((wo, wi)) = self.oriented(wo, wi) else {
+            return 0.0;
+        };
+        dispatch!(self, m => m.pdf(wo, wi))
+    }
+
+    /// `wo` and `wi` as the model sees them: for a two-sided opaque material both mirrored
+    /// into the upper hemisphere when `wo` is below it, and `None` (nothing passes) when they
+    /// lie on opposite sides; for the others as they are.
+    #[inline]
+    fn oriented(&self, wo: Vec3A, wi: Vec3A) -> Option<(Vec3A, Vec3A)> {
+        if !self.two_sided_opaque() {
+            return Some((wo, wi));
         }
+        if wo.z * wi.z <= 0.0 {
+            return None;
+        }
+        let flip = wo.z < 0.0;
+        Some((mirror_z(wo, flip), mirror_z(wi, flip)))
     }
 
     /// Importance-samples an incident direction.
