@@ -24,7 +24,7 @@ use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
 
 /// Which distribution of normals. Beckmann is the default, as in Mitsuba 3.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Distribution {
     Ggx,
     #[default]

@@ -23,13 +23,15 @@
 //! (> 1), `nonlinear`, the distribution. Two-sided like every opaque material.
 
 use super::fresnel::fresnel_dielectric;
-use super::microfacet::{reflect, refract, HalfVector, Microfacet};
+use super::microfacet::{reflect, refract, Distribution, HalfVector, Microfacet};
 use super::plastic::{coating_probability, multiple_bounces, Coating};
 use super::{BsdfSample, Bxdf};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::f32::consts::FRAC_1_PI;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// Incidences at which the coating's transmittance is tabulated, `mu = i / (TABLE - 1)`.
 const TABLE: usize = 64;
@@ -44,7 +46,7 @@ pub struct RoughPlastic {
     pub microfacet: Microfacet,
     /// `t(mu)` at `mu = i / (TABLE - 1)`; shared, so that the per-hit copy of a textured
     /// rough plastic allocates nothing.
-    transmittance: std::sync::Arc<[f32; TABLE]>,
+    transmittance: Arc<[f32; TABLE]>,
     /// Diffuse reflectance of the rough interface seen from inside.
     internal: f32,
     specular_weight: f32,
@@ -137,6 +139,46 @@ fn internal_reflectance(mf: &Microfacet, ior: f32) -> f32 {
     (2.0 * sum / N as f64).clamp(0.0, 1.0) as f32
 }
 
+/// A rough coating's tables: `t(mu)` at the table's incidences, and the internal reflectance.
+type CoatingTables = (Arc<[f32; TABLE]>, f32);
+
+/// The tables of the coating of roughness `mf` and relative IOR `ior`, computed once per
+/// process for each (distribution, roughnesses, IOR): the field's scenes give many rough
+/// plastics one coating and different colours, and a live session remakes its materials on
+/// every edit, while the tables take some 50 ms of CPU. They are a function of the key alone,
+/// so whichever thread computes them first, every material gets the same values.
+fn coating_tables(mf: &Microfacet, ior: f32) -> CoatingTables {
+    /// Coatings kept at most: the cache starts afresh beyond (a live session sweeping a
+    /// roughness makes a new coating per step).
+    const CAPACITY: usize = 256;
+    type Key = (Distribution, u32, u32, u32);
+    static CACHE: OnceLock<Mutex<HashMap<Key, CoatingTables>>> = OnceLock::new();
+    let key = (
+        mf.distribution,
+        mf.alpha_u.to_bits(),
+        mf.alpha_v.to_bits(),
+        ior.to_bits(),
+    );
+    let cache = CACHE.get_or_init(Mutex::default);
+    // A poisoned lock only means another thread panicked while holding it; the map is whole.
+    let lock = || cache.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(tables) = lock().get(&key) {
+        return tables.clone();
+    }
+    // Each entry on its own (in parallel: the tables are most of a rough plastic's load),
+    // outside the lock.
+    let mut table = [0.0; TABLE];
+    table.par_iter_mut().enumerate().for_each(|(i, t)| {
+        *t = rough_transmittance(mf, ior, i as f32 / (TABLE - 1) as f32);
+    });
+    let tables = (Arc::new(table), internal_reflectance(mf, ior));
+    let mut map = lock();
+    if map.len() >= CAPACITY {
+        map.clear();
+    }
+    map.entry(key).or_insert(tables).clone()
+}
+
 impl RoughPlastic {
     /// Rough plastic with base `diffuse`, coating tint `specular`, relative IOR `ior` (> 1)
     /// and the coating's roughness `microfacet`.
@@ -148,12 +190,7 @@ impl RoughPlastic {
         microfacet: Microfacet,
     ) -> Result<RoughPlastic, String> {
         let c = Coating::new(diffuse, specular, ior)?;
-        // Each entry on its own (in parallel: the tables are most of a rough plastic's load).
-        let mut table = [0.0; TABLE];
-        table.par_iter_mut().enumerate().for_each(|(i, t)| {
-            *t = rough_transmittance(&microfacet, ior, i as f32 / (TABLE - 1) as f32);
-        });
-        let transmittance = std::sync::Arc::new(table);
+        let (transmittance, internal) = coating_tables(&microfacet, ior);
         Ok(RoughPlastic {
             diffuse: c.diffuse,
             specular: c.specular,
@@ -161,7 +198,7 @@ impl RoughPlastic {
             nonlinear,
             microfacet,
             transmittance,
-            internal: internal_reflectance(&microfacet, ior),
+            internal,
             specular_weight: c.specular_weight,
         })
     }
@@ -246,5 +283,37 @@ impl Bxdf for RoughPlastic {
 
     fn albedo(&self) -> Rgb {
         self.diffuse
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coatings_alike_share_their_tables_and_the_cache_computes_what_a_fresh_build_does() {
+        let mf = Microfacet::new(Distribution::Ggx, 0.37, 0.37).unwrap();
+        let (red, grey) = (Rgb::new(0.8, 0.1, 0.1), Rgb::splat(0.5));
+        let a = RoughPlastic::new(red, Rgb::ONE, 1.43, false, mf).unwrap();
+        let b = RoughPlastic::new(grey, Rgb::ONE, 1.43, true, mf).unwrap();
+        assert!(Arc::ptr_eq(&a.transmittance, &b.transmittance));
+        assert_eq!(a.internal.to_bits(), b.internal.to_bits());
+        // The cached values are those of the integrals themselves.
+        for i in [0, 17, TABLE - 1] {
+            let fresh = rough_transmittance(&mf, 1.43, i as f32 / (TABLE - 1) as f32);
+            assert_eq!(a.transmittance[i].to_bits(), fresh.to_bits());
+        }
+        assert_eq!(
+            a.internal.to_bits(),
+            internal_reflectance(&mf, 1.43).to_bits()
+        );
+        // Another roughness, IOR or distribution is another coating.
+        let rougher = Microfacet::new(Distribution::Ggx, 0.38, 0.37).unwrap();
+        let beckmann = Microfacet::new(Distribution::Beckmann, 0.37, 0.37).unwrap();
+        for (mf, ior) in [(rougher, 1.43), (mf, 1.44), (beckmann, 1.43)] {
+            let c = RoughPlastic::new(red, Rgb::ONE, ior, false, mf).unwrap();
+            assert!(!Arc::ptr_eq(&a.transmittance, &c.transmittance));
+            assert_ne!(a.transmittance[20], c.transmittance[20]);
+        }
     }
 }
