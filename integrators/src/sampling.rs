@@ -194,6 +194,52 @@ mod tests {
         assert!((power_heuristic(1.0, 1.0) - 0.5).abs() < 1e-7);
         assert!((power_heuristic(2.0, 1.0) - 0.8).abs() < 1e-6);
     }
+
+    #[test]
+    fn the_guided_search_finds_the_cell_a_search_of_the_whole_table_finds() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::SmallRng::seed_from_u64(11);
+        // Uniform (11 and 19 cells: there a number just below g / n can round into stretch
+        // g, under a running sum equal to g / n, so the guides do not bracket it), peaked,
+        // with runs of empty cells (flat stretches of the running sums), one cell, all empty,
+        // and random.
+        let mut peaked = vec![1e-3f32; 300];
+        peaked[17] = 500.0;
+        peaked[200] = 40.0;
+        let mut gaps = vec![0.0f32; 257];
+        gaps[3] = 1.0;
+        gaps[128] = 2.0;
+        gaps[250] = 0.5;
+        let random: Vec<f32> = (0..1000).map(|_| rng.random::<f32>().powi(8)).collect();
+        let tables = [
+            vec![1.0; 64],
+            vec![1.0; 11],
+            vec![1.0; 19],
+            peaked,
+            gaps,
+            vec![3.0],
+            vec![0.0; 10],
+            random,
+        ];
+        for weights in &tables {
+            let d = Distribution1D::new(weights);
+            let n = weights.len() as f32;
+            // Random numbers, and every stretch's ends and their neighbours in f32.
+            let mut us: Vec<f32> = (0..20_000).map(|_| rng.random::<f32>()).collect();
+            for g in 0..=weights.len() {
+                let edge = g as f32 / n;
+                us.extend([edge.next_down(), edge, edge.next_up()]);
+            }
+            us.extend(d.cdf.iter().flat_map(|&c| [c.next_down(), c, c.next_up()]));
+            for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
+                assert_eq!(
+                    d.sums_at_most(u),
+                    d.cdf.partition_point(|&c| c <= u),
+                    "u = {u}"
+                );
+            }
+        }
+    }
 }
 
 /// A piecewise-constant distribution over `n` equal cells of `[0, n)`, proportional to
@@ -205,6 +251,11 @@ pub struct Distribution1D {
     cdf: Vec<f32>,
     /// Weight of each cell over their sum.
     pmf: Vec<f32>,
+    /// `guide[g]`: how many running sums are at most `g / n`, for `g` in `0..=n`. A number
+    /// `u` between `g / n` and `(g + 1) / n` lands in a cell between the two guides, which a
+    /// search of that stretch finds (usually one or two sums) where a search of the whole
+    /// table would take `log2(n)` dependent steps.
+    guide: Vec<u32>,
     /// Sum of the weights (0 when they were all zero and the distribution is uniform).
     pub total: f64,
 }
@@ -245,7 +296,33 @@ impl Distribution1D {
         for c in &mut cdf[last + 1..] {
             *c = 1.0;
         }
-        Distribution1D { cdf, pmf, total }
+        let guide = (0..=n)
+            .map(|g| cdf.partition_point(|&c| c <= g as f32 / n as f32) as u32)
+            .collect();
+        Distribution1D {
+            cdf,
+            pmf,
+            guide,
+            total,
+        }
+    }
+
+    /// The number of running sums at most `u`: `cdf.partition_point(|&c| c <= u)`, searched
+    /// between the guides of `u`'s stretch when they bracket it (the stretch is found by
+    /// rounding, so near its ends they may not), in the whole table otherwise. The same
+    /// index either way.
+    #[inline]
+    fn sums_at_most(&self, u: f32) -> usize {
+        let n = self.pmf.len();
+        let g = ((u * n as f32) as usize).min(n - 1);
+        let (lo, hi) = (self.guide[g] as usize, self.guide[g + 1] as usize);
+        let above_lo = lo == 0 || self.cdf[lo - 1] <= u;
+        let below_hi = hi == self.cdf.len() || self.cdf[hi] > u;
+        if above_lo && below_hi {
+            lo + self.cdf[lo..hi].partition_point(|&c| c <= u)
+        } else {
+            self.cdf.partition_point(|&c| c <= u)
+        }
     }
 
     /// A point of `[0, n)` for `u` in `[0, 1)`, its cell, and its density (per unit of `x`).
@@ -253,7 +330,7 @@ impl Distribution1D {
     #[inline]
     pub fn sample(&self, u: f32) -> (f32, usize, f32) {
         let u = u.clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-        let i = (self.cdf.partition_point(|&c| c <= u) - 1).min(self.pmf.len() - 1);
+        let i = (self.sums_at_most(u) - 1).min(self.pmf.len() - 1);
         let p = self.pmf[i];
         let within = if p > 0.0 {
             ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
