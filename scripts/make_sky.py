@@ -7,7 +7,10 @@ The map follows Mitsuba 3's convention (+y up, the top row straight up, u = 0 at
 sky brightening towards the horizon, a grey-brown ground, and a sun 30 degrees above the
 horizon towards +x (u = 0.25), about 2 degrees across.
 
-    python3 scripts/make_sky.py [OUT]
+    python3 scripts/make_sky.py [OUT] [WIDTHxHEIGHT]
+
+The size defaults to the repository's 128x64; a larger one (2048x1024, the size of the field's
+skies) measures what sampling a big map costs (docs/performance.md).
 """
 import math
 import sys
@@ -46,7 +49,10 @@ def rgbe(r, g, b):
 
 
 def main():
+    global W, H
     out = sys.argv[1] if len(sys.argv) > 1 else "scenes/assets/sky.hdr"
+    if len(sys.argv) > 2:
+        W, H = (int(v) for v in sys.argv[2].split("x"))
     with open(out, "wb") as f:
         f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n")
         f.write(f"-Y {H} +X {W}\n".encode())
