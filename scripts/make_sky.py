@@ -52,7 +52,12 @@ def main():
     global W, H
     out = sys.argv[1] if len(sys.argv) > 1 else "scenes/assets/sky.hdr"
     if len(sys.argv) > 2:
-        W, H = (int(v) for v in sys.argv[2].split("x"))
+        try:
+            W, H = (int(v) for v in sys.argv[2].split("x"))
+        except ValueError:
+            sys.exit(f"size must be WIDTHxHEIGHT, got {sys.argv[2]!r}")
+        if W < 2 or H < 2:
+            sys.exit(f"the sky needs at least 2x2 texels, got {W}x{H}")
     with open(out, "wb") as f:
         f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n")
         f.write(f"-Y {H} +X {W}\n".encode())

@@ -149,7 +149,8 @@ type CoatingTables = (Arc<[f32; TABLE]>, f32);
 /// so whichever thread computes them first, every material gets the same values.
 fn coating_tables(mf: &Microfacet, ior: f32) -> CoatingTables {
     /// Coatings kept at most: the cache starts afresh beyond (a live session sweeping a
-    /// roughness makes a new coating per step).
+    /// roughness makes a new coating per step; a scene of more coatings than this gains
+    /// little from it, and stays correct).
     const CAPACITY: usize = 256;
     type Key = (Distribution, u32, u32, u32);
     static CACHE: OnceLock<Mutex<HashMap<Key, CoatingTables>>> = OnceLock::new();
@@ -308,9 +309,16 @@ mod tests {
             internal_reflectance(&mf, 1.43).to_bits()
         );
         // Another roughness, IOR or distribution is another coating.
-        let rougher = Microfacet::new(Distribution::Ggx, 0.38, 0.37).unwrap();
+        let rougher_u = Microfacet::new(Distribution::Ggx, 0.38, 0.37).unwrap();
+        let rougher_v = Microfacet::new(Distribution::Ggx, 0.37, 0.38).unwrap();
         let beckmann = Microfacet::new(Distribution::Beckmann, 0.37, 0.37).unwrap();
-        for (mf, ior) in [(rougher, 1.43), (mf, 1.44), (beckmann, 1.43)] {
+        let others = [
+            (rougher_u, 1.43),
+            (rougher_v, 1.43),
+            (mf, 1.44),
+            (beckmann, 1.43),
+        ];
+        for (mf, ior) in others {
             let c = RoughPlastic::new(red, Rgb::ONE, ior, false, mf).unwrap();
             assert!(!Arc::ptr_eq(&a.transmittance, &c.transmittance));
             assert_ne!(a.transmittance[20], c.transmittance[20]);
