@@ -199,10 +199,10 @@ mod tests {
     fn the_guided_search_finds_the_cell_a_search_of_the_whole_table_finds() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand::rngs::SmallRng::seed_from_u64(11);
-        // Uniform (11 and 19 cells: there a number just below g / n can round into stretch
-        // g, under a running sum equal to g / n, so the guides do not bracket it), peaked,
-        // with runs of empty cells (flat stretches of the running sums), one cell, all empty,
-        // and random.
+        // Uniform (11 and 19 stretches of 16 cells: there a number just below g / m can
+        // round into stretch g, under a running sum equal to g / m, so the guides do not
+        // bracket it), peaked, with runs of empty cells (flat stretches of the running sums),
+        // one cell, all empty, and random.
         let mut peaked = vec![1e-3f32; 300];
         peaked[17] = 500.0;
         peaked[200] = 40.0;
@@ -213,8 +213,8 @@ mod tests {
         let random: Vec<f32> = (0..1000).map(|_| rng.random::<f32>().powi(8)).collect();
         let tables = [
             vec![1.0; 64],
-            vec![1.0; 11],
-            vec![1.0; 19],
+            vec![1.0; 11 * CELLS_PER_GUIDE],
+            vec![1.0; 19 * CELLS_PER_GUIDE],
             peaked,
             gaps,
             vec![3.0],
@@ -223,11 +223,11 @@ mod tests {
         ];
         for weights in &tables {
             let d = Distribution1D::new(weights);
-            let n = weights.len() as f32;
+            let m = d.guide.len() - 1;
             // Random numbers, and every stretch's ends and their neighbours in f32.
             let mut us: Vec<f32> = (0..20_000).map(|_| rng.random::<f32>()).collect();
-            for g in 0..=weights.len() {
-                let edge = g as f32 / n;
+            for g in 0..=m {
+                let edge = g as f32 / m as f32;
                 us.extend([edge.next_down(), edge, edge.next_up()]);
             }
             us.extend(
@@ -260,6 +260,9 @@ mod tests {
     }
 }
 
+/// Cells per guide of [`Distribution1D`]'s search (see its `guide`).
+const CELLS_PER_GUIDE: usize = 16;
+
 /// A piecewise-constant distribution over `n` equal cells of `[0, n)`, proportional to
 /// non-negative weights (uniform when they are all zero): the rows and columns of an
 /// environment map's sampling distribution.
@@ -270,11 +273,13 @@ pub struct Distribution1D {
     /// sum (0 for `i = n`), side by side, so that a sample reads its cell's two numbers from
     /// one cache line (a 2048-texel row of an environment map's distribution holds 16 kB).
     cells: Vec<[f32; 2]>,
-    /// `guide[g]`: how many running sums are at most `g / n`, for `g` in `0..=n`. A number
-    /// `u` between `g / n` and `(g + 1) / n` usually lands in a cell between the two guides
-    /// (not always: its stretch `g` is found by rounding), which a search of that stretch
-    /// finds (usually one or two sums) where a search of the whole table would take
-    /// `log2(n)` dependent steps. 4 bytes per cell beside the cells' 8.
+    /// `guide[g]`: how many running sums are at most `g / m`, for `g` in `0..=m`, with `m` =
+    /// `n / CELLS_PER_GUIDE` (rounded up) stretches of `u`. A number `u` between `g / m` and
+    /// `(g + 1) / m` usually lands in a cell between the two guides (not always: its stretch
+    /// `g` is found by rounding), which a search of that stretch finds in a few steps within
+    /// a cache line or two, where a search of the whole table would take `log2(n)` dependent
+    /// steps across it. A quarter of a byte per cell: the guides of every row of a
+    /// 2048x1024 environment map (512 kB) stay in the processor's cache.
     guide: Vec<u32>,
     /// Sum of the weights (0 when they were all zero and the distribution is uniform).
     pub total: f64,
@@ -316,8 +321,9 @@ impl Distribution1D {
         for c in &mut cdf[last + 1..] {
             *c = 1.0;
         }
-        let guide = (0..=n)
-            .map(|g| cdf.partition_point(|&c| c <= g as f32 / n as f32) as u32)
+        let m = n.div_ceil(CELLS_PER_GUIDE);
+        let guide = (0..=m)
+            .map(|g| cdf.partition_point(|&c| c <= g as f32 / m as f32) as u32)
             .collect();
         let cells = (cdf.iter().enumerate())
             .map(|(i, &c)| [c, pmf.get(i).copied().unwrap_or(0.0)])
@@ -341,8 +347,8 @@ impl Distribution1D {
     /// index either way.
     #[inline]
     fn sums_at_most(&self, u: f32) -> usize {
-        let n = self.len();
-        let g = ((u * n as f32) as usize).min(n - 1);
+        let m = self.guide.len() - 1;
+        let g = ((u * m as f32) as usize).min(m - 1);
         let (lo, hi) = (self.guide[g] as usize, self.guide[g + 1] as usize);
         let cells = &self.cells;
         let above_lo = lo == 0 || cells[lo - 1][0] <= u;
