@@ -341,7 +341,7 @@ impl Distribution1D {
         self.cells.len() - 1
     }
 
-    /// The number of running sums at most `u`: `cdf.partition_point(|&c| c <= u)`, searched
+    /// The number of running sums at most `u` (`cells.partition_point(|c| c[0] <= u)`), searched
     /// between the guides of `u`'s stretch when they bracket it (the stretch is found by
     /// rounding, so near its ends they may not), in the whole table otherwise. The same
     /// index either way.
