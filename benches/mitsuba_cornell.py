@@ -3,12 +3,14 @@
 samples per second, their ratio, and the two images' mean values (which must agree within
 noise).
 
-Scenes (`--scenes`, default all three):
+Scenes (`--scenes`, default the first three):
 - `cornell`: Mitsuba renders its built-in `cornell_box()` (box filter, max_depth 8, rr_depth
   5: its `path` defaults); raylab renders scenes/cornell_box.ron (the same box);
 - `textured_glossy`, `environment`: scenes/mitsuba/textured_glossy.xml (image textures, rough
   plastic and rough conductors under an area light) and scenes/mitsuba/environment.xml
-  (glossy and diffuse objects under an environment map), the same XML file in both.
+  (glossy and diffuse objects under an environment map), the same XML file in both;
+- `environment_2k` (only when asked for): the environment scene with its sky made at
+  2048x1024, the size of the field's skies, in out/bench-sky/.
 
 raylab renders with max-depth 7 and rr-depth 5, Mitsuba's settings in raylab's convention. Mitsuba's max_depth counts path
 segments (one more than raylab's scattering events); its rr_depth, like raylab's rr-depth,
@@ -22,7 +24,7 @@ resolution (the Cornell box 256x256, the others 256x192) on the threads the mach
     apt-get install libllvm19          # for llvm_ad_rgb (libLLVM 15 crashes it)
     cargo build --release
     python3 benches/mitsuba_cornell.py [--spp 256] [--variants scalar_rgb,llvm_ad_rgb] [--repeat 2]
-        [--scenes cornell,textured_glossy,environment]
+        [--scenes cornell,textured_glossy,environment]   # also environment_2k: a 2048x1024 sky
         [--raylab OLD_BINARY,target/release/raylab]   # several binaries: each measured in turn
 
 Each round measures, scene by scene, raylab, then every variant, then raylab again, so that the ratios compare
@@ -52,6 +54,22 @@ SCENES = {
     "textured_glossy": ("scenes/mitsuba/textured_glossy.xml", "scenes/mitsuba/textured_glossy.xml"),
     "environment": ("scenes/mitsuba/environment.xml", "scenes/mitsuba/environment.xml"),
 }
+# Not in the repository, and not measured by default: the environment scene under the same sky
+# at 2048x1024, the size of the field's skies, made in out/ the first time it is asked for
+# (scripts/make_sky.py).
+BIG_SKY = ROOT / "out" / "bench-sky"
+SCENES["environment_2k"] = (str(BIG_SKY / "environment.xml"), str(BIG_SKY / "environment.xml"))
+DEFAULT_SCENES = ["cornell", "textured_glossy", "environment"]
+
+
+def prepare(name):
+    """Makes the files of a scene that is generated (environment_2k) if they are missing."""
+    sky = BIG_SKY / "assets" / "sky.hdr"
+    if name == "environment_2k" and not sky.exists():
+        sky.parent.mkdir(parents=True, exist_ok=True)
+        (BIG_SKY / "environment.xml").write_bytes((ROOT / SCENES["environment"][0]).read_bytes())
+        subprocess.run([sys.executable, str(ROOT / "scripts" / "make_sky.py"), str(sky), "2048x1024"],
+                       check=True)
 
 
 def mitsuba(variant, spp, xml):
@@ -96,7 +114,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=1, help="rounds to run")
     ap.add_argument("--raylab", default="target/release/raylab",
                     help="raylab binaries to measure in turn, comma-separated (old and new, say)")
-    ap.add_argument("--scenes", default=",".join(SCENES),
+    ap.add_argument("--scenes", default=",".join(DEFAULT_SCENES),
                     help=f"scenes to measure, comma-separated, of {', '.join(SCENES)}")
     args = ap.parse_args()
     scenes = args.scenes.split(",")
@@ -104,6 +122,7 @@ def main():
     if unknown:
         ap.error(f"unknown scene {unknown[0]!r} (known: {', '.join(SCENES)})")
     for round_, name in ((r, n) for r in range(args.repeat) for n in scenes):
+        prepare(name)
         ours_file, xml = SCENES[name]
         exes = [pathlib.Path(e).resolve() for e in args.raylab.split(",")]
         before = {e: raylab(args.spp, e, ours_file) for e in exes}
