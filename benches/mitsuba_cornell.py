@@ -64,10 +64,14 @@ DEFAULT_SCENES = ["cornell", "textured_glossy", "environment"]
 
 def prepare(name):
     """Makes the files of a scene that is generated (environment_2k) if they are missing."""
-    sky = BIG_SKY / "assets" / "sky.hdr"
-    if name == "environment_2k" and not sky.exists():
+    sky, xml = BIG_SKY / "assets" / "sky.hdr", BIG_SKY / "environment.xml"
+    if name != "environment_2k":
+        return
+    if not xml.exists():
+        xml.parent.mkdir(parents=True, exist_ok=True)
+        xml.write_bytes((ROOT / SCENES["environment"][0]).read_bytes())
+    if not sky.exists():
         sky.parent.mkdir(parents=True, exist_ok=True)
-        (BIG_SKY / "environment.xml").write_bytes((ROOT / SCENES["environment"][0]).read_bytes())
         subprocess.run([sys.executable, str(ROOT / "scripts" / "make_sky.py"), str(sky), "2048x1024"],
                        check=True)
 
