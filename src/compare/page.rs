@@ -514,19 +514,26 @@ function selftest() {{
   fire("channel", "rgb", "change");
   // Grid: every image, each showing its own pixel at the shared point.
   fire("mode", "grid", "change");
+  // The grid's panels are half the slider's: zoom in again to two canvas pixels an image pixel.
+  view.zoom = Math.max(view.zoom, Math.ceil(2 / panelSize().fit)); draw();
   checks.grid_shows_every_image = panels().length === names.length && panelsShow(...spot);
   // The wheel over one panel zooms every panel about the cursor: the point under it stays.
   const zoom = view.zoom, p0 = canvas(), r0 = p0.getBoundingClientRect(), [cx, cy] = centre(p0);
   p0.dispatchEvent(new WheelEvent("wheel", {{ deltaY: -100, clientX: r0.left + cx + 0.5, clientY: r0.top + cy + 0.5, bubbles: true, cancelable: true }}));
   checks.wheel_zooms_every_panel = view.zoom > zoom && panelsShow(...spot);
-  // Dragging one panel pans them all: three image pixels towards the image's middle.
-  const step = spot[0] < W / 2 ? 3 : -3, s = panelSize().fit * view.zoom, p1 = canvas(), r1 = p1.getBoundingClientRect();
-  const x0 = r1.left + cx, y0 = r1.top + cy;
+  // Dragging one panel pans them all: three image pixels towards the image's middle. A mouse
+  // event's clientX is a whole CSS pixel (Chromium truncates a fractional one), so the drag is
+  // a whole number of them, the nearest to three image pixels, and the check reads the image
+  // pixel that the panels' centre pixel samples, as the page maps it.
+  const step = spot[0] < W / 2 ? 3 : -3, s = panelSize().fit * view.zoom, dx = Math.round(step * s);
+  const from = view.cx, p1 = canvas(), r1 = p1.getBoundingClientRect();
+  const x0 = Math.round(r1.left + cx), y0 = Math.round(r1.top + cy);
   p1.dispatchEvent(new MouseEvent("mousedown", {{ clientX: x0, clientY: y0, bubbles: true }}));
-  window.dispatchEvent(new MouseEvent("mousemove", {{ clientX: x0 - step * s, clientY: y0 }}));
-  window.dispatchEvent(new MouseEvent("mouseup", {{ clientX: x0 - step * s, clientY: y0 }}));
+  window.dispatchEvent(new MouseEvent("mousemove", {{ clientX: x0 - dx, clientY: y0 }}));
+  window.dispatchEvent(new MouseEvent("mouseup", {{ clientX: x0 - dx, clientY: y0 }}));
   draw();
-  checks.drag_pans_every_panel = Math.floor(view.cx) === spot[0] + step && panelsShow(spot[0] + step, spot[1]);
+  const [di, dj] = imagePoint(cx + 0.5, cy + 0.5);
+  checks.drag_pans_every_panel = Math.abs(view.cx - from - dx / s) < 1e-9 && di === spot[0] + step && dj === spot[1] && panelsShow(di, dj);
   fire("zoom", "1", "change"); fire("mode", "slider", "change");
   // The metrics table has a row for every render.
   const rows = Array.from(document.querySelectorAll("#metrics tbody tr")).map((r) => r.dataset.label);

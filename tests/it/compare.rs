@@ -71,6 +71,37 @@ fn check_page_in_chromium(page: &Path) -> Option<String> {
     Some(dom)
 }
 
+/// The page's self-test at a default comparison's size (256x256, four integrators), where
+/// a grid panel draws an image pixel on less than two screen pixels: the test drags by whole
+/// screen pixels and reads the pixel the panels' centre shows, as a mouse would.
+#[test]
+fn the_pages_self_test_passes_on_a_full_size_comparison() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cmp");
+    let args = [
+        "compare",
+        CORNELL,
+        "-i",
+        "path",
+        "-i",
+        "whitted",
+        "-i",
+        "direct",
+        "-i",
+        "bdpt",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "2",
+        "-o",
+        s(&out),
+        "-q",
+    ];
+    let o = raylab(&args, &dir.path().join("cache"));
+    assert!(o.status.success(), "{}", stderr(&o));
+    check_page_in_chromium(&out.join("index.html"));
+}
+
 #[test]
 fn compare_writes_images_metrics_mosaic_and_a_working_page() {
     let dir = tempfile::tempdir().unwrap();
