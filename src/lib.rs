@@ -8,13 +8,22 @@
 #![deny(clippy::undocumented_unsafe_blocks)]
 
 /// `println!` for the program's output, which ignores a failure to print (a reader that went
-/// away, `raylab integrators | head`) where `println!` would panic (see `cli::print_out`).
+/// away, `raylab integrators | head`) where `println!` would panic, and escapes control
+/// characters (see `console`).
 macro_rules! say {
     () => {
-        $crate::cli::print_out(format_args!("\n"))
+        $crate::console::print_out(format_args!("\n"))
     };
     ($($arg:tt)*) => {
-        $crate::cli::print_out(format_args!("{}\n", format_args!($($arg)*)))
+        $crate::console::print_out(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `eprintln!` for messages, which ignores a failure to print and escapes control characters
+/// (see `console`).
+macro_rules! note {
+    ($($arg:tt)*) => {
+        $crate::console::note(&format!($($arg)*))
     };
 }
 
@@ -22,6 +31,7 @@ pub mod accel;
 pub mod bench;
 pub mod cli;
 pub mod compare;
+pub mod console;
 pub mod files;
 pub mod live;
 pub mod output;

@@ -118,7 +118,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         accel: args.trace.accel,
     };
     compare::run(&opts)?;
-    eprintln!("wrote {}", args.output.join("index.html").display());
+    note!("wrote {}", args.output.join("index.html").display());
     Ok(ExitCode::SUCCESS)
 }
 
@@ -278,6 +278,6 @@ pub fn suite(args: &SuiteArgs) -> Result<ExitCode> {
             s.time
         );
     }
-    eprintln!("wrote {}", args.output.join("index.html").display());
+    note!("wrote {}", args.output.join("index.html").display());
     Ok(ExitCode::SUCCESS)
 }

@@ -183,7 +183,7 @@ impl PageObserver {
 impl Observer for PageObserver {
     fn render_started(&mut self, info: &RenderInfo) {
         if !self.quiet {
-            eprintln!(
+            note!(
                 "rendering {}: {} {} | {}x{}",
                 self.shared.scene,
                 info.integrator,
@@ -208,7 +208,7 @@ impl Observer for PageObserver {
         let img = output::to_srgb_image(film, self.display);
         let mut png = Vec::new();
         if let Err(e) = img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png) {
-            eprintln!("error: cannot encode the image: {e}");
+            note!("error: cannot encode the image: {e}");
             return;
         }
         self.shared.update(|s| {
@@ -240,13 +240,13 @@ impl Observer for PageObserver {
     }
 
     fn load_failed(&mut self, message: &str) {
-        eprintln!("error: {message}");
+        note!("error: {message}");
         self.shared.update(|s| s.error = Some(message.to_string()));
     }
 
     fn reloaded(&mut self, line: &str) {
         if !self.quiet {
-            eprintln!("{line}");
+            note!("{line}");
         }
     }
 }
@@ -591,7 +591,7 @@ impl Server {
                     continue;
                 }
                 Err(e) => {
-                    eprintln!("warning: serve: {e}");
+                    note!("warning: serve: {e}");
                     std::thread::sleep(Duration::from_millis(20));
                     continue;
                 }
@@ -622,7 +622,7 @@ impl Server {
             if let Err(e) = spawned {
                 // The closure (and its guard) never ran: undo the count by hand.
                 self.context.active.fetch_sub(1, Ordering::SeqCst);
-                eprintln!("warning: serve: cannot start a thread: {e}");
+                note!("warning: serve: cannot start a thread: {e}");
             }
         }
     }
