@@ -622,3 +622,55 @@ fn light_tracers_of_both_formats_are_raylabs_lighttracer() {
     assert_eq!(loaded.render.integrator, "lighttracer");
     assert_eq!(loaded.render.params.get("max-depth"), Some(&3.0));
 }
+
+/// Hostile XML a probe sent: each is refused with its place, exit 2, in the time it takes to
+/// read it; none overflows the stack, allocates without end or takes quadratic time.
+#[test]
+fn hostile_xml_is_refused_before_it_costs_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sensor = r#"<sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>"#;
+    let refused = |name: &str, text: String, expect: &str| {
+        std::fs::write(d.join(name), text).unwrap();
+        for command in ["validate", "render"] {
+            let o = raylab_in(d, &[command, name]);
+            let e = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{name} {command}: {e}");
+            assert!(e.contains(expect) && !e.contains("panicked"), "{name}: {e}");
+        }
+    };
+    // 10,000 BSDFs each inside the next.
+    let mut deep = String::from(r#"<bsdf type="diffuse"/>"#);
+    for _ in 0..10_000 {
+        deep = format!(r#"<bsdf type="twosided">{deep}</bsdf>"#);
+    }
+    refused(
+        "deep.xml",
+        format!(r#"<scene version="3.0.0">{sensor}<shape type="sphere">{deep}</shape></scene>"#),
+        "deep.xml:1:",
+    );
+    // 100,000 attributes on one element.
+    let attributes: String = (0..100_000).map(|i| format!(" a{i}=\"1\"")).collect();
+    refused(
+        "attributes.xml",
+        format!(r#"<scene version="3.0.0">{sensor}<shape type="sphere"{attributes}/></scene>"#),
+        "attributes, more than the 256 raylab reads",
+    );
+    // Sixteen files, each including the next ten times: 10^15 includes asked for.
+    for k in 0..16 {
+        let body: String = (0..10)
+            .map(|_| format!(r#"<include filename="f{}.xml"/>"#, k + 1))
+            .collect();
+        let body = if k == 15 { String::new() } else { body };
+        std::fs::write(
+            d.join(format!("f{k}.xml")),
+            format!(r#"<scene version="3.0.0">{body}</scene>"#),
+        )
+        .unwrap();
+    }
+    refused(
+        "fanout.xml",
+        format!(r#"<scene version="3.0.0">{sensor}<include filename="f0.xml"/></scene>"#),
+        "more than 10000 includes",
+    );
+}

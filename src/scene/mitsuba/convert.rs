@@ -298,6 +298,8 @@ struct Converter<'a, 'input> {
     camera: Option<String>,
     render: Vec<String>,
     report: Vec<String>,
+    /// The BSDFs being converted, outermost first (a nested or referenced one inside).
+    bsdfs_open: Vec<roxmltree::NodeId>,
 }
 
 impl<'a, 'input> Converter<'a, 'input> {
@@ -456,8 +458,35 @@ impl<'a, 'input> Converter<'a, 'input> {
         Ok(out)
     }
 
-    /// The RON of a BSDF.
+    /// The RON of a BSDF. A BSDF that holds itself (a `<ref>` to a BSDF it is inside) is a
+    /// cycle, refused; so is nesting deeper than [`super::include::MAX_NESTING`] through
+    /// references.
     fn bsdf(&mut self, node: Node<'a, 'input>) -> Result<String, Located> {
+        if self.bsdfs_open.contains(&node.id()) {
+            let id = node.attribute("id").unwrap_or_default();
+            return Err(at(
+                self.doc,
+                node,
+                format!("<bsdf id=\"{id}\"> holds a <ref> to itself (a cycle of references)"),
+            ));
+        }
+        if self.bsdfs_open.len() >= super::include::MAX_NESTING {
+            return Err(at(
+                self.doc,
+                node,
+                format!(
+                    "BSDFs nest deeper than {} (through references)",
+                    super::include::MAX_NESTING
+                ),
+            ));
+        }
+        self.bsdfs_open.push(node.id());
+        let out = self.bsdf_plugin(node);
+        self.bsdfs_open.pop();
+        out
+    }
+
+    fn bsdf_plugin(&mut self, node: Node<'a, 'input>) -> Result<String, Located> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         let rough = |p: &mut Props<'a, 'input>, out: &mut String| -> Result<(), Located> {
@@ -1357,10 +1386,12 @@ pub fn to_ron_in(
     base: Option<&std::path::Path>,
     search: &[String],
 ) -> Result<Imported, Located> {
+    super::xml::check_attributes(text)?;
     let doc = Document::parse(text).map_err(|e| {
         let p = e.pos();
         (p.row, p.col, format!("malformed XML: {e}"))
     })?;
+    super::include::check_nesting(&doc)?;
     let root = doc.root_element();
     if root.tag_name().name() != "scene" {
         return Err(at(
@@ -1389,6 +1420,7 @@ pub fn to_ron_in(
         camera: None,
         render: Vec::new(),
         report: Vec::new(),
+        bsdfs_open: Vec::new(),
     };
     let mut index = 0;
     for node in root.children().filter(Node::is_element) {

@@ -11,6 +11,32 @@ use std::path::{Path, PathBuf};
 const MAX_DEPTH: usize = 16;
 /// The most text all includes together may add.
 const MAX_BYTES: usize = 4 * crate::files::MAX_TEXT as usize;
+/// The most includes a scene may make, all files together (as the pbrt importer's): a file
+/// that includes the next ten times, sixteen deep, would otherwise ask for 10^15.
+pub const MAX_INCLUDES: usize = 10_000;
+/// Elements nested deeper than this are refused, in the scene and in every included file (the
+/// converter walks nested plugins recursively; Mitsuba's own scenes nest a handful deep).
+pub const MAX_NESTING: usize = 64;
+
+/// Refuses a document whose elements nest deeper than [`MAX_NESTING`]: the element at fault
+/// and its place.
+pub fn check_nesting(doc: &Document) -> Result<(), (u32, u32, String)> {
+    // Each node's depth from its parent's, in document order (parents come first).
+    let mut depth = vec![0usize; doc.descendants().count()];
+    for node in doc.descendants().filter(Node::is_element) {
+        let d = node.parent().map_or(0, |p| depth[p.id().get() as usize]) + 1;
+        depth[node.id().get() as usize] = d;
+        if d > MAX_NESTING {
+            let p = doc.text_pos_at(node.range().start);
+            return Err((
+                p.row,
+                p.col,
+                format!("elements nest deeper than {MAX_NESTING}"),
+            ));
+        }
+    }
+    Ok(())
+}
 
 /// An error at a file's line and column.
 pub type FileError = (PathBuf, u32, u32, String);
@@ -75,6 +101,8 @@ struct Expander<'f> {
     files: &'f SceneFiles,
     out: Expanded,
     stack: Vec<PathBuf>,
+    /// Includes made so far, all files together.
+    includes: usize,
     /// Whether the scene file is Mitsuba 0.x's (read through the upgrade rules).
     legacy: bool,
 }
@@ -90,6 +118,7 @@ pub fn expand(path: &Path, text: &str, files: &SceneFiles) -> Result<Expanded, F
             files: Vec::new(),
         },
         stack: vec![path.canonicalize().unwrap_or_else(|_| path.to_path_buf())],
+        includes: 0,
         legacy: false,
     };
     e.file(path, text.to_string(), None)?;
@@ -118,6 +147,7 @@ impl Expander<'_> {
         let index = self.out.files.len();
         self.out.files.push((path.to_path_buf(), text));
         let text = self.out.files[index].1.clone();
+        super::xml::check_attributes(&text).map_err(|(l, c, m)| (path.to_path_buf(), l, c, m))?;
         let doc = match Document::parse(&text) {
             Ok(doc) => doc,
             // Left to the converter, which reports it at its place.
@@ -135,6 +165,7 @@ impl Expander<'_> {
                 ));
             }
         };
+        check_nesting(&doc).map_err(|(line, col, m)| (path.to_path_buf(), line, col, m))?;
         let at = |node: Node, message: String| -> FileError {
             let p = doc.text_pos_at(node.range().start);
             (path.to_path_buf(), p.row, p.col, message)
@@ -211,13 +242,21 @@ impl Expander<'_> {
                 format!("<include>: includes nest deeper than {MAX_DEPTH}"),
             ));
         }
+        self.includes += 1;
+        if self.includes > MAX_INCLUDES {
+            return Err(at(
+                node,
+                format!("<include>: the scene makes more than {MAX_INCLUDES} includes"),
+            ));
+        }
         // The scene's folder first, then the <path> folders.
         let candidates = std::iter::once(name.to_string())
             .chain(self.out.search.iter().map(|dir| format!("{dir}/{name}")));
         let mut found = None;
         for candidate in candidates {
             let file = self.files.named(&candidate).map_err(|e| at(node, e))?;
-            if file.is_file() {
+            // Anything there (a folder or a pipe too): reading it says what is wrong with it.
+            if file.exists() {
                 found = Some(file);
                 break;
             }

@@ -9,6 +9,68 @@ use std::collections::HashMap;
 pub type Located = (u32, u32, String);
 
 /// Where `node` starts, as (line, column) from 1.
+/// The most attributes one element may have (Mitsuba's have at most four or five; the XML
+/// parser checks each new one against those before it, so 100,000 would take half a minute).
+pub const MAX_ATTRIBUTES: usize = 256;
+
+/// Refuses, before the XML parser sees it, text with an element of more than
+/// [`MAX_ATTRIBUTES`] attributes: its line and column. (A scan of the tags alone: comments,
+/// CDATA sections, processing instructions and declarations are skipped, quoted values are
+/// not counted.)
+pub fn check_attributes(text: &str) -> Result<(), Located> {
+    let bytes = text.as_bytes();
+    let skip_to = |from: usize, end: &[u8]| -> usize {
+        bytes[from..]
+            .windows(end.len())
+            .position(|w| w == end)
+            .map_or(bytes.len(), |p| from + p + end.len())
+    };
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] != b'<' {
+            i += 1;
+            continue;
+        }
+        let rest = &bytes[i..];
+        if rest.starts_with(b"<!--") {
+            i = skip_to(i + 4, b"-->");
+        } else if rest.starts_with(b"<![CDATA[") {
+            i = skip_to(i + 9, b"]]>");
+        } else if rest.starts_with(b"<?") {
+            i = skip_to(i + 2, b"?>");
+        } else if rest.starts_with(b"<!") {
+            i = skip_to(i + 2, b">");
+        } else {
+            let start = i;
+            let (mut count, mut quote) = (0usize, None);
+            i += 1;
+            while i < bytes.len() {
+                let b = bytes[i];
+                match quote {
+                    Some(q) if b == q => quote = None,
+                    Some(_) => {}
+                    None if b == b'"' || b == b'\'' => quote = Some(b),
+                    None if b == b'=' => count += 1,
+                    None if b == b'>' => break,
+                    None => {}
+                }
+                i += 1;
+            }
+            if count > MAX_ATTRIBUTES {
+                let before = &text[..start];
+                let line = before.matches('\n').count() as u32 + 1;
+                let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) as u32 + 1;
+                return Err((
+                    line,
+                    col,
+                    format!("an element with {count} attributes, more than the {MAX_ATTRIBUTES} raylab reads"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 pub fn position(doc: &Document, node: Node) -> (u32, u32) {
     let p = doc.text_pos_at(node.range().start);
     (p.row, p.col)
