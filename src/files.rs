@@ -59,6 +59,21 @@ pub fn read_capped(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The largest image side read (a 32k x 16k environment map is the largest in common use).
+pub const MAX_IMAGE_SIDE: u32 = 65_536;
+
+/// The `image` crate's limits for decoding an image file: at most [`MAX_IMAGE_SIDE`] a side,
+/// and no allocation beyond half the memory this process may still use (checked from the
+/// header, before the pixels are allocated).
+pub fn image_limits() -> image::Limits {
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    let room = crate::system::memory_limit().map_or(u64::MAX, |(room, _)| room / 2);
+    limits.max_alloc = Some(room.min(MAX_BINARY));
+    limits
+}
+
 /// The longest line a text format may have (an OBJ, an MTL file).
 pub const MAX_LINE: usize = 1 << 20;
 
@@ -109,9 +124,38 @@ impl<R: std::io::BufRead> std::io::BufRead for LineCapped<R> {
     }
 }
 
-/// [`read_capped`] as UTF-8 text (a byte-order mark at the start is skipped).
-pub fn read_text_capped(path: &Path, max: u64) -> std::io::Result<String> {
+/// [`read_capped`], uncompressed if it is gzip-compressed (`scene.pbrt.gz`, `mesh.ply.gz`):
+/// at most `max` bytes of content, and no more than half the memory this process may still
+/// use (a small file can hold gigabytes of zeros).
+pub fn read_uncompressed(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
     let bytes = read_capped(path, max)?;
+    if !bytes.starts_with(&[0x1f, 0x8b]) {
+        return Ok(bytes);
+    }
+    let room = crate::system::memory_limit().map_or(u64::MAX, |(room, _)| room / 2);
+    let cap = max.min(room);
+    let mut out = Vec::new();
+    flate2::read::MultiGzDecoder::new(&bytes[..])
+        .take(cap + 1)
+        .read_to_end(&mut out)
+        .map_err(|e| {
+            Error::new(
+                ErrorKind::InvalidData,
+                format!("it is gzip-compressed and cannot be uncompressed ({e})"),
+            )
+        })?;
+    if out.len() as u64 > cap {
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            format!("it is gzip-compressed and holds more than {cap} bytes"),
+        ));
+    }
+    Ok(out)
+}
+
+/// [`read_uncompressed`] as UTF-8 text (a byte-order mark at the start is skipped).
+pub fn read_text_capped(path: &Path, max: u64) -> std::io::Result<String> {
+    let bytes = read_uncompressed(path, max)?;
     let text = String::from_utf8(bytes).map_err(|e| {
         // Where, as an editor shows it.
         let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];

@@ -14,7 +14,6 @@ use anyhow::{bail, Context, Result};
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -63,24 +62,12 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
     ))
 }
 
-/// Ctrl-C, SIGTERM or SIGHUP: the first asks the session to stop, the second exits 130 at
-/// once.
+/// Ctrl-C, SIGTERM or SIGHUP: the first asks the session to stop, a later one exits 130 at
+/// once (see [`super::interrupt`]).
 fn install_interrupt_handler(control: Arc<Control>) {
-    let presses = AtomicUsize::new(0);
-    let installed = ctrlc::set_handler(move || {
-        if presses.fetch_add(1, Ordering::SeqCst) == 0 {
-            note!("\ninterrupt: stopping (Ctrl-C again to stop at once)");
-            control.quit();
-        } else {
-            note!("\ninterrupt: stopped");
-            // Exiting skips destructors: remove a half-written image or checkpoint first.
-            crate::output::atomic::remove_unfinished();
-            std::process::exit(130);
-        }
+    super::interrupt::install("stopping (Ctrl-C again to stop at once)", move || {
+        control.quit()
     });
-    if let Err(e) = installed {
-        note!("warning: cannot catch Ctrl-C: {e}");
-    }
 }
 
 /// Writes every image to the output file (atomically) and reports on stderr.
@@ -91,6 +78,8 @@ struct FileObserver {
     quiet: bool,
     /// Whether this session has written the output yet.
     wrote: bool,
+    /// Why the output may not be written: it is one of the files the scene read.
+    refused: Option<String>,
 }
 
 impl Observer for FileObserver {
@@ -111,7 +100,26 @@ impl Observer for FileObserver {
         }
     }
 
+    fn inputs(&mut self, scene: &std::path::Path, files: &[PathBuf]) {
+        let inputs = crate::scene::SceneInputs {
+            scene: scene.to_path_buf(),
+            files: files.to_vec(),
+            ..Default::default()
+        };
+        let plan = crate::render::scene_inputs(&inputs).and_then(|mut plan| {
+            plan.output("the image", &self.output)?;
+            plan.check()
+        });
+        self.refused = plan.err().map(|e| format!("{e:#}"));
+        if let Some(why) = &self.refused {
+            note!("error: {why}; not writing it until the scene stops reading it");
+        }
+    }
+
     fn image(&mut self, film: &Film, _info: &RenderInfo, _stats: &RenderStats) {
+        if self.refused.is_some() {
+            return;
+        }
         match output::write_image(&self.output, film, self.display) {
             Ok(()) => self.wrote = true,
             Err(e) => note!("error: {e:#}"),
@@ -172,7 +180,22 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| super::render_cmd::default_output(&args.session.scene));
     output::check_output_path(&output_path)?;
-    let mut plan = crate::render::scene_inputs(&args.session.scene)?;
+    // The files the scene reads now (a scene that does not load yet: itself); as it changes,
+    // each load's (FileObserver::inputs).
+    let loaded = crate::scene::load_scene_defined(
+        &args.session.scene,
+        &args.session.allow_path,
+        &args.session.import.options(),
+    );
+    let mut plan = match &loaded {
+        Ok(loaded) => crate::render::scene_inputs(&loaded.inputs)?,
+        Err(_) => {
+            let mut plan = crate::output::plan::FilePlan::new();
+            plan.input("the scene", &args.session.scene)?;
+            plan
+        }
+    };
+    drop(loaded);
     plan.output("the image", &output_path)?.check()?;
     let (settings, selection) = settings(&args.session, FILE_INTERVAL)?;
     let control = Arc::new(Control::new());
@@ -193,6 +216,7 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
         },
         quiet: args.session.quiet,
         wrote: false,
+        refused: None,
     };
     live::run(&settings, selection, &control, &watcher, &mut observer);
     Ok(ExitCode::SUCCESS)

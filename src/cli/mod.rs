@@ -1,17 +1,8 @@
 //! Command-line interface: parses flags, calls into the library, prints, and maps errors to
 //! exit codes (0 ok, 1 "differs", 2 error).
 
-#[macro_use]
-mod messages {
-    /// `eprintln!` that ignores a failure to print (see [`super::note`]).
-    macro_rules! note {
-        ($($arg:tt)*) => {
-            $crate::cli::note(&format!($($arg)*))
-        };
-    }
-}
-
 mod compare_cmd;
+mod interrupt;
 mod live_cmd;
 mod merge_cmd;
 mod render_cmd;
@@ -57,22 +48,27 @@ pub enum Command {
     /// Combine the shards of a render (`render --shard I/N -o part.exr`) into exactly the
     /// image the single run writes, after checking that they belong together and cover it.
     Merge(MergeArgs),
-    /// Convert a Mitsuba 3 XML scene into a RON scene that a person can edit.
+    /// Convert a Mitsuba 3 XML or pbrt-v4 scene into a RON scene that a person can edit.
     Import {
-        /// Scene file (Mitsuba 3 XML).
+        /// Scene file (Mitsuba 3 XML, .xml, or pbrt-v4, .pbrt).
         scene: PathBuf,
-        /// The RON file to write; its folder must be the scene's (file names stay relative).
+        /// The RON file to write (.ron), in the scene's folder (file names stay relative);
+        /// never the scene or a file it reads.
         #[arg(short = 'o', long = "output", value_name = "FILE")]
         output: PathBuf,
         /// Also print what was mapped approximately, or by a changed convention.
         #[arg(long)]
         report: bool,
+        /// Let the scene read files under DIR too (repeatable). By default a scene may read
+        /// files (meshes, textures, included files) under its own folder only.
+        #[arg(long = "allow-path", value_name = "DIR")]
+        allow_path: Vec<PathBuf>,
         #[command(flatten)]
         import: ImportFlags,
     },
     /// Parse and build a scene, then print its counts and bounds.
     Validate {
-        /// Scene file (RON, or Mitsuba 3 XML).
+        /// Scene file (RON, Mitsuba 3 XML or pbrt-v4).
         scene: PathBuf,
         /// Let the scene read files under DIR too (repeatable). By default a scene may read
         /// files (meshes, MTL files, glTF buffers) under its own folder only.
@@ -369,7 +365,7 @@ pub fn main() -> ExitCode {
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            note!("error: {e:#}");
             ExitCode::from(2)
         }
     }
@@ -396,8 +392,12 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             scene,
             output,
             report,
+            allow_path,
             import,
-        } => render_cmd::import(&scene, &output, report, &import.options()),
+        } => {
+            check_allowed(&allow_path)?;
+            render_cmd::import(&scene, &output, report, &allow_path, &import.options())
+        }
         Command::Compare(args) => compare_cmd::compare(&args),
         Command::Diff(args) => compare_cmd::diff(&args),
         Command::Suite(args) => compare_cmd::suite(&args),
@@ -466,22 +466,7 @@ fn check_threads(threads: Option<usize>) -> anyhow::Result<()> {
     }
 }
 
-/// Writes the program's output to standard output (see the `say!` macro), ignoring a
-/// failure, as [`note`] does: a reader that went away (`raylab integrators | head`) or a
-/// terminal gone after SIGHUP must neither panic the program (as `println!` would) nor stop
-/// an image from being written.
-pub fn print_out(args: std::fmt::Arguments) {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    let _ = out.write_fmt(args).and_then(|()| out.flush());
-}
-
-/// Prints a line on stderr, ignoring a failure: after SIGHUP the terminal may be gone, and a
-/// message that cannot be shown must not stop the image from being written.
-pub(crate) fn note(line: &str) {
-    use std::io::Write;
-    let _ = writeln!(std::io::stderr(), "{line}");
-}
+pub use crate::console::print_out;
 
 /// `--filter NAME`.
 fn parse_filter(name: &str) -> Result<raylab_integrators::Filter, String> {

@@ -14,7 +14,6 @@ use raylab_integrators::{registry, ParamKind};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 /// Shortest time between two checkpoint writes.
@@ -108,13 +107,6 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             output::atomic::check_replaceable(c)?;
         }
     }
-    // No output may be an input or another output: the scene, the files it names.
-    let mut plan = render::scene_inputs(&args.session.scene)?;
-    plan.output("the image", &output_path)?;
-    if let Some(c) = &args.checkpoint {
-        plan.output("the checkpoint", c)?;
-    }
-    plan.check()?;
     if !args.session.exposure.is_finite() {
         bail!("--exposure must be finite");
     }
@@ -134,6 +126,13 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     for w in &loaded.warnings {
         note!("warning: {}: {w}", args.session.scene.display());
     }
+    // No output may be an input or another output: the scene and every file it read.
+    let mut plan = render::scene_inputs(&loaded.inputs)?;
+    plan.output("the image", &output_path)?;
+    if let Some(c) = &args.checkpoint {
+        plan.output("the checkpoint", c)?;
+    }
+    plan.check()?;
     // Scene parameters apply only to the scene's own integrator; the command line wins.
     let (entry, params) =
         crate::live::choose_integrator(&loaded, args.session.integrator.as_deref(), &cli_params)?;
@@ -158,7 +157,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
                 entry.name
             );
         }
-        let mut plan = render::scene_inputs(&args.session.scene)?;
+        let mut plan = render::scene_inputs(&loaded.inputs)?;
         plan.output("the image", &output_path)?;
         for (_, path) in &layers {
             output::check_output_path(path)?;
@@ -210,17 +209,11 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         part: part.clone(),
     };
 
-    // Checkpoints and shards are tied to everything that determines the image: the settings,
-    // the scene file and the mesh files it names (read and hashed only when needed); a
-    // checkpoint also to its shard.
-    let import = args.session.import.options();
-    let defines: Vec<String> = import
-        .defines
-        .iter()
-        .map(|(k, v)| format!("{k}:{v}"))
-        .collect();
+    // Checkpoints and shards are tied to everything that determines the image: the settings
+    // and the scene's identity (every file it read, its -D values and --approximate; read
+    // and hashed only when needed); a checkpoint also to its shard.
     let settings_text = format!(
-        "integrator={} {} spp={} seed={seed} size={}x{} filter={} accel={} defines={} approximate={}",
+        "integrator={} {} spp={} seed={seed} size={}x{} filter={} accel={}",
         entry.name,
         params.describe(entry.params),
         spp.map_or("open-ended".to_string(), |n| n.to_string()),
@@ -228,18 +221,13 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         camera.height,
         settings.filter,
         args.session.trace.accel,
-        defines.join(",").replace([' ', '\n'], "_"),
-        import.approximate,
     );
     let scene_hash = match (&args.checkpoint, shard) {
         (None, None) => 0,
-        _ => {
-            let scene_bytes = crate::scene::references::scene_content(&args.session.scene)
-                .with_context(|| {
-                    format!("{}: cannot read scene file", args.session.scene.display())
-                })?;
-            checkpoint::stable_hash(&[&scene_bytes])
-        }
+        _ => loaded
+            .inputs
+            .identity()
+            .with_context(|| format!("{}: cannot read scene file", args.session.scene.display()))?,
     };
     let hash = checkpoint::stable_hash(&[
         &scene_hash.to_le_bytes(),
@@ -286,8 +274,11 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
 
     // Ctrl-C, SIGTERM, SIGHUP: the first abandons the pass in progress and writes the image
     // of the passes done, the second stops at once.
-    install_interrupt_handler();
-    let stop = || INTERRUPTS.load(Ordering::SeqCst) > 0;
+    super::interrupt::install(
+        "stopping, writing the image of the passes done (Ctrl-C again to stop at once)",
+        || {},
+    );
+    let stop = super::interrupt::stopping;
     if !args.session.quiet {
         let mut target = settings
             .spp
@@ -355,7 +346,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
                 part,
                 spp,
                 passes_done: acc.spp_done,
-                dropped: acc.dropped,
+                dropped: acc.dropped_so_far(),
                 display,
                 width: camera.width,
                 height: camera.height,
@@ -442,36 +433,29 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
 /// again).
 pub const UNFINISHED_SHARD: u8 = 75;
 
-/// Interrupts so far: Ctrl-C (SIGINT), SIGTERM (a timeout, a batch scheduler's preemption,
-/// `docker stop`) and SIGHUP (a closed terminal or ssh session) alike.
-static INTERRUPTS: AtomicUsize = AtomicUsize::new(0);
-
-fn install_interrupt_handler() {
-    // Fails only if a handler is already installed (a second render in one process).
-    let _ = ctrlc::set_handler(|| {
-        if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
-            note!("\ninterrupt: stopping, writing the image of the passes done (Ctrl-C again to stop at once)");
-        } else {
-            note!("\ninterrupt: stopped, nothing written");
-            // Exiting skips destructors: remove a half-written image or checkpoint first.
-            crate::output::atomic::remove_unfinished();
-            std::process::exit(130);
-        }
-    });
-}
-
 /// `raylab import`: a Mitsuba 3 XML or pbrt-v4 scene written out as RON, checked by loading
-/// it the way `render` would before anything is written.
+/// it the way `render` would before anything is written. The RON file may be none of the
+/// files the scene reads.
 pub fn import(
     path: &Path,
     output: &Path,
     report: bool,
+    allowed: &[PathBuf],
     options: &scene::ImportOptions,
 ) -> Result<ExitCode> {
     if !scene::is_imported(path) {
-        anyhow::bail!(
+        bail!(
             "{}: import reads Mitsuba 3 XML (.xml) and pbrt-v4 (.pbrt) scenes; this is neither",
             path.display()
+        );
+    }
+    if !output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ron"))
+    {
+        bail!(
+            "{}: import writes a RON scene; name it FILE.ron",
+            output.display()
         );
     }
     let folder = |p: &Path| {
@@ -479,17 +463,21 @@ pub fn import(
         std::fs::canonicalize(parent).unwrap_or_else(|_| parent.to_path_buf())
     };
     if folder(path) != folder(output) {
-        anyhow::bail!(
+        bail!(
             "{}: write the RON scene into the imported scene's folder ({}), where the files it names are",
             output.display(),
             crate::output::atomic::parent_dir(path).display()
         );
     }
-    let Some(imported) = scene::import_scene(path, &[], options)? else {
-        anyhow::bail!("{}: not a scene of another format", path.display());
+    output::atomic::check_replaceable(output)?;
+    let files = scene::access::SceneFiles::new(path, allowed);
+    let Some(imported) = scene::import_scene(&files, options)? else {
+        bail!("{}: not a scene of another format", path.display());
     };
     // The same checks as rendering it: a scene that will not load is not written.
-    scene::load_scene_defined(path, &[], options)?;
+    let loaded = scene::load_scene_in(&files, options)?;
+    let mut plan = render::scene_inputs(&loaded.inputs)?;
+    plan.output("the RON scene", output)?.check()?;
     crate::output::atomic::write_atomic(output, |f| {
         use std::io::Write as _;
         f.write_all(imported.ron.as_bytes())

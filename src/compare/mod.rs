@@ -2,6 +2,7 @@
 //! equal time, measured against a reference; writes every image, error maps, the metrics (JSON
 //! and CSV), a mosaic, sweep plots and a self-contained page.
 
+mod cache;
 pub mod metrics;
 mod mosaic;
 mod page;
@@ -12,8 +13,10 @@ pub mod ztest;
 
 use crate::output::{self, DisplaySettings};
 use crate::render::{self, checkpoint::stable_hash, Accumulation, Film, RenderSettings};
-use crate::scene::RenderScene;
+use crate::scene::{LoadedScene, RenderScene};
 use anyhow::{anyhow, bail, Context, Result};
+pub use cache::cache_dir;
+use cache::Cache;
 use raylab_integrators::registry;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -253,18 +256,6 @@ pub fn parse_scoped_param(text: &str) -> Result<(String, String, String)> {
     ))
 }
 
-/// Where rendered references are cached: `$XDG_CACHE_HOME/raylab`, else
-/// `~/.cache/raylab`, else a `.cache` folder in the output folder `out`.
-pub fn cache_dir(out: &Path) -> PathBuf {
-    let base = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")));
-    match base {
-        Some(b) => b.join("raylab"),
-        None => out.join(".cache"),
-    }
-}
-
 /// Builds the contestants of a comparison: each integrator with the shared parameters that
 /// apply to it (`NAME.key=value`), and with a sweep one per value.
 pub fn contestants(
@@ -419,71 +410,118 @@ fn render_one(
     })
 }
 
-/// The reference image: a file, or a cached render by a consistent integrator.
+/// Refuses a reference image (`--reference`, or a cached one) that cannot be measured
+/// against: not `width x height`, or holding NaN or infinite pixels.
+pub(crate) fn check_reference(film: &Film, width: u32, height: u32, path: &Path) -> Result<()> {
+    if (film.width, film.height) != (width, height) {
+        bail!(
+            "{}: the reference is {}x{}, the renders {width}x{height}",
+            path.display(),
+            film.width,
+            film.height,
+        );
+    }
+    if let Some((count, (x, y))) = film.non_finite() {
+        bail!(
+            "{}: the reference has {count} pixel(s) with NaN or infinite values, the first at ({x}, {y}); no error can be measured against it",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Where a rendered reference is kept: the cache, checked before anything renders, and the
+/// key of this scene's reference in it.
+struct CacheEntry {
+    cache: Cache,
+    hash: u64,
+}
+
+/// The cache entry of the reference `opts` asks to render of the scene whose identity is
+/// `scene_id`, through `camera`; `None` for a reference file. The cache folder is made and
+/// tried here, before anything renders.
+fn reference_entry(
+    opts: &CompareOptions,
+    scene_id: u64,
+    camera: &crate::scene::Camera,
+) -> Result<Option<CacheEntry>> {
+    let ReferenceSpec::Render {
+        integrator,
+        params,
+        budget,
+    } = &opts.reference
+    else {
+        return Ok(None);
+    };
+    let entry = registry::find(integrator)?;
+    let described = entry.resolve(params)?.describe(entry.params);
+    // The version too: a light-transport fix must not reuse an old reference.
+    let key = format!(
+        "raylab {} reference {integrator} {described} {} seed={} {}x{} filter={} accel={}",
+        env!("CARGO_PKG_VERSION"),
+        budget_text(*budget),
+        reference_seed(opts.seed),
+        camera.width,
+        camera.height,
+        opts.filter.unwrap_or_default(),
+        opts.accel,
+    );
+    Ok(Some(CacheEntry {
+        cache: Cache::open(&opts.cache_dir)?,
+        hash: stable_hash(&[&scene_id.to_le_bytes(), key.as_bytes()]),
+    }))
+}
+
+/// `256 spp` or `4.000 s`.
+fn budget_text(budget: Budget) -> String {
+    match budget {
+        Budget::Spp(n) => format!("{n} spp"),
+        Budget::Time(t) => format!("{:.3} s", t.as_secs_f64()),
+    }
+}
+
+/// The reference render's seed: its own, so that its noise is independent of the renders'.
+fn reference_seed(seed: u64) -> u64 {
+    seed ^ 0x5eed_5eed_5eed_5eed
+}
+
+/// The reference image: a file, or a render by a consistent integrator kept in the cache
+/// (`cached`, from [`reference_entry`]).
 fn reference(
     opts: &CompareOptions,
     built: &RenderScene,
     camera: &crate::scene::Camera,
+    cached: Option<&CacheEntry>,
 ) -> Result<(Film, String)> {
-    match &opts.reference {
-        ReferenceSpec::File(path) => {
+    match (&opts.reference, cached) {
+        (ReferenceSpec::File(path), _) => {
             let film = output::read_image(path)?;
-            if (film.width, film.height) != (camera.width, camera.height) {
-                bail!(
-                    "{}: the reference is {}x{}, the renders {}x{}",
-                    path.display(),
-                    film.width,
-                    film.height,
-                    camera.width,
-                    camera.height
-                );
-            }
-            if let Some((count, (x, y))) = film.non_finite() {
-                bail!(
-                    "{}: the reference has {count} pixel(s) with NaN or infinite values, the first at ({x}, {y}); no error can be measured against it",
-                    path.display()
-                );
-            }
+            check_reference(&film, camera.width, camera.height, path)?;
             Ok((film, format!("file {}", file_name(path))))
         }
-        ReferenceSpec::Render {
-            integrator,
-            params,
-            budget,
-        } => {
+        (
+            ReferenceSpec::Render {
+                integrator,
+                params,
+                budget,
+            },
+            Some(CacheEntry { cache, hash }),
+        ) => {
             let entry = registry::find(integrator)?;
             let described = entry.resolve(params)?.describe(entry.params);
-            // The scene file and the mesh files it names: editing either renders anew.
-            let scene_bytes = crate::scene::references::scene_content(&opts.scene)
-                .with_context(|| format!("{}: cannot read scene file", opts.scene.display()))?;
-            // A seed of its own, so that its noise is independent of the renders'.
-            let seed = opts.seed ^ 0x5eed_5eed_5eed_5eed;
-            let size = match budget {
-                Budget::Spp(n) => format!("{n} spp"),
-                Budget::Time(t) => format!("{:.3} s", t.as_secs_f64()),
-            };
-            // The version too: a light-transport fix must not reuse an old reference.
-            let key = format!(
-                "raylab {} reference {integrator} {described} {size} seed={seed} {}x{} filter={}",
-                env!("CARGO_PKG_VERSION"),
-                camera.width,
-                camera.height,
-                opts.filter.unwrap_or_default()
-            );
-            let hash = stable_hash(&[&scene_bytes, key.as_bytes()]);
-            let cached = opts.cache_dir.join(format!("reference-{hash:016x}.exr"));
+            let size = budget_text(*budget);
             // The page names the cache entry, not the folder: a page must not print a path
             // of the machine that made it.
             let what = format!(
                 "{integrator} ({described}), {size} (cached as {})",
-                file_name(&cached)
+                file_name(&cache.entry(*hash))
             );
-            if cached.exists() {
-                if let Ok(film) = output::read_image(&cached) {
-                    if (film.width, film.height) == (camera.width, camera.height) {
-                        return Ok((film, what));
-                    }
+            match cache.read(*hash, camera.width, camera.height) {
+                Ok(film) => return Ok((film, what)),
+                Err(e) if cache.entry(*hash).symlink_metadata().is_ok() => {
+                    note!("warning: not using the cached reference: {e:#}; rendering it anew")
                 }
+                Err(_) => {}
             }
             let c = Contestant {
                 label: "reference".into(),
@@ -491,17 +529,17 @@ fn reference(
                 params: params.clone(),
                 swept: None,
             };
-            eprintln!("rendering the reference: {what}");
+            note!("rendering the reference: {what}");
+            let seed = reference_seed(opts.seed);
             let film = render_one(built, camera, &c, *budget, seed, None, opts)?.film;
-            std::fs::create_dir_all(&opts.cache_dir).with_context(|| {
-                format!(
-                    "{}: cannot create the cache folder",
-                    opts.cache_dir.display()
-                )
-            })?;
-            output::write_image(&cached, &film, DisplaySettings::default())?;
+            // The reference is in hand (and copied into the output folder): a cache that
+            // fails now costs the next run, not this one.
+            if let Err(e) = cache.write(*hash, &film) {
+                note!("warning: the reference was not cached: {e:#}");
+            }
             Ok((film, what))
         }
+        (ReferenceSpec::Render { .. }, None) => bail!("no cache for the reference"),
     }
 }
 
@@ -542,6 +580,61 @@ fn output_files(opts: &CompareOptions) -> Vec<(String, PathBuf)> {
     files
 }
 
+/// The file that marks a folder as one raylab wrote a comparison or a suite into: its files
+/// of the same names may be replaced by the next run.
+pub const OUTPUT_MARKER: &str = ".raylab-output";
+
+/// Takes the folder `dir` for a command's output `files`: made if missing, and marked as
+/// raylab's. An existing folder raylab did not make is taken only if none of `files` is there
+/// already: a folder of the user's (or the scene's, through a link) keeps its files. Returns
+/// whether the folder was made.
+pub fn claim_output_folder(dir: &Path, files: &[(String, PathBuf)]) -> Result<bool> {
+    check_output_folder(dir, files)?;
+    let created = !dir.exists();
+    if created {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create the output folder", dir.display()))?;
+    }
+    let marker = dir.join(OUTPUT_MARKER);
+    if !marker.is_file() {
+        output::atomic::write_atomic(&marker, |f| {
+            use std::io::Write as _;
+            f.write_all(b"raylab wrote the files of a comparison here; the next run into this folder replaces them\n")
+                .with_context(|| format!("{}: cannot write", marker.display()))
+        })?;
+    }
+    Ok(created)
+}
+
+/// The check of [`claim_output_folder`], without making or marking anything.
+pub fn check_output_folder(dir: &Path, files: &[(String, PathBuf)]) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        bail!(
+            "{}: the output folder is a file, not a folder",
+            dir.display()
+        );
+    }
+    if dir.exists() && !dir.join(OUTPUT_MARKER).is_file() {
+        let there: Vec<&PathBuf> = files
+            .iter()
+            .map(|(_, f)| f)
+            .filter(|f| f.symlink_metadata().is_ok())
+            .collect();
+        if let Some(first) = there.first() {
+            bail!(
+                "{}: this folder was not made by raylab and already holds {}{}, which this command would replace; give a new or empty folder",
+                dir.display(),
+                file_name(first),
+                match there.len() {
+                    1 => String::new(),
+                    n => format!(" and {} more of its output files", n - 1),
+                }
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Runs the comparison and writes everything into `opts.out_dir` (created if missing, and
 /// removed again if the comparison fails before writing anything there).
 pub fn run(opts: &CompareOptions) -> Result<Report> {
@@ -551,39 +644,36 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
             opts.out_dir.display()
         );
     }
-    // No output may be an input (the scene, its meshes, the reference image).
-    let mut plan = crate::render::scene_inputs(&opts.scene)?;
+    let loaded = crate::scene::load_scene_defined(&opts.scene, &opts.allowed, &opts.import)?;
+    // No output may be an input (the scene, every file it read, the reference image).
+    let mut plan = crate::render::scene_inputs(&loaded.inputs)?;
     if let ReferenceSpec::File(f) = &opts.reference {
         if f.exists() {
             plan.input("the reference image", f)?;
         }
     }
-    for (role, file) in output_files(opts) {
-        plan.output(&role, &file)?;
+    let files = output_files(opts);
+    for (role, file) in &files {
+        plan.output(role, file)?;
     }
     plan.check()?;
-    let created = !opts.out_dir.exists();
-    if created {
-        std::fs::create_dir_all(&opts.out_dir).with_context(|| {
-            format!(
-                "{}: cannot create the output folder",
-                opts.out_dir.display()
-            )
-        })?;
-    }
-    let result = run_into(opts);
+    let created = claim_output_folder(&opts.out_dir, &files)?;
+    let result = run_into(opts, loaded);
     if result.is_err() && created {
-        // Only an empty folder goes: what a failed run wrote stays for inspection.
-        let _ = std::fs::remove_dir(&opts.out_dir);
+        // Only a folder with nothing but the marker goes: what a failed run wrote stays for
+        // inspection.
+        let _ = std::fs::remove_file(opts.out_dir.join(OUTPUT_MARKER));
+        if std::fs::remove_dir(&opts.out_dir).is_err() {
+            let _ = claim_output_folder(&opts.out_dir, &[]);
+        }
     }
     result
 }
 
-fn run_into(opts: &CompareOptions) -> Result<Report> {
+fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
     output::check_writable_folder(&opts.out_dir.join("index.html"))?;
-    let loaded = crate::scene::load_scene_defined(&opts.scene, &opts.allowed, &opts.import)?;
     for w in &loaded.warnings {
-        eprintln!("warning: {}: {w}", opts.scene.display());
+        note!("warning: {}: {w}", opts.scene.display());
     }
     // Every render and the reference with one filter: the flag's, else the scene's.
     let opts = &CompareOptions {
@@ -616,8 +706,18 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
             );
         }
     }
+    // The reference's cache, tried before anything renders; keyed by the scene's identity
+    // (every file it read, -D values, --approximate).
+    let scene_id = match &opts.reference {
+        ReferenceSpec::Render { .. } => loaded
+            .inputs
+            .identity()
+            .with_context(|| format!("{}: cannot read scene file", opts.scene.display()))?,
+        ReferenceSpec::File(_) => 0,
+    };
+    let cached = reference_entry(opts, scene_id, &camera)?;
     let built = RenderScene::build_on_threads(&loaded, opts.accel, opts.threads)?;
-    let (reference, reference_what) = reference(opts, &built, &camera)?;
+    let (reference, reference_what) = reference(opts, &built, &camera, cached.as_ref())?;
     output::write_image(
         &opts.out_dir.join("reference.exr"),
         &reference,
@@ -680,7 +780,7 @@ fn run_into(opts: &CompareOptions) -> Result<Report> {
         }
     };
     if let Some(w) = &reference_warning {
-        eprintln!("warning: {w}");
+        note!("warning: {w}");
     }
     print_summary(&rows, target_error);
 
@@ -746,7 +846,7 @@ fn measure(
     let mut first: Option<(Rendered, Option<usize>)> = None;
     for k in 0..opts.runs {
         if opts.progress && opts.runs > 1 {
-            eprintln!("{}: run {} of {}", c.label, k + 1, opts.runs);
+            note!("{}: run {} of {}", c.label, k + 1, opts.runs);
         }
         let seed = run_seed(opts.seed, k);
         let r = render_one(built, camera, c, opts.budget, seed, Some(reference), opts)?;
@@ -884,7 +984,7 @@ fn print_row(r: &Row) {
         (Some(v), Some(b)) => format!("  variance {v:.3e}  bias² {b:.2e}"),
         _ => String::new(),
     };
-    eprintln!(
+    note!(
         "{:<28} {:>7.1} spp {:>8.2} s  MSE {}  relMSE {:.4}  FLIP {:.4}  HDR-FLIP {:.4}{bias}{}{in_region}",
         r.label,
         r.spp,
@@ -907,7 +1007,7 @@ fn print_summary(rows: &[Row], target: Option<f64>) {
         .filter_map(|r| r.efficiency)
         .max_by(f64::total_cmp);
     if let Some(t) = target {
-        eprintln!("time to reach MSE {t:.3e} (~: extrapolated along the fitted slope):");
+        note!("time to reach MSE {t:.3e} (~: extrapolated along the fitted slope):");
     }
     for r in rows {
         let eff = match (r.efficiency, best) {
@@ -925,7 +1025,7 @@ fn print_summary(rows: &[Row], target: Option<f64>) {
             ),
             None => "not within reach (its error does not fall that far)".to_string(),
         };
-        eprintln!("  {:<28} {eff}  reaches it in {reach}", r.label);
+        note!("  {:<28} {eff}  reaches it in {reach}", r.label);
     }
 }
 

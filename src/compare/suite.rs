@@ -123,7 +123,7 @@ pub struct SuiteOptions {
 }
 
 /// Reads and checks a suite file: every entry as the comparison it runs, with its name.
-pub fn load(opts: &SuiteOptions) -> Result<(SuiteDesc, Vec<(String, CompareOptions)>)> {
+pub fn load(opts: &SuiteOptions) -> Result<(SuiteDesc, Vec<Entry>)> {
     let path = &opts.file;
     let text = crate::files::read_text_capped(path, crate::files::MAX_TEXT)
         .with_context(|| format!("{}: cannot read the suite file", path.display()))?;
@@ -142,7 +142,7 @@ pub fn load(opts: &SuiteOptions) -> Result<(SuiteDesc, Vec<(String, CompareOptio
         bail!("{}: the suite names no scenes", path.display());
     }
     let folder = path.parent().unwrap_or(Path::new("."));
-    let mut entries: Vec<(String, CompareOptions)> = Vec::new();
+    let mut entries: Vec<Entry> = Vec::new();
     for (k, e) in desc.scenes.iter().enumerate() {
         let at = |what: String| {
             anyhow!(
@@ -152,10 +152,10 @@ pub fn load(opts: &SuiteOptions) -> Result<(SuiteDesc, Vec<(String, CompareOptio
             )
         };
         let entry = entry_options(&desc, e, folder, opts).map_err(|err| at(format!("{err:#}")))?;
-        if entries.iter().any(|(n, _)| n == &entry.0) {
+        if entries.iter().any(|other| other.name == entry.name) {
             return Err(at(format!(
                 "the name `{}` is used twice; give one entry a `name`",
-                entry.0
+                entry.name
             )));
         }
         entries.push(entry);
@@ -219,18 +219,26 @@ fn check_name(name: &str) -> Result<()> {
     Ok(())
 }
 
+/// One entry of a suite, checked: its name, the comparison it runs, and the files its scene
+/// reads.
+pub struct Entry {
+    pub name: String,
+    pub compare: CompareOptions,
+    pub inputs: crate::scene::SceneInputs,
+}
+
 fn entry_options(
     desc: &SuiteDesc,
     e: &EntryDesc,
     folder: &Path,
     opts: &SuiteOptions,
-) -> Result<(String, CompareOptions)> {
+) -> Result<Entry> {
     let scene = folder.join(&e.scene);
     if !scene.is_file() {
         bail!("{}: no such scene file", scene.display());
     }
-    // Parsed now, so that a mistake in the last scene stops the suite before the first renders.
-    crate::scene::load_scene_defined(&scene, &opts.allowed, &Default::default())?;
+    // Loaded now, so that a mistake in the last scene stops the suite before the first renders.
+    let loaded = crate::scene::load_scene_defined(&scene, &opts.allowed, &Default::default())?;
     let name = match &e.name {
         Some(n) => n.clone(),
         None => e
@@ -278,10 +286,22 @@ fn entry_options(
     if let Some((w, h)) = size {
         crate::scene::load::check_size(w, h).map_err(|m| anyhow!("size: {m}"))?;
     }
+    let region = e.region.map(|(x, y, w, h)| Region { x, y, w, h });
+    if let Some(r) = region {
+        let (w, h) = size.unwrap_or((loaded.camera.width, loaded.camera.height));
+        if r.w == 0
+            || r.h == 0
+            || r.x as u64 + r.w as u64 > w as u64
+            || r.y as u64 + r.h as u64 > h as u64
+        {
+            bail!("region {r} is not inside the {w}x{h} image");
+        }
+    }
     let out_dir = opts.out_dir.join(&name);
-    Ok((
+    Ok(Entry {
         name,
-        CompareOptions {
+        inputs: loaded.inputs,
+        compare: CompareOptions {
             scene,
             allowed: opts.allowed.clone(),
             import: Default::default(),
@@ -297,11 +317,11 @@ fn entry_options(
             size,
             progress: opts.progress,
             note: e.note.clone(),
-            region: e.region.map(|(x, y, w, h)| Region { x, y, w, h }),
+            region,
             accel: Default::default(),
             filter: None,
         },
-    ))
+    })
 }
 
 /// The error a suite ranks by.
@@ -414,22 +434,35 @@ fn standings(entry: &str, report: &Report, by: RankBy) -> Vec<Standing> {
 /// Runs every entry, then writes the summary (`index.html`, `summary.csv`, `summary.json`).
 pub fn run(opts: &SuiteOptions) -> Result<Vec<Standing>> {
     let (desc, entries) = load(opts)?;
-    if opts.out_dir.exists() && !opts.out_dir.is_dir() {
-        bail!(
-            "{}: the output folder is a file, not a folder",
-            opts.out_dir.display()
-        );
+    // Every file any entry writes, checked against the suite file, every file any scene
+    // reads and each other, and the folders' own files, before the first entry renders.
+    let summary: Vec<(String, PathBuf)> = ["index.html", "summary.csv", "summary.json"]
+        .iter()
+        .map(|n| (format!("the suite's {n}"), opts.out_dir.join(n)))
+        .collect();
+    let mut plan = crate::output::plan::FilePlan::new();
+    plan.input("the suite file", &opts.file)?;
+    for e in &entries {
+        for file in e.inputs.all().filter(|f| f.exists()) {
+            plan.input("a file a scene of the suite reads", file)?;
+        }
     }
-    std::fs::create_dir_all(&opts.out_dir).with_context(|| {
-        format!(
-            "{}: cannot create the output folder",
-            opts.out_dir.display()
-        )
-    })?;
+    for (role, file) in &summary {
+        plan.output(role, file)?;
+    }
+    for e in &entries {
+        let files = super::output_files(&e.compare);
+        super::check_output_folder(&e.compare.out_dir, &files)?;
+        for (role, file) in &files {
+            plan.output(&format!("entry `{}`'s {role}", e.name), file)?;
+        }
+    }
+    plan.check()?;
+    super::claim_output_folder(&opts.out_dir, &summary)?;
     let mut all = Vec::new();
     let mut pages = Vec::new();
-    for (k, (name, compare)) in entries.iter().enumerate() {
-        eprintln!(
+    for (k, Entry { name, compare, .. }) in entries.iter().enumerate() {
+        note!(
             "suite: {} of {}: {name} ({} integrators)",
             k + 1,
             entries.len(),

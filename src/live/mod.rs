@@ -18,6 +18,7 @@ pub mod serve;
 pub mod watch;
 
 use crate::render::{self, Accumulation, Film, RenderSettings, RenderStats};
+use crate::scene::access::SceneFiles;
 use crate::scene::edit::SceneState;
 use crate::scene::RenderScene;
 use crate::scene::{self, Camera, LoadedScene};
@@ -150,6 +151,9 @@ pub trait Observer {
     /// What a load or reload did and how long it took, once the first pass after it ended:
     /// `reload: 1 material changed (`white`), rebuilt nothing, first pass after 41 ms`.
     fn reloaded(&mut self, line: &str);
+    /// The files the scene has read, after a load or reload (also one that failed): what
+    /// an observer that writes files must not replace.
+    fn inputs(&mut self, _scene: &std::path::Path, _files: &[PathBuf]) {}
 }
 
 /// Requests not yet acted on.
@@ -268,14 +272,16 @@ fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, 
 /// Reads the scene file and applies it to the session's world (or loads it, the first time
 /// and after a load that failed), then builds what changed. Returns what it did, for the
 /// reload line. On an error the world and its render scene stay as they were.
-fn reload(live: &mut Option<SceneState>, settings: &LiveSettings) -> Result<String> {
+fn reload(
+    live: &mut Option<SceneState>,
+    settings: &LiveSettings,
+    files: &SceneFiles,
+) -> Result<String> {
     let start = Instant::now();
-    let (file, approximated) =
-        scene::read_scene_file(&settings.scene, &settings.allowed, &settings.import)?;
+    let (file, approximated) = scene::read_scene_file(files, &settings.import)?;
     let (state, what) = match live {
         None => {
-            let files = scene::access::SceneFiles::new(&settings.scene, &settings.allowed);
-            let state = SceneState::new(file, &settings.scene, files)?;
+            let state = SceneState::new(file, &settings.scene, files.clone())?;
             (live.insert(state), "load".to_string())
         }
         Some(state) => {
@@ -284,8 +290,9 @@ fn reload(live: &mut Option<SceneState>, settings: &LiveSettings) -> Result<Stri
         }
     };
     state.loaded.warnings.extend(approximated);
+    state.loaded.inputs = scene::SceneInputs::of(files, &settings.import);
     for w in &state.loaded.warnings {
-        eprintln!("warning: {}: {w}", settings.scene.display());
+        note!("warning: {}: {w}", settings.scene.display());
     }
     match state.render_scene(settings.accel, settings.threads) {
         Ok((_, rebuilt)) => {
@@ -415,7 +422,9 @@ fn render_job(
 }
 
 /// Runs a live session until [`Control::quit`]: load, render, wait for a request, repeat.
-/// `watcher` is told the files the scene names after every load.
+/// `watcher` and `observer` are told the files the scene has read after every load, or
+/// tried to (an included file with an error in it, a missing texture): saving any of them
+/// loads it again.
 pub fn run(
     settings: &LiveSettings,
     mut selection: Selection,
@@ -424,6 +433,9 @@ pub fn run(
     observer: &mut dyn Observer,
 ) {
     let mut live: Option<SceneState> = None;
+    // Every load of the session reads through these, so they list every file any version
+    // of the scene read (a file no longer named only costs a reload that changes nothing).
+    let files = SceneFiles::new(&settings.scene, &settings.allowed);
     loop {
         let pending = control.take();
         if pending.quit {
@@ -434,14 +446,15 @@ pub fn run(
         if let Some(s) = pending.selection {
             selection = s;
         }
-        // Unparsable: keep watching what the last good version named (and folders made
-        // again since, anew).
-        let files = scene::references::referenced_files(&settings.scene);
-        if let Err(e) = watcher.track(files.as_deref()) {
-            eprintln!("warning: {e:#}");
-        }
         if pending.reload.is_some() || live.is_none() {
-            match reload(&mut live, settings) {
+            let reloaded = reload(&mut live, settings, &files);
+            let read = files.read();
+            // Folders made again since are watched anew too.
+            if let Err(e) = watcher.track(&read) {
+                note!("warning: {e:#}");
+            }
+            observer.inputs(&settings.scene, &read);
+            match reloaded {
                 Ok(line) => what = line,
                 Err(e) => {
                     observer.load_failed(&format!("{e:#}"));

@@ -26,8 +26,6 @@ pub struct SceneWatcher {
     /// Folders being watched, with the identity (device, inode) of the folder watched: a
     /// folder deleted and made again is a new one, whose watch must be set again.
     dirs: Mutex<HashMap<PathBuf, (u64, u64)>>,
-    /// The files named by the last scene that could be read (kept while it cannot be).
-    named: Mutex<Vec<PathBuf>>,
     /// The scene and the files it names, normalised: what [`SceneWatcher::files`] lists.
     tracked: Mutex<Vec<PathBuf>>,
     /// Files whose changes count (absolute, with canonical folders), shared with the thread.
@@ -90,28 +88,19 @@ impl SceneWatcher {
             scene: scene.to_path_buf(),
             watcher: Mutex::new(watcher),
             dirs: Mutex::default(),
-            named: Mutex::default(),
             tracked: Mutex::default(),
             files,
         };
-        w.track(Some(&[]))?;
+        w.track(&[])?;
         Ok(w)
     }
 
-    /// Watches the scene and `files` from now on; `None` keeps the files named before (the
-    /// scene cannot be read now) but watches folders made again since anew. Called after
-    /// every load.
-    pub fn track(&self, files: Option<&[PathBuf]>) -> Result<()> {
-        let files = match files {
-            Some(f) => {
-                *lock(&self.named) = f.to_vec();
-                f.to_vec()
-            }
-            None => lock(&self.named).clone(),
-        };
+    /// Watches the scene and `files` from now on (and folders made again since, anew).
+    /// Called after every load.
+    pub fn track(&self, files: &[PathBuf]) -> Result<()> {
         let mut wanted = HashSet::new();
         let mut dirs = HashSet::new();
-        for f in std::iter::once(&self.scene).chain(&files) {
+        for f in std::iter::once(&self.scene).chain(files) {
             // A file named through a symbolic link changes where the link points: both the
             // link and its target are watched.
             let target = crate::output::atomic::through_links(f).unwrap_or_else(|_| f.clone());
@@ -228,7 +217,7 @@ mod tests {
         std::fs::write(&scene, "a").unwrap();
         let control = Arc::new(Control::new());
         let w = SceneWatcher::start(&scene, Arc::clone(&control)).unwrap();
-        w.track(Some(std::slice::from_ref(&mesh))).unwrap();
+        w.track(std::slice::from_ref(&mesh)).unwrap();
         assert_eq!(w.files().len(), 2);
 
         // An unrelated file in the same folder: nothing.

@@ -3,7 +3,7 @@
 //! failure never leaves a partial file and an old file survives intact.
 
 pub mod atomic;
-mod exr_file;
+pub mod exr_file;
 pub mod film;
 pub mod plan;
 pub mod tonemap;
@@ -152,14 +152,24 @@ pub fn read_image(path: &Path) -> Result<Film> {
     // A regular file of sane size, decoded as its extension says (a pipe would block).
     let (mut file, _) =
         crate::files::open_capped(path, crate::files::MAX_BINARY).with_context(cannot)?;
-    let format = ImageFormat::from_path(path).with_context(cannot)?;
-    let img = image::ImageReader::with_format(std::io::BufReader::new(&mut file), format)
-        .decode()
-        .with_context(cannot)?;
+    let format = match ext.as_deref() {
+        Some("exr") => ImageFormat::OpenExr,
+        _ => ImageFormat::from_path(path).with_context(cannot)?,
+    };
+    decode_image(&mut file, format, path)
+}
+
+/// Decodes an open image file of `format` (named `path` in messages) as [`read_image`] does,
+/// within the memory this process may still use.
+pub fn decode_image(file: &mut std::fs::File, format: ImageFormat, path: &Path) -> Result<Film> {
+    let cannot = || format!("{}: cannot read the image", path.display());
+    let mut reader = image::ImageReader::with_format(std::io::BufReader::new(&mut *file), format);
+    reader.limits(crate::files::image_limits());
+    let img = reader.decode().with_context(cannot)?;
     let (w, h) = (img.width(), img.height());
     let mut film = Film::new(w, h);
-    match ext.as_deref() {
-        Some("exr") => {
+    match format {
+        ImageFormat::OpenExr => {
             for (p, q) in film.pixels.iter_mut().zip(img.to_rgb32f().pixels()) {
                 *p = glam::Vec3::new(q[0], q[1], q[2]);
             }

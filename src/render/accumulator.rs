@@ -80,6 +80,12 @@ impl PixelAccumulator {
     pub fn is_empty(&self) -> bool {
         *self == PixelAccumulator::default()
     }
+
+    /// Whether this block's sums fit the exact totals (a block that does not is dropped for
+    /// its pixel when it ends, or when an image is made of an unfinished one).
+    pub fn fits(&self) -> bool {
+        self.is_empty() || PixelTotals::of_block(self).is_some()
+    }
 }
 
 /// The squares of the passes' estimates are held scaled by this (exactly: a power of two), so

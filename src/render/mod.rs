@@ -379,6 +379,28 @@ impl Accumulation {
         self
     }
 
+    /// The samples dropped so far: those counted as their passes or blocks closed, and the
+    /// pixels whose unfinished block is beyond what exact sums hold (left out of any image
+    /// made now, as a finished block would be: a render of fewer passes than a block must
+    /// say so too).
+    pub fn dropped_so_far(&self) -> Dropped {
+        let mut dropped = self.dropped;
+        let block_start = self.spp_done - self.spp_done % BLOCK;
+        for t in &self.tiles {
+            for (k, block) in t.pixels.iter().enumerate() {
+                if !block.fits() {
+                    let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
+                    dropped.note(BadSample {
+                        x,
+                        y,
+                        sample: block_start,
+                    });
+                }
+            }
+        }
+        dropped
+    }
+
     /// Passes this accumulation holds.
     pub fn passes(&self) -> u32 {
         self.spp_done - self.first_pass
@@ -762,20 +784,18 @@ pub fn render_passes(
     progress.finish_and_clear();
     stats.elapsed = start.elapsed();
     stats.spp_done = acc.spp_done;
-    stats.dropped = acc.dropped;
+    stats.dropped = acc.dropped_so_far();
     Ok(stats)
 }
 
-/// The files rendering `scene` reads, as the inputs of a [`FilePlan`]: the scene file and the
-/// files it names (meshes). The caller adds its outputs and checks the plan.
-pub fn scene_inputs(scene: &std::path::Path) -> anyhow::Result<FilePlan> {
+/// The files a loaded scene read (the scene, included files, meshes, textures, maps), as
+/// the inputs of a [`FilePlan`]. The caller adds its outputs and checks the plan.
+pub fn scene_inputs(inputs: &crate::scene::SceneInputs) -> anyhow::Result<FilePlan> {
     let mut plan = FilePlan::new();
-    if scene.exists() {
-        plan.input("the scene", scene)?;
-    }
-    for file in crate::scene::references::referenced_files(scene).unwrap_or_default() {
+    plan.input("the scene", &inputs.scene)?;
+    for file in &inputs.files {
         if file.exists() {
-            plan.input("a file the scene names", &file)?;
+            plan.input("a file the scene reads", file)?;
         }
     }
     Ok(plan)
@@ -830,6 +850,45 @@ mod tests {
                 Rgb::ONE
             }
         }
+    }
+
+    /// Radiance 1e17 (finite, but beyond what a block's exact sums hold) right of the
+    /// image centre, 1 elsewhere: a lamp too bright to sum.
+    struct Blinding;
+
+    impl RayIntegrator for Blinding {
+        fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+            tracer.camera(ray);
+            if ray.dir.x > 0.2 {
+                Rgb::splat(1e17)
+            } else {
+                Rgb::ONE
+            }
+        }
+    }
+
+    /// Samples too bright to sum are dropped and counted at every sample count, also when
+    /// the render ends inside its first block of passes (1 to 7 spp), where no block closed.
+    #[test]
+    fn samples_beyond_the_exact_sums_are_counted_in_an_unfinished_block_too() {
+        let (s, cam) = scene();
+        let mut counts = Vec::new();
+        for spp in [1, 3, 7, 8, 9] {
+            let (film, stats) = render(&s, &cam, &mut Blinding, &settings(spp, 2)).unwrap();
+            assert!(stats.dropped.count > 0, "{spp} spp: nothing counted");
+            let first = stats.dropped.first.unwrap();
+            assert!(first.x > 10, "{spp} spp: {first:?}");
+            assert!(film.pixels.iter().all(|p| p.is_finite()));
+            assert_eq!(film.pixels[19], glam::Vec3::ZERO, "{spp} spp");
+            counts.push(stats.dropped.count);
+        }
+        // One per pixel and block: more pixels reached as samples spread over their pixels,
+        // and at 9 spp a second block begun beside the closed one.
+        assert!(
+            counts[0] <= counts[1] && counts[1] <= counts[2],
+            "{counts:?}"
+        );
+        assert!(counts[4] > counts[3] + counts[3] / 2, "{counts:?}");
     }
 
     fn scene() -> (RenderScene, Camera) {

@@ -106,9 +106,10 @@ pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
             FlatSamples::U32(plane),
         ));
     }
-    let dropped = match acc.dropped.first {
-        Some(b) => format!("{} {} {} {}", acc.dropped.count, b.x, b.y, b.sample),
-        None => format!("{}", acc.dropped.count),
+    let so_far = acc.dropped_so_far();
+    let dropped = match so_far.first {
+        Some(b) => format!("{} {} {} {}", so_far.count, b.x, b.y, b.sample),
+        None => format!("{}", so_far.count),
     };
     let tonemap = info
         .display
@@ -134,9 +135,12 @@ pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
     crate::output::write_exr_with(path, &film, extra, (ATTRIBUTE, value))
 }
 
+/// The most bytes deflate (EXR's ZIP compression) can make of one (1032, rounded up).
+const MAX_DEFLATE_RATIO: u64 = 1100;
+
 /// What the shard file at `path` says it is, from its header alone.
 pub fn read_info(path: &Path) -> Result<ShardInfo> {
-    let (file, _) = crate::files::open_capped(path, u64::MAX)?;
+    let (file, file_len) = crate::files::open_capped(path, u64::MAX)?;
     let meta = exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(file), false)
         .map_err(|e| anyhow!("not an EXR file ({e})"))?;
     let [header] = meta.headers.as_slice() else {
@@ -202,6 +206,15 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
         bail!(
             "it has {channels} channels, a shard has {expected} (or {} with one pass)",
             expected - 3
+        );
+    }
+    // What the header claims must fit in the file: a shard's pixels are ZIP-compressed, and
+    // deflate packs at most 1032 bytes into one, so a forged header claiming a huge image is
+    // refused here, before its pixels are allocated.
+    let claimed = width as u64 * height as u64 * channels as u64 * 4;
+    if claimed > MAX_DEFLATE_RATIO * file_len + (1 << 20) {
+        bail!(
+            "its header claims a {width}x{height} image of {channels} channels ({claimed} bytes), more than a file of {file_len} bytes can hold"
         );
     }
     let spp = number("spp")?;

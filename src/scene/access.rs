@@ -4,16 +4,29 @@
 //! DIR` adds folders a user trusts (for scenes whose assets sit beside them, as Mitsuba's test
 //! scenes reach `../../../common`). Paths are compared after resolving links, so neither
 //! `../` nor a symbolic link leaves the allowed folders.
+//!
+//! Every file a scene reads passes through here, so [`SceneFiles`] also keeps the list of
+//! them (its *inputs*: the scene, included files, meshes, material libraries, buffers,
+//! textures, environment maps), missing ones included: what no output may replace, what a
+//! live session watches, and what the scene's identity ([`super::inputs`]) hashes.
 
+use std::collections::BTreeSet;
 use std::path::{Component, Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
-/// A scene's folder and the folders its files may come from.
+/// A scene's folder, the folders its files may come from, and the files it has read.
 #[derive(Clone, Debug)]
 pub struct SceneFiles {
+    /// The scene file itself.
+    scene: PathBuf,
     /// The scene file's folder: relative paths in the scene start here.
     dir: PathBuf,
     /// Canonical folders files may lie under: the scene's, then those allowed.
     roots: Vec<PathBuf>,
+    /// Every file asked for through [`SceneFiles::named`] or [`SceneFiles::check`], as it
+    /// was reached (lexically: the scene's folder joined with the name), shared by the
+    /// clones (the loaders of one scene, which may run in parallel).
+    read: Arc<Mutex<BTreeSet<PathBuf>>>,
 }
 
 impl SceneFiles {
@@ -27,12 +40,33 @@ impl SceneFiles {
             .chain(allowed)
             .filter_map(|d| d.canonicalize().ok())
             .collect();
-        SceneFiles { dir, roots }
+        SceneFiles {
+            scene: scene.to_path_buf(),
+            dir,
+            roots,
+            read: Arc::default(),
+        }
     }
 
     /// The scene file's folder, which relative paths start from.
     pub fn dir(&self) -> &Path {
         &self.dir
+    }
+
+    /// The scene file.
+    pub fn scene(&self) -> &Path {
+        &self.scene
+    }
+
+    /// The files the scene has read so far besides the scene file (or tried to: missing
+    /// ones too, whose creation must count as a change), in path order.
+    pub fn read(&self) -> Vec<PathBuf> {
+        self.log().iter().cloned().collect()
+    }
+
+    fn log(&self) -> std::sync::MutexGuard<'_, BTreeSet<PathBuf>> {
+        // A panic while holding it leaves a set of paths: still usable.
+        self.read.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// The file the scene names as `path` (relative to the scene's folder), if the scene
@@ -44,8 +78,12 @@ impl SceneFiles {
     }
 
     /// Refuses `file` (named `as_named` where it is named) unless it lies under an allowed
-    /// folder. A file that does not exist passes: opening it reports that.
+    /// folder. A file that does not exist passes: opening it reports that. Either way the
+    /// file joins the scene's inputs.
     pub fn check(&self, file: &Path, as_named: &str) -> Result<(), String> {
+        if file != self.scene {
+            self.log().insert(file.to_path_buf());
+        }
         let Ok(real) = file.canonicalize() else {
             return Ok(());
         };

@@ -355,6 +355,7 @@ impl SceneState {
                 meshes: Vec::new(),
                 environment: None,
                 warnings: Vec::new(),
+                inputs: Default::default(),
             },
             files,
             records: Vec::new(),

@@ -9,10 +9,6 @@ use std::io::Cursor;
 use std::path::Path;
 use std::sync::Arc;
 
-/// The largest image side a scene may name (a 32k x 16k environment map is the largest in
-/// common use).
-pub const MAX_IMAGE_SIDE: u32 = 65_536;
-
 /// An image as linear RGB texels, row by row from the top.
 #[derive(Debug)]
 pub struct LinearImage {
@@ -40,7 +36,13 @@ fn cannot(file: &Path, e: &dyn std::fmt::Display) -> String {
 /// table goes through the same conversions), any other as [`read_linear_rgb`] reads it. Returns
 /// (width, height, texels).
 pub fn read_texels(file: &Path, raw: bool) -> Result<(usize, usize, Texels), String> {
-    let decoded = decode(file)?;
+    let decoded = decode(file, |colour| match colour {
+        image::ColorType::L8
+        | image::ColorType::La8
+        | image::ColorType::Rgb8
+        | image::ColorType::Rgba8 => BYTE_BYTES_PER_PIXEL,
+        _ => FLOAT_BYTES_PER_PIXEL,
+    })?;
     // Every byte value, as a grey image of the same layout: the decoder's conversion to
     // floats differs from layout to layout in its rounding.
     use image::DynamicImage as D;
@@ -85,15 +87,29 @@ pub fn read_texels(file: &Path, raw: bool) -> Result<(usize, usize, Texels), Str
 /// Reads and decodes `file`; 8- and 16-bit images are decoded from sRGB unless `raw`. The
 /// error names the file and what is wrong with it.
 pub fn read_linear_rgb(file: &Path, raw: bool) -> Result<LinearImage, String> {
-    to_linear(file, decode(file)?, raw)
+    to_linear(file, decode(file, |_| FLOAT_BYTES_PER_PIXEL)?, raw)
 }
 
-/// Reads and decodes `file`, within the size and memory caps.
-fn decode(file: &Path) -> Result<image::DynamicImage, String> {
+/// Bytes per pixel that reading an image as linear floats holds besides the decoded image at
+/// its peak: the `f32` RGB copy (12), the texels (16), and either the texture's shared copy of
+/// them or an environment map's sampling tables and octahedral remap (16 at most).
+const FLOAT_BYTES_PER_PIXEL: u64 = 44;
+
+/// The same for a texture of 8-bit texels: its RGBA copy and the shared bytes (4 each).
+const BYTE_BYTES_PER_PIXEL: u64 = 8;
+
+/// Reads and decodes `file`, within the size and memory caps: the image's size, read from its
+/// header, is refused when the decoded image and the `extra` bytes per pixel that will be made
+/// of it (given its colour type) do not fit in the memory this process may use.
+fn decode(
+    file: &Path,
+    extra: impl Fn(image::ColorType) -> u64,
+) -> Result<image::DynamicImage, String> {
+    use image::ImageDecoder as _;
     let cannot = |e: &dyn std::fmt::Display| cannot(file, e);
     let bytes =
         crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(&e))?;
-    let mut reader = image::ImageReader::new(Cursor::new(&bytes))
+    let reader = image::ImageReader::new(Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| cannot(&e))?;
     if reader.format().is_none() {
@@ -101,14 +117,22 @@ fn decode(file: &Path) -> Result<image::DynamicImage, String> {
             &"it is not an image raylab reads (OpenEXR, Radiance HDR, PNG or JPEG)",
         ));
     }
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_IMAGE_SIDE);
-    limits.max_image_height = Some(MAX_IMAGE_SIDE);
-    // The decoded image, and its float copy, must fit in the memory this process may use.
-    let room = crate::system::memory_limit().map_or(u64::MAX, |(room, _)| room / 2);
-    limits.max_alloc = Some(room.min(crate::files::MAX_BINARY));
-    reader.limits(limits);
-    reader.decode().map_err(|e| cannot(&e))
+    let mut decoder = reader.into_decoder().map_err(|e| cannot(&e))?;
+    decoder
+        .set_limits(crate::files::image_limits())
+        .map_err(|e| cannot(&e))?;
+    let (w, h) = decoder.dimensions();
+    let colour = decoder.color_type();
+    let per_pixel = colour.bytes_per_pixel() as u64 + extra(colour);
+    let need = (w as u64 * h as u64).saturating_mul(per_pixel);
+    if let Some((room, what)) = crate::system::memory_limit() {
+        if need > room {
+            return Err(cannot(&format_args!(
+                "it is {w} x {h} pixels, which take {need} bytes of memory as raylab holds them, more than the {room} bytes {what}"
+            )));
+        }
+    }
+    image::DynamicImage::from_decoder(decoder).map_err(|e| cannot(&e))
 }
 
 /// `decoded` (read from `file`) as linear RGB: 8- and 16-bit images decoded from sRGB unless

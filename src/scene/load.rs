@@ -4,6 +4,7 @@ use super::access::SceneFiles;
 use super::components::{Emitter, Shape, Transform};
 use super::error::{finite, SceneError};
 use super::import::{ImportOptions, Imported};
+use super::inputs::SceneInputs;
 use super::schema::{CameraDesc, EmitterDesc, RenderDesc, SceneFile, ShapeDesc};
 use super::{mesh_files, LoadedScene};
 use glam::{Vec3, Vec3A};
@@ -37,20 +38,31 @@ pub fn load_scene_defined(
     allowed: &[PathBuf],
     options: &ImportOptions,
 ) -> Result<LoadedScene, SceneError> {
-    let (file, approximated) = read_scene_file(path, allowed, options)?;
-    let mut loaded = super::edit::build_world(file, path, &SceneFiles::new(path, allowed))?;
+    load_scene_in(&SceneFiles::new(path, allowed), options)
+}
+
+/// Loads the scene of `files` (which keeps the list of what it read, also when the load
+/// fails), read with `options`.
+pub fn load_scene_in(
+    files: &SceneFiles,
+    options: &ImportOptions,
+) -> Result<LoadedScene, SceneError> {
+    let path = files.scene();
+    let (file, approximated) = read_scene_file(files, options)?;
+    let mut loaded = super::edit::build_world(file, path, files)?;
     loaded.warnings.extend(approximated);
+    loaded.inputs = SceneInputs::of(files, options);
     Ok(loaded)
 }
 
-/// Reads and parses a scene file of any format (as [`load_scene_defined`]), without making a
-/// world of it; also the `--approximate` warnings of an imported scene.
+/// Reads and parses the scene file of `files` in any format (as [`load_scene_defined`]),
+/// without making a world of it; also the `--approximate` warnings of an imported scene.
 pub fn read_scene_file(
-    path: &Path,
-    allowed: &[PathBuf],
+    files: &SceneFiles,
     options: &ImportOptions,
 ) -> Result<(SceneFile, Vec<String>), SceneError> {
-    let (text, approximated) = match import_scene(path, allowed, options)? {
+    let path = files.scene();
+    let (text, approximated) = match import_scene(files, options)? {
         Some(imported) => (imported.ron, imported.approximated),
         None => (read_scene_text(path)?, Vec::new()),
     };
@@ -78,9 +90,10 @@ pub fn is_mitsuba(path: &Path) -> bool {
     has_extension(path, "xml")
 }
 
-/// Whether `path` names a pbrt-v4 scene (by its extension).
+/// Whether `path` names a pbrt-v4 scene (by its extension: `.pbrt`, or `.pbrt.gz`).
 pub fn is_pbrt(path: &Path) -> bool {
     has_extension(path, "pbrt")
+        || (has_extension(path, "gz") && has_extension(&path.with_extension(""), "pbrt"))
 }
 
 /// Whether `path` names a scene of another renderer, which raylab imports into RON.
@@ -102,26 +115,13 @@ fn read_scene_text(path: &Path) -> Result<String, SceneError> {
     })
 }
 
-/// A scene file's RON text: the file itself, or a scene of another format converted (errors
-/// at their place in that file).
-pub fn scene_text(
-    path: &Path,
-    allowed: &[PathBuf],
-    options: &ImportOptions,
-) -> Result<String, SceneError> {
-    match import_scene(path, allowed, options)? {
-        Some(imported) => Ok(imported.ron),
-        None => read_scene_text(path),
-    }
-}
-
 /// A Mitsuba 3 XML or pbrt-v4 scene converted into RON; `None` for a RON scene (which takes
 /// no import options).
 pub fn import_scene(
-    path: &Path,
-    allowed: &[PathBuf],
+    files: &SceneFiles,
     options: &ImportOptions,
 ) -> Result<Option<Imported>, SceneError> {
+    let path = files.scene();
     if !is_imported(path) {
         let refused = match (options.defines.first(), options.approximate) {
             (Some((name, _)), _) => Some(format!(
@@ -142,14 +142,13 @@ pub fn import_scene(
     }
     let text = read_scene_text(path)?;
     if is_mitsuba(path) {
-        let files = SceneFiles::new(path, allowed);
         let located = |(file, line, col, message): (PathBuf, u32, u32, String)| SceneError::Parse {
             path: file,
             line: line as usize,
             col: col as usize,
             message,
         };
-        let expanded = super::mitsuba::include::expand(path, &text, &files).map_err(located)?;
+        let expanded = super::mitsuba::include::expand(path, &text, files).map_err(located)?;
         let base = path.parent().filter(|p| !p.as_os_str().is_empty());
         let base = base.unwrap_or(Path::new("."));
         let imported =
@@ -168,8 +167,7 @@ pub fn import_scene(
             ),
         });
     }
-    let files = SceneFiles::new(path, allowed);
-    super::pbrt::to_ron(path, &text, &files, options)
+    super::pbrt::to_ron(path, &text, files, options)
         .map(Some)
         .map_err(|(file, line, col, message)| SceneError::Parse {
             path: file,
@@ -182,11 +180,10 @@ pub fn import_scene(
 /// Parses scene text; `path` is used in messages and to resolve relative files (under its
 /// folder).
 pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
-    super::edit::build_world(
-        parse_scene_file(text, path)?,
-        path,
-        &SceneFiles::new(path, &[]),
-    )
+    let files = SceneFiles::new(path, &[]);
+    let mut loaded = super::edit::build_world(parse_scene_file(text, path)?, path, &files)?;
+    loaded.inputs = SceneInputs::of(&files, &ImportOptions::default());
+    Ok(loaded)
 }
 
 /// Parses scene text into its schema, without loading any file it names or checking values;

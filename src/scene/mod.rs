@@ -10,6 +10,7 @@ pub mod file_materials;
 pub mod flatten;
 pub mod images;
 pub mod import;
+pub mod inputs;
 pub mod load;
 pub mod materials;
 pub mod mesh_files;
@@ -29,9 +30,10 @@ pub mod textures;
 pub use error::SceneError;
 pub use flatten::RenderScene;
 pub use import::{ImportOptions, Imported};
+pub use inputs::SceneInputs;
 pub use load::{
-    import_scene, is_imported, is_mitsuba, is_pbrt, load_scene, load_scene_defined,
-    load_scene_with, parse_scene, read_scene_file, scene_text,
+    import_scene, is_imported, is_mitsuba, is_pbrt, load_scene, load_scene_defined, load_scene_in,
+    load_scene_with, parse_scene, read_scene_file,
 };
 pub use raylab_integrators::Camera;
 
@@ -58,6 +60,9 @@ pub struct LoadedScene {
     pub environment: Option<Rgb>,
     /// Non-fatal problems found while loading (e.g. dropped degenerate triangles).
     pub warnings: Vec<String>,
+    /// Every file the load read, and how the scene was read: what no output may replace,
+    /// and the scene's identity.
+    pub inputs: SceneInputs,
 }
 
 #[cfg(test)]

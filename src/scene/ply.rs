@@ -112,7 +112,7 @@ fn first_line(e: &dyn std::fmt::Display) -> String {
 
 /// Loads a PLY file as one mesh in the file's space.
 pub fn load_ply(file: &Path) -> Result<FileMesh, String> {
-    let bytes = crate::files::read_capped(file, crate::files::MAX_BINARY)
+    let bytes = crate::files::read_uncompressed(file, crate::files::MAX_BINARY)
         .map_err(|e| format!("cannot load PLY file `{}`: {e}", file.display()))?;
     parse_ply(file, &bytes)
 }

@@ -79,7 +79,7 @@ fn no_output_may_overwrite_the_scene_a_mesh_or_another_output() {
     std::fs::hard_link(d.join("assets/pyramid.obj"), d.join("hard.exr")).unwrap();
     for out in ["link.png", "hard.exr"] {
         let o = render(d, &["mesh_files.ron", "-o", out]);
-        refused(&o, &["the image would overwrite a file the scene names"]);
+        refused(&o, &["the image would overwrite a file the scene reads"]);
     }
     // Checkpoint and image in one file: neither could be resumed.
     let o = render(d, &["s.ron", "--checkpoint", "x.exr", "-o", "./x.exr"]);
@@ -250,6 +250,40 @@ fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
         assert!(out.exists() && ck.exists(), "SIG{signal}: {e}");
     }
     crate::common::assert_no_temporaries(d);
+}
+
+/// GNU `timeout` delivers its signal twice, to raylab and then to its process group, within
+/// microseconds: that is one stop, which writes the image, not "Ctrl-C again" (which would
+/// write nothing).
+#[test]
+fn a_signal_delivered_twice_at_once_is_one_stop() {
+    let dir = workspace();
+    let d = dir.path();
+    let (out, ck) = (d.join("twice.png"), d.join("twice.ck"));
+    let r = Running::start(
+        &[
+            "render",
+            repo_file("scenes/cornell_box.ron").to_str().unwrap(),
+            "--size",
+            "64x64",
+            "--spp",
+            "100000",
+            "-o",
+            out.to_str().unwrap(),
+            "--checkpoint",
+            ck.to_str().unwrap(),
+        ],
+        &d.join("twice.log"),
+        false,
+    );
+    assert!(crate::common::eventually(|| ck.exists()), "{}", r.stderr());
+    let log = r.stderr.clone();
+    r.signal("TERM");
+    let status = r.stop_with("TERM");
+    let e = std::fs::read_to_string(log).unwrap();
+    assert!(status.success(), "{e}");
+    assert!(e.contains("interrupted: wrote the image with"), "{e}");
+    assert!(out.exists(), "{e}");
 }
 
 /// One NaN pixel, or an image of infinity, is a difference whatever the tolerance, reported

@@ -263,6 +263,8 @@ fn first_ctrl_c_writes_the_samples_so_far_and_a_second_stops_at_once() {
     r.wait_stderr("the first interrupt's message", |e| {
         e.contains("interrupt: stopping")
     });
+    // Later than a signal delivered twice (to the process, then its group) would come.
+    std::thread::sleep(Duration::from_millis(600));
     let status = r.stop_with("TERM");
     assert_eq!(
         status.code(),

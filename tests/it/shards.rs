@@ -281,6 +281,17 @@ fn merge_refuses_parts_that_are_not_one_whole_render() {
     set_attribute(&edited, "part", "passes 8..24");
     let cut_short = copy(&parts[1], "cut-short.exr");
     set_attribute(&cut_short, "passes-done", "20");
+    // A header that claims a 4096x4096 image in a file of a few kilobytes: its windows'
+    // corners rewritten in place.
+    let forged = copy(&parts[1], "forged.exr");
+    let mut bytes = std::fs::read(&forged).unwrap();
+    for name in [&b"dataWindow\0box2i\0"[..], &b"displayWindow\0box2i\0"[..]] {
+        let at = bytes.windows(name.len()).position(|w| w == name).unwrap() + name.len() + 4;
+        for (k, v) in [0i32, 0, 4095, 4095].into_iter().enumerate() {
+            bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(&forged, bytes).unwrap();
     let [p0, p1, p2] = [&parts[0], &parts[1], &parts[2]].map(|p| p.clone());
     let missing = d.join("nowhere.exr");
     let out = d.join("merged.exr");
@@ -314,6 +325,11 @@ fn merge_refuses_parts_that_are_not_one_whole_render() {
             "a part cut short",
             vec![p0.clone(), cut_short, p2.clone()],
             vec!["cut-short.exr", "stopped after pass 20", "--resume"],
+        ),
+        (
+            "a header claiming more than the file holds",
+            vec![p0.clone(), forged, p2.clone()],
+            vec!["forged.exr", "4096x4096", "more than a file of"],
         ),
         (
             "a missing shard",

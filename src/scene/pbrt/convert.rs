@@ -189,9 +189,6 @@ impl<'a> Converter<'a> {
                 format!("{}: includes nest deeper than {MAX_INCLUDE_DEPTH}", d.name),
             ));
         }
-        if name.ends_with(".gz") {
-            return Err((d.pos, format!("{} \"{name}\": compressed pbrt files are not read; gunzip it and name the result", d.name)));
-        }
         let file = self.files.named(name).map_err(|e| (d.pos, e))?;
         let real = file.canonicalize().unwrap_or_else(|_| file.clone());
         if self.reading.contains(&real) {
