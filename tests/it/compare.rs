@@ -813,3 +813,69 @@ fn a_suite_writes_a_page_per_entry_and_a_summary() {
         assert!(!bad_out.exists(), "{text}: nothing is written");
     }
 }
+
+/// The cached reference belongs to everything the scene read and how it was read: a `-D`
+/// value renders a new one. The cache is tried before anything renders, and an entry that
+/// is not a good image (NaN inside) is not used.
+#[test]
+fn the_reference_cache_is_keyed_by_the_scene_identity_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let scene = repo_file_str("scenes/mitsuba/cornell_box.xml");
+    let out = dir.path().join("out");
+    let run = |cache: &Path, defines: &[&str]| {
+        let mut args = vec![
+            "compare",
+            &scene,
+            "-i",
+            "path",
+            "--spp",
+            "1",
+            "--reference-spp",
+            "2",
+            "--size",
+            "16x16",
+            "-o",
+            s(&out),
+            "-q",
+        ];
+        args.extend_from_slice(defines);
+        raylab(&args, cache)
+    };
+    let rendered = |o: &Output| {
+        assert!(o.status.success(), "{}", stderr(o));
+        stderr(o).contains("rendering the reference")
+    };
+    assert!(rendered(&run(&cache, &[])));
+    assert!(!rendered(&run(&cache, &[])), "the cached reference is used");
+    assert!(
+        rendered(&run(&cache, &["-D", "max_depth=3"])),
+        "-D is part of the key"
+    );
+    assert!(!rendered(&run(&cache, &["-D", "max_depth=3"])));
+    // Every entry poisoned with a NaN: refused with a warning, rendered anew.
+    for entry in std::fs::read_dir(cache.join("raylab")).unwrap() {
+        let path = entry.unwrap().path();
+        let mut film = raylab::output::Film::new(16, 16);
+        film.pixels[5] = glam::Vec3::splat(f32::NAN);
+        raylab::output::write_image(&path, &film, Default::default()).unwrap();
+    }
+    let o = run(&cache, &[]);
+    assert!(rendered(&o));
+    assert!(
+        stderr(&o).contains("not using the cached reference"),
+        "{}",
+        stderr(&o)
+    );
+    // A cache that cannot be made: refused before the reference renders.
+    let blocked = dir.path().join("blocked");
+    std::fs::write(&blocked, "a file where the cache folder should be").unwrap();
+    let o = run(&blocked, &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cache folder"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("rendering the reference"));
+}
+
+fn repo_file_str(path: &str) -> String {
+    common::repo_file(path).to_str().unwrap().to_string()
+}

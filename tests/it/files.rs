@@ -213,6 +213,128 @@ fn a_replaced_file_keeps_its_permissions_and_link_and_odd_files_are_refused() {
     );
 }
 
+/// A Mitsuba scene's textures and included files are inputs like its meshes: no render,
+/// checkpoint or import may replace them, under any name (a link too); import
+/// writes `.ron` only.
+#[test]
+fn textures_and_included_files_are_inputs_of_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("assets")).unwrap();
+    std::fs::copy(
+        repo_file("scenes/mitsuba/assets/tiles.png"),
+        d.join("assets/tiles.png"),
+    )
+    .unwrap();
+    let scene = std::fs::read_to_string(repo_file("scenes/mitsuba/textured_glossy.xml")).unwrap();
+    // The sensor moved into a file of its own, included.
+    let start = scene.find("<sensor").unwrap();
+    let end = scene.find("</sensor>").unwrap() + "</sensor>".len();
+    std::fs::write(
+        d.join("camera.xml"),
+        format!(
+            "<scene version=\"3.0.0\">\n{}\n</scene>\n",
+            &scene[start..end]
+        ),
+    )
+    .unwrap();
+    let main = format!(
+        "{}<include filename=\"camera.xml\"/>{}",
+        &scene[..start],
+        &scene[end..]
+    );
+    std::fs::write(d.join("t.xml"), main).unwrap();
+    std::os::unix::fs::symlink("camera.xml", d.join("camera-link.ron")).unwrap();
+    let tiles = std::fs::read(d.join("assets/tiles.png")).unwrap();
+    let camera = std::fs::read(d.join("camera.xml")).unwrap();
+    for (args, words) in [
+        (
+            vec!["render", "t.xml", "-o", "assets/tiles.png"],
+            vec!["the image would overwrite a file the scene reads"],
+        ),
+        (
+            vec![
+                "render",
+                "t.xml",
+                "-o",
+                "a.png",
+                "--checkpoint",
+                "camera.xml",
+            ],
+            vec!["the checkpoint would overwrite a file the scene reads"],
+        ),
+        (
+            vec!["import", "t.xml", "-o", "camera-link.ron"],
+            vec!["the RON scene would overwrite a file the scene reads"],
+        ),
+        (
+            vec!["import", "t.xml", "-o", "t.png"],
+            vec!["import writes a RON scene"],
+        ),
+    ] {
+        let mut all = args.clone();
+        all.extend(["--spp", "1", "-q"].iter().filter(|_| args[0] != "import"));
+        let o = raylab_in(d, &all);
+        refused(&o, &words);
+    }
+    assert_eq!(std::fs::read(d.join("assets/tiles.png")).unwrap(), tiles);
+    assert_eq!(std::fs::read(d.join("camera.xml")).unwrap(), camera);
+    // The same commands into files of their own do their work.
+    let o = raylab_in(d, &["import", "t.xml", "-o", "t.ron"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// `compare -o DIR` and `suite -o DIR` into a folder raylab did not make: taken only when
+/// none of their files is there already (a folder of the user's keeps its files).
+#[test]
+fn comparisons_do_not_replace_files_in_a_folder_of_the_users() {
+    let dir = workspace();
+    let d = dir.path();
+    let mine = d.join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("reference.png"), "my own picture").unwrap();
+    let o = raylab_in(
+        d,
+        &[
+            "render", "s.ron", "-o", "ref.exr", "--size", "8x8", "--spp", "2", "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let compare = |out: &str| {
+        raylab_in(
+            d,
+            &[
+                "compare",
+                "s.ron",
+                "-i",
+                "path",
+                "--spp",
+                "1",
+                "--reference",
+                "ref.exr",
+                "--size",
+                "8x8",
+                "-o",
+                out,
+                "-q",
+            ],
+        )
+    };
+    let o = compare("mine");
+    refused(&o, &["was not made by raylab", "reference.png"]);
+    assert_eq!(
+        std::fs::read(mine.join("reference.png")).unwrap(),
+        b"my own picture"
+    );
+    // An empty folder of the user's is taken, and marked; the next run replaces its files.
+    std::fs::create_dir(d.join("empty")).unwrap();
+    for _ in 0..2 {
+        let o = compare("empty");
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert!(d.join("empty/.raylab-output").is_file());
+}
+
 /// SIGTERM (a timeout, a scheduler's preemption, `docker stop`) and SIGHUP (a closed
 /// terminal) save the samples so far, image and checkpoint, as the first Ctrl-C does.
 #[test]

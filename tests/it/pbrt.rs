@@ -1,7 +1,7 @@
 //! pbrt-v4 scenes: rendered as raylab reads them and held to closed forms and to the Mitsuba
 //! scene they were written from.
 
-use crate::common::repo_file;
+use crate::common::{raylab_in, repo_file};
 use raylab::render::{render, Film, RenderSettings};
 use raylab::scene::{load_scene, load_scene_defined, ImportOptions, LoadedScene, RenderScene};
 use raylab_integrators::registry;
@@ -378,4 +378,42 @@ Shape "sphere" "float radius" 0.01
             );
         }
     }
+}
+
+/// pbrt-v4 scenes ship gzip-compressed (`scene.pbrt.gz`, meshes as `.ply.gz`): raylab reads
+/// them as the uncompressed files, main scene, `Include`s and PLY meshes alike.
+#[test]
+fn gzip_compressed_scenes_includes_and_meshes_are_read() {
+    use std::io::Write as _;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let gz = |name: &str, bytes: &[u8]| {
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        e.write_all(bytes).unwrap();
+        std::fs::write(d.join(name), e.finish().unwrap()).unwrap();
+    };
+    let text = std::fs::read_to_string(repo_file("scenes/pbrt/cornell_box.pbrt")).unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n-0.2 -0.2 0.5\n0.2 -0.2 0.5\n0 0.2 0.5\n3 0 1 2\n";
+    gz("tri.ply.gz", ply.as_bytes());
+    gz(
+        "part.pbrt.gz",
+        b"AttributeBegin\nShape \"plymesh\" \"string filename\" \"tri.ply.gz\"\nAttributeEnd\n",
+    );
+    let world = text.rfind("WorldEnd").unwrap_or(text.len());
+    let main = format!(
+        "{}\nInclude \"part.pbrt.gz\"\n{}",
+        &text[..world],
+        &text[world..]
+    );
+    std::fs::write(d.join("plain.pbrt"), &main).unwrap();
+    gz("scene.pbrt.gz", main.as_bytes());
+    let o = raylab_in(d, &["validate", "scene.pbrt.gz"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plain = raylab_in(d, &["validate", "plain.pbrt"]);
+    // The same counts, bounds and tree (the build time aside).
+    let counts = |t: &str| -> String { t.lines().filter(|l| !l.contains("built in")).collect() };
+    let plain = String::from_utf8_lossy(&plain.stdout).replace("plain.pbrt", "scene.pbrt.gz");
+    assert!(out.contains("triangles  13"), "{out}");
+    assert_eq!(counts(&out), counts(&plain));
 }

@@ -263,3 +263,49 @@ fn saves_after_the_scenes_folder_is_made_again_rerender() {
     run.wait_stderr("a second save there", |e| done_count(e) >= 3);
     assert_eq!(run.interrupt().code(), Some(0));
 }
+
+/// Saving a file the scene `<include>`s re-renders, as saving the scene does: the watch
+/// covers every file a load read, not only those the RON names.
+#[test]
+fn saving_an_included_file_rerenders() {
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        std::fs::read_to_string(common::repo_file("scenes/mitsuba/cornell_box.xml")).unwrap();
+    let (start, end) = (
+        text.find("<shape type=\"rectangle\" id=\"light\">")
+            .unwrap(),
+        text.find("<shape type=\"rectangle\" id=\"floor\">")
+            .unwrap(),
+    );
+    let light = |radiance: &str| {
+        format!(
+            "<scene version=\"3.0.0\">\n{}\n</scene>\n",
+            text[start..end].replace("18.387, 13.9873, 6.75357", radiance)
+        )
+    };
+    let part = dir.path().join("light.xml");
+    std::fs::write(&part, light("18.387, 13.9873, 6.75357")).unwrap();
+    let scene = dir.path().join("box.xml");
+    std::fs::write(
+        &scene,
+        format!(
+            "{}<include filename=\"light.xml\"/>\n{}",
+            &text[..start],
+            &text[end..]
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out.png");
+    let run = watch(&scene, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+    let before = brightness(&out);
+    let tmp = dir.path().join("light.xml.tmp~");
+    std::fs::write(&tmp, light("1.5, 1.5, 1.5")).unwrap();
+    std::fs::rename(&tmp, &part).unwrap();
+    run.wait_stderr("the render after the include's save", |e| {
+        done_count(e) >= 2
+    });
+    let after = brightness(&out);
+    assert!(after < before * 0.5, "{after} vs {before}");
+    assert_eq!(run.interrupt().code(), Some(0));
+}
