@@ -390,6 +390,7 @@ impl SceneState {
     pub fn apply(&mut self, file: SceneFile) -> Result<EditReport, SceneError> {
         let path = self.loaded.path.clone();
         let mut report = EditReport::default();
+        super::import::check_entities(file.entities.len()).map_err(|m| self.error(m))?;
 
         // Materials: the table entities refer to by name; unchanged ones kept.
         let (mut table, materials) = self.material_table(&file, &mut report)?;

@@ -166,13 +166,13 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
             )));
         }
     }
-    // Every face is at least one triangle, every vertex 32 bytes: refuse what cannot fit
-    // before reading (a header may claim billions).
-    super::systems::check_triangle_memory(count("face").saturating_add(count("vertex") / 2))
-        .map_err(|e| cannot(&e))?;
     let has_normals = has(&["nx"]) && has(&["ny"]) && has(&["nz"]);
     let has_uvs =
         has(&["u", "s", "texture_u", "texture_s"]) && has(&["v", "t", "texture_v", "texture_t"]);
+    // Every face is at least one triangle: refuse what cannot fit before reading (a header
+    // may claim billions).
+    super::systems::check_mesh_memory(count("face"), count("vertex"), has_normals || has_uvs)
+        .map_err(|e| cannot(&e))?;
 
     let (face_parser, skip_parser) = (Parser::<Face>::new(), Parser::<Skipped>::new());
     let (mut vertices, mut faces) = (Vec::new(), Vec::new());

@@ -168,7 +168,11 @@ fn read_mesh(s: &mut Stream, version: u16) -> Result<FileMesh, String> {
             "{vertices} vertices: raylab indexes meshes with 32 bits"
         ));
     }
-    super::systems::check_triangle_memory(triangles.saturating_add(vertices / 2))?;
+    super::systems::check_mesh_memory(
+        triangles,
+        vertices,
+        flags & (HAS_NORMALS | HAS_TEXCOORDS) != 0,
+    )?;
     let double = flags & DOUBLE_PRECISION != 0;
     let vec3s = |v: Vec<f32>| -> Vec<Vec3A> {
         v.chunks_exact(3)

@@ -638,3 +638,79 @@ fn an_address_space_limit_is_respected() {
     refused(&o, &["8000x8000 image needs", "ulimit -v"]);
     assert!(!dir.path().join("big.png").exists());
 }
+
+/// An image whose header claims 65536 x 65536 pixels (a few hundred bytes of file) is
+/// refused from its header, as a texture and as an environment map, by what raylab would
+/// hold of it: the decoded image and the float texels made of it, not the decoded bytes
+/// alone.
+#[test]
+fn images_are_refused_by_what_raylab_would_hold_of_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let chunk = |kind: &[u8], data: &[u8]| {
+        let mut c = (data.len() as u32).to_be_bytes().to_vec();
+        c.extend_from_slice(kind);
+        c.extend_from_slice(data);
+        let mut crc = flate2::Crc::new();
+        crc.update(kind);
+        crc.update(data);
+        c.extend_from_slice(&crc.sum().to_be_bytes());
+        c
+    };
+    // An 8-bit grey PNG of `side` x `side` black pixels, whole (`rows`) or only its header.
+    let png = |side: u32, rows: bool| {
+        use std::io::Write as _;
+        let mut ihdr = side.to_be_bytes().to_vec();
+        ihdr.extend_from_slice(&side.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 0, 0, 0, 0]);
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+        if rows {
+            let row = vec![0u8; side as usize + 1];
+            for _ in 0..side {
+                z.write_all(&row).unwrap();
+            }
+        }
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        png.extend(chunk(b"IHDR", &ihdr));
+        png.extend(chunk(b"IDAT", &z.finish().unwrap()));
+        png.extend(chunk(b"IEND", &[]));
+        png
+    };
+    std::fs::write(d.join("huge.png"), png(65536, false)).unwrap();
+    // 389 kB: 400 MB decoded, which the decoder's own limit lets through, and 18 GB as an
+    // environment map's float texels and tables.
+    std::fs::write(d.join("big.png"), png(20000, true)).unwrap();
+    let camera = "camera: LookAt(eye: (0, 0, 3), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (8, 8))";
+    for (name, text) in [
+        (
+            "texture.ron",
+            format!(
+                r#"({camera}, materials: {{"w": Lambert(albedo: Image(path: "huge.png"))}}, environment: (1, 1, 1), entities: [(shape: Sphere(radius: 1), material: "w")])"#
+            ),
+        ),
+        (
+            "sky.ron",
+            format!(
+                r#"({camera}, materials: {{"w": Lambert(albedo: (0.5, 0.5, 0.5))}}, entities: [(shape: Sphere(radius: 1), material: "w"), (emitter: Environment(path: "huge.png"))])"#
+            ),
+        ),
+    ] {
+        std::fs::write(d.join(name), &text).unwrap();
+        let o = raylab_in(d, &["validate", name]);
+        refused(&o, &["huge.png", "65536 x 65536 pixels, which take"]);
+        // Under 4 GB of address space the 20000 x 20000 one is refused too, from its
+        // header, where it used to be decoded and abort in the float copy.
+        let big = format!("big-{name}");
+        std::fs::write(d.join(&big), text.replace("huge.png", "big.png")).unwrap();
+        let o = std::process::Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -v 4000000 && exec {} validate {big}",
+                env!("CARGO_BIN_EXE_raylab")
+            ))
+            .current_dir(d)
+            .output()
+            .unwrap();
+        refused(&o, &["big.png", "20000 x 20000 pixels, which take"]);
+    }
+}

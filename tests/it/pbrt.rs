@@ -417,3 +417,39 @@ fn gzip_compressed_scenes_includes_and_meshes_are_read() {
     assert!(out.contains("triangles  13"), "{out}");
     assert_eq!(counts(&out), counts(&plain));
 }
+
+/// 1000 spheres placed by 1000 instances (a 148 kB file) ask for a million entities: under a
+/// memory limit they do not fit in, the import refuses them at the instance that passes it,
+/// before making them, instead of aborting in an allocation.
+#[test]
+fn instancing_beyond_the_memory_limit_is_refused_before_it_is_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("LookAt 0 0 50  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\nFilm \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\nLightSource \"infinite\" \"rgb L\" [1 1 1]\nObjectBegin \"balls\"\n");
+    for i in 0..1000 {
+        text += &format!("AttributeBegin Translate {} {} {} Shape \"sphere\" \"float radius\" 0.3 AttributeEnd\n", i % 10, i / 10 % 10, i / 100);
+    }
+    text += "ObjectEnd\n";
+    for j in 0..1000 {
+        text += &format!(
+            "AttributeBegin Translate {} 0 0 ObjectInstance \"balls\" AttributeEnd\n",
+            12 * j
+        );
+    }
+    std::fs::write(dir.path().join("balls.pbrt"), text).unwrap();
+    // 1 GB of address space: a million entities need about 3.
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 1000000 && exec {} validate balls.pbrt",
+            env!("CARGO_BIN_EXE_raylab")
+        ))
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("ObjectInstance: ") && e.contains("shapes need about"),
+        "{e}"
+    );
+}

@@ -810,6 +810,8 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
         e.push_str("),");
         self.entities.push(e);
+        crate::scene::import::check_entities_made(self.entities.len())
+            .map_err(|e| at(self.doc, node, e))?;
         Ok(())
     }
 
@@ -882,6 +884,8 @@ impl<'a, 'input> Converter<'a, 'input> {
             }
             e.push_str("),");
             self.entities.push(e);
+            crate::scene::import::check_entities_made(self.entities.len())
+                .map_err(|e| at(self.doc, node, e))?;
         }
         Ok(())
     }

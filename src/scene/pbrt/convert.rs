@@ -22,9 +22,6 @@ const MAX_INCLUDED_BYTES: u64 = 4 * crate::files::MAX_TEXT;
 /// The most files a scene may include, counting each include of a file.
 const MAX_INCLUDES: usize = 10_000;
 
-/// The most shapes a scene may place (instances multiply them).
-const MAX_ENTITIES: usize = 1 << 22;
-
 /// What `AttributeBegin` saves.
 #[derive(Clone)]
 struct State {
@@ -1257,6 +1254,7 @@ impl<'a> Converter<'a> {
         }
         entity.push_str("),");
         self.entities.push(entity);
+        crate::scene::import::check_entities_made(self.entities.len()).map_err(|e| (d.pos, e))?;
         Ok(())
     }
 
@@ -1299,13 +1297,9 @@ impl<'a> Converter<'a> {
             entities.push(e);
         }
         self.meshes.extend(new_meshes);
+        crate::scene::import::check_entities(self.entities.len() + entities.len())
+            .map_err(|e| (d.pos, format!("ObjectInstance: {e}")))?;
         self.entities.extend(entities);
-        if self.entities.len() > MAX_ENTITIES {
-            return Err((
-                d.pos,
-                format!("ObjectInstance: the scene places more than {MAX_ENTITIES} shapes"),
-            ));
-        }
         Ok(())
     }
 }
