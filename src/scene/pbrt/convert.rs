@@ -4,7 +4,7 @@
 use super::directives::{Directive, Parser};
 use super::materials::{self, Notes, Textures};
 use super::params::{Colour, Located, ParamList};
-use super::tokens::{tokenize, Pos};
+use super::tokens::{Pos, Tokens};
 use crate::scene::access::SceneFiles;
 use crate::scene::import::{matrix, num, quote, v3, ImportOptions, Imported, RonScene};
 use glam::{Affine3A, DMat4, DVec3, DVec4};
@@ -18,6 +18,10 @@ const MAX_INCLUDE_DEPTH: usize = 32;
 /// The most text a scene may read through its includes, all files together (a file that
 /// includes another twice at each level would otherwise read it 2^depth times).
 const MAX_INCLUDED_BYTES: u64 = 4 * crate::files::MAX_TEXT;
+
+/// Memory reading a byte of pbrt text takes at its peak (its numbers, the RON made of them
+/// and the shapes made of that): measured 26 for a 16 MB list of one-digit numbers.
+const BYTES_PER_TEXT_BYTE: u64 = 32;
 
 /// The most files a scene may include, counting each include of a file.
 const MAX_INCLUDES: usize = 10_000;
@@ -72,6 +76,8 @@ struct Converter<'a> {
     reading: Vec<PathBuf>,
     /// Bytes of text read through includes so far.
     included_bytes: u64,
+    /// Bytes of text read so far, the scene's and its includes'.
+    text_bytes: u64,
     state: State,
     stack: Vec<(State, &'static str, Pos)>,
     named_coords: HashMap<String, DMat4>,
@@ -160,10 +166,31 @@ impl<'a> Converter<'a> {
     fn run_file(&mut self, path: &Path, text: &str) -> Result<(), Located> {
         let index = self.paths.len();
         self.paths.push(path.to_path_buf());
-        let toks = tokenize(text, index)?;
+        // What reading the text will hold at its peak, all files so far together, checked
+        // before it is read.
+        self.text_bytes += text.len() as u64;
+        let needed = self.text_bytes.saturating_mul(BYTES_PER_TEXT_BYTE);
+        if let Some((room, what)) = crate::system::memory_limit() {
+            if needed > room {
+                let start = Pos {
+                    file: index,
+                    line: 1,
+                    col: 1,
+                };
+                return Err((
+                    start,
+                    format!(
+                        "{} MB of pbrt text need about {} MB of memory to read; only {} MB is {what}",
+                        self.text_bytes >> 20,
+                        needed >> 20,
+                        room >> 20
+                    ),
+                ));
+            }
+        }
         let end_line = text.lines().count().max(1) as u32;
         let mut parser = Parser::new(
-            toks,
+            Tokens::new(text, index),
             Pos {
                 file: index,
                 line: end_line,
@@ -1585,6 +1612,7 @@ pub fn to_ron(
         options,
         paths: Vec::new(),
         included_bytes: 0,
+        text_bytes: 0,
         reading: vec![path.canonicalize().unwrap_or_else(|_| path.to_path_buf())],
         state: State {
             ctm: DMat4::IDENTITY,

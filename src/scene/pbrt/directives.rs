@@ -2,7 +2,7 @@
 //! of what kind each directive takes) and its parameter list.
 
 use super::params::{Located, Param, Values};
-use super::tokens::{Pos, Tok};
+use super::tokens::{Pos, Tok, Tokens};
 
 /// One directive as written.
 #[derive(Debug)]
@@ -53,35 +53,64 @@ fn takes(name: &str) -> Option<Takes> {
     })
 }
 
-/// A cursor over one file's tokens.
-pub struct Parser {
-    toks: Vec<(Tok, Pos)>,
-    at: usize,
+/// A cursor over one file's tokens, read as they are needed with one token of lookahead.
+pub struct Parser<'a> {
+    tokens: Tokens<'a>,
+    /// The next token, once looked at.
+    ahead: Option<(Tok, Pos)>,
+    /// A malformed token met: the text ends there for the parser, and the error is the
+    /// directive's.
+    malformed: Option<(Pos, String)>,
     /// Where the text ends, for "ran out" errors.
     end: Pos,
 }
 
-impl Parser {
-    pub fn new(toks: Vec<(Tok, Pos)>, end: Pos) -> Parser {
-        Parser { toks, at: 0, end }
+impl<'a> Parser<'a> {
+    pub fn new(tokens: Tokens<'a>, end: Pos) -> Parser<'a> {
+        Parser {
+            tokens,
+            ahead: None,
+            malformed: None,
+            end,
+        }
     }
 
-    fn peek(&self) -> Option<&(Tok, Pos)> {
-        self.toks.get(self.at)
+    fn fill(&mut self) {
+        if self.ahead.is_none() && self.malformed.is_none() {
+            match self.tokens.next() {
+                Some(Ok(t)) => self.ahead = Some(t),
+                Some(Err(e)) => self.malformed = Some(e),
+                None => {}
+            }
+        }
     }
 
-    fn here(&self) -> Pos {
-        self.peek().map_or(self.end, |t| t.1)
+    fn peek(&mut self) -> Option<&(Tok, Pos)> {
+        self.fill();
+        self.ahead.as_ref()
+    }
+
+    fn here(&mut self) -> Pos {
+        let end = self.end;
+        self.peek().map_or(end, |t| t.1)
     }
 
     fn next(&mut self) -> Option<(Tok, Pos)> {
-        let t = self.toks.get(self.at).cloned();
-        self.at += 1;
-        t
+        self.fill();
+        self.ahead.take()
     }
 
-    /// The next directive, or `None` at the end of the file.
+    /// The next directive, or `None` at the end of the file; a malformed token on the way is
+    /// the error, wherever the directive's own reading stopped.
     pub fn directive(&mut self) -> Result<Option<Directive>, Located> {
+        let d = self.read_directive();
+        match self.malformed.take() {
+            Some(e) => Err(e),
+            None => d,
+        }
+    }
+
+    fn read_directive(&mut self) -> Result<Option<Directive>, Located> {
         let Some((tok, pos)) = self.next() else {
             return Ok(None);
         };
@@ -208,12 +237,14 @@ impl Parser {
                     format!("{directive}: \"{decl}\" is not a parameter's \"type name\""),
                 ));
             };
-            let mut raw: Vec<(Tok, Pos)> = Vec::new();
+            // The values as they come (a list may hold millions of numbers: each is read
+            // into its f64 at once, not held as a token).
+            let mut list = ValueList::new(directive, name, ty == "bool");
             match self.next() {
                 Some((Tok::Open, _)) => loop {
                     match self.next() {
                         Some((Tok::Close, _)) => break,
-                        Some((t @ (Tok::Word(_) | Tok::Str(_)), p)) => raw.push((t, p)),
+                        Some((t @ (Tok::Word(_) | Tok::Str(_)), p)) => list.push(t, p)?,
                         Some((Tok::Open, p)) => {
                             return Err((p, format!("{directive}: `{name}`: a `[` inside a list")))
                         }
@@ -225,56 +256,10 @@ impl Parser {
                         }
                     }
                 },
-                Some((t @ (Tok::Word(_) | Tok::Str(_)), p)) => raw.push((t, p)),
+                Some((t @ (Tok::Word(_) | Tok::Str(_)), p)) => list.push(t, p)?,
                 _ => return Err((pos, format!("{directive}: `{name}` has no value"))),
             }
-            let values = if ty == "bool" {
-                let mut v = Vec::new();
-                for (t, p) in &raw {
-                    match t {
-                        Tok::Word(w) | Tok::Str(w) if w == "true" => v.push(true),
-                        Tok::Word(w) | Tok::Str(w) if w == "false" => v.push(false),
-                        _ => {
-                            return Err((
-                                *p,
-                                format!("{directive}: `{name}` must be true or false"),
-                            ))
-                        }
-                    }
-                }
-                Values::Bools(v)
-            } else if raw.iter().all(|(t, _)| matches!(t, Tok::Str(_))) {
-                Values::Strs(
-                    raw.into_iter()
-                        .map(|(t, _)| match t {
-                            Tok::Str(s) => s,
-                            _ => String::new(),
-                        })
-                        .collect(),
-                )
-            } else {
-                let mut v = Vec::with_capacity(raw.len());
-                for (t, p) in &raw {
-                    match t {
-                        Tok::Word(w) => match w.parse::<f64>() {
-                            Ok(x) if x.is_finite() => v.push(x),
-                            _ => {
-                                return Err((
-                                    *p,
-                                    format!("{directive}: `{name}`: `{w}` is not a finite number"),
-                                ))
-                            }
-                        },
-                        _ => {
-                            return Err((
-                                *p,
-                                format!("{directive}: `{name}` mixes strings and numbers"),
-                            ))
-                        }
-                    }
-                }
-                Values::Nums(v)
-            };
+            let values = list.values();
             if matches!(&values, Values::Nums(v) if v.is_empty()) {
                 return Err((pos, format!("{directive}: `{name}` has no value")));
             }
@@ -286,5 +271,71 @@ impl Parser {
             });
         }
         Ok(out)
+    }
+}
+
+/// A parameter's values as they are read: booleans for a `bool`, else all strings or all
+/// numbers.
+struct ValueList<'d> {
+    directive: &'d str,
+    name: &'d str,
+    boolean: bool,
+    bools: Vec<bool>,
+    strs: Vec<String>,
+    nums: Vec<f64>,
+}
+
+impl<'d> ValueList<'d> {
+    fn new(directive: &'d str, name: &'d str, boolean: bool) -> Self {
+        ValueList {
+            directive,
+            name,
+            boolean,
+            bools: Vec::new(),
+            strs: Vec::new(),
+            nums: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, t: Tok, p: Pos) -> Result<(), Located> {
+        let (directive, name) = (self.directive, self.name);
+        if self.boolean {
+            match t {
+                Tok::Word(w) | Tok::Str(w) if w == "true" => self.bools.push(true),
+                Tok::Word(w) | Tok::Str(w) if w == "false" => self.bools.push(false),
+                _ => return Err((p, format!("{directive}: `{name}` must be true or false"))),
+            }
+            return Ok(());
+        }
+        let mixes = || {
+            (
+                p,
+                format!("{directive}: `{name}` mixes strings and numbers"),
+            )
+        };
+        match t {
+            Tok::Str(s) if self.nums.is_empty() => self.strs.push(s),
+            Tok::Word(w) if self.strs.is_empty() => match w.parse::<f64>() {
+                Ok(x) if x.is_finite() => self.nums.push(x),
+                _ => {
+                    return Err((
+                        p,
+                        format!("{directive}: `{name}`: `{w}` is not a finite number"),
+                    ))
+                }
+            },
+            _ => return Err(mixes()),
+        }
+        Ok(())
+    }
+
+    fn values(self) -> Values {
+        if self.boolean {
+            Values::Bools(self.bools)
+        } else if !self.strs.is_empty() {
+            Values::Strs(self.strs)
+        } else {
+            Values::Nums(self.nums)
+        }
     }
 }

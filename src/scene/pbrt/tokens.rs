@@ -21,99 +21,139 @@ pub enum Tok {
 }
 
 /// The tokens of one file's `text`, or the first malformed one: (position, message).
+#[cfg(test)]
 pub fn tokenize(text: &str, file: usize) -> Result<Vec<(Tok, Pos)>, (Pos, String)> {
-    let mut out = Vec::new();
-    let (mut line, mut col) = (1u32, 1u32);
-    let mut chars = text.chars().peekable();
-    while let Some(&c) = chars.peek() {
-        let pos = Pos { file, line, col };
-        let advance = |c: char, line: &mut u32, col: &mut u32| {
-            if c == '\n' {
-                *line += 1;
-                *col = 1;
-            } else {
-                *col += 1;
-            }
-        };
-        match c {
-            c if c.is_whitespace() => {
-                chars.next();
-                advance(c, &mut line, &mut col);
-            }
-            '#' => {
-                while let Some(&c) = chars.peek() {
-                    if c == '\n' {
-                        break;
-                    }
-                    chars.next();
-                    advance(c, &mut line, &mut col);
+    Tokens::new(text, file).collect()
+}
+
+/// The tokens of one file's text, one at a time (a scene's number lists run to millions of
+/// tokens: none is held longer than the parser needs it).
+pub struct Tokens<'a> {
+    chars: std::iter::Peekable<std::str::Chars<'a>>,
+    file: usize,
+    line: u32,
+    col: u32,
+    /// Whether an error was given: nothing follows it.
+    failed: bool,
+}
+
+impl<'a> Tokens<'a> {
+    pub fn new(text: &'a str, file: usize) -> Tokens<'a> {
+        Tokens {
+            chars: text.chars().peekable(),
+            file,
+            line: 1,
+            col: 1,
+            failed: false,
+        }
+    }
+
+    fn advance(&mut self, c: char) {
+        if c == '\n' {
+            self.line += 1;
+            self.col = 1;
+        } else {
+            self.col += 1;
+        }
+    }
+
+    /// The next token, `None` at the end, or the malformed one's place and what is wrong.
+    fn token(&mut self) -> Option<Result<(Tok, Pos), (Pos, String)>> {
+        loop {
+            let &c = self.chars.peek()?;
+            let pos = Pos {
+                file: self.file,
+                line: self.line,
+                col: self.col,
+            };
+            match c {
+                c if c.is_whitespace() => {
+                    self.chars.next();
+                    self.advance(c);
                 }
-            }
-            '[' | ']' => {
-                chars.next();
-                advance(c, &mut line, &mut col);
-                out.push((if c == '[' { Tok::Open } else { Tok::Close }, pos));
-            }
-            '"' => {
-                chars.next();
-                advance(c, &mut line, &mut col);
-                let mut s = String::new();
-                loop {
-                    let Some(c) = chars.next() else {
-                        return Err((pos, "a string is not closed (no ending `\"`)".into()));
-                    };
-                    advance(c, &mut line, &mut col);
-                    match c {
-                        '"' => break,
-                        '\n' => return Err((pos, "a string runs past the end of its line".into())),
-                        '\\' => {
-                            let escape = Pos {
-                                file,
-                                line,
-                                col: col - 1,
-                            };
-                            let Some(e) = chars.next() else {
-                                return Err((
-                                    pos,
-                                    "a string is not closed (no ending `\"`)".into(),
-                                ));
-                            };
-                            advance(e, &mut line, &mut col);
-                            s.push(match e {
-                                'n' => '\n',
-                                't' => '\t',
-                                'b' => '\u{8}',
-                                'f' => '\u{c}',
-                                'r' => '\r',
-                                '\\' | '\'' | '"' => e,
-                                _ => {
-                                    return Err((
-                                        escape,
-                                        format!("unknown escape `\\{e}` in a string"),
-                                    ))
-                                }
-                            });
+                '#' => {
+                    while let Some(&c) = self.chars.peek() {
+                        if c == '\n' {
+                            break;
                         }
-                        c => s.push(c),
+                        self.chars.next();
+                        self.advance(c);
                     }
                 }
-                out.push((Tok::Str(s), pos));
-            }
-            _ => {
-                let mut w = String::new();
-                while let Some(&c) = chars.peek() {
-                    if c.is_whitespace() || matches!(c, '"' | '[' | ']' | '#') {
-                        break;
-                    }
-                    w.push(c);
-                    chars.next();
-                    advance(c, &mut line, &mut col);
+                '[' | ']' => {
+                    self.chars.next();
+                    self.advance(c);
+                    return Some(Ok((if c == '[' { Tok::Open } else { Tok::Close }, pos)));
                 }
-                out.push((Tok::Word(w), pos));
+                '"' => {
+                    self.chars.next();
+                    self.advance(c);
+                    return Some(self.string(pos).map(|s| (Tok::Str(s), pos)));
+                }
+                _ => {
+                    let mut w = String::new();
+                    while let Some(&c) = self.chars.peek() {
+                        if c.is_whitespace() || matches!(c, '"' | '[' | ']' | '#') {
+                            break;
+                        }
+                        w.push(c);
+                        self.chars.next();
+                        self.advance(c);
+                    }
+                    return Some(Ok((Tok::Word(w), pos)));
+                }
             }
         }
     }
-    Ok(out)
+
+    /// The rest of a quoted string that started at `pos`, escapes resolved.
+    fn string(&mut self, pos: Pos) -> Result<String, (Pos, String)> {
+        let mut s = String::new();
+        loop {
+            let Some(c) = self.chars.next() else {
+                return Err((pos, "a string is not closed (no ending `\"`)".into()));
+            };
+            self.advance(c);
+            match c {
+                '"' => return Ok(s),
+                '\n' => return Err((pos, "a string runs past the end of its line".into())),
+                '\\' => {
+                    let escape = Pos {
+                        file: self.file,
+                        line: self.line,
+                        col: self.col - 1,
+                    };
+                    let Some(e) = self.chars.next() else {
+                        return Err((pos, "a string is not closed (no ending `\"`)".into()));
+                    };
+                    self.advance(e);
+                    s.push(match e {
+                        'n' => '\n',
+                        't' => '\t',
+                        'b' => '\u{8}',
+                        'f' => '\u{c}',
+                        'r' => '\r',
+                        '\\' | '\'' | '"' => e,
+                        _ => return Err((escape, format!("unknown escape `\\{e}` in a string"))),
+                    });
+                }
+                c => s.push(c),
+            }
+        }
+    }
+}
+
+impl Iterator for Tokens<'_> {
+    type Item = Result<(Tok, Pos), (Pos, String)>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        let t = self.token();
+        self.failed = matches!(t, Some(Err(_)));
+        t
+    }
 }
 
 #[cfg(test)]
