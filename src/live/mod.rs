@@ -278,14 +278,17 @@ fn reload(
     files: &SceneFiles,
 ) -> Result<String> {
     let start = Instant::now();
-    let (file, approximated) = scene::read_scene_file(files, &settings.import)?;
+    let (file, approximated, origins) =
+        scene::load::read_scene_file_with_origins(files, &settings.import)?;
     let (state, what) = match live {
         None => {
-            let state = SceneState::new(file, &settings.scene, files.clone())?;
+            let state = SceneState::new(file, &settings.scene, files.clone())
+                .map_err(|e| origins.place(e))?;
             (live.insert(state), "load".to_string())
         }
         Some(state) => {
-            let what = format!("reload: {}", state.apply(file)?.describe());
+            let edit = state.apply(file).map_err(|e| origins.place(e))?;
+            let what = format!("reload: {}", edit.describe());
             (state, what)
         }
     };

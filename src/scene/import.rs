@@ -60,6 +60,53 @@ pub struct Imported {
     pub report: Vec<String>,
     /// The lines of the report that are approximations (`--approximate`), to warn about.
     pub approximated: Vec<String>,
+    /// Where each entity and material (by name) came from in the scene's files, so that an
+    /// error found when the RON is loaded names the place the user wrote (an included file's
+    /// too), not the RON raylab made.
+    pub origins: Origins,
+}
+
+/// The places the importer made each entity and material from, by their names.
+#[derive(Debug, Default)]
+pub struct Origins {
+    pub entities: std::collections::HashMap<String, Place>,
+    pub materials: std::collections::HashMap<String, Place>,
+}
+
+/// A file, line and column.
+pub type Place = (std::path::PathBuf, u32, u32);
+
+impl Origins {
+    /// `e` at the place its entity or material came from, if the importer made it.
+    pub fn place(&self, e: super::SceneError) -> super::SceneError {
+        use super::SceneError;
+        let found = match &e {
+            SceneError::Entity {
+                entity, message, ..
+            } => self
+                .entities
+                .get(entity)
+                .map(|p| (p, format!("entity `{entity}`: {message}"))),
+            SceneError::Material {
+                material, message, ..
+            } => self
+                .materials
+                .get(material)
+                .map(|p| (p, format!("material `{material}`: {message}"))),
+            _ => None,
+        };
+        match found {
+            Some(((path, line, col), message)) if !path.as_os_str().is_empty() => {
+                SceneError::Parse {
+                    path: path.clone(),
+                    line: *line as usize,
+                    col: *col as usize,
+                    message,
+                }
+            }
+            _ => e,
+        }
+    }
 }
 
 /// A number as RON reads it back exactly.

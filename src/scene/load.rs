@@ -3,7 +3,7 @@
 use super::access::SceneFiles;
 use super::components::{Emitter, Shape, Transform};
 use super::error::{finite, SceneError};
-use super::import::{ImportOptions, Imported};
+use super::import::{ImportOptions, Imported, Origins};
 use super::inputs::SceneInputs;
 use super::schema::{CameraDesc, EmitterDesc, RenderDesc, SceneFile, ShapeDesc};
 use super::{mesh_files, LoadedScene};
@@ -48,8 +48,8 @@ pub fn load_scene_in(
     options: &ImportOptions,
 ) -> Result<LoadedScene, SceneError> {
     let path = files.scene();
-    let (file, approximated) = read_scene_file(files, options)?;
-    let mut loaded = super::edit::build_world(file, path, files)?;
+    let (file, approximated, origins) = read_scene_file_with_origins(files, options)?;
+    let mut loaded = super::edit::build_world(file, path, files).map_err(|e| origins.place(e))?;
     loaded.warnings.extend(approximated);
     loaded.inputs = SceneInputs::of(files, options);
     Ok(loaded)
@@ -61,10 +61,18 @@ pub fn read_scene_file(
     files: &SceneFiles,
     options: &ImportOptions,
 ) -> Result<(SceneFile, Vec<String>), SceneError> {
+    read_scene_file_with_origins(files, options).map(|(file, warnings, _)| (file, warnings))
+}
+
+/// [`read_scene_file`], with where an imported scene's entities and materials came from.
+pub fn read_scene_file_with_origins(
+    files: &SceneFiles,
+    options: &ImportOptions,
+) -> Result<(SceneFile, Vec<String>, Origins), SceneError> {
     let path = files.scene();
-    let (text, approximated) = match import_scene(files, options)? {
-        Some(imported) => (imported.ron, imported.approximated),
-        None => (read_scene_text(path)?, Vec::new()),
+    let (text, approximated, origins) = match import_scene(files, options)? {
+        Some(imported) => (imported.ron, imported.approximated, imported.origins),
+        None => (read_scene_text(path)?, Vec::new(), Origins::default()),
     };
     let file = parse_scene_file(&text, path).map_err(|e| match e {
         // A place in the RON made of another format is no place in the file the user has.
@@ -82,7 +90,7 @@ pub fn read_scene_file(
         .into_iter()
         .map(|a| format!("--approximate: {a}"))
         .collect();
-    Ok((file, approximated))
+    Ok((file, approximated, origins))
 }
 
 /// Whether `path` names a Mitsuba 3 XML scene (by its extension).
@@ -151,12 +159,20 @@ pub fn import_scene(
         let expanded = super::mitsuba::include::expand(path, &text, files).map_err(located)?;
         let base = path.parent().filter(|p| !p.as_os_str().is_empty());
         let base = base.unwrap_or(Path::new("."));
-        let imported =
+        let mut imported =
             super::mitsuba::to_ron_in(&expanded.text, options, Some(base), &expanded.search)
                 .map_err(|(line, col, message)| {
                     let (file, line, col) = expanded.locate(line, col);
                     located((file, line, col, message))
                 })?;
+        for place in imported
+            .origins
+            .entities
+            .values_mut()
+            .chain(imported.origins.materials.values_mut())
+        {
+            *place = expanded.locate(place.1, place.2);
+        }
         return Ok(Some(imported));
     }
     if let Some((name, _)) = options.defines.first() {
@@ -189,10 +205,17 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneError> {
 /// Parses scene text into its schema, without loading any file it names or checking values;
 /// `path` is used in messages.
 pub fn parse_scene_file(text: &str, path: &Path) -> Result<SceneFile, SceneError> {
-    let options = ron::Options::default().with_default_extension(Extensions::IMPLICIT_SOME);
+    let options = ron::Options::default()
+        .with_default_extension(Extensions::IMPLICIT_SOME)
+        .with_recursion_limit(MAX_RON_NESTING);
     let file: SceneFile = options.from_str(text).map_err(|e| {
         let (line, col) = (e.span.start.line, e.span.start.col);
-        let mut message = e.code.to_string();
+        let mut message = match e.code {
+            ron::Error::ExceededRecursionLimit => {
+                format!("values nest deeper than {MAX_RON_NESTING} here")
+            }
+            code => code.to_string(),
+        };
         // The error's span reaches the end of the text: it ran out of text.
         if (e.span.end.line, e.span.end.col) >= end_position(text) {
             message.push_str("; the file ends here: is it truncated?");
@@ -206,6 +229,10 @@ pub fn parse_scene_file(text: &str, path: &Path) -> Result<SceneFile, SceneError
     })?;
     Ok(file)
 }
+
+/// How deep RON values may nest (materials inside materials: an imported scene's BSDFs nest
+/// at most 64 deep, two levels each).
+const MAX_RON_NESTING: usize = 256;
 
 /// Line and column (as ron counts them: from 1, in characters) just after the last
 /// non-whitespace character of `text`.

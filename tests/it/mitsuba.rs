@@ -649,6 +649,14 @@ fn hostile_xml_is_refused_before_it_costs_anything() {
         format!(r#"<scene version="3.0.0">{sensor}<shape type="sphere">{deep}</shape></scene>"#),
         "deep.xml:1:",
     );
+    // The probe's cycle: a two-sided BSDF holding a reference to itself.
+    refused(
+        "cycle.xml",
+        format!(
+            r#"<scene version="3.0.0">{sensor}<bsdf type="twosided" id="a"><ref id="a"/></bsdf><shape type="sphere"><ref id="a"/></shape></scene>"#
+        ),
+        "cycle.xml:1:",
+    );
     // 100,000 attributes on one element.
     let attributes: String = (0..100_000).map(|i| format!(" a{i}=\"1\"")).collect();
     refused(

@@ -300,6 +300,8 @@ struct Converter<'a, 'input> {
     report: Vec<String>,
     /// The BSDFs being converted, outermost first (a nested or referenced one inside).
     bsdfs_open: Vec<roxmltree::NodeId>,
+    /// (an entity, else a material; its name; its line and column in the text converted).
+    origins: Vec<(bool, String, (u32, u32))>,
 }
 
 impl<'a, 'input> Converter<'a, 'input> {
@@ -611,6 +613,14 @@ impl<'a, 'input> Converter<'a, 'input> {
                     return Err(at(self.doc, node, "<bsdf type=\"twosided\"> with two BSDFs (one per side) is not supported: give one"));
                 };
                 let inner = self.resolve(inner)?;
+                if inner.tag_name().name() == "bsdf" && inner.attribute("type") == Some("twosided")
+                {
+                    return Err(at(
+                        self.doc,
+                        inner,
+                        "a two-sided BSDF inside another (Mitsuba refuses it too): give the inner one alone",
+                    ));
+                }
                 format!("TwoSided({})", self.bsdf(inner)?)
             }
             "normalmap" | "bumpmap" => {
@@ -787,12 +797,16 @@ impl<'a, 'input> Converter<'a, 'input> {
             ));
         }
         self.materials.push((name.clone(), desc));
+        self.origins
+            .push((false, name.clone(), position(self.doc, node)));
         self.material_of.insert(node.id(), name.clone());
         Ok(name)
     }
 
     fn shape(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
         let parts = self.shape_parts(node, index)?;
+        self.origins
+            .push((true, parts.name.clone(), position(self.doc, node)));
         let mut e = format!(
             "(name: {}, transform: {}, shape: {}",
             quote(&parts.name),
@@ -871,9 +885,12 @@ impl<'a, 'input> Converter<'a, 'input> {
             } else {
                 parts.shape.clone()
             };
+            let entity = format!("{name} / {}", parts.name);
+            self.origins
+                .push((true, entity.clone(), position(self.doc, child)));
             let mut e = format!(
                 "(name: {}, transform: {}, shape: {shape}",
-                quote(&format!("{name} / {}", parts.name)),
+                quote(&entity),
                 matrix(&placed),
             );
             if let Some(material) = parts.material {
@@ -1074,6 +1091,13 @@ impl<'a, 'input> Converter<'a, 'input> {
     }
 
     fn sensor(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
+        if self.camera.is_some() {
+            return Err(at(
+                self.doc,
+                node,
+                "a second <sensor>: raylab renders a scene through one camera",
+            ));
+        }
         let kind = self.kind(node)?;
         if kind != "perspective" && kind != "orthographic" {
             return Err(at(
@@ -1121,6 +1145,18 @@ impl<'a, 'input> Converter<'a, 'input> {
                     let mut f = self.props(child)?;
                     width = f.integer("width")?.unwrap_or(width);
                     height = f.integer("height")?.unwrap_or(height);
+                    if !(1..=i64::from(crate::scene::load::MAX_SIDE)).contains(&width)
+                        || !(1..=i64::from(crate::scene::load::MAX_SIDE)).contains(&height)
+                    {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!(
+                                "the film is {width}x{height}: each side must be 1 to {}",
+                                crate::scene::load::MAX_SIDE
+                            ),
+                        ));
+                    }
                     let offset = (f.integer("crop_offset_x")?, f.integer("crop_offset_y")?);
                     let size = (f.integer("crop_width")?, f.integer("crop_height")?);
                     if offset != (None, None) || size != (None, None) {
@@ -1179,6 +1215,13 @@ impl<'a, 'input> Converter<'a, 'input> {
                 "sampler" => {
                     let mut s = self.props(child)?;
                     spp = s.integer("sample_count")?;
+                    if let Some(n) = spp.filter(|n| !(1..=i64::from(u32::MAX)).contains(n)) {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!("sample_count {n}: it must be at least 1"),
+                        ));
+                    }
                     s.finish(&["seed", "jitter", "scramble_seed"])?;
                 }
                 tag => {
@@ -1277,6 +1320,13 @@ impl<'a, 'input> Converter<'a, 'input> {
     }
 
     fn integrator(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
+        if self.render.iter().any(|r| r.starts_with("integrator:")) {
+            return Err(at(
+                self.doc,
+                node,
+                "a second <integrator>: a scene names one",
+            ));
+        }
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         match kind.as_str() {
@@ -1425,6 +1475,7 @@ pub fn to_ron_in(
         render: Vec::new(),
         report: Vec::new(),
         bsdfs_open: Vec::new(),
+        origins: Vec::new(),
     };
     let mut index = 0;
     for node in root.children().filter(Node::is_element) {
@@ -1496,10 +1547,21 @@ pub fn to_ron_in(
         entities: &c.entities,
     }
     .write();
+    // Places in the text converted (no file: the caller knows which file each came from).
+    let mut origins = crate::scene::import::Origins::default();
+    for (entity, name, (line, col)) in c.origins {
+        let table = if entity {
+            &mut origins.entities
+        } else {
+            &mut origins.materials
+        };
+        table.insert(name, (std::path::PathBuf::new(), line, col));
+    }
     Ok(Imported {
         ron,
         report: c.report,
         approximated: c.approximated,
+        origins,
     })
 }
 

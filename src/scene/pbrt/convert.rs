@@ -1701,6 +1701,7 @@ pub fn to_ron(
         ron,
         report: c.report,
         approximated: c.approximated,
+        origins: Default::default(),
     })
 }
 
