@@ -19,6 +19,16 @@
 # input environment variables (SBATCH_PARTITION, SBATCH_ACCOUNT, SBATCH_TIMELIMIT, ...), which
 # apply to both jobs.
 #
+# Before submitting anything it asks what every task would refuse, and exits 2 if so: OUT
+# must be .png or .exr and none of the parts; the folders must take a file; and `raylab render
+# --check` runs each task's command line that can be told apart here (shard 0, and every
+# shard with a checkpoint to resume) up to where it would start rendering: the scene and the
+# files it reads, the integrator and its parameters, more shards than blocks of 8 passes (or
+# rows of tiles), flags the script sets itself (-o, --shard, --checkpoint, --threads, given
+# twice) or that shards refuse (--time, --watch), a checkpoint of another render.
+# RAYLAB_SLURM_CHECK=no skips the last (e.g. when this node has less memory than the
+# cluster's).
+#
 # Exit codes: 0 submitted (or, with --wait, merged); 2 bad arguments; 1 a submission failed
 # or, with --wait, a shard failed; otherwise the merge job's exit code.
 #
@@ -40,7 +50,8 @@ bad() {
   echo "usage: render.sh [--wait] [--parts DIR] [--cpus C] SCENE N OUT [raylab render flags...]" >&2
   exit 2
 }
-is_count() { [[ $1 =~ ^[0-9]+$ ]] && [ "$((10#$1))" -ge 1 ]; }
+# (At most 6 digits: bash's arithmetic wraps around past 2^63, and raylab takes N <= 100000.)
+is_count() { [[ $1 =~ ^[0-9]{1,6}$ ]] && [ "$((10#$1))" -ge 1 ]; }
 # An absolute path for $1 (which need not exist yet); symlinks are kept as they are.
 absolute() { case "$1" in /*) echo "$1" ;; *) echo "$PWD/$1" ;; esac; }
 
@@ -68,8 +79,14 @@ flags=("$@") # the rest goes to every `raylab render`
 is_count "$shards" || bad "N must be a positive integer (the number of shards), not '$shards'"
 is_count "$cpus" || bad "--cpus must be a positive integer, not '$cpus'"
 shards=$((10#$shards)) cpus=$((10#$cpus))
+[ "$shards" -le 100000 ] || bad "N must be at most 100000 (raylab's --shard limit), not $shards"
 [ -n "$out" ] || bad "OUT is empty"
 [ ! -d "$out" ] || bad "OUT '$out' is a folder: give the merged image's file name"
+out_name=${out##*/}
+case "${out_name,,}" in
+  ?*.png | ?*.exr) ;;
+  *) bad "OUT '$out' must end in .png or .exr: raylab merge writes nothing else" ;;
+esac
 
 RAYLAB=${RAYLAB:-raylab}
 if [[ $RAYLAB != */* ]]; then
@@ -78,14 +95,49 @@ if [[ $RAYLAB != */* ]]; then
   RAYLAB=$found
 fi
 RAYLAB=$(absolute "$RAYLAB")
-[ -x "$RAYLAB" ] || bad "RAYLAB '$RAYLAB' is not an executable file"
+[ -f "$RAYLAB" ] && [ -x "$RAYLAB" ] || bad "RAYLAB '$RAYLAB' is not an executable file"
 command -v sbatch >/dev/null || { echo "render.sh: sbatch not found: is this a Slurm login node?" >&2; exit 1; }
 
 SCENE=$(absolute "$scene")
 OUT=$(absolute "$out")
 PARTS=$(absolute "${parts:-$out.parts}")
 PARTS=${PARTS%/}
-mkdir -p "$PARTS" "$(dirname "$OUT")"
+# The merge refuses to write over one of its own parts.
+if [ "$(realpath -m -- "$(dirname "$OUT")")" = "$(realpath -m -- "$PARTS")" ] \
+  && [[ ${OUT##*/} =~ ^part-[0-9]+\.[eE][xX][rR]$ ]]; then
+  bad "OUT '$OUT' is one of the parts in '$PARTS': choose another name or --parts"
+fi
+for d in "$PARTS" "$(dirname "$OUT")"; do
+  mkdir -p -- "$d" 2>/dev/null || bad "cannot make the folder '$d'"
+  # A real write: -w says yes to root on a read-only or root-squashed file system.
+  t=$(mktemp "$d/.render-sh.XXXXXX" 2>/dev/null) \
+    || bad "cannot write into '$d': the jobs could not write their logs, parts or image there"
+  rm -f -- "$t"
+done
+
+# What every task would refuse, asked of raylab itself: shard 0's command line, and that of
+# every shard with a checkpoint to resume (one of another render is refused), as shard.sbatch
+# runs them, with --check (raylab checks, writes nothing, exits 0 when it would render).
+if [ "${RAYLAB_SLURM_CHECK:-yes}" != no ]; then
+  check_task() {
+    local task=$1 resume=()
+    [ -e "$PARTS/part-$task.ckpt" ] && resume=(--resume)
+    local msg
+    if ! msg=$("$RAYLAB" render "$SCENE" --shard "$task/$shards" -o "$PARTS/part-$task.exr" \
+      --threads "$cpus" --checkpoint "$PARTS/part-$task.ckpt" "${resume[@]}" "${flags[@]}" \
+      --check 2>&1 >/dev/null); then
+      printf '%s\n' "$msg" >&2
+      bad "raylab refuses shard $task/$shards (above): every task would fail; nothing submitted (RAYLAB_SLURM_CHECK=no skips this check)"
+    fi
+  }
+  check_task 0
+  for ckpt in "$PARTS"/part-*.ckpt; do
+    [ -e "$ckpt" ] || continue
+    task=${ckpt##*/part-}
+    task=${task%.ckpt}
+    [[ $task =~ ^[0-9]+$ ]] && [ "$task" != 0 ] && [ "$task" -lt "$shards" ] && check_task "$task"
+  done
+fi
 SHARDS=$shards
 # The jobs get these through the environment (sbatch's default --export=ALL), not through
 # --export=NAME=VALUE, which cannot carry a value holding a comma.

@@ -40,6 +40,15 @@ cat >"$tmp/raylab" <<'EOF'
 # Appends "start|end|fail NAME EPOCH-NS" to $STUB_TIMELINE.
 set -euo pipefail
 cmd=$1; shift
+# render ... --check: raylab's checks only; STUB_REFUSE makes them refuse, as raylab would.
+if [ "$cmd" = render ] && [[ " $* " == *" --check "* ]]; then
+  if [ -n "${STUB_REFUSE:-}" ]; then echo "error: $STUB_REFUSE" >&2; exit 2; fi
+  if [ -n "${STUB_REFUSE_RESUME:-}" ] && [[ " $* " == *" --resume "* ]]; then
+    echo "error: $STUB_REFUSE_RESUME" >&2
+    exit 2
+  fi
+  exit 0
+fi
 args=("$@") out="" shard=""
 while [ $# -gt 0 ]; do
   case "$1" in -o) out=$2; shift 2 ;; --shard) shard=$2; shift 2 ;; *) shift ;; esac
@@ -142,6 +151,34 @@ check "bad args: --cpus 0 -> 2" bad_args --cpus 0 scene.ron 4 o.exr
 check "bad args: too few -> 2" bad_args scene.ron 4
 no_raylab() { RAYLAB=no-such-raylab bad_args "$@"; }
 check "bad args: RAYLAB not found -> 2" no_raylab scene.ron 4 o.exr
+
+# ---- 6. what every task would refuse: exit 2, nothing queued -----------------------------
+jobs_now() { squeue -h -u "$(id -un)" -t all -o %i | sort -u | wc -l; }
+refused() { # refused DESCRIPTION render.sh-args...: exit 2, and no new job in the queue
+  local what=$1 before after
+  shift
+  before=$(jobs_now)
+  if bad_args "$@"; then
+    after=$(jobs_now)
+    if [ "$after" = "$before" ]; then ok "refused: $what"; else no "refused: $what (queued jobs)"; fi
+  else
+    no "refused: $what (not exit 2)"
+  fi
+}
+refuse_in_raylab() { STUB_REFUSE="shards take whole blocks of 8 passes" refused "$@"; }
+refuse_in_raylab "a render raylab's --check refuses (shard 0)" scene.ron 4 o.exr --spp 16
+refused "OUT that merge cannot write (o.jpg)" scene.ron 2 o.jpg
+refused "OUT without an extension" scene.ron 2 o
+refused "OUT one of the parts" --parts p scene.ron 2 p/part-1.exr
+refused "N beyond raylab's limit (100001)" scene.ron 100001 o.exr
+refused "N that bash arithmetic would wrap (2^64 + 1)" scene.ron 18446744073709551617 o.exr
+refused "a parts folder that cannot be made" --parts /proc/raylab-nope scene.ron 2 o.exr
+folder_raylab() { RAYLAB="$tmp" refused "$@"; }
+folder_raylab "RAYLAB a folder" scene.ron 2 o.exr
+# A checkpoint of another render in the parts folder: its shard's --check refuses to resume it.
+mkdir -p "$tmp/stale" && touch "$tmp/stale/part-1.ckpt"
+stale_ckpt() { STUB_REFUSE_RESUME="cannot resume: the scene or the render settings changed" refused "$@"; }
+stale_ckpt "a stale checkpoint of shard 1" --parts stale scene.ron 2 o.exr
 
 echo "$passed passed, $failed failed"
 [ "$failed" = 0 ]

@@ -167,6 +167,12 @@ pub struct RenderArgs {
     /// error (file:line:column) and leaves the last good image as it was.
     #[arg(long)]
     pub watch: bool,
+    /// Check everything this render would check (the scene and every file it reads, the
+    /// integrator and its parameters, the output files, the shard, the memory, a checkpoint to
+    /// resume) and exit 0, before building the BVH, without rendering or writing anything:
+    /// what a job script asks before it queues work.
+    #[arg(long, conflicts_with = "watch")]
+    pub check: bool,
 }
 
 #[derive(clap::Args, Debug, Clone)]

@@ -197,8 +197,6 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         (Some(spec), Some(spp)) => Some(spec.part(integrator.shard_by(), spp, camera.height)?),
         _ => None,
     };
-    let built =
-        RenderScene::build_on_threads(&loaded, args.session.trace.accel, args.session.threads)?;
     let settings = RenderSettings {
         spp,
         seed,
@@ -272,6 +270,23 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             .with_layers(&layers.iter().map(|(id, _)| *id).collect::<Vec<_>>()),
     };
 
+    if args.check {
+        let what = match (shard, &part) {
+            (Some(spec), Some(part)) => format!(", shard {spec}: {part}"),
+            _ => String::new(),
+        };
+        note!(
+            "{}: ok: would render {}x{} with {}{what}, writing {}",
+            args.session.scene.display(),
+            camera.width,
+            camera.height,
+            entry.name,
+            output_path.display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    let built =
+        RenderScene::build_on_threads(&loaded, args.session.trace.accel, args.session.threads)?;
     // Ctrl-C, SIGTERM, SIGHUP: the first abandons the pass in progress and writes the image
     // of the passes done, the second stops at once.
     super::interrupt::install(

@@ -714,3 +714,31 @@ fn images_are_refused_by_what_raylab_would_hold_of_them() {
         refused(&o, &["big.png", "20000 x 20000 pixels, which take"]);
     }
 }
+
+/// What a scene file says reaches the terminal escaped: an entity named with an escape
+/// sequence (clear the screen, set the window title) and a NUL is printed as `\u{..}`, never
+/// as the bytes a terminal would act on.
+#[test]
+fn control_characters_from_files_never_reach_the_terminal() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("s.ron"),
+        r#"(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), up: (0, 1, 0), fov: 40, resolution: (8, 8)),
+            materials: {"w": Lambert(albedo: (0.5, 0.5, 0.5))},
+            entities: [(name: "x\u{1b}]0;owned\u{7}\u{1b}[2J\u{0}y", shape: Sphere(radius: -1), material: "w")])"#,
+    )
+    .unwrap();
+    let o = raylab_in(d, &["validate", "s.ron"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        !o.stderr.iter().any(|b| matches!(b, 0x1b | 0x07 | 0x00)),
+        "raw control bytes: {:?}",
+        o.stderr
+    );
+    assert!(
+        stderr(&o).contains(r"x\u{1b}]0;owned\u{7}\u{1b}[2J\u{0}y"),
+        "{}",
+        stderr(&o)
+    );
+}
