@@ -804,6 +804,11 @@ fn a_suite_writes_a_page_per_entry_and_a_summary() {
             "(budget: Spp(1), integrators: [\"path\"], scenes: [(scene: \"furnace.ron\", params: [\"bdpt.max-depth=2\"])])",
             "does not compare",
         ),
+        // A region outside the second entry's image: refused before the first renders.
+        (
+            "(budget: Spp(1), integrators: [\"path\"], scenes: [(scene: \"furnace.ron\"), (scene: \"furnace.ron\", name: \"far\", region: (100, 0, 4, 4))])",
+            "region 4x4 at (100, 0) is not inside",
+        ),
     ] {
         common::save(&suite, text);
         let bad_out = d.join("bad");

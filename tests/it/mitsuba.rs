@@ -682,3 +682,29 @@ fn hostile_xml_is_refused_before_it_costs_anything() {
         "more than 10000 includes",
     );
 }
+
+/// An `<include>` of something that is not a regular file (a FIFO) says so, at its place:
+/// not "no such file", and without blocking on the pipe.
+#[test]
+fn an_include_of_a_fifo_says_what_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let made = std::process::Command::new("mkfifo")
+        .arg(d.join("pipe.xml"))
+        .status()
+        .unwrap();
+    assert!(made.success());
+    std::fs::write(
+        d.join("s.xml"),
+        r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/></sensor>
+<include filename="pipe.xml"/></scene>"#,
+    )
+    .unwrap();
+    let o = raylab_in(d, &["validate", "s.xml"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("s.xml:2:1:") && e.contains("not a regular file"),
+        "{e}"
+    );
+}
