@@ -1,20 +1,9 @@
 //! The `raylab` program as a user runs it: rendering, listing, validating, determinism, and
 //! bad input (exit code 2, a message naming the file and place, no output file left behind).
 
+use crate::common::{raylab, s, stderr};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn raylab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("raylab runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
@@ -22,10 +11,6 @@ fn stdout(o: &Output) -> String {
 
 fn tmp() -> tempfile::TempDir {
     tempfile::tempdir().unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 const ROOM: &str = "scenes/report_room.ron";

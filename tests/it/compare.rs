@@ -1,6 +1,7 @@
 //! `raylab compare` and `raylab diff` as a user runs them, and the page in headless Chromium.
 
 use crate::common;
+use crate::common::{s, stderr};
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -12,14 +13,6 @@ fn raylab(args: &[&str], cache: &Path) -> Output {
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("raylab runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 const CORNELL: &str = "scenes/cornell_box.ron";

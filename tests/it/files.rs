@@ -2,13 +2,10 @@
 //! output (whatever path names it), a replaced file keeps what it was (permissions, the link
 //! that names it) or is refused, and SIGTERM or SIGHUP save the samples like Ctrl-C.
 
+use crate::common::stderr;
 use crate::common::{raylab_in, repo_file, Running};
 use std::path::Path;
 use std::process::Output;
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// Expects exit 2 with a message containing every one of `words`.
 fn refused(o: &Output, words: &[&str]) {

@@ -1,25 +1,9 @@
 //! Rendering in passes: time budgets, Ctrl-C, checkpoint and resume, determinism.
 
 use crate::common::Running;
+use crate::common::{raylab, s, stderr};
 use std::path::Path;
-use std::process::{Command, Output};
 use std::time::{Duration, Instant};
-
-fn raylab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("raylab runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 const CORNELL: &str = "scenes/cornell_box.ron";
 

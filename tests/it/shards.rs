@@ -6,20 +6,9 @@
 //! cluster and sets `RAYLAB_CLUSTER_TESTS=1`, which makes a missing tool a failure. Without it
 //! (a developer's machine) they say what they skipped.
 
+use crate::common::{raylab, s, stderr};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn raylab(args: &[&str]) -> Output {
-    crate::common::raylab_in(Path::new(env!("CARGO_MANIFEST_DIR")), args)
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// The report's room at 12x100 (seven rows of tiles, for seven shards by rows), 49 passes
 /// (seven blocks of eight, for seven shards by passes), with cheap settings for the

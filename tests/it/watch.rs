@@ -5,14 +5,11 @@
 //! cleanly.
 
 use crate::common;
+use crate::common::s;
 
 use common::{break_scene, eventually, raylab_in, save, scene_copy, Running, CORNELL_LIGHT};
 use std::path::Path;
 use std::time::{Duration, Instant};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// `raylab render SCENE --watch` at 32x32, 8 spp, one thread.
 fn watch(scene: &Path, out: &Path) -> Running {

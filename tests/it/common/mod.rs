@@ -101,6 +101,21 @@ impl Drop for Running {
     }
 }
 
+/// Runs `raylab ARGS` to its end in the repository's root (where `scenes/` is).
+pub fn raylab(args: &[&str]) -> std::process::Output {
+    raylab_in(Path::new(env!("CARGO_MANIFEST_DIR")), args)
+}
+
+/// A command's standard error as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A path as the `&str` a command line takes.
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("test paths are UTF-8")
+}
+
 /// Runs `raylab ARGS` to its end in the folder `dir`.
 pub fn raylab_in(dir: &Path, args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_raylab"))
