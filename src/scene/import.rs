@@ -30,15 +30,10 @@ pub fn check_entities(entities: usize) -> Result<(), String> {
     if entities > MAX_ENTITIES {
         return Err(format!("the scene places more than {MAX_ENTITIES} shapes"));
     }
-    let needed = entities as u64 * BYTES_PER_ENTITY;
-    match crate::system::memory_limit() {
-        Some((room, what)) if needed > room => Err(format!(
-            "{entities} shapes need about {:.1} GiB of memory; only {:.1} GiB is {what}",
-            needed as f64 / (1u64 << 30) as f64,
-            room as f64 / (1u64 << 30) as f64
-        )),
-        _ => Ok(()),
-    }
+    super::systems::check_bytes(
+        entities as u64 * BYTES_PER_ENTITY,
+        &format!("{entities} shapes"),
+    )
 }
 
 /// [`check_entities`] as an importer makes them one by one: checked at every 1024th (the

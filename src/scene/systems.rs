@@ -373,7 +373,7 @@ pub fn check_triangle_memory(triangles: u64) -> Result<(), String> {
 }
 
 /// Refuses `needed` bytes for `what` beyond what this process may still allocate.
-fn check_bytes(needed: u64, what: &str) -> Result<(), String> {
+pub(super) fn check_bytes(needed: u64, what: &str) -> Result<(), String> {
     match crate::system::memory_limit() {
         Some((room, limit)) if needed > room => Err(format!(
             "{what} need about {:.1} GiB of memory; only {:.1} GiB is {limit}",

@@ -333,16 +333,20 @@ fn comparisons_do_not_replace_files_in_a_folder_of_the_users() {
 }
 
 /// SIGTERM (a timeout, a scheduler's preemption, `docker stop`) and SIGHUP (a closed
-/// terminal) save the samples so far, image and checkpoint, as the first Ctrl-C does.
+/// terminal) save the samples so far, image and checkpoint, as the first Ctrl-C does; so does
+/// a signal delivered twice at once.
 #[test]
 fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
     let dir = workspace();
     let d = dir.path();
-    for signal in ["TERM", "HUP"] {
-        let (out, ck) = (
-            d.join(format!("{signal}.png")),
-            d.join(format!("{signal}.ck")),
-        );
+    // And a signal delivered twice at once (GNU `timeout` signals raylab, then its process
+    // group, microseconds apart): one stop, which writes the image, not "Ctrl-C again".
+    for (name, signal, twice) in [
+        ("TERM", "TERM", false),
+        ("HUP", "HUP", false),
+        ("twice", "TERM", true),
+    ] {
+        let (out, ck) = (d.join(format!("{name}.png")), d.join(format!("{name}.ck")));
         let r = Running::start(
             &[
                 "render",
@@ -356,12 +360,15 @@ fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
                 "--checkpoint",
                 ck.to_str().unwrap(),
             ],
-            &d.join(format!("{signal}.log")),
+            &d.join(format!("{name}.log")),
             false,
         );
         // The first pass done (its checkpoint saved), so that there is an image to write.
         assert!(crate::common::eventually(|| ck.exists()), "{}", r.stderr());
         let log = r.stderr.clone();
+        if twice {
+            r.signal(signal);
+        }
         let status = r.stop_with(signal);
         let e = std::fs::read_to_string(log).unwrap();
         assert!(status.success(), "SIG{signal}: {e}");
@@ -369,40 +376,6 @@ fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
         assert!(out.exists() && ck.exists(), "SIG{signal}: {e}");
     }
     crate::common::assert_no_temporaries(d);
-}
-
-/// GNU `timeout` delivers its signal twice, to raylab and then to its process group, within
-/// microseconds: that is one stop, which writes the image, not "Ctrl-C again" (which would
-/// write nothing).
-#[test]
-fn a_signal_delivered_twice_at_once_is_one_stop() {
-    let dir = workspace();
-    let d = dir.path();
-    let (out, ck) = (d.join("twice.png"), d.join("twice.ck"));
-    let r = Running::start(
-        &[
-            "render",
-            repo_file("scenes/cornell_box.ron").to_str().unwrap(),
-            "--size",
-            "64x64",
-            "--spp",
-            "100000",
-            "-o",
-            out.to_str().unwrap(),
-            "--checkpoint",
-            ck.to_str().unwrap(),
-        ],
-        &d.join("twice.log"),
-        false,
-    );
-    assert!(crate::common::eventually(|| ck.exists()), "{}", r.stderr());
-    let log = r.stderr.clone();
-    r.signal("TERM");
-    let status = r.stop_with("TERM");
-    let e = std::fs::read_to_string(log).unwrap();
-    assert!(status.success(), "{e}");
-    assert!(e.contains("interrupted: wrote the image with"), "{e}");
-    assert!(out.exists(), "{e}");
 }
 
 /// One NaN pixel, or an image of infinity, is a difference whatever the tolerance, reported
@@ -623,15 +596,21 @@ fn a_byte_order_mark_is_no_error() {
 #[test]
 fn an_address_space_limit_is_respected() {
     let dir = workspace();
-    let bin = env!("CARGO_BIN_EXE_raylab");
-    let o = std::process::Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "ulimit -v 2000000 && exec {bin} render s.ron --size 8000x8000 --spp 1 -q -o big.png"
-        ))
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
+    let o = crate::common::raylab_limited(
+        dir.path(),
+        2_000_000,
+        &[
+            "render",
+            "s.ron",
+            "--size",
+            "8000x8000",
+            "--spp",
+            "1",
+            "-q",
+            "-o",
+            "big.png",
+        ],
+    );
     refused(&o, &["8000x8000 image needs", "ulimit -v"]);
     assert!(!dir.path().join("big.png").exists());
 }
@@ -699,15 +678,7 @@ fn images_are_refused_by_what_raylab_would_hold_of_them() {
         // header, where it used to be decoded and abort in the float copy.
         let big = format!("big-{name}");
         std::fs::write(d.join(&big), text.replace("huge.png", "big.png")).unwrap();
-        let o = std::process::Command::new("sh")
-            .arg("-c")
-            .arg(format!(
-                "ulimit -v 4000000 && exec {} validate {big}",
-                env!("CARGO_BIN_EXE_raylab")
-            ))
-            .current_dir(d)
-            .output()
-            .unwrap();
+        let o = crate::common::raylab_limited(d, 4_000_000, &["validate", &big]);
         refused(&o, &["big.png", "20000 x 20000 pixels, which take"]);
     }
 }

@@ -437,15 +437,7 @@ fn instancing_beyond_the_memory_limit_is_refused_before_it_is_made() {
     }
     std::fs::write(dir.path().join("balls.pbrt"), text).unwrap();
     // 1 GB of address space: a million entities need about 3.
-    let o = std::process::Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "ulimit -v 1000000 && exec {} validate balls.pbrt",
-            env!("CARGO_BIN_EXE_raylab")
-        ))
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
+    let o = crate::common::raylab_limited(dir.path(), 1_000_000, &["validate", "balls.pbrt"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(
@@ -466,17 +458,7 @@ fn a_long_number_list_reads_in_a_bounded_memory() {
         "1 ".repeat(7_999_998)
     );
     std::fs::write(dir.path().join("list.pbrt"), text).unwrap();
-    let under = |kb: u32| {
-        std::process::Command::new("sh")
-            .arg("-c")
-            .arg(format!(
-                "ulimit -v {kb} && exec {} validate list.pbrt",
-                env!("CARGO_BIN_EXE_raylab")
-            ))
-            .current_dir(dir.path())
-            .output()
-            .unwrap()
-    };
+    let under = |kb| crate::common::raylab_limited(dir.path(), kb, &["validate", "list.pbrt"]);
     let o = under(1_000_000);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = under(300_000);

@@ -116,6 +116,19 @@ pub fn s(p: &Path) -> &str {
     p.to_str().expect("test paths are UTF-8")
 }
 
+/// Runs `raylab ARGS` to its end in the folder `dir` with at most `kb` kilobytes of address
+/// space (`ulimit -v`): a memory limit the run must respect, refusing what does not fit.
+pub fn raylab_limited(dir: &Path, kb: u64, args: &[&str]) -> std::process::Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v {kb} && exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_raylab"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("sh runs")
+}
+
 /// Runs `raylab ARGS` to its end in the folder `dir`.
 pub fn raylab_in(dir: &Path, args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_raylab"))
