@@ -35,6 +35,32 @@ pub fn memory_limit() -> Option<(u64, &'static str)> {
     limits.into_iter().min_by_key(|(bytes, _)| *bytes)
 }
 
+/// The memory this process could allocate at one moment ([`memory_limit`] then): what a
+/// piece of work that grows (an import making entities, a parser reading text) checks its
+/// whole need against, as it goes. The room left later would count what the work itself
+/// already holds twice.
+#[derive(Clone, Copy, Debug)]
+pub struct Room(Option<(u64, &'static str)>);
+
+impl Room {
+    /// The room now.
+    pub fn now() -> Room {
+        Room(memory_limit())
+    }
+
+    /// Refuses `needed` bytes for `what` ("2000 shapes") beyond the room.
+    pub fn check(&self, needed: u64, what: &str) -> Result<(), String> {
+        match self.0 {
+            Some((room, limit)) if needed > room => Err(format!(
+                "{what} need about {:.1} GiB of memory; only {:.1} GiB is {limit}",
+                needed as f64 / (1u64 << 30) as f64,
+                room as f64 / (1u64 << 30) as f64
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// The cgroup's memory limit less its usage (cgroup v2, else v1), if it has a limit.
 fn cgroup_room() -> Option<u64> {
     let read = |p: &str| std::fs::read_to_string(p).ok();

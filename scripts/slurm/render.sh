@@ -117,14 +117,15 @@ done
 
 # What every task would refuse, asked of raylab itself: shard 0's command line, and that of
 # every shard with a checkpoint to resume (one of another render is refused), as shard.sbatch
-# runs them, with --check (raylab checks, writes nothing, exits 0 when it would render).
+# runs them, with --check (raylab checks, writes nothing, exits 0 when it would render), on
+# one thread: a task's --threads C is checked against the cores of the node it runs on.
 if [ "${RAYLAB_SLURM_CHECK:-yes}" != no ]; then
   check_task() {
     local task=$1 resume=()
     [ -e "$PARTS/part-$task.ckpt" ] && resume=(--resume)
     local msg
     if ! msg=$("$RAYLAB" render "$SCENE" --shard "$task/$shards" -o "$PARTS/part-$task.exr" \
-      --threads "$cpus" --checkpoint "$PARTS/part-$task.ckpt" "${resume[@]}" "${flags[@]}" \
+      --threads 1 --checkpoint "$PARTS/part-$task.ckpt" "${resume[@]}" "${flags[@]}" \
       --check 2>&1 >/dev/null); then
       printf '%s\n' "$msg" >&2
       bad "raylab refuses shard $task/$shards (above): every task would fail; nothing submitted (RAYLAB_SLURM_CHECK=no skips this check)"

@@ -135,8 +135,15 @@ impl Observer for FileObserver {
             Ended::Finished => "done",
             _ => "stopped",
         };
+        let wrote = match &self.refused {
+            None => format!("wrote {}", self.output.display()),
+            Some(_) => format!(
+                "did not write {} (the scene reads it)",
+                self.output.display()
+            ),
+        };
         note!(
-            "{what}: {} {} | {}x{} {} spp | {:.2} s | {:.3} M samples/s | {:.2} M rays/s | wrote {}",
+            "{what}: {} {} | {}x{} {} spp | {:.2} s | {:.3} M samples/s | {:.2} M rays/s | {wrote}",
             info.integrator,
             info.describe_params(),
             info.width,
@@ -145,7 +152,6 @@ impl Observer for FileObserver {
             stats.elapsed.as_secs_f64(),
             stats.samples_per_second() / 1e6,
             stats.rays_per_second() / 1e6,
-            self.output.display()
         );
     }
 

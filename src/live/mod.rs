@@ -276,10 +276,11 @@ fn reload(
     live: &mut Option<SceneState>,
     settings: &LiveSettings,
     files: &SceneFiles,
+    imported: &SceneFiles,
 ) -> Result<String> {
     let start = Instant::now();
     let (file, approximated, origins) =
-        scene::load::read_scene_file_with_origins(files, &settings.import)?;
+        scene::load::read_scene_file_with_origins(imported, &settings.import)?;
     let (state, what) = match live {
         None => {
             let state = SceneState::new(file, &settings.scene, files.clone())
@@ -439,6 +440,7 @@ pub fn run(
     // Every load of the session reads through these, so they list every file any version
     // of the scene read (a file no longer named only costs a reload that changes nothing).
     let files = SceneFiles::new(&settings.scene, &settings.allowed);
+    let mut watched = std::collections::BTreeSet::new();
     loop {
         let pending = control.take();
         if pending.quit {
@@ -450,13 +452,23 @@ pub fn run(
             selection = s;
         }
         if pending.reload.is_some() || live.is_none() {
-            let reloaded = reload(&mut live, settings, &files);
-            let read = files.read();
+            // The import reads the whole text again on every reload (its own list: the
+            // included files of this version); the world's edits read only what changed.
+            let imported = files.with_new_list();
+            let reloaded = reload(&mut live, settings, &files, &imported);
+            watched.extend(imported.read());
+            watched.extend(files.read());
+            let all: Vec<PathBuf> = watched.iter().cloned().collect();
             // Folders made again since are watched anew too.
-            if let Err(e) = watcher.track(&read) {
+            if let Err(e) = watcher.track(&all) {
                 note!("warning: {e:#}");
             }
-            observer.inputs(&settings.scene, &read);
+            // What this version of the scene reads: its import's files and its world's.
+            if let (Ok(_), Some(state)) = (&reloaded, &live) {
+                let mut now = imported.read();
+                now.extend(state.files_in_use());
+                observer.inputs(&settings.scene, &now);
+            }
             match reloaded {
                 Ok(line) => what = line,
                 Err(e) => {

@@ -48,6 +48,14 @@ impl SceneFiles {
         }
     }
 
+    /// The same scene's files, with a list of files read of its own, empty.
+    pub fn with_new_list(&self) -> SceneFiles {
+        SceneFiles {
+            read: Arc::default(),
+            ..self.clone()
+        }
+    }
+
     /// The scene file's folder, which relative paths start from.
     pub fn dir(&self) -> &Path {
         &self.dir

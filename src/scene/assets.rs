@@ -32,7 +32,6 @@ pub fn resolve_instances(
     files: &SceneFiles,
     cache: &[CachedAsset],
 ) -> Result<ResolvedMeshes, EntityError> {
-    let dir = files.dir();
     // The assets still as they were, then those loaded now.
     let mut loaded: Vec<CachedAsset> = Vec::new();
     for (name, desc) in &table.0 {
@@ -40,7 +39,7 @@ pub fn resolve_instances(
             loaded.push(CachedAsset::new(
                 name,
                 desc,
-                asset_stamps(desc, dir),
+                asset_stamps(desc, files),
                 Arc::clone(&c.mesh),
             ));
         }
@@ -71,7 +70,7 @@ pub fn resolve_instances(
             let asset = match loaded.iter().find(|c| c.name == *mesh) {
                 Some(c) => Arc::clone(&c.mesh),
                 None => {
-                    let stamps = asset_stamps(desc, dir);
+                    let stamps = asset_stamps(desc, files);
                     let (asset, dropped) = load_asset(asset_name, desc, files)
                         .map_err(|e| fail(format!("mesh `{mesh}`: {e}")))?;
                     if dropped > 0 {

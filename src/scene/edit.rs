@@ -66,8 +66,8 @@ fn restamp(stamps: &[Stamp]) -> Vec<Stamp> {
 }
 
 /// The stamps of the files the mesh asset `desc` reads, taken before it is read.
-pub fn asset_stamps(desc: &ShapeDesc, dir: &Path) -> Vec<Stamp> {
-    stamp(shape_files(desc, dir))
+pub fn asset_stamps(desc: &ShapeDesc, files: &SceneFiles) -> Vec<Stamp> {
+    stamp(shape_files(desc, files))
 }
 
 /// Which entity of the file an entity is: its name and how many entities of that name come
@@ -369,6 +369,23 @@ impl SceneState {
         Ok(state)
     }
 
+    /// The files the world as it is now was made from (what its entities, materials and
+    /// mesh assets read, as stamped), in path order: with the scene file and what its import
+    /// read, the current scene's inputs.
+    pub fn files_in_use(&self) -> Vec<PathBuf> {
+        let mut out: Vec<PathBuf> = self
+            .records
+            .iter()
+            .flat_map(|r| &r.stamps)
+            .chain(self.materials.iter().flat_map(|m| &m.stamps))
+            .chain(self.assets.iter().flat_map(|a| &a.stamps))
+            .map(|(f, _)| f.clone())
+            .collect();
+        out.sort();
+        out.dedup();
+        out
+    }
+
     fn error(&self, message: String) -> SceneError {
         SceneError::Scene {
             path: self.loaded.path.clone(),
@@ -390,7 +407,8 @@ impl SceneState {
     pub fn apply(&mut self, file: SceneFile) -> Result<EditReport, SceneError> {
         let path = self.loaded.path.clone();
         let mut report = EditReport::default();
-        super::import::check_entities(file.entities.len()).map_err(|m| self.error(m))?;
+        super::import::check_entities(file.entities.len(), &crate::system::Room::now())
+            .map_err(|m| self.error(m))?;
 
         // Materials: the table entities refer to by name; unchanged ones kept.
         let (mut table, materials) = self.material_table(&file, &mut report)?;
@@ -438,7 +456,7 @@ impl SceneState {
                 _ => stamp(
                     e.shape
                         .iter()
-                        .flat_map(|s| shape_files(s, &dir))
+                        .flat_map(|s| shape_files(s, &self.files))
                         .chain(e.emitter.iter().flat_map(|m| emitter_files(m, &dir)))
                         .collect(),
                 ),

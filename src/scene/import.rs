@@ -24,23 +24,22 @@ pub const MAX_ENTITIES: usize = 1 << 22;
 pub const BYTES_PER_ENTITY: u64 = 3300;
 
 /// Refuses a scene of `entities` entities beyond [`MAX_ENTITIES`], or whose entities need
-/// more memory than this process may still allocate: an error before they are made, not an
-/// abort while they are.
-pub fn check_entities(entities: usize) -> Result<(), String> {
+/// more memory than `room` (the room when the making began): an error before they are made,
+/// not an abort while they are.
+pub fn check_entities(entities: usize, room: &crate::system::Room) -> Result<(), String> {
     if entities > MAX_ENTITIES {
         return Err(format!("the scene places more than {MAX_ENTITIES} shapes"));
     }
-    super::systems::check_bytes(
+    room.check(
         entities as u64 * BYTES_PER_ENTITY,
         &format!("{entities} shapes"),
     )
 }
 
-/// [`check_entities`] as an importer makes them one by one: checked at every 1024th (the
-/// memory limit is read from the system).
-pub fn check_entities_made(entities: usize) -> Result<(), String> {
+/// [`check_entities`] as an importer makes them one by one: checked at every 1024th.
+pub fn check_entities_made(entities: usize, room: &crate::system::Room) -> Result<(), String> {
     if entities % 1024 == 0 || entities > MAX_ENTITIES {
-        check_entities(entities)
+        check_entities(entities, room)
     } else {
         Ok(())
     }

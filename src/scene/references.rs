@@ -3,6 +3,7 @@
 //! whose files changed is made again ([`super::edit`]). (What a load actually read is kept by
 //! [`super::access::SceneFiles`].)
 
+use super::access::SceneFiles;
 use super::schema::{EmitterDesc, ShapeDesc};
 use std::path::{Path, PathBuf};
 
@@ -19,22 +20,28 @@ pub fn stable_hash(parts: &[&[u8]]) -> u64 {
     h
 }
 
-/// The files a shape reads, resolved against the scene's folder `dir`: a mesh file and, for
-/// an OBJ, its material libraries, for a `.gltf`, its buffers and images.
-pub fn shape_files(shape: &ShapeDesc, dir: &Path) -> Vec<PathBuf> {
+/// The files a shape reads, resolved against the scene's folder: a mesh file and, for an
+/// OBJ, its material libraries, for a `.gltf`, its buffers and images. An OBJ or glTF file
+/// is looked into only if the scene may read it (`scene_files`).
+pub fn shape_files(shape: &ShapeDesc, scene_files: &SceneFiles) -> Vec<PathBuf> {
+    let dir = scene_files.dir();
     let mut files = Vec::new();
     match shape {
         ShapeDesc::Obj { path, .. } => {
             let obj = dir.join(path);
-            for mtl in obj_mtllibs(&obj) {
-                files.push(folder_of(&obj).join(mtl));
+            if scene_files.check(&obj, path).is_ok() {
+                for mtl in obj_mtllibs(&obj) {
+                    files.push(folder_of(&obj).join(mtl));
+                }
             }
             files.push(obj);
         }
         ShapeDesc::Gltf { path } => {
             let gltf = dir.join(path);
-            for uri in gltf_uris(&gltf) {
-                files.push(folder_of(&gltf).join(uri));
+            if scene_files.check(&gltf, path).is_ok() {
+                for uri in gltf_uris(&gltf) {
+                    files.push(folder_of(&gltf).join(uri));
+                }
             }
             files.push(gltf);
         }

@@ -374,14 +374,7 @@ pub fn check_triangle_memory(triangles: u64) -> Result<(), String> {
 
 /// Refuses `needed` bytes for `what` beyond what this process may still allocate.
 pub(super) fn check_bytes(needed: u64, what: &str) -> Result<(), String> {
-    match crate::system::memory_limit() {
-        Some((room, limit)) if needed > room => Err(format!(
-            "{what} need about {:.1} GiB of memory; only {:.1} GiB is {limit}",
-            needed as f64 / (1u64 << 30) as f64,
-            room as f64 / (1u64 << 30) as f64
-        )),
-        _ => Ok(()),
-    }
+    crate::system::Room::now().check(needed, what)
 }
 
 /// The texture coordinates of a quad's two triangles (as [`local_triangles`] splits it):

@@ -366,10 +366,11 @@ fn sigterm_and_sighup_write_the_image_and_the_checkpoint() {
         // The first pass done (its checkpoint saved), so that there is an image to write.
         assert!(crate::common::eventually(|| ck.exists()), "{}", r.stderr());
         let log = r.stderr.clone();
-        if twice {
-            r.signal(signal);
-        }
-        let status = r.stop_with(signal);
+        let status = if twice {
+            r.stop_with_twice(signal)
+        } else {
+            r.stop_with(signal)
+        };
         let e = std::fs::read_to_string(log).unwrap();
         assert!(status.success(), "SIG{signal}: {e}");
         assert!(e.contains("interrupted: wrote the image with"), "{e}");

@@ -657,6 +657,23 @@ fn hostile_xml_is_refused_before_it_costs_anything() {
         ),
         "cycle.xml:1:",
     );
+    // Forty BSDFs, each blending the one before with itself: converted once each, not
+    // 2^40 times (it loads).
+    let mut chain = String::from(r#"<bsdf type="diffuse" id="b0"/>"#);
+    for k in 1..=40 {
+        chain += &format!(
+            r#"<bsdf type="blendbsdf" id="b{k}"><float name="weight" value="0.5"/><ref id="b{}"/><ref id="b{}"/></bsdf>"#,
+            k - 1,
+            k - 1
+        );
+    }
+    std::fs::write(
+        d.join("chain.xml"),
+        format!(r#"<scene version="3.0.0">{sensor}{chain}<shape type="sphere"><ref id="b40"/></shape></scene>"#),
+    )
+    .unwrap();
+    let o = raylab_in(d, &["validate", "chain.xml"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // 100,000 attributes on one element.
     let attributes: String = (0..100_000).map(|i| format!(" a{i}=\"1\"")).collect();
     refused(

@@ -306,3 +306,39 @@ fn saving_an_included_file_rerenders() {
     assert!(after < before * 0.5, "{after} vs {before}");
     assert_eq!(run.interrupt().code(), Some(0));
 }
+
+/// A save that makes the scene read the output image (as a texture) stops the writes, and
+/// a save that stops reading it starts them again: the rule holds for the scene as it is now.
+#[test]
+fn the_output_is_not_written_while_the_scene_reads_it() {
+    let (dir, scene) = scene_copy("cornell_box.ron");
+    let out = dir.path().join("out.png");
+    let run = watch(&scene, &out);
+    run.wait_stderr("the first image", |e| done_count(e) == 1);
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let white = "\"white\": Lambert(albedo: (0.885809, 0.698859, 0.666422))";
+    assert!(text.contains(white));
+    save(
+        &scene,
+        &text.replace(
+            white,
+            "\"white\": Lambert(albedo: Image(path: \"out.png\"))",
+        ),
+    );
+    run.wait_stderr("the refusal", |e| {
+        e.contains("not writing it until the scene stops reading it")
+    });
+    run.wait_stderr("the render that did not write", |e| {
+        e.contains("did not write")
+    });
+    let written = std::fs::metadata(&out).unwrap().modified().unwrap();
+    save(&scene, &text);
+    run.wait_stderr("a render that writes again", |e| {
+        e.lines()
+            .filter(|l| l.starts_with("done:") && l.contains("| wrote "))
+            .count()
+            >= 2
+    });
+    assert!(std::fs::metadata(&out).unwrap().modified().unwrap() > written);
+    assert_eq!(run.interrupt().code(), Some(0));
+}

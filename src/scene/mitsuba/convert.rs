@@ -290,7 +290,8 @@ struct Converter<'a, 'input> {
     approximate: bool,
     approximated: Vec<String>,
     /// The scene's folder and its `<path>` folders, to find the files it names.
-    base: Option<std::path::PathBuf>,
+    /// The scene's files, when it has a folder: names are found through them (and recorded).
+    files: Option<crate::scene::access::SceneFiles>,
     search: Vec<String>,
     /// Mesh assets of shapegroups: (name, RON shape).
     meshes: Vec<(String, String)>,
@@ -300,6 +301,10 @@ struct Converter<'a, 'input> {
     report: Vec<String>,
     /// The BSDFs being converted, outermost first (a nested or referenced one inside).
     bsdfs_open: Vec<roxmltree::NodeId>,
+    /// Each BSDF converted so far, by its node.
+    bsdf_of: HashMap<roxmltree::NodeId, String>,
+    /// The memory the process could allocate when the conversion began.
+    room: crate::system::Room,
     /// (an entity, else a material; its name; its line and column in the text converted).
     origins: Vec<(bool, String, (u32, u32))>,
 }
@@ -307,17 +312,15 @@ struct Converter<'a, 'input> {
 impl<'a, 'input> Converter<'a, 'input> {
     /// A file the scene names, as a path from the scene's folder: itself if it is there, else
     /// under the first `<path>` folder that holds it.
+    /// Each candidate looked at is one of the scene's inputs (through `files`), missing ones
+    /// too: creating one that comes before changes which file the scene reads.
     fn file_name(&self, name: String) -> String {
-        let Some(base) = &self.base else {
+        let Some(files) = &self.files else {
             return name;
         };
-        if base.join(&name).exists() {
-            return name;
-        }
-        self.search
-            .iter()
-            .map(|dir| format!("{dir}/{name}"))
-            .find(|candidate| base.join(candidate).exists())
+        std::iter::once(name.clone())
+            .chain(self.search.iter().map(|dir| format!("{dir}/{name}")))
+            .find(|candidate| files.named(candidate).is_ok_and(|f| f.exists()))
             .unwrap_or(name)
     }
 
@@ -464,6 +467,11 @@ impl<'a, 'input> Converter<'a, 'input> {
     /// cycle, refused; so is nesting deeper than [`super::include::MAX_NESTING`] through
     /// references.
     fn bsdf(&mut self, node: Node<'a, 'input>) -> Result<String, Located> {
+        // A BSDF referenced from several places is converted once (a chain of BSDFs each
+        // referring twice to the one before would otherwise take 2^depth conversions).
+        if let Some(done) = self.bsdf_of.get(&node.id()) {
+            return Ok(done.clone());
+        }
         if self.bsdfs_open.contains(&node.id()) {
             let id = node.attribute("id").unwrap_or_default();
             return Err(at(
@@ -485,6 +493,9 @@ impl<'a, 'input> Converter<'a, 'input> {
         self.bsdfs_open.push(node.id());
         let out = self.bsdf_plugin(node);
         self.bsdfs_open.pop();
+        if let Ok(desc) = &out {
+            self.bsdf_of.insert(node.id(), desc.clone());
+        }
         out
     }
 
@@ -824,7 +835,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
         e.push_str("),");
         self.entities.push(e);
-        crate::scene::import::check_entities_made(self.entities.len())
+        crate::scene::import::check_entities_made(self.entities.len(), &self.room)
             .map_err(|e| at(self.doc, node, e))?;
         Ok(())
     }
@@ -901,7 +912,7 @@ impl<'a, 'input> Converter<'a, 'input> {
             }
             e.push_str("),");
             self.entities.push(e);
-            crate::scene::import::check_entities_made(self.entities.len())
+            crate::scene::import::check_entities_made(self.entities.len(), &self.room)
                 .map_err(|e| at(self.doc, node, e))?;
         }
         Ok(())
@@ -1092,11 +1103,12 @@ impl<'a, 'input> Converter<'a, 'input> {
 
     fn sensor(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
         if self.camera.is_some() {
-            return Err(at(
-                self.doc,
-                node,
-                "a second <sensor>: raylab renders a scene through one camera",
+            // Mitsuba 3 renders its first sensor (sensor 0) unless told otherwise.
+            let (line, col) = position(self.doc, node);
+            self.report.push(format!(
+                "{line}:{col}: a second <sensor>: not read (Mitsuba 3 and raylab render the first)"
             ));
+            return Ok(());
         }
         let kind = self.kind(node)?;
         if kind != "perspective" && kind != "orthographic" {
@@ -1219,7 +1231,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                         return Err(at(
                             self.doc,
                             child,
-                            format!("sample_count {n}: it must be at least 1"),
+                            format!("sample_count {n}: it must be 1 to {}", u32::MAX),
                         ));
                     }
                     s.finish(&["seed", "jitter", "scramble_seed"])?;
@@ -1437,7 +1449,7 @@ pub fn to_ron_with(text: &str, options: &ImportOptions) -> Result<Imported, Loca
 pub fn to_ron_in(
     text: &str,
     options: &ImportOptions,
-    base: Option<&std::path::Path>,
+    files: Option<&crate::scene::access::SceneFiles>,
     search: &[String],
 ) -> Result<Imported, Located> {
     super::xml::check_attributes(text)?;
@@ -1467,7 +1479,7 @@ pub fn to_ron_in(
         entities: Vec::new(),
         approximate: options.approximate,
         approximated: Vec::new(),
-        base: base.map(std::path::Path::to_path_buf),
+        files: files.cloned(),
         search: search.to_vec(),
         meshes: Vec::new(),
         environment: None,
@@ -1475,6 +1487,8 @@ pub fn to_ron_in(
         render: Vec::new(),
         report: Vec::new(),
         bsdfs_open: Vec::new(),
+        bsdf_of: HashMap::new(),
+        room: crate::system::Room::now(),
         origins: Vec::new(),
     };
     let mut index = 0;

@@ -78,6 +78,8 @@ struct Converter<'a> {
     included_bytes: u64,
     /// Bytes of text read so far, the scene's and its includes'.
     text_bytes: u64,
+    /// The memory the process could allocate when the conversion began.
+    room: crate::system::Room,
     state: State,
     stack: Vec<(State, &'static str, Pos)>,
     named_coords: HashMap<String, DMat4>,
@@ -170,24 +172,19 @@ impl<'a> Converter<'a> {
         // before it is read.
         self.text_bytes += text.len() as u64;
         let needed = self.text_bytes.saturating_mul(BYTES_PER_TEXT_BYTE);
-        if let Some((room, what)) = crate::system::memory_limit() {
-            if needed > room {
+        self.room
+            .check(
+                needed,
+                &format!("{} MB of pbrt text", self.text_bytes >> 20),
+            )
+            .map_err(|message| {
                 let start = Pos {
                     file: index,
                     line: 1,
                     col: 1,
                 };
-                return Err((
-                    start,
-                    format!(
-                        "{} MB of pbrt text need about {} MB of memory to read; only {} MB is {what}",
-                        self.text_bytes >> 20,
-                        needed >> 20,
-                        room >> 20
-                    ),
-                ));
-            }
-        }
+                (start, message)
+            })?;
         let end_line = text.lines().count().max(1) as u32;
         let mut parser = Parser::new(
             Tokens::new(text, index),
@@ -1281,7 +1278,8 @@ impl<'a> Converter<'a> {
         }
         entity.push_str("),");
         self.entities.push(entity);
-        crate::scene::import::check_entities_made(self.entities.len()).map_err(|e| (d.pos, e))?;
+        crate::scene::import::check_entities_made(self.entities.len(), &self.room)
+            .map_err(|e| (d.pos, e))?;
         Ok(())
     }
 
@@ -1324,7 +1322,7 @@ impl<'a> Converter<'a> {
             entities.push(e);
         }
         self.meshes.extend(new_meshes);
-        crate::scene::import::check_entities(self.entities.len() + entities.len())
+        crate::scene::import::check_entities(self.entities.len() + entities.len(), &self.room)
             .map_err(|e| (d.pos, format!("ObjectInstance: {e}")))?;
         self.entities.extend(entities);
         Ok(())
@@ -1613,6 +1611,7 @@ pub fn to_ron(
         paths: Vec::new(),
         included_bytes: 0,
         text_bytes: 0,
+        room: crate::system::Room::now(),
         reading: vec![path.canonicalize().unwrap_or_else(|_| path.to_path_buf())],
         state: State {
             ctm: DMat4::IDENTITY,

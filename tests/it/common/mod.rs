@@ -75,8 +75,27 @@ impl Running {
     }
 
     /// Sends the signal `name` and waits for the exit.
-    pub fn stop_with(mut self, name: &str) -> ExitStatus {
+    pub fn stop_with(self, name: &str) -> ExitStatus {
         self.signal(name);
+        self.wait()
+    }
+
+    /// Sends the signal `name` twice at once, from one shell (as GNU `timeout` signals a
+    /// command and then its process group), and waits for the exit.
+    pub fn stop_with_twice(self, name: &str) -> ExitStatus {
+        let pid = self.child.id();
+        let ok = Command::new("sh")
+            .arg("-c")
+            .arg(format!("kill -{name} {pid}; kill -{name} {pid}"))
+            .status()
+            .unwrap();
+        assert!(ok.success());
+        self.wait()
+    }
+
+    /// Waits for the exit (at most [`TIMEOUT`]).
+    pub fn wait(mut self) -> ExitStatus {
+        let name = "the end";
         let end = Instant::now() + TIMEOUT;
         loop {
             if let Some(status) = self.child.try_wait().unwrap() {
@@ -84,7 +103,7 @@ impl Running {
             }
             assert!(
                 Instant::now() < end,
-                "still running after SIG{name}; stderr:\n{}",
+                "still running, waiting for {name}; stderr:\n{}",
                 self.stderr()
             );
             std::thread::sleep(Duration::from_millis(20));
