@@ -455,7 +455,7 @@ impl Accumulation {
         // block's sums into the exact totals (a pixel whose block is beyond what they hold is
         // dropped like a non-finite sample).
         let pass = self.spp_done;
-        let ends_block = (pass + 1) % BLOCK == 0;
+        let ends_block = (pass + 1).is_multiple_of(BLOCK);
         let out_of_range: Vec<Dropped> = self
             .tiles
             .par_iter_mut()

@@ -38,7 +38,7 @@ pub fn check_entities(entities: usize, room: &crate::system::Room) -> Result<(),
 
 /// [`check_entities`] as an importer makes them one by one: checked at every 1024th.
 pub fn check_entities_made(entities: usize, room: &crate::system::Room) -> Result<(), String> {
-    if entities % 1024 == 0 || entities > MAX_ENTITIES {
+    if entities.is_multiple_of(1024) || entities > MAX_ENTITIES {
         check_entities(entities, room)
     } else {
         Ok(())
