@@ -20,7 +20,7 @@ pub const MAX_ENTITIES: usize = 1 << 22;
 
 /// Memory an entity takes at the peak of a load, in bytes: its RON text, its description,
 /// its components and the edit's record of it. Measured: 3.2 kB for each of 100,000
-/// instanced spheres of a pbrt-v4 scene (316 MB at the peak).
+/// instanced spheres of a pbrt-v4 scene (324 MB at the peak).
 pub const BYTES_PER_ENTITY: u64 = 3300;
 
 /// Refuses a scene of `entities` entities beyond [`MAX_ENTITIES`], or whose entities need

@@ -20,7 +20,7 @@ const MAX_INCLUDE_DEPTH: usize = 32;
 const MAX_INCLUDED_BYTES: u64 = 4 * crate::files::MAX_TEXT;
 
 /// Memory reading a byte of pbrt text takes at its peak (its numbers, the RON made of them
-/// and the shapes made of that): measured 26 for a 16 MB list of one-digit numbers.
+/// and the shapes made of that): measured 27 for a 16 MB list of one-digit numbers.
 const BYTES_PER_TEXT_BYTE: u64 = 32;
 
 /// The most files a scene may include, counting each include of a file.
