@@ -13,7 +13,7 @@
 //! the report's perfect mirror (RON `Mirror(tint)`): `F` is exactly 1.
 
 use super::fresnel::fresnel_conductor;
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 
@@ -72,6 +72,11 @@ impl Conductor {
 }
 
 impl Bxdf for Conductor {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::DELTA_REFLECTION
+    }
+
     fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
         Rgb::ZERO
     }

@@ -20,7 +20,7 @@
 //! the ray arrives from outside, `wo.z < 0` from inside.
 
 use super::fresnel::fresnel_dielectric;
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 
@@ -84,6 +84,11 @@ impl Dielectric {
 }
 
 impl Bxdf for Dielectric {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::DELTA_REFLECTION.with(Lobes::DELTA_TRANSMISSION)
+    }
+
     fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
         Rgb::ZERO
     }

@@ -1,6 +1,6 @@
 //! Lambertian diffuse reflection: `f = albedo / pi`.
 
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::sampling::cosine_hemisphere_pdf;
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
@@ -21,6 +21,11 @@ impl Lambert {
 }
 
 impl Bxdf for Lambert {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::DIFFUSE_REFLECTION
+    }
+
     fn eval(&self, _wo: Vec3A, wi: Vec3A) -> Rgb {
         if wi.z <= 0.0 {
             return Rgb::ZERO;

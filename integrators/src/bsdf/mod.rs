@@ -107,8 +107,45 @@ impl BsdfSample {
     }
 }
 
+/// The kinds of lobe a model has, as Mitsuba 3's `BSDFFlags` and pbrt-v4's `BxDFFlags`:
+/// delta, glossy or diffuse, each in reflection or transmission. Every model declares its own
+/// ([`Bxdf::lobes`]); what an integrator asks of a material (is it specular, does it let
+/// light through) is read from them, never guessed from which model it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Lobes(u8);
+
+impl Lobes {
+    pub const DELTA_REFLECTION: Lobes = Lobes(1);
+    pub const DELTA_TRANSMISSION: Lobes = Lobes(2);
+    pub const GLOSSY_REFLECTION: Lobes = Lobes(4);
+    pub const GLOSSY_TRANSMISSION: Lobes = Lobes(8);
+    pub const DIFFUSE_REFLECTION: Lobes = Lobes(16);
+    pub const DIFFUSE_TRANSMISSION: Lobes = Lobes(32);
+    /// Every Dirac lobe.
+    pub const DELTA: Lobes = Lobes(1 | 2);
+    /// Every transmission lobe.
+    pub const TRANSMISSION: Lobes = Lobes(2 | 8 | 32);
+
+    /// Both sets of lobes.
+    pub const fn with(self, other: Lobes) -> Lobes {
+        Lobes(self.0 | other.0)
+    }
+
+    /// Whether any lobe of `other` is among these.
+    pub const fn any(self, other: Lobes) -> bool {
+        self.0 & other.0 != 0
+    }
+
+    /// Whether every one of these lobes is among `other` (and there is one).
+    pub const fn only(self, other: Lobes) -> bool {
+        self.0 != 0 && self.0 & !other.0 == 0
+    }
+}
+
 /// One reflectance model. Implementations may assume `wo.z >= 0` unless they are transmissive.
 pub trait Bxdf {
+    /// The kinds of lobe the model has (required: a new model says what it is).
+    fn lobes(&self) -> Lobes;
     /// `f(wo, wi)`, without the cosine factor. Zero for specular models.
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb;
     /// Density with which [`Bxdf::sample`] returns `wi`, per unit solid angle. Zero for
@@ -178,30 +215,31 @@ impl Material {
         !self.is_transmissive()
     }
 
-    /// True for materials that let light through (the dielectrics): only they may send a path
-    /// to the other side of the surface, and they see which side a ray arrives from.
+    /// The kinds of lobe the material's model declares.
+    #[inline]
+    pub fn lobes(&self) -> Lobes {
+        dispatch!(self, m => m.lobes())
+    }
+
+    /// True for materials that let light through (a transmission lobe: the dielectrics): only
+    /// they may send a path to the other side of the surface, and they see which side a ray
+    /// arrives from.
     #[inline]
     pub fn is_transmissive(&self) -> bool {
-        matches!(
-            self,
-            Material::Dielectric(_) | Material::ThinDielectric(_) | Material::RoughDielectric(_)
-        )
+        self.lobes().any(Lobes::TRANSMISSION)
     }
 
     /// True when every lobe is a Dirac delta (no direct lighting possible).
     #[inline]
     pub fn is_specular(&self) -> bool {
-        matches!(
-            self,
-            Material::Dielectric(_) | Material::ThinDielectric(_) | Material::Conductor(_)
-        )
+        self.lobes().only(Lobes::DELTA)
     }
 
     /// True when some lobe is a Dirac delta: the specular materials, and smooth plastic's
     /// coating over its diffuse base. Whitted-style tracers follow these lobes recursively.
     #[inline]
     pub fn has_delta_lobe(&self) -> bool {
-        self.is_specular() || matches!(self, Material::Plastic(_))
+        self.lobes().any(Lobes::DELTA)
     }
 
     /// Probability that [`Material::sample`] at `wo` picks a Dirac lobe, and does so exactly

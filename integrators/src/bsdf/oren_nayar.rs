@@ -45,7 +45,7 @@
 //!
 //! Sampling is cosine-weighted over the hemisphere (`pdf = cos(theta_i) / pi`).
 
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::sampling::cosine_hemisphere_pdf;
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
@@ -92,6 +92,11 @@ impl OrenNayar {
 }
 
 impl Bxdf for OrenNayar {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::DIFFUSE_REFLECTION
+    }
+
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         if wi.z <= 0.0 || wo.z < 0.0 {
             return Rgb::ZERO;

@@ -53,7 +53,7 @@
 //! `(1 - p_s) cos(theta_i) / pi + p_s (n + 1) / (2 pi) cos(alpha)^n`, and [`Bxdf::sample`]
 //! returns that same mixture density and the full `f`, so that MIS weights are consistent.
 
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::sampling::cosine_hemisphere;
 use crate::{luminance, Frame, Rgb};
 use glam::{Vec2, Vec3A};
@@ -132,6 +132,11 @@ impl Phong {
 }
 
 impl Bxdf for Phong {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::DIFFUSE_REFLECTION.with(Lobes::GLOSSY_REFLECTION)
+    }
+
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         if wi.z <= 0.0 || wo.z < 0.0 {
             return Rgb::ZERO;

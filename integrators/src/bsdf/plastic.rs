@@ -23,7 +23,7 @@
 //! Whitted-style tracers follow the coating's reflection and light the base directly.
 
 use super::fresnel::{fresnel_dielectric, fresnel_diffuse_reflectance};
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
@@ -128,6 +128,11 @@ impl Plastic {
 }
 
 impl Bxdf for Plastic {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::DELTA_REFLECTION.with(Lobes::DIFFUSE_REFLECTION)
+    }
+
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;

@@ -17,7 +17,7 @@
 
 use super::conductor::{conductor_fresnel, ComplexIor};
 use super::microfacet::{reflect, HalfVector, Microfacet};
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 
@@ -57,6 +57,11 @@ impl RoughConductor {
 }
 
 impl Bxdf for RoughConductor {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::GLOSSY_REFLECTION
+    }
+
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;

@@ -21,7 +21,7 @@
 
 use super::fresnel::fresnel_dielectric;
 use super::microfacet::{reflect, refract, Microfacet};
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 
@@ -91,6 +91,11 @@ impl RoughDielectric {
 }
 
 impl Bxdf for RoughDielectric {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::GLOSSY_REFLECTION.with(Lobes::GLOSSY_TRANSMISSION)
+    }
+
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         let Some(fc) = self.facet(wo, wi) else {
             return Rgb::ZERO;

@@ -25,7 +25,7 @@
 use super::fresnel::fresnel_dielectric;
 use super::microfacet::{reflect, refract, Distribution, HalfVector, Microfacet};
 use super::plastic::{coating_probability, multiple_bounces, Coating};
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
@@ -244,6 +244,11 @@ impl RoughPlastic {
 }
 
 impl Bxdf for RoughPlastic {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::GLOSSY_REFLECTION.with(Lobes::DIFFUSE_REFLECTION)
+    }
+
     fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;

@@ -11,7 +11,7 @@
 //! compressed (`eta` 1).
 
 use super::fresnel::fresnel_dielectric;
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, Lobes};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 
@@ -47,6 +47,11 @@ impl ThinDielectric {
 }
 
 impl Bxdf for ThinDielectric {
+    #[inline]
+    fn lobes(&self) -> Lobes {
+        Lobes::DELTA_REFLECTION.with(Lobes::DELTA_TRANSMISSION)
+    }
+
     fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
         Rgb::ZERO
     }

@@ -681,3 +681,67 @@ fn chi2_plastic_base() {
         1511,
     );
 }
+
+/// Every model's declared lobes say what it does: it sends paths to the other side exactly
+/// when it declares a transmission lobe, it samples a delta lobe exactly when it declares one,
+/// and a lobe with a density exactly when it declares a non-delta lobe. (The lobes are what integrators ask: a new model that declared them wrong
+/// would be traced wrong.)
+#[test]
+fn every_model_declares_the_lobes_it_samples() {
+    let rgb = Rgb::new(0.8, 0.4, 0.2);
+    let mut materials = all_materials();
+    materials.extend([
+        ("lambert", Material::Lambert(Lambert::new(rgb).unwrap())),
+        ("oren-nayar", Material::OrenNayar(OrenNayar::new(rgb, 20.0))),
+        (
+            "phong",
+            Material::Phong(Phong {
+                kd: rgb * 0.5,
+                ks: Rgb::splat(0.3),
+                exponent: 20.0,
+            }),
+        ),
+        (
+            "dielectric",
+            Material::Dielectric(Dielectric::new(1.5, Rgb::ONE, Rgb::ONE).unwrap()),
+        ),
+        (
+            "thindielectric",
+            Material::ThinDielectric(ThinDielectric::new(1.5, Rgb::ONE, Rgb::ONE).unwrap()),
+        ),
+        (
+            "conductor",
+            Material::Conductor(Conductor::new(None, Rgb::ONE).unwrap()),
+        ),
+    ]);
+    for (name, m) in &materials {
+        let lobes = m.lobes();
+        let (mut through, mut delta, mut smooth) = (false, false, false);
+        let mut s = Sampler::new(7, 0, 0);
+        let wo = dir(35.0, 20.0);
+        for _ in 0..4000 {
+            let (u_lobe, u) = (s.next_1d(), s.next_2d());
+            let Some(b) = m.sample(wo, u_lobe, u) else {
+                continue;
+            };
+            through |= b.wi.z * wo.z < 0.0;
+            if b.specular {
+                delta = true;
+            } else {
+                // A sample of a non-delta lobe has the density the model evaluates.
+                assert!(
+                    m.pdf(wo, b.wi) > 0.0,
+                    "{name}: a smooth sample of no density"
+                );
+                smooth = true;
+            }
+        }
+        assert_eq!(
+            through,
+            lobes.any(Lobes::TRANSMISSION),
+            "{name}: transmission"
+        );
+        assert_eq!(delta, lobes.any(Lobes::DELTA), "{name}: delta lobes");
+        assert_eq!(smooth, !lobes.only(Lobes::DELTA), "{name}: non-delta lobes");
+    }
+}
