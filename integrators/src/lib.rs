@@ -26,6 +26,7 @@ pub mod integrator;
 pub mod light;
 pub mod mlt;
 pub mod photon_map;
+pub mod random;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;

@@ -12,7 +12,7 @@
 //! fresh one after a large step. A rejected proposal restores the numbers it touched.
 //! Everything is drawn from the chain's own generator, so a chain is a function of its seed.
 
-use crate::sampler::unit_f32;
+use crate::random::unit_f32;
 use rand::rngs::SmallRng;
 
 /// One number of the state, with what a rejection restores.
@@ -182,7 +182,7 @@ fn standard_normal(rng: &mut SmallRng) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampler::keyed_rng;
+    use crate::random::keyed_rng;
     use crate::testing::chi2::assert_chi2_discrete;
 
     fn read(p: &mut PrimarySamples, n: usize) -> Vec<f32> {

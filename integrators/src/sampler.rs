@@ -9,8 +9,9 @@
 //! ([`PrimarySamples`]), which mutates them between evaluations.
 
 use crate::mlt::PrimarySamples;
+use crate::random::{mix64, unit_f32};
 use glam::Vec2;
-use rand::{rngs::SmallRng, Rng, SeedableRng};
+use rand::{rngs::SmallRng, SeedableRng};
 
 /// A random number source for one camera sample (or one evaluation of a Metropolis chain).
 pub struct Sampler {
@@ -22,14 +23,6 @@ enum Source {
     Random(SmallRng),
     /// A Markov chain's numbers in primary sample space.
     Primary(PrimarySamples),
-}
-
-/// SplitMix64 finaliser: a bijective 64-bit mix.
-#[inline]
-fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 impl Sampler {
@@ -78,21 +71,6 @@ impl Sampler {
     pub fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_1d(), self.next_1d())
     }
-}
-
-/// A uniform number in `[0, 1)` from `rng`: 24 random mantissa bits, exactly representable,
-/// never 1.0.
-#[inline]
-pub fn unit_f32(rng: &mut SmallRng) -> f32 {
-    (rng.random::<u32>() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-}
-
-/// The generator keyed by `key` and `index` (a chain, a bootstrap sample), mixed so that
-/// neighbouring keys give unrelated streams.
-pub fn keyed_rng(key: u64, index: u64) -> SmallRng {
-    SmallRng::seed_from_u64(mix64(
-        key ^ mix64(index.wrapping_add(0x6a09_e667_f3bc_c909)),
-    ))
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use crate::render::{
     StopReason,
 };
 use crate::scene::RenderScene;
-use crate::scene::{self, load::check_size};
+use crate::scene::{self, describe::check_size};
 use anyhow::{anyhow, bail, Context, Result};
 use raylab_integrators::{registry, ParamKind};
 use std::fmt::Write as _;

@@ -284,7 +284,7 @@ fn entry_options(
     }
     let size = e.size.or(desc.size);
     if let Some((w, h)) = size {
-        crate::scene::load::check_size(w, h).map_err(|m| anyhow!("size: {m}"))?;
+        crate::scene::describe::check_size(w, h).map_err(|m| anyhow!("size: {m}"))?;
     }
     let region = e.region.map(|(x, y, w, h)| Region { x, y, w, h });
     if let Some(r) = region {

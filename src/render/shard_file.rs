@@ -199,7 +199,7 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
         .map_err(|_| anyhow!("its tonemap `{tonemap_name}` is unknown"))?;
     let size = header.layer_size;
     let (width, height) = (size.width() as u32, size.height() as u32);
-    crate::scene::load::check_size(width, height).map_err(|e| anyhow!("its image: {e}"))?;
+    crate::scene::describe::check_size(width, height).map_err(|e| anyhow!("its image: {e}"))?;
     let expected = 3 + 3 + SUM_CHANNELS;
     let channels = header.channels.list.len();
     if channels != expected && channels != expected - 3 {

@@ -8,8 +8,8 @@
 
 use super::access::SceneFiles;
 use super::components::{FileOrder, Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
-use super::edit::{asset_stamps, CachedAsset};
 use super::schema::{MeshTable, ShapeDesc};
+use super::stamps::{asset_stamps, CachedAsset};
 use super::systems::{self, EntityError};
 use glam::{Affine3A, Vec3A};
 use hecs::{CommandBuffer, Entity, World};
@@ -136,7 +136,7 @@ fn load_asset(
         }
         _ => {}
     }
-    let shape = super::load::shape_from_desc(desc.clone(), files)?;
+    let shape = super::describe::shape_from_desc(desc.clone(), files)?;
     systems::validate_shape(&shape, &Transform::default())?;
     let WorldShape::Triangles {
         triangles,

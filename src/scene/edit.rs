@@ -25,13 +25,14 @@ use super::components::{
     Changed, Emitter, FileOrder, FlipNormals, Instanced, LocalMesh, MaterialRef, Name, Shape,
     Transform, WorldShape,
 };
-use super::error::SceneError;
-use super::load::{
+use super::describe::{
     camera_from_desc, check_render, emitter_from_desc, shape_from_desc, transform_from_desc, v3,
 };
+use super::error::SceneError;
 use super::materials::material_from_desc;
 use super::references::{emitter_files, folder_of, shape_files};
 use super::schema::{EmitterDesc, EntityDesc, MaterialDesc, SceneFile, ShapeDesc};
+use super::stamps::{restamp, stamp, CachedAsset, Stamp};
 use super::textures::TextureLoader;
 use super::{assets, file_materials, systems, LoadedScene, RenderScene};
 use crate::accel::AccelKind;
@@ -41,34 +42,6 @@ use raylab_integrators::{Material, Rgb, SurfaceMaterial};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::SystemTime;
-
-/// A file a description reads, with its modification time and length when it was read (`None`
-/// if it could not be looked at): a description whose files' stamps changed is made again.
-pub type Stamp = (PathBuf, Option<(SystemTime, u64)>);
-
-fn stamp(files: Vec<PathBuf>) -> Vec<Stamp> {
-    files
-        .into_iter()
-        .map(|f| {
-            let meta = std::fs::metadata(&f).ok();
-            let when = meta.and_then(|m| Some((m.modified().ok()?, m.len())));
-            (f, when)
-        })
-        .collect()
-}
-
-/// The stamps of the files of `stamps` now. (Looking again at the same files, not at what
-/// the description names: finding an OBJ's material libraries reads the whole file, and a
-/// file whose own stamp changed is read again anyway.)
-fn restamp(stamps: &[Stamp]) -> Vec<Stamp> {
-    stamp(stamps.iter().map(|(f, _)| f.clone()).collect())
-}
-
-/// The stamps of the files the mesh asset `desc` reads, taken before it is read.
-pub fn asset_stamps(desc: &ShapeDesc, files: &SceneFiles) -> Vec<Stamp> {
-    stamp(shape_files(desc, files))
-}
 
 /// Which entity of the file an entity is: its name and how many entities of that name come
 /// before it (unnamed entities are matched by their order among the unnamed).
@@ -88,32 +61,6 @@ struct Record {
     entities: Vec<Entity>,
     /// For `from-file`, the materials of its parts, in order.
     part_materials: Vec<SurfaceMaterial>,
-}
-
-/// A mesh asset loaded for `Instance` shapes, kept while its description and file stay.
-pub struct CachedAsset {
-    pub name: String,
-    pub desc: ShapeDesc,
-    stamps: Vec<Stamp>,
-    pub mesh: Arc<LocalMesh>,
-}
-
-impl CachedAsset {
-    /// The asset `name` of description `desc`, read from files of `stamps` (taken before it
-    /// was read: a file written meanwhile is read again next time).
-    pub fn new(name: &str, desc: &ShapeDesc, stamps: Vec<Stamp>, mesh: Arc<LocalMesh>) -> Self {
-        CachedAsset {
-            name: name.to_string(),
-            desc: desc.clone(),
-            stamps,
-            mesh,
-        }
-    }
-
-    /// Whether this is asset `name` as `desc` describes it now.
-    pub fn matches(&self, name: &str, desc: &ShapeDesc) -> bool {
-        self.name == name && self.desc == *desc && restamp(&self.stamps) == self.stamps
-    }
 }
 
 /// What an apply changed, for the line a live session prints.

@@ -3,7 +3,8 @@
 //! form takes their means (as Mitsuba 3 makes its sampling weights from them).
 
 use super::schema::{MaterialDesc, Metal};
-use super::textures::{ColorDesc, FloatDesc, Role, TextureLoader};
+use super::texture_desc::{ColorDesc, FloatDesc};
+use super::textures::{Role, TextureLoader};
 use glam::Vec3A;
 use raylab_integrators::bsdf::{
     checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert,

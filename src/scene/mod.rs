@@ -4,6 +4,7 @@
 pub mod access;
 pub mod assets;
 pub mod components;
+pub mod describe;
 pub mod edit;
 pub mod error;
 pub mod file_materials;
@@ -24,7 +25,9 @@ pub mod schema;
 pub mod serialized;
 pub mod spectra;
 mod spectra_tables;
+mod stamps;
 pub mod systems;
+pub mod texture_desc;
 pub mod textures;
 
 pub use error::SceneError;

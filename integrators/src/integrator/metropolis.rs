@@ -19,8 +19,8 @@
 
 use crate::integrator::{Demand, Integrator, PixelSample, RayCounters, Splats, Stop, Tracer};
 use crate::mlt::PrimarySamples;
+use crate::random::{keyed_rng, unit_f32};
 use crate::registry::{ParamKind, ParamSpec, Params};
-use crate::sampler::{keyed_rng, unit_f32};
 use crate::{luminance, Camera, Rgb, Sampler, Scene};
 use glam::Vec2;
 use rayon::prelude::*;

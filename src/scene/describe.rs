@@ -1,0 +1,382 @@
+//! The scene description made into components: a camera, a transform, a shape (reading its
+//! mesh file), an emitter (reading an environment map), each checked, with the error naming
+//! what is wrong. Loading a file ([`super::load`]) and applying an edit ([`super::edit`]) both
+//! make their components here.
+
+use super::access::SceneFiles;
+use super::components::{Emitter, Shape, Transform};
+use super::error::finite;
+use super::mesh_files;
+use super::schema::{CameraDesc, EmitterDesc, RenderDesc, ShapeDesc};
+use glam::{Vec3, Vec3A};
+use raylab_integrators::light::EnvMap;
+use raylab_integrators::registry;
+use raylab_integrators::Camera;
+
+/// Largest image side accepted, and largest pixel count (the film alone would need 24 bytes
+/// per pixel more than this allows).
+pub const MAX_SIDE: u32 = 1 << 16;
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+pub(super) fn v3(a: [f32; 3]) -> Vec3A {
+    Vec3A::from_array(a)
+}
+
+/// Turns an emitter description into the component; an environment map's image is read
+/// here, and turned into the world by the entity's rotation.
+pub(super) fn emitter_from_desc(
+    desc: EmitterDesc,
+    transform: &Transform,
+    files: &SceneFiles,
+) -> Result<Emitter, String> {
+    Ok(match desc {
+        EmitterDesc::Area {
+            radiance,
+            two_sided,
+        } => Emitter::Area {
+            radiance: v3(radiance),
+            two_sided,
+        },
+        EmitterDesc::Point { intensity } => Emitter::Point {
+            intensity: v3(intensity),
+        },
+        EmitterDesc::Spot {
+            intensity,
+            look_at,
+            cutoff_angle,
+            beam_width,
+            falloff,
+        } => Emitter::Spot {
+            intensity: v3(intensity),
+            look_at: look_at.map(v3),
+            cutoff_angle,
+            beam_width: beam_width.unwrap_or(0.75 * cutoff_angle),
+            falloff: match falloff.as_deref() {
+                None | Some("linear") => raylab_integrators::light::Falloff::Linear,
+                Some("smoothstep") => raylab_integrators::light::Falloff::Smoothstep,
+                Some(other) => {
+                    return Err(format!(
+                        "a spot's falloff is \"linear\" or \"smoothstep\", not \"{other}\""
+                    ))
+                }
+            },
+        },
+        EmitterDesc::Directional {
+            direction,
+            irradiance,
+        } => Emitter::Directional {
+            direction: v3(direction),
+            irradiance: v3(irradiance),
+        },
+        EmitterDesc::Environment {
+            path,
+            scale,
+            mapping,
+        } => {
+            if transform.mirrors() {
+                return Err(
+                    "an environment map cannot be mirrored: its transform.matrix has a negative determinant"
+                        .into(),
+                );
+            }
+            let file = files.named(&path)?;
+            let image = super::images::read_linear_rgb(&file, false)?;
+            let (width, height, texels) = match mapping.as_deref() {
+                None | Some("latlong") => (image.width, image.height, image.texels),
+                Some("octahedral") => {
+                    if image.width != image.height || image.width < 1 {
+                        return Err(format!(
+                            "environment map `{}`: an octahedral map is square, this one is {} x {}",
+                            file.display(),
+                            image.width,
+                            image.height
+                        ));
+                    }
+                    super::octahedral::to_lat_long(image.width, &image.texels)
+                }
+                Some(other) => {
+                    return Err(format!(
+                        "an environment map's mapping is \"latlong\" or \"octahedral\", not \"{other}\""
+                    ))
+                }
+            };
+            let rotation = glam::Mat3A::from_quat(transform.rotation());
+            let map = EnvMap::new(width, height, texels, scale, rotation)
+                .map_err(|e| format!("environment map `{}`: {e}", file.display()))?;
+            Emitter::Environment(std::sync::Arc::new(map))
+        }
+    })
+}
+
+/// The entity's transform: translate, rotate and scale, or a whole matrix (without them).
+pub(super) fn transform_from_desc(t: &super::schema::TransformDesc) -> Result<Transform, String> {
+    let mut transform = Transform {
+        translate: Vec3::from_array(t.translate),
+        rotate_degrees: Vec3::from_array(t.rotate),
+        scale: Vec3::from_array(t.scale),
+        matrix: None,
+    };
+    let Some(values) = &t.matrix else {
+        return Ok(transform);
+    };
+    if transform != Transform::default() {
+        return Err(
+            "transform.matrix replaces translate, rotate and scale: give the matrix alone".into(),
+        );
+    }
+    let rows: [[f32; 4]; 3] = match values.len() {
+        12 | 16 => std::array::from_fn(|r| std::array::from_fn(|c| values[4 * r + c])),
+        n => {
+            return Err(format!(
+                "transform.matrix takes 12 or 16 numbers (rows of four), got {n}"
+            ))
+        }
+    };
+    if values.len() == 16 && values[12..] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(format!(
+            "transform.matrix's last row must be 0 0 0 1 (an affine map), got {:?}",
+            &values[12..]
+        ));
+    }
+    let column = |c: usize| Vec3A::new(rows[0][c], rows[1][c], rows[2][c]);
+    transform.matrix = Some(glam::Affine3A::from_cols(
+        column(0),
+        column(1),
+        column(2),
+        column(3),
+    ));
+    Ok(transform)
+}
+
+fn check_resolution((w, h): (u32, u32)) -> Result<(), String> {
+    check_size(w, h)
+}
+
+/// Refuses image sizes that are zero or too large to allocate.
+pub fn check_size(w: u32, h: u32) -> Result<(), String> {
+    if w == 0 || h == 0 {
+        return Err(format!("resolution must be at least 1x1, got {w}x{h}"));
+    }
+    if w > MAX_SIDE || h > MAX_SIDE || (w as u64) * (h as u64) > MAX_PIXELS {
+        return Err(format!(
+            "resolution {w}x{h} is too large (at most {MAX_SIDE} pixels a side and {MAX_PIXELS} pixels)"
+        ));
+    }
+    Ok(())
+}
+
+/// Checks the render defaults: at least 1 spp, a known integrator, and parameters it takes,
+/// in range (as `raylab render` would read them, so a bad scene fails whatever the flags).
+pub(super) fn check_render(render: &RenderDesc) -> Result<(), String> {
+    if render.spp == 0 {
+        return Err("render.spp must be at least 1".into());
+    }
+    let entry =
+        registry::find(&render.integrator).map_err(|e| format!("render.integrator: {e}"))?;
+    let given: Vec<(String, String)> = render
+        .params
+        .iter()
+        .map(|(k, v)| (k.clone(), format!("{v}")))
+        .collect();
+    entry
+        .resolve(&given)
+        .map_err(|e| format!("render.params: {e}"))?;
+    Ok(())
+}
+
+pub(super) fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
+    match desc {
+        CameraDesc::LookAt {
+            eye,
+            look_at,
+            up,
+            fov,
+            resolution,
+        } => {
+            for (what, v) in [("eye", eye), ("look_at", look_at), ("up", up)] {
+                finite(what, v)?;
+            }
+            finite("fov", &[*fov])?;
+            check_resolution(*resolution)?;
+            if !(*fov > 0.0 && *fov < 180.0) {
+                return Err(format!(
+                    "fov is the vertical field of view in degrees, in (0, 180); got {fov}"
+                ));
+            }
+            check_view(eye, look_at, up)?;
+            Ok(Camera::look_at(
+                v3(*eye),
+                v3(*look_at),
+                v3(*up),
+                *fov,
+                *resolution,
+            ))
+        }
+        CameraDesc::Orthographic {
+            eye,
+            look_at,
+            up,
+            width,
+            height,
+            resolution,
+        } => {
+            for (what, v) in [("eye", eye), ("look_at", look_at), ("up", up)] {
+                finite(what, v)?;
+            }
+            check_resolution(*resolution)?;
+            let height = height.unwrap_or(width * resolution.1 as f32 / resolution.0 as f32);
+            for (what, v) in [("width", *width), ("height", height)] {
+                if !(v > 0.0 && v < 1e7) {
+                    return Err(format!(
+                        "an orthographic camera's {what} is its view's size in scene units, \
+                         in (0, 1e7); got {v}"
+                    ));
+                }
+            }
+            check_view(eye, look_at, up)?;
+            Ok(Camera::orthographic(
+                v3(*eye),
+                v3(*look_at),
+                v3(*up),
+                (*width, height),
+                *resolution,
+            ))
+        }
+        CameraDesc::ImagePlane {
+            eye,
+            top_left,
+            top_right,
+            bottom_left,
+            bottom_right,
+            resolution,
+        } => {
+            for (what, v) in [
+                ("eye", eye),
+                ("top_left", top_left),
+                ("top_right", top_right),
+                ("bottom_left", bottom_left),
+                ("bottom_right", bottom_right),
+            ] {
+                finite(what, v)?;
+            }
+            check_resolution(*resolution)?;
+            let (tl, tr, bl, br) = (
+                v3(*top_left),
+                v3(*top_right),
+                v3(*bottom_left),
+                v3(*bottom_right),
+            );
+            let scale = (tr - tl).length().max((bl - tl).length());
+            if (tr - tl).cross(bl - tl).length() < 1e-8 * scale * scale || scale == 0.0 {
+                return Err("the image plane corners are degenerate".into());
+            }
+            if ((tr + bl) - (tl + br)).length() > 1e-4 * scale {
+                return Err("the four image plane corners must form a parallelogram".into());
+            }
+            let n = (tr - tl).cross(bl - tl);
+            if n.dot(tl - v3(*eye)).abs() < 1e-6 * scale * scale {
+                return Err("the eye must not lie in the image plane".into());
+            }
+            Ok(Camera::image_plane(v3(*eye), tl, tr, bl, *resolution))
+        }
+    }
+}
+
+/// A view direction from `eye` to `look_at` that `up` is not parallel to.
+fn check_view(
+    eye: &super::schema::V3,
+    look_at: &super::schema::V3,
+    up: &super::schema::V3,
+) -> Result<(), String> {
+    let forward = v3(*look_at) - v3(*eye);
+    if forward.length() < 1e-6 {
+        return Err("eye and look_at must differ".into());
+    }
+    if forward
+        .normalize()
+        .cross(v3(*up).normalize_or_zero())
+        .length()
+        < 1e-4
+    {
+        return Err("up must not be zero or parallel to the view direction".into());
+    }
+    Ok(())
+}
+
+/// Exactly `N` points, or an error naming the shape.
+fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A; N], String> {
+    let points: Vec<Vec3A> = vertices.iter().copied().map(v3).collect();
+    points.try_into().map_err(|_| {
+        format!(
+            "a {shape} needs exactly {N} vertices, got {}",
+            vertices.len()
+        )
+    })
+}
+
+pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Shape, String> {
+    Ok(match desc {
+        ShapeDesc::Gltf { path } => {
+            mesh_files::load_gltf(&files.named(&path)?, files)?.into_shape()
+        }
+        ShapeDesc::Obj { path, normals } => {
+            mesh_files::load_obj(&files.named(&path)?, false, files)?
+                .shaded(normals)
+                .into_shape()
+        }
+        ShapeDesc::Ply { path, normals } => super::ply::load_ply(&files.named(&path)?)?
+            .shaded(normals)
+            .into_shape(),
+        ShapeDesc::Serialized {
+            path,
+            shape_index,
+            normals,
+        } => super::serialized::load_serialized(&files.named(&path)?, shape_index)?
+            .shaded(normals)
+            .into_shape(),
+        ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
+        ShapeDesc::Sphere { center, radius } => Shape::Sphere {
+            center: v3(center),
+            radius,
+        },
+        ShapeDesc::Triangle { vertices } => Shape::Triangle(corners("Triangle", &vertices)?),
+        ShapeDesc::Quad { vertices } => Shape::Quad(corners("Quad", &vertices)?),
+        ShapeDesc::Rectangle => Shape::Quad([
+            Vec3A::new(-1.0, -1.0, 0.0),
+            Vec3A::new(1.0, -1.0, 0.0),
+            Vec3A::new(1.0, 1.0, 0.0),
+            Vec3A::new(-1.0, 1.0, 0.0),
+        ]),
+        ShapeDesc::Disk => Shape::Disk,
+        ShapeDesc::Cylinder { p0, p1, radius } => Shape::Cylinder {
+            p0: v3(p0),
+            p1: v3(p1),
+            radius,
+        },
+        ShapeDesc::Tetrahedron { vertices } => {
+            Shape::Tetrahedron(corners("Tetrahedron", &vertices)?)
+        }
+        ShapeDesc::Icosphere {
+            subdivisions,
+            displacement,
+        } => Shape::Icosphere {
+            subdivisions,
+            displacement,
+        },
+        ShapeDesc::Box { min, max } => Shape::Box {
+            min: v3(min),
+            max: v3(max),
+        },
+        ShapeDesc::Mesh {
+            positions,
+            indices,
+            normals,
+            uvs,
+        } => Shape::Mesh {
+            positions: positions.into_iter().map(v3).collect(),
+            indices,
+            normals: normals.map(|n| n.into_iter().map(v3).collect()),
+            uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
+        },
+    })
+}

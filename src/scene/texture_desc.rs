@@ -1,0 +1,178 @@
+//! How a scene file writes a textured parameter (the schema's part of textures): a colour is
+//! `(r, g, b)`, a grey number, or a texture, `Image(path: "wood.png")` or `Checkerboard(color0:
+//! ..., color1: ...)`; a roughness is a number or a texture. [`super::textures`] loads them.
+
+use serde::de::{self, Deserialize, Deserializer};
+use std::collections::BTreeMap;
+
+/// An RGB triple as the schema writes it.
+type V3 = [f32; 3];
+
+/// A texture as a scene file gives it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TextureDesc {
+    Image(ImageDesc),
+    Checkerboard(CheckerboardDesc),
+}
+
+/// `Image(...)`: Mitsuba's `bitmap`.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageDesc {
+    /// Relative to the scene file.
+    pub path: String,
+    /// `"bilinear"` (default) or `"nearest"`.
+    #[serde(default = "bilinear")]
+    pub filter: String,
+    /// `"repeat"` (default), `"clamp"` or `"mirror"`.
+    #[serde(default = "repeat")]
+    pub wrap: String,
+    /// Take 8- and 16-bit texels as they are instead of decoding sRGB. Default: false for
+    /// colours, true for data.
+    #[serde(default, deserialize_with = "optional_bool")]
+    pub raw: Option<bool>,
+    #[serde(default = "unit_scale")]
+    pub uv_scale: [f32; 2],
+    #[serde(default)]
+    pub uv_offset: [f32; 2],
+}
+
+/// `Checkerboard(...)`: Mitsuba's `checkerboard`, one square of each colour per unit of `uv`
+/// in each direction (`uv_scale: (4, 4)` gives 8 x 8 squares over a rectangle).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckerboardDesc {
+    /// `(r, g, b)` or a grey number. Default: 0.4 grey.
+    #[serde(default = "grey40", deserialize_with = "rgb_or_grey")]
+    pub color0: V3,
+    /// Default: 0.2 grey.
+    #[serde(default = "grey20", deserialize_with = "rgb_or_grey")]
+    pub color1: V3,
+    #[serde(default = "unit_scale")]
+    pub uv_scale: [f32; 2],
+    #[serde(default)]
+    pub uv_offset: [f32; 2],
+}
+
+/// A flag written as `true`, or as `Some(true)` (the fields of a texture arrive without
+/// RON's implicit `Some`).
+fn optional_bool<'de, D: Deserializer<'de>>(d: D) -> Result<Option<bool>, D::Error> {
+    #[derive(serde::Deserialize)]
+    #[serde(untagged)]
+    enum Either {
+        Bare(bool),
+        Wrapped(Option<bool>),
+    }
+    match Either::deserialize(d).map_err(|_| de::Error::custom("expected true or false"))? {
+        Either::Bare(b) => Ok(Some(b)),
+        Either::Wrapped(b) => Ok(b),
+    }
+}
+
+/// A colour written as `(r, g, b)` or as one grey number.
+fn rgb_or_grey<'de, D: Deserializer<'de>>(d: D) -> Result<V3, D::Error> {
+    #[derive(serde::Deserialize)]
+    #[serde(untagged)]
+    enum Either {
+        Grey(f32),
+        Rgb(V3),
+    }
+    match Either::deserialize(d).map_err(|_| de::Error::custom("expected (r, g, b) or a number"))? {
+        Either::Grey(g) => Ok([g; 3]),
+        Either::Rgb(c) => Ok(c),
+    }
+}
+
+fn bilinear() -> String {
+    "bilinear".into()
+}
+fn repeat() -> String {
+    "repeat".into()
+}
+fn unit_scale() -> [f32; 2] {
+    [1.0, 1.0]
+}
+fn grey40() -> V3 {
+    [0.4; 3]
+}
+fn grey20() -> V3 {
+    [0.2; 3]
+}
+
+/// A colour parameter: a constant or a texture.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColorDesc {
+    Constant(V3),
+    Texture(TextureDesc),
+}
+
+/// A scalar parameter (a roughness): a constant or a texture.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FloatDesc {
+    Constant(f32),
+    Texture(TextureDesc),
+}
+
+impl From<V3> for ColorDesc {
+    fn from(c: V3) -> Self {
+        ColorDesc::Constant(c)
+    }
+}
+
+/// What a parameter's RON value can be, before it is known to be right. RON keeps a
+/// struct-like value's name only through serde's untagged path, so the value is read as one
+/// of these and then checked, with messages that say what was expected.
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum Raw {
+    Number(f32),
+    Sequence(Vec<f32>),
+    /// `Name(fields...)`, as a map from the name to its fields.
+    Named(BTreeMap<String, ron::Value>),
+}
+
+const EXPECTED_COLOUR: &str =
+    "a colour: (r, g, b), a grey number, Image(path: ...) or Checkerboard(...)";
+const EXPECTED_FLOAT: &str = "a number or a texture: Image(path: ...) or Checkerboard(...)";
+
+fn texture_from_named<E: de::Error>(named: BTreeMap<String, ron::Value>) -> Result<TextureDesc, E> {
+    let mut entries = named.into_iter();
+    let (Some((name, fields)), None) = (entries.next(), entries.next()) else {
+        return Err(E::custom(EXPECTED_COLOUR));
+    };
+    let inner = |e: ron::Error| E::custom(format!("in {name}(...): {e}"));
+    match name.as_str() {
+        "Image" => fields.into_rust().map(TextureDesc::Image).map_err(inner),
+        "Checkerboard" => fields
+            .into_rust()
+            .map(TextureDesc::Checkerboard)
+            .map_err(inner),
+        _ => Err(E::custom(format!(
+            "unknown texture `{name}`; known: Image, Checkerboard"
+        ))),
+    }
+}
+
+impl<'de> Deserialize<'de> for ColorDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match Raw::deserialize(d).map_err(|_| de::Error::custom(EXPECTED_COLOUR))? {
+            Raw::Number(g) => Ok(ColorDesc::Constant([g; 3])),
+            Raw::Sequence(v) => <V3>::try_from(v.as_slice())
+                .map(ColorDesc::Constant)
+                .map_err(|_| {
+                    de::Error::custom(format!("a colour has 3 components, got {}", v.len()))
+                }),
+            Raw::Named(named) => texture_from_named(named).map(ColorDesc::Texture),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for FloatDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match Raw::deserialize(d).map_err(|_| de::Error::custom(EXPECTED_FLOAT))? {
+            Raw::Number(x) => Ok(FloatDesc::Constant(x)),
+            Raw::Sequence(_) => Err(de::Error::custom(EXPECTED_FLOAT)),
+            Raw::Named(named) => texture_from_named(named).map(FloatDesc::Texture),
+        }
+    }
+}
