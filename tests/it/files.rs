@@ -290,33 +290,9 @@ fn comparisons_do_not_replace_files_in_a_folder_of_the_users() {
     let mine = d.join("mine");
     std::fs::create_dir(&mine).unwrap();
     std::fs::write(mine.join("reference.png"), "my own picture").unwrap();
-    let o = raylab_in(
-        d,
-        &[
-            "render", "s.ron", "-o", "ref.exr", "--size", "8x8", "--spp", "2", "-q",
-        ],
-    );
+    let o = render(d, &["s.ron", "-o", "ref.exr"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let compare = |out: &str| {
-        raylab_in(
-            d,
-            &[
-                "compare",
-                "s.ron",
-                "-i",
-                "path",
-                "--spp",
-                "1",
-                "--reference",
-                "ref.exr",
-                "--size",
-                "8x8",
-                "-o",
-                out,
-                "-q",
-            ],
-        )
-    };
+    let compare = |out: &str| compare(d, "ref.exr", out);
     let o = compare("mine");
     refused(&o, &["was not made by raylab", "reference.png"]);
     assert_eq!(
