@@ -186,24 +186,19 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| super::render_cmd::default_output(&args.session.scene));
     output::check_output_path(&output_path)?;
+    let (settings, selection) = settings(&args.session, FILE_INTERVAL)?;
     // The files the scene reads now (a scene that does not load yet: itself); as it changes,
-    // each load's (FileObserver::inputs).
-    let loaded = crate::scene::load_scene_defined(
-        &args.session.scene,
-        &args.session.allow_path,
-        &args.session.import.options(),
-    );
-    let mut plan = match &loaded {
-        Ok(loaded) => crate::render::scene_inputs(&loaded.inputs)?,
-        Err(_) => {
+    // each load's (FileObserver::inputs). The session keeps this load for its first render.
+    let session = live::Session::load(&settings);
+    let mut plan = match session.loaded() {
+        Some(loaded) => crate::render::scene_inputs(&loaded.inputs)?,
+        None => {
             let mut plan = crate::output::plan::FilePlan::new();
             plan.input("the scene", &args.session.scene)?;
             plan
         }
     };
-    drop(loaded);
     plan.output("the image", &output_path)?.check()?;
-    let (settings, selection) = settings(&args.session, FILE_INTERVAL)?;
     let control = Arc::new(Control::new());
     install_interrupt_handler(Arc::clone(&control));
     let watcher = SceneWatcher::start(&args.session.scene, Arc::clone(&control))?;
@@ -224,7 +219,14 @@ pub fn watch(args: &RenderArgs) -> Result<ExitCode> {
         wrote: false,
         refused: None,
     };
-    live::run(&settings, selection, &control, &watcher, &mut observer);
+    live::run(
+        &settings,
+        selection,
+        &control,
+        &watcher,
+        &mut observer,
+        session,
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -258,7 +260,15 @@ pub fn serve(args: &ServeArgs) -> Result<ExitCode> {
             .name("raylab-session".into())
             .spawn(move || {
                 let mut observer = serve::PageObserver::new(shared, display, quiet);
-                live::run(&settings, selection, &control, &watcher, &mut observer);
+                let first = live::Session::load(&settings);
+                live::run(
+                    &settings,
+                    selection,
+                    &control,
+                    &watcher,
+                    &mut observer,
+                    first,
+                );
             })
             .context("cannot start the render thread")?
     };

@@ -4,8 +4,8 @@ use super::RenderArgs;
 use crate::output::{self, DisplaySettings};
 use crate::render::shard_file::{self, ShardInfo};
 use crate::render::{
-    self, checkpoint, Accumulation, Dropped, Part, RenderSettings, RenderStats, ShardSpec,
-    StopReason,
+    self, checkpoint, Accumulation, Dropped, Job, Part, RenderStats, Request, ShardSpec,
+    StopReason, Target,
 };
 use crate::scene::RenderScene;
 use crate::scene::{self, describe::check_size};
@@ -91,7 +91,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         .transpose()?;
     if let Some(spec) = shard {
         if args.time.is_some() {
-            bail!("--shard {spec}: a time budget renders as many passes as a machine manages, which shards cannot agree on; give --spp (or the scene's render.spp)");
+            return Err(render::job::shard_needs_passes(spec));
         }
         if output::check_output_path(&output_path)? != output::OutputFormat::Exr {
             bail!(
@@ -133,28 +133,40 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         plan.output("the checkpoint", c)?;
     }
     plan.check()?;
-    // Scene parameters apply only to the scene's own integrator; the command line wins.
-    let (entry, params) =
-        crate::live::choose_integrator(&loaded, args.session.integrator.as_deref(), &cli_params)?;
-    let mut integrator = entry.build_checked(&params)?;
+    let mut job = Job::new(
+        &loaded,
+        &Request {
+            integrator: args.session.integrator.clone(),
+            params: cli_params,
+            scene_params: true,
+            size,
+            target: args.session.spp.map_or(Target::Scene, Target::Spp),
+            time: args.time.map(Duration::from_secs_f64),
+            seed: args.session.seed,
+            filter: args.session.trace.filter,
+            threads: args.session.threads,
+            accel: args.session.trace.accel,
+            progress: !args.session.quiet,
+            shard,
+        },
+    )?;
+    let name = job.entry.name;
     // Images the integrator writes beside the output (`bdpt`'s strategies): checked as
     // outputs too, and not kept by checkpoints.
-    let layers: Vec<(u32, PathBuf)> = integrator
+    let layers: Vec<(u32, PathBuf)> = job
         .layers()
         .into_iter()
-        .map(|(id, name)| (id, layer_path(&output_path, &name)))
+        .map(|(id, layer)| (id, layer_path(&output_path, &layer)))
         .collect();
     if !layers.is_empty() {
         if let Some(spec) = shard {
             bail!(
-                "--shard {spec}: integrator `{}` writes an image per layer (write-strategies), which shards do not merge; render without write-strategies",
-                entry.name
+                "--shard {spec}: integrator `{name}` writes an image per layer (write-strategies), which shards do not merge; render without write-strategies"
             );
         }
         if args.checkpoint.is_some() {
             bail!(
-                "integrator `{}` writes an image per layer (write-strategies), which checkpoints do not keep; render without --checkpoint",
-                entry.name
+                "integrator `{name}` writes an image per layer (write-strategies), which checkpoints do not keep; render without --checkpoint"
             );
         }
         let mut plan = render::scene_inputs(&loaded.inputs)?;
@@ -165,83 +177,22 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         }
         plan.check()?;
     }
-    // Target: --spp, else open-ended under --time, else the scene's spp.
-    let spp = match (args.session.spp, args.time) {
-        (Some(n), _) => Some(n),
-        (None, Some(_)) => None,
-        (None, None) => Some(loaded.render.spp),
-    };
-    if spp == Some(0) {
-        bail!(
-            "{}: render.spp must be at least 1",
-            args.session.scene.display()
-        );
-    }
-    let camera = match size {
-        Some((w, h)) => loaded.camera.with_resolution(w, h),
-        None => loaded.camera.clone(),
-    };
-    let seed = args.session.seed.unwrap_or(loaded.render.seed);
-
-    render::check_memory(
-        camera.width,
-        camera.height,
-        integrator
-            .demand()
-            .memory_for(camera.width as u64 * camera.height as u64),
-    )?;
-    render::check_camera(&camera, &integrator.demand(), entry.name)?;
-    let filter = args.session.trace.filter.unwrap_or(loaded.render.filter);
-    // A shard's part: a range of passes, or of rows for an integrator with state per pixel.
-    let part = match (shard, spp) {
-        (Some(spec), Some(spp)) => Some(spec.part(integrator.shard_by(), spp, camera.height)?),
-        _ => None,
-    };
-    let settings = RenderSettings {
-        spp,
-        seed,
-        threads: args.session.threads,
-        progress: !args.session.quiet,
-        time_budget: args.time.map(Duration::from_secs_f64),
-        filter,
-        part: part.clone(),
-    };
-
-    // Checkpoints and shards are tied to everything that determines the image: the settings
-    // and the scene's identity (every file it read, its -D values and --approximate; read
-    // and hashed only when needed); a checkpoint also to its shard.
-    let settings_text = format!(
-        "integrator={} {} spp={} seed={seed} size={}x{} filter={} accel={}",
-        entry.name,
-        params.describe(entry.params),
-        spp.map_or("open-ended".to_string(), |n| n.to_string()),
-        camera.width,
-        camera.height,
-        settings.filter,
-        args.session.trace.accel,
+    let (camera, spp, part) = (
+        job.camera.clone(),
+        job.settings.spp,
+        job.shard.as_ref().map(|(_, p)| p.clone()),
     );
-    let scene_hash = match (&args.checkpoint, shard) {
-        (None, None) => 0,
-        _ => loaded
-            .inputs
-            .identity()
-            .with_context(|| format!("{}: cannot read scene file", args.session.scene.display()))?,
-    };
-    let hash = checkpoint::stable_hash(&[
-        &scene_hash.to_le_bytes(),
-        settings_text.as_bytes(),
-        // The parameters exactly (the text rounds floats to nine digits).
-        format!("{params:?}").as_bytes(),
-        env!("CARGO_PKG_VERSION").as_bytes(),
-        shard.map(|s| s.to_string()).unwrap_or_default().as_bytes(),
-    ]);
-    let first_pass = match &part {
-        Some(Part::Passes(r)) => r.start,
-        _ => 0,
+    // Checkpoints and shards are tied to everything that determines the image: the settings
+    // and the scene's identity (read and hashed only when needed); a checkpoint also to its
+    // shard.
+    let (scene_hash, hash) = match (&args.checkpoint, shard) {
+        (None, None) => (0, 0),
+        _ => job.identity(&loaded)?,
     };
     let mut acc = match (&args.checkpoint, args.resume) {
         (Some(path), true) => {
             let acc = checkpoint::load(path, hash, camera.width, camera.height)?;
+            let first_pass = job.first_pass();
             if acc.first_pass != first_pass {
                 bail!(
                     "{}: the checkpoint starts at pass {}, this render at pass {first_pass}",
@@ -265,9 +216,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             }
             acc
         }
-        _ => Accumulation::new(camera.width, camera.height)
-            .starting_at(first_pass)
-            .with_layers(&layers.iter().map(|(id, _)| *id).collect::<Vec<_>>()),
+        _ => job.accumulation(),
     };
 
     if args.check {
@@ -280,13 +229,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             args.session.scene.display(),
             camera.width,
             camera.height,
-            entry.name,
+            name,
             output_path.display()
         );
         return Ok(ExitCode::SUCCESS);
     }
-    let built =
-        RenderScene::build_on_threads(&loaded, args.session.trace.accel, args.session.threads)?;
+    let built = job.build_scene(&loaded)?;
     // Ctrl-C, SIGTERM, SIGHUP: the first abandons the pass in progress and writes the image
     // of the passes done, the second stops at once.
     super::interrupt::install(
@@ -295,17 +243,11 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
     );
     let stop = super::interrupt::stopping;
     if !args.session.quiet {
-        let mut target = settings
-            .spp
-            .map_or_else(|| "open-ended".to_string(), |n| format!("{n} spp"));
-        if let (Some(spec), Some(part)) = (shard, &part) {
-            target = format!("{target}, shard {spec}: {part}");
-        }
         note!(
-            "rendering {}x{} with {}, {target} (Ctrl-C writes the image of the passes done)",
+            "rendering {}x{} with {name}, {} (Ctrl-C writes the image of the passes done)",
             camera.width,
             camera.height,
-            entry.name
+            job.target_text()
         );
     }
     // Checkpoints: while rendering, at most every few seconds and never more than a tenth of
@@ -324,15 +266,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         }
         Ok(())
     };
-    let stats = render::render_passes(
-        &built,
-        &camera,
-        integrator.as_mut(),
-        &settings,
-        &mut acc,
-        &stop,
-        &mut after_pass,
-    )?;
+    let stats = job.run(&built, &mut acc, &stop, &mut after_pass)?;
     if let Some(path) = &args.checkpoint {
         checkpoint::save(path, &acc, hash)?;
     }
@@ -355,7 +289,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
                     .scene
                     .file_name()
                     .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
-                settings: settings_text,
+                settings: job.settings_text(),
                 version: env!("CARGO_PKG_VERSION").to_string(),
                 spec,
                 part,
@@ -413,8 +347,8 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         note!(
             "{}: {} {} | {}x{} {} spp | {:.2} s, {} threads | {:.3} M samples/s | {:.2} M rays/s (camera {}, extension {}, shadow {}, light {}, connection {}) | mean radiance ({:.4}, {:.4}, {:.4}) | wrote {}",
             args.session.scene.display(),
-            entry.name,
-            params.describe(entry.params),
+            name,
+            job.describe_params(),
             camera.width,
             camera.height,
             acc.spp_done,

@@ -9,17 +9,20 @@ mod page;
 mod plot;
 pub mod stats;
 pub mod suite;
+mod tables;
 pub mod ztest;
 
+pub(crate) use tables::write_text;
+use tables::{print_row, print_summary, write_convergence_csv, write_tables};
+
 use crate::output::{self, DisplaySettings};
-use crate::render::{self, checkpoint::stable_hash, Accumulation, Film, RenderSettings};
+use crate::render::{self, checkpoint::stable_hash, Film, Job, Request, Target};
 use crate::scene::{LoadedScene, RenderScene};
 use anyhow::{anyhow, bail, Context, Result};
 pub use cache::cache_dir;
 use cache::Cache;
 use raylab_integrators::registry;
 use serde::Serialize;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -335,59 +338,33 @@ struct Rendered {
 /// Renders one contestant with `seed`; with a reference, its error is recorded after every
 /// log-spaced pass (and at the end) for the convergence curve.
 fn render_one(
+    loaded: &LoadedScene,
     built: &RenderScene,
-    camera: &crate::scene::Camera,
     c: &Contestant,
     budget: Budget,
     seed: u64,
     reference: Option<&Film>,
     opts: &CompareOptions,
 ) -> Result<Rendered> {
-    let entry = registry::find(&c.integrator)?;
-    let params = entry.resolve(&c.params)?;
-    let mut integrator = entry.build_checked(&params)?;
-    let settings = match budget {
-        Budget::Spp(n) => RenderSettings {
-            progress: opts.progress,
-            filter: opts.filter.unwrap_or_default(),
-            ..RenderSettings::fixed(n, seed, opts.threads)
-        },
-        Budget::Time(t) => RenderSettings {
-            spp: None,
-            seed,
-            threads: opts.threads,
-            progress: opts.progress,
-            time_budget: Some(t),
-            filter: opts.filter.unwrap_or_default(),
-            part: None,
-        },
-    };
-    let mut acc = Accumulation::new(camera.width, camera.height);
+    let mut job = contestant_job(loaded, c, budget, seed, opts)?;
+    let mut acc = job.accumulation();
     let mut curve = Vec::new();
     // Time spent measuring, which the curve's times and the row's time leave out.
     let mut measuring = Duration::ZERO;
-    let stats = render::render_passes(
-        built,
-        camera,
-        integrator.as_mut(),
-        &settings,
-        &mut acc,
-        &|| false,
-        &mut |acc, stats| {
-            if let Some(r) = reference.filter(|_| stats::records(acc.spp_done)) {
-                let started = std::time::Instant::now();
-                let e = stats::linear_error(&acc.film(), r);
-                curve.push(stats::CurvePoint {
-                    spp: acc.spp_done,
-                    time: stats.elapsed.saturating_sub(measuring).as_secs_f64(),
-                    mse: e.mse,
-                    relmse: e.relmse,
-                });
-                measuring += started.elapsed();
-            }
-            Ok(())
-        },
-    )?;
+    let stats = job.run(built, &mut acc, &|| false, &mut |acc, stats| {
+        if let Some(r) = reference.filter(|_| stats::records(acc.spp_done)) {
+            let started = std::time::Instant::now();
+            let e = stats::linear_error(&acc.film(), r);
+            curve.push(stats::CurvePoint {
+                spp: acc.spp_done,
+                time: stats.elapsed.saturating_sub(measuring).as_secs_f64(),
+                mse: e.mse,
+                relmse: e.relmse,
+            });
+            measuring += started.elapsed();
+        }
+        Ok(())
+    })?;
     let film = acc.film();
     let time = stats.elapsed.saturating_sub(measuring).as_secs_f64();
     if let Some(r) = reference {
@@ -405,9 +382,41 @@ fn render_one(
         film,
         stats,
         time,
-        params: params.describe(entry.params),
+        params: job.describe_params(),
         curve,
     })
+}
+
+/// The render of contestant `c` with `seed` under `budget`, at the comparison's size, with
+/// its filter, threads and accelerator, and exactly the contestant's parameters.
+fn contestant_job(
+    loaded: &LoadedScene,
+    c: &Contestant,
+    budget: Budget,
+    seed: u64,
+    opts: &CompareOptions,
+) -> Result<Job> {
+    let (target, time) = match budget {
+        Budget::Spp(n) => (Target::Spp(n), None),
+        Budget::Time(t) => (Target::OpenEnded, Some(t)),
+    };
+    Job::new(
+        loaded,
+        &Request {
+            integrator: Some(c.integrator.clone()),
+            params: c.params.clone(),
+            scene_params: false,
+            size: opts.size,
+            target,
+            time,
+            seed: Some(seed),
+            filter: Some(opts.filter.unwrap_or_default()),
+            threads: opts.threads,
+            accel: opts.accel,
+            progress: opts.progress,
+            shard: None,
+        },
+    )
 }
 
 /// Refuses a reference image (`--reference`, or a cached one) that cannot be measured
@@ -489,7 +498,7 @@ fn reference_seed(seed: u64) -> u64 {
 /// (`cached`, from [`reference_entry`]).
 fn reference(
     opts: &CompareOptions,
-    built: &RenderScene,
+    (loaded, built): (&LoadedScene, &RenderScene),
     camera: &crate::scene::Camera,
     cached: Option<&CacheEntry>,
 ) -> Result<(Film, String)> {
@@ -531,7 +540,7 @@ fn reference(
             };
             note!("rendering the reference: {what}");
             let seed = reference_seed(opts.seed);
-            let film = render_one(built, camera, &c, *budget, seed, None, opts)?.film;
+            let film = render_one(loaded, built, &c, *budget, seed, None, opts)?.film;
             // The reference is in hand (and copied into the output folder): a cache that
             // fails now costs the next run, not this one.
             if let Err(e) = cache.write(*hash, &film) {
@@ -685,15 +694,10 @@ fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
         None => loaded.camera.clone(),
     };
     // Every contestant's configuration, checked before anything renders: one that cannot
-    // finish a pass, or the most memory any of them holds beside the film.
-    let mut most = 0;
+    // use the camera, or that would not fit in memory beside the film.
     for c in &opts.contestants {
-        let entry = registry::find(&c.integrator)?;
-        let demand = entry.build_checked(&entry.resolve(&c.params)?)?.demand();
-        render::check_camera(&camera, &demand, entry.name)?;
-        most = most.max(demand.memory_for(camera.width as u64 * camera.height as u64));
+        contestant_job(&loaded, c, opts.budget, opts.seed, opts)?;
     }
-    render::check_memory(camera.width, camera.height, most)?;
     if let Some(r) = opts.region {
         if Film::new(camera.width, camera.height)
             .crop(r.x, r.y, r.w, r.h)
@@ -717,7 +721,7 @@ fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
     };
     let cached = reference_entry(opts, scene_id, &camera)?;
     let built = RenderScene::build_on_threads(&loaded, opts.accel, opts.threads)?;
-    let (reference, reference_what) = reference(opts, &built, &camera, cached.as_ref())?;
+    let (reference, reference_what) = reference(opts, (&loaded, &built), &camera, cached.as_ref())?;
     output::write_image(
         &opts.out_dir.join("reference.exr"),
         &reference,
@@ -732,7 +736,7 @@ fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
     let mut rows = Vec::new();
     let mut threads = 0;
     for c in &opts.contestants {
-        let (row, used) = measure(opts, &built, &camera, c, &reference)?;
+        let (row, used) = measure(opts, (&loaded, &built), &camera, c, &reference)?;
         threads = used;
         print_row(&row);
         rows.push(row);
@@ -834,7 +838,7 @@ struct RunFigures {
 /// map) and returns its row and the threads used.
 fn measure(
     opts: &CompareOptions,
-    built: &RenderScene,
+    (loaded, built): (&LoadedScene, &RenderScene),
     camera: &crate::scene::Camera,
     c: &Contestant,
     reference: &Film,
@@ -849,7 +853,7 @@ fn measure(
             note!("{}: run {} of {}", c.label, k + 1, opts.runs);
         }
         let seed = run_seed(opts.seed, k);
-        let r = render_one(built, camera, c, opts.budget, seed, Some(reference), opts)?;
+        let r = render_one(loaded, built, c, opts.budget, seed, Some(reference), opts)?;
         let (m, flip_map) = metrics::compare(&r.film, reference)?;
         let region = match opts.region {
             Some(g) => {
@@ -961,155 +965,6 @@ fn measure(
         convergence,
     };
     Ok((row, stats.threads))
-}
-
-/// `value ± ci95`, or the value alone from one run.
-fn with_interval(value: f64, ci95: Option<f64>, digits: usize) -> String {
-    match ci95 {
-        Some(ci) => format!("{value:.digits$e} ± {ci:.1e}"),
-        None => format!("{value:.digits$e}"),
-    }
-}
-
-fn print_row(r: &Row) {
-    let in_region = r.region.map_or(String::new(), |m| {
-        format!(
-            "  region: MSE {}  relMSE {:.4}  FLIP {:.4}",
-            with_interval(m.mse, m.mse_ci95, 3),
-            m.relmse,
-            m.flip
-        )
-    });
-    let bias = match (r.variance, r.bias2) {
-        (Some(v), Some(b)) => format!("  variance {v:.3e}  bias² {b:.2e}"),
-        _ => String::new(),
-    };
-    note!(
-        "{:<28} {:>7.1} spp {:>8.2} s  MSE {}  relMSE {:.4}  FLIP {:.4}  HDR-FLIP {:.4}{bias}{}{in_region}",
-        r.label,
-        r.spp,
-        r.time,
-        with_interval(r.mse, r.mse_ci95, 3),
-        r.relmse,
-        r.flip,
-        r.hdrflip,
-        r.slope.map_or(String::new(), |s| format!(
-            "  slope {s:.2} (relMSE {})",
-            r.slope_relmse.map_or("-".into(), |s| format!("{s:.2}"))
-        )),
-    );
-}
-
-/// Efficiency and time to the target error, relative to the most efficient contestant.
-fn print_summary(rows: &[Row], target: Option<f64>) {
-    let best = rows
-        .iter()
-        .filter_map(|r| r.efficiency)
-        .max_by(f64::total_cmp);
-    if let Some(t) = target {
-        note!("time to reach MSE {t:.3e} (~: extrapolated along the fitted slope):");
-    }
-    for r in rows {
-        let eff = match (r.efficiency, best) {
-            (Some(e), Some(b)) => format!("efficiency {e:.3e} ({:.2}x the best)", e / b),
-            _ => "efficiency -".to_string(),
-        };
-        let reach = match r.time_to_target {
-            Some(t) => format!(
-                "{}{t:.2} s",
-                if r.time_to_target_extrapolated {
-                    "~"
-                } else {
-                    ""
-                }
-            ),
-            None => "not within reach (its error does not fall that far)".to_string(),
-        };
-        note!("  {:<28} {eff}  reaches it in {reach}", r.label);
-    }
-}
-
-/// `metrics.json` and `metrics.csv`.
-fn write_tables(dir: &Path, report: &Report) -> Result<()> {
-    let json =
-        serde_json::to_string_pretty(report).map_err(|e| anyhow!("cannot encode metrics: {e}"))?;
-    write_text(&dir.join("metrics.json"), &json)?;
-    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
-    let mut csv = String::from(
-        "label,integrator,params,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,slope_relmse,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip\n",
-    );
-    for r in &report.rows {
-        let _ = writeln!(
-            csv,
-            "{},{},\"{}\",{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{}",
-            r.label,
-            r.integrator,
-            r.params,
-            r.swept_param.as_deref().unwrap_or(""),
-            r.swept_value.as_deref().unwrap_or(""),
-            r.runs,
-            r.spp,
-            r.time,
-            opt(r.time_ci95),
-            r.mse,
-            opt(r.mse_ci95),
-            opt(r.variance),
-            opt(r.bias2),
-            r.relmse,
-            opt(r.relmse_ci95),
-            r.flip,
-            opt(r.flip_ci95),
-            r.hdrflip,
-            opt(r.hdrflip_ci95),
-            opt(r.efficiency),
-            opt(r.time_to_target),
-            r.time_to_target_extrapolated,
-            opt(r.slope),
-            opt(r.slope_relmse),
-            r.rmse,
-            r.psnr,
-            opt(r.reference_share),
-            r.ztest_failed_pixels.map_or(String::new(), |n| n.to_string()),
-            r.rays_joined(","),
-            r.rays_per_s,
-            r.samples_per_s,
-            r.mean[0],
-            r.mean[1],
-            r.mean[2],
-            r.region.map_or(",,,".to_string(), |m| format!(
-                "{:.6e},{},{:.6e},{:.6}",
-                m.mse,
-                opt(m.mse_ci95),
-                m.relmse,
-                m.flip
-            ))
-        );
-    }
-    write_text(&dir.join("metrics.csv"), &csv)
-}
-
-/// `convergence.csv`: every contestant's mean curve over its runs.
-fn write_convergence_csv(dir: &Path, report: &Report) -> Result<()> {
-    let mut csv = String::from("label,integrator,spp,time,mse,relmse\n");
-    for r in &report.rows {
-        for p in &r.convergence {
-            let _ = writeln!(
-                csv,
-                "{},{},{},{:.6},{:.6e},{:.6e}",
-                r.label, r.integrator, p.spp, p.time, p.mse, p.relmse
-            );
-        }
-    }
-    write_text(&dir.join("convergence.csv"), &csv)
-}
-
-/// Writes a text file atomically.
-pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
-    use std::io::Write;
-    crate::output::atomic::write_atomic(path, |file| {
-        file.write_all(text.as_bytes())
-            .with_context(|| format!("{}: cannot write", path.display()))
-    })
 }
 
 /// The last component of `path`, for pages and reports that must not print where the files

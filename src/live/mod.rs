@@ -17,44 +17,18 @@
 pub mod serve;
 pub mod watch;
 
-use crate::render::{self, Accumulation, Film, RenderSettings, RenderStats};
+use crate::render::{Film, Job, RenderStats, Request, Target};
 use crate::scene::access::SceneFiles;
 use crate::scene::edit::SceneState;
 use crate::scene::RenderScene;
-use crate::scene::{self, Camera, LoadedScene};
-use anyhow::{anyhow, Result};
+use crate::scene::{self, LoadedScene};
+use anyhow::Result;
 use raylab_integrators::registry::{self, IntegratorEntry, ParamError, Params};
-use raylab_integrators::{Integrator, ParamKind};
+use raylab_integrators::ParamKind;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
-
-/// The integrator for `loaded`: `integrator`, else the scene's. The scene's parameters apply
-/// only to the scene's own integrator, and `given` (name, value text) overrides them.
-pub fn choose_integrator(
-    loaded: &LoadedScene,
-    integrator: Option<&str>,
-    given: &[(String, String)],
-) -> Result<(&'static IntegratorEntry, Params)> {
-    let name = integrator.unwrap_or(&loaded.render.integrator);
-    let entry = registry::find(name)?;
-    let mut all: Vec<(String, String)> = Vec::new();
-    if name == loaded.render.integrator {
-        all.extend(
-            loaded
-                .render
-                .params
-                .iter()
-                .map(|(k, v)| (k.clone(), format!("{v}"))),
-        );
-    }
-    all.extend(given.iter().cloned());
-    let params = entry
-        .resolve(&all)
-        .map_err(|e| anyhow!("{}: {e}", loaded.path.display()))?;
-    Ok((entry, params))
-}
 
 /// Which integrator to render with, and the parameters the user set.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -244,15 +218,6 @@ impl Control {
     }
 }
 
-/// A loaded scene ready to render.
-struct Job {
-    built: Arc<RenderScene>,
-    camera: Camera,
-    integrator: Box<dyn Integrator>,
-    settings: RenderSettings,
-    info: RenderInfo,
-}
-
 fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, String)> {
     entry
         .params
@@ -311,100 +276,73 @@ fn reload(
     }
 }
 
-/// The job of rendering the scene with the selected integrator.
+/// The job of rendering the scene with the selected integrator, and what observers see of it.
 fn prepare(
     settings: &LiveSettings,
     selection: &Selection,
     loaded: &LoadedScene,
-    built: &Arc<RenderScene>,
-) -> Result<Job> {
-    let (entry, params) =
-        choose_integrator(loaded, selection.integrator.as_deref(), &selection.params)?;
-    let camera = match settings.size {
-        Some((w, h)) => loaded.camera.with_resolution(w, h),
-        None => loaded.camera.clone(),
-    };
-    let integrator = entry.build_checked(&params)?;
-    render::check_memory(
-        camera.width,
-        camera.height,
-        integrator
-            .demand()
-            .memory_for(camera.width as u64 * camera.height as u64),
+) -> Result<(Job, RenderInfo)> {
+    let job = Job::new(
+        loaded,
+        &Request {
+            integrator: selection.integrator.clone(),
+            params: selection.params.clone(),
+            scene_params: true,
+            size: settings.size,
+            target: settings.spp.map_or(Target::OpenEnded, Target::Spp),
+            time: None,
+            seed: settings.seed,
+            filter: settings.filter,
+            threads: settings.threads,
+            accel: settings.accel,
+            progress: false,
+            shard: None,
+        },
     )?;
-    render::check_camera(&camera, &integrator.demand(), entry.name)?;
     let info = RenderInfo {
-        integrator: entry.name,
-        params: param_values(entry, &params),
-        width: camera.width,
-        height: camera.height,
+        integrator: job.entry.name,
+        params: param_values(job.entry, &job.params),
+        width: job.camera.width,
+        height: job.camera.height,
         target_spp: settings.spp,
     };
-    Ok(Job {
-        built: Arc::clone(built),
-        integrator,
-        settings: RenderSettings {
-            spp: settings.spp,
-            seed: settings.seed.unwrap_or(loaded.render.seed),
-            threads: settings.threads,
-            progress: false,
-            time_budget: None,
-            filter: settings.filter.unwrap_or(loaded.render.filter),
-            part: None,
-        },
-        camera,
-        info,
-    })
+    Ok((job, info))
 }
 
 /// Renders `job` until it finishes or a request arrives, handing images to `observer`; after
 /// its first pass, tells the observer `what` the reload before it did and how long after
 /// `since` (the save) that pass began (now) and ended.
 fn render_job(
-    job: Job,
+    (mut job, info): (Job, RenderInfo),
+    built: &RenderScene,
     interval: Duration,
     control: &Control,
     observer: &mut dyn Observer,
     (since, what): (Instant, String),
 ) {
-    let Job {
-        built,
-        camera,
-        mut integrator,
-        settings,
-        info,
-    } = job;
     observer.render_started(&info);
-    let mut acc = Accumulation::new(camera.width, camera.height);
+    let mut acc = job.accumulation();
     let mut last_image: Option<Instant> = None;
     let mut shown_spp = 0;
     let mut reported = false;
     let began = since.elapsed().as_secs_f64() * 1e3;
     let stop = || control.interrupted();
-    let result = render::render_passes(
-        &*built,
-        &camera,
-        integrator.as_mut(),
-        &settings,
-        &mut acc,
-        &stop,
-        &mut |acc, stats| {
-            if !reported {
-                let ended = since.elapsed().as_secs_f64() * 1e3;
-                observer.reloaded(&format!(
-                    "{what}; first pass began {began:.0} ms after the save, ended after \
+    let result = job.run(built, &mut acc, &stop, &mut |acc, stats| {
+        if !reported {
+            let ended = since.elapsed().as_secs_f64() * 1e3;
+            observer.reloaded(&format!(
+                "{what}; first pass began {began:.0} ms after the save, ended after \
                      {ended:.0} ms"
-                ));
-                reported = true;
-            }
-            if last_image.is_none_or(|t| t.elapsed() >= interval) {
-                observer.image(&acc.film(), &info, stats);
-                last_image = Some(Instant::now());
-                shown_spp = acc.spp_done;
-            }
-            Ok(())
-        },
-    );
+            ));
+            reported = true;
+        }
+        if last_image.is_none_or(|t| t.elapsed() >= interval) {
+            observer.image(&acc.film(), &info, stats);
+            last_image = Some(Instant::now());
+            shown_spp = acc.spp_done;
+        }
+        Ok(())
+    });
     match result {
         Ok(stats) => {
             let why = if stats.stopped.is_none() {
@@ -425,21 +363,54 @@ fn render_job(
     }
 }
 
-/// Runs a live session until [`Control::quit`]: load, render, wait for a request, repeat.
-/// `watcher` and `observer` are told the files the scene has read after every load, or
-/// tried to (an included file with an error in it, a missing texture): saving any of them
-/// loads it again.
+/// A live session's scene: the world kept across saves, and the files every load of the
+/// session read through. [`Session::load`] loads it the first time (so that a command can
+/// check its outputs against what the scene reads before the session starts), [`run`] on
+/// every save after.
+pub struct Session {
+    live: Option<SceneState>,
+    // Every load of the session reads through these, so they list every file any version
+    // of the scene read (a file no longer named only costs a reload that changes nothing).
+    files: SceneFiles,
+    /// The first load's result and the files its import read, until [`run`] takes them.
+    first: Option<(Result<String>, SceneFiles)>,
+}
+
+impl Session {
+    /// Loads the scene of `settings` (an error is kept: the session starts anyway, and the
+    /// next save tries again).
+    pub fn load(settings: &LiveSettings) -> Session {
+        let files = SceneFiles::new(&settings.scene, &settings.allowed);
+        let mut live = None;
+        // The import reads the whole text again on every reload (its own list: the
+        // included files of this version); the world's edits read only what changed.
+        let imported = files.with_new_list();
+        let first = reload(&mut live, settings, &files, &imported);
+        Session {
+            live,
+            files,
+            first: Some((first, imported)),
+        }
+    }
+
+    /// The loaded scene, if it loaded.
+    pub fn loaded(&self) -> Option<&LoadedScene> {
+        self.live.as_ref().map(|s| &s.loaded)
+    }
+}
+
+/// Runs a live session until [`Control::quit`]: render, wait for a request, load again,
+/// repeat. `watcher` and `observer` are told the files the scene has read after every load,
+/// or tried to (an included file with an error in it, a missing texture): saving any of
+/// them loads it again.
 pub fn run(
     settings: &LiveSettings,
     mut selection: Selection,
     control: &Control,
     watcher: &watch::SceneWatcher,
     observer: &mut dyn Observer,
+    mut session: Session,
 ) {
-    let mut live: Option<SceneState> = None;
-    // Every load of the session reads through these, so they list every file any version
-    // of the scene read (a file no longer named only costs a reload that changes nothing).
-    let files = SceneFiles::new(&settings.scene, &settings.allowed);
     let mut watched = std::collections::BTreeSet::new();
     loop {
         let pending = control.take();
@@ -451,20 +422,22 @@ pub fn run(
         if let Some(s) = pending.selection {
             selection = s;
         }
-        if pending.reload.is_some() || live.is_none() {
-            // The import reads the whole text again on every reload (its own list: the
-            // included files of this version); the world's edits read only what changed.
-            let imported = files.with_new_list();
-            let reloaded = reload(&mut live, settings, &files, &imported);
+        let first = session.first.take();
+        if first.is_some() || pending.reload.is_some() || session.live.is_none() {
+            let (reloaded, imported) = first.unwrap_or_else(|| {
+                let imported = session.files.with_new_list();
+                let reloaded = reload(&mut session.live, settings, &session.files, &imported);
+                (reloaded, imported)
+            });
             watched.extend(imported.read());
-            watched.extend(files.read());
+            watched.extend(session.files.read());
             let all: Vec<PathBuf> = watched.iter().cloned().collect();
             // Folders made again since are watched anew too.
             if let Err(e) = watcher.track(&all) {
                 note!("warning: {e:#}");
             }
             // What this version of the scene reads: its import's files and its world's.
-            if let (Ok(_), Some(state)) = (&reloaded, &live) {
+            if let (Ok(_), Some(state)) = (&reloaded, &session.live) {
                 let mut now = imported.read();
                 now.extend(state.files_in_use());
                 observer.inputs(&settings.scene, &now);
@@ -478,13 +451,15 @@ pub fn run(
                 }
             }
         }
-        let job = match live.as_ref().and_then(|s| Some((s, s.built()?))) {
-            Some((state, built)) => prepare(settings, &selection, &state.loaded, built),
-            None => Err(anyhow!("no scene loaded")),
+        let Some((state, built)) = session.live.as_ref().and_then(|s| Some((s, s.built()?))) else {
+            observer.load_failed("no scene loaded");
+            control.wait();
+            continue;
         };
-        match job {
+        match prepare(settings, &selection, &state.loaded) {
             Ok(job) => render_job(
                 job,
+                built,
                 settings.image_interval,
                 control,
                 observer,

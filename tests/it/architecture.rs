@@ -29,7 +29,7 @@ fn modules_name_only_the_modules_below_them() {
         ("accel", &[]),
         ("scene", &["accel"]),
         ("output", &[]),
-        ("render", &["output", "scene"]),
+        ("render", &["output", "scene", "accel"]),
         ("compare", &["render", "output", "scene", "accel"]),
         ("live", &["render", "output", "scene", "accel"]),
         ("bench", &["render", "output", "scene", "accel"]),
