@@ -236,7 +236,7 @@ mod tests {
     }
 
     #[test]
-    fn small_steps_keep_numbers_uniform() {
+    fn chi2_small_steps_keep_numbers_uniform() {
         // The mutation is symmetric on the torus, so the uniform distribution is stationary:
         // independent chains started uniform and moved by accepted small steps stay uniform
         // (chi-square on 20 cells; wrapping or a skewed Gaussian would show).

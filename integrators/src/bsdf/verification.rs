@@ -515,7 +515,7 @@ fn every_material_samples_what_it_evaluates() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Chi-square tests of the sampling routines (counted in chi2::CHI2_TESTS).
+// Chi-square tests of the sampling routines (named chi2_*: counted in chi2::CHI2_TESTS).
 
 fn chi2_material(name: &str, m: &Material, wo: Vec3A, grid: &Grid, seed: u64) {
     assert_chi2(

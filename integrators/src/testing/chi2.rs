@@ -30,11 +30,34 @@ use crate::{Rgb, Sampler};
 use glam::{DVec3, Vec3A};
 use std::f64::consts::PI;
 
-/// Number of chi-square tests in the suite (for the Šidák correction). Keep in sync with the
-/// `#[test]`s that call [`assert_chi2`] and [`assert_chi2_discrete`]:
-/// sampling.rs 3, lambert.rs 1, oren_nayar.rs 4, phong.rs 6, light.rs 9, microfacet.rs 3,
-/// bsdf/verification.rs 11, light/env_map.rs 1, light/spot.rs 1, mlt.rs 1, sd_tree.rs 1.
-pub const CHI2_TESTS: u32 = 41;
+/// Number of chi-square tests in the suite (for the Šidák correction): the `#[test]`
+/// functions named `chi2_*`, counted by the crate's build script (`build.rs`).
+pub const CHI2_TESTS: u32 = parse_count(env!("RAYLAB_CHI2_TESTS"));
+
+const fn parse_count(text: &str) -> u32 {
+    let bytes = text.as_bytes();
+    let mut n = 0;
+    let mut i = 0;
+    while i < bytes.len() {
+        n = n * 10 + (bytes[i] - b'0') as u32;
+        i += 1;
+    }
+    n
+}
+
+/// Refuses a chi-square test in a test function the count does not see: libtest names each
+/// test's thread after its path, whose last part must start with `chi2_`.
+fn check_counted(name: &str) {
+    if let Some(thread) = std::thread::current().name().filter(|t| t.contains("::")) {
+        let test = thread.rsplit("::").next().unwrap_or(thread);
+        assert!(
+            test.starts_with("chi2_"),
+            "chi2 {name}: run from test `{thread}`; name chi-square tests `chi2_*` so that \
+             CHI2_TESTS counts them"
+        );
+    }
+}
+
 /// Family-wise significance level of the suite.
 pub const SIGNIFICANCE: f64 = 0.01;
 /// Default number of samples per test.
@@ -167,6 +190,7 @@ pub fn chi2_statistic(
 
 /// Runs [`chi2_statistic`] on a discrete distribution and panics if it is rejected.
 pub fn assert_chi2_discrete(name: &str, observed: &[u64], expected: &[f64], total: usize) -> f64 {
+    check_counted(name);
     let (chi2, dof, p) =
         chi2_statistic(observed, expected, total).unwrap_or_else(|e| panic!("chi2 {name}: {e}"));
     println!("chi2 {name}: statistic {chi2:.1}, dof {dof}, p = {p:.4}");
@@ -491,6 +515,7 @@ pub fn assert_chi2(
     mut sample: impl FnMut(&mut Sampler) -> Option<Vec3A>,
     pdf: impl Fn(Vec3A) -> f32,
 ) -> Chi2Outcome {
+    check_counted(name);
     let outcome = run_chi2(grid, samples, seed, &mut sample, &pdf)
         .unwrap_or_else(|e| panic!("chi2 {name}: {e}"));
     println!(
@@ -695,6 +720,8 @@ mod tests {
 
     #[test]
     fn sidak_threshold_is_about_one_percent_over_the_suite() {
+        // The build script found the suite (41 tests when it was counted by hand).
+        assert!(CHI2_TESTS >= 41, "{CHI2_TESTS}");
         let a = per_test_threshold();
         assert!((1.0 - (1.0 - a).powi(CHI2_TESTS as i32) - SIGNIFICANCE).abs() < 1e-12);
     }
