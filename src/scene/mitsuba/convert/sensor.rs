@@ -1,0 +1,367 @@
+//! Mitsuba's sensor (with its film, sampler and reconstruction filter) and integrator
+//! plugins as raylab's camera and render settings.
+
+use super::*;
+
+/// Mitsuba's `orthographic` sensor as raylab's `Orthographic` camera. Its camera space maps
+/// `x` in `[-1, 1]` across the film's width and `y` in `[-1/aspect, 1/aspect]` across its
+/// height (aspect = width / height), from `+x` (`to_world`'s left) on the image's left; so
+/// `to_world`'s scales set the view's size. A crop is the crop's part of that rectangle.
+fn orthographic(
+    m: &Affine3A,
+    (width, height): (i64, i64),
+    crop: Option<(i64, i64, i64, i64)>,
+) -> String {
+    let (w, h) = (width as f32, height as f32);
+    let (left, up, dir) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
+    // Half the view's size in world units, and its unit axes.
+    let (half_w, half_h) = (left.length(), up.length() * h / w);
+    let (right, up, dir) = (-left.normalize(), up.normalize(), dir.normalize());
+    let (x, y, cw, ch) = crop.unwrap_or((0, 0, width, height));
+    let (u, v) = (
+        (x as f32 + 0.5 * cw as f32) / w,
+        (y as f32 + 0.5 * ch as f32) / h,
+    );
+    let eye = m.translation + right * (half_w * (2.0 * u - 1.0)) + up * (half_h * (1.0 - 2.0 * v));
+    format!(
+        "Orthographic(eye: {}, look_at: {}, up: {}, width: {}, height: {}, resolution: ({cw}, {ch}))",
+        v3(eye.into()),
+        v3((eye + dir).into()),
+        v3(up.into()),
+        num(2.0 * half_w * cw as f32 / w),
+        num(2.0 * half_h * ch as f32 / h),
+    )
+}
+
+impl<'a, 'input> Converter<'a, 'input> {
+    pub(super) fn sensor(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
+        if self.camera.is_some() {
+            // Mitsuba 3 renders its first sensor (sensor 0) unless told otherwise.
+            let (line, col) = position(self.doc, node);
+            self.report.push(format!(
+                "{line}:{col}: a second <sensor>: not read (Mitsuba 3 and raylab render the first)"
+            ));
+            return Ok(());
+        }
+        let kind = self.kind(node)?;
+        if kind != "perspective" && kind != "orthographic" {
+            return Err(at(
+                self.doc,
+                node,
+                format!("sensor `{kind}` is not supported (perspective and orthographic are)"),
+            ));
+        }
+        let mut p = self.props(node)?;
+        let fov = if kind == "perspective" {
+            Some(p.float("fov")?.ok_or_else(|| {
+                at(
+                    self.doc,
+                    node,
+                    "the sensor needs `fov` (raylab does not read `focal_length`)",
+                )
+            })?)
+        } else {
+            None
+        };
+        let axis = match fov {
+            Some(_) => p.string("fov_axis")?.unwrap_or_else(|| "x".into()),
+            None => String::new(),
+        };
+        let m = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
+        if p.float("near_clip")?.is_some() | p.float("far_clip")?.is_some() {
+            self.report.push(
+                "sensor: near_clip and far_clip ignored (raylab's camera does not clip)".into(),
+            );
+        }
+        let (mut width, mut height, mut filter, mut spp) =
+            (768i64, 576i64, "gaussian".to_string(), None);
+        let mut crop: Option<(i64, i64, i64, i64)> = None;
+        for (_, child) in std::mem::take(&mut p.children) {
+            match child.tag_name().name() {
+                "film" => {
+                    let film = self.kind(child)?;
+                    if film != "hdrfilm" {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!("film `{film}` is not supported (hdrfilm is)"),
+                        ));
+                    }
+                    let mut f = self.props(child)?;
+                    width = f.integer("width")?.unwrap_or(width);
+                    height = f.integer("height")?.unwrap_or(height);
+                    if !(1..=i64::from(crate::scene::describe::MAX_SIDE)).contains(&width)
+                        || !(1..=i64::from(crate::scene::describe::MAX_SIDE)).contains(&height)
+                    {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!(
+                                "the film is {width}x{height}: each side must be 1 to {}",
+                                crate::scene::describe::MAX_SIDE
+                            ),
+                        ));
+                    }
+                    let offset = (f.integer("crop_offset_x")?, f.integer("crop_offset_y")?);
+                    let size = (f.integer("crop_width")?, f.integer("crop_height")?);
+                    if offset != (None, None) || size != (None, None) {
+                        let (x, y) = (offset.0.unwrap_or(0), offset.1.unwrap_or(0));
+                        let (w, h) = (size.0.unwrap_or(width - x), size.1.unwrap_or(height - y));
+                        if x < 0 || y < 0 || w < 1 || h < 1 || x + w > width || y + h > height {
+                            return Err(at(self.doc, child, format!("the crop {w}x{h} at ({x}, {y}) must lie inside the {width}x{height} film")));
+                        }
+                        crop = Some((x, y, w, h));
+                    }
+                    for (_, rf) in std::mem::take(&mut f.children) {
+                        if rf.tag_name().name() != "rfilter" {
+                            return Err(at(self.doc, rf, "only an <rfilter> goes inside the film"));
+                        }
+                        filter = match self.kind(rf)?.as_str() {
+                            "box" => "box".into(),
+                            "tent" => "tent".into(),
+                            "gaussian" => "gaussian".into(),
+                            other => {
+                                return Err(at(
+                                    self.doc,
+                                    rf,
+                                    format!(
+                                    "filter `{other}` is not supported (box, tent, gaussian are)"
+                                ),
+                                ))
+                            }
+                        };
+                        // Mitsuba's sizes: box and tent by radius, the Gaussian by its
+                        // standard deviation, cut off at four of them.
+                        let mut r = self.props(rf)?;
+                        let size = if filter == "gaussian" {
+                            r.float("stddev")?
+                                .map(|s| format!("(stddev: {}, radius: {})", num(s), num(4.0 * s)))
+                        } else {
+                            r.float("radius")?.map(|v| format!("(radius: {})", num(v)))
+                        };
+                        if let Some(size) = size {
+                            filter.push_str(&size);
+                            filter
+                                .parse::<raylab_integrators::Filter>()
+                                .map_err(|e| at(self.doc, rf, e))?;
+                        }
+                        r.finish(&[])?;
+                    }
+                    f.finish(&[
+                        "pixel_format",
+                        "component_format",
+                        "file_format",
+                        "banner",
+                        "sample_border",
+                        "compensate",
+                        "rfilter",
+                    ])?;
+                }
+                "sampler" => {
+                    let mut s = self.props(child)?;
+                    spp = s.integer("sample_count")?;
+                    if let Some(n) = spp.filter(|n| !(1..=i64::from(u32::MAX)).contains(n)) {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!("sample_count {n}: it must be 1 to {}", u32::MAX),
+                        ));
+                    }
+                    s.finish(&["seed", "jitter", "scramble_seed"])?;
+                }
+                tag => {
+                    return Err(at(
+                        self.doc,
+                        child,
+                        format!("<{tag}> inside the sensor is not supported"),
+                    ))
+                }
+            }
+        }
+        // A pinhole's focus distance changes nothing.
+        p.finish(&["focus_distance"])?;
+        let (left, up, dir) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
+        if up.cross(dir).dot(left) <= 0.0 {
+            return Err(at(
+                self.doc,
+                node,
+                "the sensor's to_world mirrors the image, which raylab's camera cannot",
+            ));
+        }
+        let Some(fov) = fov else {
+            self.camera = Some(orthographic(&m, (width, height), crop));
+            return self.sensor_settings(filter, spp);
+        };
+        let (w, h) = (width as f32, height as f32);
+        // raylab's fov is vertical.
+        let half = (fov.to_radians() * 0.5).tan();
+        let vertical = match axis.as_str() {
+            "y" => half,
+            "x" => half * h / w,
+            "diagonal" => half * h / (w * w + h * h).sqrt(),
+            "smaller" => {
+                if w < h {
+                    half * h / w
+                } else {
+                    half
+                }
+            }
+            "larger" => {
+                if w > h {
+                    half * h / w
+                } else {
+                    half
+                }
+            }
+            other => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!("fov_axis `{other}` is not known"),
+                ))
+            }
+        };
+        let fov_y = 2.0 * vertical.atan().to_degrees();
+        let eye = m.translation;
+        let dir = dir.normalize();
+        self.camera = Some(match crop {
+            None => format!(
+                "LookAt(eye: {}, look_at: {}, up: {}, fov: {}, resolution: ({width}, {height}))",
+                v3(eye.into()),
+                v3((eye + dir).into()),
+                v3(up.normalize().into()),
+                num(fov_y)
+            ),
+            // A crop: the film's part of the image plane at distance 1, as an image-plane
+            // camera (Mitsuba writes the crop alone).
+            Some((x, y, cw, ch)) => {
+                let (up, right) = (up.normalize(), -left.normalize());
+                let th = (fov_y.to_radians() * 0.5).tan();
+                let tw = th * w / h;
+                let at = |px: i64, py: i64| {
+                    let (fx, fy) = (px as f32 / w, py as f32 / h);
+                    eye + dir + right * (tw * (2.0 * fx - 1.0)) + up * (th * (1.0 - 2.0 * fy))
+                };
+                format!(
+                    "ImagePlane(eye: {}, top_left: {}, top_right: {}, bottom_left: {}, bottom_right: {}, resolution: ({cw}, {ch}))",
+                    v3(eye.into()),
+                    v3(at(x, y).into()),
+                    v3(at(x + cw, y).into()),
+                    v3(at(x, y + ch).into()),
+                    v3(at(x + cw, y + ch).into())
+                )
+            }
+        });
+        self.sensor_settings(filter, spp)
+    }
+
+    /// The sensor's film filter and sample count, as render settings.
+    pub(super) fn sensor_settings(
+        &mut self,
+        filter: String,
+        spp: Option<i64>,
+    ) -> Result<(), Located> {
+        self.render.push(format!("filter: {}", quote(&filter)));
+        if let Some(spp) = spp {
+            self.render.push(format!("spp: {spp}"));
+        }
+        Ok(())
+    }
+
+    pub(super) fn integrator(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
+        if self.render.iter().any(|r| r.starts_with("integrator:")) {
+            return Err(at(
+                self.doc,
+                node,
+                "a second <integrator>: a scene names one",
+            ));
+        }
+        let kind = self.kind(node)?;
+        let mut p = self.props(node)?;
+        match kind.as_str() {
+            "path" | "ptracer" => {
+                let max_depth = p.integer("max_depth")?.unwrap_or(-1);
+                if max_depth == 0 || max_depth < -1 {
+                    return Err(at(
+                        self.doc,
+                        node,
+                        format!("max_depth {max_depth}: raylab takes -1 (unlimited) or a positive depth"),
+                    ));
+                }
+                let rr_depth = p.integer("rr_depth")?.unwrap_or(5);
+                if p.boolean("hide_emitters")? == Some(true) {
+                    self.approximate(
+                        node,
+                        "hide_emitters is not supported: emitters seen directly are shown".into(),
+                    )?;
+                }
+                // Mitsuba's max_depth counts the segments of a path, raylab's the scattering
+                // events: one less; -1 is unlimited in both.
+                let depth = if max_depth < 0 {
+                    "inf".to_string()
+                } else {
+                    (max_depth - 1).max(0).to_string()
+                };
+                // Mitsuba's ptracer is raylab's lighttracer (paths from the lights, each vertex
+                // connected to the sensor); its passes are raylab's passes.
+                let name = if kind == "path" {
+                    "path"
+                } else {
+                    "lighttracer"
+                };
+                if kind == "ptracer" {
+                    p.integer("samples_per_pass")?;
+                }
+                self.render.push(format!("integrator: \"{name}\", params: {{\"max-depth\": {depth}, \"rr-depth\": {rr_depth}}}"));
+                self.report.push(format!("integrator: Mitsuba's {kind} max_depth {max_depth} is raylab's {name} max-depth {depth}"));
+            }
+            "direct" => {
+                let shading = p.integer("shading_samples")?;
+                let count = |p: &mut Props<'a, 'input>, name: &str| -> Result<i64, Located> {
+                    let n = p.integer(name)?.or(shading).unwrap_or(1);
+                    if !(0..=1024).contains(&n) {
+                        return Err(at(
+                            self.doc,
+                            node,
+                            format!("{name} {n} must lie in 0..=1024"),
+                        ));
+                    }
+                    Ok(n)
+                };
+                let (emitter, bsdf) = (
+                    count(&mut p, "emitter_samples")?,
+                    count(&mut p, "bsdf_samples")?,
+                );
+                if p.boolean("hide_emitters")? == Some(true) {
+                    self.approximate(
+                        node,
+                        "hide_emitters is not supported: emitters seen directly are shown".into(),
+                    )?;
+                }
+                self.render.push(format!("integrator: \"direct\", params: {{\"emitter-samples\": {emitter}, \"bsdf-samples\": {bsdf}}}"));
+            }
+            "moment" => {
+                // A wrapper that adds a second moment image: the estimate is its inner
+                // integrator's.
+                let inner: Vec<Node> = p.children.iter().map(|(_, n)| *n).collect();
+                p.children.clear();
+                let [inner] = inner[..] else {
+                    return Err(at(
+                        self.doc,
+                        node,
+                        "<integrator type=\"moment\"> wraps one integrator",
+                    ));
+                };
+                self.report.push("integrator: Mitsuba's moment wrapper: raylab keeps each pixel's variance already; its inner integrator renders".into());
+                p.finish(&[])?;
+                return self.integrator(inner);
+            }
+            other => {
+                self.approximate(node, format!("integrator `{other}` is not supported (path, ptracer, direct, moment are): rendered with path"))?;
+                self.render.push("integrator: \"path\"".into());
+                return Ok(());
+            }
+        }
+        p.finish(&[])
+    }
+}

@@ -1,0 +1,303 @@
+//! Mitsuba's shape and emitter plugins: shapes with their materials and area lights,
+//! shapegroups and their instances, and the lights that are not shapes.
+
+use super::*;
+
+/// A shape as the pieces of a RON entity.
+struct ShapeParts {
+    name: String,
+    shape: String,
+    to_world: Affine3A,
+    material: Option<String>,
+    emitter: Option<String>,
+    flip: bool,
+}
+
+impl<'a, 'input> Converter<'a, 'input> {
+    pub(super) fn shape(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
+        let parts = self.shape_parts(node, index)?;
+        self.origins
+            .push((true, parts.name.clone(), position(self.doc, node)));
+        let mut e = format!(
+            "(name: {}, transform: {}, shape: {}",
+            quote(&parts.name),
+            matrix(&parts.to_world),
+            parts.shape,
+        );
+        if let Some(material) = parts.material {
+            let _ = write!(e, ", material: {}", quote(&material));
+        }
+        if parts.flip {
+            e.push_str(", flip_normals: true");
+        }
+        if let Some(em) = parts.emitter {
+            let _ = write!(e, ", emitter: {em}");
+        }
+        e.push_str("),");
+        self.entities.push(e);
+        crate::scene::import::check_entities_made(self.entities.len(), &self.room)
+            .map_err(|e| at(self.doc, node, e))?;
+        Ok(())
+    }
+
+    /// An `instance` of a `shapegroup`: each shape of the group placed by the instance's
+    /// `to_world` after its own, a mesh (`obj`, `ply`, `rectangle`, `cube`) as an instance of
+    /// one mesh asset shared by every instance, an analytic shape as an entity of its own.
+    pub(super) fn instance(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
+        let name = attr(&self.params, self.doc, node, "id")?
+            .unwrap_or_else(|| format!("instance #{index}"));
+        let mut p = self.props(node)?;
+        let to_world = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
+        let refs: Vec<Node> = std::mem::take(&mut p.children)
+            .into_iter()
+            .map(|(_, n)| n)
+            .collect();
+        p.finish(&[])?;
+        let [group] = refs[..] else {
+            return Err(at(
+                self.doc,
+                node,
+                "<shape type=\"instance\"> takes one shapegroup (a <ref> to it)",
+            ));
+        };
+        let group = self.resolve(group)?;
+        if group.tag_name().name() != "shape" || self.kind(group)? != "shapegroup" {
+            return Err(at(
+                self.doc,
+                group,
+                "an instance places a <shape type=\"shapegroup\">",
+            ));
+        }
+        let gid = attr(&self.params, self.doc, group, "id")?.unwrap_or_else(|| name.clone());
+        let shapes: Vec<Node> = group.children().filter(Node::is_element).collect();
+        for (i, child) in shapes.into_iter().enumerate() {
+            if child.tag_name().name() != "shape" {
+                return Err(at(self.doc, child, "a shapegroup holds shapes only"));
+            }
+            let kind = self.kind(child)?;
+            let parts = self.shape_parts(child, i)?;
+            if parts.emitter.is_some() {
+                return Err(at(
+                    self.doc,
+                    child,
+                    "a shape of a shapegroup cannot emit light (in Mitsuba neither)",
+                ));
+            }
+            let placed = to_world * parts.to_world;
+            let shape = if matches!(kind.as_str(), "obj" | "ply" | "rectangle" | "cube") {
+                if parts.flip {
+                    return Err(at(self.doc, child, "a mesh of a shapegroup turned around (flip_normals, or a mirrored rectangle) is not supported"));
+                }
+                let mesh = format!("{gid}/{i}");
+                if !self.meshes.iter().any(|(n, _)| *n == mesh) {
+                    self.meshes.push((mesh.clone(), parts.shape.clone()));
+                }
+                format!("Instance(mesh: {})", quote(&mesh))
+            } else {
+                parts.shape.clone()
+            };
+            let entity = format!("{name} / {}", parts.name);
+            self.origins
+                .push((true, entity.clone(), position(self.doc, child)));
+            let mut e = format!(
+                "(name: {}, transform: {}, shape: {shape}",
+                quote(&entity),
+                matrix(&placed),
+            );
+            if let Some(material) = parts.material {
+                let _ = write!(e, ", material: {}", quote(&material));
+            }
+            if parts.flip && !shape.starts_with("Instance") {
+                e.push_str(", flip_normals: true");
+            }
+            e.push_str("),");
+            self.entities.push(e);
+            crate::scene::import::check_entities_made(self.entities.len(), &self.room)
+                .map_err(|e| at(self.doc, node, e))?;
+        }
+        Ok(())
+    }
+
+    /// A shape's parts: its RON shape, placement, material, emitter and orientation.
+    fn shape_parts(&mut self, node: Node<'a, 'input>, index: usize) -> Result<ShapeParts, Located> {
+        let kind = self.kind(node)?;
+        let name =
+            attr(&self.params, self.doc, node, "id")?.unwrap_or_else(|| format!("{kind} #{index}"));
+        let mut p = self.props(node)?;
+        let to_world = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
+        let file = |p: &mut Props<'a, 'input>| -> Result<String, Located> {
+            p.string("filename")?.ok_or_else(|| {
+                at(
+                    self.doc,
+                    node,
+                    format!("<shape type=\"{kind}\"> needs `filename`"),
+                )
+            })
+        };
+        // Mitsuba shades a mesh with its file's normals, or with normals it computes when the
+        // file has none; flat with `face_normals`.
+        let normals = |p: &mut Props<'a, 'input>| -> Result<&str, Located> {
+            Ok(match p.boolean("face_normals")? {
+                Some(true) => "flat",
+                _ => "smooth",
+            })
+        };
+        let shape = match kind.as_str() {
+            "obj" | "ply" => {
+                let path = quote(&self.file_name(file(&mut p)?));
+                let normals = normals(&mut p)?;
+                let variant = if kind == "obj" { "Obj" } else { "Ply" };
+                format!("{variant}(path: {path}, normals: \"{normals}\")")
+            }
+            "serialized" => {
+                let path = quote(&self.file_name(file(&mut p)?));
+                let index = p.integer("shape_index")?.unwrap_or(0);
+                let index = u32::try_from(index).map_err(|_| {
+                    at(self.doc, node, format!("shape_index {index} must be 0 or more"))
+                })?;
+                let normals = normals(&mut p)?;
+                format!("Serialized(path: {path}, shape_index: {index}, normals: \"{normals}\")")
+            }
+            "rectangle" => "Rectangle".to_string(),
+            "cube" => "Box(min: (-1, -1, -1), max: (1, 1, 1))".to_string(),
+            "disk" => "Disk".to_string(),
+            "sphere" => {
+                let c = p.vector("center")?.unwrap_or([0.0; 3]);
+                let r = p.float("radius")?.unwrap_or(1.0);
+                format!("Sphere(center: {}, radius: {})", v3(c), num(r))
+            }
+            "cylinder" => {
+                let p0 = p.vector("p0")?.unwrap_or([0.0; 3]);
+                let p1 = p.vector("p1")?.unwrap_or([0.0, 0.0, 1.0]);
+                let r = p.float("radius")?.unwrap_or(1.0);
+                format!("Cylinder(p0: {}, p1: {}, radius: {})", v3(p0), v3(p1), num(r))
+            }
+            other => {
+                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, serialized, rectangle, cube, disk, sphere, cylinder are)")))
+            }
+        };
+        let mut flip = p.boolean("flip_normals")?.unwrap_or(false);
+        // Mitsuba's rectangle faces its inverse transpose's +z; raylab's Rectangle is two
+        // triangles facing their winding, which a mirroring to_world turns the other way.
+        if kind == "rectangle" && to_world.matrix3.determinant() < 0.0 {
+            flip = !flip;
+            self.report.push(format!(
+                "{name}: a mirroring to_world: its faces turned to face where Mitsuba's do"
+            ));
+        }
+        let (mut material, mut emitter) = (None, None);
+        for (_, child) in std::mem::take(&mut p.children) {
+            let child = self.resolve(child)?;
+            match child.tag_name().name() {
+                "bsdf" if material.is_none() => {
+                    material = Some(self.material(child, &format!("{name} material"))?)
+                }
+                "emitter" if emitter.is_none() => {
+                    let k = self.kind(child)?;
+                    if k != "area" {
+                        return Err(at(
+                            self.doc,
+                            child,
+                            format!("a shape's emitter must be `area`, not `{k}`"),
+                        ));
+                    }
+                    let mut e = self.props(child)?;
+                    let radiance = e.emission("radiance")?.ok_or_else(|| at(self.doc, child, "<emitter type=\"area\"> needs a constant `radiance` (a texture is not supported)"))?;
+                    e.finish(&[])?;
+                    emitter = Some(format!("Area(radiance: {})", v3(radiance)));
+                }
+                tag => {
+                    return Err(at(
+                        self.doc,
+                        child,
+                        format!("<{tag}> inside a shape is not supported"),
+                    ))
+                }
+            }
+        }
+        p.finish(&[])?;
+        // Mitsuba gives a shape without a BSDF its default grey diffuse, but an emitter a
+        // black one: raylab's pure emitters are black too (no material).
+        let material = match (material, &emitter) {
+            (Some(m), _) => Some(m),
+            (None, Some(_)) => None,
+            (None, None) => Some(match &self.default_material {
+                Some(name) => name.clone(),
+                None => {
+                    let mut name = "default".to_string();
+                    while self.materials.iter().any(|(n, _)| *n == name) {
+                        name.push('\'');
+                    }
+                    self.materials
+                        .push((name.clone(), "Lambert(albedo: 0.5)".into()));
+                    self.report.push(format!(
+                        "{name}: Mitsuba's default BSDF (diffuse 0.5), for shapes without one; \
+                         two-sided in raylab"
+                    ));
+                    self.default_material = Some(name.clone());
+                    name
+                }
+            }),
+        };
+        Ok(ShapeParts {
+            name,
+            shape,
+            to_world,
+            material,
+            emitter,
+            flip,
+        })
+    }
+
+    pub(super) fn emitter(&mut self, node: Node<'a, 'input>, index: usize) -> Result<(), Located> {
+        let kind = self.kind(node)?;
+        let name =
+            attr(&self.params, self.doc, node, "id")?.unwrap_or_else(|| format!("{kind} #{index}"));
+        let mut p = self.props(node)?;
+        let to_world = p.transform("to_world")?;
+        let placed = |m: Option<Affine3A>| {
+            m.map(|m| format!(", transform: {}", matrix(&m)))
+                .unwrap_or_default()
+        };
+        let entity = match kind.as_str() {
+            "constant" => {
+                let r = p.emission("radiance")?.unwrap_or([1.0; 3]);
+                if self.environment.replace(v3(r)).is_some() {
+                    return Err(at(self.doc, node, "a second environment emitter: raylab's scene has one"));
+                }
+                None
+            }
+            "envmap" => {
+                let file = self.file_name(p.string("filename")?.ok_or_else(|| at(self.doc, node, "<emitter type=\"envmap\"> needs `filename`"))?);
+                let scale = p.float("scale")?.unwrap_or(1.0);
+                Some(format!("emitter: Environment(path: {}, scale: {}){}", quote(&file), num(scale), placed(to_world)))
+            }
+            "point" => {
+                let i = p.emission("intensity")?.unwrap_or([1.0; 3]);
+                let m = match p.vector("position")? {
+                    Some(pos) => Affine3A::from_translation(pos.into()),
+                    None => to_world.unwrap_or(Affine3A::IDENTITY),
+                };
+                Some(format!("emitter: Point(intensity: {}), transform: {}", v3(i), matrix(&m)))
+            }
+            "spot" => {
+                let i = p.emission("intensity")?.unwrap_or([1.0; 3]);
+                let cutoff = p.float("cutoff_angle")?.unwrap_or(20.0);
+                let beam = p.float("beam_width")?.unwrap_or(cutoff * 0.75);
+                Some(format!("emitter: Spot(intensity: {}, cutoff_angle: {}, beam_width: {}){}", v3(i), num(cutoff), num(beam), placed(to_world)))
+            }
+            "directional" => {
+                let e = p.emission("irradiance")?.unwrap_or([1.0; 3]);
+                let d = p.vector("direction")?.unwrap_or([0.0, 0.0, 1.0]);
+                Some(format!("emitter: Directional(direction: {}, irradiance: {}){}", v3(d), v3(e), placed(to_world)))
+            }
+            other => return Err(at(self.doc, node, format!("emitter `{other}` is not supported (area, point, spot, directional, constant, envmap are)"))),
+        };
+        p.finish(&[])?;
+        if let Some(e) = entity {
+            self.entities
+                .push(format!("(name: {}, {e}),", quote(&name)));
+        }
+        Ok(())
+    }
+}

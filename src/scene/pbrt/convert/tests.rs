@@ -1,0 +1,163 @@
+//! The pbrt-v4 importer's tests: what each directive becomes, and mangled files.
+
+use super::*;
+use proptest::prelude::*;
+
+const CORNELL: &str = include_str!("../../../../scenes/pbrt/cornell_box.pbrt");
+
+fn convert(text: &str, approximate: bool) -> Result<Imported, PbrtError> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/pbrt/mangled.pbrt");
+    let files = SceneFiles::new(&path, &[]);
+    let options = ImportOptions {
+        defines: Vec::new(),
+        approximate,
+    };
+    to_ron(&path, text, &files, &options)
+}
+
+proptest! {
+    #![proptest_config(proptest::test_runner::Config::with_cases(300))]
+    /// The shipped pbrt scene cut short, or with a piece cut out or replaced by a token:
+    /// an error, or RON that the loader takes or refuses, never a panic.
+    #[test]
+    fn mangled_pbrt_never_panics(
+        at in any::<proptest::sample::Index>(),
+        len in 0usize..40,
+        approximate in any::<bool>(),
+        token in prop::sample::select(vec![
+            "", "[", "]", "\"", "#", "1e39", "-1", "nan", "AttributeEnd", "ObjectEnd",
+            "\"float radius\"", "Scale 0 0 0", "ReverseOrientation", "Include \"cornell_box.pbrt\"",
+            "Shape \"sphere\"", "Camera \"perspective\"", "WorldBegin", "\"integer indices\" [9]",
+        ]),
+    ) {
+        let mut start = at.index(CORNELL.len() + 1);
+        while !CORNELL.is_char_boundary(start) {
+            start -= 1;
+        }
+        let mut end = (start + len).min(CORNELL.len());
+        while !CORNELL.is_char_boundary(end) {
+            end -= 1;
+        }
+        let text = if len == 0 {
+            CORNELL[..start].to_string()
+        } else {
+            format!("{}{token}{}", &CORNELL[..start], &CORNELL[end..])
+        };
+        if let Ok(imported) = convert(&text, approximate) {
+            let _ = crate::scene::parse_scene(&imported.ron, Path::new("mangled.pbrt"));
+        }
+    }
+}
+
+#[test]
+fn the_ron_names_what_the_pbrt_file_names() {
+    let imported = convert(CORNELL, false).unwrap();
+    for needle in [
+        "\"white\": Lambert(albedo: (0.885809, 0.698859, 0.666422))",
+        "\"cube/0\": Mesh(positions: [",
+        "shape: Instance(mesh: \"cube/0\"), material: \"white\", transform: (matrix: [",
+        "emitter: Area(radiance: (18.387, 13.9873, 6.75357), two_sided: false)",
+        "spp: 64, filter: \"gaussian(stddev: 0.5, radius: 2)\"",
+        "\"max-depth\": 7",
+    ] {
+        assert!(
+            imported.ron.contains(needle),
+            "no {needle} in\n{}",
+            imported.ron
+        );
+    }
+}
+
+#[test]
+fn textures_follow_pbrts_coordinates() {
+    let scene = |texture: &str| {
+        format!("WorldBegin\n{texture}\nMaterial \"diffuse\" \"texture reflectance\" \"t\"\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n")
+    };
+    // pbrt-v4 looks an image up at (s, 1 - t); raylab from the top row at (u, v).
+    let image = convert(&scene(r#"Texture "t" "spectrum" "imagemap" "string filename" "a.png" "float uscale" 2 "float vdelta" 0.25"#), false).unwrap();
+    assert!(image.ron.contains(r#"Image(path: "a.png", filter: "bilinear", wrap: "repeat", raw: false, uv_scale: (2.0, -1.0), uv_offset: (0.0, 0.75))"#), "{}", image.ron);
+    // pbrt-v4's squares are a unit wide, Mitsuba's half a unit.
+    let checks = convert(&scene(r#"Texture "t" "spectrum" "checkerboard" "rgb tex1" [1 0 0] "float uscale" 8 "float vscale" 4"#), false).unwrap();
+    assert!(checks.ron.contains("Checkerboard(color0: (1.0, 0.0, 0.0), color1: 0.0, uv_scale: (4.0, 2.0), uv_offset: (0.0, 0.0))"), "{}", checks.ron);
+}
+
+#[test]
+fn materials_map_with_pbrts_defaults() {
+    for (material, expected) in [
+        ("\"conductor\"", "Conductor(metal: \"Cu\")"),
+        ("\"conductor\" \"float roughness\" 0.04", "RoughConductor(metal: \"Cu\", distribution: \"ggx\", alpha: 0.2)"),
+        ("\"conductor\" \"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\" \"bool remaproughness\" false \"float uroughness\" 0.1 \"float vroughness\" 0.3", "RoughConductor(metal: \"Au\", distribution: \"ggx\", alpha_u: 0.1, alpha_v: 0.3)"),
+        ("\"conductor\" \"rgb reflectance\" [0.5 0.5 0.5]", "Conductor(eta: (1.0, 1.0, 1.0), k: (2.0, 2.0, 2.0))"),
+        ("\"dielectric\"", "Dielectric(int_ior: 1.5, ext_ior: 1.0)"),
+        ("\"thindielectric\" \"float eta\" 1.33", "ThinDielectric(int_ior: 1.33, ext_ior: 1.0)"),
+        ("\"coateddiffuse\" \"float roughness\" 0", "Plastic(diffuse_reflectance: 0.5, int_ior: 1.5, ext_ior: 1.0, nonlinear: true)"),
+    ] {
+        let text = format!("WorldBegin\nMaterial {material}\nShape \"sphere\"\n");
+        let imported = convert(&text, false).unwrap();
+        assert!(imported.ron.contains(expected), "{material}: no {expected} in\n{}", imported.ron);
+    }
+}
+
+#[test]
+fn states_lights_samplers_and_uvs_follow_pbrt_v4() {
+    let quad = r#"Shape "bilinearmesh" "point3 P" [0 0 0  2 0 0  0 1 0  2 1 0]"#;
+    // TransformBegin/End restore everything, as AttributeBegin/End.
+    let text = format!("WorldBegin\nTransformBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\nTransformEnd\n{quad}\n");
+    assert!(!convert(&text, false).unwrap().ron.contains("emitter"));
+    // `power` over each primitive's own area: a 2 x 1 patch, 2 pi W -> 1.
+    let text =
+        format!("WorldBegin\nAreaLightSource \"diffuse\" \"float power\" 6.2831853\n{quad}\n");
+    let ron = convert(&text, false).unwrap().ron;
+    assert!(ron.contains("Area(radiance: (1.0, 1.0, 1.0)"), "{ron}");
+    // The shutter's open time scales the image.
+    let text = format!("Camera \"perspective\" \"float shutterclose\" 0.5\nWorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n{quad}\n");
+    assert!(convert(&text, false)
+        .unwrap()
+        .ron
+        .contains("Area(radiance: (2.0, 2.0, 2.0)"));
+    // A spectrum on a light is normalised to luminance 1 by pbrt-v4: white, approximately.
+    let text =
+        format!("WorldBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 8 800 8]\n{quad}\n");
+    assert!(convert(&text, false)
+        .unwrap_err()
+        .3
+        .contains("--approximate"));
+    assert!(convert(&text, true)
+        .unwrap()
+        .ron
+        .contains("Area(radiance: (1.0, 1.0, 1.0)"));
+    // A spot light falls off as pbrt-v4's: a smoothstep in the cosine.
+    let text = "WorldBegin\nLightSource \"spot\" \"float coneangle\" 40 \"float conedeltaangle\" 10\nShape \"sphere\"\n";
+    let ron = convert(text, false).unwrap().ron;
+    assert!(
+        ron.contains("cutoff_angle: 40.0, beam_width: 30.0, falloff: \"smoothstep\""),
+        "{ron}"
+    );
+    // A float texture that names another reads the float textures.
+    let text = "WorldBegin\nTexture \"a\" \"float\" \"constant\" \"float value\" 0.3\nTexture \"b\" \"float\" \"constant\" \"texture value\" \"a\"\nMaterial \"conductor\" \"bool remaproughness\" false \"texture roughness\" \"b\"\nShape \"sphere\"\n";
+    let ron = convert(text, false).unwrap().ron;
+    assert!(ron.contains("alpha: 0.3"), "{ron}");
+    // The stratified sampler takes xsamples x ysamples.
+    let text = format!("Sampler \"stratified\" \"integer xsamples\" 8 \"integer ysamples\" 8\nWorldBegin\n{quad}\n");
+    assert!(convert(&text, false).unwrap().ron.contains("spp: 64"));
+    // A textured patch without uv gets pbrt's (u, v) at its corners.
+    let text = format!("WorldBegin\nTexture \"c\" \"spectrum\" \"checkerboard\"\nMaterial \"diffuse\" \"texture reflectance\" \"c\"\n{quad}\n");
+    let ron = convert(&text, false).unwrap().ron;
+    assert!(
+        ron.contains("uvs: [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]"),
+        "{ron}"
+    );
+    // A mesh of an object definition keeps its own winding under a mirroring transform
+    // (an instance turns its normals as normals).
+    let text = "WorldBegin\nObjectBegin \"o\"\nScale 1 1 -1\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\nObjectEnd\nObjectInstance \"o\"\n";
+    assert!(convert(text, false)
+        .unwrap()
+        .ron
+        .contains("indices: [(0, 1, 2)]"));
+    let text =
+        "WorldBegin\nScale 1 1 -1\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n";
+    assert!(convert(text, false)
+        .unwrap()
+        .ron
+        .contains("indices: [(0, 2, 1)]"));
+}
