@@ -8,7 +8,9 @@ use raylab::bench::{coherent_rays, incoherent_rays};
 use raylab::scene::parse_scene;
 use raylab::scene::RenderScene;
 use raylab_integrators::bsdf::{Conductor, Dielectric, Lambert, OrenNayar, Phong};
-use raylab_integrators::{Material, PixelSample, Rgb, Sampler, Scene, Splats, Tracer};
+use raylab_integrators::{
+    Material, PixelSample, Rgb, SampleContext, Sampler, Scene, Splats, Tracer,
+};
 use std::path::Path;
 
 fn room() -> (RenderScene, raylab::scene::Camera) {
@@ -119,8 +121,13 @@ fn integrators(c: &mut Criterion) {
                 let mut sum = Rgb::ZERO;
                 for s in 0..spp {
                     let mut sampler = Sampler::new(0, 0, s);
-                    sum +=
-                        integrator.sample(&pixel, &camera, &mut tracer, &mut sampler, &mut splats);
+                    sum += integrator.sample(SampleContext {
+                        pixel: &pixel,
+                        camera: &camera,
+                        tracer: &mut tracer,
+                        sampler: &mut sampler,
+                        splats: &mut splats,
+                    });
                 }
                 black_box(sum)
             })

@@ -3,25 +3,72 @@
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{PI, TAU};
 
-/// A ray `origin + t * dir` for `t` in `[0, tmax)`. `dir` is unit length.
+/// A ray `origin + t * dir` for `t` in `[0, tmax)`. `dir` is unit length. `medium` is the
+/// participating medium it travels through (it fits in the padding after `tmax`: a ray is
+/// 48 bytes with it or without it).
 #[derive(Clone, Copy, Debug)]
 pub struct Ray {
     pub origin: Vec3A,
     pub dir: Vec3A,
     pub tmax: f32,
+    pub medium: MediumId,
 }
 
 impl Ray {
+    /// A ray through vacuum.
     pub fn new(origin: Vec3A, dir: Vec3A) -> Self {
         Ray {
             origin,
             dir,
             tmax: f32::INFINITY,
+            medium: MediumId::VACUUM,
         }
     }
 
     pub fn at(&self, t: f32) -> Vec3A {
         self.origin + self.dir * t
+    }
+}
+
+/// A participating medium: its index in the scene's media, or [`MediumId::VACUUM`], what
+/// every ray of a scene without media travels through.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MediumId(pub u32);
+
+impl MediumId {
+    pub const VACUUM: MediumId = MediumId(u32::MAX);
+
+    /// Whether this is vacuum (no medium).
+    #[inline]
+    pub fn is_vacuum(self) -> bool {
+        self == MediumId::VACUUM
+    }
+}
+
+/// The media on the two sides of a surface (pbrt-v4's `MediumInterface`): `inside` behind its
+/// geometric normal, `outside` in front. A surface that only bounds a medium (a smoke's box)
+/// has no material of its own; rays cross it unchanged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MediumInterface {
+    pub inside: MediumId,
+    pub outside: MediumId,
+}
+
+impl MediumInterface {
+    /// Vacuum on both sides.
+    pub const VACUUM: MediumInterface = MediumInterface {
+        inside: MediumId::VACUUM,
+        outside: MediumId::VACUUM,
+    };
+
+    /// The medium a ray leaving the surface along `dir` enters, for geometric normal `ng`.
+    #[inline]
+    pub fn towards(&self, ng: Vec3A, dir: Vec3A) -> MediumId {
+        if ng.dot(dir) > 0.0 {
+            self.outside
+        } else {
+            self.inside
+        }
     }
 }
 
@@ -55,6 +102,8 @@ pub struct Hit {
     /// What `uv`, `dpdu` and `dpdv` still wait for: most hits never need them, so they are
     /// computed only when a material asks ([`crate::Scene::parametrise`]).
     pub pending: Pending,
+    /// The media on either side of the surface.
+    pub media: MediumInterface,
 }
 
 /// A hit's parametrisation not yet computed.
@@ -113,6 +162,7 @@ impl Hit {
             dpdv: Vec3A::ZERO,
             uv: Vec2::ZERO,
             pending: Pending::None,
+            media: MediumInterface::VACUUM,
         }
     }
 
@@ -150,7 +200,10 @@ impl Hit {
     /// A ray leaving the surface in direction `dir` (unit length).
     #[inline]
     pub fn spawn_ray(&self, dir: Vec3A) -> Ray {
-        Ray::new(self.offset_origin(dir), dir)
+        Ray {
+            medium: self.media.towards(self.ng, dir),
+            ..Ray::new(self.offset_origin(dir), dir)
+        }
     }
 
     /// A shadow ray from this surface towards `target` (a point on a light), stopping short
@@ -168,6 +221,7 @@ impl Hit {
             origin,
             dir: to / dist,
             tmax: (dist - margin).max(0.0),
+            medium: self.media.towards(self.ng, d),
         }
     }
 
@@ -277,6 +331,23 @@ pub fn icosahedron() -> ([Vec3A; 12], [[u32; 3]; 20]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_ray_carries_its_medium_in_the_padding() {
+        assert_eq!(std::mem::size_of::<Ray>(), 48);
+        // A spawned ray enters the medium on the side it leaves towards.
+        let hit = Hit {
+            media: MediumInterface {
+                inside: MediumId(0),
+                outside: MediumId::VACUUM,
+            },
+            ..Hit::new(1.0, Vec3A::ZERO, Vec3A::Z, 0, None)
+        };
+        assert_eq!(hit.spawn_ray(Vec3A::Z).medium, MediumId::VACUUM);
+        assert_eq!(hit.spawn_ray(-Vec3A::Z).medium, MediumId(0));
+        assert_eq!(hit.spawn_ray_to(Vec3A::new(0.0, 0.0, -2.0)).medium, MediumId(0));
+        assert!(Ray::new(Vec3A::ZERO, Vec3A::X).medium.is_vacuum());
+    }
 
     #[test]
     fn frame_is_orthonormal_and_round_trips() {

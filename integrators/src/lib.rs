@@ -41,17 +41,23 @@ pub use integrator::registry;
 pub use bsdf::{BsdfSample, Material, SurfaceMaterial};
 pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
-pub use geometry::{Frame, Hit, Pending, Ray};
+pub use geometry::{Frame, Hit, MediumId, MediumInterface, Pending, Ray};
 pub use integrator::{
-    Demand, Integrator, PixelSample, RayCounters, RayIntegrator, ShardBy, Splats, Stop, Tracer,
+    Demand, Integrator, PassContext, PixelSample, RayCounters, RayIntegrator, SampleContext,
+    ShardBy, Splats, Stop, Tracer,
 };
 pub use light::{LeSample, Light, LightSample, LightTable};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};
 pub use sampler::Sampler;
 pub use scene::Scene;
 
-/// Linear RGB radiance or reflectance.
+/// A linear RGB colour: a reflectance, a texture's value, an emitter's given colour.
 pub type Rgb = glam::Vec3A;
+
+/// Radiance, importance and path throughput as integrators carry them: linear RGB today. A
+/// spectral mode makes it a few sampled wavelengths (pbrt-v4's `SampledSpectrum`), so code
+/// that carries light says `Spectrum` and code that holds a colour says [`Rgb`].
+pub type Spectrum = glam::Vec3A;
 
 /// Relative luminance of a linear sRGB/Rec.709 colour.
 #[inline]

@@ -88,7 +88,10 @@ fn instances_hit_exactly_what_their_flattened_copies_hit() {
         } else {
             sampler.next_1d() * 6.0
         };
-        let ray = Ray { origin, dir, tmax };
+        let ray = Ray {
+            tmax,
+            ..Ray::new(origin, dir)
+        };
         match (flat.intersect(&ray), instanced.intersect(&ray)) {
             (None, None) => {}
             (Some(f), Some(g)) if (f.t - g.t).abs() <= 1e-4 * f.t.max(1.0) => {
@@ -148,7 +151,10 @@ fn the_obvhs_backend_hits_what_raylabs_bvh_hits_through_instances() {
             Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 14.0 - 7.0;
         let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
         let tmax = [f32::INFINITY, sampler.next_1d() * 6.0][i % 2];
-        let ray = Ray { origin, dir, tmax };
+        let ray = Ray {
+            tmax,
+            ..Ray::new(origin, dir)
+        };
         let (x, y) = (ours.intersect(&ray), obvhs.intersect(&ray));
         match (x, y) {
             (None, None) => {}

@@ -168,7 +168,10 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
         } else {
             sampler.next_1d() * 6.0
         };
-        let ray = Ray { origin, dir, tmax };
+        let ray = Ray {
+            tmax,
+            ..Ray::new(origin, dir)
+        };
         let expected = brute_force(&loaded, &ray);
         let got = scene.intersect(&ray);
         // The portable build of the traversal finds the same as the AVX2 one (where the

@@ -32,7 +32,8 @@ use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
 pub use job::{Job, Request, Target};
 use raylab_integrators::{
-    Integrator, PixelSample, RayCounters, Sampler, Scene, Splats, Stop, Tracer,
+    Integrator, PassContext, PixelSample, RayCounters, SampleContext, Sampler, Scene, Splats, Stop,
+    Tracer,
 };
 use rayon::prelude::*;
 pub use shard::{Part, ShardBy, ShardSpec};
@@ -564,13 +565,13 @@ fn render_tile_pass(
                 index: pass,
             };
             let splats_before = scratch.splats.mark();
-            let mut l = integrator.sample(
-                &sample,
+            let mut l = integrator.sample(SampleContext {
+                pixel: &sample,
                 camera,
-                &mut tracer,
-                &mut sampler,
-                &mut scratch.splats,
-            );
+                tracer: &mut tracer,
+                sampler: &mut sampler,
+                splats: &mut scratch.splats,
+            });
             let splats_finite = scratch.splats.all_finite_since(splats_before);
             if !(l.is_finite() && splats_finite) {
                 scratch.splats.rollback(splats_before);
@@ -718,11 +719,15 @@ pub fn render_passes(
         // Work shared by the pass's pixels (photon maps), then one more sample in every
         // pixel, tiles in parallel.
         let pass = acc.spp_done;
-        stats.rays.add(
-            &pool.install(|| {
-                integrator.prepare_pass(scene, camera, settings.seed, pass, abandon_pass)
-            }),
-        );
+        stats.rays.add(&pool.install(|| {
+            integrator.prepare_pass(&PassContext {
+                scene,
+                camera,
+                seed: settings.seed,
+                pass,
+                stop: abandon_pass,
+            })
+        }));
         if abandon() {
             abandoned(acc, &mut stats);
             break;

@@ -3,13 +3,13 @@
 use super::*;
 use crate::scene::parse_scene;
 use crate::scene::RenderScene;
-use raylab_integrators::{Ray, RayIntegrator, Rgb};
+use raylab_integrators::{Ray, RayIntegrator, Rgb, Spectrum};
 
 /// Returns 1 everywhere.
 struct One;
 
 impl RayIntegrator for One {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         let _ = (tracer.camera(ray), sampler.next_1d());
         Rgb::ONE
     }
@@ -19,7 +19,7 @@ impl RayIntegrator for One {
 struct Poisoned;
 
 impl RayIntegrator for Poisoned {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
         tracer.camera(ray);
         if ray.dir.x > 0.2 {
             Rgb::splat(f32::NAN)
@@ -34,7 +34,7 @@ impl RayIntegrator for Poisoned {
 struct Blinding;
 
 impl RayIntegrator for Blinding {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
         tracer.camera(ray);
         if ray.dir.x > 0.2 {
             Rgb::splat(1e17)
@@ -137,14 +137,14 @@ fn image_does_not_depend_on_thread_count() {
 struct Splatter;
 
 impl Integrator for Splatter {
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        camera: &Camera,
-        tracer: &mut Tracer,
-        sampler: &mut Sampler,
-        splats: &mut Splats,
-    ) -> Rgb {
+    fn sample(&self, cx: SampleContext) -> Spectrum {
+        let SampleContext {
+            pixel,
+            camera,
+            tracer,
+            sampler,
+            splats,
+        } = cx;
         tracer.camera(&camera.ray(pixel.film.x, pixel.film.y));
         let anywhere = sampler.next_2d() * Vec2::new(camera.width as f32, camera.height as f32);
         splats.add(anywhere, Rgb::splat(sampler.next_1d()));

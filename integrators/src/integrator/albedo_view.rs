@@ -3,6 +3,7 @@
 
 use crate::integrator::{emitted_at, RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, Params};
+use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -16,7 +17,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct AlbedoView;
 
 impl RayIntegrator for AlbedoView {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
         let Some(mut hit) = tracer.camera(ray) else {
             return Rgb::ZERO;
         };

@@ -39,13 +39,14 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    emit_from_a_light, escaped, scene_radius, Demand, Integrator, PixelSample, ShadingPoint,
-    Splats, Tracer, MAX_SURVIVAL,
+    emit_from_a_light, escaped, scene_radius, Demand, Integrator, ShadingPoint, Tracer,
+    MAX_SURVIVAL,
 };
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
 };
 use crate::{Camera, Hit, Rgb, Sampler, Scene};
+use crate::{SampleContext, Spectrum};
 use arrayvec::ArrayVec;
 use glam::Vec3A;
 use std::f32::consts::PI;
@@ -340,14 +341,14 @@ fn joined(v: &Vertex, to: Vec3A, mode: TransportMode) -> Rgb {
 }
 
 impl Integrator for Bdpt {
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        camera: &Camera,
-        tracer: &mut Tracer,
-        sampler: &mut Sampler,
-        splats: &mut Splats,
-    ) -> Rgb {
+    fn sample(&self, cx: SampleContext) -> Spectrum {
+        let SampleContext {
+            pixel,
+            camera,
+            tracer,
+            sampler,
+            splats,
+        } = cx;
         if !camera.is_pinhole() {
             return Rgb::ZERO;
         }

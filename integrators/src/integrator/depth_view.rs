@@ -3,6 +3,7 @@
 
 use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, Params};
+use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -16,7 +17,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct DepthView;
 
 impl RayIntegrator for DepthView {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
         let Some(hit) = tracer.camera(ray) else {
             return Rgb::ZERO;
         };

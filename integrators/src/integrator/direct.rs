@@ -19,6 +19,7 @@
 use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params};
 use crate::sampling::power_heuristic;
+use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
 const SAMPLES: ParamSpec = ParamSpec {
@@ -72,7 +73,7 @@ impl Direct {
 }
 
 impl RayIntegrator for Direct {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         // Emission seen by the camera.
         let Some(hit) = tracer.camera(camera_ray) else {
             return escaped(tracer.scene, camera_ray);

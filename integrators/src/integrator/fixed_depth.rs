@@ -17,6 +17,7 @@
 use crate::bsdf::TransportMode::Radiance;
 use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::Spectrum;
 use crate::{Hit, Ray, Rgb, Sampler};
 use glam::Vec2;
 
@@ -176,7 +177,7 @@ impl RayIntegrator for FixedDepth {
         }
     }
 
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         match tracer.camera(ray) {
             Some(hit) => self.shade(ray, &hit, 0, true, tracer, sampler),
             None => escaped(tracer.scene, ray),

@@ -44,6 +44,7 @@ use crate::registry::{
 };
 use crate::sd_tree::{Guide, Record, SdTree};
 use crate::{luminance, Camera, Ray, Rgb, Sampler, Scene};
+use crate::{PassContext, Spectrum};
 use arrayvec::ArrayVec;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
@@ -351,19 +352,19 @@ impl Guided {
 }
 
 impl RayIntegrator for Guided {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         self.trace(self.tree.as_ref(), camera_ray, tracer, sampler, None)
     }
 
     /// Trains the tree before the first pass (and the first after a resume).
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        camera: &Camera,
-        seed: u64,
-        pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        let PassContext {
+            scene,
+            camera,
+            seed,
+            pass,
+            stop,
+        } = *cx;
         let mut counters = RayCounters::default();
         if pass == 0 || self.tree.is_none() {
             self.tree = None;

@@ -29,11 +29,11 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::{
-    emit_from_a_light, escaped, Demand, Integrator, PixelSample, ShadingPoint, Splats, Tracer,
-    MAX_SURVIVAL,
+    emit_from_a_light, escaped, Demand, Integrator, ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
 use crate::{Camera, Hit, Rgb, Sampler};
+use crate::{SampleContext, Spectrum};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "lighttracer",
@@ -61,14 +61,14 @@ struct LightTracer {
 }
 
 impl Integrator for LightTracer {
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        camera: &Camera,
-        tracer: &mut Tracer,
-        sampler: &mut Sampler,
-        splats: &mut Splats,
-    ) -> Rgb {
+    fn sample(&self, cx: SampleContext) -> Spectrum {
+        let SampleContext {
+            pixel,
+            camera,
+            tracer,
+            sampler,
+            splats,
+        } = cx;
         // The environment seen straight through the pixel: the one path no light path reaches.
         let mut seen = Rgb::ZERO;
         if tracer.scene.lights().environment().is_some() {

@@ -22,6 +22,7 @@ use crate::mlt::PrimarySamples;
 use crate::random::{keyed_rng, unit_f32};
 use crate::registry::{ParamKind, ParamSpec, Params};
 use crate::{luminance, Camera, Rgb, Sampler, Scene};
+use crate::{PassContext, SampleContext, Spectrum};
 use glam::Vec2;
 use rayon::prelude::*;
 
@@ -308,25 +309,25 @@ impl<S: PathSpace> Metropolis<S> {
 }
 
 impl<S: PathSpace> Integrator for Metropolis<S> {
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        camera: &Camera,
-        tracer: &mut Tracer,
-        _sampler: &mut Sampler,
-        splats: &mut Splats,
-    ) -> Rgb {
+    fn sample(&self, cx: SampleContext) -> Spectrum {
+        let SampleContext {
+            pixel,
+            camera,
+            tracer,
+            splats,
+            ..
+        } = cx;
         self.run_chains_at(pixel, camera, tracer, splats)
     }
 
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        camera: &Camera,
-        seed: u64,
-        pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        let PassContext {
+            scene,
+            camera,
+            seed,
+            pass,
+            stop,
+        } = *cx;
         self.bootstrap_pass(scene, camera, seed, pass, stop)
     }
 
@@ -387,7 +388,13 @@ mod tests {
     fn pass(m: &mut Metropolis<Steps>, pass: u32) -> (f64, f64) {
         let scene = furnace_sphere(0.5, 1.0);
         let camera = camera();
-        m.prepare_pass(&scene, &camera, 7, pass, Stop::NEVER);
+        m.prepare_pass(&PassContext {
+            scene: &scene,
+            camera: &camera,
+            seed: 7,
+            pass,
+            stop: Stop::NEVER,
+        });
         let mut tracer = Tracer::new(&scene);
         let mut splats = Splats::default();
         for y in 0..camera.height {
@@ -400,7 +407,16 @@ mod tests {
                 };
                 let mut sampler = Sampler::new(0, 0, 0);
                 assert_eq!(
-                    Integrator::sample(m, &pixel, &camera, &mut tracer, &mut sampler, &mut splats),
+                    Integrator::sample(
+                        m,
+                        SampleContext {
+                            pixel: &pixel,
+                            camera: &camera,
+                            tracer: &mut tracer,
+                            sampler: &mut sampler,
+                            splats: &mut splats
+                        }
+                    ),
                     Rgb::ZERO
                 );
             }

@@ -30,7 +30,7 @@ pub use path_state::PathState;
 pub use shading::{Scatter, ShadingPoint};
 
 use crate::light::LightSample;
-use crate::{Camera, Hit, Ray, Rgb, Sampler, Scene};
+use crate::{Camera, Hit, Ray, Rgb, Sampler, Scene, Spectrum};
 use glam::Vec2;
 
 /// Rays cast, by kind. Every integrator counts through [`Tracer`], so rays per second are
@@ -159,6 +159,28 @@ pub struct PixelSample {
     pub index: u32,
 }
 
+/// What one camera sample works with: where it lands, the camera, the tracer it casts rays
+/// through (which counts them), its own random numbers and the splats of its work unit. The
+/// render loop makes one per sample; an integrator takes what it needs.
+pub struct SampleContext<'s, 'a> {
+    pub pixel: &'s PixelSample,
+    pub camera: &'s Camera,
+    pub tracer: &'s mut Tracer<'a>,
+    pub sampler: &'s mut Sampler,
+    pub splats: &'s mut Splats,
+}
+
+/// What the work before a pass sees ([`Integrator::prepare_pass`]): the scene and camera,
+/// the render's seed, the number of the pass, and the request to abandon it.
+#[derive(Clone, Copy)]
+pub struct PassContext<'a> {
+    pub scene: &'a dyn Scene,
+    pub camera: &'a Camera,
+    pub seed: u64,
+    pub pass: u32,
+    pub stop: Stop<'a>,
+}
+
 /// Radiance an integrator adds at film positions of its choosing (light paths that reach the
 /// lens), besides the estimate it returns for its own sample. The render loop gathers them
 /// per work unit and adds them to the image in a fixed order, so images stay bit-identical at
@@ -170,8 +192,8 @@ pub struct PixelSample {
 /// accumulation per declared layer and the command line writes each to a file.
 #[derive(Clone, Debug, Default)]
 pub struct Splats {
-    entries: Vec<(Vec2, Rgb)>,
-    layered: Vec<(u32, Vec2, Rgb)>,
+    entries: Vec<(Vec2, Spectrum)>,
+    layered: Vec<(u32, Vec2, Spectrum)>,
 }
 
 /// How many splats a [`Splats`] held at some moment, to drop those added since.
@@ -181,23 +203,23 @@ pub struct SplatMark(usize, usize);
 impl Splats {
     /// Adds `radiance` at film position `film` (pixels).
     #[inline]
-    pub fn add(&mut self, film: Vec2, radiance: Rgb) {
+    pub fn add(&mut self, film: Vec2, radiance: Spectrum) {
         self.entries.push((film, radiance));
     }
 
     /// Adds `radiance` at film position `film` of layer `layer` (one the integrator declared).
     #[inline]
-    pub fn add_to_layer(&mut self, layer: u32, film: Vec2, radiance: Rgb) {
+    pub fn add_to_layer(&mut self, layer: u32, film: Vec2, radiance: Spectrum) {
         self.layered.push((layer, film, radiance));
     }
 
     /// The splats of the main image in the order they were added.
-    pub fn entries(&self) -> &[(Vec2, Rgb)] {
+    pub fn entries(&self) -> &[(Vec2, Spectrum)] {
         &self.entries
     }
 
     /// The splats of the layers in the order they were added.
-    pub fn layered_entries(&self) -> &[(u32, Vec2, Rgb)] {
+    pub fn layered_entries(&self) -> &[(u32, Vec2, Spectrum)] {
         &self.layered
     }
 
@@ -245,33 +267,20 @@ impl Splats {
 /// Most integrators estimate the radiance along a camera ray: they implement
 /// [`RayIntegrator`], and this trait follows.
 pub trait Integrator: Send + Sync {
-    /// One camera sample: the estimate for the film position `pixel.film` (the film filters it
-    /// into the pixels around it), and any radiance for other film positions added to
-    /// `splats`. May return non-finite values only through bugs; the render loop drops and
+    /// One camera sample ([`SampleContext`]): the estimate for the film position
+    /// `cx.pixel.film` (the film filters it into the pixels around it), and any radiance for
+    /// other film positions added to `cx.splats`. May return non-finite values only through bugs; the render loop drops and
     /// counts them.
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        camera: &Camera,
-        tracer: &mut Tracer,
-        sampler: &mut Sampler,
-        splats: &mut Splats,
-    ) -> Rgb;
+    fn sample(&self, cx: SampleContext) -> Spectrum;
 
-    /// Called before the pass in which every pixel of `camera`'s image takes sample number
-    /// `pass`. Whatever it computes must depend only on (`scene`, `camera`, `seed`, `pass`),
+    /// Called before the pass in which every pixel of `cx.camera`'s image takes sample number
+    /// `cx.pass` ([`PassContext`]). Whatever it computes must depend only on the context's
+    /// scene, camera, seed and pass,
     /// so that images stay the same
     /// whatever the thread count and across a checkpoint and resume. It may use rayon: the
     /// render loop calls it inside its own thread pool. Long work checks `stop` and may end
     /// early when it asks (the pass is then abandoned). Returns the rays it cast.
-    fn prepare_pass(
-        &mut self,
-        _scene: &dyn Scene,
-        _camera: &Camera,
-        _seed: u64,
-        _pass: u32,
-        _stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, _cx: &PassContext) -> RayCounters {
         RayCounters::default()
     }
 
@@ -342,7 +351,7 @@ impl Demand {
 /// estimate, no splats.
 pub trait RayIntegrator: Send + Sync {
     /// One sample of the radiance arriving along `ray` (a camera ray).
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb;
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum;
 
     /// As [`Integrator::demand`].
     fn demand(&self) -> Demand {
@@ -350,41 +359,27 @@ pub trait RayIntegrator: Send + Sync {
     }
 
     /// As [`Integrator::prepare_pass`].
-    fn prepare_pass(
-        &mut self,
-        _scene: &dyn Scene,
-        _camera: &Camera,
-        _seed: u64,
-        _pass: u32,
-        _stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, _cx: &PassContext) -> RayCounters {
         RayCounters::default()
     }
 }
 
 impl<T: RayIntegrator> Integrator for T {
     #[inline]
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        camera: &Camera,
-        tracer: &mut Tracer,
-        sampler: &mut Sampler,
-        _splats: &mut Splats,
-    ) -> Rgb {
+    fn sample(&self, cx: SampleContext) -> Spectrum {
+        let SampleContext {
+            pixel,
+            camera,
+            tracer,
+            sampler,
+            ..
+        } = cx;
         let ray = camera.ray(pixel.film.x, pixel.film.y);
         self.radiance(&ray, tracer, sampler)
     }
 
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        camera: &Camera,
-        seed: u64,
-        pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
-        RayIntegrator::prepare_pass(self, scene, camera, seed, pass, stop)
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        RayIntegrator::prepare_pass(self, cx)
     }
 
     fn demand(&self) -> Demand {

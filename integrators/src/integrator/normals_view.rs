@@ -3,6 +3,7 @@
 
 use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, Params};
+use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -16,7 +17,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct NormalsView;
 
 impl RayIntegrator for NormalsView {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
         match tracer.camera(ray) {
             Some(hit) => hit.ns * 0.5 + 0.5,
             None => Rgb::ZERO,

@@ -25,13 +25,14 @@
 //! more passes (use `sppm` for a consistent estimate); truncation with a finite `max-depth`.
 
 use crate::integrator::{
-    continue_path, sample_one_light, Demand, RayIntegrator, ShadingPoint, Stop, Tracer,
+    continue_path, sample_one_light, Demand, RayIntegrator, ShadingPoint, Tracer,
 };
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
     IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
 };
-use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{PassContext, Spectrum};
+use crate::{Ray, RayCounters, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "photon",
@@ -102,14 +103,10 @@ impl RayIntegrator for PhotonMapping {
         }
     }
 
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        _camera: &Camera,
-        seed: u64,
-        _pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        let PassContext {
+            scene, seed, stop, ..
+        } = *cx;
         if self.maps.is_some() {
             return RayCounters::default();
         }
@@ -145,7 +142,7 @@ impl RayIntegrator for PhotonMapping {
         rays
     }
 
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         let Some(maps) = &self.maps else {
             return Rgb::ZERO;
         };

@@ -16,6 +16,7 @@ use crate::integrator::{
     emitted_at, escaped, sample_one_light, PathState, RayIntegrator, ShadingPoint, Tracer,
 };
 use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
+use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -43,7 +44,7 @@ struct RussianRouletteTracer {
 }
 
 impl RayIntegrator for RussianRouletteTracer {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         let mut l = Rgb::ZERO;
         let mut path = PathState::from_camera(*camera_ray);
         loop {

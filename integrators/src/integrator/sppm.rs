@@ -21,13 +21,14 @@
 //! **Bias**: a blur of radius `r_i` in pass `i`, vanishing as passes grow (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
-use crate::integrator::{sample_one_light, Demand, RayIntegrator, ShadingPoint, Stop, Tracer};
+use crate::integrator::{sample_one_light, Demand, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
     PHOTONS, RR_DEPTH,
 };
-use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{PassContext, Spectrum};
+use crate::{Ray, RayCounters, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "sppm",
@@ -95,14 +96,14 @@ impl RayIntegrator for Sppm {
         }
     }
 
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        _camera: &Camera,
-        seed: u64,
-        pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        let PassContext {
+            scene,
+            seed,
+            pass,
+            stop,
+            ..
+        } = *cx;
         // This pass's radius and photons (landings after one bounce or more).
         let r0 = if self.radius > 0.0 {
             self.radius
@@ -128,7 +129,7 @@ impl RayIntegrator for Sppm {
         rays
     }
 
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         let mut l = Rgb::ZERO;
         // Follow the camera path through specular bounces to its visible point, adding the
         // emission seen on the way (nothing else finds it).

@@ -32,14 +32,15 @@
 //! **Bias**: a blur of each pixel's radius, which shrinks as photons arrive (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
-use crate::integrator::{sample_one_light, Demand, Integrator, PixelSample, ShadingPoint};
-use crate::integrator::{ShardBy, Splats, Stop, Tracer};
+use crate::integrator::{sample_one_light, Demand, Integrator, ShadingPoint};
+use crate::integrator::{ShardBy, Stop, Tracer};
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
     PHOTONS, RR_DEPTH,
 };
 use crate::{Camera, Hit, Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{PassContext, SampleContext, Spectrum};
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -324,14 +325,8 @@ impl SppmPixel {
 }
 
 impl Integrator for SppmPixel {
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        _camera: &Camera,
-        _tracer: &mut Tracer,
-        _sampler: &mut Sampler,
-        _splats: &mut Splats,
-    ) -> Rgb {
+    fn sample(&self, cx: SampleContext) -> Spectrum {
+        let SampleContext { pixel, .. } = cx;
         // The increment that makes the render loop's average the estimate after this pass.
         let Some(camera) = self.camera.as_ref() else {
             return Rgb::ZERO;
@@ -347,14 +342,14 @@ impl Integrator for SppmPixel {
         px.estimate * n - px.previous * (n - 1.0)
     }
 
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        camera: &Camera,
-        seed: u64,
-        pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        let PassContext {
+            scene,
+            camera,
+            seed,
+            pass,
+            stop,
+        } = *cx;
         // A new render (or a resumed one, or one after an abandoned pass) starts the pixels
         // afresh and replays the passes before `pass`.
         let rows = self.first_row(camera)..self.end_row(camera);
@@ -436,7 +431,13 @@ mod tests {
             camera: None,
         };
         for pass in 0..passes {
-            sppm.prepare_pass(scene, camera, 1, pass, Stop::NEVER);
+            sppm.prepare_pass(&PassContext {
+                scene,
+                camera,
+                seed: 1,
+                pass,
+                stop: Stop::NEVER,
+            });
         }
         assert!(sppm.pixels.iter().all(|p| p.estimate.is_finite()));
         sppm.pixels.iter().map(|p| p.radius).collect()

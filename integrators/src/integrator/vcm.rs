@@ -38,7 +38,7 @@
 use crate::bsdf::TransportMode;
 use crate::integrator::{
     emit_from_a_light, emitted_at, escaped, scene_radius, stays_on_viewer_side, Demand, Integrator,
-    PixelSample, ShadingPoint, Splats, Stop, Tracer, MAX_SURVIVAL,
+    PixelSample, ShadingPoint, Tracer, MAX_SURVIVAL,
 };
 use crate::photon_map::{Located, PointGrid};
 use crate::registry::{
@@ -46,6 +46,7 @@ use crate::registry::{
     RR_DEPTH,
 };
 use crate::{Camera, Hit, Light, Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{PassContext, SampleContext, Spectrum};
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -498,14 +499,14 @@ impl VertexMerging {
 }
 
 impl Integrator for VertexMerging {
-    fn sample(
-        &self,
-        pixel: &PixelSample,
-        camera: &Camera,
-        tracer: &mut Tracer,
-        sampler: &mut Sampler,
-        splats: &mut Splats,
-    ) -> Rgb {
+    fn sample(&self, cx: SampleContext) -> Spectrum {
+        let SampleContext {
+            pixel,
+            camera,
+            tracer,
+            sampler,
+            splats,
+        } = cx;
         if !camera.is_pinhole() {
             return Rgb::ZERO;
         }
@@ -524,14 +525,14 @@ impl Integrator for VertexMerging {
         self.camera_subpath(pixel, camera, light, tracer, sampler)
     }
 
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        camera: &Camera,
-        seed: u64,
-        pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        let PassContext {
+            scene,
+            camera,
+            seed,
+            pass,
+            stop,
+        } = *cx;
         // The pass's radius and weights: one light subpath per pixel.
         let count = camera.width as usize * camera.height as usize;
         let radius = self.radius_of_pass(scene, pass);

@@ -24,12 +24,13 @@
 use crate::bsdf::TransportMode;
 use crate::integrator::{
     emit_from_a_light, emitted_at, escaped, sample_one_light, scene_radius, Demand, PathState,
-    RayCounters, RayIntegrator, ShadingPoint, Stop, Tracer, MAX_SURVIVAL,
+    RayCounters, RayIntegrator, ShadingPoint, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
 };
-use crate::{Camera, Frame, Hit, Material, Ray, Rgb, Sampler, Scene};
+use crate::{Frame, Hit, Material, Ray, Rgb, Sampler, Scene};
+use crate::{PassContext, Spectrum};
 use glam::Vec3A;
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -204,7 +205,7 @@ impl Vpl {
 }
 
 impl RayIntegrator for Vpl {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         let mut l = Rgb::ZERO;
         let mut path = PathState::from_camera(*camera_ray);
         loop {
@@ -238,14 +239,14 @@ impl RayIntegrator for Vpl {
     }
 
     /// This pass's VPLs: `vpl-paths` light paths traced in parallel, kept in path order.
-    fn prepare_pass(
-        &mut self,
-        scene: &dyn Scene,
-        _camera: &Camera,
-        seed: u64,
-        pass: u32,
-        stop: Stop,
-    ) -> RayCounters {
+    fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
+        let PassContext {
+            scene,
+            seed,
+            pass,
+            stop,
+            ..
+        } = *cx;
         let radius = scene_radius(scene) * self.clamp;
         self.min_dist2 = radius * radius;
         let traced: Vec<(Vec<VirtualLight>, RayCounters)> = (0..self.paths)

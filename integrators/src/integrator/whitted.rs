@@ -18,6 +18,7 @@
 
 use crate::integrator::{emitted_at, escaped, specular_lobes, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH};
+use crate::Spectrum;
 use crate::{Hit, Ray, Rgb, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -92,7 +93,7 @@ impl Whitted {
 }
 
 impl RayIntegrator for Whitted {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         match tracer.camera(ray) {
             Some(hit) => self.shade(ray, &hit, 0, tracer, sampler),
             None => escaped(tracer.scene, ray),

@@ -8,6 +8,7 @@ use crate::bsdf::Lambert;
 use crate::integrator::{Integrator, RayIntegrator, Tracer};
 use crate::sampling::uniform_sphere;
 use crate::{find, Hit, Light, LightTable, Material, Ray, Rgb, Sampler, Scene, SurfaceMaterial};
+use crate::{PassContext, SampleContext};
 use glam::Vec3A;
 
 /// One surface: a triangle or a sphere, with a material and maybe a light.
@@ -300,7 +301,13 @@ fn image_pass_mean(
                 film,
                 index: pass,
             };
-            let l = integrator.sample(&pixel, camera, &mut tracer, &mut sampler, &mut splats);
+            let l = integrator.sample(SampleContext {
+                pixel: &pixel,
+                camera,
+                tracer: &mut tracer,
+                sampler: &mut sampler,
+                splats: &mut splats,
+            });
             assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
             sum += l.y as f64;
         }
@@ -335,13 +342,13 @@ pub fn estimate_integrator(
     scene: &TestScene,
     n: u32,
 ) -> (f64, f64) {
-    integrator.prepare_pass(
+    integrator.prepare_pass(&PassContext {
         scene,
-        &probe_camera(&scene.camera, 1),
-        12345,
-        0,
-        crate::Stop::NEVER,
-    );
+        camera: &probe_camera(&scene.camera, 1),
+        seed: 12345,
+        pass: 0,
+        stop: crate::Stop::NEVER,
+    });
     let ray_integrator = integrator
         .as_ray_integrator()
         .expect("the analytic scenes probe integrators with rays: implement RayIntegrator");
@@ -418,7 +425,13 @@ pub fn estimate_passes(
             // Light-path integrators: a camera's whole image, splats and all.
             let side = (per_pass as f64).sqrt().ceil() as u32;
             let camera = probe_camera(&scene.camera, side);
-            integrator.prepare_pass(scene, &camera, 12345, pass, crate::Stop::NEVER);
+            integrator.prepare_pass(&PassContext {
+                scene,
+                camera: &camera,
+                seed: 12345,
+                pass,
+                stop: crate::Stop::NEVER,
+            });
             means.push(image_pass_mean(
                 name,
                 integrator.as_ref(),
@@ -428,13 +441,13 @@ pub fn estimate_passes(
             ));
             continue;
         }
-        integrator.prepare_pass(
+        integrator.prepare_pass(&PassContext {
             scene,
-            &probe_camera(&scene.camera, 1),
-            12345,
+            camera: &probe_camera(&scene.camera, 1),
+            seed: 12345,
             pass,
-            crate::Stop::NEVER,
-        );
+            stop: crate::Stop::NEVER,
+        });
         let ray_integrator = as_ray_integrator(name, integrator.as_ref());
         let mut tracer = Tracer::new(scene);
         let mut sum = 0.0f64;
