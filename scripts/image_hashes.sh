@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Prints a SHA-256 of the linear EXR that every integrator renders of every scene in scenes/
 # and of the Mitsuba and pbrt scenes in scenes/mitsuba and scenes/pbrt (small images, a few
-# samples per pixel, fixed seed), one line per render, then the hash of each imported scene
-# as `raylab import` writes it. Run it with the
+# samples per pixel, fixed seed), one line per render, then the hash of the image of each
+# scene as `raylab import` writes it (its text may change; what it describes may not). Run it with the
 # binary before and after a change that must not move any image, and diff the two listings:
 #   scripts/image_hashes.sh target/release/raylab > before.txt
 # Usage: image_hashes.sh [BINARY] [SIZE] [SPP]
@@ -28,5 +28,7 @@ for scene in scenes/mitsuba/*.xml scenes/pbrt/*.pbrt; do
   rm -rf "$out/copy" && cp -r "$(dirname "$scene")" "$out/copy"
   "$bin" import "$out/copy/$(basename "$scene")" -o "$out/copy/imported.ron" >/dev/null 2>&1 \
     || { echo "$(basename "$scene") import FAILED"; continue; }
-  echo "$(basename "$scene") import $(grep -v '^//' "$out/copy/imported.ron" | sha256sum | cut -c1-16)"
+  "$bin" render "$out/copy/imported.ron" --size "$size" --spp "$spp" --seed 7 -q -o "$out/img.exr" \
+    >/dev/null 2>&1 || { echo "$(basename "$scene") import render FAILED"; continue; }
+  echo "$(basename "$scene") import $(sha256sum "$out/img.exr" | cut -c1-16)"
 done

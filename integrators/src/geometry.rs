@@ -345,7 +345,10 @@ mod tests {
         };
         assert_eq!(hit.spawn_ray(Vec3A::Z).medium, MediumId::VACUUM);
         assert_eq!(hit.spawn_ray(-Vec3A::Z).medium, MediumId(0));
-        assert_eq!(hit.spawn_ray_to(Vec3A::new(0.0, 0.0, -2.0)).medium, MediumId(0));
+        assert_eq!(
+            hit.spawn_ray_to(Vec3A::new(0.0, 0.0, -2.0)).medium,
+            MediumId(0)
+        );
         assert!(Ray::new(Vec3A::ZERO, Vec3A::X).medium.is_vacuum());
     }
 

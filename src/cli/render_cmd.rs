@@ -424,12 +424,12 @@ pub fn import(
         bail!("{}: not a scene of another format", path.display());
     };
     // The same checks as rendering it: a scene that will not load is not written.
-    let loaded = scene::load_scene_in(&files, options)?;
+    let loaded = scene::load::load_imported(&imported, &files, options)?;
     let mut plan = render::scene_inputs(&loaded.inputs)?;
     plan.output("the RON scene", output)?.check()?;
     crate::output::atomic::write_atomic(output, |f| {
         use std::io::Write as _;
-        f.write_all(imported.ron.as_bytes())
+        f.write_all(imported.ron().as_bytes())
             .with_context(|| format!("{}: cannot write (is the disk full?)", output.display()))
     })?;
     note!("{}: wrote {}", path.display(), output.display());

@@ -1,6 +1,7 @@
 //! What the importers of other renderers' scenes share: how they are asked (`-D`,
 //! `--approximate`), what they give back, and the RON text they write.
 
+use super::schema::{SceneFile, TransformDesc};
 use glam::Affine3A;
 use std::fmt::Write as _;
 
@@ -45,19 +46,43 @@ pub fn check_entities_made(entities: usize, room: &crate::system::Room) -> Resul
     }
 }
 
-/// A scene of another format as RON text, with what the conversion did.
+/// A scene of another format as raylab's scene description, with what the conversion did.
 #[derive(Debug)]
 pub struct Imported {
-    pub ron: String,
+    /// The scene as the importer built it.
+    pub scene: SceneFile,
+    /// The comment `raylab import` writes above the RON: where the scene came from.
+    pub header: String,
     /// One line per mapping that is not one to one (an approximation, a changed convention),
     /// as `what: how`.
     pub report: Vec<String>,
     /// The lines of the report that are approximations (`--approximate`), to warn about.
     pub approximated: Vec<String>,
     /// Where each entity and material (by name) came from in the scene's files, so that an
-    /// error found when the RON is loaded names the place the user wrote (an included file's
-    /// too), not the RON raylab made.
+    /// error found when the scene is loaded names the place the user wrote (an included
+    /// file's too).
     pub origins: Origins,
+}
+
+impl Imported {
+    /// The scene as RON text (what `raylab import` writes).
+    pub fn ron(&self) -> String {
+        write_ron(&self.scene, &self.header)
+    }
+}
+
+/// A placement given by its matrix (`transform: (matrix: [...])`).
+pub fn placed(m: &Affine3A) -> TransformDesc {
+    let matrix = (0..3)
+        .flat_map(|r| {
+            let row = m.matrix3.row(r);
+            [row.x, row.y, row.z, m.translation[r]]
+        })
+        .collect();
+    TransformDesc {
+        matrix: Some(matrix),
+        ..TransformDesc::default()
+    }
 }
 
 /// The places the importer made each entity and material from, by their names.
@@ -141,6 +166,19 @@ pub fn matrix(m: &Affine3A) -> String {
         .map(num)
         .collect();
     format!("(matrix: [{}])", rows.join(", "))
+}
+
+/// A scene description as RON text that reads back as the same description: one material,
+/// mesh and entity per line, under a `//` comment line `header`.
+pub fn write_ron(file: &super::schema::SceneFile, header: &str) -> String {
+    let config = ron::ser::PrettyConfig::new()
+        .depth_limit(2)
+        .indentor("    ")
+        .new_line("\n")
+        .extensions(ron::extensions::Extensions::IMPLICIT_SOME);
+    let body = ron::ser::to_string_pretty(file, config)
+        .unwrap_or_else(|e| format!("// the scene cannot be written as RON: {e}\n"));
+    format!("// {}\n{body}\n", header.replace('\n', " "))
 }
 
 /// The parts of an imported scene, written out as one RON scene by [`RonScene::write`].

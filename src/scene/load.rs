@@ -37,12 +37,48 @@ pub fn load_scene_in(
     files: &SceneFiles,
     options: &ImportOptions,
 ) -> Result<LoadedScene, SceneError> {
-    let path = files.scene();
     let (file, approximated, origins) = read_scene_file_with_origins(files, options)?;
-    let mut loaded = super::edit::build_world(file, path, files).map_err(|e| origins.place(e))?;
-    loaded.warnings.extend(approximated);
+    world_of(file, approximated, &origins, files, options)
+}
+
+/// The world of a scene `imported` (by [`import_scene`] from the scene of `files`), as
+/// [`load_scene_in`] would load it, without importing it again.
+pub fn load_imported(
+    imported: &Imported,
+    files: &SceneFiles,
+    options: &ImportOptions,
+) -> Result<LoadedScene, SceneError> {
+    world_of(
+        imported.scene.clone(),
+        approximation_warnings(&imported.approximated),
+        &imported.origins,
+        files,
+        options,
+    )
+}
+
+/// A scene description made into a world; an error about an imported entity or material
+/// names the place it came from (`origins`).
+fn world_of(
+    file: SceneFile,
+    warnings: Vec<String>,
+    origins: &Origins,
+    files: &SceneFiles,
+    options: &ImportOptions,
+) -> Result<LoadedScene, SceneError> {
+    let mut loaded =
+        super::edit::build_world(file, files.scene(), files).map_err(|e| origins.place(e))?;
+    loaded.warnings.extend(warnings);
     loaded.inputs = SceneInputs::of(files, options);
     Ok(loaded)
+}
+
+/// The `--approximate` warnings of an import.
+fn approximation_warnings(approximated: &[String]) -> Vec<String> {
+    approximated
+        .iter()
+        .map(|a| format!("--approximate: {a}"))
+        .collect()
 }
 
 /// Reads and parses the scene file of `files` in any format (as [`load_scene_defined`]),
@@ -60,10 +96,11 @@ pub fn read_scene_file_with_origins(
     options: &ImportOptions,
 ) -> Result<(SceneFile, Vec<String>, Origins), SceneError> {
     let path = files.scene();
-    let (text, approximated, origins) = match import_scene(files, options)? {
-        Some(imported) => (imported.ron, imported.approximated, imported.origins),
-        None => (read_scene_text(path)?, Vec::new(), Origins::default()),
-    };
+    if let Some(imported) = import_scene(files, options)? {
+        let warnings = approximation_warnings(&imported.approximated);
+        return Ok((imported.scene, warnings, imported.origins));
+    }
+    let text = read_scene_text(path)?;
     // What parsing holds at its peak, checked before it starts (the entities' memory is
     // checked again, by count, before they are made).
     super::systems::check_bytes(
@@ -74,23 +111,8 @@ pub fn read_scene_file_with_origins(
         path: path.to_path_buf(),
         message,
     })?;
-    let file = parse_scene_file(&text, path).map_err(|e| match e {
-        // A place in the RON made of another format is no place in the file the user has.
-        SceneError::Parse {
-            line, col, message, ..
-        } if is_imported(path) => SceneError::Scene {
-            path: path.to_path_buf(),
-            message: format!(
-                "{message} (at {line}:{col} of the RON scene raylab made of it: see `raylab import`)"
-            ),
-        },
-        e => e,
-    })?;
-    let approximated = approximated
-        .into_iter()
-        .map(|a| format!("--approximate: {a}"))
-        .collect();
-    Ok((file, approximated, origins))
+    let file = parse_scene_file(&text, path)?;
+    Ok((file, Vec::new(), Origins::default()))
 }
 
 /// Whether `path` names a Mitsuba 3 XML scene (by its extension).

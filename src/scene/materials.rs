@@ -268,7 +268,7 @@ fn complex_ior(
     k: Option<[f32; 3]>,
 ) -> Result<Option<ComplexIor>, String> {
     match (metal, eta, k) {
-        (Some(m), None, None) => Ok(m.0),
+        (Some(m), None, None) => Ok(m.ior),
         (None, Some(eta), Some(k)) => Ok(Some(ComplexIor::new(v3(eta), v3(k))?)),
         (None, None, None) => Ok(None),
         (Some(_), _, _) => Err("give a metal by name, or eta and k, not both".into()),

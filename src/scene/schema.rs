@@ -8,7 +8,7 @@ pub use super::texture_desc::{ColorDesc, FloatDesc};
 use raylab_integrators::bsdf::{ior, ComplexIor, Distribution};
 use raylab_integrators::Filter;
 use serde::de::{self, MapAccess, Visitor};
-use serde::{Deserialize, Deserializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
 use std::fmt;
 
@@ -16,7 +16,7 @@ use std::fmt;
 pub type V3 = [f32; 3];
 
 /// A whole scene file.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
     /// The camera (required).
@@ -31,18 +31,18 @@ pub struct SceneFile {
     /// `{"ball": Icosphere(subdivisions: 6)}`: any shape made of triangles (`Obj`, `Gltf`,
     /// `Icosphere`, `Mesh`, `Box`, ...). Each is loaded once, when an entity first uses it, and
     /// shared by all its instances. Default: none.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "NamedTable::is_empty")]
     pub meshes: MeshTable,
     /// Constant radiance arriving from every direction that escapes the scene (an environment
     /// emitter). Default: none (black).
-    #[serde(default)]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub environment: Option<V3>,
     /// The objects of the scene (required, may not be empty).
     pub entities: Vec<EntityDesc>,
 }
 
 /// A pinhole camera.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub enum CameraDesc {
     /// Looks from `eye` towards `look_at`; `fov` is the vertical field of view in degrees.
@@ -66,7 +66,7 @@ pub enum CameraDesc {
         #[serde(default = "z_up")]
         up: V3,
         width: f32,
-        #[serde(default)]
+        #[serde(skip_serializing_if = "Option::is_none", default)]
         height: Option<f32>,
         /// Image size in pixels. Default: `(400, 400)`.
         #[serde(default = "default_resolution")]
@@ -95,7 +95,7 @@ fn default_resolution() -> (u32, u32) {
 }
 
 /// Render defaults.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RenderDesc {
     /// Integrator name. Default: `"path"`.
@@ -112,7 +112,7 @@ pub struct RenderDesc {
     pub params: BTreeMap<String, f64>,
     /// Pixel reconstruction filter: `"box"`, `"tent"` or `"gaussian"` (Mitsuba 3's default).
     /// Default: `"box"`.
-    #[serde(default, deserialize_with = "filter_name")]
+    #[serde(default, deserialize_with = "filter_name", serialize_with = "display")]
     pub filter: Filter,
 }
 
@@ -145,7 +145,7 @@ fn default_spp() -> u32 {
 /// A material model with its parameters. Colours are linear RGB reflectances in `[0, 1]`:
 /// `(r, g, b)`, a grey number, or a texture (see [`super::textures`]); so may be the rough
 /// metals' and glasses' `alpha`.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub enum MaterialDesc {
     /// Ideal diffuse reflector.
@@ -195,10 +195,17 @@ pub enum MaterialDesc {
         specular_reflectance: ColorDesc,
         #[serde(default = "white_colour")]
         specular_transmittance: ColorDesc,
-        #[serde(default, deserialize_with = "distribution_name")]
+        #[serde(
+            default,
+            deserialize_with = "distribution_name",
+            serialize_with = "distribution_text"
+        )]
         distribution: Distribution,
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha: Option<FloatDesc>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha_u: Option<FloatDesc>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha_v: Option<FloatDesc>,
     },
     /// A thin pane (Mitsuba's `thindielectric`): reflection and straight transmission.
@@ -217,8 +224,11 @@ pub enum MaterialDesc {
     /// `"none"` is a perfect mirror) or `eta` and `k`. Defaults: `metal: "none"`,
     /// `specular_reflectance: (1, 1, 1)`.
     Conductor {
+        #[serde(skip_serializing_if = "Option::is_none")]
         metal: Option<Metal>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         eta: Option<V3>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         k: Option<V3>,
         #[serde(default = "white_colour")]
         specular_reflectance: ColorDesc,
@@ -226,15 +236,25 @@ pub enum MaterialDesc {
     /// Rough metal (Mitsuba's `roughconductor`): as `Conductor` plus the microfacet
     /// distribution. Defaults: `distribution: "beckmann"`, `alpha: 0.1`.
     RoughConductor {
+        #[serde(skip_serializing_if = "Option::is_none")]
         metal: Option<Metal>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         eta: Option<V3>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         k: Option<V3>,
         #[serde(default = "white_colour")]
         specular_reflectance: ColorDesc,
-        #[serde(default, deserialize_with = "distribution_name")]
+        #[serde(
+            default,
+            deserialize_with = "distribution_name",
+            serialize_with = "distribution_text"
+        )]
         distribution: Distribution,
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha: Option<FloatDesc>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha_u: Option<FloatDesc>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha_v: Option<FloatDesc>,
     },
     /// Diffuse base under a smooth coating (Mitsuba's `plastic`). Defaults:
@@ -266,7 +286,11 @@ pub enum MaterialDesc {
         ext_ior: Ior,
         #[serde(default)]
         nonlinear: bool,
-        #[serde(default, deserialize_with = "distribution_name")]
+        #[serde(
+            default,
+            deserialize_with = "distribution_name",
+            serialize_with = "distribution_text"
+        )]
         distribution: Distribution,
         #[serde(default = "default_alpha")]
         alpha: FloatDesc,
@@ -320,16 +344,58 @@ impl<'de> Deserialize<'de> for Ior {
     }
 }
 
-/// A metal by name, resolved while parsing (so that an unknown name is an error at its
-/// place in the file): its complex IOR, or none for `"none"` (a perfect mirror).
+impl Serialize for Ior {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_f32(self.0)
+    }
+}
+
+/// A metal by name, resolved when it is read (so that an unknown name is an error at its
+/// place in the file): its name as the table spells it, and its complex IOR, or none for
+/// `"none"` (a perfect mirror).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Metal(pub Option<ComplexIor>);
+pub struct Metal {
+    pub name: &'static str,
+    pub ior: Option<ComplexIor>,
+}
+
+impl Metal {
+    /// The metal `name` of the table of metals (or `"none"`).
+    pub fn named(name: &str) -> Result<Metal, String> {
+        let ior = ior::metal(name)?;
+        let name = ior::METALS
+            .iter()
+            .map(|(n, _, _)| *n)
+            .find(|n| *n == name)
+            .unwrap_or("none");
+        Ok(Metal { name, ior })
+    }
+}
 
 impl<'de> Deserialize<'de> for Metal {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let name = String::deserialize(d)?;
-        ior::metal(&name).map(Metal).map_err(de::Error::custom)
+        Metal::named(&name).map_err(de::Error::custom)
     }
+}
+
+impl Serialize for Metal {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name)
+    }
+}
+
+/// A value written as its `Display` text (a filter: `"box"`, `"tent(radius: 2)"`).
+fn display<T: fmt::Display, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(v)
+}
+
+/// A microfacet distribution as its name.
+fn distribution_text<S: Serializer>(d: &Distribution, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(match d {
+        Distribution::Ggx => "ggx",
+        Distribution::Beckmann => "beckmann",
+    })
 }
 
 /// A microfacet distribution by name: `"ggx"` or `"beckmann"` (Mitsuba's names).
@@ -344,27 +410,27 @@ fn distribution_name<'de, D: Deserializer<'de>>(d: D) -> Result<Distribution, D:
     }
 }
 
-fn bk7() -> Ior {
+pub(crate) fn bk7() -> Ior {
     Ior(1.5046)
 }
 
-fn air() -> Ior {
+pub(crate) fn air() -> Ior {
     Ior(1.000_277)
 }
 
-fn polypropylene() -> Ior {
+pub(crate) fn polypropylene() -> Ior {
     Ior(1.49)
 }
 
-fn half_colour() -> ColorDesc {
+pub(crate) fn half_colour() -> ColorDesc {
     ColorDesc::Constant([0.5; 3])
 }
 
-fn white_colour() -> ColorDesc {
+pub(crate) fn white_colour() -> ColorDesc {
     ColorDesc::Constant([1.0; 3])
 }
 
-fn default_alpha() -> FloatDesc {
+pub(crate) fn default_alpha() -> FloatDesc {
     FloatDesc::Constant(0.1)
 }
 
@@ -372,7 +438,7 @@ fn default_subdivisions() -> u32 {
     4
 }
 
-fn white() -> V3 {
+pub(crate) fn white() -> V3 {
     [1.0; 3]
 }
 
@@ -397,6 +463,12 @@ impl TableEntry for ShapeDesc {
 /// A map from names to entries, in file order. Rejects a name given twice.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NamedTable<T>(pub Vec<(String, T)>);
+
+impl<T> NamedTable<T> {
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
 
 impl<T> Default for NamedTable<T> {
     fn default() -> Self {
@@ -437,50 +509,61 @@ impl<'de, T: Deserialize<'de> + TableEntry> Deserialize<'de> for NamedTable<T> {
     }
 }
 
+impl<T: Serialize> Serialize for NamedTable<T> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = s.serialize_map(Some(self.0.len()))?;
+        for (name, entry) in &self.0 {
+            map.serialize_entry(name, entry)?;
+        }
+        map.end()
+    }
+}
+
 /// One object of the scene.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct EntityDesc {
     /// Name used in messages. Default: `entity #N` (N counts from 0 in file order).
-    #[serde(default)]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub name: Option<String>,
     /// Placement. Default: identity.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "is_identity")]
     pub transform: TransformDesc,
     /// Geometry in the entity's local space. Default: none (only a point light may lack it).
-    #[serde(default)]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub shape: Option<ShapeDesc>,
     /// Name of a material in `materials`. Required for shapes, except pure area emitters,
     /// which default to black.
-    #[serde(default)]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub material: Option<String>,
     /// Light emission. Default: none.
-    #[serde(default)]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub emitter: Option<EmitterDesc>,
     /// Turns the shape's faces around (Mitsuba's `flip_normals`): a one-sided emitter then
     /// emits from its other side, and a sphere emits into its inside. Default: false.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "is_false")]
     pub flip_normals: bool,
 }
 
 /// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate; or a
 /// whole affine `matrix` instead of the three.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransformDesc {
     /// Default: `(0, 0, 0)`.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "is_zero")]
     pub translate: V3,
     /// Degrees. Default: `(0, 0, 0)`.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "is_zero")]
     pub rotate: V3,
     /// Default: `(1, 1, 1)`. Every component must be positive.
-    #[serde(default = "white")]
+    #[serde(default = "white", skip_serializing_if = "is_one")]
     pub scale: V3,
     /// The local-to-world matrix, row by row: 12 numbers (three rows of four) or 16 (the
     /// last row `0 0 0 1`), as Mitsuba's `<matrix value="...">`. It replaces `translate`,
     /// `rotate` and `scale`, which must then be left out. Default: none.
-    #[serde(default)]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub matrix: Option<Vec<f32>>,
 }
 
@@ -496,7 +579,7 @@ impl Default for TransformDesc {
 }
 
 /// Geometry in local space.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub enum ShapeDesc {
     /// Sphere (analytic). Default centre: origin. Needs a uniform scale.
@@ -579,9 +662,9 @@ pub enum ShapeDesc {
     Mesh {
         positions: Vec<V3>,
         indices: Vec<[u32; 3]>,
-        #[serde(default)]
+        #[serde(skip_serializing_if = "Option::is_none", default)]
         normals: Option<Vec<V3>>,
-        #[serde(default)]
+        #[serde(skip_serializing_if = "Option::is_none", default)]
         uvs: Option<Vec<[f32; 2]>>,
     },
 }
@@ -613,8 +696,18 @@ impl<'de> Deserialize<'de> for MeshNormals {
     }
 }
 
+impl Serialize for MeshNormals {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match self {
+            MeshNormals::File => "file",
+            MeshNormals::Smooth => "smooth",
+            MeshNormals::Flat => "flat",
+        })
+    }
+}
+
 /// Light emission attached to an entity.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub enum EmitterDesc {
     /// Emits `radiance` (W sr^-1 m^-2 per channel) from the shape's front side, or both sides.
@@ -632,13 +725,15 @@ pub enum EmitterDesc {
     /// Defaults: `cutoff_angle: 20`, `beam_width: 3/4 of cutoff_angle`, `falloff: "linear"`.
     Spot {
         intensity: V3,
+        #[serde(skip_serializing_if = "Option::is_none")]
         look_at: Option<V3>,
         #[serde(default = "default_cutoff")]
         cutoff_angle: f32,
+        #[serde(skip_serializing_if = "Option::is_none")]
         beam_width: Option<f32>,
         /// `"linear"` in the angle (Mitsuba 3's, the default) or `"smoothstep"` in its
         /// cosine (pbrt-v4's).
-        #[serde(default)]
+        #[serde(skip_serializing_if = "Option::is_none", default)]
         falloff: Option<String>,
     },
     /// Parallel light from infinitely far away (a sun, Mitsuba's `directional`) travelling
@@ -656,9 +751,23 @@ pub enum EmitterDesc {
         /// `"latlong"` (the default) or `"octahedral"`: a square image in pbrt-v4's
         /// equal-area octahedral mapping (`+z` up in its frame, i.e. raylab's map `+y`),
         /// resampled at load into a latitude-longitude map at its nearest pixels.
-        #[serde(default)]
+        #[serde(skip_serializing_if = "Option::is_none", default)]
         mapping: Option<String>,
     },
+}
+
+// What a written scene leaves out, being the default.
+fn is_zero(v: &V3) -> bool {
+    *v == [0.0; 3]
+}
+fn is_one(v: &V3) -> bool {
+    *v == [1.0; 3]
+}
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+fn is_identity(t: &TransformDesc) -> bool {
+    *t == TransformDesc::default()
 }
 
 fn default_cutoff() -> f32 {

@@ -455,3 +455,51 @@ fn instances_share_one_loaded_copy_of_their_mesh() {
         .iter()
         .any(|w| w.contains("mesh `spare` is not used")));
 }
+
+/// Every scene of `scenes/` written out by [`super::import::write_ron`] reads back as the same
+/// description: what `raylab import` writes is what the importer built.
+#[test]
+fn scene_descriptions_round_trip_through_ron() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).expect("scenes/") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_none_or(|e| e != "ron") || path.ends_with("suite.ron") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).expect("read");
+        let file = super::load::parse_scene_file(&text, &path).expect("parses");
+        let written = super::import::write_ron(&file, "round trip");
+        let again = super::load::parse_scene_file(&written, &path)
+            .unwrap_or_else(|e| panic!("{}: {e}\n{written}", path.display()));
+        assert_eq!(file, again, "{}\n{written}", path.display());
+        seen += 1;
+    }
+    assert!(seen >= 10, "{seen} scenes");
+}
+
+/// Every Mitsuba and pbrt-v4 scene of `scenes/`, imported, written as `raylab import` writes
+/// it and read back, is the description the importer built.
+#[test]
+fn imported_scenes_round_trip_through_ron() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut seen = 0;
+    for dir in ["mitsuba", "pbrt"] {
+        for entry in std::fs::read_dir(root.join(dir)).expect("folder") {
+            let path = entry.expect("entry").path();
+            if !super::load::is_imported(&path) {
+                continue;
+            }
+            let files = super::access::SceneFiles::new(&path, &[]);
+            let imported = super::load::import_scene(&files, &Default::default())
+                .expect("imports")
+                .expect("another format");
+            let written = imported.ron();
+            let again = super::load::parse_scene_file(&written, &path)
+                .unwrap_or_else(|e| panic!("{}: {e}\n{written}", path.display()));
+            assert_eq!(imported.scene, again, "{}\n{written}", path.display());
+            seen += 1;
+        }
+    }
+    assert!(seen >= 8, "{seen} scenes");
+}

@@ -176,3 +176,51 @@ impl<'de> Deserialize<'de> for FloatDesc {
         }
     }
 }
+
+impl serde::Serialize for TextureDesc {
+    /// As a scene file writes it: `Image(path: ..., ...)`, `Checkerboard(...)`.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStructVariant;
+        match self {
+            TextureDesc::Image(d) => {
+                let mut v = s.serialize_struct_variant("Texture", 0, "Image", 6)?;
+                v.serialize_field("path", &d.path)?;
+                v.serialize_field("filter", &d.filter)?;
+                v.serialize_field("wrap", &d.wrap)?;
+                match d.raw {
+                    Some(raw) => v.serialize_field("raw", &raw)?,
+                    None => v.skip_field("raw")?,
+                }
+                v.serialize_field("uv_scale", &d.uv_scale)?;
+                v.serialize_field("uv_offset", &d.uv_offset)?;
+                v.end()
+            }
+            TextureDesc::Checkerboard(d) => {
+                let mut v = s.serialize_struct_variant("Texture", 1, "Checkerboard", 4)?;
+                v.serialize_field("color0", &d.color0)?;
+                v.serialize_field("color1", &d.color1)?;
+                v.serialize_field("uv_scale", &d.uv_scale)?;
+                v.serialize_field("uv_offset", &d.uv_offset)?;
+                v.end()
+            }
+        }
+    }
+}
+
+impl serde::Serialize for ColorDesc {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            ColorDesc::Constant(c) => c.serialize(s),
+            ColorDesc::Texture(t) => t.serialize(s),
+        }
+    }
+}
+
+impl serde::Serialize for FloatDesc {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            FloatDesc::Constant(x) => x.serialize(s),
+            FloatDesc::Texture(t) => t.serialize(s),
+        }
+    }
+}

@@ -1,13 +1,16 @@
-//! Mitsuba 3's plugins, one by one, as raylab's RON.
+//! Mitsuba 3's plugins, one by one, as raylab's scene description.
 
 use super::xml::{at, attr, major_version, position, snake_case, value, Located, Params, Value};
 pub use crate::scene::import::Imported;
-use crate::scene::import::{matrix, num, quote, v3, ImportOptions, RonScene};
+use crate::scene::import::{placed, ImportOptions};
+use crate::scene::schema::{
+    CameraDesc, ColorDesc, EmitterDesc, EntityDesc, FloatDesc, Ior, MaterialDesc, NamedTable,
+    RenderDesc, SceneFile, ShapeDesc, V3,
+};
 use crate::scene::spectra::{self, Use};
 use glam::Affine3A;
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
-use std::fmt::Write as _;
 
 mod bsdf;
 mod sensor;
@@ -175,15 +178,14 @@ impl<'a, 'input> Props<'a, 'input> {
         })
     }
 
-    /// A number, or (for IORs) a name, as RON: `1.5` or `"bk7"`.
-    fn ior(&mut self, name: &str) -> Result<Option<String>, Located> {
+    /// An index of refraction: a number, or a name of the table of dielectrics (`"bk7"`).
+    fn ior(&mut self, name: &str) -> Result<Option<Ior>, Located> {
         match self.take(name) {
             None => Ok(None),
-            Some((Value::Float(v), _)) => Ok(Some(num(v))),
-            Some((Value::String(s), n)) => {
-                raylab_integrators::bsdf::ior::dielectric(&s).map_err(|e| at(self.doc, n, e))?;
-                Ok(Some(quote(&s)))
-            }
+            Some((Value::Float(v), _)) => Ok(Some(Ior(v))),
+            Some((Value::String(s), n)) => raylab_integrators::bsdf::ior::dielectric(&s)
+                .map(|v| Some(Ior(v)))
+                .map_err(|e| at(self.doc, n, e)),
             Some((_, n)) => Err(at(
                 self.doc,
                 n,
@@ -229,12 +231,12 @@ struct Converter<'a, 'input> {
     params: Params,
     /// Top-level plugins with an id, for `<ref>`.
     ids: HashMap<String, Node<'a, 'input>>,
-    /// Material names already written, by the node that made them.
-    materials: Vec<(String, String)>,
+    /// The materials made so far, by name, and the name of each BSDF node that made one.
+    materials: Vec<(String, MaterialDesc)>,
     material_of: HashMap<roxmltree::NodeId, String>,
     /// The name given to Mitsuba's default BSDF, once a shape needs it.
     default_material: Option<String>,
-    entities: Vec<String>,
+    entities: Vec<EntityDesc>,
     /// `--approximate`, and what it replaced.
     approximate: bool,
     approximated: Vec<String>,
@@ -242,16 +244,18 @@ struct Converter<'a, 'input> {
     /// The scene's files, when it has a folder: names are found through them (and recorded).
     files: Option<crate::scene::access::SceneFiles>,
     search: Vec<String>,
-    /// Mesh assets of shapegroups: (name, RON shape).
-    meshes: Vec<(String, String)>,
-    environment: Option<String>,
-    camera: Option<String>,
-    render: Vec<String>,
+    /// Mesh assets of shapegroups, by name.
+    meshes: Vec<(String, ShapeDesc)>,
+    environment: Option<V3>,
+    camera: Option<CameraDesc>,
+    render: RenderDesc,
+    /// Whether the scene's <integrator> was read (a second one is an error).
+    integrator_read: bool,
     report: Vec<String>,
     /// The BSDFs being converted, outermost first (a nested or referenced one inside).
     bsdfs_open: Vec<roxmltree::NodeId>,
     /// Each BSDF converted so far, by its node.
-    bsdf_of: HashMap<roxmltree::NodeId, String>,
+    bsdf_of: HashMap<roxmltree::NodeId, MaterialDesc>,
     /// The memory the process could allocate when the conversion began.
     room: crate::system::Room,
     /// (an entity, else a material; its name; its line and column in the text converted).
@@ -317,7 +321,7 @@ impl<'a, 'input> Converter<'a, 'input> {
     }
 }
 
-/// Converts the Mitsuba XML `text` into RON; `overrides` are `-D` parameters.
+/// Converts the Mitsuba XML `text` into a scene description; `overrides` are `-D` parameters.
 pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Located> {
     let options = ImportOptions {
         defines: overrides.to_vec(),
@@ -372,7 +376,8 @@ pub fn to_ron_in(
         meshes: Vec::new(),
         environment: None,
         camera: None,
-        render: Vec::new(),
+        render: RenderDesc::default(),
+        integrator_read: false,
         report: Vec::new(),
         bsdfs_open: Vec::new(),
         bsdf_of: HashMap::new(),
@@ -439,16 +444,16 @@ pub fn to_ron_in(
         return Err((1, 1, "the scene has no shapes or emitters".into()));
     }
     let (line, col) = position(&doc, root);
-    let ron = RonScene {
-        header: format!("Imported by raylab from a Mitsuba 3 scene (its <scene> at {line}:{col})."),
-        camera: &camera,
-        render: &c.render.join(", "),
-        environment: c.environment.clone(),
-        materials: &c.materials,
-        meshes: &c.meshes,
-        entities: &c.entities,
-    }
-    .write();
+    let header =
+        format!("Imported by raylab from a Mitsuba 3 scene (its <scene> at {line}:{col}).");
+    let scene = SceneFile {
+        camera,
+        render: c.render,
+        materials: NamedTable(c.materials),
+        meshes: NamedTable(c.meshes),
+        environment: c.environment,
+        entities: c.entities,
+    };
     // Places in the text converted (no file: the caller knows which file each came from).
     let mut origins = crate::scene::import::Origins::default();
     for (entity, name, (line, col)) in c.origins {
@@ -460,7 +465,8 @@ pub fn to_ron_in(
         table.insert(name, (std::path::PathBuf::new(), line, col));
     }
     Ok(Imported {
-        ron,
+        scene,
+        header,
         report: c.report,
         approximated: c.approximated,
         origins,

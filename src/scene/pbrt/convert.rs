@@ -599,12 +599,13 @@ pub fn to_ron(
         .integrator
         .clone()
         .unwrap_or_else(|| "integrator: \"path\", params: {\"max-depth\": 5}".into());
+    let header = format!(
+        "Imported by raylab from a pbrt-v4 scene ({}).",
+        path.file_name()
+            .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
+    );
     let ron = RonScene {
-        header: format!(
-            "Imported by raylab from a pbrt-v4 scene ({}).",
-            path.file_name()
-                .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
-        ),
+        header: header.clone(),
         camera: &camera,
         render: &format!("{integrator}, spp: {}, filter: {}", c.spp, quote(&c.filter)),
         environment: c.environment.map(|env| v3(env.map(|x| x as f32))),
@@ -613,8 +614,18 @@ pub fn to_ron(
         entities: &c.entities,
     }
     .write();
+    // The parts are RON text still: read into the scene description here.
+    let scene = crate::scene::load::parse_scene_file(&ron, path).map_err(|e| {
+        (
+            path.to_path_buf(),
+            1,
+            1,
+            format!("{e} (in the RON scene raylab made of it: see `raylab import`)"),
+        )
+    })?;
     Ok(Imported {
-        ron,
+        scene,
+        header,
         report: c.report,
         approximated: c.approximated,
         origins: Default::default(),

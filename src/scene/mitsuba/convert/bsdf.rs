@@ -1,20 +1,41 @@
-//! Mitsuba's BSDF plugins as raylab's materials, with their textures and colours; nested
-//! and referenced BSDFs (each converted once).
+//! Mitsuba's BSDF plugins as raylab's materials, one method per plugin family, with their
+//! textures and colours; nested and referenced BSDFs (each converted once).
 
 use super::*;
+use crate::scene::schema::{self, Metal};
+use crate::scene::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
+use raylab_integrators::bsdf::Distribution;
 
-/// The constant albedo of a `Lambert` material's RON, if it is one.
-fn lambert_albedo(ron: &str) -> Option<[f32; 3]> {
-    let inner = ron.strip_prefix("Lambert(albedo: ")?.strip_suffix(')')?;
-    let numbers: Vec<f32> = inner
-        .trim_matches(|c| c == '(' || c == ')')
-        .split(',')
-        .map(|x| x.trim().parse().ok())
-        .collect::<Option<_>>()?;
-    match numbers[..] {
-        [g] => Some([g; 3]),
-        [r, g, b] => Some([r, g, b]),
+/// A microfacet model's distribution and roughness as Mitsuba gives them.
+struct Rough {
+    distribution: Distribution,
+    alpha: Option<FloatDesc>,
+    alpha_u: Option<FloatDesc>,
+    alpha_v: Option<FloatDesc>,
+}
+
+/// A dielectric interface's indices of refraction and tints, Mitsuba's defaults where absent.
+struct Interface {
+    int_ior: Ior,
+    ext_ior: Ior,
+    specular_reflectance: ColorDesc,
+    specular_transmittance: ColorDesc,
+}
+
+/// The constant albedo of a `Lambert` material, if it is one.
+fn lambert_albedo(m: &MaterialDesc) -> Option<V3> {
+    match m {
+        MaterialDesc::Lambert {
+            albedo: ColorDesc::Constant(c),
+        } => Some(*c),
         _ => None,
+    }
+}
+
+/// Mitsuba's default BSDF: diffuse 0.5.
+pub(super) fn default_bsdf() -> MaterialDesc {
+    MaterialDesc::Lambert {
+        albedo: ColorDesc::Constant([0.5; 3]),
     }
 }
 
@@ -26,12 +47,12 @@ impl<'a, 'input> Converter<'a, 'input> {
         props: &mut Props<'a, 'input>,
         name: &str,
         default: Option<[f32; 3]>,
-    ) -> Result<Option<String>, Located> {
+    ) -> Result<Option<ColorDesc>, Located> {
         if let Some(v) = props.vector(name)? {
-            return Ok(Some(v3(v)));
+            return Ok(Some(ColorDesc::Constant(v)));
         }
         let Some(i) = props.children.iter().position(|(n, _)| n == name) else {
-            return Ok(default.map(v3));
+            return Ok(default.map(ColorDesc::Constant));
         };
         let (_, node) = props.children.remove(i);
         let node = self.resolve(node)?;
@@ -42,10 +63,10 @@ impl<'a, 'input> Converter<'a, 'input> {
                 format!("`{name}` must be a colour or a <texture>"),
             ));
         }
-        self.texture(node).map(Some)
+        self.texture(node).map(|t| Some(ColorDesc::Texture(t)))
     }
 
-    pub(super) fn texture(&self, node: Node<'a, 'input>) -> Result<String, Located> {
+    pub(super) fn texture(&self, node: Node<'a, 'input>) -> Result<TextureDesc, Located> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         let legacy_uv = if self.params.legacy {
@@ -56,7 +77,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         } else {
             ([1.0, 1.0], [0.0, 0.0])
         };
-        let (scale, offset) = match p.transform("to_uv")? {
+        let (uv_scale, uv_offset) = match p.transform("to_uv")? {
             // Mitsuba 0.x's `uoffset`... become to_uv = translate(offset) then scale.
             None if self.params.legacy => (
                 legacy_uv.0,
@@ -74,16 +95,9 @@ impl<'a, 'input> Converter<'a, 'input> {
                 ([c.x_axis.x, c.y_axis.y], [m.translation.x, m.translation.y])
             }
         };
-        let uv = format!(
-            "uv_scale: ({}, {}), uv_offset: ({}, {})",
-            num(scale[0]),
-            num(scale[1]),
-            num(offset[0]),
-            num(offset[1])
-        );
         let out = match kind.as_str() {
             "bitmap" => {
-                let file = self.file_name(p.string("filename")?.ok_or_else(|| {
+                let path = self.file_name(p.string("filename")?.ok_or_else(|| {
                     at(self.doc, node, "<texture type=\"bitmap\"> needs `filename`")
                 })?);
                 let filter = p
@@ -91,18 +105,21 @@ impl<'a, 'input> Converter<'a, 'input> {
                     .unwrap_or_else(|| "bilinear".into());
                 let wrap = p.string("wrap_mode")?.unwrap_or_else(|| "repeat".into());
                 let raw = p.boolean("raw")?.unwrap_or(false);
-                format!(
-                    "Image(path: {}, filter: {}, wrap: {}, raw: {raw}, {uv})",
-                    quote(&file),
-                    quote(&filter),
-                    quote(&wrap)
-                )
+                TextureDesc::Image(ImageDesc {
+                    path,
+                    filter,
+                    wrap,
+                    raw: Some(raw),
+                    uv_scale,
+                    uv_offset,
+                })
             }
-            "checkerboard" => {
-                let c0 = p.vector("color0")?.unwrap_or([0.4; 3]);
-                let c1 = p.vector("color1")?.unwrap_or([0.2; 3]);
-                format!("Checkerboard(color0: {}, color1: {}, {uv})", v3(c0), v3(c1))
-            }
+            "checkerboard" => TextureDesc::Checkerboard(CheckerboardDesc {
+                color0: p.vector("color0")?.unwrap_or([0.4; 3]),
+                color1: p.vector("color1")?.unwrap_or([0.2; 3]),
+                uv_scale,
+                uv_offset,
+            }),
             other => {
                 return Err(at(
                     self.doc,
@@ -115,10 +132,10 @@ impl<'a, 'input> Converter<'a, 'input> {
         Ok(out)
     }
 
-    /// The RON of a BSDF. A BSDF that holds itself (a `<ref>` to a BSDF it is inside) is a
-    /// cycle, refused; so is nesting deeper than [`crate::scene::mitsuba::include::MAX_NESTING`] through
-    /// references.
-    pub(super) fn bsdf(&mut self, node: Node<'a, 'input>) -> Result<String, Located> {
+    /// The material of a BSDF. A BSDF that holds itself (a `<ref>` to a BSDF it is inside) is
+    /// a cycle, refused; so is nesting deeper than
+    /// [`crate::scene::mitsuba::include::MAX_NESTING`] through references.
+    pub(super) fn bsdf(&mut self, node: Node<'a, 'input>) -> Result<MaterialDesc, Located> {
         // A BSDF referenced from several places is converted once (a chain of BSDFs each
         // referring twice to the one before would otherwise take 2^depth conversions).
         if let Some(done) = self.bsdf_of.get(&node.id()) {
@@ -151,223 +168,32 @@ impl<'a, 'input> Converter<'a, 'input> {
         out
     }
 
-    pub(super) fn bsdf_plugin(&mut self, node: Node<'a, 'input>) -> Result<String, Located> {
+    /// One BSDF plugin, by its family; what it leaves unread is an error.
+    fn bsdf_plugin(&mut self, node: Node<'a, 'input>) -> Result<MaterialDesc, Located> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
-        let rough = |p: &mut Props<'a, 'input>, out: &mut String| -> Result<(), Located> {
-            if let Some((v, n)) = p.take("distribution") {
-                match v {
-                    Value::String(d) if matches!(d.as_str(), "ggx" | "beckmann") => {
-                        let _ = write!(out, ", distribution: {}", quote(&d));
-                    }
-                    _ => {
-                        return Err(at(
-                            p.doc,
-                            n,
-                            "`distribution` must be \"ggx\" or \"beckmann\"",
-                        ))
-                    }
-                }
-            }
-            for name in ["alpha", "alpha_u", "alpha_v"] {
-                if let Some(a) = p.float(name)? {
-                    let _ = write!(out, ", {name}: {}", num(a));
-                }
-            }
-            Ok(())
-        };
-        let iors = |p: &mut Props<'a, 'input>, out: &mut String| -> Result<(), Located> {
-            for name in ["int_ior", "ext_ior"] {
-                if let Some(v) = p.ior(name)? {
-                    let _ = write!(out, ", {name}: {v}");
-                }
-            }
-            Ok(())
-        };
         let out = match kind.as_str() {
-            "diffuse" => {
-                let albedo = self
+            "diffuse" => MaterialDesc::Lambert {
+                albedo: self
                     .colour(&mut p, "reflectance", Some([0.5; 3]))?
-                    .unwrap_or_default();
-                format!("Lambert(albedo: {albedo})")
-            }
-            "conductor" | "roughconductor" => {
-                let mut out = String::from(if kind == "conductor" {
-                    "Conductor("
-                } else {
-                    "RoughConductor("
-                });
-                let metal = match p.take("material") {
-                    None => None,
-                    Some((Value::String(m), n)) => {
-                        raylab_integrators::bsdf::ior::metal(&m).map_err(|e| at(self.doc, n, e))?;
-                        Some(m)
-                    }
-                    Some((_, n)) => return Err(at(self.doc, n, "`material` must be a string")),
-                };
-                match (metal, p.optical_constant("eta")?, p.optical_constant("k")?) {
-                    (Some(m), None, None) => {
-                        let _ = write!(out, "metal: {}", quote(&m));
-                    }
-                    (None, Some(eta), Some(k)) => {
-                        let _ = write!(out, "eta: {}, k: {}", v3(eta), v3(k));
-                    }
-                    (None, None, None) => out.push_str("metal: \"none\""),
-                    _ => {
-                        return Err(at(
-                            self.doc,
-                            node,
-                            "a conductor takes `material`, or `eta` and `k`",
-                        ))
-                    }
-                }
-                if let Some(c) = self.colour(&mut p, "specular_reflectance", None)? {
-                    let _ = write!(out, ", specular_reflectance: {c}");
-                }
-                if kind == "roughconductor" {
-                    rough(&mut p, &mut out)?;
-                }
-                out + ")"
-            }
+                    .unwrap_or_else(schema::half_colour),
+            },
+            "conductor" | "roughconductor" => self.conductor(&mut p, node, &kind)?,
             "dielectric" | "roughdielectric" | "thindielectric" => {
-                let mut out = match kind.as_str() {
-                    "dielectric" => "Dielectric(".to_string(),
-                    "roughdielectric" => "RoughDielectric(".to_string(),
-                    _ => "ThinDielectric(".to_string(),
-                };
-                let mut fields = String::new();
-                iors(&mut p, &mut fields)?;
-                for name in ["specular_reflectance", "specular_transmittance"] {
-                    if let Some(c) = self.colour(&mut p, name, None)? {
-                        let _ = write!(fields, ", {name}: {c}");
-                    }
-                }
-                if kind == "roughdielectric" {
-                    rough(&mut p, &mut fields)?;
-                }
-                out.push_str(fields.trim_start_matches(", "));
-                out + ")"
+                self.dielectric(&mut p, &kind)?
             }
-            "plastic" | "roughplastic" => {
-                let mut fields = String::new();
-                for name in ["diffuse_reflectance", "specular_reflectance"] {
-                    if let Some(c) = self.colour(&mut p, name, None)? {
-                        let _ = write!(fields, ", {name}: {c}");
-                    }
-                }
-                iors(&mut p, &mut fields)?;
-                if let Some(b) = p.boolean("nonlinear")? {
-                    let _ = write!(fields, ", nonlinear: {b}");
-                }
-                if kind == "roughplastic" {
-                    rough(&mut p, &mut fields)?;
-                }
-                let name = if kind == "plastic" {
-                    "Plastic"
-                } else {
-                    "RoughPlastic"
-                };
-                format!("{name}({})", fields.trim_start_matches(", "))
-            }
-            "twosided" => {
-                let inner: Vec<Node> = p.children.iter().map(|(_, n)| *n).collect();
-                p.children.clear();
-                let [inner] = inner[..] else {
-                    return Err(at(self.doc, node, "<bsdf type=\"twosided\"> with two BSDFs (one per side) is not supported: give one"));
-                };
-                let inner = self.resolve(inner)?;
-                if inner.tag_name().name() == "bsdf" && inner.attribute("type") == Some("twosided")
-                {
-                    return Err(at(
-                        self.doc,
-                        inner,
-                        "a two-sided BSDF inside another (Mitsuba refuses it too): give the inner one alone",
-                    ));
-                }
-                format!("TwoSided({})", self.bsdf(inner)?)
-            }
-            "normalmap" | "bumpmap" => {
-                // One nested BSDF and one texture (nested or referenced).
-                let mut inner = None;
-                let mut texture = None;
-                for (_, child) in std::mem::take(&mut p.children) {
-                    let child = self.resolve(child)?;
-                    match child.tag_name().name() {
-                        "bsdf" if inner.is_none() => inner = Some(child),
-                        "texture" if texture.is_none() => texture = Some(child),
-                        tag => return Err(at(self.doc, child, format!("<bsdf type=\"{kind}\"> takes one <bsdf> and one <texture>, not this <{tag}>"))),
-                    }
-                }
-                let (Some(inner), Some(texture)) = (inner, texture) else {
-                    return Err(at(
-                        self.doc,
-                        node,
-                        format!("<bsdf type=\"{kind}\"> needs a nested <bsdf> and a <texture>"),
-                    ));
-                };
-                let (material, texture) = (self.bsdf(inner)?, self.texture(texture)?);
-                if kind == "normalmap" {
-                    format!("NormalMap(texture: {texture}, material: {material})")
-                } else {
-                    let scale = p.float("scale")?.unwrap_or(1.0);
-                    format!(
-                        "BumpMap(texture: {texture}, scale: {}, material: {material})",
-                        num(scale)
-                    )
-                }
-            }
-            "blendbsdf" => {
-                // (1 - weight) f_a + weight f_b, which raylab's materials hold when the weight
-                // picks one, both are the same, or both are constant diffuse reflectances.
-                let weight = self.constant_weight(&mut p, node, "weight")?;
-                let inner = self.nested_bsdfs(&mut p, node, 2)?;
-                let (a, b) = (self.bsdf(inner[0])?, self.bsdf(inner[1])?);
-                let w = weight.unwrap_or(0.5);
-                match (weight, lambert_albedo(&a), lambert_albedo(&b)) {
-                    (Some(0.0), ..) => a,
-                    (Some(1.0), ..) => b,
-                    _ if a == b => a,
-                    (Some(w), Some(ka), Some(kb)) => format!(
-                        "Lambert(albedo: {})",
-                        v3(std::array::from_fn(|i| {
-                            let w = w as f64;
-                            ((1.0 - w) * ka[i] as f64 + w * kb[i] as f64) as f32
-                        }))
-                    ),
-                    _ => {
-                        self.approximate(
-                            node,
-                            format!("<bsdf type=\"blendbsdf\"> of these BSDFs (with this weight) has no raylab material; replaced by the one weighted more ({})", if w > 0.5 { "the second" } else { "the first" }),
-                        )?;
-                        if w > 0.5 {
-                            b
-                        } else {
-                            a
-                        }
-                    }
-                }
-            }
-            "mask" => {
-                // Mitsuba's cut-out: the BSDF where opaque, nothing where not. raylab has no
-                // transparent surfaces, so only a fully opaque mask is exact.
-                let opacity = self.constant_weight(&mut p, node, "opacity")?;
-                let inner = self.nested_bsdfs(&mut p, node, 1)?;
-                let material = self.bsdf(inner[0])?;
-                if opacity != Some(1.0) {
-                    self.approximate(
-                        node,
-                        "<bsdf type=\"mask\"> with an opacity below 1: raylab has no see-through surfaces; rendered opaque".to_string(),
-                    )?;
-                }
-                material
-            }
+            "plastic" | "roughplastic" => self.plastic(&mut p, &kind)?,
+            "twosided" => self.two_sided(&mut p, node)?,
+            "normalmap" | "bumpmap" => self.normal_or_bump_map(&mut p, node, &kind)?,
+            "blendbsdf" => self.blend(&mut p, node)?,
+            "mask" => self.mask(&mut p, node)?,
             other => {
                 let message = format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, blendbsdf and mask where raylab's materials hold them are)");
                 self.approximate(
                     node,
                     format!("{message}: replaced by Mitsuba's default, diffuse 0.5"),
                 )?;
-                return Ok("Lambert(albedo: 0.5)".into());
+                return Ok(default_bsdf());
             }
         };
         if let Some((name, child)) = p.children.first() {
@@ -381,9 +207,296 @@ impl<'a, 'input> Converter<'a, 'input> {
         Ok(out)
     }
 
+    /// `distribution`, `alpha`, `alpha_u` and `alpha_v` of a rough model.
+    fn rough(&self, p: &mut Props<'a, 'input>) -> Result<Rough, Located> {
+        let distribution = match p.take("distribution") {
+            None => Distribution::default(),
+            Some((Value::String(d), _)) if d == "ggx" => Distribution::Ggx,
+            Some((Value::String(d), _)) if d == "beckmann" => Distribution::Beckmann,
+            Some((_, n)) => {
+                return Err(at(
+                    p.doc,
+                    n,
+                    "`distribution` must be \"ggx\" or \"beckmann\"",
+                ))
+            }
+        };
+        let mut alpha = |name: &str| p.float(name).map(|a| a.map(FloatDesc::Constant));
+        Ok(Rough {
+            distribution,
+            alpha: alpha("alpha")?,
+            alpha_u: alpha("alpha_u")?,
+            alpha_v: alpha("alpha_v")?,
+        })
+    }
+
+    /// `conductor` and `roughconductor`: a named `material`, or `eta` and `k`.
+    fn conductor(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+        kind: &str,
+    ) -> Result<MaterialDesc, Located> {
+        let metal = match p.take("material") {
+            None => None,
+            Some((Value::String(m), n)) => Some(Metal::named(&m).map_err(|e| at(self.doc, n, e))?),
+            Some((_, n)) => return Err(at(self.doc, n, "`material` must be a string")),
+        };
+        let (metal, eta, k) = match (metal, p.optical_constant("eta")?, p.optical_constant("k")?) {
+            (Some(m), None, None) => (Some(m), None, None),
+            (None, Some(eta), Some(k)) => (None, Some(eta), Some(k)),
+            (None, None, None) => (
+                Some(Metal::named("none").map_err(|e| at(self.doc, node, e))?),
+                None,
+                None,
+            ),
+            _ => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    "a conductor takes `material`, or `eta` and `k`",
+                ))
+            }
+        };
+        let specular_reflectance = self
+            .colour(p, "specular_reflectance", None)?
+            .unwrap_or_else(schema::white_colour);
+        if kind == "conductor" {
+            return Ok(MaterialDesc::Conductor {
+                metal,
+                eta,
+                k,
+                specular_reflectance,
+            });
+        }
+        let r = self.rough(p)?;
+        Ok(MaterialDesc::RoughConductor {
+            metal,
+            eta,
+            k,
+            specular_reflectance,
+            distribution: r.distribution,
+            alpha: r.alpha,
+            alpha_u: r.alpha_u,
+            alpha_v: r.alpha_v,
+        })
+    }
+
+    /// A dielectric interface's IORs and tints.
+    fn interface(&self, p: &mut Props<'a, 'input>) -> Result<Interface, Located> {
+        let int_ior = p.ior("int_ior")?.unwrap_or_else(schema::bk7);
+        let ext_ior = p.ior("ext_ior")?.unwrap_or_else(schema::air);
+        let mut tint = |name: &str| {
+            self.colour(p, name, None)
+                .map(|c| c.unwrap_or_else(schema::white_colour))
+        };
+        Ok(Interface {
+            int_ior,
+            ext_ior,
+            specular_reflectance: tint("specular_reflectance")?,
+            specular_transmittance: tint("specular_transmittance")?,
+        })
+    }
+
+    /// `dielectric`, `roughdielectric` and `thindielectric`.
+    fn dielectric(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        kind: &str,
+    ) -> Result<MaterialDesc, Located> {
+        let i = self.interface(p)?;
+        Ok(match kind {
+            "dielectric" => MaterialDesc::Dielectric {
+                int_ior: i.int_ior,
+                ext_ior: i.ext_ior,
+                specular_reflectance: i.specular_reflectance,
+                specular_transmittance: i.specular_transmittance,
+            },
+            "roughdielectric" => {
+                let r = self.rough(p)?;
+                MaterialDesc::RoughDielectric {
+                    int_ior: i.int_ior,
+                    ext_ior: i.ext_ior,
+                    specular_reflectance: i.specular_reflectance,
+                    specular_transmittance: i.specular_transmittance,
+                    distribution: r.distribution,
+                    alpha: r.alpha,
+                    alpha_u: r.alpha_u,
+                    alpha_v: r.alpha_v,
+                }
+            }
+            _ => MaterialDesc::ThinDielectric {
+                int_ior: i.int_ior,
+                ext_ior: i.ext_ior,
+                specular_reflectance: i.specular_reflectance,
+                specular_transmittance: i.specular_transmittance,
+            },
+        })
+    }
+
+    /// `plastic` and `roughplastic` (an isotropic `alpha` only: the coating's tables depend
+    /// on it).
+    fn plastic(&mut self, p: &mut Props<'a, 'input>, kind: &str) -> Result<MaterialDesc, Located> {
+        let diffuse_reflectance = self
+            .colour(p, "diffuse_reflectance", None)?
+            .unwrap_or_else(schema::half_colour);
+        let specular_reflectance = self
+            .colour(p, "specular_reflectance", None)?
+            .unwrap_or_else(schema::white_colour);
+        let int_ior = p.ior("int_ior")?.unwrap_or_else(schema::polypropylene);
+        let ext_ior = p.ior("ext_ior")?.unwrap_or_else(schema::air);
+        let nonlinear = p.boolean("nonlinear")?.unwrap_or(false);
+        if kind == "plastic" {
+            return Ok(MaterialDesc::Plastic {
+                diffuse_reflectance,
+                specular_reflectance,
+                int_ior,
+                ext_ior,
+                nonlinear,
+            });
+        }
+        let r = self.rough(p)?;
+        if r.alpha_u.is_some() || r.alpha_v.is_some() {
+            let n = p.node;
+            return Err(at(
+                self.doc,
+                n,
+                "<bsdf type=\"roughplastic\">: `alpha_u` and `alpha_v` are not supported (an isotropic `alpha` is)",
+            ));
+        }
+        Ok(MaterialDesc::RoughPlastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            distribution: r.distribution,
+            alpha: r.alpha.unwrap_or_else(schema::default_alpha),
+        })
+    }
+
+    /// `twosided` with one BSDF for both faces.
+    fn two_sided(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+    ) -> Result<MaterialDesc, Located> {
+        let inner: Vec<Node> = p.children.iter().map(|(_, n)| *n).collect();
+        p.children.clear();
+        let [inner] = inner[..] else {
+            return Err(at(
+                self.doc,
+                node,
+                "<bsdf type=\"twosided\"> with two BSDFs (one per side) is not supported: give one",
+            ));
+        };
+        let inner = self.resolve(inner)?;
+        if inner.tag_name().name() == "bsdf" && inner.attribute("type") == Some("twosided") {
+            return Err(at(
+                self.doc,
+                inner,
+                "a two-sided BSDF inside another (Mitsuba refuses it too): give the inner one alone",
+            ));
+        }
+        Ok(MaterialDesc::TwoSided(Box::new(self.bsdf(inner)?)))
+    }
+
+    /// `normalmap` and `bumpmap`: one nested BSDF and one texture (nested or referenced).
+    fn normal_or_bump_map(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+        kind: &str,
+    ) -> Result<MaterialDesc, Located> {
+        let mut inner = None;
+        let mut texture = None;
+        for (_, child) in std::mem::take(&mut p.children) {
+            let child = self.resolve(child)?;
+            match child.tag_name().name() {
+                "bsdf" if inner.is_none() => inner = Some(child),
+                "texture" if texture.is_none() => texture = Some(child),
+                tag => return Err(at(self.doc, child, format!("<bsdf type=\"{kind}\"> takes one <bsdf> and one <texture>, not this <{tag}>"))),
+            }
+        }
+        let (Some(inner), Some(texture)) = (inner, texture) else {
+            return Err(at(
+                self.doc,
+                node,
+                format!("<bsdf type=\"{kind}\"> needs a nested <bsdf> and a <texture>"),
+            ));
+        };
+        let (material, texture) = (Box::new(self.bsdf(inner)?), self.texture(texture)?);
+        Ok(if kind == "normalmap" {
+            MaterialDesc::NormalMap {
+                texture: ColorDesc::Texture(texture),
+                material,
+            }
+        } else {
+            MaterialDesc::BumpMap {
+                texture: FloatDesc::Texture(texture),
+                scale: p.float("scale")?.unwrap_or(1.0),
+                material,
+            }
+        })
+    }
+
+    /// `blendbsdf`: (1 - weight) f_a + weight f_b, which raylab's materials hold when the
+    /// weight picks one, both are the same, or both are constant diffuse reflectances.
+    fn blend(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+    ) -> Result<MaterialDesc, Located> {
+        let weight = self.constant_weight(p, node, "weight")?;
+        let inner = self.nested_bsdfs(p, node, 2)?;
+        let (a, b) = (self.bsdf(inner[0])?, self.bsdf(inner[1])?);
+        let w = weight.unwrap_or(0.5);
+        Ok(match (weight, lambert_albedo(&a), lambert_albedo(&b)) {
+            (Some(0.0), ..) => a,
+            (Some(1.0), ..) => b,
+            _ if a == b => a,
+            (Some(w), Some(ka), Some(kb)) => MaterialDesc::Lambert {
+                albedo: ColorDesc::Constant(std::array::from_fn(|i| {
+                    let w = w as f64;
+                    ((1.0 - w) * ka[i] as f64 + w * kb[i] as f64) as f32
+                })),
+            },
+            _ => {
+                self.approximate(
+                    node,
+                    format!("<bsdf type=\"blendbsdf\"> of these BSDFs (with this weight) has no raylab material; replaced by the one weighted more ({})", if w > 0.5 { "the second" } else { "the first" }),
+                )?;
+                if w > 0.5 {
+                    b
+                } else {
+                    a
+                }
+            }
+        })
+    }
+
+    /// `mask`: Mitsuba's cut-out, the BSDF where opaque, nothing where not. raylab has no
+    /// transparent surfaces, so only a fully opaque mask is exact.
+    fn mask(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+    ) -> Result<MaterialDesc, Located> {
+        let opacity = self.constant_weight(p, node, "opacity")?;
+        let inner = self.nested_bsdfs(p, node, 1)?;
+        let material = self.bsdf(inner[0])?;
+        if opacity != Some(1.0) {
+            self.approximate(
+                node,
+                "<bsdf type=\"mask\"> with an opacity below 1: raylab has no see-through surfaces; rendered opaque".to_string(),
+            )?;
+        }
+        Ok(material)
+    }
+
     /// A blend weight or opacity in `[0, 1]`: the number, `None` when it is a texture (the
     /// texture is consumed), Mitsuba's 0.5 when absent.
-    pub(super) fn constant_weight(
+    fn constant_weight(
         &mut self,
         p: &mut Props<'a, 'input>,
         node: Node<'a, 'input>,
@@ -405,7 +518,7 @@ impl<'a, 'input> Converter<'a, 'input> {
     }
 
     /// Exactly `n` nested (or referenced) BSDFs of `node`.
-    pub(super) fn nested_bsdfs(
+    fn nested_bsdfs(
         &mut self,
         p: &mut Props<'a, 'input>,
         node: Node<'a, 'input>,
@@ -437,7 +550,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         Ok(inner)
     }
 
-    /// The material name for a BSDF node (written once, however many shapes use it).
+    /// The material name for a BSDF node (made once, however many shapes use it).
     pub(super) fn material(
         &mut self,
         node: Node<'a, 'input>,

@@ -11,7 +11,7 @@ fn orthographic(
     m: &Affine3A,
     (width, height): (i64, i64),
     crop: Option<(i64, i64, i64, i64)>,
-) -> String {
+) -> CameraDesc {
     let (w, h) = (width as f32, height as f32);
     let (left, up, dir) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis);
     // Half the view's size in world units, and its unit axes.
@@ -23,14 +23,14 @@ fn orthographic(
         (y as f32 + 0.5 * ch as f32) / h,
     );
     let eye = m.translation + right * (half_w * (2.0 * u - 1.0)) + up * (half_h * (1.0 - 2.0 * v));
-    format!(
-        "Orthographic(eye: {}, look_at: {}, up: {}, width: {}, height: {}, resolution: ({cw}, {ch}))",
-        v3(eye.into()),
-        v3((eye + dir).into()),
-        v3(up.into()),
-        num(2.0 * half_w * cw as f32 / w),
-        num(2.0 * half_h * ch as f32 / h),
-    )
+    CameraDesc::Orthographic {
+        eye: eye.into(),
+        look_at: (eye + dir).into(),
+        up: up.into(),
+        width: 2.0 * half_w * cw as f32 / w,
+        height: Some(2.0 * half_h * ch as f32 / h),
+        resolution: (cw as u32, ch as u32),
+    }
 }
 
 impl<'a, 'input> Converter<'a, 'input> {
@@ -135,9 +135,9 @@ impl<'a, 'input> Converter<'a, 'input> {
                         let mut r = self.props(rf)?;
                         let size = if filter == "gaussian" {
                             r.float("stddev")?
-                                .map(|s| format!("(stddev: {}, radius: {})", num(s), num(4.0 * s)))
+                                .map(|s| format!("(stddev: {s:?}, radius: {:?})", 4.0 * s))
                         } else {
-                            r.float("radius")?.map(|v| format!("(radius: {})", num(v)))
+                            r.float("radius")?.map(|v| format!("(radius: {v:?})"))
                         };
                         if let Some(size) = size {
                             filter.push_str(&size);
@@ -190,7 +190,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
         let Some(fov) = fov else {
             self.camera = Some(orthographic(&m, (width, height), crop));
-            return self.sensor_settings(filter, spp);
+            return self.sensor_settings(node, filter, spp);
         };
         let (w, h) = (width as f32, height as f32);
         // raylab's fov is vertical.
@@ -225,13 +225,13 @@ impl<'a, 'input> Converter<'a, 'input> {
         let eye = m.translation;
         let dir = dir.normalize();
         self.camera = Some(match crop {
-            None => format!(
-                "LookAt(eye: {}, look_at: {}, up: {}, fov: {}, resolution: ({width}, {height}))",
-                v3(eye.into()),
-                v3((eye + dir).into()),
-                v3(up.normalize().into()),
-                num(fov_y)
-            ),
+            None => CameraDesc::LookAt {
+                eye: eye.into(),
+                look_at: (eye + dir).into(),
+                up: up.normalize().into(),
+                fov: fov_y,
+                resolution: (width as u32, height as u32),
+            },
             // A crop: the film's part of the image plane at distance 1, as an image-plane
             // camera (Mitsuba writes the crop alone).
             Some((x, y, cw, ch)) => {
@@ -242,40 +242,43 @@ impl<'a, 'input> Converter<'a, 'input> {
                     let (fx, fy) = (px as f32 / w, py as f32 / h);
                     eye + dir + right * (tw * (2.0 * fx - 1.0)) + up * (th * (1.0 - 2.0 * fy))
                 };
-                format!(
-                    "ImagePlane(eye: {}, top_left: {}, top_right: {}, bottom_left: {}, bottom_right: {}, resolution: ({cw}, {ch}))",
-                    v3(eye.into()),
-                    v3(at(x, y).into()),
-                    v3(at(x + cw, y).into()),
-                    v3(at(x, y + ch).into()),
-                    v3(at(x + cw, y + ch).into())
-                )
+                CameraDesc::ImagePlane {
+                    eye: eye.into(),
+                    top_left: at(x, y).into(),
+                    top_right: at(x + cw, y).into(),
+                    bottom_left: at(x, y + ch).into(),
+                    bottom_right: at(x + cw, y + ch).into(),
+                    resolution: (cw as u32, ch as u32),
+                }
             }
         });
-        self.sensor_settings(filter, spp)
+        self.sensor_settings(node, filter, spp)
     }
 
     /// The sensor's film filter and sample count, as render settings.
     pub(super) fn sensor_settings(
         &mut self,
+        node: Node<'a, 'input>,
         filter: String,
         spp: Option<i64>,
     ) -> Result<(), Located> {
-        self.render.push(format!("filter: {}", quote(&filter)));
+        self.render.filter = filter.parse().map_err(|e| at(self.doc, node, e))?;
         if let Some(spp) = spp {
-            self.render.push(format!("spp: {spp}"));
+            // Checked to lie in 1..=u32::MAX where the sampler was read.
+            self.render.spp = spp as u32;
         }
         Ok(())
     }
 
     pub(super) fn integrator(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
-        if self.render.iter().any(|r| r.starts_with("integrator:")) {
+        if self.integrator_read {
             return Err(at(
                 self.doc,
                 node,
                 "a second <integrator>: a scene names one",
             ));
         }
+        self.integrator_read = true;
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         match kind.as_str() {
@@ -298,9 +301,9 @@ impl<'a, 'input> Converter<'a, 'input> {
                 // Mitsuba's max_depth counts the segments of a path, raylab's the scattering
                 // events: one less; -1 is unlimited in both.
                 let depth = if max_depth < 0 {
-                    "inf".to_string()
+                    f64::INFINITY
                 } else {
-                    (max_depth - 1).max(0).to_string()
+                    (max_depth - 1).max(0) as f64
                 };
                 // Mitsuba's ptracer is raylab's lighttracer (paths from the lights, each vertex
                 // connected to the sensor); its passes are raylab's passes.
@@ -312,7 +315,12 @@ impl<'a, 'input> Converter<'a, 'input> {
                 if kind == "ptracer" {
                     p.integer("samples_per_pass")?;
                 }
-                self.render.push(format!("integrator: \"{name}\", params: {{\"max-depth\": {depth}, \"rr-depth\": {rr_depth}}}"));
+                self.set_integrator(name, &[("max-depth", depth), ("rr-depth", rr_depth as f64)]);
+                let depth = if depth.is_infinite() {
+                    "inf".to_string()
+                } else {
+                    depth.to_string()
+                };
                 self.report.push(format!("integrator: Mitsuba's {kind} max_depth {max_depth} is raylab's {name} max-depth {depth}"));
             }
             "direct" => {
@@ -338,7 +346,13 @@ impl<'a, 'input> Converter<'a, 'input> {
                         "hide_emitters is not supported: emitters seen directly are shown".into(),
                     )?;
                 }
-                self.render.push(format!("integrator: \"direct\", params: {{\"emitter-samples\": {emitter}, \"bsdf-samples\": {bsdf}}}"));
+                self.set_integrator(
+                    "direct",
+                    &[
+                        ("emitter-samples", emitter as f64),
+                        ("bsdf-samples", bsdf as f64),
+                    ],
+                );
             }
             "moment" => {
                 // A wrapper that adds a second moment image: the estimate is its inner
@@ -358,10 +372,16 @@ impl<'a, 'input> Converter<'a, 'input> {
             }
             other => {
                 self.approximate(node, format!("integrator `{other}` is not supported (path, ptracer, direct, moment are): rendered with path"))?;
-                self.render.push("integrator: \"path\"".into());
+                self.set_integrator("path", &[]);
                 return Ok(());
             }
         }
         p.finish(&[])
+    }
+
+    /// The integrator of the render settings, with its parameters.
+    fn set_integrator(&mut self, name: &str, params: &[(&str, f64)]) {
+        self.render.integrator = name.to_string();
+        self.render.params = params.iter().map(|(k, v)| (k.to_string(), *v)).collect();
     }
 }

@@ -2,14 +2,15 @@
 //! shapegroups and their instances, and the lights that are not shapes.
 
 use super::*;
+use crate::scene::schema::MeshNormals;
 
-/// A shape as the pieces of a RON entity.
+/// A shape as the pieces of an entity.
 struct ShapeParts {
     name: String,
-    shape: String,
+    shape: ShapeDesc,
     to_world: Affine3A,
     material: Option<String>,
-    emitter: Option<String>,
+    emitter: Option<EmitterDesc>,
     flip: bool,
 }
 
@@ -18,23 +19,14 @@ impl<'a, 'input> Converter<'a, 'input> {
         let parts = self.shape_parts(node, index)?;
         self.origins
             .push((true, parts.name.clone(), position(self.doc, node)));
-        let mut e = format!(
-            "(name: {}, transform: {}, shape: {}",
-            quote(&parts.name),
-            matrix(&parts.to_world),
-            parts.shape,
-        );
-        if let Some(material) = parts.material {
-            let _ = write!(e, ", material: {}", quote(&material));
-        }
-        if parts.flip {
-            e.push_str(", flip_normals: true");
-        }
-        if let Some(em) = parts.emitter {
-            let _ = write!(e, ", emitter: {em}");
-        }
-        e.push_str("),");
-        self.entities.push(e);
+        self.entities.push(EntityDesc {
+            name: Some(parts.name),
+            transform: placed(&parts.to_world),
+            shape: Some(parts.shape),
+            material: parts.material,
+            emitter: parts.emitter,
+            flip_normals: parts.flip,
+        });
         crate::scene::import::check_entities_made(self.entities.len(), &self.room)
             .map_err(|e| at(self.doc, node, e))?;
         Ok(())
@@ -83,7 +75,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                     "a shape of a shapegroup cannot emit light (in Mitsuba neither)",
                 ));
             }
-            let placed = to_world * parts.to_world;
+            let placed_to_world = to_world * parts.to_world;
             let shape = if matches!(kind.as_str(), "obj" | "ply" | "rectangle" | "cube") {
                 if parts.flip {
                     return Err(at(self.doc, child, "a mesh of a shapegroup turned around (flip_normals, or a mirrored rectangle) is not supported"));
@@ -92,33 +84,29 @@ impl<'a, 'input> Converter<'a, 'input> {
                 if !self.meshes.iter().any(|(n, _)| *n == mesh) {
                     self.meshes.push((mesh.clone(), parts.shape.clone()));
                 }
-                format!("Instance(mesh: {})", quote(&mesh))
+                ShapeDesc::Instance { mesh }
             } else {
                 parts.shape.clone()
             };
             let entity = format!("{name} / {}", parts.name);
             self.origins
                 .push((true, entity.clone(), position(self.doc, child)));
-            let mut e = format!(
-                "(name: {}, transform: {}, shape: {shape}",
-                quote(&entity),
-                matrix(&placed),
-            );
-            if let Some(material) = parts.material {
-                let _ = write!(e, ", material: {}", quote(&material));
-            }
-            if parts.flip && !shape.starts_with("Instance") {
-                e.push_str(", flip_normals: true");
-            }
-            e.push_str("),");
-            self.entities.push(e);
+            let flip_normals = parts.flip && !matches!(shape, ShapeDesc::Instance { .. });
+            self.entities.push(EntityDesc {
+                name: Some(entity),
+                transform: placed(&placed_to_world),
+                shape: Some(shape),
+                material: parts.material,
+                emitter: None,
+                flip_normals,
+            });
             crate::scene::import::check_entities_made(self.entities.len(), &self.room)
                 .map_err(|e| at(self.doc, node, e))?;
         }
         Ok(())
     }
 
-    /// A shape's parts: its RON shape, placement, material, emitter and orientation.
+    /// A shape's parts: its shape, placement, material, emitter and orientation.
     fn shape_parts(&mut self, node: Node<'a, 'input>, index: usize) -> Result<ShapeParts, Located> {
         let kind = self.kind(node)?;
         let name =
@@ -136,42 +124,50 @@ impl<'a, 'input> Converter<'a, 'input> {
         };
         // Mitsuba shades a mesh with its file's normals, or with normals it computes when the
         // file has none; flat with `face_normals`.
-        let normals = |p: &mut Props<'a, 'input>| -> Result<&str, Located> {
+        let normals = |p: &mut Props<'a, 'input>| -> Result<MeshNormals, Located> {
             Ok(match p.boolean("face_normals")? {
-                Some(true) => "flat",
-                _ => "smooth",
+                Some(true) => MeshNormals::Flat,
+                _ => MeshNormals::Smooth,
             })
         };
         let shape = match kind.as_str() {
             "obj" | "ply" => {
-                let path = quote(&self.file_name(file(&mut p)?));
+                let path = self.file_name(file(&mut p)?);
                 let normals = normals(&mut p)?;
-                let variant = if kind == "obj" { "Obj" } else { "Ply" };
-                format!("{variant}(path: {path}, normals: \"{normals}\")")
+                if kind == "obj" {
+                    ShapeDesc::Obj { path, normals }
+                } else {
+                    ShapeDesc::Ply { path, normals }
+                }
             }
             "serialized" => {
-                let path = quote(&self.file_name(file(&mut p)?));
+                let path = self.file_name(file(&mut p)?);
                 let index = p.integer("shape_index")?.unwrap_or(0);
-                let index = u32::try_from(index).map_err(|_| {
+                let shape_index = u32::try_from(index).map_err(|_| {
                     at(self.doc, node, format!("shape_index {index} must be 0 or more"))
                 })?;
                 let normals = normals(&mut p)?;
-                format!("Serialized(path: {path}, shape_index: {index}, normals: \"{normals}\")")
+                ShapeDesc::Serialized {
+                    path,
+                    shape_index,
+                    normals,
+                }
             }
-            "rectangle" => "Rectangle".to_string(),
-            "cube" => "Box(min: (-1, -1, -1), max: (1, 1, 1))".to_string(),
-            "disk" => "Disk".to_string(),
-            "sphere" => {
-                let c = p.vector("center")?.unwrap_or([0.0; 3]);
-                let r = p.float("radius")?.unwrap_or(1.0);
-                format!("Sphere(center: {}, radius: {})", v3(c), num(r))
-            }
-            "cylinder" => {
-                let p0 = p.vector("p0")?.unwrap_or([0.0; 3]);
-                let p1 = p.vector("p1")?.unwrap_or([0.0, 0.0, 1.0]);
-                let r = p.float("radius")?.unwrap_or(1.0);
-                format!("Cylinder(p0: {}, p1: {}, radius: {})", v3(p0), v3(p1), num(r))
-            }
+            "rectangle" => ShapeDesc::Rectangle,
+            "cube" => ShapeDesc::Box {
+                min: [-1.0; 3],
+                max: [1.0; 3],
+            },
+            "disk" => ShapeDesc::Disk,
+            "sphere" => ShapeDesc::Sphere {
+                center: p.vector("center")?.unwrap_or([0.0; 3]),
+                radius: p.float("radius")?.unwrap_or(1.0),
+            },
+            "cylinder" => ShapeDesc::Cylinder {
+                p0: p.vector("p0")?.unwrap_or([0.0; 3]),
+                p1: p.vector("p1")?.unwrap_or([0.0, 0.0, 1.0]),
+                radius: p.float("radius")?.unwrap_or(1.0),
+            },
             other => {
                 return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, serialized, rectangle, cube, disk, sphere, cylinder are)")))
             }
@@ -204,7 +200,10 @@ impl<'a, 'input> Converter<'a, 'input> {
                     let mut e = self.props(child)?;
                     let radiance = e.emission("radiance")?.ok_or_else(|| at(self.doc, child, "<emitter type=\"area\"> needs a constant `radiance` (a texture is not supported)"))?;
                     e.finish(&[])?;
-                    emitter = Some(format!("Area(radiance: {})", v3(radiance)));
+                    emitter = Some(EmitterDesc::Area {
+                        radiance,
+                        two_sided: false,
+                    });
                 }
                 tag => {
                     return Err(at(
@@ -228,8 +227,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                     while self.materials.iter().any(|(n, _)| *n == name) {
                         name.push('\'');
                     }
-                    self.materials
-                        .push((name.clone(), "Lambert(albedo: 0.5)".into()));
+                    self.materials.push((name.clone(), bsdf::default_bsdf()));
                     self.report.push(format!(
                         "{name}: Mitsuba's default BSDF (diffuse 0.5), for shapes without one; \
                          two-sided in raylab"
@@ -255,49 +253,58 @@ impl<'a, 'input> Converter<'a, 'input> {
             attr(&self.params, self.doc, node, "id")?.unwrap_or_else(|| format!("{kind} #{index}"));
         let mut p = self.props(node)?;
         let to_world = p.transform("to_world")?;
-        let placed = |m: Option<Affine3A>| {
-            m.map(|m| format!(", transform: {}", matrix(&m)))
-                .unwrap_or_default()
-        };
-        let entity = match kind.as_str() {
+        let transform = to_world.as_ref().map(placed).unwrap_or_default();
+        let (emitter, transform) = match kind.as_str() {
             "constant" => {
                 let r = p.emission("radiance")?.unwrap_or([1.0; 3]);
-                if self.environment.replace(v3(r)).is_some() {
+                if self.environment.replace(r).is_some() {
                     return Err(at(self.doc, node, "a second environment emitter: raylab's scene has one"));
                 }
-                None
+                p.finish(&[])?;
+                return Ok(());
             }
             "envmap" => {
-                let file = self.file_name(p.string("filename")?.ok_or_else(|| at(self.doc, node, "<emitter type=\"envmap\"> needs `filename`"))?);
+                let path = self.file_name(p.string("filename")?.ok_or_else(|| at(self.doc, node, "<emitter type=\"envmap\"> needs `filename`"))?);
                 let scale = p.float("scale")?.unwrap_or(1.0);
-                Some(format!("emitter: Environment(path: {}, scale: {}){}", quote(&file), num(scale), placed(to_world)))
+                (EmitterDesc::Environment { path, scale, mapping: None }, transform)
             }
             "point" => {
-                let i = p.emission("intensity")?.unwrap_or([1.0; 3]);
+                let intensity = p.emission("intensity")?.unwrap_or([1.0; 3]);
                 let m = match p.vector("position")? {
                     Some(pos) => Affine3A::from_translation(pos.into()),
                     None => to_world.unwrap_or(Affine3A::IDENTITY),
                 };
-                Some(format!("emitter: Point(intensity: {}), transform: {}", v3(i), matrix(&m)))
+                (EmitterDesc::Point { intensity }, placed(&m))
             }
             "spot" => {
-                let i = p.emission("intensity")?.unwrap_or([1.0; 3]);
-                let cutoff = p.float("cutoff_angle")?.unwrap_or(20.0);
-                let beam = p.float("beam_width")?.unwrap_or(cutoff * 0.75);
-                Some(format!("emitter: Spot(intensity: {}, cutoff_angle: {}, beam_width: {}){}", v3(i), num(cutoff), num(beam), placed(to_world)))
+                let intensity = p.emission("intensity")?.unwrap_or([1.0; 3]);
+                let cutoff_angle = p.float("cutoff_angle")?.unwrap_or(20.0);
+                let beam = p.float("beam_width")?.unwrap_or(cutoff_angle * 0.75);
+                let spot = EmitterDesc::Spot {
+                    intensity,
+                    look_at: None,
+                    cutoff_angle,
+                    beam_width: Some(beam),
+                    falloff: None,
+                };
+                (spot, transform)
             }
             "directional" => {
-                let e = p.emission("irradiance")?.unwrap_or([1.0; 3]);
-                let d = p.vector("direction")?.unwrap_or([0.0, 0.0, 1.0]);
-                Some(format!("emitter: Directional(direction: {}, irradiance: {}){}", v3(d), v3(e), placed(to_world)))
+                let irradiance = p.emission("irradiance")?.unwrap_or([1.0; 3]);
+                let direction = p.vector("direction")?.unwrap_or([0.0, 0.0, 1.0]);
+                (EmitterDesc::Directional { direction, irradiance }, transform)
             }
             other => return Err(at(self.doc, node, format!("emitter `{other}` is not supported (area, point, spot, directional, constant, envmap are)"))),
         };
         p.finish(&[])?;
-        if let Some(e) = entity {
-            self.entities
-                .push(format!("(name: {}, {e}),", quote(&name)));
-        }
+        self.entities.push(EntityDesc {
+            name: Some(name),
+            transform,
+            shape: None,
+            material: None,
+            emitter: Some(emitter),
+            flip_normals: false,
+        });
         Ok(())
     }
 }

@@ -32,7 +32,7 @@ proptest! {
             format!("{}{token}{}", &CORNELL[..start], &CORNELL[end..])
         };
         if let Ok(imported) = to_ron(&text, &[]) {
-            let _ = crate::scene::parse_scene(&imported.ron, std::path::Path::new("mangled.xml"));
+            let _ = crate::scene::parse_scene(&imported.ron(), std::path::Path::new("mangled.xml"));
         }
     }
 }
@@ -43,15 +43,16 @@ fn the_ron_names_what_the_xml_names() {
     for needle in [
         "\"white\": Lambert(albedo: (0.885809, 0.698859, 0.666422))",
         "(name: \"small-box\", transform: (matrix: [",
-        "shape: Box(min: (-1, -1, -1), max: (1, 1, 1)), material: \"white\"",
-        "emitter: Area(radiance: (18.387, 13.9873, 6.75357))",
-        "filter: \"gaussian\", spp: 9",
-        "\"max-depth\": 7",
+        "shape: Box(min: (-1.0, -1.0, -1.0), max: (1.0, 1.0, 1.0)), material: \"white\"",
+        "emitter: Area(radiance: (18.387, 13.9873, 6.75357), two_sided: false)",
+        "spp: 9,",
+        "filter: \"gaussian\"",
+        "\"max-depth\": 7.0",
     ] {
         assert!(
-            imported.ron.contains(needle),
+            imported.ron().contains(needle),
             "no {needle} in\n{}",
-            imported.ron
+            imported.ron()
         );
     }
 }
