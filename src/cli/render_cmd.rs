@@ -427,9 +427,12 @@ pub fn import(
     let loaded = scene::load::load_imported(&imported, &files, options)?;
     let mut plan = render::scene_inputs(&loaded.inputs)?;
     plan.output("the RON scene", output)?.check()?;
+    let ron = imported
+        .ron()
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     crate::output::atomic::write_atomic(output, |f| {
         use std::io::Write as _;
-        f.write_all(imported.ron().as_bytes())
+        f.write_all(ron.as_bytes())
             .with_context(|| format!("{}: cannot write (is the disk full?)", output.display()))
     })?;
     note!("{}: wrote {}", path.display(), output.display());

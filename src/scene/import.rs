@@ -1,9 +1,9 @@
 //! What the importers of other renderers' scenes share: how they are asked (`-D`,
-//! `--approximate`), what they give back, and the RON text they write.
+//! `--approximate`), what they give back (the scene's description), and how `raylab import`
+//! writes it as RON.
 
 use super::schema::{SceneFile, TransformDesc};
 use glam::Affine3A;
-use std::fmt::Write as _;
 
 /// How a scene of another format is read.
 #[derive(Clone, Debug, Default)]
@@ -66,7 +66,7 @@ pub struct Imported {
 
 impl Imported {
     /// The scene as RON text (what `raylab import` writes).
-    pub fn ron(&self) -> String {
+    pub fn ron(&self) -> Result<String, String> {
         write_ron(&self.scene, &self.header)
     }
 }
@@ -128,95 +128,15 @@ impl Origins {
     }
 }
 
-/// A number as RON reads it back exactly.
-pub fn num(v: f32) -> String {
-    format!("{v:?}")
-}
-
-/// A 3-vector as RON: `(x, y, z)`.
-pub fn v3(v: [f32; 3]) -> String {
-    format!("({}, {}, {})", num(v[0]), num(v[1]), num(v[2]))
-}
-
-/// A RON string literal.
-pub fn quote(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            c if c.is_control() => {
-                let _ = write!(out, "\\u{{{:x}}}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
-/// The matrix as RON's `transform: (matrix: [...])`, row by row.
-pub fn matrix(m: &Affine3A) -> String {
-    let rows: Vec<String> = (0..3)
-        .flat_map(|r| {
-            let row = m.matrix3.row(r);
-            [row.x, row.y, row.z, m.translation[r]]
-        })
-        .map(num)
-        .collect();
-    format!("(matrix: [{}])", rows.join(", "))
-}
-
 /// A scene description as RON text that reads back as the same description: one material,
 /// mesh and entity per line, under a `//` comment line `header`.
-pub fn write_ron(file: &super::schema::SceneFile, header: &str) -> String {
+pub fn write_ron(file: &super::schema::SceneFile, header: &str) -> Result<String, String> {
     let config = ron::ser::PrettyConfig::new()
         .depth_limit(2)
         .indentor("    ")
         .new_line("\n")
         .extensions(ron::extensions::Extensions::IMPLICIT_SOME);
     let body = ron::ser::to_string_pretty(file, config)
-        .unwrap_or_else(|e| format!("// the scene cannot be written as RON: {e}\n"));
-    format!("// {}\n{body}\n", header.replace('\n', " "))
-}
-
-/// The parts of an imported scene, written out as one RON scene by [`RonScene::write`].
-pub struct RonScene<'a> {
-    /// The comment line that says where the scene came from.
-    pub header: String,
-    pub camera: &'a str,
-    /// The inside of `render: (...)`.
-    pub render: &'a str,
-    pub environment: Option<String>,
-    pub materials: &'a [(String, String)],
-    pub meshes: &'a [(String, String)],
-    pub entities: &'a [String],
-}
-
-impl RonScene<'_> {
-    /// The scene as RON text, one material, mesh and entity per line.
-    pub fn write(&self) -> String {
-        let mut ron = format!("// {}\n(\n    camera: {},\n", self.header, self.camera);
-        let _ = writeln!(ron, "    render: ({}),", self.render);
-        if let Some(env) = &self.environment {
-            let _ = writeln!(ron, "    environment: {env},");
-        }
-        for (field, table) in [("materials", self.materials), ("meshes", self.meshes)] {
-            if field == "meshes" && table.is_empty() {
-                continue;
-            }
-            let _ = writeln!(ron, "    {field}: {{");
-            for (name, desc) in table {
-                let _ = writeln!(ron, "        {}: {desc},", quote(name));
-            }
-            ron.push_str("    },\n");
-        }
-        ron.push_str("    entities: [\n");
-        for e in self.entities {
-            let _ = writeln!(ron, "        {e}");
-        }
-        ron.push_str("    ],\n)\n");
-        ron
-    }
+        .map_err(|e| format!("the scene cannot be written as RON: {e}"))?;
+    Ok(format!("// {}\n{body}\n", header.replace('\n', " ")))
 }

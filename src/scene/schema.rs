@@ -315,6 +315,67 @@ pub enum MaterialDesc {
     },
 }
 
+impl MaterialDesc {
+    /// Whether any of its parameters is a texture (a normal or bump map always is).
+    pub fn is_textured(&self) -> bool {
+        use MaterialDesc::*;
+        let c = |c: &ColorDesc| matches!(c, ColorDesc::Texture(_));
+        let f = |f: &FloatDesc| matches!(f, FloatDesc::Texture(_));
+        let any = |a: [&Option<FloatDesc>; 3]| a.iter().any(|a| a.as_ref().is_some_and(f));
+        match self {
+            Lambert { albedo } | OrenNayar { albedo, .. } => c(albedo),
+            Phong { kd, ks, .. } => c(kd) || c(ks),
+            Mirror { .. } | Glass { .. } => false,
+            Dielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            }
+            | ThinDielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => c(specular_reflectance) || c(specular_transmittance),
+            RoughDielectric {
+                specular_reflectance,
+                specular_transmittance,
+                alpha,
+                alpha_u,
+                alpha_v,
+                ..
+            } => {
+                c(specular_reflectance)
+                    || c(specular_transmittance)
+                    || any([alpha, alpha_u, alpha_v])
+            }
+            Conductor {
+                specular_reflectance,
+                ..
+            } => c(specular_reflectance),
+            RoughConductor {
+                specular_reflectance,
+                alpha,
+                alpha_u,
+                alpha_v,
+                ..
+            } => c(specular_reflectance) || any([alpha, alpha_u, alpha_v]),
+            Plastic {
+                diffuse_reflectance,
+                specular_reflectance,
+                ..
+            } => c(diffuse_reflectance) || c(specular_reflectance),
+            RoughPlastic {
+                diffuse_reflectance,
+                specular_reflectance,
+                alpha,
+                ..
+            } => c(diffuse_reflectance) || c(specular_reflectance) || f(alpha),
+            TwoSided(inner) => inner.is_textured(),
+            NormalMap { .. } | BumpMap { .. } => true,
+        }
+    }
+}
+
 /// An index of refraction: a number, or a name from the table of dielectrics.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ior(pub f32);

@@ -469,7 +469,7 @@ fn scene_descriptions_round_trip_through_ron() {
         }
         let text = std::fs::read_to_string(&path).expect("read");
         let file = super::load::parse_scene_file(&text, &path).expect("parses");
-        let written = super::import::write_ron(&file, "round trip");
+        let written = super::import::write_ron(&file, "round trip").unwrap();
         let again = super::load::parse_scene_file(&written, &path)
             .unwrap_or_else(|e| panic!("{}: {e}\n{written}", path.display()));
         assert_eq!(file, again, "{}\n{written}", path.display());
@@ -494,7 +494,7 @@ fn imported_scenes_round_trip_through_ron() {
             let imported = super::load::import_scene(&files, &Default::default())
                 .expect("imports")
                 .expect("another format");
-            let written = imported.ron();
+            let written = imported.ron().unwrap();
             let again = super::load::parse_scene_file(&written, &path)
                 .unwrap_or_else(|e| panic!("{}: {e}\n{written}", path.display()));
             assert_eq!(imported.scene, again, "{}\n{written}", path.display());

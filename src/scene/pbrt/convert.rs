@@ -1,15 +1,19 @@
-//! pbrt-v4's directives, one by one, as raylab's RON: the graphics state (transform,
-//! orientation, material, area light), the scene-wide settings, and the shapes and lights.
+//! pbrt-v4's directives, one by one, as raylab's scene description: the graphics state
+//! (transform, orientation, material, area light), the scene-wide settings, and the shapes and
+//! lights.
 
 use super::directives::{Directive, Parser};
 use super::materials::{self, Notes, Textures};
 use super::params::{Colour, Located, ParamList};
 use super::tokens::{Pos, Tokens};
 use crate::scene::access::SceneFiles;
-use crate::scene::import::{matrix, num, quote, v3, ImportOptions, Imported, RonScene};
+use crate::scene::import::{placed, ImportOptions, Imported};
+use crate::scene::schema::{
+    CameraDesc, ColorDesc, EmitterDesc, EntityDesc, FloatDesc, MaterialDesc, NamedTable,
+    RenderDesc, SceneFile, ShapeDesc, TransformDesc,
+};
 use glam::{Affine3A, DMat4, DVec3, DVec4};
 use std::collections::HashMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 mod lights;
@@ -36,8 +40,8 @@ const MAX_INCLUDES: usize = 10_000;
 struct State {
     ctm: DMat4,
     reverse: bool,
-    /// The current material: a RON description (`Material`) or a material's RON name
-    /// (`NamedMaterial`); `None` is `interface` (no surface).
+    /// The current material: a description (`Material`) or the name of a material of the
+    /// table (`NamedMaterial`); `None` is `interface` (no surface).
     material: Current,
     /// `AreaLightSource diffuse`: (radiance, two-sided, its place).
     area: Option<([f64; 3], bool, Option<f64>, Pos)>,
@@ -47,14 +51,17 @@ struct State {
 
 #[derive(Clone)]
 enum Current {
-    Desc { ron: Option<String>, kind: String },
+    Desc {
+        desc: Option<Box<MaterialDesc>>,
+        kind: String,
+    },
     Named(String),
 }
 
 /// A shape of an object definition, placed again by each `ObjectInstance`.
 struct ObjectShape {
-    /// A RON shape that is a triangle mesh (for the `meshes` table), or any other shape.
-    shape: String,
+    /// A shape that is a triangle mesh (for the `meshes` table), or any other shape.
+    shape: ShapeDesc,
     is_mesh: bool,
     material: String,
     /// Its transform inside the definition.
@@ -95,20 +102,21 @@ struct Converter<'a> {
     film: (i64, i64, Option<[f64; 4]>),
     filter: String,
     spp: i64,
-    integrator: Option<String>,
-    materials: Vec<(String, String)>,
-    /// The materials' RON by name, and the first name of each RON (anonymous materials that
-    /// are alike share one).
-    material_rons: HashMap<String, String>,
-    material_by_ron: HashMap<String, String>,
+    /// The integrator's name and its `max-depth`.
+    integrator: Option<(&'static str, f64)>,
+    materials: Vec<(String, MaterialDesc)>,
+    /// The materials by name, and the first name of each description (anonymous materials
+    /// that are alike share one).
+    material_descs: HashMap<String, MaterialDesc>,
+    material_by_desc: HashMap<String, String>,
     named_materials: HashMap<String, String>,
     textures: Textures,
-    meshes: Vec<(String, String)>,
+    meshes: Vec<(String, ShapeDesc)>,
     mesh_names: std::collections::HashSet<String>,
     objects: HashMap<String, Vec<ObjectShape>>,
     /// The object being defined: its name and shapes so far.
     defining: Option<(String, Vec<ObjectShape>, Pos)>,
-    entities: Vec<String>,
+    entities: Vec<EntityDesc>,
     environment: Option<[f64; 3]>,
     report: Vec<String>,
     approximated: Vec<String>,
@@ -443,27 +451,30 @@ impl<'a> Converter<'a> {
                 let name = d.strings[0].clone();
                 let mut p = self.params(&mut d)?;
                 let kind = p.string("type")?.ok_or_else(|| (d.pos, format!("MakeNamedMaterial \"{name}\" needs \"string type\"")))?;
-                let ron = self.material(&kind, &mut p)?;
-                let ron = ron.ok_or_else(|| (d.pos, format!("MakeNamedMaterial \"{name}\": `interface` as a named material is not supported")))?;
+                let desc = self.material(&kind, &mut p)?;
+                let desc = desc.ok_or_else(|| (d.pos, format!("MakeNamedMaterial \"{name}\": `interface` as a named material is not supported")))?;
                 if self.named_materials.contains_key(&name) {
                     return Err((d.pos, format!("MakeNamedMaterial: \"{name}\" is defined twice")));
                 }
-                let ron_name = self.add_material(&name, ron);
-                self.named_materials.insert(name, ron_name);
+                let table_name = self.add_material(&name, desc);
+                self.named_materials.insert(name, table_name);
             }
             "NamedMaterial" => {
                 let name = &d.strings[0];
-                let ron = self.named_materials.get(name).cloned().ok_or_else(|| {
+                let table_name = self.named_materials.get(name).cloned().ok_or_else(|| {
                     (d.pos, format!("NamedMaterial: no material is named \"{name}\" (MakeNamedMaterial must come before)"))
                 })?;
-                self.state.material = Current::Named(ron);
+                self.state.material = Current::Named(table_name);
             }
             "Material" => {
                 world_only(self, &d)?;
                 let kind = d.strings[0].clone();
                 let mut p = self.params(&mut d)?;
-                let ron = self.material(&kind, &mut p)?;
-                self.state.material = Current::Desc { ron, kind };
+                let desc = self.material(&kind, &mut p)?;
+                self.state.material = Current::Desc {
+                    desc: desc.map(Box::new),
+                    kind,
+                };
             }
             "Texture" => {
                 world_only(self, &d)?;
@@ -534,7 +545,9 @@ pub fn to_ron(
             ctm: DMat4::IDENTITY,
             reverse: false,
             material: Current::Desc {
-                ron: Some("Lambert(albedo: 0.5)".into()),
+                desc: Some(Box::new(MaterialDesc::Lambert {
+                    albedo: ColorDesc::Constant([0.5; 3]),
+                })),
                 kind: "diffuse".into(),
             },
             area: None,
@@ -550,8 +563,8 @@ pub fn to_ron(
         spp: 16,
         integrator: None,
         materials: Vec::new(),
-        material_rons: HashMap::new(),
-        material_by_ron: HashMap::new(),
+        material_descs: HashMap::new(),
+        material_by_desc: HashMap::new(),
         named_materials: HashMap::new(),
         textures: Textures::default(),
         meshes: Vec::new(),
@@ -589,40 +602,35 @@ pub fn to_ron(
         if c.entities.is_empty() && c.environment.is_none() {
             return Err((root, "the scene has no shapes or lights".into()));
         }
-        c.camera_ron(root)
+        c.camera_desc(root)
     });
-    let (camera, _, _) = result.map_err(|e| located(&c, e))?;
+    let camera = result.map_err(|e| located(&c, e))?;
     if c.camera.is_none() {
         c.report.push("Camera: none given; pbrt-v4's default, a perspective camera of fov 90 at the origin looking along +z".into());
     }
-    let integrator = c
-        .integrator
-        .clone()
-        .unwrap_or_else(|| "integrator: \"path\", params: {\"max-depth\": 5}".into());
+    let (integrator, depth) = c.integrator.unwrap_or(("path", 5.0));
     let header = format!(
         "Imported by raylab from a pbrt-v4 scene ({}).",
         path.file_name()
             .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
     );
-    let ron = RonScene {
-        header: header.clone(),
-        camera: &camera,
-        render: &format!("{integrator}, spp: {}, filter: {}", c.spp, quote(&c.filter)),
-        environment: c.environment.map(|env| v3(env.map(|x| x as f32))),
-        materials: &c.materials,
-        meshes: &c.meshes,
-        entities: &c.entities,
-    }
-    .write();
-    // The parts are RON text still: read into the scene description here.
-    let scene = crate::scene::load::parse_scene_file(&ron, path).map_err(|e| {
-        (
-            path.to_path_buf(),
-            1,
-            1,
-            format!("{e} (in the RON scene raylab made of it: see `raylab import`)"),
-        )
-    })?;
+    let filter = c.filter.parse().map_err(|e| located(&c, (root, e)))?;
+    let spp = u32::try_from(c.spp)
+        .map_err(|_| located(&c, (root, "the sample count must be 1 to 2^24".into())))?;
+    let scene = SceneFile {
+        camera,
+        render: RenderDesc {
+            integrator: integrator.to_string(),
+            spp,
+            params: [("max-depth".to_string(), depth)].into_iter().collect(),
+            filter,
+            ..RenderDesc::default()
+        },
+        materials: NamedTable(c.materials),
+        meshes: NamedTable(c.meshes),
+        environment: c.environment.map(|env| env.map(|x| x as f32)),
+        entities: c.entities,
+    };
     Ok(Imported {
         scene,
         header,

@@ -1,8 +1,9 @@
-//! pbrt-v4's materials and textures as raylab's RON materials and colours.
+//! pbrt-v4's materials and textures as raylab's materials and colours.
 
 use super::params::{Colour, Located, ParamList};
 use super::tokens::Pos;
-use crate::scene::import::{num, quote, v3};
+use crate::scene::schema::{self, ColorDesc, FloatDesc, Ior, MaterialDesc, Metal};
+use raylab_integrators::bsdf::Distribution;
 use std::collections::HashMap;
 
 /// What the conversion notes: a changed convention (report) or an approximation (report and
@@ -13,12 +14,24 @@ pub trait Notes {
     fn approximate(&mut self, pos: Pos, what: String) -> Result<(), Located>;
 }
 
-/// The named textures: RON colours (spectrum textures) and RON numbers or textures (float
+/// The named textures: colours (spectrum textures) and numbers or textures (float
 /// textures), by name.
 #[derive(Default)]
 pub struct Textures {
-    pub spectrum: HashMap<String, String>,
-    pub float: HashMap<String, String>,
+    pub spectrum: HashMap<String, ColorDesc>,
+    pub float: HashMap<String, FloatDesc>,
+}
+
+/// A rough model's roughness: pbrt-v4's is GGX's, isotropic or not.
+pub struct Roughness {
+    pub alpha: Option<FloatDesc>,
+    pub alpha_u: Option<FloatDesc>,
+    pub alpha_v: Option<FloatDesc>,
+}
+
+/// A colour of three equal parts.
+fn grey(x: f32) -> ColorDesc {
+    ColorDesc::Constant([x; 3])
 }
 
 /// pbrt-v4's named glasses by their refractive index at the sodium d-line (587.6 nm), which
@@ -36,21 +49,21 @@ const GLASSES: [(&str, f32); 7] = [
 /// pbrt-v4's named metals (`metal-Cu-eta` / `metal-Cu-k`) that raylab's metal table has.
 const METALS: [&str; 5] = ["Ag", "Al", "Au", "Cu", "MgO"];
 
-/// A colour as RON: a constant or a texture of `textures`.
+/// A colour: a constant or a texture of `textures`.
 pub fn colour(
     c: &Colour,
     pos: Pos,
     what: &str,
     textures: &Textures,
     notes: &mut dyn Notes,
-) -> Result<String, Located> {
+) -> Result<ColorDesc, Located> {
     Ok(match c {
-        Colour::Rgb(rgb) => v3(rgb.map(|x| x as f32)),
+        Colour::Rgb(rgb) => ColorDesc::Constant(rgb.map(|x| x as f32)),
         Colour::Texture(name) => textures.spectrum.get(name).cloned().ok_or_else(|| {
             (pos, format!("{what}: no spectrum texture is named \"{name}\" (textures must be defined before they are used)"))
         })?,
         Colour::Sampled(pairs) if pairs.iter().all(|p| p.1 == pairs[0].1) => {
-            num(pairs[0].1 as f32)
+            grey(pairs[0].1 as f32)
         }
         Colour::Sampled(pairs) => {
             let rgb = crate::scene::spectra::to_srgb(pairs, crate::scene::spectra::Use::Reflectance)
@@ -59,31 +72,32 @@ pub fn colour(
                 pos,
                 format!("{what}: a spectrum by wavelength, rendered as its RGB under D65 ({:.4}, {:.4}, {:.4}; pbrt-v4 renders it spectrally)", rgb[0], rgb[1], rgb[2]),
             )?;
-            v3(rgb.map(|x| x as f32))
+            ColorDesc::Constant(rgb.map(|x| x as f32))
         }
         Colour::Named(name) => {
             return Err((pos, format!("{what}: the named spectrum \"{name}\" is not a colour raylab has")))
         }
         Colour::Blackbody(t) => {
             notes.approximate(pos, format!("{what}: a blackbody of {t} K, replaced by white (raylab has no blackbody spectra yet)"))?;
-            "1.0".into()
+            grey(1.0)
         }
     })
 }
 
-/// A roughness parameter (`roughness`, `uroughness`, `vroughness`) as an alpha in RON, remapped
-/// by pbrt-v4's `RoughnessToAlpha` (the square root) when `remap`.
+/// A roughness parameter (`roughness`, `uroughness`, `vroughness`) as an alpha, remapped by
+/// pbrt-v4's `RoughnessToAlpha` (the square root) when `remap`; with the constant's value
+/// (1 for a texture).
 fn alpha(
     p: &mut ParamList,
     name: &str,
     remap: bool,
     textures: &Textures,
-) -> Result<Option<(String, f64)>, Located> {
+) -> Result<Option<(FloatDesc, f64)>, Located> {
     match p.float_or_texture(name)? {
         None => Ok(None),
         Some((Colour::Rgb(v), _)) => {
             let a = if remap { v[0].max(0.0).sqrt() } else { v[0] };
-            Ok(Some((num(a as f32), a)))
+            Ok(Some((FloatDesc::Constant(a as f32), a)))
         }
         Some((Colour::Texture(t), pos)) => {
             if remap {
@@ -104,8 +118,8 @@ fn alpha(
     }
 }
 
-/// The `alpha`, or `alpha_u` and `alpha_v`, fields of a rough material; `None` when smooth.
-fn roughness(p: &mut ParamList, textures: &Textures) -> Result<Option<String>, Located> {
+/// The `alpha`, or `alpha_u` and `alpha_v`, of a rough material; `None` when smooth.
+fn roughness(p: &mut ParamList, textures: &Textures) -> Result<Option<Roughness>, Located> {
     let remap = p.boolean("remaproughness")?.unwrap_or(true);
     let r = alpha(p, "roughness", remap, textures)?;
     let u = alpha(p, "uroughness", remap, textures)?;
@@ -116,7 +130,7 @@ fn roughness(p: &mut ParamList, textures: &Textures) -> Result<Option<String>, L
             Some(r) => (r.clone(), r),
         },
         (u, v) => {
-            let r = r.unwrap_or(("0.0".into(), 0.0));
+            let r = r.unwrap_or((FloatDesc::Constant(0.0), 0.0));
             (u.unwrap_or_else(|| r.clone()), v.unwrap_or(r))
         }
     };
@@ -124,21 +138,29 @@ fn roughness(p: &mut ParamList, textures: &Textures) -> Result<Option<String>, L
         return Ok(None);
     }
     Ok(Some(if u.0 == v.0 {
-        format!("distribution: \"ggx\", alpha: {}", u.0)
+        Roughness {
+            alpha: Some(u.0),
+            alpha_u: None,
+            alpha_v: None,
+        }
     } else {
-        format!("distribution: \"ggx\", alpha_u: {}, alpha_v: {}", u.0, v.0)
+        Roughness {
+            alpha: None,
+            alpha_u: Some(u.0),
+            alpha_v: Some(v.0),
+        }
     }))
 }
 
-/// A dielectric's `eta` as a RON IOR.
-fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<String, Located> {
+/// A dielectric's `eta`.
+fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<Ior, Located> {
     match p.colour("eta")? {
-        None => Ok("1.5".into()),
+        None => Ok(Ior(1.5)),
         Some((Colour::Rgb(v), pos)) => {
             if v[0] != v[1] || v[1] != v[2] {
                 return Err((pos, format!("{}: `eta` must be one number", p.what)));
             }
-            Ok(num(v[0] as f32))
+            Ok(Ior(v[0] as f32))
         }
         Some((Colour::Named(name), pos)) => {
             let (_, ior) = GLASSES.iter().find(|g| g.0 == name).ok_or_else(|| {
@@ -152,7 +174,7 @@ fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<String, Located> {
                 )
             })?;
             notes.approximate(pos, format!("{}: \"{name}\" disperses light in pbrt-v4; raylab uses its index {ior} at 587.6 nm for every colour", p.what))?;
-            Ok(num(*ior))
+            Ok(Ior(*ior))
         }
         Some((Colour::Sampled(pairs), pos)) => {
             let i = pairs
@@ -166,7 +188,7 @@ fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<String, Located> {
                     p.what
                 ),
             )?;
-            Ok(num(i as f32))
+            Ok(Ior(i as f32))
         }
         Some((_, pos)) => Err((
             pos,
@@ -175,25 +197,27 @@ fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<String, Located> {
     }
 }
 
-/// The RON of a pbrt-v4 material of `kind` with parameters `p` (its `type` already read);
-/// `None` for `interface` (no surface).
+/// A pbrt-v4 material of `kind` with parameters `p` (its `type` already read); `None` for
+/// `interface` (no surface).
 pub fn material(
     kind: &str,
     p: &mut ParamList,
     textures: &Textures,
     notes: &mut dyn Notes,
-) -> Result<Option<String>, Located> {
+) -> Result<Option<MaterialDesc>, Located> {
     let what = p.what.clone();
     let at = p.at;
-    let col =
-        |p: &mut ParamList, name: &str, notes: &mut dyn Notes| -> Result<Option<String>, Located> {
-            match p.colour(name)? {
-                None => Ok(None),
-                Some((c, pos)) => {
-                    colour(&c, pos, &format!("{what}: `{name}`"), textures, notes).map(Some)
-                }
+    let col = |p: &mut ParamList,
+               name: &str,
+               notes: &mut dyn Notes|
+     -> Result<Option<ColorDesc>, Located> {
+        match p.colour(name)? {
+            None => Ok(None),
+            Some((c, pos)) => {
+                colour(&c, pos, &format!("{what}: `{name}`"), textures, notes).map(Some)
             }
-        };
+        }
+    };
     for name in ["displacement", "normalmap"] {
         if let Some(pos) = p.present(name) {
             notes.approximate(pos, format!("{what}: `{name}` ignored (raylab's bump and normal maps follow Mitsuba's conventions; pbrt-v4's are not mapped yet)"))?;
@@ -201,12 +225,11 @@ pub fn material(
         }
     }
     let out = match kind {
-        "diffuse" => {
-            let albedo = col(p, "reflectance", notes)?.unwrap_or_else(|| "0.5".into());
-            format!("Lambert(albedo: {albedo})")
-        }
+        "diffuse" => MaterialDesc::Lambert {
+            albedo: col(p, "reflectance", notes)?.unwrap_or_else(|| grey(0.5)),
+        },
         "coateddiffuse" => {
-            let diffuse = col(p, "reflectance", notes)?.unwrap_or_else(|| "0.5".into());
+            let diffuse = col(p, "reflectance", notes)?.unwrap_or_else(|| grey(0.5));
             let ior = eta(p, notes)?;
             let rough = roughness(p, textures)?;
             if let Some((c, pos)) = p.colour("albedo")? {
@@ -216,10 +239,25 @@ pub fn material(
             }
             p.ignore(&["thickness", "g", "maxdepth", "nsamples", "seed"]);
             notes.report(format!("{what}: pbrt-v4's coateddiffuse (a stochastic layered BSDF) as raylab's plastic, Mitsuba's model of a diffuse base under a dielectric coating (nonlinear, with internal reflections): the nearest raylab has"));
-            let fields = format!("diffuse_reflectance: {diffuse}, int_ior: {ior}, ext_ior: 1.0, nonlinear: true");
             match rough {
-                None => format!("Plastic({fields})"),
-                Some(r) if !r.contains("alpha_u") => format!("RoughPlastic({fields}, {r})"),
+                None => MaterialDesc::Plastic {
+                    diffuse_reflectance: diffuse,
+                    specular_reflectance: schema::white_colour(),
+                    int_ior: ior,
+                    ext_ior: Ior(1.0),
+                    nonlinear: true,
+                },
+                Some(Roughness {
+                    alpha: Some(alpha), ..
+                }) => MaterialDesc::RoughPlastic {
+                    diffuse_reflectance: diffuse,
+                    specular_reflectance: schema::white_colour(),
+                    int_ior: ior,
+                    ext_ior: Ior(1.0),
+                    nonlinear: true,
+                    distribution: Distribution::Ggx,
+                    alpha,
+                },
                 Some(_) => return Err((at, format!("{what}: an anisotropic rough coating is not supported (raylab's rough plastic is isotropic)"))),
             }
         }
@@ -233,7 +271,7 @@ pub fn material(
                         let r = r.clamp(0.0, 0.9999);
                         (2.0 * r.sqrt() / (1.0 - r).sqrt()) as f32
                     });
-                    format!("eta: (1.0, 1.0, 1.0), k: {}", v3(k))
+                    (None, Some([1.0; 3]), Some(k))
                 }
                 (None, None, Some((_, pos))) => return Err((pos, format!("{what}: `reflectance` must be an rgb constant"))),
                 (eta, k, None) => {
@@ -251,14 +289,15 @@ pub fn material(
                     match (named(&eta, "eta")?, named(&k, "k")?) {
                         (Some(a), Some(b)) if a == b => {
                             notes.report(format!("{what}: metal-{a}: raylab's RGB constants of {a} (from Mitsuba's spectral data), not pbrt-v4's spectral ones"));
-                            format!("metal: {}", quote(&a))
+                            let metal = Metal::named(&a).map_err(|e| (at, format!("{what}: {e}")))?;
+                            (Some(metal), None, None)
                         }
                         (Some(a), Some(b)) => return Err((at, format!("{what}: `eta` of {a} with `k` of {b} is not supported (give both of one metal, or both as rgb)"))),
                         _ => match (eta, k) {
-                            (Some((Colour::Rgb(e), _)), Some((Colour::Rgb(k), _))) => format!(
-                                "eta: {}, k: {}",
-                                v3(e.map(|x| x as f32)),
-                                v3(k.map(|x| x as f32))
+                            (Some((Colour::Rgb(e), _)), Some((Colour::Rgb(k), _))) => (
+                                None,
+                                Some(e.map(|x| x as f32)),
+                                Some(k.map(|x| x as f32)),
                             ),
                             _ => return Err((at, format!("{what}: `eta` and `k` must both be rgb, or both named spectra of one metal"))),
                         },
@@ -266,32 +305,70 @@ pub fn material(
                 }
                 (_, _, Some((_, pos))) => return Err((pos, format!("{what}: give `reflectance` or `eta` and `k`, not both"))),
             };
+            let (metal, eta, k) = base;
             match roughness(p, textures)? {
-                None => format!("Conductor({base})"),
-                Some(r) => format!("RoughConductor({base}, {r})"),
+                None => MaterialDesc::Conductor {
+                    metal,
+                    eta,
+                    k,
+                    specular_reflectance: schema::white_colour(),
+                },
+                Some(r) => MaterialDesc::RoughConductor {
+                    metal,
+                    eta,
+                    k,
+                    specular_reflectance: schema::white_colour(),
+                    distribution: Distribution::Ggx,
+                    alpha: r.alpha,
+                    alpha_u: r.alpha_u,
+                    alpha_v: r.alpha_v,
+                },
             }
         }
         "dielectric" | "thindielectric" => {
             let ior = eta(p, notes)?;
             let rough = if kind == "dielectric" { roughness(p, textures)? } else { None };
-            let fields = format!("int_ior: {ior}, ext_ior: 1.0");
+            let (int_ior, ext_ior) = (ior, Ior(1.0));
+            let (specular_reflectance, specular_transmittance) =
+                (schema::white_colour(), schema::white_colour());
             match (kind, rough) {
-                ("thindielectric", _) => format!("ThinDielectric({fields})"),
-                (_, None) => format!("Dielectric({fields})"),
-                (_, Some(r)) => format!("RoughDielectric({fields}, {r})"),
+                ("thindielectric", _) => MaterialDesc::ThinDielectric {
+                    int_ior,
+                    ext_ior,
+                    specular_reflectance,
+                    specular_transmittance,
+                },
+                (_, None) => MaterialDesc::Dielectric {
+                    int_ior,
+                    ext_ior,
+                    specular_reflectance,
+                    specular_transmittance,
+                },
+                (_, Some(r)) => MaterialDesc::RoughDielectric {
+                    int_ior,
+                    ext_ior,
+                    specular_reflectance,
+                    specular_transmittance,
+                    distribution: Distribution::Ggx,
+                    alpha: r.alpha,
+                    alpha_u: r.alpha_u,
+                    alpha_v: r.alpha_v,
+                },
             }
         }
         "diffusetransmission" => {
             let scale = p.float("scale")?.unwrap_or(1.0);
             let r = match p.colour("reflectance")? {
-                None => num((0.25 * scale).clamp(0.0, 1.0) as f32),
-                Some((Colour::Rgb(v), _)) => v3(v.map(|x| (x * scale).clamp(0.0, 1.0) as f32)),
+                None => grey((0.25 * scale).clamp(0.0, 1.0) as f32),
+                Some((Colour::Rgb(v), _)) => {
+                    ColorDesc::Constant(v.map(|x| (x * scale).clamp(0.0, 1.0) as f32))
+                }
                 Some((c, pos)) if scale == 1.0 => colour(&c, pos, &format!("{what}: `reflectance`"), textures, notes)?,
                 Some((_, pos)) => return Err((pos, format!("{what}: a scaled reflectance texture is not supported"))),
             };
             p.ignore(&["transmittance"]);
             notes.approximate(at, format!("{what}: raylab has no diffuse transmission; a diffuse reflector of the reflectance instead"))?;
-            format!("Lambert(albedo: {r})")
+            MaterialDesc::Lambert { albedo: r }
         }
         "interface" => return Ok(None),
         other => {

@@ -32,7 +32,7 @@ proptest! {
             format!("{}{token}{}", &CORNELL[..start], &CORNELL[end..])
         };
         if let Ok(imported) = to_ron(&text, &[]) {
-            let _ = crate::scene::parse_scene(&imported.ron(), std::path::Path::new("mangled.xml"));
+            let _ = crate::scene::parse_scene(&imported.ron().unwrap(), std::path::Path::new("mangled.xml"));
         }
     }
 }
@@ -50,9 +50,9 @@ fn the_ron_names_what_the_xml_names() {
         "\"max-depth\": 7.0",
     ] {
         assert!(
-            imported.ron().contains(needle),
+            imported.ron().unwrap().contains(needle),
             "no {needle} in\n{}",
-            imported.ron()
+            imported.ron().unwrap()
         );
     }
 }

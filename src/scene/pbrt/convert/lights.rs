@@ -1,4 +1,4 @@
-//! `LightSource` and `AreaLightSource`: pbrt-v4's lights as RON emitters.
+//! `LightSource` and `AreaLightSource`: pbrt-v4's lights as raylab's emitters.
 
 use super::*;
 
@@ -53,7 +53,8 @@ impl<'a> Converter<'a> {
         let mut p = self.params(d)?;
         let name = format!("{kind} light ({})", self.place(d.pos));
         let m = self.state.ctm;
-        let entity = match kind.as_str() {
+        let f32s = |c: [f64; 3]| c.map(|x| x as f32);
+        let (emitter, transform) = match kind.as_str() {
             "point" => {
                 let mut i = self.light_colour(&mut p, "I")?;
                 if let Some(power) = p.float("power")? {
@@ -62,11 +63,7 @@ impl<'a> Converter<'a> {
                 let from = p.point("from")?.unwrap_or([0.0; 3]);
                 let at = m * DMat4::from_translation(d3(from));
                 let a = affine(&at).ok_or_else(|| (d.pos, "a projective transform".to_string()))?;
-                format!(
-                    "emitter: Point(intensity: {}), transform: {}",
-                    v3(i.map(|x| x as f32)),
-                    matrix(&a)
-                )
+                (EmitterDesc::Point { intensity: f32s(i) }, placed(&a))
             }
             "spot" => {
                 let i = self.light_colour(&mut p, "I")?;
@@ -77,10 +74,18 @@ impl<'a> Converter<'a> {
                 // pbrt-v4's falloff: a smoothstep in the cosine over the same cone.
                 let pos = m.transform_point3(from);
                 let target = m.transform_point3(to);
-                format!(
-                    "emitter: Spot(intensity: {}, look_at: {}, cutoff_angle: {}, beam_width: {}, falloff: \"smoothstep\"), transform: (translate: {})",
-                    v3(i.map(|x| x as f32)), v3(f3(target)), num(cone as f32), num((cone - delta).max(0.0) as f32), v3(f3(pos))
-                )
+                let spot = EmitterDesc::Spot {
+                    intensity: f32s(i),
+                    look_at: Some(f3(target)),
+                    cutoff_angle: cone as f32,
+                    beam_width: Some((cone - delta).max(0.0) as f32),
+                    falloff: Some("smoothstep".into()),
+                };
+                let at = TransformDesc {
+                    translate: f3(pos),
+                    ..TransformDesc::default()
+                };
+                (spot, at)
             }
             "distant" => {
                 let mut e = self.light_colour(&mut p, "L")?;
@@ -96,11 +101,11 @@ impl<'a> Converter<'a> {
                         "LightSource \"distant\": from and to coincide".into(),
                     ));
                 }
-                format!(
-                    "emitter: Directional(direction: {}, irradiance: {})",
-                    v3(f3(dir.normalize())),
-                    v3(e.map(|x| x as f32))
-                )
+                let sun = EmitterDesc::Directional {
+                    direction: f3(dir.normalize()),
+                    irradiance: f32s(e),
+                };
+                (sun, TransformDesc::default())
             }
             "infinite" => {
                 if let Some((file, pos)) = p.string_at("filename")? {
@@ -126,10 +131,18 @@ impl<'a> Converter<'a> {
                         )
                     })?;
                     self.report(format!("{}: pbrt-v4's equal-area octahedral map resampled at load into a latitude-longitude map (its nearest pixels, 4 texels across per map pixel)", p.what));
-                    self.entities.push(format!(
-                        "(name: {}, emitter: Environment(path: {}, scale: {}, mapping: \"octahedral\"), transform: {}),",
-                        quote(&name), quote(&file), num(scale as f32), matrix(&placed)
-                    ));
+                    self.entities.push(EntityDesc {
+                        name: Some(name),
+                        transform: super::placed(&placed),
+                        shape: None,
+                        material: None,
+                        emitter: Some(EmitterDesc::Environment {
+                            path: file,
+                            scale: scale as f32,
+                            mapping: Some("octahedral".into()),
+                        }),
+                        flip_normals: false,
+                    });
                     return Ok(());
                 }
                 let mut l = self.light_colour(&mut p, "L")?;
@@ -160,8 +173,14 @@ impl<'a> Converter<'a> {
             }
         };
         p.finish()?;
-        self.entities
-            .push(format!("(name: {}, {entity}),", quote(&name)));
+        self.entities.push(EntityDesc {
+            name: Some(name),
+            transform,
+            shape: None,
+            material: None,
+            emitter: Some(emitter),
+            flip_normals: false,
+        });
         Ok(())
     }
 

@@ -242,10 +242,7 @@ impl<'a> Converter<'a> {
         p.finish()?;
         // pbrt-v4's maxdepth counts scattering events as raylab's max-depth does (1 is direct
         // light only).
-        self.integrator = Some(format!(
-            "integrator: {}, params: {{\"max-depth\": {depth}}}",
-            quote(name)
-        ));
+        self.integrator = Some((name, depth as f64));
         if kind != name {
             self.report(format!(
                 "Integrator \"{kind}\": raylab's {name} (without media the same estimate)"
@@ -256,7 +253,7 @@ impl<'a> Converter<'a> {
 
     /// The camera as raylab's image-plane camera: the eye and the corners of the (cropped)
     /// screen window at distance 1, which keeps pbrt-v4's left-handed image orientation.
-    pub(super) fn camera_ron(&self, root: Pos) -> Result<(String, i64, i64), Located> {
+    pub(super) fn camera_desc(&self, root: Pos) -> Result<CameraDesc, Located> {
         let default = CameraSpec {
             camera_from_world: DMat4::IDENTITY,
             fov: 90.0,
@@ -288,16 +285,13 @@ impl<'a> Converter<'a> {
             f3(to_world.transform_point3(DVec3::new(sx * t, sy * t, 1.0)))
         };
         let eye = f3(to_world.transform_point3(DVec3::ZERO));
-        let ron = format!(
-            "ImagePlane(eye: {}, top_left: {}, top_right: {}, bottom_left: {}, bottom_right: {}, resolution: ({}, {}))",
-            v3(eye),
-            v3(raster(px0, py0)),
-            v3(raster(px1, py0)),
-            v3(raster(px0, py1)),
-            v3(raster(px1, py1)),
-            px1 - px0,
-            py1 - py0
-        );
-        Ok((ron, (px1 - px0) as i64, (py1 - py0) as i64))
+        Ok(CameraDesc::ImagePlane {
+            eye,
+            top_left: raster(px0, py0),
+            top_right: raster(px1, py0),
+            bottom_left: raster(px0, py1),
+            bottom_right: raster(px1, py1),
+            resolution: ((px1 - px0) as u32, (py1 - py0) as u32),
+        })
     }
 }

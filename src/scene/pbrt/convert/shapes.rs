@@ -1,7 +1,8 @@
-//! `Shape` and `ObjectInstance`: pbrt-v4's shapes as RON entities, with their area lights
-//! and the areas their power divides by; inline meshes.
+//! `Shape` and `ObjectInstance`: pbrt-v4's shapes as raylab's entities, with their area
+//! lights and the areas their power divides by; inline meshes.
 
 use super::*;
+use crate::scene::schema::MeshNormals;
 
 /// What an area light's `power` needs: the area pbrt-v4 divides by. pbrt makes one light
 /// per triangle or patch, each of its own world-space area, and a quadric's light takes the
@@ -30,10 +31,10 @@ impl Area {
     }
 }
 
-/// An inline mesh as RON, with the world-space area of each of its primitives (triangles, or
+/// An inline mesh, with the world-space area of each of its primitives (triangles, or
 /// bilinear patches).
 struct Mesh {
-    ron: String,
+    shape: ShapeDesc,
     areas: Vec<f64>,
 }
 
@@ -68,8 +69,8 @@ impl<'a> Converter<'a> {
         // transform that swaps handedness; raylab's flip_normals turns it around.
         let mut flip = self.state.reverse ^ swaps;
         let textured = self
-            .current_material_ron()
-            .is_some_and(|r| r.contains("Image(") || r.contains("Checkerboard("));
+            .current_material_desc()
+            .is_some_and(MaterialDesc::is_textured);
         if textured && matches!(kind.as_str(), "sphere" | "disk" | "cylinder") {
             self.approximate(d.pos, format!("{what}: a texture on a {kind} is looked up at Mitsuba's texture coordinates of it, not pbrt-v4's"))?;
         }
@@ -82,7 +83,8 @@ impl<'a> Converter<'a> {
                 if partial {
                     return Err((d.pos, format!("{what}: a partial sphere (zmin, zmax, phimax) is not supported")));
                 }
-                (format!("Sphere(radius: {})", num(r as f32)), DMat4::IDENTITY, false, Area::Known(4.0 * std::f64::consts::PI * r * r))
+                let sphere = ShapeDesc::Sphere { center: [0.0; 3], radius: r as f32 };
+                (sphere, DMat4::IDENTITY, false, Area::Known(4.0 * std::f64::consts::PI * r * r))
             }
             "disk" => {
                 let h = p.float("height")?.unwrap_or(0.0);
@@ -91,7 +93,7 @@ impl<'a> Converter<'a> {
                     return Err((d.pos, format!("{what}: an annulus or a partial disk is not supported")));
                 }
                 let local = DMat4::from_translation(DVec3::new(0.0, 0.0, h)) * DMat4::from_scale(DVec3::new(r, r, 1.0));
-                ("Disk".to_string(), local, false, Area::Known(std::f64::consts::PI * r * r))
+                (ShapeDesc::Disk, local, false, Area::Known(std::f64::consts::PI * r * r))
             }
             "cylinder" => {
                 let r = p.float("radius")?.unwrap_or(1.0);
@@ -100,7 +102,12 @@ impl<'a> Converter<'a> {
                 if p.float("phimax")?.is_some_and(|a| a < 360.0) {
                     return Err((d.pos, format!("{what}: a partial cylinder is not supported")));
                 }
-                (format!("Cylinder(p0: (0.0, 0.0, {}), p1: (0.0, 0.0, {}), radius: {})", num(z0 as f32), num(z1 as f32), num(r as f32)), DMat4::IDENTITY, false, Area::Known(2.0 * std::f64::consts::PI * r * (z1 - z0)))
+                let cylinder = ShapeDesc::Cylinder {
+                    p0: [0.0, 0.0, z0 as f32],
+                    p1: [0.0, 0.0, z1 as f32],
+                    radius: r as f32,
+                };
+                (cylinder, DMat4::IDENTITY, false, Area::Known(2.0 * std::f64::consts::PI * r * (z1 - z0)))
             }
             "trianglemesh" | "bilinearmesh" => {
                 let frame = MeshFrame {
@@ -111,7 +118,7 @@ impl<'a> Converter<'a> {
                 let mesh = self.mesh(&kind, &mut p, &frame)?;
                 // Each triangle already faces where pbrt-v4's does.
                 flip = false;
-                (mesh.ron, DMat4::IDENTITY, true, Area::PerPrimitive(mesh.areas))
+                (mesh.shape, DMat4::IDENTITY, true, Area::PerPrimitive(mesh.areas))
             }
             "plymesh" => {
                 let file = p.string("filename")?.ok_or_else(|| (d.pos, format!("{what} needs \"string filename\"")))?;
@@ -123,7 +130,8 @@ impl<'a> Converter<'a> {
                     return Err((d.pos, format!("{what}: a PLY mesh turned around (ReverseOrientation or a mirroring transform) inside an object definition is not supported")));
                 }
                 self.report(format!("{what}: faces by its winding; pbrt-v4 faces a PLY mesh with normals towards them"));
-                (format!("Ply(path: {})", quote(&file)), DMat4::IDENTITY, true, Area::Unknown)
+                let ply = ShapeDesc::Ply { path: file, normals: MeshNormals::File };
+                (ply, DMat4::IDENTITY, true, Area::Unknown)
             }
             other => return Err((d.pos, format!("Shape \"{other}\" is not supported (sphere, disk, cylinder, trianglemesh, bilinearmesh, plymesh are)"))),
         };
@@ -159,11 +167,7 @@ impl<'a> Converter<'a> {
         }
         let a =
             affine(&placed).ok_or_else(|| (d.pos, format!("{what}: a projective transform")))?;
-        let mut entity = format!(
-            "(name: {}, shape: {shape}, material: {}",
-            quote(&name),
-            quote(&material)
-        );
+        let mut emitter = None;
         if let Some((l, two, power, pos)) = self.state.area {
             let mut l = l;
             if let Some(power) = power {
@@ -176,20 +180,24 @@ impl<'a> Converter<'a> {
                 let k = power / ((if two { 2.0 } else { 1.0 }) * area * std::f64::consts::PI);
                 l = l.map(|x| x * k);
             }
-            let _ = write!(
-                entity,
-                ", emitter: Area(radiance: {}, two_sided: {two})",
-                v3(l.map(|x| x as f32))
-            );
+            emitter = Some(EmitterDesc::Area {
+                radiance: l.map(|x| x as f32),
+                two_sided: two,
+            });
         }
-        if a != Affine3A::IDENTITY {
-            let _ = write!(entity, ", transform: {}", matrix(&a));
-        }
-        if flip {
-            entity.push_str(", flip_normals: true");
-        }
-        entity.push_str("),");
-        self.entities.push(entity);
+        let transform = if a != Affine3A::IDENTITY {
+            crate::scene::import::placed(&a)
+        } else {
+            TransformDesc::default()
+        };
+        self.entities.push(EntityDesc {
+            name: Some(name),
+            transform,
+            shape: Some(shape),
+            material: Some(material),
+            emitter,
+            flip_normals: flip,
+        });
         crate::scene::import::check_entities_made(self.entities.len(), &self.room)
             .map_err(|e| (d.pos, e))?;
         Ok(())
@@ -217,21 +225,18 @@ impl<'a> Converter<'a> {
                 if self.mesh_names.insert(mesh.clone()) {
                     new_meshes.push((mesh.clone(), s.shape.clone()));
                 }
-                format!("Instance(mesh: {})", quote(&mesh))
+                ShapeDesc::Instance { mesh }
             } else {
                 s.shape.clone()
             };
-            let mut e = format!(
-                "(name: {}, shape: {shape}, material: {}, transform: {}",
-                quote(&format!("{name} @ {} / {}", self.place(d.pos), s.name)),
-                quote(&s.material),
-                matrix(&a)
-            );
-            if s.flip && !s.is_mesh {
-                e.push_str(", flip_normals: true");
-            }
-            e.push_str("),");
-            entities.push(e);
+            entities.push(EntityDesc {
+                name: Some(format!("{name} @ {} / {}", self.place(d.pos), s.name)),
+                transform: crate::scene::import::placed(&a),
+                shape: Some(shape),
+                material: Some(s.material.clone()),
+                emitter: None,
+                flip_normals: s.flip && !s.is_mesh,
+            });
         }
         self.meshes.extend(new_meshes);
         crate::scene::import::check_entities(self.entities.len() + entities.len(), &self.room)
@@ -240,7 +245,7 @@ impl<'a> Converter<'a> {
         Ok(())
     }
 
-    /// `trianglemesh` or `bilinearmesh` as a RON `Mesh` whose triangles each face where
+    /// `trianglemesh` or `bilinearmesh` as a `Mesh` whose triangles each face where
     /// pbrt-v4's do (towards the given normals, else by winding, turned by ReverseOrientation
     /// and by a mirroring transform).
     fn mesh(&mut self, kind: &str, p: &mut ParamList, frame: &MeshFrame) -> Result<Mesh, Located> {
@@ -370,42 +375,20 @@ impl<'a> Converter<'a> {
             }
             areas.push(area);
         }
-        let list = |items: Vec<String>| items.join(", ");
-        let mut ron = format!(
-            "Mesh(positions: [{}], indices: [{}]",
-            list(verts.iter().map(|v| v3(f3(point(v.0)))).collect()),
-            list(
-                tris.iter()
-                    .map(|t| format!("({}, {}, {})", t[0], t[1], t[2]))
+        let shape = ShapeDesc::Mesh {
+            positions: verts.iter().map(|v| f3(point(v.0))).collect(),
+            indices: tris.iter().map(|t| t.map(|i| i as u32)).collect(),
+            normals: normals
+                .is_some()
+                .then(|| verts.iter().filter_map(|v| normal(v.0).map(f3)).collect()),
+            uvs: (verts.iter().all(|v| v.1.is_some()) && !verts.is_empty()).then(|| {
+                verts
+                    .iter()
+                    .filter_map(|v| v.1)
+                    .map(|t| [t[0] as f32, t[1] as f32])
                     .collect()
-            )
-        );
-        if normals.is_some() {
-            let _ = write!(
-                ron,
-                ", normals: [{}]",
-                list(
-                    verts
-                        .iter()
-                        .filter_map(|v| normal(v.0).map(|v| v3(f3(v))))
-                        .collect()
-                )
-            );
-        }
-        if verts.iter().all(|v| v.1.is_some()) && !verts.is_empty() {
-            let _ = write!(
-                ron,
-                ", uvs: [{}]",
-                list(
-                    verts
-                        .iter()
-                        .filter_map(|v| v.1)
-                        .map(|t| format!("({}, {})", num(t[0] as f32), num(t[1] as f32)))
-                        .collect()
-                )
-            );
-        }
-        ron.push(')');
-        Ok(Mesh { ron, areas })
+            }),
+        };
+        Ok(Mesh { shape, areas })
     }
 }

@@ -1,14 +1,40 @@
 //! The graphics state's materials and textures: named and current materials, and
-//! `Texture` directives, as RON.
+//! `Texture` directives.
 
 use super::*;
+use crate::scene::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
+
+/// A `Texture` directive's value, by the type it was declared with.
+enum Made {
+    Spectrum(ColorDesc),
+    Float(FloatDesc),
+}
+
+impl Made {
+    /// A constant of the declared type (a float texture takes the first part).
+    fn constant(ty: &str, c: [f32; 3]) -> Made {
+        if ty == "float" {
+            Made::Float(FloatDesc::Constant(c[0]))
+        } else {
+            Made::Spectrum(ColorDesc::Constant(c))
+        }
+    }
+
+    fn texture(ty: &str, t: TextureDesc) -> Made {
+        if ty == "float" {
+            Made::Float(FloatDesc::Texture(t))
+        } else {
+            Made::Spectrum(ColorDesc::Texture(t))
+        }
+    }
+}
 
 impl<'a> Converter<'a> {
     pub(super) fn material(
         &mut self,
         kind: &str,
         p: &mut ParamList,
-    ) -> Result<Option<String>, Located> {
+    ) -> Result<Option<MaterialDesc>, Located> {
         // The textures are lent out while the converter takes the notes.
         let textures = std::mem::take(&mut self.textures);
         let out = materials::material(kind, p, &textures, self);
@@ -19,61 +45,55 @@ impl<'a> Converter<'a> {
     }
 
     /// Adds a material under `name` (or a variant of it that is free) and returns the name.
-    pub(super) fn add_material(&mut self, name: &str, ron: String) -> String {
+    pub(super) fn add_material(&mut self, name: &str, desc: MaterialDesc) -> String {
         let mut name = name.to_string();
-        while self.material_rons.contains_key(&name) {
+        while self.material_descs.contains_key(&name) {
             name.push('\'');
         }
-        self.material_rons.insert(name.clone(), ron.clone());
-        self.material_by_ron
-            .entry(ron.clone())
+        self.material_descs.insert(name.clone(), desc.clone());
+        self.material_by_desc
+            .entry(material_key(&desc))
             .or_insert_with(|| name.clone());
-        self.materials.push((name.clone(), ron));
+        self.materials.push((name.clone(), desc));
         name
     }
 
-    /// The RON description of the current material, `None` for `interface`.
-    pub(super) fn current_material_ron(&self) -> Option<String> {
+    /// The description of the current material, `None` for `interface`.
+    pub(super) fn current_material_desc(&self) -> Option<&MaterialDesc> {
         match &self.state.material {
-            Current::Desc { ron, .. } => ron.clone(),
-            Current::Named(name) => self.material_rons.get(name).cloned(),
+            Current::Desc { desc, .. } => desc.as_deref(),
+            Current::Named(name) => self.material_descs.get(name),
         }
     }
 
-    /// The RON name of the current material, `None` for `interface`.
+    /// The name of the current material in the scene's table, `None` for `interface`.
     pub(super) fn current_material(&mut self) -> Option<String> {
         match self.state.material.clone() {
             Current::Named(name) => Some(name),
-            Current::Desc { ron: None, .. } => None,
+            Current::Desc { desc: None, .. } => None,
             Current::Desc {
-                ron: Some(ron),
+                desc: Some(desc),
                 kind,
             } => {
-                if let Some(name) = self.material_by_ron.get(&ron) {
+                if let Some(name) = self.material_by_desc.get(&material_key(&desc)) {
                     return Some(name.clone());
                 }
                 let count = self.materials.len() + 1;
-                Some(self.add_material(&format!("{kind} {count}"), ron))
+                Some(self.add_material(&format!("{kind} {count}"), *desc))
             }
         }
     }
 
-    /// The RON of the texture `name` of type `ty` (`float` or `spectrum`).
-    pub(super) fn named_texture(
-        &self,
-        ty: &str,
-        name: &str,
-        pos: Pos,
-        what: &str,
-    ) -> Result<String, Located> {
-        let map = if ty == "float" {
-            &self.textures.float
+    /// The texture `name` of type `ty` (`float` or `spectrum`).
+    fn named_texture(&self, ty: &str, name: &str, pos: Pos, what: &str) -> Result<Made, Located> {
+        let missing = || (pos, format!("{what}: no {ty} texture is named \"{name}\""));
+        if ty == "float" {
+            let t = self.textures.float.get(name).ok_or_else(missing)?;
+            Ok(Made::Float(t.clone()))
         } else {
-            &self.textures.spectrum
-        };
-        map.get(name)
-            .cloned()
-            .ok_or_else(|| (pos, format!("{what}: no {ty} texture is named \"{name}\"")))
+            let t = self.textures.spectrum.get(name).ok_or_else(missing)?;
+            Ok(Made::Spectrum(t.clone()))
+        }
     }
 
     pub(super) fn texture(&mut self, d: &mut Directive) -> Result<(), Located> {
@@ -100,7 +120,7 @@ impl<'a> Converter<'a> {
                 p.float("vdelta")?.unwrap_or(0.0),
             ])
         };
-        let ron = match class.as_str() {
+        let made = match class.as_str() {
             "imagemap" => {
                 let file = p.string("filename")?.ok_or_else(|| (d.pos, format!("{what} needs \"string filename\"")))?;
                 let [su, sv, du, dv] = mapping(&mut p)?;
@@ -134,43 +154,54 @@ impl<'a> Converter<'a> {
                 }
                 p.ignore(&["maxanisotropy"]);
                 // pbrt-v4 looks images up at (s, 1 - t); raylab at (u, v) from the top row.
-                format!(
-                    "Image(path: {}, filter: \"{filter}\", wrap: \"{wrap}\", raw: {linear}, uv_scale: ({}, {}), uv_offset: ({}, {}))",
-                    quote(&file), num(su as f32), num(-sv as f32), num(du as f32), num((1.0 - dv) as f32)
-                )
+                let image = ImageDesc {
+                    path: file,
+                    filter: filter.into(),
+                    wrap: wrap.into(),
+                    raw: Some(linear),
+                    uv_scale: [su as f32, -sv as f32],
+                    uv_offset: [du as f32, (1.0 - dv) as f32],
+                };
+                Made::texture(&ty, TextureDesc::Image(image))
             }
             "checkerboard" => {
                 if p.integer("dimension")?.is_some_and(|n| n != 2) {
                     return Err((d.pos, format!("{what}: only the 2D checkerboard is supported")));
                 }
                 let [su, sv, du, dv] = mapping(&mut p)?;
-                let side = |p: &mut ParamList, name: &str, default: f64| -> Result<String, Located> {
+                let side = |p: &mut ParamList, name: &str, default: f64| -> Result<[f32; 3], Located> {
                     let c = if ty == "float" { p.float_or_texture(name)? } else { p.colour(name)? };
                     match c {
-                        None => Ok(num(default as f32)),
-                        Some((Colour::Rgb(v), _)) => Ok(v3(v.map(|x| x as f32))),
+                        None => Ok([default as f32; 3]),
+                        Some((Colour::Rgb(v), _)) => Ok(v.map(|x| x as f32)),
                         Some((_, pos)) => Err((pos, format!("{what}: `{name}` must be a constant colour (raylab's checkerboard has no nested textures)"))),
                     }
                 };
                 let (t1, t2) = (side(&mut p, "tex1", 1.0)?, side(&mut p, "tex2", 0.0)?);
                 // pbrt-v4's squares are one unit wide; Mitsuba's (raylab's) half a unit, with
                 // color0 where floor(s) + floor(t) is even as pbrt's tex1.
-                format!(
-                    "Checkerboard(color0: {t1}, color1: {t2}, uv_scale: ({}, {}), uv_offset: ({}, {}))",
-                    num((su * 0.5) as f32), num((sv * 0.5) as f32), num((du * 0.5) as f32), num((dv * 0.5) as f32)
-                )
+                let checks = CheckerboardDesc {
+                    color0: t1,
+                    color1: t2,
+                    uv_scale: [(su * 0.5) as f32, (sv * 0.5) as f32],
+                    uv_offset: [(du * 0.5) as f32, (dv * 0.5) as f32],
+                };
+                Made::texture(&ty, TextureDesc::Checkerboard(checks))
             }
             "constant" => {
                 let c = if ty == "float" { p.float_or_texture("value")? } else { p.colour("value")? };
                 match c {
-                    None => "1.0".to_string(),
+                    None => Made::constant(&ty, [1.0; 3]),
                     Some((Colour::Texture(t), pos)) => self.named_texture(&ty, &t, pos, &what)?,
-                    Some((Colour::Rgb(v), _)) if ty == "float" => num(v[0] as f32),
+                    Some((Colour::Rgb(v), _)) if ty == "float" => Made::constant(&ty, [v[0] as f32; 3]),
                     Some((c, pos)) => {
                         let textures = std::mem::take(&mut self.textures);
                         let r = materials::colour(&c, pos, &what, &textures, self);
                         self.textures = textures;
-                        r?
+                        match r? {
+                            ColorDesc::Constant(c) => Made::constant(&ty, c),
+                            ColorDesc::Texture(t) => Made::texture(&ty, t),
+                        }
                     }
                 }
             }
@@ -186,10 +217,10 @@ impl<'a> Converter<'a> {
                 };
                 match (tex, scale) {
                     (Some((Colour::Rgb(a), _)), Some((Colour::Rgb(s), _))) if ty == "float" => {
-                        num((a[0] * s[0]) as f32)
+                        Made::constant(&ty, [(a[0] * s[0]) as f32; 3])
                     }
                     (Some((Colour::Rgb(a), _)), Some((Colour::Rgb(s), _))) => {
-                        v3([a[0] * s[0], a[1] * s[0], a[2] * s[0]].map(|x| x as f32))
+                        Made::constant(&ty, [a[0] * s[0], a[1] * s[0], a[2] * s[0]].map(|x| x as f32))
                     }
                     (Some((Colour::Texture(t), pos)), s) if unit(&s) => {
                         self.named_texture(&ty, &t, pos, &what)?
@@ -200,10 +231,14 @@ impl<'a> Converter<'a> {
             other => return Err((d.pos, format!("{what}: texture \"{other}\" is not supported (imagemap, checkerboard, constant, scale are)"))),
         };
         p.finish()?;
-        match ty.as_str() {
-            "spectrum" => self.textures.spectrum.insert(name, ron),
-            "float" => self.textures.float.insert(name, ron),
-            other => {
+        match (ty.as_str(), made) {
+            ("spectrum", Made::Spectrum(c)) => {
+                self.textures.spectrum.insert(name, c);
+            }
+            ("float", Made::Float(f)) => {
+                self.textures.float.insert(name, f);
+            }
+            (other, _) => {
                 return Err((
                     d.pos,
                     format!(
@@ -211,7 +246,13 @@ impl<'a> Converter<'a> {
                     ),
                 ))
             }
-        };
+        }
         Ok(())
     }
+}
+
+/// What makes two materials the same for sharing one entry of the table: their
+/// description, written out (a description is not hashable; its `Debug` text is exact).
+fn material_key(desc: &MaterialDesc) -> String {
+    format!("{desc:?}")
 }
