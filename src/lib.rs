@@ -33,6 +33,7 @@ pub mod cli;
 pub mod compare;
 pub mod console;
 pub mod files;
+pub mod formats;
 pub mod live;
 pub mod output;
 pub mod render;

@@ -17,8 +17,8 @@
 pub mod serve;
 pub mod watch;
 
+use crate::formats::access::SceneFiles;
 use crate::render::{Film, Job, RenderStats, Request, Target};
-use crate::scene::access::SceneFiles;
 use crate::scene::edit::SceneState;
 use crate::scene::RenderScene;
 use crate::scene::{self, LoadedScene};

@@ -6,11 +6,11 @@
 //! same `Arc<LocalMesh>`, and the build step gives each asset one BVH. Unused assets are not
 //! loaded (a warning says so). Errors name the entity that asked for the asset, and the asset.
 
-use super::access::SceneFiles;
 use super::components::{FileOrder, Instanced, LocalMesh, Name, Shape, Transform, WorldShape};
-use super::schema::{MeshTable, ShapeDesc};
 use super::stamps::{asset_stamps, CachedAsset};
 use super::systems::{self, EntityError};
+use crate::formats::access::SceneFiles;
+use crate::formats::schema::{MeshTable, ShapeDesc};
 use glam::{Affine3A, Vec3A};
 use hecs::{CommandBuffer, Entity, World};
 use std::sync::Arc;

@@ -271,3 +271,15 @@ impl WorldShape {
         }
     }
 }
+
+impl From<crate::formats::mesh_files::FileMesh> for Shape {
+    /// A mesh file's geometry alone (its materials are the file materials' business).
+    fn from(mesh: crate::formats::mesh_files::FileMesh) -> Shape {
+        Shape::Mesh {
+            positions: mesh.positions,
+            indices: mesh.indices,
+            normals: mesh.normals,
+            uvs: mesh.uvs,
+        }
+    }
+}

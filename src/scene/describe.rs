@@ -3,20 +3,17 @@
 //! what is wrong. Loading a file ([`super::load`]) and applying an edit ([`super::edit`]) both
 //! make their components here.
 
-use super::access::SceneFiles;
 use super::components::{Emitter, Shape, Transform};
 use super::error::finite;
-use super::mesh_files;
-use super::schema::{CameraDesc, EmitterDesc, RenderDesc, ShapeDesc};
+use crate::formats::access::SceneFiles;
+use crate::formats::mesh_files;
+use crate::formats::schema::{CameraDesc, EmitterDesc, RenderDesc, ShapeDesc};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::light::EnvMap;
 use raylab_integrators::registry;
 use raylab_integrators::Camera;
 
-/// Largest image side accepted, and largest pixel count (the film alone would need 24 bytes
-/// per pixel more than this allows).
-pub const MAX_SIDE: u32 = 1 << 16;
-pub const MAX_PIXELS: u64 = 1 << 28;
+pub use crate::formats::schema::{MAX_PIXELS, MAX_SIDE};
 
 pub(super) fn v3(a: [f32; 3]) -> Vec3A {
     Vec3A::from_array(a)
@@ -80,7 +77,7 @@ pub(super) fn emitter_from_desc(
                 );
             }
             let file = files.named(&path)?;
-            let image = super::images::read_linear_rgb(&file, false)?;
+            let image = crate::formats::images::read_linear_rgb(&file, false)?;
             let (width, height, texels) = match mapping.as_deref() {
                 None | Some("latlong") => (image.width, image.height, image.texels),
                 Some("octahedral") => {
@@ -92,7 +89,7 @@ pub(super) fn emitter_from_desc(
                             image.height
                         ));
                     }
-                    super::octahedral::to_lat_long(image.width, &image.texels)
+                    crate::formats::octahedral::to_lat_long(image.width, &image.texels)
                 }
                 Some(other) => {
                     return Err(format!(
@@ -109,7 +106,9 @@ pub(super) fn emitter_from_desc(
 }
 
 /// The entity's transform: translate, rotate and scale, or a whole matrix (without them).
-pub(super) fn transform_from_desc(t: &super::schema::TransformDesc) -> Result<Transform, String> {
+pub(super) fn transform_from_desc(
+    t: &crate::formats::schema::TransformDesc,
+) -> Result<Transform, String> {
     let mut transform = Transform {
         translate: Vec3::from_array(t.translate),
         rotate_degrees: Vec3::from_array(t.rotate),
@@ -284,9 +283,9 @@ pub(super) fn camera_from_desc(desc: &CameraDesc) -> Result<Camera, String> {
 
 /// A view direction from `eye` to `look_at` that `up` is not parallel to.
 fn check_view(
-    eye: &super::schema::V3,
-    look_at: &super::schema::V3,
-    up: &super::schema::V3,
+    eye: &crate::formats::schema::V3,
+    look_at: &crate::formats::schema::V3,
+    up: &crate::formats::schema::V3,
 ) -> Result<(), String> {
     let forward = v3(*look_at) - v3(*eye);
     if forward.length() < 1e-6 {
@@ -317,23 +316,22 @@ fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A;
 pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Shape, String> {
     Ok(match desc {
         ShapeDesc::Gltf { path } => {
-            mesh_files::load_gltf(&files.named(&path)?, files)?.into_shape()
+            Shape::from(mesh_files::load_gltf(&files.named(&path)?, files)?)
         }
         ShapeDesc::Obj { path, normals } => {
-            mesh_files::load_obj(&files.named(&path)?, false, files)?
-                .shaded(normals)
-                .into_shape()
+            Shape::from(mesh_files::load_obj(&files.named(&path)?, false, files)?.shaded(normals))
         }
-        ShapeDesc::Ply { path, normals } => super::ply::load_ply(&files.named(&path)?)?
-            .shaded(normals)
-            .into_shape(),
+        ShapeDesc::Ply { path, normals } => {
+            Shape::from(crate::formats::ply::load_ply(&files.named(&path)?)?.shaded(normals))
+        }
         ShapeDesc::Serialized {
             path,
             shape_index,
             normals,
-        } => super::serialized::load_serialized(&files.named(&path)?, shape_index)?
-            .shaded(normals)
-            .into_shape(),
+        } => Shape::from(
+            crate::formats::serialized::load_serialized(&files.named(&path)?, shape_index)?
+                .shaded(normals),
+        ),
         ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {
             center: v3(center),

@@ -20,7 +20,6 @@
 //! empty world, and every rebuild is a function of the world alone, so a scene reached by edits
 //! renders the bits the same scene loaded fresh renders.
 
-use super::access::SceneFiles;
 use super::components::{
     Changed, Emitter, FileOrder, FlipNormals, Instanced, LocalMesh, MaterialRef, Name, Shape,
     Transform, WorldShape,
@@ -31,11 +30,12 @@ use super::describe::{
 use super::error::SceneError;
 use super::materials::material_from_desc;
 use super::references::{emitter_files, folder_of, shape_files};
-use super::schema::{EmitterDesc, EntityDesc, MaterialDesc, SceneFile, ShapeDesc};
 use super::stamps::{restamp, stamp, CachedAsset, Stamp};
 use super::textures::TextureLoader;
 use super::{assets, file_materials, systems, LoadedScene, RenderScene};
 use crate::accel::AccelKind;
+use crate::formats::access::SceneFiles;
+use crate::formats::schema::{EmitterDesc, EntityDesc, MaterialDesc, SceneFile, ShapeDesc};
 use hecs::{CommandBuffer, Entity, World};
 use raylab_integrators::bsdf::{checks, Lambert};
 use raylab_integrators::{Material, Rgb, SurfaceMaterial};
@@ -354,7 +354,7 @@ impl SceneState {
     pub fn apply(&mut self, file: SceneFile) -> Result<EditReport, SceneError> {
         let path = self.loaded.path.clone();
         let mut report = EditReport::default();
-        super::import::check_entities(file.entities.len(), &crate::system::Room::now())
+        crate::formats::import::check_entities(file.entities.len(), &crate::system::Room::now())
             .map_err(|m| self.error(m))?;
 
         // Materials: the table entities refer to by name; unchanged ones kept.
@@ -836,7 +836,11 @@ impl SceneState {
 
     /// Numbers the mesh assets the instances use, in order of first use in file order, and
     /// warns about the assets of the table no entity uses.
-    fn number_assets(&mut self, table: &super::schema::MeshTable, warnings: &mut Vec<String>) {
+    fn number_assets(
+        &mut self,
+        table: &crate::formats::schema::MeshTable,
+        warnings: &mut Vec<String>,
+    ) {
         let world = &mut self.loaded.world;
         let mut instances: Vec<(FileOrder, Entity)> = world
             .query::<(Entity, &FileOrder, &Instanced)>()

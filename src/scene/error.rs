@@ -44,3 +44,37 @@ pub(crate) fn finite(what: &str, values: &[f32]) -> Result<(), String> {
         Err(format!("{what} must be finite, got {values:?}"))
     }
 }
+
+/// An importer's places of entities and materials (see [`Origins`]) put into errors found
+/// when its description is made into a world.
+impl crate::formats::import::Origins {
+    /// `e` at the place its entity or material came from, if the importer made it.
+    pub fn place(&self, e: SceneError) -> SceneError {
+        let found = match &e {
+            SceneError::Entity {
+                entity, message, ..
+            } => self
+                .entities
+                .get(entity)
+                .map(|p| (p, format!("entity `{entity}`: {message}"))),
+            SceneError::Material {
+                material, message, ..
+            } => self
+                .materials
+                .get(material)
+                .map(|p| (p, format!("material `{material}`: {message}"))),
+            _ => None,
+        };
+        match found {
+            Some(((path, line, col), message)) if !path.as_os_str().is_empty() => {
+                SceneError::Parse {
+                    path: path.clone(),
+                    line: *line as usize,
+                    col: *col as usize,
+                    message,
+                }
+            }
+            _ => e,
+        }
+    }
+}

@@ -7,10 +7,10 @@
 //! times `KHR_materials_emissive_strength`), an area emitter. Every later system (validation,
 //! baking, emitters, the build) then sees ordinary entities.
 
-use super::access::SceneFiles;
 use super::components::{Emitter, Shape};
-use super::mesh_files;
-use super::schema::ShapeDesc;
+use crate::formats::access::SceneFiles;
+use crate::formats::mesh_files;
+use crate::formats::schema::ShapeDesc;
 use glam::Vec3A;
 use raylab_integrators::bsdf::Lambert;
 use raylab_integrators::{Material, SurfaceMaterial};
@@ -53,7 +53,8 @@ pub fn file_parts(desc: &ShapeDesc, files: &SceneFiles) -> Result<Vec<Part>, Str
     };
     mesh.split_by_material()
         .into_iter()
-        .map(|(m, shape)| {
+        .map(|(m, mesh)| {
+            let shape = Shape::from(mesh);
             let material = Lambert::new(Vec3A::from_array(m.albedo))
                 .map(|l| SurfaceMaterial::from(Material::Lambert(l)))
                 .map_err(|e| {

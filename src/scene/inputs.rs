@@ -7,8 +7,8 @@
 //! replace, the files a live session watches, and, through [`SceneInputs::identity`], what
 //! checkpoints, shards and `compare`'s reference cache are tied to.
 
-use super::access::SceneFiles;
-use super::import::ImportOptions;
+use crate::formats::access::SceneFiles;
+use crate::formats::import::ImportOptions;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 

@@ -1,11 +1,11 @@
 //! Parsing a RON scene file and spawning its entities into a hecs world.
 
-use super::access::SceneFiles;
 use super::error::SceneError;
-use super::import::{ImportOptions, Imported, Origins};
 use super::inputs::SceneInputs;
-use super::schema::SceneFile;
 use super::LoadedScene;
+use crate::formats::access::SceneFiles;
+use crate::formats::import::{ImportOptions, Imported, Origins};
+use crate::formats::schema::SceneFile;
 use ron::extensions::Extensions;
 use std::path::{Path, PathBuf};
 
@@ -178,13 +178,18 @@ pub fn import_scene(
             col: col as usize,
             message,
         };
-        let expanded = super::mitsuba::include::expand(path, &text, files).map_err(located)?;
-        let mut imported =
-            super::mitsuba::to_ron_in(&expanded.text, options, Some(files), &expanded.search)
-                .map_err(|(line, col, message)| {
-                    let (file, line, col) = expanded.locate(line, col);
-                    located((file, line, col, message))
-                })?;
+        let expanded =
+            crate::formats::mitsuba::include::expand(path, &text, files).map_err(located)?;
+        let mut imported = crate::formats::mitsuba::to_ron_in(
+            &expanded.text,
+            options,
+            Some(files),
+            &expanded.search,
+        )
+        .map_err(|(line, col, message)| {
+            let (file, line, col) = expanded.locate(line, col);
+            located((file, line, col, message))
+        })?;
         for place in imported
             .origins
             .entities
@@ -203,7 +208,7 @@ pub fn import_scene(
             ),
         });
     }
-    super::pbrt::to_ron(path, &text, files, options)
+    crate::formats::pbrt::to_ron(path, &text, files, options)
         .map(Some)
         .map_err(|(file, line, col, message)| SceneError::Parse {
             path: file,

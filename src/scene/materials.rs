@@ -2,9 +2,9 @@
 //! parameters; textured ones are checked over their whole range, and the material's constant
 //! form takes their means (as Mitsuba 3 makes its sampling weights from them).
 
-use super::schema::{MaterialDesc, Metal};
-use super::texture_desc::{ColorDesc, FloatDesc};
 use super::textures::{Role, TextureLoader};
+use crate::formats::schema::{MaterialDesc, Metal};
+use crate::formats::texture_desc::{ColorDesc, FloatDesc};
 use glam::Vec3A;
 use raylab_integrators::bsdf::{
     checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert,

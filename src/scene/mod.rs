@@ -1,7 +1,6 @@
-//! Scenes: the RON schema, loading into a hecs world, the ECS systems, and flattening the
-//! world into the render scene.
+//! Scenes: loading a scene description (see [`crate::formats`]) into a hecs world, the ECS
+//! systems, edits of the world, and flattening it into the render scene.
 
-pub mod access;
 pub mod assets;
 pub mod components;
 pub mod describe;
@@ -9,30 +8,18 @@ pub mod edit;
 pub mod error;
 pub mod file_materials;
 pub mod flatten;
-pub mod images;
-pub mod import;
 pub mod inputs;
 pub mod load;
 pub mod materials;
-pub mod mesh_files;
-pub mod mitsuba;
-pub mod octahedral;
-pub mod pbrt;
-pub mod ply;
 pub mod procedural;
 pub mod references;
-pub mod schema;
-pub mod serialized;
-pub mod spectra;
-mod spectra_tables;
 mod stamps;
 pub mod systems;
-pub mod texture_desc;
 pub mod textures;
 
+pub use crate::formats::import::{ImportOptions, Imported};
 pub use error::SceneError;
 pub use flatten::RenderScene;
-pub use import::{ImportOptions, Imported};
 pub use inputs::SceneInputs;
 pub use load::{
     import_scene, is_imported, is_mitsuba, is_pbrt, load_scene, load_scene_defined, load_scene_in,
@@ -52,7 +39,7 @@ pub struct LoadedScene {
     /// instances (shape `Instance`) an `Instanced` pointing at their shared mesh asset.
     pub world: hecs::World,
     pub camera: Camera,
-    pub render: schema::RenderDesc,
+    pub render: crate::formats::schema::RenderDesc,
     /// The material table (file order; a black material may be appended for pure emitters).
     pub materials: Vec<SurfaceMaterial>,
     pub material_names: Vec<String>,

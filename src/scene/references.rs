@@ -1,10 +1,10 @@
 //! The files a scene description names: meshes (OBJ, glTF) and, for a `.gltf`, the buffers
 //! and images it points to; environment maps. A live session stamps them, so that an entity
 //! whose files changed is made again ([`super::edit`]). (What a load actually read is kept by
-//! [`super::access::SceneFiles`].)
+//! [`crate::formats::access::SceneFiles`].)
 
-use super::access::SceneFiles;
-use super::schema::{EmitterDesc, ShapeDesc};
+use crate::formats::access::SceneFiles;
+use crate::formats::schema::{EmitterDesc, ShapeDesc};
 use std::path::{Path, PathBuf};
 
 /// FNV-1a, 64 bits: a hash that is stable across builds and platforms (unlike std's).

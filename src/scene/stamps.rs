@@ -4,10 +4,10 @@
 //! makes again what a changed stamp asks for; instancing ([`super::assets`]) keeps an asset
 //! whose description and files stayed.
 
-use super::access::SceneFiles;
 use super::components::LocalMesh;
 use super::references::shape_files;
-use super::schema::ShapeDesc;
+use crate::formats::access::SceneFiles;
+use crate::formats::schema::ShapeDesc;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::SystemTime;

@@ -456,7 +456,7 @@ fn instances_share_one_loaded_copy_of_their_mesh() {
         .any(|w| w.contains("mesh `spare` is not used")));
 }
 
-/// Every scene of `scenes/` written out by [`super::import::write_ron`] reads back as the same
+/// Every scene of `scenes/` written out by [`crate::formats::import::write_ron`] reads back as the same
 /// description: what `raylab import` writes is what the importer built.
 #[test]
 fn scene_descriptions_round_trip_through_ron() {
@@ -469,7 +469,7 @@ fn scene_descriptions_round_trip_through_ron() {
         }
         let text = std::fs::read_to_string(&path).expect("read");
         let file = super::load::parse_scene_file(&text, &path).expect("parses");
-        let written = super::import::write_ron(&file, "round trip").unwrap();
+        let written = crate::formats::import::write_ron(&file, "round trip").unwrap();
         let again = super::load::parse_scene_file(&written, &path)
             .unwrap_or_else(|e| panic!("{}: {e}\n{written}", path.display()));
         assert_eq!(file, again, "{}\n{written}", path.display());
@@ -490,7 +490,7 @@ fn imported_scenes_round_trip_through_ron() {
             if !super::load::is_imported(&path) {
                 continue;
             }
-            let files = super::access::SceneFiles::new(&path, &[]);
+            let files = crate::formats::access::SceneFiles::new(&path, &[]);
             let imported = super::load::import_scene(&files, &Default::default())
                 .expect("imports")
                 .expect("another format");

@@ -10,9 +10,9 @@
 //! from sRGB unless `raw: true`; `raw` defaults to false for colours and to true for data
 //! (roughness, normal and bump maps), which sRGB decoding would distort.
 
-use super::access::SceneFiles;
-use super::images::read_texels;
-use super::texture_desc::{ColorDesc, FloatDesc, ImageDesc, TextureDesc};
+use crate::formats::access::SceneFiles;
+use crate::formats::images::read_texels;
+use crate::formats::texture_desc::{ColorDesc, FloatDesc, ImageDesc, TextureDesc};
 use glam::{Affine2, Vec2, Vec3A};
 use raylab_integrators::texture::{self, ImageTexture, Texture, TextureFilter, Wrap};
 use std::collections::HashMap;

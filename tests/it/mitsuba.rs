@@ -291,7 +291,7 @@ fn normal_and_bump_maps_wrap_their_bsdf() {
     )
     .unwrap();
     let text = std::fs::read_to_string(&scene).unwrap();
-    let imported = raylab::scene::mitsuba::to_ron(&text, &[]).unwrap();
+    let imported = raylab::formats::mitsuba::to_ron(&text, &[]).unwrap();
     for needle in [
         "\"n\": NormalMap(texture: Image(path: \"n.png\", filter: \"bilinear\", wrap: \"repeat\", raw: true",
         "material: RoughConductor(metal: \"none\"",
@@ -337,7 +337,7 @@ fn shapegroup_instances_render_as_the_shapes_they_place() {
     let (a, b) = (dir.path().join("grouped.xml"), dir.path().join("flat.xml"));
     std::fs::write(&a, &grouped).unwrap();
     std::fs::write(&b, &flat).unwrap();
-    let imported = raylab::scene::mitsuba::to_ron(&grouped, &[]).unwrap();
+    let imported = raylab::formats::mitsuba::to_ron(&grouped, &[]).unwrap();
     assert!(
         imported.ron().unwrap().contains("\"g/0\": Box("),
         "{}",
@@ -480,7 +480,7 @@ fn a_film_crop_renders_its_part_of_the_image() {
 fn serialized_meshes_blends_masks_and_orthographic_sensors() {
     let scene = repo_file("scenes/mitsuba/meshes.xml");
     let text = std::fs::read_to_string(&scene).unwrap();
-    let imported = raylab::scene::mitsuba::to_ron(&text, &[]).unwrap();
+    let imported = raylab::formats::mitsuba::to_ron(&text, &[]).unwrap();
     for needle in [
         "Serialized(path: \"assets/meshes.serialized\", shape_index: 0, normals: \"smooth\")",
         "Serialized(path: \"assets/meshes.serialized\", shape_index: 1, normals: \"flat\")",
@@ -538,7 +538,7 @@ fn unlike_blends_and_see_through_masks_are_approximations() {
     ];
     for (bsdf, what, nearest) in cases {
         let text = scene(bsdf);
-        let err = raylab::scene::mitsuba::to_ron(&text, &[]).unwrap_err();
+        let err = raylab::formats::mitsuba::to_ron(&text, &[]).unwrap_err();
         assert!(
             err.2.contains(what) && err.2.contains("--approximate") && err.0 == 3,
             "{err:?}"
@@ -547,7 +547,7 @@ fn unlike_blends_and_see_through_masks_are_approximations() {
             defines: Vec::new(),
             approximate: true,
         };
-        let imported = raylab::scene::mitsuba::to_ron_with(&text, &options).unwrap();
+        let imported = raylab::formats::mitsuba::to_ron_with(&text, &options).unwrap();
         assert!(
             imported.ron().unwrap().contains(nearest),
             "{}",
@@ -564,7 +564,7 @@ fn unlike_blends_and_see_through_masks_are_approximations() {
     let exact = scene(
         r#"<bsdf type="blendbsdf"><float name="weight" value="1"/><bsdf type="diffuse"/><bsdf type="conductor"/></bsdf>"#,
     );
-    let imported = raylab::scene::mitsuba::to_ron(&exact, &[]).unwrap();
+    let imported = raylab::formats::mitsuba::to_ron(&exact, &[]).unwrap();
     assert!(imported
         .ron()
         .unwrap()
@@ -597,8 +597,8 @@ fn mitsuba_0_6_scenes_are_upgraded_as_mitsuba_3_does() {
         </texture></bsdf></shape>
     </scene>"#;
     let (a, b) = (
-        raylab::scene::mitsuba::to_ron(old, &[]).unwrap(),
-        raylab::scene::mitsuba::to_ron(new, &[]).unwrap(),
+        raylab::formats::mitsuba::to_ron(old, &[]).unwrap(),
+        raylab::formats::mitsuba::to_ron(new, &[]).unwrap(),
     );
     let body = |ron: &str| ron.lines().skip(1).collect::<Vec<_>>().join("\n");
     assert_eq!(body(&a.ron().unwrap()), body(&b.ron().unwrap()));
@@ -608,7 +608,7 @@ fn mitsuba_0_6_scenes_are_upgraded_as_mitsuba_3_does() {
         a.ron().unwrap()
     );
     // A 3.0 scene keeps its names: camelCase there is an unknown parameter.
-    let err = raylab::scene::mitsuba::to_ron(&old.replace("0.6.0", "3.0.0"), &[]).unwrap_err();
+    let err = raylab::formats::mitsuba::to_ron(&old.replace("0.6.0", "3.0.0"), &[]).unwrap_err();
     assert!(err.2.contains("maxDepth"), "{err:?}");
 }
 
@@ -621,7 +621,7 @@ fn light_tracers_of_both_formats_are_raylabs_lighttracer() {
         <sensor type="perspective"><float name="fov" value="40"/></sensor>
         <shape type="sphere"/>
     </scene>"#;
-    let render = raylab::scene::mitsuba::to_ron(xml, &[])
+    let render = raylab::formats::mitsuba::to_ron(xml, &[])
         .unwrap()
         .scene
         .render;

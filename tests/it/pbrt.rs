@@ -328,7 +328,7 @@ fn an_octahedral_environment_map_is_seen_where_pbrt_v4_puts_it() {
     let n = 64;
     let map = image::RgbImage::from_fn(n, n, |x, y| {
         let p = [(x as f64 + 0.5) / n as f64, (y as f64 + 0.5) / n as f64];
-        let d = raylab::scene::octahedral::square_to_sphere(p);
+        let d = raylab::formats::octahedral::square_to_sphere(p);
         if d[2] < -0.5 {
             image::Rgb([0, 0, 255])
         } else if d[0] > 0.7 {

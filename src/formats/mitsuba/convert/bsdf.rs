@@ -2,8 +2,8 @@
 //! textures and colours; nested and referenced BSDFs (each converted once).
 
 use super::*;
-use crate::scene::schema::{self, Metal};
-use crate::scene::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
+use crate::formats::schema::{self, Metal};
+use crate::formats::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
 use raylab_integrators::bsdf::Distribution;
 
 /// A microfacet model's distribution and roughness as Mitsuba gives them.
@@ -134,7 +134,7 @@ impl<'a, 'input> Converter<'a, 'input> {
 
     /// The material of a BSDF. A BSDF that holds itself (a `<ref>` to a BSDF it is inside) is
     /// a cycle, refused; so is nesting deeper than
-    /// [`crate::scene::mitsuba::include::MAX_NESTING`] through references.
+    /// [`crate::formats::mitsuba::include::MAX_NESTING`] through references.
     pub(super) fn bsdf(&mut self, node: Node<'a, 'input>) -> Result<MaterialDesc, Located> {
         // A BSDF referenced from several places is converted once (a chain of BSDFs each
         // referring twice to the one before would otherwise take 2^depth conversions).
@@ -149,13 +149,13 @@ impl<'a, 'input> Converter<'a, 'input> {
                 format!("<bsdf id=\"{id}\"> holds a <ref> to itself (a cycle of references)"),
             ));
         }
-        if self.bsdfs_open.len() >= crate::scene::mitsuba::include::MAX_NESTING {
+        if self.bsdfs_open.len() >= crate::formats::mitsuba::include::MAX_NESTING {
             return Err(at(
                 self.doc,
                 node,
                 format!(
                     "BSDFs nest deeper than {} (through references)",
-                    crate::scene::mitsuba::include::MAX_NESTING
+                    crate::formats::mitsuba::include::MAX_NESTING
                 ),
             ));
         }

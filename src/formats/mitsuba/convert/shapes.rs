@@ -2,7 +2,7 @@
 //! shapegroups and their instances, and the lights that are not shapes.
 
 use super::*;
-use crate::scene::schema::MeshNormals;
+use crate::formats::schema::MeshNormals;
 
 /// A shape as the pieces of an entity.
 struct ShapeParts {
@@ -27,7 +27,7 @@ impl<'a, 'input> Converter<'a, 'input> {
             emitter: parts.emitter,
             flip_normals: parts.flip,
         });
-        crate::scene::import::check_entities_made(self.entities.len(), &self.room)
+        crate::formats::import::check_entities_made(self.entities.len(), &self.room)
             .map_err(|e| at(self.doc, node, e))?;
         Ok(())
     }
@@ -100,7 +100,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 emitter: None,
                 flip_normals,
             });
-            crate::scene::import::check_entities_made(self.entities.len(), &self.room)
+            crate::formats::import::check_entities_made(self.entities.len(), &self.room)
                 .map_err(|e| at(self.doc, node, e))?;
         }
         Ok(())

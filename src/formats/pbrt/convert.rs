@@ -6,9 +6,9 @@ use super::directives::{Directive, Parser};
 use super::materials::{self, Notes, Textures};
 use super::params::{Colour, Located, ParamList};
 use super::tokens::{Pos, Tokens};
-use crate::scene::access::SceneFiles;
-use crate::scene::import::{placed, ImportOptions, Imported};
-use crate::scene::schema::{
+use crate::formats::access::SceneFiles;
+use crate::formats::import::{placed, ImportOptions, Imported};
+use crate::formats::schema::{
     CameraDesc, ColorDesc, EmitterDesc, EntityDesc, FloatDesc, MaterialDesc, NamedTable,
     RenderDesc, SceneFile, ShapeDesc, TransformDesc,
 };

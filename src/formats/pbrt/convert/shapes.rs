@@ -2,7 +2,7 @@
 //! lights and the areas their power divides by; inline meshes.
 
 use super::*;
-use crate::scene::schema::MeshNormals;
+use crate::formats::schema::MeshNormals;
 
 /// What an area light's `power` needs: the area pbrt-v4 divides by. pbrt makes one light
 /// per triangle or patch, each of its own world-space area, and a quadric's light takes the
@@ -186,7 +186,7 @@ impl<'a> Converter<'a> {
             });
         }
         let transform = if a != Affine3A::IDENTITY {
-            crate::scene::import::placed(&a)
+            crate::formats::import::placed(&a)
         } else {
             TransformDesc::default()
         };
@@ -198,7 +198,7 @@ impl<'a> Converter<'a> {
             emitter,
             flip_normals: flip,
         });
-        crate::scene::import::check_entities_made(self.entities.len(), &self.room)
+        crate::formats::import::check_entities_made(self.entities.len(), &self.room)
             .map_err(|e| (d.pos, e))?;
         Ok(())
     }
@@ -231,7 +231,7 @@ impl<'a> Converter<'a> {
             };
             entities.push(EntityDesc {
                 name: Some(format!("{name} @ {} / {}", self.place(d.pos), s.name)),
-                transform: crate::scene::import::placed(&a),
+                transform: crate::formats::import::placed(&a),
                 shape: Some(shape),
                 material: Some(s.material.clone()),
                 emitter: None,
@@ -239,7 +239,7 @@ impl<'a> Converter<'a> {
             });
         }
         self.meshes.extend(new_meshes);
-        crate::scene::import::check_entities(self.entities.len() + entities.len(), &self.room)
+        crate::formats::import::check_entities(self.entities.len() + entities.len(), &self.room)
             .map_err(|e| (d.pos, format!("ObjectInstance: {e}")))?;
         self.entities.extend(entities);
         Ok(())

@@ -1,13 +1,13 @@
 //! Mitsuba 3's plugins, one by one, as raylab's scene description.
 
 use super::xml::{at, attr, major_version, position, snake_case, value, Located, Params, Value};
-pub use crate::scene::import::Imported;
-use crate::scene::import::{placed, ImportOptions};
-use crate::scene::schema::{
+pub use crate::formats::import::Imported;
+use crate::formats::import::{placed, ImportOptions};
+use crate::formats::schema::{
     CameraDesc, ColorDesc, EmitterDesc, EntityDesc, FloatDesc, Ior, MaterialDesc, NamedTable,
     RenderDesc, SceneFile, ShapeDesc, V3,
 };
-use crate::scene::spectra::{self, Use};
+use crate::formats::spectra::{self, Use};
 use glam::Affine3A;
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
@@ -242,7 +242,7 @@ struct Converter<'a, 'input> {
     approximated: Vec<String>,
     /// The scene's folder and its `<path>` folders, to find the files it names.
     /// The scene's files, when it has a folder: names are found through them (and recorded).
-    files: Option<crate::scene::access::SceneFiles>,
+    files: Option<crate::formats::access::SceneFiles>,
     search: Vec<String>,
     /// Mesh assets of shapegroups, by name.
     meshes: Vec<(String, ShapeDesc)>,
@@ -341,7 +341,7 @@ pub fn to_ron_with(text: &str, options: &ImportOptions) -> Result<Imported, Loca
 pub fn to_ron_in(
     text: &str,
     options: &ImportOptions,
-    files: Option<&crate::scene::access::SceneFiles>,
+    files: Option<&crate::formats::access::SceneFiles>,
     search: &[String],
 ) -> Result<Imported, Located> {
     super::xml::check_attributes(text)?;
@@ -455,7 +455,7 @@ pub fn to_ron_in(
         entities: c.entities,
     };
     // Places in the text converted (no file: the caller knows which file each came from).
-    let mut origins = crate::scene::import::Origins::default();
+    let mut origins = crate::formats::import::Origins::default();
     for (entity, name, (line, col)) in c.origins {
         let table = if entity {
             &mut origins.entities

@@ -8,7 +8,6 @@
 //! range, finite positions, at least one triangle, no cycle in a glTF node graph).
 
 use super::access::{relative_uri, SceneFiles};
-use super::components::Shape;
 use super::schema::MeshNormals;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
 use std::panic::UnwindSafe;
@@ -56,19 +55,9 @@ impl FileMesh {
         self
     }
 
-    /// The geometry alone.
-    pub fn into_shape(self) -> Shape {
-        Shape::Mesh {
-            positions: self.positions,
-            indices: self.indices,
-            normals: self.normals,
-            uvs: self.uvs,
-        }
-    }
-
     /// One mesh per material that some triangle uses (in material order), each with only the
-    /// vertices it uses.
-    pub fn split_by_material(self) -> Vec<(FileMaterial, Shape)> {
+    /// vertices it uses (and no materials of its own).
+    pub fn split_by_material(self) -> Vec<(FileMaterial, FileMesh)> {
         let mut out = Vec::new();
         for (m, material) in self.materials.iter().enumerate() {
             let mut remap = vec![u32::MAX; self.positions.len()];
@@ -100,11 +89,12 @@ impl FileMesh {
                 let uvs = self.uvs.is_some().then_some(uvs);
                 out.push((
                     material.clone(),
-                    Shape::Mesh {
+                    FileMesh {
                         positions,
                         indices,
                         normals,
                         uvs,
+                        ..FileMesh::default()
                     },
                 ));
             }
@@ -511,7 +501,7 @@ fn read_gltf_scene(
         }
         pending.extend(node.children());
     }
-    super::systems::check_triangle_memory(triangles)
+    super::memory::check_triangle_memory(triangles)
         .map_err(|e| format!("glTF file `{}`: its scene's {e}", file.display()))?;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     // A valid file is a forest: each node is reached once. More visits mean a cycle.

@@ -12,6 +12,11 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
 use std::fmt;
 
+/// Largest image side accepted, and largest pixel count (the film alone would need 24 bytes
+/// per pixel more than this allows).
+pub const MAX_SIDE: u32 = 1 << 16;
+pub const MAX_PIXELS: u64 = 1 << 28;
+
 /// A 3-vector as written in RON: `(x, y, z)`.
 pub type V3 = [f32; 3];
 
@@ -143,7 +148,7 @@ fn default_spp() -> u32 {
 }
 
 /// A material model with its parameters. Colours are linear RGB reflectances in `[0, 1]`:
-/// `(r, g, b)`, a grey number, or a texture (see [`super::textures`]); so may be the rough
+/// `(r, g, b)`, a grey number, or a texture (see [`crate::scene::textures`]); so may be the rough
 /// metals' and glasses' `alpha`.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]

@@ -171,7 +171,7 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
         has(&["u", "s", "texture_u", "texture_s"]) && has(&["v", "t", "texture_v", "texture_t"]);
     // Every face is at least one triangle: refuse what cannot fit before reading (a header
     // may claim billions).
-    super::systems::check_mesh_memory(count("face"), count("vertex"), has_normals || has_uvs)
+    super::memory::check_mesh_memory(count("face"), count("vertex"), has_normals || has_uvs)
         .map_err(|e| cannot(&e))?;
 
     let (face_parser, skip_parser) = (Parser::<Face>::new(), Parser::<Skipped>::new());

@@ -3,7 +3,7 @@
 //! places in that text back to the file and line each came from, so that an error in an
 //! included file names that file.
 
-use crate::scene::access::SceneFiles;
+use crate::formats::access::SceneFiles;
 use roxmltree::{Document, Node};
 use std::path::{Path, PathBuf};
 

@@ -5,7 +5,7 @@
 //! What is read: `<include>` and `<path>` (see [`include`]), `<default>` and `$name`
 //! substitution (with `-D name=value` overrides),
 //! `<ref>` and ids, `<transform>` (translate, rotate, scale, matrix, lookat, in order), `rgb`,
-//! `spectrum` (uniform or by wavelength, through `scene::spectra`), `float`, `integer`, `boolean`, `string`, `point`, `vector`; the
+//! `spectrum` (uniform or by wavelength, through `formats::spectra`), `float`, `integer`, `boolean`, `string`, `point`, `vector`; the
 //! `perspective` sensor with its `hdrfilm`, `rfilter` and sampler; the `path`, `direct` and `moment` integrators;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere`, `disk`, `cylinder` with
 //! `flip_normals`; BSDFs `diffuse`, `conductor`, `roughconductor`, `dielectric`,

@@ -8,7 +8,7 @@
 //! Every file a scene reads passes through here, so [`SceneFiles`] also keeps the list of
 //! them (its *inputs*: the scene, included files, meshes, material libraries, buffers,
 //! textures, environment maps), missing ones included: what no output may replace, what a
-//! live session watches, and what the scene's identity ([`super::inputs`]) hashes.
+//! live session watches, and what the scene's identity ([`crate::scene::inputs`]) hashes.
 
 use std::collections::BTreeSet;
 use std::path::{Component, Path, PathBuf};

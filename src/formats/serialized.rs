@@ -168,7 +168,7 @@ fn read_mesh(s: &mut Stream, version: u16) -> Result<FileMesh, String> {
             "{vertices} vertices: raylab indexes meshes with 32 bits"
         ));
     }
-    super::systems::check_mesh_memory(
+    super::memory::check_mesh_memory(
         triangles,
         vertices,
         flags & (HAS_NORMALS | HAS_TEXCOORDS) != 0,

@@ -95,39 +95,6 @@ pub struct Origins {
 /// A file, line and column.
 pub type Place = (std::path::PathBuf, u32, u32);
 
-impl Origins {
-    /// `e` at the place its entity or material came from, if the importer made it.
-    pub fn place(&self, e: super::SceneError) -> super::SceneError {
-        use super::SceneError;
-        let found = match &e {
-            SceneError::Entity {
-                entity, message, ..
-            } => self
-                .entities
-                .get(entity)
-                .map(|p| (p, format!("entity `{entity}`: {message}"))),
-            SceneError::Material {
-                material, message, ..
-            } => self
-                .materials
-                .get(material)
-                .map(|p| (p, format!("material `{material}`: {message}"))),
-            _ => None,
-        };
-        match found {
-            Some(((path, line, col), message)) if !path.as_os_str().is_empty() => {
-                SceneError::Parse {
-                    path: path.clone(),
-                    line: *line as usize,
-                    col: *col as usize,
-                    message,
-                }
-            }
-            _ => e,
-        }
-    }
-}
-
 /// A scene description as RON text that reads back as the same description: one material,
 /// mesh and entity per line, under a `//` comment line `header`.
 pub fn write_ron(file: &super::schema::SceneFile, header: &str) -> Result<String, String> {

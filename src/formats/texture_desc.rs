@@ -1,6 +1,6 @@
 //! How a scene file writes a textured parameter (the schema's part of textures): a colour is
 //! `(r, g, b)`, a grey number, or a texture, `Image(path: "wood.png")` or `Checkerboard(color0:
-//! ..., color1: ...)`; a roughness is a number or a texture. [`super::textures`] loads them.
+//! ..., color1: ...)`; a roughness is a number or a texture. [`crate::scene::textures`] loads them.
 
 use serde::de::{self, Deserialize, Deserializer};
 use std::collections::BTreeMap;

@@ -2,7 +2,7 @@
 //! `Texture` directives.
 
 use super::*;
-use crate::scene::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
+use crate::formats::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
 
 /// A `Texture` directive's value, by the type it was declared with.
 enum Made {

@@ -2,7 +2,7 @@
 
 use super::params::{Colour, Located, ParamList};
 use super::tokens::Pos;
-use crate::scene::schema::{self, ColorDesc, FloatDesc, Ior, MaterialDesc, Metal};
+use crate::formats::schema::{self, ColorDesc, FloatDesc, Ior, MaterialDesc, Metal};
 use raylab_integrators::bsdf::Distribution;
 use std::collections::HashMap;
 
@@ -66,7 +66,7 @@ pub fn colour(
             grey(pairs[0].1 as f32)
         }
         Colour::Sampled(pairs) => {
-            let rgb = crate::scene::spectra::to_srgb(pairs, crate::scene::spectra::Use::Reflectance)
+            let rgb = crate::formats::spectra::to_srgb(pairs, crate::formats::spectra::Use::Reflectance)
                 .map_err(|e| (pos, format!("{what}: {e}")))?;
             notes.approximate(
                 pos,

@@ -90,15 +90,15 @@ impl<'a, 'input> Converter<'a, 'input> {
                     let mut f = self.props(child)?;
                     width = f.integer("width")?.unwrap_or(width);
                     height = f.integer("height")?.unwrap_or(height);
-                    if !(1..=i64::from(crate::scene::describe::MAX_SIDE)).contains(&width)
-                        || !(1..=i64::from(crate::scene::describe::MAX_SIDE)).contains(&height)
+                    if !(1..=i64::from(crate::formats::schema::MAX_SIDE)).contains(&width)
+                        || !(1..=i64::from(crate::formats::schema::MAX_SIDE)).contains(&height)
                     {
                         return Err(at(
                             self.doc,
                             child,
                             format!(
                                 "the film is {width}x{height}: each side must be 1 to {}",
-                                crate::scene::describe::MAX_SIDE
+                                crate::formats::schema::MAX_SIDE
                             ),
                         ));
                     }
