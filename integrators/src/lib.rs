@@ -43,8 +43,8 @@ pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
 pub use geometry::{Frame, Hit, MediumId, MediumInterface, Pending, Ray};
 pub use integrator::{
-    Demand, Integrator, PassContext, PixelSample, RayCounters, RayIntegrator, SampleContext,
-    ShardBy, Splats, Stop, Tracer,
+    ChainContext, Demand, Integrator, PassContext, PixelSample, RayCounters, RayIntegrator,
+    SampleContext, ShardBy, Splats, Stop, Tracer, Work,
 };
 pub use light::{LeSample, Light, LightSample, LightTable};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};

@@ -140,9 +140,10 @@ impl Job {
         super::check_camera(&camera, &demand, entry.name)?;
         // A shard's part: a range of passes, or of rows for an integrator with state per pixel.
         let shard = match (request.shard, spp) {
-            (Some(spec), Some(spp)) => {
-                Some((spec, spec.part(integrator.shard_by(), spp, camera.height)?))
-            }
+            (Some(spec), Some(spp)) => Some((
+                spec,
+                spec.part(integrator.work(&camera).shard_by(), spp, camera.height)?,
+            )),
             (Some(spec), None) => return Err(shard_needs_passes(spec)),
             (None, _) => None,
         };

@@ -32,8 +32,8 @@ use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
 pub use job::{Job, Request, Target};
 use raylab_integrators::{
-    Integrator, PassContext, PixelSample, RayCounters, SampleContext, Sampler, Scene, Splats, Stop,
-    Tracer,
+    ChainContext, Integrator, PassContext, PixelSample, RayCounters, SampleContext, Sampler, Scene,
+    Splats, Stop, Tracer, Work,
 };
 use rayon::prelude::*;
 pub use shard::{Part, ShardBy, ShardSpec};
@@ -540,6 +540,11 @@ fn render_tile_pass(
     stop: Stop,
 ) -> TilePass {
     let mut tracer = Tracer::with_stop(scene, stop);
+    let chains = match integrator.work(camera) {
+        Work::Chains { count } => Some(count),
+        Work::PixelSamples | Work::PixelState => None,
+    };
+    let pixels = camera.width as u64 * camera.height as u64;
     let mut out = TilePass {
         rays: RayCounters::default(),
         dropped: Dropped::default(),
@@ -565,13 +570,28 @@ fn render_tile_pass(
                 index: pass,
             };
             let splats_before = scratch.splats.mark();
-            let mut l = integrator.sample(SampleContext {
-                pixel: &sample,
-                camera,
-                tracer: &mut tracer,
-                sampler: &mut sampler,
-                splats: &mut scratch.splats,
-            });
+            // A chain integrator's pixels estimate nothing themselves; the chain whose work
+            // unit this pixel is runs here.
+            let mut l = match chains {
+                None => integrator.sample(SampleContext {
+                    pixel: &sample,
+                    camera,
+                    tracer: &mut tracer,
+                    sampler: &mut sampler,
+                    splats: &mut scratch.splats,
+                }),
+                Some(count) => {
+                    if let Some(chain) = Work::chain_at(count, pixel_index, pixels) {
+                        let cx = ChainContext {
+                            camera,
+                            tracer: &mut tracer,
+                            splats: &mut scratch.splats,
+                        };
+                        integrator.run_chain(chain, cx);
+                    }
+                    Vec3A::ZERO
+                }
+            };
             let splats_finite = scratch.splats.all_finite_since(splats_before);
             if !(l.is_finite() && splats_finite) {
                 scratch.splats.rollback(splats_before);
@@ -659,11 +679,7 @@ pub fn render_passes(
     let last_pass = settings.last_pass();
     // A shard of rows renders the tiles of its rows and of those its filter reaches into.
     let rows = match &settings.part {
-        Some(Part::Rows(rows)) => {
-            let rendered = shard::rendered_rows(rows, settings.filter, acc.height);
-            integrator.restrict_to_rows(rendered.clone());
-            Some(rendered)
-        }
+        Some(Part::Rows(rows)) => Some(shard::rendered_rows(rows, settings.filter, acc.height)),
         _ => None,
     };
     let active: Vec<bool> = acc
@@ -725,6 +741,7 @@ pub fn render_passes(
                 camera,
                 seed: settings.seed,
                 pass,
+                rows: rows.clone().unwrap_or(0..acc.height),
                 stop: abandon_pass,
             })
         }));

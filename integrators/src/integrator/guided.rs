@@ -364,6 +364,7 @@ impl RayIntegrator for Guided {
             seed,
             pass,
             stop,
+            ..
         } = *cx;
         let mut counters = RayCounters::default();
         if pass == 0 || self.tree.is_none() {

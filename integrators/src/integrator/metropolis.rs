@@ -17,7 +17,8 @@
 //! pass, a chain's visits are correlated: short chains explore little, long chains cost
 //! parallelism.
 
-use crate::integrator::{Demand, Integrator, PixelSample, RayCounters, Splats, Stop, Tracer};
+use crate::integrator::{ChainContext, Work};
+use crate::integrator::{Demand, Integrator, RayCounters, Splats, Stop, Tracer};
 use crate::mlt::PrimarySamples;
 use crate::random::{keyed_rng, unit_f32};
 use crate::registry::{ParamKind, ParamSpec, Params};
@@ -208,40 +209,38 @@ impl<S: PathSpace> Metropolis<S> {
         self.cdf.last().copied().unwrap_or(0.0) / self.bootstrap_samples(camera) as f64
     }
 
-    /// Runs the chains that live at this pixel (chain `c` lives at pixel `c * P / chains` of
-    /// the `P` pixels), splatting their visits. Returns nothing for the pixel itself.
-    fn run_chains_at(
+    /// The chains of a pass: as many as asked, at most one per pixel.
+    fn chain_count(&self, camera: &Camera) -> u64 {
+        (self.chains as u64).min(camera.width as u64 * camera.height as u64)
+    }
+
+    /// Runs chain `chain` of the pass with its share of the pass's mutations, splatting its
+    /// visits.
+    fn run_chain_of_pass(
         &self,
-        pixel: &PixelSample,
+        chain: u64,
         camera: &Camera,
         tracer: &mut Tracer,
         splats: &mut Splats,
-    ) -> Rgb {
+    ) {
         let pixels = camera.width as u64 * camera.height as u64;
-        let chains = (self.chains as u64).min(pixels);
-        let here = pixel.y as u64 * camera.width as u64 + pixel.x as u64;
+        let chains = self.chain_count(camera);
         let b = self.normalisation(camera);
         if chains == 0 || b <= 0.0 || !b.is_finite() {
-            return Rgb::ZERO;
-        }
-        // The chain whose pixel this is, if any (chain pixels are distinct: chains <= P).
-        let chain = (here * chains).div_ceil(pixels);
-        if chain >= chains || chain * pixels / chains != here {
-            return Rgb::ZERO;
+            return;
         }
         // This chain's share of the pass's mutations.
         let total = (self.mutations_per_pixel * pixels as f64).round().max(1.0) as u64;
         let mutations = (chain + 1) * total / chains - chain * total / chains;
         // Every visit's radiance over its luminance, times b over the mutations per pixel.
         let scale = (b * pixels as f64 / total as f64) as f32;
-        self.run_chain(chain, mutations, scale, camera, tracer, splats);
-        Rgb::ZERO
+        self.walk_chain(chain, mutations, scale, camera, tracer, splats);
     }
 
     /// One chain: its start resampled from the bootstrap, then `mutations` proposals, each
     /// splatting the proposal and the current state weighted by the acceptance probability
     /// (the expected-value trick of Veach's thesis, 11.3.3).
-    fn run_chain(
+    fn walk_chain(
         &self,
         chain: u64,
         mutations: u64,
@@ -309,15 +308,19 @@ impl<S: PathSpace> Metropolis<S> {
 }
 
 impl<S: PathSpace> Integrator for Metropolis<S> {
-    fn sample(&self, cx: SampleContext) -> Spectrum {
-        let SampleContext {
-            pixel,
-            camera,
-            tracer,
-            splats,
-            ..
-        } = cx;
-        self.run_chains_at(pixel, camera, tracer, splats)
+    /// Never asked: its work is chains ([`Work::Chains`]), and a pixel's own estimate zero.
+    fn sample(&self, _cx: SampleContext) -> Spectrum {
+        Spectrum::ZERO
+    }
+
+    fn work(&self, camera: &Camera) -> Work {
+        Work::Chains {
+            count: self.chain_count(camera),
+        }
+    }
+
+    fn run_chain(&self, chain: u64, cx: ChainContext) {
+        self.run_chain_of_pass(chain, cx.camera, cx.tracer, cx.splats);
     }
 
     fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
@@ -327,6 +330,7 @@ impl<S: PathSpace> Integrator for Metropolis<S> {
             seed,
             pass,
             stop,
+            ..
         } = *cx;
         self.bootstrap_pass(scene, camera, seed, pass, stop)
     }
@@ -393,33 +397,23 @@ mod tests {
             camera: &camera,
             seed: 7,
             pass,
+            rows: 0..camera.height,
             stop: Stop::NEVER,
         });
         let mut tracer = Tracer::new(&scene);
         let mut splats = Splats::default();
-        for y in 0..camera.height {
-            for x in 0..camera.width {
-                let pixel = PixelSample {
-                    x,
-                    y,
-                    film: Vec2::new(x as f32, y as f32),
-                    index: pass,
-                };
-                let mut sampler = Sampler::new(0, 0, 0);
-                assert_eq!(
-                    Integrator::sample(
-                        m,
-                        SampleContext {
-                            pixel: &pixel,
-                            camera: &camera,
-                            tracer: &mut tracer,
-                            sampler: &mut sampler,
-                            splats: &mut splats
-                        }
-                    ),
-                    Rgb::ZERO
-                );
-            }
+        let Work::Chains { count } = m.work(&camera) else {
+            panic!("Metropolis runs chains");
+        };
+        for chain in 0..count {
+            m.run_chain(
+                chain,
+                ChainContext {
+                    camera: &camera,
+                    tracer: &mut tracer,
+                    splats: &mut splats,
+                },
+            );
         }
         let half = (camera.width * camera.height / 2) as f64;
         let (mut left, mut right) = (0.0, 0.0);

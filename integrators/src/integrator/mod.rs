@@ -171,14 +171,59 @@ pub struct SampleContext<'s, 'a> {
 }
 
 /// What the work before a pass sees ([`Integrator::prepare_pass`]): the scene and camera,
-/// the render's seed, the number of the pass, and the request to abandon it.
-#[derive(Clone, Copy)]
+/// the render's seed, the number of the pass, the image rows this run renders (all of them,
+/// or a shard's band with the rows its filter reaches), and the request to abandon it.
+#[derive(Clone)]
 pub struct PassContext<'a> {
     pub scene: &'a dyn Scene,
     pub camera: &'a Camera,
     pub seed: u64,
     pub pass: u32,
+    pub rows: std::ops::Range<u32>,
     pub stop: Stop<'a>,
+}
+
+/// What one Markov chain's run works with ([`Integrator::run_chain`]): the camera, the
+/// tracer, and the splats of the work unit it runs in.
+pub struct ChainContext<'s, 'a> {
+    pub camera: &'s Camera,
+    pub tracer: &'s mut Tracer<'a>,
+    pub splats: &'s mut Splats,
+}
+
+/// The unit of work an integrator takes from the render loop, each pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Work {
+    /// One camera sample per pixel, independent of the pass before ([`Integrator::sample`]).
+    PixelSamples,
+    /// One camera sample per pixel from state it keeps per pixel across passes (`sppm-pixel`):
+    /// shards split it by rows, each keeping the state of its own.
+    PixelState,
+    /// `count` Markov chains per pass ([`Integrator::run_chain`]), whose visits are splats;
+    /// the pixels' own estimates are zero. The loop runs chain `c` in the work unit of pixel
+    /// `c * P / count` of the image's `P`, so their splats are added in a fixed order.
+    Chains { count: u64 },
+}
+
+impl Work {
+    /// How a render with this work splits into shards.
+    pub fn shard_by(self) -> ShardBy {
+        match self {
+            Work::PixelState => ShardBy::Rows,
+            Work::PixelSamples | Work::Chains { .. } => ShardBy::Passes,
+        }
+    }
+
+    /// The chain whose work unit is pixel `index` of `pixels`, if any (chain `c` at pixel
+    /// `c * pixels / count`: distinct pixels, as `count <= pixels`).
+    pub fn chain_at(count: u64, index: u64, pixels: u64) -> Option<u64> {
+        let count = count.min(pixels);
+        if count == 0 {
+            return None;
+        }
+        let chain = (index * count).div_ceil(pixels);
+        (chain < count && chain * pixels / count == index).then_some(chain)
+    }
 }
 
 /// Radiance an integrator adds at film positions of its choosing (light paths that reach the
@@ -289,17 +334,17 @@ pub trait Integrator: Send + Sync {
         Demand::default()
     }
 
-    /// How a render with it splits into shards (`render --shard`): by ranges of passes when
-    /// each pass depends only on its number (the default), by rows of tiles when it keeps
-    /// state per pixel from pass to pass.
-    fn shard_by(&self) -> ShardBy {
-        ShardBy::Passes
+    /// The unit of work it takes from the render loop for an image of `camera`: camera
+    /// samples (the default), camera samples from per-pixel state, or Markov chains. Sharding
+    /// follows from it ([`Work::shard_by`]).
+    fn work(&self, _camera: &Camera) -> Work {
+        Work::PixelSamples
     }
 
-    /// Only the pixels of image rows `rows` will be asked for (a shard by rows, with the
-    /// rows its filter reaches): an integrator that keeps state per pixel may keep it for
-    /// these alone. What it computes for them must not depend on the other rows.
-    fn restrict_to_rows(&mut self, _rows: std::ops::Range<u32>) {}
+    /// Runs chain `chain` of the pass (with [`Work::Chains`]), splatting its visits. What it
+    /// computes must depend only on the chain's number, the pass's preparation and the
+    /// scene.
+    fn run_chain(&self, _chain: u64, _cx: ChainContext) {}
 
     /// The images it splats into beside the main one ([`Splats::add_to_layer`]), each with a
     /// name for its file (`s2_t3`); none by default.

@@ -32,8 +32,9 @@
 //! **Bias**: a blur of each pixel's radius, which shrinks as photons arrive (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
+use crate::integrator::Work;
 use crate::integrator::{sample_one_light, Demand, Integrator, ShadingPoint};
-use crate::integrator::{ShardBy, Stop, Tracer};
+use crate::integrator::{Stop, Tracer};
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
@@ -349,7 +350,14 @@ impl Integrator for SppmPixel {
             seed,
             pass,
             stop,
+            ..
         } = *cx;
+        // Only the rows rendered keep state (a shard's band); what they compute does not
+        // depend on the other rows.
+        if self.rows.as_ref() != Some(&cx.rows) {
+            self.rows = Some(cx.rows.clone());
+            self.passes = 0;
+        }
         // A new render (or a resumed one, or one after an abandoned pass) starts the pixels
         // afresh and replays the passes before `pass`.
         let rows = self.first_row(camera)..self.end_row(camera);
@@ -390,15 +398,8 @@ impl Integrator for SppmPixel {
         rays
     }
 
-    fn shard_by(&self) -> ShardBy {
-        ShardBy::Rows
-    }
-
-    fn restrict_to_rows(&mut self, rows: std::ops::Range<u32>) {
-        if self.rows.as_ref() != Some(&rows) {
-            self.rows = Some(rows);
-            self.passes = 0;
-        }
+    fn work(&self, _camera: &Camera) -> Work {
+        Work::PixelState
     }
 
     fn demand(&self) -> Demand {
@@ -436,6 +437,7 @@ mod tests {
                 camera,
                 seed: 1,
                 pass,
+                rows: 0..camera.height,
                 stop: Stop::NEVER,
             });
         }

@@ -532,6 +532,7 @@ impl Integrator for VertexMerging {
             seed,
             pass,
             stop,
+            ..
         } = *cx;
         // The pass's radius and weights: one light subpath per pixel.
         let count = camera.width as usize * camera.height as usize;

@@ -312,6 +312,19 @@ fn image_pass_mean(
             sum += l.y as f64;
         }
     }
+    // Chains run beside the pixels' (zero) estimates.
+    if let crate::Work::Chains { count } = integrator.work(camera) {
+        for chain in 0..count {
+            integrator.run_chain(
+                chain,
+                crate::ChainContext {
+                    camera,
+                    tracer: &mut tracer,
+                    splats: &mut splats,
+                },
+            );
+        }
+    }
     for (_, l) in splats.entries() {
         assert!(l.is_finite(), "{name}: non-finite splat {l:?}");
         sum += l.y as f64;
@@ -342,11 +355,13 @@ pub fn estimate_integrator(
     scene: &TestScene,
     n: u32,
 ) -> (f64, f64) {
+    let camera = probe_camera(&scene.camera, 1);
     integrator.prepare_pass(&PassContext {
         scene,
-        camera: &probe_camera(&scene.camera, 1),
+        camera: &camera,
         seed: 12345,
         pass: 0,
+        rows: 0..camera.height,
         stop: crate::Stop::NEVER,
     });
     let ray_integrator = integrator
@@ -430,6 +445,7 @@ pub fn estimate_passes(
                 camera: &camera,
                 seed: 12345,
                 pass,
+                rows: 0..camera.height,
                 stop: crate::Stop::NEVER,
             });
             means.push(image_pass_mean(
@@ -441,11 +457,13 @@ pub fn estimate_passes(
             ));
             continue;
         }
+        let camera = probe_camera(&scene.camera, 1);
         integrator.prepare_pass(&PassContext {
             scene,
-            camera: &probe_camera(&scene.camera, 1),
+            camera: &camera,
             seed: 12345,
             pass,
+            rows: 0..camera.height,
             stop: crate::Stop::NEVER,
         });
         let ray_integrator = as_ray_integrator(name, integrator.as_ref());
