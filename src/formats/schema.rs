@@ -612,6 +612,21 @@ pub struct EntityDesc {
     pub flip_normals: bool,
 }
 
+impl EntityDesc {
+    /// A light that is not a shape (a point, spot or directional light, an environment map),
+    /// placed by `transform`.
+    pub fn light(name: String, transform: TransformDesc, emitter: EmitterDesc) -> EntityDesc {
+        EntityDesc {
+            name: Some(name),
+            transform,
+            shape: None,
+            material: None,
+            emitter: Some(emitter),
+            flip_normals: false,
+        }
+    }
+}
+
 /// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate; or a
 /// whole affine `matrix` instead of the three.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]

@@ -297,14 +297,8 @@ impl<'a, 'input> Converter<'a, 'input> {
             other => return Err(at(self.doc, node, format!("emitter `{other}` is not supported (area, point, spot, directional, constant, envmap are)"))),
         };
         p.finish(&[])?;
-        self.entities.push(EntityDesc {
-            name: Some(name),
-            transform,
-            shape: None,
-            material: None,
-            emitter: Some(emitter),
-            flip_normals: false,
-        });
+        self.entities
+            .push(EntityDesc::light(name, transform, emitter));
         Ok(())
     }
 }

@@ -131,18 +131,15 @@ impl<'a> Converter<'a> {
                         )
                     })?;
                     self.report(format!("{}: pbrt-v4's equal-area octahedral map resampled at load into a latitude-longitude map (its nearest pixels, 4 texels across per map pixel)", p.what));
-                    self.entities.push(EntityDesc {
-                        name: Some(name),
-                        transform: super::placed(&placed),
-                        shape: None,
-                        material: None,
-                        emitter: Some(EmitterDesc::Environment {
+                    self.entities.push(EntityDesc::light(
+                        name,
+                        super::placed(&placed),
+                        EmitterDesc::Environment {
                             path: file,
                             scale: scale as f32,
                             mapping: Some("octahedral".into()),
-                        }),
-                        flip_normals: false,
-                    });
+                        },
+                    ));
                     return Ok(());
                 }
                 let mut l = self.light_colour(&mut p, "L")?;
@@ -173,14 +170,8 @@ impl<'a> Converter<'a> {
             }
         };
         p.finish()?;
-        self.entities.push(EntityDesc {
-            name: Some(name),
-            transform,
-            shape: None,
-            material: None,
-            emitter: Some(emitter),
-            flip_normals: false,
-        });
+        self.entities
+            .push(EntityDesc::light(name, transform, emitter));
         Ok(())
     }
 
