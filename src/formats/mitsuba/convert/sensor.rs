@@ -52,20 +52,11 @@ impl<'a, 'input> Converter<'a, 'input> {
             ));
         }
         let mut p = self.props(node)?;
-        let fov = if kind == "perspective" {
-            Some(p.float("fov")?.ok_or_else(|| {
-                at(
-                    self.doc,
-                    node,
-                    "the sensor needs `fov` (raylab does not read `focal_length`)",
-                )
-            })?)
+        let (fov, axis) = if kind == "perspective" {
+            let (fov, axis) = self.field_of_view(&mut p, node)?;
+            (Some(fov), axis)
         } else {
-            None
-        };
-        let axis = match fov {
-            Some(_) => p.string("fov_axis")?.unwrap_or_else(|| "x".into()),
-            None => String::new(),
+            (None, String::new())
         };
         let m = p.transform("to_world")?.unwrap_or(Affine3A::IDENTITY);
         if p.float("near_clip")?.is_some() | p.float("far_clip")?.is_some() {
@@ -255,6 +246,42 @@ impl<'a, 'input> Converter<'a, 'input> {
         self.sensor_settings(node, filter, spp)
     }
 
+    /// A perspective sensor's field of view in degrees and the axis it spans: `fov` along
+    /// `fov_axis` (default `x`), or, as Mitsuba 3 reads it, a `focal_length` (default
+    /// `"50mm"`) of a 35 mm camera, whose 36 x 24 mm frame's diagonal it spans.
+    fn field_of_view(
+        &self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+    ) -> Result<(f32, String), Located> {
+        let fov = p.float("fov")?;
+        let focal = p.take("focal_length");
+        match (fov, focal) {
+            (Some(_), Some((_, n))) => Err(at(
+                self.doc,
+                n,
+                "give the sensor `fov` or `focal_length`, not both",
+            )),
+            (Some(fov), None) => Ok((fov, p.string("fov_axis")?.unwrap_or_else(|| "x".into()))),
+            (None, focal) => {
+                let (text, n) = match focal {
+                    None => ("50mm".to_string(), node),
+                    Some((Value::String(t), n)) => (t, n),
+                    Some((_, n)) => {
+                        return Err(at(self.doc, n, "`focal_length` must be a <string> such as \"50mm\" (Mitsuba 3 reads it as text)"))
+                    }
+                };
+                let mm = text.strip_suffix("mm").unwrap_or(&text).trim();
+                let f: f64 = mm.parse().ok().filter(|f: &f64| *f > 0.0 && f.is_finite()).ok_or_else(|| {
+                    at(self.doc, n, format!("`focal_length` \"{text}\" must be a positive length in mm, such as \"50mm\""))
+                })?;
+                let diagonal = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
+                let fov = 2.0 * (diagonal / (2.0 * f)).atan().to_degrees();
+                Ok((fov as f32, "diagonal".into()))
+            }
+        }
+    }
+
     /// The sensor's film filter and sample count, as render settings.
     pub(super) fn sensor_settings(
         &mut self,
@@ -279,6 +306,11 @@ impl<'a, 'input> Converter<'a, 'input> {
             ));
         }
         self.integrator_read = true;
+        self.integrator_plugin(node)
+    }
+
+    /// One integrator plugin (a `moment` wrapper's inner one too).
+    fn integrator_plugin(&mut self, node: Node<'a, 'input>) -> Result<(), Located> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         match kind.as_str() {
@@ -368,7 +400,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 };
                 self.report.push("integrator: Mitsuba's moment wrapper: raylab keeps each pixel's variance already; its inner integrator renders".into());
                 p.finish(&[])?;
-                return self.integrator(inner);
+                return self.integrator_plugin(inner);
             }
             other => {
                 self.approximate(node, format!("integrator `{other}` is not supported (path, ptracer, direct, moment are): rendered with path"))?;

@@ -56,3 +56,61 @@ fn the_ron_names_what_the_xml_names() {
         );
     }
 }
+
+/// Mitsuba's `moment` wrapper (every scene of its render tests has one) renders with its
+/// inner integrator; a second <integrator> is still refused.
+#[test]
+fn a_moment_wrapper_renders_with_its_inner_integrator() {
+    let scene = |integrators: &str| {
+        format!(
+            r#"<scene version="3.0.0">{integrators}
+            <sensor type="perspective"><float name="fov" value="40"/></sensor>
+            <shape type="sphere"/></scene>"#
+        )
+    };
+    let wrapped = r#"<integrator type="moment"><integrator type="path"><integer name="max_depth" value="3"/></integrator></integrator>"#;
+    let render = to_ron(&scene(wrapped), &[]).unwrap().scene.render;
+    assert_eq!(render.integrator, "path");
+    assert_eq!(render.params.get("max-depth"), Some(&2.0));
+    let twice = format!("{wrapped}<integrator type=\"path\"/>");
+    let err = to_ron(&scene(&twice), &[]).unwrap_err();
+    assert!(err.2.contains("a second <integrator>"), "{err:?}");
+}
+
+/// A perspective sensor without `fov` has Mitsuba 3's focal length: `focal_length` (default
+/// 50 mm) of a 36 x 24 mm frame, spanning its diagonal; with `fov` too it is refused.
+#[test]
+fn focal_lengths_are_read_as_mitsuba_reads_them() {
+    let scene = |sensor: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="perspective">{sensor}
+            <film type="hdrfilm"><integer name="width" value="400"/><integer name="height" value="300"/></film>
+            </sensor><shape type="sphere"/></scene>"#
+        )
+    };
+    // The vertical field of view of a lens of `f` mm on a 400 x 300 film.
+    let vertical = |f: f64| {
+        let half_diagonal = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * f);
+        2.0 * (half_diagonal * 300.0 / 500.0).atan().to_degrees()
+    };
+    for (sensor, f) in [
+        (r#"<string name="focal_length" value="35mm"/>"#, 35.0),
+        ("", 50.0),
+    ] {
+        let camera = to_ron(&scene(sensor), &[]).unwrap().scene.camera;
+        let crate::formats::schema::CameraDesc::LookAt { fov, .. } = camera else {
+            panic!("{camera:?}");
+        };
+        assert!((fov as f64 - vertical(f)).abs() < 1e-4, "{f} mm: {fov}");
+    }
+    let both = r#"<float name="fov" value="40"/><string name="focal_length" value="35mm"/>"#;
+    assert!(to_ron(&scene(both), &[])
+        .unwrap_err()
+        .2
+        .contains("not both"));
+    let bad = r#"<string name="focal_length" value="wide"/>"#;
+    assert!(to_ron(&scene(bad), &[])
+        .unwrap_err()
+        .2
+        .contains("positive length"));
+}
