@@ -2,6 +2,8 @@
 # Tries every render-test scene of Mitsuba 3's mitsuba-data (tests/scenes/*/test_*.xml and
 # the other scenes there that are not fragments or includes) with `raylab validate`, and
 # prints a Markdown table: the scene, whether it loads, and the first line raylab said.
+# Mitsuba's test harness adds mitsuba-data's common/ (meshes, textures) to its file
+# resolver; so does this script, with `-a`.
 # Usage: mitsuba_data.sh MITSUBA_DATA_CHECKOUT_OR_GIT_DIR [BINARY] [-- RAYLAB OPTIONS]
 #   e.g. mitsuba_data.sh ~/mitsuba-data target/release/raylab -- --approximate
 set -euo pipefail
@@ -33,7 +35,7 @@ echo "| scene | loads | raylab says |"
 echo "|---|---|---|"
 while IFS= read -r scene; do
   total=$((total + 1))
-  if out=$("$bin" validate "$scene" "$@" 2>&1); then
+  if out=$("$bin" validate "$scene" -a "$work/common" "$@" 2>&1); then
     loaded=$((loaded + 1))
     echo "| ${scene#tests/scenes/} | yes | $(printf '%s' "$out" | grep -m1 -i 'warning' | cut -c1-160 | tr '|' '/') |"
   else

@@ -497,6 +497,11 @@ pub struct ImportFlags {
     /// refusing the scene.
     #[arg(long)]
     pub approximate: bool,
+    /// A folder searched for the files a Mitsuba scene names, after its own folder and its
+    /// <path> folders (as `mitsuba -a`; Mitsuba's test scenes find their meshes and textures
+    /// in mitsuba-data's `common/` so); files in it may be read. Repeat for several.
+    #[arg(short = 'a', long = "search-path", value_name = "DIR")]
+    pub search: Vec<PathBuf>,
 }
 
 impl ImportFlags {
@@ -504,6 +509,12 @@ impl ImportFlags {
         crate::scene::ImportOptions {
             defines: self.defines.clone(),
             approximate: self.approximate,
+            // Relative to where raylab runs (as `mitsuba -a`), not to the scene.
+            search: self
+                .search
+                .iter()
+                .map(|d| std::path::absolute(d).unwrap_or_else(|_| d.clone()))
+                .collect(),
         }
     }
 }

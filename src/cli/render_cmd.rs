@@ -419,7 +419,7 @@ pub fn import(
         );
     }
     output::atomic::check_replaceable(output)?;
-    let files = crate::formats::access::SceneFiles::new(path, allowed);
+    let files = crate::formats::access::SceneFiles::new(path, &options.readable(allowed));
     let Some(imported) = scene::import_scene(&files, options)? else {
         bail!("{}: not a scene of another format", path.display());
     };

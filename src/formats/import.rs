@@ -13,6 +13,17 @@ pub struct ImportOptions {
     /// Replace what raylab does not have by the nearest thing it has, and say so in the
     /// warnings and the report, instead of refusing the scene.
     pub approximate: bool,
+    /// Folders searched for the files a Mitsuba scene names, after its own folder and its
+    /// `<path>` folders (`-a DIR`, as `mitsuba -a`); the scene may read files in them.
+    pub search: Vec<std::path::PathBuf>,
+}
+
+impl ImportOptions {
+    /// The folders besides the scene's that a scene read with these options may read files
+    /// from: `allowed` (`--allow-path`) and the search folders.
+    pub fn readable(&self, allowed: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
+        allowed.iter().chain(&self.search).cloned().collect()
+    }
 }
 
 /// The most entities a scene may have (a shape placed by instancing counts once per

@@ -380,7 +380,10 @@ impl Session {
     /// Loads the scene of `settings` (an error is kept: the session starts anyway, and the
     /// next save tries again).
     pub fn load(settings: &LiveSettings) -> Session {
-        let files = SceneFiles::new(&settings.scene, &settings.allowed);
+        let files = SceneFiles::new(
+            &settings.scene,
+            &settings.import.readable(&settings.allowed),
+        );
         let mut live = None;
         // The import reads the whole text again on every reload (its own list: the
         // included files of this version); the world's edits read only what changed.

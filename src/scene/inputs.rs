@@ -144,11 +144,13 @@ mod tests {
         let defined = ImportOptions {
             defines: vec![("r".into(), "0.3".into())],
             approximate: false,
+            ..ImportOptions::default()
         };
         assert_ne!(base, id(defined));
         let approximate = ImportOptions {
             defines: vec![],
             approximate: true,
+            ..ImportOptions::default()
         };
         assert_ne!(base, id(approximate));
         std::fs::write(d.join("inc.xml"), "One").unwrap();

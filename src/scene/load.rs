@@ -28,7 +28,7 @@ pub fn load_scene_defined(
     allowed: &[PathBuf],
     options: &ImportOptions,
 ) -> Result<LoadedScene, SceneError> {
-    load_scene_in(&SceneFiles::new(path, allowed), options)
+    load_scene_in(&SceneFiles::new(path, &options.readable(allowed)), options)
 }
 
 /// Loads the scene of `files` (which keeps the list of what it read, also when the load
@@ -154,6 +154,10 @@ pub fn import_scene(
     let path = files.scene();
     if !is_imported(path) {
         let refused = match (options.defines.first(), options.approximate) {
+            _ if !options.search.is_empty() => Some(
+                "-a DIR searches for the files a Mitsuba XML scene names; this is a RON scene"
+                    .into(),
+            ),
             (Some((name, _)), _) => Some(format!(
                 "-D {name}=... sets a Mitsuba XML scene's <default>; this is a RON scene"
             )),
@@ -180,16 +184,24 @@ pub fn import_scene(
         };
         let expanded =
             crate::formats::mitsuba::include::expand(path, &text, files).map_err(located)?;
-        let mut imported = crate::formats::mitsuba::to_ron_in(
-            &expanded.text,
-            options,
-            Some(files),
-            &expanded.search,
-        )
-        .map_err(|(line, col, message)| {
-            let (file, line, col) = expanded.locate(line, col);
-            located((file, line, col, message))
-        })?;
+        // Its <path> folders, then the search folders given (`-a`).
+        let search: Vec<String> = expanded
+            .search
+            .iter()
+            .cloned()
+            .chain(
+                options
+                    .search
+                    .iter()
+                    .map(|d| d.to_string_lossy().into_owned()),
+            )
+            .collect();
+        let mut imported =
+            crate::formats::mitsuba::to_ron_in(&expanded.text, options, Some(files), &search)
+                .map_err(|(line, col, message)| {
+                    let (file, line, col) = expanded.locate(line, col);
+                    located((file, line, col, message))
+                })?;
         for place in imported
             .origins
             .entities
@@ -206,6 +218,14 @@ pub fn import_scene(
             message: format!(
                 "-D {name}=... sets a Mitsuba XML scene's <default>; this is a pbrt-v4 scene"
             ),
+        });
+    }
+    if !options.search.is_empty() {
+        return Err(SceneError::Scene {
+            path: path.to_path_buf(),
+            message: "-a DIR searches for the files a Mitsuba XML scene names; this is a pbrt-v4 \
+                      scene (its Include and file names are relative to its folder)"
+                .into(),
         });
     }
     crate::formats::pbrt::to_ron(path, &text, files, options)

@@ -11,6 +11,7 @@ fn mean_of(scene: &Path, defines: &[(String, String)], spp: u32, seed: u64) -> F
     let options = ImportOptions {
         defines: defines.to_vec(),
         approximate: false,
+        ..ImportOptions::default()
     };
     let loaded = load_scene_defined(scene, &[], &options).unwrap();
     let built = RenderScene::build(&loaded);
@@ -48,6 +49,7 @@ fn the_xml_cornell_box_renders_as_the_ron_one() {
         &ImportOptions {
             defines: vec![("spp".into(), "8".into()), ("max_depth".into(), "3".into())],
             approximate: false,
+            ..ImportOptions::default()
         },
     )
     .unwrap();
@@ -382,6 +384,7 @@ fn approximations_of_mitsuba_plugins_are_warnings() {
     let options = ImportOptions {
         defines: Vec::new(),
         approximate: true,
+        ..ImportOptions::default()
     };
     let loaded = load_scene_defined(&scene, &[], &options).unwrap();
     assert_eq!(loaded.render.integrator, "path");
@@ -546,6 +549,7 @@ fn unlike_blends_and_see_through_masks_are_approximations() {
         let options = ImportOptions {
             defines: Vec::new(),
             approximate: true,
+            ..ImportOptions::default()
         };
         let imported = raylab::formats::mitsuba::to_ron_with(&text, &options).unwrap();
         assert!(
@@ -741,4 +745,37 @@ fn an_include_of_a_fifo_says_what_it_is() {
         e.contains("s.xml:2:1:") && e.contains("not a regular file"),
         "{e}"
     );
+}
+
+/// `-a DIR` searches a folder for the files a Mitsuba scene names (as `mitsuba -a`, which
+/// Mitsuba's own test scenes need for mitsuba-data's `common/`), and lets the scene read
+/// them; without it the file is not found, and a RON scene refuses the flag.
+#[test]
+fn search_folders_find_what_a_mitsuba_scene_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("scene")).unwrap();
+    std::fs::create_dir_all(d.join("common/meshes")).unwrap();
+    std::fs::write(
+        d.join("common/meshes/tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("scene/s.xml"),
+        r#"<scene version="3.0.0">
+            <sensor type="perspective"><float name="fov" value="40"/></sensor>
+            <shape type="obj"><string name="filename" value="meshes/tri.obj"/></shape>
+        </scene>"#,
+    )
+    .unwrap();
+    let without = raylab_in(d, &["validate", "scene/s.xml"]);
+    assert_eq!(without.status.code(), Some(2));
+    let with = raylab_in(d, &["validate", "scene/s.xml", "-a", "common"]);
+    let e = String::from_utf8_lossy(&with.stderr);
+    assert!(with.status.success(), "{e}");
+    std::fs::write(d.join("scene/s.ron"), "(camera: LookAt(eye: (0, 0, 5), look_at: (0, 0, 0), fov: 40), entities: [(shape: Sphere(radius: 1), material: \"m\")], materials: {\"m\": Lambert(albedo: 0.5)})").unwrap();
+    let ron = raylab_in(d, &["validate", "scene/s.ron", "-a", "common"]);
+    let e = String::from_utf8_lossy(&ron.stderr);
+    assert!(ron.status.code() == Some(2) && e.contains("-a DIR"), "{e}");
 }

@@ -309,6 +309,7 @@ fn approximations_need_the_flag_and_are_then_warnings() {
     let options = ImportOptions {
         defines: Vec::new(),
         approximate: true,
+        ..ImportOptions::default()
     };
     let loaded = load_scene_defined(&path, &[], &options).unwrap();
     assert!(

@@ -326,6 +326,7 @@ pub fn to_ron(text: &str, overrides: &[(String, String)]) -> Result<Imported, Lo
     let options = ImportOptions {
         defines: overrides.to_vec(),
         approximate: false,
+        ..ImportOptions::default()
     };
     to_ron_with(text, &options)
 }

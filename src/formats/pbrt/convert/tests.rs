@@ -9,8 +9,8 @@ fn convert(text: &str, approximate: bool) -> Result<Imported, PbrtError> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/pbrt/mangled.pbrt");
     let files = SceneFiles::new(&path, &[]);
     let options = ImportOptions {
-        defines: Vec::new(),
         approximate,
+        ..ImportOptions::default()
     };
     to_ron(&path, text, &files, &options)
 }
