@@ -63,7 +63,55 @@ impl<'a, 'input> Converter<'a, 'input> {
                 format!("`{name}` must be a colour or a <texture>"),
             ));
         }
+        if let Some(c) = self.raw_constant(node)? {
+            return Ok(Some(ColorDesc::Constant(c)));
+        }
         self.texture(node).map(|t| Some(ColorDesc::Texture(t)))
+    }
+
+    /// A scalar parameter (a roughness): a number, or a texture given nested or by reference.
+    fn float_param(
+        &self,
+        props: &mut Props<'a, 'input>,
+        name: &str,
+    ) -> Result<Option<FloatDesc>, Located> {
+        if let Some(v) = props.float(name)? {
+            return Ok(Some(FloatDesc::Constant(v)));
+        }
+        let Some(i) = props.children.iter().position(|(n, _)| n == name) else {
+            return Ok(None);
+        };
+        let (_, node) = props.children.remove(i);
+        let node = self.resolve(node)?;
+        if node.tag_name().name() != "texture" {
+            return Err(at(
+                self.doc,
+                node,
+                format!("`{name}` must be a number or a <texture>"),
+            ));
+        }
+        if let Some(c) = self.raw_constant(node)? {
+            return Ok(Some(FloatDesc::Constant(c[0])));
+        }
+        self.texture(node).map(|t| Some(FloatDesc::Texture(t)))
+    }
+
+    /// The value of a `rawconstant` texture (a constant taken as it is, no colour conversion:
+    /// in raylab's RGB, a constant), `None` for any other texture.
+    fn raw_constant(&self, node: Node<'a, 'input>) -> Result<Option<[f32; 3]>, Located> {
+        if self.kind(node)? != "rawconstant" {
+            return Ok(None);
+        }
+        let mut p = self.props(node)?;
+        let value = p.vector("value")?.ok_or_else(|| {
+            at(
+                self.doc,
+                node,
+                "<texture type=\"rawconstant\"> needs a `value`",
+            )
+        })?;
+        p.finish(&[])?;
+        Ok(Some(value))
     }
 
     pub(super) fn texture(&self, node: Node<'a, 'input>) -> Result<TextureDesc, Located> {
@@ -128,7 +176,8 @@ impl<'a, 'input> Converter<'a, 'input> {
                 ))
             }
         };
-        p.finish(&[])?;
+        // `format`: the precision Mitsuba keeps the bitmap in, not what it looks up.
+        p.finish(&["format"])?;
         Ok(out)
     }
 
@@ -221,12 +270,11 @@ impl<'a, 'input> Converter<'a, 'input> {
                 ))
             }
         };
-        let mut alpha = |name: &str| p.float(name).map(|a| a.map(FloatDesc::Constant));
         Ok(Rough {
             distribution,
-            alpha: alpha("alpha")?,
-            alpha_u: alpha("alpha_u")?,
-            alpha_v: alpha("alpha_v")?,
+            alpha: self.float_param(p, "alpha")?,
+            alpha_u: self.float_param(p, "alpha_u")?,
+            alpha_v: self.float_param(p, "alpha_v")?,
         })
     }
 
@@ -425,15 +473,22 @@ impl<'a, 'input> Converter<'a, 'input> {
                 format!("<bsdf type=\"{kind}\"> needs a nested <bsdf> and a <texture>"),
             ));
         };
-        let (material, texture) = (Box::new(self.bsdf(inner)?), self.texture(texture)?);
+        let material = Box::new(self.bsdf(inner)?);
+        let (colour, float) = match self.raw_constant(texture)? {
+            Some(c) => (ColorDesc::Constant(c), FloatDesc::Constant(c[0])),
+            None => {
+                let t = self.texture(texture)?;
+                (ColorDesc::Texture(t.clone()), FloatDesc::Texture(t))
+            }
+        };
         Ok(if kind == "normalmap" {
             MaterialDesc::NormalMap {
-                texture: ColorDesc::Texture(texture),
+                texture: colour,
                 material,
             }
         } else {
             MaterialDesc::BumpMap {
-                texture: FloatDesc::Texture(texture),
+                texture: float,
                 scale: p.float("scale")?.unwrap_or(1.0),
                 material,
             }

@@ -114,3 +114,56 @@ fn focal_lengths_are_read_as_mitsuba_reads_them() {
         .2
         .contains("positive length"));
 }
+
+/// What Mitsuba's render tests use: a `rawconstant` normal map (a constant), roughness given
+/// as textures, and a bitmap's storage `format` (ignored: a precision, not a look-up).
+#[test]
+fn raw_constants_textured_roughness_and_bitmap_formats_import() {
+    use crate::formats::schema::{ColorDesc, FloatDesc, MaterialDesc};
+    let scene = |bsdf: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/></sensor>
+            <shape type="sphere"><bsdf type="twosided" id="m">{bsdf}</bsdf></shape></scene>"#
+        )
+    };
+    let material = |bsdf: &str| {
+        let s = to_ron(&scene(bsdf), &[]).unwrap().scene;
+        let MaterialDesc::TwoSided(inner) = s.materials.0[0].1.clone() else {
+            panic!("{:?}", s.materials);
+        };
+        *inner
+    };
+    let normal = material(
+        r#"<bsdf type="normalmap"><texture name="normalmap" type="rawconstant"><vector name="value" value="0.5, 0.5, 1"/></texture><bsdf type="diffuse"/></bsdf>"#,
+    );
+    assert!(
+        matches!(normal, MaterialDesc::NormalMap { texture: ColorDesc::Constant(c), .. } if c == [0.5, 0.5, 1.0]),
+        "{normal:?}"
+    );
+    let rough = material(
+        r#"<bsdf type="roughconductor"><texture name="alpha_u" type="checkerboard"><float name="color0" value="0.05"/></texture><float name="alpha_v" value="0.3"/></bsdf>"#,
+    );
+    let MaterialDesc::RoughConductor {
+        alpha_u, alpha_v, ..
+    } = rough
+    else {
+        panic!("{rough:?}");
+    };
+    assert!(
+        matches!(alpha_u, Some(FloatDesc::Texture(_))),
+        "{alpha_u:?}"
+    );
+    assert_eq!(alpha_v, Some(FloatDesc::Constant(0.3)));
+    let image = material(
+        r#"<bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="a.png"/><string name="format" value="variant"/></texture></bsdf>"#,
+    );
+    assert!(
+        matches!(
+            image,
+            MaterialDesc::Lambert {
+                albedo: ColorDesc::Texture(_)
+            }
+        ),
+        "{image:?}"
+    );
+}
