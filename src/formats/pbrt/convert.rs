@@ -54,6 +54,9 @@ enum Current {
     Desc {
         desc: Option<Box<MaterialDesc>>,
         kind: String,
+        /// The description's [`textures::material_key`], made once per directive (shapes
+        /// under it look their material up by it).
+        key: String,
     },
     Named(String),
 }
@@ -471,9 +474,11 @@ impl<'a> Converter<'a> {
                 let kind = d.strings[0].clone();
                 let mut p = self.params(&mut d)?;
                 let desc = self.material(&kind, &mut p)?;
+                let key = desc.as_ref().map(textures::material_key).unwrap_or_default();
                 self.state.material = Current::Desc {
                     desc: desc.map(Box::new),
                     kind,
+                    key,
                 };
             }
             "Texture" => {
@@ -533,6 +538,10 @@ pub fn to_ron(
     files: &SceneFiles,
     options: &ImportOptions,
 ) -> Result<Imported, PbrtError> {
+    // pbrt-v4's material before any `Material`: diffuse 0.5.
+    let default_material = MaterialDesc::Lambert {
+        albedo: ColorDesc::Constant([0.5; 3]),
+    };
     let mut c = Converter {
         files,
         options,
@@ -545,9 +554,8 @@ pub fn to_ron(
             ctm: DMat4::IDENTITY,
             reverse: false,
             material: Current::Desc {
-                desc: Some(Box::new(MaterialDesc::Lambert {
-                    albedo: ColorDesc::Constant([0.5; 3]),
-                })),
+                key: textures::material_key(&default_material),
+                desc: Some(Box::new(default_material)),
                 kind: "diffuse".into(),
             },
             area: None,

@@ -22,6 +22,29 @@ struct Interface {
     specular_transmittance: ColorDesc,
 }
 
+/// A texture parameter's value: a constant (`rawconstant`) or a texture to look up.
+enum TextureValue {
+    Constant([f32; 3]),
+    Texture(TextureDesc),
+}
+
+impl TextureValue {
+    fn colour(self) -> ColorDesc {
+        match self {
+            TextureValue::Constant(c) => ColorDesc::Constant(c),
+            TextureValue::Texture(t) => ColorDesc::Texture(t),
+        }
+    }
+
+    /// As a scalar: a constant's first part.
+    fn float(self) -> FloatDesc {
+        match self {
+            TextureValue::Constant(c) => FloatDesc::Constant(c[0]),
+            TextureValue::Texture(t) => FloatDesc::Texture(t),
+        }
+    }
+}
+
 /// The constant albedo of a `Lambert` material, if it is one.
 fn lambert_albedo(m: &MaterialDesc) -> Option<V3> {
     match m {
@@ -40,8 +63,7 @@ pub(super) fn default_bsdf() -> MaterialDesc {
 }
 
 impl<'a, 'input> Converter<'a, 'input> {
-    /// A colour parameter: a constant, or a `bitmap` / `checkerboard` texture given nested
-    /// or by reference.
+    /// A colour parameter: a constant, or a texture given nested or by reference.
     pub(super) fn colour(
         &self,
         props: &mut Props<'a, 'input>,
@@ -51,22 +73,10 @@ impl<'a, 'input> Converter<'a, 'input> {
         if let Some(v) = props.vector(name)? {
             return Ok(Some(ColorDesc::Constant(v)));
         }
-        let Some(i) = props.children.iter().position(|(n, _)| n == name) else {
-            return Ok(default.map(ColorDesc::Constant));
-        };
-        let (_, node) = props.children.remove(i);
-        let node = self.resolve(node)?;
-        if node.tag_name().name() != "texture" {
-            return Err(at(
-                self.doc,
-                node,
-                format!("`{name}` must be a colour or a <texture>"),
-            ));
-        }
-        if let Some(c) = self.raw_constant(node)? {
-            return Ok(Some(ColorDesc::Constant(c)));
-        }
-        self.texture(node).map(|t| Some(ColorDesc::Texture(t)))
+        Ok(match self.texture_child(props, name, "a colour")? {
+            Some(t) => Some(t.colour()),
+            None => default.map(ColorDesc::Constant),
+        })
     }
 
     /// A scalar parameter (a roughness): a number, or a texture given nested or by reference.
@@ -78,6 +88,19 @@ impl<'a, 'input> Converter<'a, 'input> {
         if let Some(v) = props.float(name)? {
             return Ok(Some(FloatDesc::Constant(v)));
         }
+        Ok(self
+            .texture_child(props, name, "a number")?
+            .map(TextureValue::float))
+    }
+
+    /// The texture given as parameter `name` (nested or by reference), taken out of
+    /// `props`; anything else there is an error (`what` the parameter may be besides).
+    fn texture_child(
+        &self,
+        props: &mut Props<'a, 'input>,
+        name: &str,
+        what: &str,
+    ) -> Result<Option<TextureValue>, Located> {
         let Some(i) = props.children.iter().position(|(n, _)| n == name) else {
             return Ok(None);
         };
@@ -87,20 +110,17 @@ impl<'a, 'input> Converter<'a, 'input> {
             return Err(at(
                 self.doc,
                 node,
-                format!("`{name}` must be a number or a <texture>"),
+                format!("`{name}` must be {what} or a <texture>"),
             ));
         }
-        if let Some(c) = self.raw_constant(node)? {
-            return Ok(Some(FloatDesc::Constant(c[0])));
-        }
-        self.texture(node).map(|t| Some(FloatDesc::Texture(t)))
+        self.texture_value(node).map(Some)
     }
 
-    /// The value of a `rawconstant` texture (a constant taken as it is, no colour conversion:
-    /// in raylab's RGB, a constant), `None` for any other texture.
-    fn raw_constant(&self, node: Node<'a, 'input>) -> Result<Option<[f32; 3]>, Located> {
+    /// A texture node's value: a `rawconstant`'s constant (taken as it is, no colour
+    /// conversion: in raylab's RGB, a constant), or a texture to look up.
+    fn texture_value(&self, node: Node<'a, 'input>) -> Result<TextureValue, Located> {
         if self.kind(node)? != "rawconstant" {
-            return Ok(None);
+            return self.texture(node).map(TextureValue::Texture);
         }
         let mut p = self.props(node)?;
         let value = p.vector("value")?.ok_or_else(|| {
@@ -111,7 +131,7 @@ impl<'a, 'input> Converter<'a, 'input> {
             )
         })?;
         p.finish(&[])?;
-        Ok(Some(value))
+        Ok(TextureValue::Constant(value))
     }
 
     pub(super) fn texture(&self, node: Node<'a, 'input>) -> Result<TextureDesc, Located> {
@@ -474,21 +494,15 @@ impl<'a, 'input> Converter<'a, 'input> {
             ));
         };
         let material = Box::new(self.bsdf(inner)?);
-        let (colour, float) = match self.raw_constant(texture)? {
-            Some(c) => (ColorDesc::Constant(c), FloatDesc::Constant(c[0])),
-            None => {
-                let t = self.texture(texture)?;
-                (ColorDesc::Texture(t.clone()), FloatDesc::Texture(t))
-            }
-        };
+        let texture = self.texture_value(texture)?;
         Ok(if kind == "normalmap" {
             MaterialDesc::NormalMap {
-                texture: colour,
+                texture: texture.colour(),
                 material,
             }
         } else {
             MaterialDesc::BumpMap {
-                texture: float,
+                texture: texture.float(),
                 scale: p.float("scale")?.unwrap_or(1.0),
                 material,
             }

@@ -66,22 +66,26 @@ impl<'a> Converter<'a> {
         }
     }
 
-    /// The name of the current material in the scene's table, `None` for `interface`.
+    /// The name of the current material in the scene's table, `None` for `interface`. An
+    /// anonymous material joins the table when a shape first uses it, shared with any alike.
     pub(super) fn current_material(&mut self) -> Option<String> {
-        match self.state.material.clone() {
-            Current::Named(name) => Some(name),
-            Current::Desc { desc: None, .. } => None,
+        let (desc, kind, key) = match &self.state.material {
+            Current::Named(name) => return Some(name.clone()),
+            Current::Desc { desc: None, .. } => return None,
             Current::Desc {
                 desc: Some(desc),
                 kind,
-            } => {
-                if let Some(name) = self.material_by_desc.get(&material_key(&desc)) {
-                    return Some(name.clone());
-                }
-                let count = self.materials.len() + 1;
-                Some(self.add_material(&format!("{kind} {count}"), *desc))
-            }
+                key,
+            } => (desc, kind, key),
+        };
+        if let Some(name) = self.material_by_desc.get(key) {
+            return Some(name.clone());
         }
+        let (desc, name) = (
+            (**desc).clone(),
+            format!("{kind} {}", self.materials.len() + 1),
+        );
+        Some(self.add_material(&name, desc))
     }
 
     /// The texture `name` of type `ty` (`float` or `spectrum`).
@@ -253,6 +257,6 @@ impl<'a> Converter<'a> {
 
 /// What makes two materials the same for sharing one entry of the table: their
 /// description, written out (a description is not hashable; its `Debug` text is exact).
-fn material_key(desc: &MaterialDesc) -> String {
+pub(super) fn material_key(desc: &MaterialDesc) -> String {
     format!("{desc:?}")
 }
