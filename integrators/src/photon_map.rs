@@ -409,7 +409,7 @@ impl PhotonMap {
     /// that `accept` admits: `sum f(wo, wi) Phi / (pi r^2)`.
     #[inline]
     pub fn radiance(&self, sp: &ShadingPoint, accept: impl Fn(&Photon) -> bool) -> Rgb {
-        let (frame, wo, material, hit) = (&sp.frame, sp.wo, &*sp.material, &sp.hit);
+        let (frame, wo, material, hit) = (&sp.frame, sp.wo, &sp.material, &sp.hit);
         let wo_world = frame.to_world(wo);
         let mut sum = Rgb::ZERO;
         self.for_each_near(hit.p, |ph| {

@@ -305,18 +305,31 @@ pub enum MaterialDesc {
     TwoSided(Box<MaterialDesc>),
     /// `material` with its shading normal read from a tangent-space normal map (Mitsuba's
     /// `normalmap`): `texture`'s `2 rgb - 1`, in the frame of the surface's normal and `dpdu`.
+    ///
+    /// As Mitsuba 3.7's, by default: `flip_invalid_normals` (a tilted normal facing away
+    /// from the viewer has its tangential part negated) and `shadowing` (the BSDF carries
+    /// Estevez et al.'s microfacet shadowing term and refuses directions below the surface's
+    /// own shading normal). Both `true` unless set `false` (pbrt's maps have neither).
     NormalMap {
         texture: ColorDesc,
         material: Box<MaterialDesc>,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        flip_invalid_normals: bool,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        shadowing: bool,
     },
     /// `material` on a surface displaced along its normal by `scale` times `texture`'s
     /// luminance (Mitsuba's `bumpmap`), shaded with the displaced surface's normal. Default
-    /// `scale: 1`.
+    /// `scale: 1`; `flip_invalid_normals` and `shadowing` as for `NormalMap`.
     BumpMap {
         texture: FloatDesc,
         #[serde(default = "one")]
         scale: f32,
         material: Box<MaterialDesc>,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        flip_invalid_normals: bool,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        shadowing: bool,
     },
 }
 
@@ -857,6 +870,14 @@ fn default_cutoff() -> f32 {
 
 fn one() -> f32 {
     1.0
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 fn unit_z() -> V3 {

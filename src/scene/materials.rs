@@ -7,7 +7,7 @@ use crate::formats::schema::{MaterialDesc, Metal};
 use crate::formats::texture_desc::{ColorDesc, FloatDesc};
 use glam::Vec3A;
 use raylab_integrators::bsdf::{
-    checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert,
+    checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert, MapOptions,
     MaterialTextures, Microfacet, OrenNayar, Perturbation, Phong, Plastic, RoughConductor,
     RoughDielectric, RoughPlastic, RoughnessTextures, SurfaceMaterial, ThinDielectric,
 };
@@ -172,17 +172,28 @@ pub fn material_from_desc(
             }
             return Ok(m);
         }
-        MaterialDesc::NormalMap { texture, material } => {
+        MaterialDesc::NormalMap {
+            texture,
+            material,
+            flip_invalid_normals,
+            shadowing,
+        } => {
             let map = match texture {
                 ColorDesc::Constant(c) => Texture::Constant(v3(*c)),
                 ColorDesc::Texture(t) => textures.texture(t, Role::Data)?,
             };
-            return perturbed(material, Perturbation::NormalMap(map), textures);
+            let options = MapOptions {
+                flip_invalid_normals: *flip_invalid_normals,
+                shadowing: *shadowing,
+            };
+            return perturbed(material, Perturbation::NormalMap(map), options, textures);
         }
         MaterialDesc::BumpMap {
             texture,
             scale,
             material,
+            flip_invalid_normals,
+            shadowing,
         } => {
             if !scale.is_finite() {
                 return Err(format!("a bump map's scale must be finite, got {scale}"));
@@ -195,7 +206,11 @@ pub fn material_from_desc(
                 height,
                 scale: *scale,
             };
-            return perturbed(material, map, textures);
+            let options = MapOptions {
+                flip_invalid_normals: *flip_invalid_normals,
+                shadowing: *shadowing,
+            };
+            return perturbed(material, map, options, textures);
         }
     };
     Ok(SurfaceMaterial::new(bsdf, t, None))
@@ -205,13 +220,14 @@ pub fn material_from_desc(
 fn perturbed(
     inner: &MaterialDesc,
     map: Perturbation,
+    options: MapOptions,
     textures: &mut TextureLoader,
 ) -> Result<SurfaceMaterial, String> {
     let m = material_from_desc(inner, textures)?;
     if m.perturbation().is_some() {
         return Err("a material takes one normal or bump map, not one inside another".into());
     }
-    Ok(m.with_perturbation(map))
+    Ok(m.with_perturbation(map, options))
 }
 
 /// The microfacet distribution of roughnesses `(alpha_u, alpha_v)`.

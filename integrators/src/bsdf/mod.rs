@@ -11,6 +11,7 @@ mod dielectric;
 pub mod fresnel;
 pub mod ior;
 mod lambert;
+pub mod mapped;
 pub mod microfacet;
 mod oren_nayar;
 mod phong;
@@ -27,6 +28,7 @@ pub use conductor::{ComplexIor, Conductor};
 pub use dielectric::{relative_ior, Dielectric};
 pub use fresnel::fresnel_dielectric;
 pub use lambert::Lambert;
+pub use mapped::MappedBsdf;
 pub use microfacet::{Distribution, Microfacet};
 pub use oren_nayar::OrenNayar;
 pub use phong::Phong;
@@ -35,7 +37,7 @@ pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
 pub use textured::{
-    material_at, MaterialTextures, Perturbation, RoughnessTextures, SurfaceMaterial,
+    material_at, MapOptions, MaterialTextures, Perturbation, RoughnessTextures, SurfaceMaterial,
 };
 pub use thin_dielectric::ThinDielectric;
 

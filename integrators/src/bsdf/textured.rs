@@ -10,8 +10,14 @@
 //! The normal and bump maps follow Mitsuba 3's `normalmap` and `bumpmap`: a normal map holds
 //! tangent-space normals `2 rgb - 1` in the frame of the shading normal and `dpdu`; a bump map
 //! displaces the surface along its normal by `scale * h(u, v)`, and the shading normal is the
-//! cross product of the displaced tangents `dpdu + n (scale dh/du)` and `dpdv + n (scale dh/dv)`.
+//! cross product of the displaced tangents `dpdu + n (scale dh/du)` and `dpdv + n (scale dh/dv)`,
+//! turned to the geometric normal's side. With [`MapOptions`] as Mitsuba 3.7 sets them by
+//! default, a tilted normal that faces away from the viewer has its tangential part negated
+//! (`flip_invalid_normals`), and the BSDF carries the terms of [`super::mapped`]
+//! (`use_shadowing_function`). The tilted frame's tangent is the unperturbed frame's, made
+//! orthogonal to the new normal.
 
+use super::mapped::{MapTerms, MappedBsdf};
 use super::Material;
 use crate::texture::Texture;
 use crate::{Frame, Hit, Scene};
@@ -128,16 +134,45 @@ pub enum Perturbation {
     BumpMap { height: Texture, scale: f32 },
 }
 
+/// What a normal or bump map does beyond replacing the shading normal (Mitsuba 3.7's two
+/// options, both on by default there and here; pbrt's maps have neither).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MapOptions {
+    /// A tilted normal facing away from the viewer has its tangential part negated.
+    pub flip_invalid_normals: bool,
+    /// The BSDF carries Estevez et al.'s microfacet shadowing term and refuses directions
+    /// across the unperturbed shading normal.
+    pub shadowing: bool,
+}
+
+impl Default for MapOptions {
+    fn default() -> Self {
+        MapOptions {
+            flip_invalid_normals: true,
+            shadowing: true,
+        }
+    }
+}
+
+/// A map's tilted normal at one hit, with what its terms need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Tilt {
+    /// The new shading normal (world).
+    normal: Vec3A,
+    /// The unperturbed frame's tangent, which orients the tilted frame.
+    tangent: Vec3A,
+    /// Estevez's `alpha^2 = min(tan^2(tilt) / 8, 1)`.
+    alpha2: f32,
+}
+
 impl Perturbation {
-    /// The shading normal at `hit` under this map, or `None` where it is undefined (a zero
-    /// normal, degenerate tangents) or would face away from the geometric normal: the hit
-    /// then keeps its own.
-    fn normal(&self, hit: &Hit) -> Option<Vec3A> {
-        let n = match self {
-            Perturbation::NormalMap(t) => {
-                let local = (t.eval(hit.uv) * 2.0 - Vec3A::ONE).normalize_or_zero();
-                hit.frame().to_world(local)
-            }
+    /// The tilted normal at `hit` seen from `towards_viewer` (world) under this map with
+    /// `options`, or `None` where it is undefined (a zero normal, degenerate tangents) or
+    /// would face away from the geometric normal: the hit then keeps its own.
+    fn tilt(&self, hit: &Hit, towards_viewer: Vec3A, options: MapOptions) -> Option<Tilt> {
+        let frame = hit.frame();
+        let mut local = match self {
+            Perturbation::NormalMap(t) => (t.eval(hit.uv) * 2.0 - Vec3A::ONE).normalize_or_zero(),
             Perturbation::BumpMap { height, scale } => {
                 let g = height.gradient(hit.uv) * *scale;
                 let n = hit.ns;
@@ -152,14 +187,40 @@ impl Perturbation {
                 let du = dpdu + n * (g.x - n.dot(dpdu));
                 let dv = dpdv + n * (g.y - n.dot(dpdv));
                 let m = du.cross(dv).normalize_or_zero();
-                if m.dot(n) < 0.0 {
-                    -m
-                } else {
-                    m
-                }
+                frame.to_local(if m.dot(hit.ng) < 0.0 { -m } else { m })
             }
         };
-        (n.is_finite() && n.dot(hit.ng) > 0.0).then_some(n)
+        if options.flip_invalid_normals {
+            let wi = frame.to_local(towards_viewer);
+            if wi.z * wi.dot(local) <= 0.0 {
+                local = Vec3A::new(-local.x, -local.y, local.z);
+            }
+        }
+        let normal = frame.to_world(local);
+        if !(normal.is_finite() && local != Vec3A::ZERO && normal.dot(hit.ng) > 0.0) {
+            return None;
+        }
+        let alpha2 = if options.shadowing {
+            let c2 = local.z * local.z;
+            (0.125 * (1.0 - c2).max(0.0) / c2).min(1.0)
+        } else {
+            0.0
+        };
+        Some(Tilt {
+            normal,
+            tangent: frame.s,
+            alpha2,
+        })
+    }
+
+    /// The shading normal at `hit` under this map without options (tests).
+    #[cfg(test)]
+    fn normal(&self, hit: &Hit) -> Option<Vec3A> {
+        let off = MapOptions {
+            flip_invalid_normals: false,
+            shadowing: false,
+        };
+        self.tilt(hit, hit.ns, off).map(|t| t.normal)
     }
 }
 
@@ -173,7 +234,7 @@ pub struct SurfaceMaterial {
     /// span several cache lines).
     varies: bool,
     textures: MaterialTextures,
-    perturbation: Option<Perturbation>,
+    perturbation: Option<(Perturbation, MapOptions)>,
 }
 
 impl From<Material> for SurfaceMaterial {
@@ -186,7 +247,7 @@ impl SurfaceMaterial {
     pub fn new(
         bsdf: Material,
         textures: MaterialTextures,
-        perturbation: Option<Perturbation>,
+        perturbation: Option<(Perturbation, MapOptions)>,
     ) -> SurfaceMaterial {
         SurfaceMaterial {
             varies: textures.any() || perturbation.is_some(),
@@ -205,12 +266,12 @@ impl SurfaceMaterial {
 
     /// The normal or bump map, if any.
     pub fn perturbation(&self) -> Option<&Perturbation> {
-        self.perturbation.as_ref()
+        self.perturbation.as_ref().map(|(p, _)| p)
     }
 
-    /// The same material under the normal or bump map `map`.
-    pub fn with_perturbation(self, map: Perturbation) -> SurfaceMaterial {
-        SurfaceMaterial::new(self.bsdf, self.textures, Some(map))
+    /// The same material under the normal or bump map `map`, used with `options`.
+    pub fn with_perturbation(self, map: Perturbation, options: MapOptions) -> SurfaceMaterial {
+        SurfaceMaterial::new(self.bsdf, self.textures, Some((map, options)))
     }
 
     /// True when the material needs the hit's texture coordinates or tangents: it has
@@ -221,43 +282,61 @@ impl SurfaceMaterial {
         self.varies || self.bsdf.is_anisotropic()
     }
 
-    /// The BSDF at `hit` (parametrised, if [`SurfaceMaterial::needs_parametrisation`]),
-    /// whose shading normal the normal or bump map (if any) replaces.
+    /// The BSDF at `hit` (parametrised, if [`SurfaceMaterial::needs_parametrisation`]) seen
+    /// from `towards_viewer` (world), whose shading normal the normal or bump map (if any)
+    /// replaces, with the map's terms.
     #[inline(always)]
-    pub(crate) fn at(&self, hit: &mut Hit) -> Cow<'_, Material> {
+    pub(crate) fn at(&self, hit: &mut Hit, towards_viewer: Vec3A) -> MappedBsdf<'_> {
         if !self.varies {
-            return Cow::Borrowed(&self.bsdf);
+            return MappedBsdf::plain(Cow::Borrowed(&self.bsdf));
         }
-        self.at_varying(hit)
+        self.at_varying(hit, towards_viewer)
     }
 
     /// [`SurfaceMaterial::at`] for a material that varies over the surface.
     #[inline(never)]
-    fn at_varying(&self, hit: &mut Hit) -> Cow<'_, Material> {
-        if let Some(p) = &self.perturbation {
-            if let Some(n) = p.normal(hit) {
-                hit.ns = n;
+    fn at_varying(&self, hit: &mut Hit, towards_viewer: Vec3A) -> MappedBsdf<'_> {
+        let mut map = None;
+        if let Some((p, options)) = &self.perturbation {
+            if let Some(tilt) = p.tilt(hit, towards_viewer, *options) {
+                let n0 = hit.ns;
+                hit.ns = tilt.normal;
+                hit.dpdu = tilt.tangent * hit.dpdu.length().max(1.0);
+                if options.shadowing {
+                    let frame = hit.frame();
+                    map = Some(MapTerms::new(
+                        frame.to_local(n0),
+                        tilt.alpha2,
+                        frame.to_local(towards_viewer),
+                    ));
+                }
             }
         }
-        if !self.textures.any() {
-            return Cow::Borrowed(&self.bsdf);
-        }
-        let mut m = self.bsdf.clone();
-        self.textures.apply(&mut m, hit.uv);
-        Cow::Owned(m)
+        let material = if self.textures.any() {
+            let mut m = self.bsdf.clone();
+            self.textures.apply(&mut m, hit.uv);
+            Cow::Owned(m)
+        } else {
+            Cow::Borrowed(&self.bsdf)
+        };
+        MappedBsdf { material, map }
     }
 }
 
-/// The BSDF of the surface at `hit` in `scene`: its material at the hit, parametrised first
-/// where the material needs it; `hit`'s shading normal as the material's normal or bump map
-/// makes it.
+/// The BSDF of the surface at `hit` in `scene` seen from `towards_viewer` (world): its
+/// material at the hit, parametrised first where the material needs it, with a normal or bump
+/// map's terms; `hit`'s shading normal as the map makes it.
 #[inline]
-pub fn material_at<'s>(scene: &'s dyn Scene, hit: &mut Hit) -> Cow<'s, Material> {
+pub fn material_at<'s>(
+    scene: &'s dyn Scene,
+    hit: &mut Hit,
+    towards_viewer: Vec3A,
+) -> MappedBsdf<'s> {
     let surface = scene.material(hit.material);
     if surface.needs_parametrisation() {
         scene.parametrise(hit);
     }
-    surface.at(hit)
+    surface.at(hit, towards_viewer)
 }
 
 #[cfg(test)]
@@ -290,7 +369,7 @@ mod tests {
     fn untextured_materials_are_borrowed_and_textured_ones_looked_up() {
         let plain = SurfaceMaterial::from(Material::Lambert(Lambert::new(Rgb::ONE).unwrap()));
         assert!(matches!(
-            plain.at(&mut hit_at(Vec2::ZERO)),
+            plain.at(&mut hit_at(Vec2::ZERO), Vec3A::Z).material,
             Cow::Borrowed(_)
         ));
         let textured = SurfaceMaterial::new(
@@ -302,7 +381,10 @@ mod tests {
             None,
         );
         for (uv, expected) in [(Vec2::splat(0.25), 0.8), (Vec2::new(0.75, 0.25), 0.1)] {
-            assert_eq!(textured.at(&mut hit_at(uv)).albedo(), Rgb::splat(expected));
+            assert_eq!(
+                textured.at(&mut hit_at(uv), Vec3A::Z).albedo(),
+                Rgb::splat(expected)
+            );
         }
         // Roughness reads the texture's value, kept within the microfacet range.
         let rough = SurfaceMaterial::new(
@@ -323,7 +405,8 @@ mod tests {
             },
             None,
         );
-        let Material::RoughConductor(c) = &*rough.at(&mut hit_at(Vec2::splat(0.25))) else {
+        let Material::RoughConductor(c) = &*rough.at(&mut hit_at(Vec2::splat(0.25)), Vec3A::Z)
+        else {
             panic!("a rough conductor")
         };
         assert_eq!(c.microfacet.alpha_u, crate::bsdf::microfacet::MIN_ALPHA);

@@ -24,6 +24,6 @@ impl RayIntegrator for AlbedoView {
         if hit.light.is_some() {
             return emitted_at(tracer.scene, &hit, ray);
         }
-        crate::bsdf::material_at(tracer.scene, &mut hit).albedo()
+        crate::bsdf::material_at(tracer.scene, &mut hit, -ray.dir).albedo()
     }
 }

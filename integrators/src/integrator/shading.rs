@@ -4,11 +4,10 @@
 //! (the one direct-lighting routine every light-sampling integrator shares).
 
 use super::{stays_on_viewer_side, Tracer};
-use crate::bsdf::{BsdfSample, TransportMode};
+use crate::bsdf::{BsdfSample, MappedBsdf, TransportMode};
 use crate::light::LightSample;
-use crate::{Frame, Hit, Material, Rgb, Scene};
+use crate::{Frame, Hit, Rgb, Scene};
 use glam::{Vec2, Vec3A};
-use std::borrow::Cow;
 
 /// A surface hit, ready to shade.
 #[derive(Clone, Debug)]
@@ -21,8 +20,8 @@ pub struct ShadingPoint<'a> {
     pub wo: Vec3A,
     /// The same direction in world space (exactly the negated ray direction).
     pub wo_world: Vec3A,
-    /// The BSDF at the hit (its textures looked up there).
-    pub material: Cow<'a, Material>,
+    /// The BSDF at the hit (its textures looked up there), with a normal or bump map's terms.
+    pub material: MappedBsdf<'a>,
 }
 
 /// One BSDF sample at a shading point, in world space, with the factors a path's throughput
@@ -53,7 +52,7 @@ impl<'a> ShadingPoint<'a> {
     #[inline]
     pub fn new(hit: &Hit, dir: Vec3A, scene: &'a dyn Scene) -> ShadingPoint<'a> {
         let mut hit = *hit;
-        let material = crate::bsdf::material_at(scene, &mut hit);
+        let material = crate::bsdf::material_at(scene, &mut hit, -dir);
         let frame = hit.frame();
         ShadingPoint {
             hit,
@@ -188,6 +187,8 @@ mod tests {
     use super::*;
     use crate::bsdf::{Dielectric, Lambert};
     use crate::testing::furnace_sphere;
+    use crate::Material;
+    use std::borrow::Cow;
 
     fn hit(ns: Vec3A) -> Hit {
         Hit {
@@ -202,7 +203,7 @@ mod tests {
         let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
         let dir = Vec3A::new(0.3, 0.0, -1.0).normalize();
         let mut sp = ShadingPoint::new(&hit(Vec3A::Z), dir, &scene);
-        sp.material = Cow::Borrowed(&glass);
+        sp.material = MappedBsdf::plain(Cow::Borrowed(&glass));
         // u_lobe near 1 picks refraction (Fresnel reflectance is a few percent here).
         let r = sp
             .sample(0.999, Vec2::ZERO, TransportMode::Radiance)
@@ -220,7 +221,7 @@ mod tests {
         assert!(r.bsdf.eta == 1.0 && r.weight == i.weight);
         // From inside, the relative IOR is the inverse.
         let mut inside = ShadingPoint::new(&hit(Vec3A::Z), -dir, &scene);
-        inside.material = Cow::Borrowed(&glass);
+        inside.material = MappedBsdf::plain(Cow::Borrowed(&glass));
         let t = inside
             .sample(0.999, Vec2::ZERO, TransportMode::Radiance)
             .unwrap();
@@ -236,7 +237,7 @@ mod tests {
         let ns = Vec3A::new(0.3, 0.0, 1.0).normalize();
         let dir = Vec3A::new(-0.5, 0.2, -1.0).normalize();
         let mut sp = ShadingPoint::new(&hit(ns), dir, &scene);
-        sp.material = Cow::Borrowed(&lambert);
+        sp.material = MappedBsdf::plain(Cow::Borrowed(&lambert));
         let u = Vec2::new(0.3, 0.7);
         let r = sp.sample(0.5, u, TransportMode::Radiance).unwrap();
         let i = sp.sample(0.5, u, TransportMode::Importance).unwrap();

@@ -21,7 +21,7 @@
 //! `clamp=0` the estimator is unbiased (and splotchy). Glossy surfaces lit by VPLs show each
 //! VPL as a highlight: the method suits diffuse scenes.
 
-use crate::bsdf::TransportMode;
+use crate::bsdf::{MappedBsdf, TransportMode};
 use crate::integrator::{
     emit_from_a_light, emitted_at, escaped, sample_one_light, scene_radius, Demand, PathState,
     RayCounters, RayIntegrator, ShadingPoint, Tracer, MAX_SURVIVAL,
@@ -29,11 +29,10 @@ use crate::integrator::{
 use crate::registry::{
     expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
 };
-use crate::{Frame, Hit, Material, Ray, Rgb, Sampler, Scene};
+use crate::{Frame, Hit, Ray, Rgb, Sampler, Scene};
 use crate::{PassContext, Spectrum};
 use glam::Vec3A;
 use rayon::prelude::*;
-use std::borrow::Cow;
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "vpl",
@@ -95,7 +94,7 @@ struct VirtualLight {
     /// Towards where the light came from (local and world).
     wo: Vec3A,
     wo_world: Vec3A,
-    material: Material,
+    material: MappedBsdf<'static>,
     /// The light path's power at the vertex over the number of paths.
     power: Rgb,
     /// Scattering events on the light path, this vertex's included.
@@ -189,7 +188,7 @@ impl Vpl {
                 frame: v.frame,
                 wo: v.wo,
                 wo_world: v.wo_world,
-                material: Cow::Borrowed(&v.material),
+                material: v.material.borrowed(),
             }
             .connection_factor(-w, TransportMode::Importance);
             if there == Rgb::ZERO {

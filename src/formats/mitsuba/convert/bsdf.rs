@@ -36,10 +36,20 @@ impl TextureValue {
         }
     }
 
-    /// As a scalar: a constant's first part.
+    /// As a scalar: a constant's first part. A checkerboard read as a scalar (Mitsuba 3's
+    /// `eval_1`) has `color0` where the parities of `u` and `v` differ, the opposite of its
+    /// colour lookup (`eval`), in every version to 3.9; Mitsuba's own references (the
+    /// textured rough conductor's checkerboard roughness) are rendered so, and so is this.
     fn float(self) -> FloatDesc {
         match self {
             TextureValue::Constant(c) => FloatDesc::Constant(c[0]),
+            TextureValue::Texture(TextureDesc::Checkerboard(c)) => {
+                FloatDesc::Texture(TextureDesc::Checkerboard(CheckerboardDesc {
+                    color0: c.color1,
+                    color1: c.color0,
+                    ..c
+                }))
+            }
             TextureValue::Texture(t) => FloatDesc::Texture(t),
         }
     }
@@ -495,16 +505,22 @@ impl<'a, 'input> Converter<'a, 'input> {
         };
         let material = Box::new(self.bsdf(inner)?);
         let texture = self.texture_value(texture)?;
+        let flip_invalid_normals = p.boolean("flip_invalid_normals")?.unwrap_or(true);
+        let shadowing = p.boolean("use_shadowing_function")?.unwrap_or(true);
         Ok(if kind == "normalmap" {
             MaterialDesc::NormalMap {
                 texture: texture.colour(),
                 material,
+                flip_invalid_normals,
+                shadowing,
             }
         } else {
             MaterialDesc::BumpMap {
                 texture: texture.float(),
                 scale: p.float("scale")?.unwrap_or(1.0),
                 material,
+                flip_invalid_normals,
+                shadowing,
             }
         })
     }
