@@ -27,6 +27,9 @@ pub struct SceneFiles {
     /// was reached (lexically: the scene's folder joined with the name), shared by the
     /// clones (the loaders of one scene, which may run in parallel).
     read: Arc<Mutex<BTreeSet<PathBuf>>>,
+    /// What the readers of its files noted while reading them (a mesh's repaired normals),
+    /// shared by the clones: the load's warnings.
+    notes: Arc<Mutex<Vec<String>>>,
 }
 
 impl SceneFiles {
@@ -45,7 +48,21 @@ impl SceneFiles {
             dir,
             roots,
             read: Arc::default(),
+            notes: Arc::default(),
         }
+    }
+
+    /// Notes `message` as a warning of the load.
+    pub fn note(&self, message: String) {
+        self.notes
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(message);
+    }
+
+    /// The notes so far, taken (the list is left empty).
+    pub fn take_notes(&self) -> Vec<String> {
+        std::mem::take(&mut *self.notes.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
     /// The same scene's files, with a list of files read of its own, empty.

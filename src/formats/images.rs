@@ -1,5 +1,6 @@
 //! Reading images that scenes name (environment maps, textures): any format the `image` crate decodes
-//! here (OpenEXR, Radiance HDR, PNG, JPEG), capped in size before anything is allocated, as linear
+//! here (OpenEXR, Radiance HDR, PNG, JPEG, TGA) and PFM ([`super::pfm`]), capped in size before
+//! anything is allocated, as linear
 //! RGB. 8- and 16-bit images are decoded from sRGB, as Mitsuba 3 does, unless they hold data
 //! (`raw`); float images are taken as they are. Texels that are not finite are refused.
 
@@ -112,12 +113,19 @@ fn decode(
     let cannot = |e: &dyn std::fmt::Display| cannot(file, e);
     let bytes =
         crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(&e))?;
+    if super::pfm::is_pfm(&bytes) {
+        let room = crate::system::memory_limit().map(|(room, _)| room);
+        let (w, h, values) = super::pfm::decode(&bytes, room).map_err(|e| cannot(&e))?;
+        let image = image::Rgb32FImage::from_raw(w, h, values)
+            .ok_or_else(|| cannot(&"its size does not match its values"))?;
+        return Ok(image::DynamicImage::ImageRgb32F(image));
+    }
     let reader = image::ImageReader::new(Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| cannot(&e))?;
     if reader.format().is_none() {
         return Err(cannot(
-            &"it is not an image raylab reads (OpenEXR, Radiance HDR, PNG or JPEG)",
+            &"it is not an image raylab reads (OpenEXR, Radiance HDR, PNG, JPEG, TGA or PFM)",
         ));
     }
     let mut decoder = reader.into_decoder().map_err(|e| cannot(&e))?;

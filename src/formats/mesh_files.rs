@@ -39,6 +39,9 @@ pub struct FileMesh {
     /// Per triangle, its index in `materials`.
     pub triangle_material: Vec<u32>,
     pub materials: Vec<FileMaterial>,
+    /// Vertex normals the file gave as NaN or infinite (or zero), replaced by the angle-weighted
+    /// normal of the triangles around the vertex.
+    pub repaired_normals: usize,
 }
 
 impl FileMesh {
@@ -162,7 +165,7 @@ fn parent_of(file: &Path) -> &Path {
 }
 
 /// Every position, normal and texture coordinate finite, at least one triangle.
-pub(super) fn check_mesh(kind: &str, file: &Path, mesh: &FileMesh) -> Result<(), String> {
+pub(super) fn check_mesh(kind: &str, file: &Path, mesh: &mut FileMesh) -> Result<(), String> {
     if let Some((i, p)) = mesh
         .positions
         .iter()
@@ -184,13 +187,25 @@ pub(super) fn check_mesh(kind: &str, file: &Path, mesh: &FileMesh) -> Result<(),
             ));
         }
     }
-    if let Some(n) = &mesh.normals {
-        if let Some((i, v)) = n.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(format!(
-                "{kind} file `{}`: vertex {i} has a normal that is not finite: {:?}",
-                file.display(),
-                v.to_array()
-            ));
+    // A vertex normal that is not finite (or zero) has no direction to interpolate: it is
+    // replaced by the one the triangles around the vertex give (pbrt-v4 falls back to the
+    // triangle's own normal for such a hit; a per-vertex repair keeps the others smooth).
+    if let Some(n) = &mut mesh.normals {
+        let bad = |v: &Vec3A| !v.is_finite() || *v == Vec3A::ZERO;
+        if n.iter().any(bad) {
+            // Index ranges are checked later, with the shape: only those in range count here.
+            let count = mesh.positions.len();
+            let valid: Vec<[u32; 3]> = (mesh.indices.iter())
+                .filter(|t| t.iter().all(|&i| (i as usize) < count))
+                .copied()
+                .collect();
+            let around = angle_weighted_normals(&mesh.positions, &valid);
+            for (v, a) in n.iter_mut().zip(around) {
+                if bad(v) {
+                    *v = a;
+                    mesh.repaired_normals += 1;
+                }
+            }
         }
     }
     if mesh.indices.is_empty() {
@@ -640,7 +655,7 @@ fn finish_mesh(
     } = streams;
     mesh.normals = (all_normals && normals.len() == count).then_some(normals);
     mesh.uvs = (all_uvs && uvs.len() == count).then_some(uvs);
-    check_mesh(format, file, &mesh)?;
+    check_mesh(format, file, &mut mesh)?;
     Ok(mesh)
 }
 
@@ -668,6 +683,30 @@ fn gltf_material(file: &Path, m: &gltf::Material, index: usize) -> Result<FileMa
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Normals that are NaN, infinite or zero are replaced, one by one, by the normal of the
+    /// triangles around their vertex, and counted; the good ones stay as the file has them.
+    #[test]
+    fn vertex_normals_that_are_not_finite_are_repaired_and_counted() {
+        let mut mesh = FileMesh {
+            positions: vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y, Vec3A::new(1.0, 1.0, 0.0)],
+            indices: vec![[0, 1, 2], [1, 3, 2]],
+            normals: Some(vec![
+                Vec3A::splat(f32::NAN),
+                Vec3A::new(0.0, 0.6, 0.8),
+                Vec3A::new(f32::INFINITY, 0.0, 1.0),
+                Vec3A::ZERO,
+            ]),
+            ..FileMesh::default()
+        };
+        check_mesh("PLY", Path::new("m.ply"), &mut mesh).unwrap();
+        assert_eq!(mesh.repaired_normals, 3);
+        let n = mesh.normals.unwrap();
+        for i in [0, 2, 3] {
+            assert!((n[i] - Vec3A::Z).length() < 1e-6, "{i}: {}", n[i]);
+        }
+        assert_eq!(n[1], Vec3A::new(0.0, 0.6, 0.8));
+    }
 
     #[test]
     fn angle_weighted_normals_do_not_depend_on_the_triangulation() {

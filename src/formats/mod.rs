@@ -2,7 +2,7 @@
 //! `schema.rs` and `texture_desc.rs`), the importers that build it from other renderers'
 //! scenes (`mitsuba/`, `pbrt/`, sharing `import.rs`), and the readers of the files scenes
 //! name (meshes: `mesh_files.rs` for OBJ and glTF, `ply.rs`, `serialized.rs`; images:
-//! `images.rs`, `octahedral.rs`; spectra: `spectra.rs`), with which files a scene may read
+//! `images.rs`, `pfm.rs`, `octahedral.rs`; spectra: `spectra.rs`), with which files a scene may read
 //! (`access.rs`). Nothing here knows the world, its components or the render scene.
 
 pub mod access;
@@ -13,6 +13,7 @@ pub mod mesh_files;
 pub mod mitsuba;
 pub mod octahedral;
 pub mod pbrt;
+pub mod pfm;
 pub mod ply;
 pub mod schema;
 pub mod serialized;

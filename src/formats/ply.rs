@@ -236,7 +236,7 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
                 .push([indices[0], indices[k], indices[k + 1]].map(|i| i as u32));
         }
     }
-    check_mesh("PLY", file, &mesh)?;
+    check_mesh("PLY", file, &mut mesh)?;
     Ok(mesh)
 }
 

@@ -51,8 +51,8 @@ pub fn parse_serialized(file: &Path, bytes: &[u8], shape_index: u32) -> Result<F
     };
     read_mesh(&mut stream, version)
         .map_err(|e| cannot(&format!("mesh {shape_index}: {e}")))
-        .and_then(|mesh| {
-            check_mesh("serialized", file, &mesh)?;
+        .and_then(|mut mesh| {
+            check_mesh("serialized", file, &mut mesh)?;
             Ok(mesh)
         })
 }

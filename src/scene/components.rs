@@ -63,6 +63,18 @@ impl Transform {
         self.matrix.is_some_and(|m| m.matrix3.determinant() < 0.0)
     }
 
+    /// How the transform turns directions, without scale: its rotation, followed for a
+    /// mirroring matrix by the mirror that reverses the rotated `z` (an orthogonal map; what
+    /// an environment map's directions go through, as pbrt-v4 and Mitsuba 3 map them).
+    pub fn orientation(&self) -> glam::Mat3A {
+        let r = glam::Mat3A::from_quat(self.rotation());
+        if self.mirrors() {
+            glam::Mat3A::from_cols(r.x_axis, r.y_axis, -r.z_axis)
+        } else {
+            r
+        }
+    }
+
     /// Where the local origin lands.
     pub fn translation(&self) -> Vec3A {
         self.matrix().translation
@@ -281,5 +293,37 @@ impl From<crate::formats::mesh_files::FileMesh> for Shape {
             normals: mesh.normals,
             uvs: mesh.uvs,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A matrix's orientation is its rotation, with the mirror where it mirrors: the map of
+    /// directions the matrix makes, scale removed.
+    #[test]
+    fn orientation_keeps_a_mirror_and_drops_the_scale() {
+        let m = glam::Mat3A::from_quat(Quat::from_rotation_y(0.6))
+            * glam::Mat3A::from_diagonal(Vec3::new(-2.0, 2.0, 2.0));
+        let t = Transform {
+            matrix: Some(Affine3A::from_mat3_translation(
+                m.into(),
+                Vec3::new(1.0, 2.0, 3.0),
+            )),
+            ..Transform::default()
+        };
+        assert!(t.mirrors());
+        let o = t.orientation();
+        assert!((o.determinant() + 1.0).abs() < 1e-5);
+        for v in [Vec3A::X, Vec3A::Y, Vec3A::new(0.3, -0.5, 0.8).normalize()] {
+            let want = (m * v).normalize();
+            assert!((o * v - want).length() < 1e-5, "{v}: {} vs {want}", o * v);
+        }
+        let plain = Transform {
+            rotate_degrees: Vec3::new(0.0, 30.0, 0.0),
+            ..Transform::default()
+        };
+        assert!((plain.orientation().determinant() - 1.0).abs() < 1e-5);
     }
 }

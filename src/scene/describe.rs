@@ -70,12 +70,6 @@ pub(super) fn emitter_from_desc(
             scale,
             mapping,
         } => {
-            if transform.mirrors() {
-                return Err(
-                    "an environment map cannot be mirrored: its transform.matrix has a negative determinant"
-                        .into(),
-                );
-            }
             let file = files.named(&path)?;
             let image = crate::formats::images::read_linear_rgb(&file, false)?;
             let (width, height, texels) = match mapping.as_deref() {
@@ -97,8 +91,7 @@ pub(super) fn emitter_from_desc(
                     ))
                 }
             };
-            let rotation = glam::Mat3A::from_quat(transform.rotation());
-            let map = EnvMap::new(width, height, texels, scale, rotation)
+            let map = EnvMap::new(width, height, texels, scale, transform.orientation())
                 .map_err(|e| format!("environment map `{}`: {e}", file.display()))?;
             Emitter::Environment(std::sync::Arc::new(map))
         }
@@ -313,24 +306,51 @@ fn corners<const N: usize>(shape: &str, vertices: &[[f32; 3]]) -> Result<[Vec3A;
     })
 }
 
+/// `mesh`, read from `path`, with what its reader repaired noted as a warning of the load.
+fn noted(mesh: mesh_files::FileMesh, path: &str, files: &SceneFiles) -> mesh_files::FileMesh {
+    if mesh.repaired_normals > 0 {
+        files.note(format!(
+            "mesh file `{path}`: {} vertex normal(s) were not finite (or zero) and were replaced by the normal of the triangles around the vertex",
+            mesh.repaired_normals
+        ));
+    }
+    mesh
+}
+
 pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Shape, String> {
     Ok(match desc {
-        ShapeDesc::Gltf { path } => {
-            Shape::from(mesh_files::load_gltf(&files.named(&path)?, files)?)
-        }
-        ShapeDesc::Obj { path, normals } => {
-            Shape::from(mesh_files::load_obj(&files.named(&path)?, false, files)?.shaded(normals))
-        }
-        ShapeDesc::Ply { path, normals } => {
-            Shape::from(crate::formats::ply::load_ply(&files.named(&path)?)?.shaded(normals))
-        }
+        ShapeDesc::Gltf { path } => Shape::from(noted(
+            mesh_files::load_gltf(&files.named(&path)?, files)?,
+            &path,
+            files,
+        )),
+        ShapeDesc::Obj { path, normals } => Shape::from(
+            noted(
+                mesh_files::load_obj(&files.named(&path)?, false, files)?,
+                &path,
+                files,
+            )
+            .shaded(normals),
+        ),
+        ShapeDesc::Ply { path, normals } => Shape::from(
+            noted(
+                crate::formats::ply::load_ply(&files.named(&path)?)?,
+                &path,
+                files,
+            )
+            .shaded(normals),
+        ),
         ShapeDesc::Serialized {
             path,
             shape_index,
             normals,
         } => Shape::from(
-            crate::formats::serialized::load_serialized(&files.named(&path)?, shape_index)?
-                .shaded(normals),
+            noted(
+                crate::formats::serialized::load_serialized(&files.named(&path)?, shape_index)?,
+                &path,
+                files,
+            )
+            .shaded(normals),
         ),
         ShapeDesc::Instance { mesh } => Shape::Instance { mesh },
         ShapeDesc::Sphere { center, radius } => Shape::Sphere {

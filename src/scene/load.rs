@@ -69,6 +69,7 @@ fn world_of(
     let mut loaded =
         super::edit::build_world(file, files.scene(), files).map_err(|e| origins.place(e))?;
     loaded.warnings.extend(warnings);
+    loaded.warnings.extend(files.take_notes());
     loaded.inputs = SceneInputs::of(files, options);
     Ok(loaded)
 }

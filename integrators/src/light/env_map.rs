@@ -33,7 +33,7 @@ pub struct EnvMap {
     /// Linear RGB texels, row by row from the top (`+y`).
     texels: Vec<Rgb>,
     scale: f32,
-    /// The map's frame to the world's (a rotation) and back.
+    /// The map's frame to the world's (orthogonal) and back.
     to_world: Mat3A,
     to_local: Mat3A,
     /// Over the `height - 1` rows of patches.
@@ -44,7 +44,8 @@ pub struct EnvMap {
 
 impl EnvMap {
     /// A map of `width x height` linear RGB `texels` (row by row, top first), scaled by
-    /// `scale` and rotated into the world by `to_world`. At least 2 x 2 texels, every value
+    /// `scale` and turned into the world by `to_world` (orthogonal: a rotation, or a rotation
+    /// and a mirror, whose transpose maps back). At least 2 x 2 texels, every value
     /// finite and non-negative, `scale` finite and non-negative.
     pub fn new(
         width: usize,
