@@ -244,9 +244,12 @@ impl ImageTexture {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
     Constant(Rgb),
+    /// An image's texels times `scale` (pbrt-v4's `scale` on an image, or a scale texture of
+    /// one).
     Image {
         image: Arc<ImageTexture>,
         to_uv: Affine2,
+        scale: f32,
     },
     Checkerboard {
         color0: Rgb,
@@ -261,7 +264,11 @@ impl Texture {
     pub fn eval(&self, uv: Vec2) -> Rgb {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Image { image, to_uv } => image.eval(to_uv.transform_point2(uv)),
+            Texture::Image {
+                image,
+                to_uv,
+                scale,
+            } => image.eval(to_uv.transform_point2(uv)) * *scale,
             Texture::Checkerboard {
                 color0,
                 color1,
@@ -289,9 +296,13 @@ impl Texture {
     /// checkerboard's (a step) are zero.
     pub fn gradient(&self, uv: Vec2) -> Vec2 {
         match self {
-            Texture::Image { image, to_uv } => {
+            Texture::Image {
+                image,
+                to_uv,
+                scale,
+            } => {
                 let g = image.luminance_gradient(to_uv.transform_point2(uv));
-                to_uv.matrix2.transpose() * g
+                to_uv.matrix2.transpose() * g * *scale
             }
             Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
         }
@@ -301,7 +312,11 @@ impl Texture {
     pub fn range(&self) -> (f32, f32) {
         match self {
             Texture::Constant(c) => (c.min_element(), c.max_element()),
-            Texture::Image { image, .. } => image.range(),
+            Texture::Image { image, scale, .. } => {
+                let (lo, hi) = image.range();
+                let (a, b) = (lo * scale, hi * scale);
+                (a.min(b), a.max(b))
+            }
             Texture::Checkerboard { color0, color1, .. } => (
                 color0.min_element().min(color1.min_element()),
                 color0.max_element().max(color1.max_element()),
@@ -314,7 +329,7 @@ impl Texture {
     pub fn mean(&self) -> Rgb {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Image { image, .. } => image.mean(),
+            Texture::Image { image, scale, .. } => image.mean() * *scale,
             Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
         }
     }
@@ -323,7 +338,8 @@ impl Texture {
     pub fn max(&self) -> Rgb {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Image { image, .. } => image.max(),
+            // The scale is not negative (the loader checks).
+            Texture::Image { image, scale, .. } => image.max() * *scale,
             Texture::Checkerboard { color0, color1, .. } => color0.max(*color1),
         }
     }
@@ -413,6 +429,7 @@ mod tests {
         let t = Texture::Image {
             image,
             to_uv: Affine2::from_scale_angle_translation(Vec2::new(1.5, 0.7), 0.3, Vec2::X),
+            scale: 1.3,
         };
         let h = 1e-3;
         for uv in [Vec2::new(0.31, 0.42), Vec2::new(0.77, 0.13)] {

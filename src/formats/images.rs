@@ -120,9 +120,15 @@ fn decode(
             .ok_or_else(|| cannot(&"its size does not match its values"))?;
         return Ok(image::DynamicImage::ImageRgb32F(image));
     }
-    let reader = image::ImageReader::new(Cursor::new(&bytes))
+    let mut reader = image::ImageReader::new(Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| cannot(&e))?;
+    if reader.format().is_none() {
+        // TGA has no signature to guess from: its name says it.
+        if let Ok(f @ image::ImageFormat::Tga) = image::ImageFormat::from_path(file) {
+            reader.set_format(f);
+        }
+    }
     if reader.format().is_none() {
         return Err(cannot(
             &"it is not an image raylab reads (OpenEXR, Radiance HDR, PNG, JPEG, TGA or PFM)",

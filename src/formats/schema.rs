@@ -155,6 +155,13 @@ fn default_spp() -> u32 {
 pub enum MaterialDesc {
     /// Ideal diffuse reflector.
     Lambert { albedo: ColorDesc },
+    /// Diffuse reflection and transmission (pbrt-v4's `diffusetransmission`: a leaf, a
+    /// lampshade): `reflectance / pi` on the side light arrives from, `transmittance / pi`
+    /// on the other; their sum at most 1 per channel.
+    DiffuseTransmission {
+        reflectance: ColorDesc,
+        transmittance: ColorDesc,
+    },
     /// Rough diffuse reflector; `sigma` is the facet slope deviation in DEGREES (0 = Lambert).
     OrenNayar { albedo: ColorDesc, sigma: f32 },
     /// Energy-conserving Phong: diffuse `kd` plus a glossy lobe `ks` of `exponent`;
@@ -342,6 +349,10 @@ impl MaterialDesc {
         let any = |a: [&Option<FloatDesc>; 3]| a.iter().any(|a| a.as_ref().is_some_and(f));
         match self {
             Lambert { albedo } | OrenNayar { albedo, .. } => c(albedo),
+            DiffuseTransmission {
+                reflectance,
+                transmittance,
+            } => c(reflectance) || c(transmittance),
             Phong { kd, ks, .. } => c(kd) || c(ks),
             Mirror { .. } | Glass { .. } => false,
             Dielectric {

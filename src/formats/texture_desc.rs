@@ -15,6 +15,23 @@ pub enum TextureDesc {
     Checkerboard(CheckerboardDesc),
 }
 
+impl TextureDesc {
+    /// The same texture with every value times `s` (not negative).
+    pub fn scaled(self, s: f32) -> TextureDesc {
+        match self {
+            TextureDesc::Image(i) => TextureDesc::Image(ImageDesc {
+                scale: i.scale * s,
+                ..i
+            }),
+            TextureDesc::Checkerboard(c) => TextureDesc::Checkerboard(CheckerboardDesc {
+                color0: c.color0.map(|x| x * s),
+                color1: c.color1.map(|x| x * s),
+                ..c
+            }),
+        }
+    }
+}
+
 /// `Image(...)`: Mitsuba's `bitmap`.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -35,6 +52,9 @@ pub struct ImageDesc {
     pub uv_scale: [f32; 2],
     #[serde(default)]
     pub uv_offset: [f32; 2],
+    /// Multiplies every texel (pbrt-v4's `scale`); default 1, not negative.
+    #[serde(default = "one")]
+    pub scale: f32,
 }
 
 /// `Checkerboard(...)`: Mitsuba's `checkerboard`, one square of each colour per unit of `uv`
@@ -91,6 +111,9 @@ fn repeat() -> String {
 }
 fn unit_scale() -> [f32; 2] {
     [1.0, 1.0]
+}
+fn one() -> f32 {
+    1.0
 }
 fn grey40() -> V3 {
     [0.4; 3]
@@ -183,7 +206,7 @@ impl serde::Serialize for TextureDesc {
         use serde::ser::SerializeStructVariant;
         match self {
             TextureDesc::Image(d) => {
-                let mut v = s.serialize_struct_variant("Texture", 0, "Image", 6)?;
+                let mut v = s.serialize_struct_variant("Texture", 0, "Image", 7)?;
                 v.serialize_field("path", &d.path)?;
                 v.serialize_field("filter", &d.filter)?;
                 v.serialize_field("wrap", &d.wrap)?;
@@ -193,6 +216,11 @@ impl serde::Serialize for TextureDesc {
                 }
                 v.serialize_field("uv_scale", &d.uv_scale)?;
                 v.serialize_field("uv_offset", &d.uv_offset)?;
+                if d.scale == 1.0 {
+                    v.skip_field("scale")?;
+                } else {
+                    v.serialize_field("scale", &d.scale)?;
+                }
                 v.end()
             }
             TextureDesc::Checkerboard(d) => {

@@ -7,9 +7,10 @@ use crate::formats::schema::{MaterialDesc, Metal};
 use crate::formats::texture_desc::{ColorDesc, FloatDesc};
 use glam::Vec3A;
 use raylab_integrators::bsdf::{
-    checks, relative_ior, ComplexIor, Conductor, Dielectric, Distribution, Lambert, MapOptions,
-    MaterialTextures, Microfacet, OrenNayar, Perturbation, Phong, Plastic, RoughConductor,
-    RoughDielectric, RoughPlastic, RoughnessTextures, SurfaceMaterial, ThinDielectric,
+    checks, relative_ior, ComplexIor, Conductor, Dielectric, DiffuseTransmission, Distribution,
+    Lambert, MapOptions, MaterialTextures, Microfacet, OrenNayar, Perturbation, Phong, Plastic,
+    RoughConductor, RoughDielectric, RoughPlastic, RoughnessTextures, SurfaceMaterial,
+    ThinDielectric,
 };
 use raylab_integrators::texture::Texture;
 use raylab_integrators::Material;
@@ -37,6 +38,19 @@ pub fn material_from_desc(
             Role::Reflectance,
             &mut t.diffuse,
         )?)?),
+        MaterialDesc::DiffuseTransmission {
+            reflectance,
+            transmittance,
+        } => {
+            let r = colour(reflectance, Role::Reflectance, &mut t.diffuse)?;
+            let tr = colour(transmittance, Role::Reflectance, &mut t.transmittance)?;
+            // Energy holds at every point: the largest reflectance + transmittance.
+            let max = |tex: &Option<Texture>, c: Vec3A| tex.as_ref().map_or(c, |x| x.max());
+            if (max(&t.diffuse, r) + max(&t.transmittance, tr)).max_element() > 1.0 + 1e-6 {
+                return Err("reflectance + transmittance exceed 1 (somewhere): diffuse transmission would create energy".into());
+            }
+            Material::DiffuseTransmission(DiffuseTransmission::new(r, tr)?)
+        }
         MaterialDesc::OrenNayar { albedo, sigma } => Material::OrenNayar(OrenNayar::checked(
             colour(albedo, Role::Reflectance, &mut t.diffuse)?,
             *sigma,

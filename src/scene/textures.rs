@@ -85,6 +85,14 @@ impl<'a> TextureLoader<'a> {
                     self.image(i, role)?
                 },
                 to_uv: uv_transform(i.uv_scale, i.uv_offset)?,
+                scale: if i.scale.is_finite() && i.scale >= 0.0 {
+                    i.scale
+                } else {
+                    return Err(format!(
+                        "texture `{}`: scale must be finite and not negative, got {}",
+                        i.path, i.scale
+                    ));
+                },
             },
         };
         let what = match desc {

@@ -8,6 +8,7 @@
 pub mod checks;
 mod conductor;
 mod dielectric;
+mod diffuse_transmission;
 pub mod fresnel;
 pub mod ior;
 mod lambert;
@@ -26,6 +27,7 @@ mod verification;
 
 pub use conductor::{ComplexIor, Conductor};
 pub use dielectric::{relative_ior, Dielectric};
+pub use diffuse_transmission::DiffuseTransmission;
 pub use fresnel::fresnel_dielectric;
 pub use lambert::Lambert;
 pub use mapped::MappedBsdf;
@@ -171,6 +173,7 @@ pub trait Bxdf {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
     Lambert(Lambert),
+    DiffuseTransmission(DiffuseTransmission),
     OrenNayar(OrenNayar),
     Phong(Phong),
     Dielectric(Dielectric),
@@ -186,6 +189,7 @@ macro_rules! dispatch {
     ($self:expr, $m:ident => $e:expr) => {
         match $self {
             Material::Lambert($m) => $e,
+            Material::DiffuseTransmission($m) => $e,
             Material::OrenNayar($m) => $e,
             Material::Phong($m) => $e,
             Material::Dielectric($m) => $e,

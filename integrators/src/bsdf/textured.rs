@@ -28,12 +28,12 @@ use std::borrow::Cow;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MaterialTextures {
     /// Diffuse reflectance: Lambert's and Oren-Nayar's `albedo`, Phong's `kd`, the plastics'
-    /// `diffuse_reflectance`.
+    /// `diffuse_reflectance`, diffuse transmission's `reflectance`.
     pub diffuse: Option<Texture>,
     /// Specular reflectance: Phong's `ks`, the conductors' and dielectrics' and plastics'
     /// `specular_reflectance`.
     pub specular: Option<Texture>,
-    /// The dielectrics' `specular_transmittance`.
+    /// The dielectrics' `specular_transmittance`, diffuse transmission's `transmittance`.
     pub transmittance: Option<Texture>,
     /// The rough conductor's and rough dielectric's roughness.
     pub alpha: Option<RoughnessTextures>,
@@ -89,6 +89,10 @@ impl MaterialTextures {
         };
         match m {
             Material::Lambert(l) => l.albedo = at(&self.diffuse, l.albedo),
+            Material::DiffuseTransmission(d) => {
+                d.reflectance = at(&self.diffuse, d.reflectance);
+                d.transmittance = at(&self.transmittance, d.transmittance);
+            }
             Material::OrenNayar(o) => o.albedo = at(&self.diffuse, o.albedo),
             Material::Phong(p) => {
                 p.kd = at(&self.diffuse, p.kd);
@@ -439,6 +443,7 @@ mod tests {
             height: Texture::Image {
                 image: Arc::new(image),
                 to_uv: Affine2::IDENTITY,
+                scale: 1.0,
             },
             scale: 1.0,
         };

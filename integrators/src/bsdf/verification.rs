@@ -400,6 +400,12 @@ fn all_materials() -> Vec<(&'static str, Material)> {
             Material::Plastic(Plastic::new(rgb, Rgb::ONE, 1.5, false).unwrap()),
         ),
         (
+            "diffusetransmission",
+            Material::DiffuseTransmission(
+                DiffuseTransmission::new(rgb * 0.5, Rgb::new(0.1, 0.5, 0.7)).unwrap(),
+            ),
+        ),
+        (
             "roughdielectric ggx .3",
             Material::RoughDielectric(
                 RoughDielectric::new(1.5, Rgb::ONE, Rgb::ONE, mf(GGX, 0.3)).unwrap(),

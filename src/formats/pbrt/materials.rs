@@ -357,22 +357,32 @@ pub fn material(
             }
         }
         "diffusetransmission" => {
+            // pbrt-v4: reflectance and transmittance default to 0.25, each times `scale` and
+            // clamped to [0, 1].
             let scale = p.float("scale")?.unwrap_or(1.0);
-            let r = match p.colour("reflectance")? {
-                None => grey((0.25 * scale).clamp(0.0, 1.0) as f32),
-                Some((Colour::Rgb(v), _)) => {
-                    ColorDesc::Constant(v.map(|x| (x * scale).clamp(0.0, 1.0) as f32))
-                }
-                Some((c, pos)) if scale == 1.0 => colour(&c, pos, &format!("{what}: `reflectance`"), textures, notes)?,
-                Some((_, pos)) => return Err((pos, format!("{what}: a scaled reflectance texture is not supported"))),
+            if !(scale.is_finite() && scale >= 0.0) {
+                return Err((at, format!("{what}: `scale` must be finite and not negative, got {scale}")));
+            }
+            let mut side = |p: &mut ParamList, name: &str| -> Result<ColorDesc, Located> {
+                Ok(match p.colour(name)? {
+                    None => grey((0.25 * scale).clamp(0.0, 1.0) as f32),
+                    Some((Colour::Rgb(v), _)) => {
+                        ColorDesc::Constant(v.map(|x| (x * scale).clamp(0.0, 1.0) as f32))
+                    }
+                    Some((c, pos)) => match colour(&c, pos, &format!("{what}: `{name}`"), textures, notes)? {
+                        ColorDesc::Texture(t) => ColorDesc::Texture(t.scaled(scale as f32)),
+                        ColorDesc::Constant(v) => ColorDesc::Constant(v.map(|x| (x * scale as f32).clamp(0.0, 1.0))),
+                    },
+                })
             };
-            p.ignore(&["transmittance"]);
-            notes.approximate(at, format!("{what}: raylab has no diffuse transmission; a diffuse reflector of the reflectance instead"))?;
-            MaterialDesc::Lambert { albedo: r }
+            MaterialDesc::DiffuseTransmission {
+                reflectance: side(p, "reflectance")?,
+                transmittance: side(p, "transmittance")?,
+            }
         }
         "interface" => return Ok(None),
         other => {
-            return Err((at, format!("material `{other}` is not supported (diffuse, coateddiffuse, conductor, dielectric, thindielectric, interface are; diffusetransmission with --approximate)")))
+            return Err((at, format!("material `{other}` is not supported (diffuse, coateddiffuse, conductor, dielectric, thindielectric, diffusetransmission, interface are)")))
         }
     };
     Ok(Some(out))

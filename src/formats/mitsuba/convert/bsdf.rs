@@ -190,6 +190,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                     raw: Some(raw),
                     uv_scale,
                     uv_offset,
+                    scale: 1.0,
                 })
             }
             "checkerboard" => TextureDesc::Checkerboard(CheckerboardDesc {

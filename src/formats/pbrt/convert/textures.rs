@@ -153,9 +153,14 @@ impl<'a> Converter<'a> {
                     Some("sRGB") => false,
                     Some(e) => return Err((d.pos, format!("{what}: encoding \"{e}\" is not supported (sRGB, linear are)"))),
                 };
-                if p.float("scale")?.is_some_and(|s| s != 1.0) || p.boolean("invert")? == Some(true) {
-                    return Err((d.pos, format!("{what}: `scale` and `invert` are not supported on image textures")));
+                if p.boolean("invert")? == Some(true) {
+                    return Err((d.pos, format!("{what}: `invert` is not supported on image textures")));
                 }
+                let scale = match p.float("scale")? {
+                    None => 1.0,
+                    Some(s) if s.is_finite() && s >= 0.0 => s as f32,
+                    Some(s) => return Err((d.pos, format!("{what}: `scale` must be finite and not negative, got {s}"))),
+                };
                 p.ignore(&["maxanisotropy"]);
                 // pbrt-v4 looks images up at (s, 1 - t); raylab at (u, v) from the top row.
                 let image = ImageDesc {
@@ -165,6 +170,7 @@ impl<'a> Converter<'a> {
                     raw: Some(linear),
                     uv_scale: [su as f32, -sv as f32],
                     uv_offset: [du as f32, (1.0 - dv) as f32],
+                    scale,
                 };
                 Made::texture(&ty, TextureDesc::Image(image))
             }
@@ -229,7 +235,15 @@ impl<'a> Converter<'a> {
                     (Some((Colour::Texture(t), pos)), s) if unit(&s) => {
                         self.named_texture(&ty, &t, pos, &what)?
                     }
-                    _ => return Err((d.pos, format!("{what}: a scale texture is supported for a constant times a constant, or a texture times 1"))),
+                    (Some((Colour::Texture(t), pos)), Some((Colour::Rgb(s), _))) if s[0] >= 0.0 && s[0].is_finite() => {
+                        match self.named_texture(&ty, &t, pos, &what)? {
+                            Made::Spectrum(ColorDesc::Texture(t)) => Made::Spectrum(ColorDesc::Texture(t.scaled(s[0] as f32))),
+                            Made::Float(FloatDesc::Texture(t)) => Made::Float(FloatDesc::Texture(t.scaled(s[0] as f32))),
+                            Made::Spectrum(ColorDesc::Constant(c)) => Made::constant(&ty, c.map(|x| x * s[0] as f32)),
+                            Made::Float(FloatDesc::Constant(c)) => Made::constant(&ty, [c * s[0] as f32; 3]),
+                        }
+                    }
+                    _ => return Err((d.pos, format!("{what}: a scale texture is supported for a constant or a texture times a constant (not negative)"))),
                 }
             }
             other => return Err((d.pos, format!("{what}: texture \"{other}\" is not supported (imagemap, checkerboard, constant, scale are)"))),
