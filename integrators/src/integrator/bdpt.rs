@@ -32,7 +32,7 @@
 //!
 //! Connections to the lens need a pinhole camera: an orthographic one is refused.
 //!
-//! **Parameters**: `max-depth` (scattering events, default 16, at most 30), `rr-depth`
+//! **Parameters**: `max-depth` (scattering events, default 16, at most 128), `rr-depth`
 //! (default 3), `strategy-s` and `strategy-t` (default -1: every strategy), `mis` (1; 0
 //! leaves the one strategy unweighted), `write-strategies` (0).
 //! **Bias**: truncation at `max-depth`, otherwise none.
@@ -51,8 +51,9 @@ use arrayvec::ArrayVec;
 use glam::Vec3A;
 use std::f32::consts::PI;
 
-/// The deepest paths `bdpt` builds: its subpaths live in fixed arrays (no allocation).
-const DEPTH_LIMIT: u32 = 30;
+/// The deepest paths `bdpt` builds: its subpaths live in fixed arrays on the stack (no
+/// allocation; only the vertices a path reaches are written), 130 vertices each.
+pub const DEPTH_LIMIT: u32 = 128;
 /// Vertices of a camera subpath: the lens and up to `DEPTH_LIMIT + 1` more.
 const MAX_VERTICES: usize = DEPTH_LIMIT as usize + 2;
 
@@ -63,7 +64,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         MAX_DEPTH
             .with_default(16.0)
             .with_max(DEPTH_LIMIT as f64)
-            .with_doc("scattering events per path (at most 30)"),
+            .with_doc("scattering events per path (at most 128)"),
         RR_DEPTH,
         STRATEGY,
         STRATEGY

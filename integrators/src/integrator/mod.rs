@@ -5,7 +5,7 @@ pub mod registry;
 pub mod shading;
 
 mod albedo_view;
-mod bdpt;
+pub mod bdpt;
 mod bpm;
 mod depth_view;
 mod direct;

@@ -17,7 +17,10 @@
 //!
 //! **Parameters**: `photons` per pass (default 100000), `radius` (first gather radius in scene
 //! units; 0 = 1% of the scene's bounding-box diagonal), `alpha` (default 2/3), `max-depth`
-//! (default unlimited), `rr-depth` for the camera's specular chain (default 3).
+//! (default unlimited), `photon-depth` (-1, the default: the camera and photon sides share
+//! `max-depth`; else the bounces a photon makes before landing, counted apart from the
+//! camera side, which `max-depth` then bounds alone: pbrt-v4's convention, `maxdepth - 1`),
+//! `rr-depth` for the camera's specular chain (default 3).
 //! **Bias**: a blur of radius `r_i` in pass `i`, vanishing as passes grow (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
@@ -45,7 +48,15 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             max: 1.0,
             doc: "radius reduction: r^2 shrinks by (i + alpha) / (i + 1) per pass",
         },
-        MAX_DEPTH.with_doc("scattering events per path, camera and photon sides together"),
+        MAX_DEPTH.with_doc("scattering events per path, camera and photon sides together (with photon-depth: the camera side's)"),
+        ParamSpec {
+            name: "photon-depth",
+            kind: ParamKind::Int,
+            default: -1.0,
+            min: -1.0,
+            max: 1e6,
+            doc: "bounces of a photon before it lands, counted apart from the camera side (-1: shared with max-depth; pbrt-v4: maxdepth - 1)",
+        },
         RR_DEPTH.with_doc("specular bounces of a camera path before Russian roulette starts"),
     ],
     build: |p: &Params| {
@@ -54,6 +65,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             radius: p.get("radius") as f32,
             alpha: p.get("alpha"),
             max_depth: p.get_depth("max-depth"),
+            photon_depth: (p.get("photon-depth") >= 0.0).then(|| p.get_u32("photon-depth")),
             rr_depth: p.get_u32("rr-depth"),
             map: PhotonMap::default(),
         })
@@ -72,6 +84,8 @@ struct Sppm {
     radius: f32,
     alpha: f64,
     max_depth: u32,
+    /// Photon bounces counted apart from the camera side, if so.
+    photon_depth: Option<u32>,
     rr_depth: u32,
     /// This pass's photons, built for this pass's radius.
     map: PhotonMap,
@@ -113,7 +127,9 @@ impl RayIntegrator for Sppm {
         let radius = r0 * radius_scale(pass, self.alpha);
         // A photon landing after b bounces, gathered after at least one camera-side
         // scattering, makes a path of depth >= b + 1.
-        let max_bounces = self.max_depth.saturating_sub(1);
+        let max_bounces = self
+            .photon_depth
+            .unwrap_or(self.max_depth.saturating_sub(1));
         let (photons, rays) = trace_photons(
             scene,
             self.photons,
@@ -153,7 +169,9 @@ impl RayIntegrator for Sppm {
         l += x.beta * sample_one_light(&sp, false, tracer, sampler);
         // ... and everything else from this pass's photons, within the depth limit: a photon
         // that landed after b bounces makes a path of depth x.bounces + 1 + b.
-        let max_photon_bounces = self.max_depth.saturating_sub(x.bounces + 1);
+        let max_photon_bounces = self
+            .photon_depth
+            .unwrap_or(self.max_depth.saturating_sub(x.bounces + 1));
         l += x.beta
             * self
                 .map
@@ -178,6 +196,25 @@ mod tests {
         // Asymptotically r_n^2 ~ n^(alpha - 1): from pass 1000 to 8000, r^2 falls by 8^(-1/3).
         let ratio = (radius_scale(8000, 2.0 / 3.0) / radius_scale(1000, 2.0 / 3.0)).powi(2);
         assert!((ratio - 0.5).abs() < 0.01, "{ratio}");
+    }
+
+    /// With `photon-depth`, the photon side counts its bounces alone (pbrt-v4's SPPM): depth
+    /// 1 on the camera side (emission and direct light: Le (1 + a)) and photons of up to two
+    /// bounces (a^2 + a^3) make Le (1 + a + a^2 + a^3).
+    #[test]
+    fn furnace_with_the_photon_depth_apart() {
+        expect_mean_passes(
+            "sppm",
+            &[
+                ("photons", "20000"),
+                ("max-depth", "1"),
+                ("photon-depth", "2"),
+            ],
+            &furnace_sphere(0.5, 1.0),
+            1.875,
+            40,
+            500,
+        );
     }
 
     #[test]

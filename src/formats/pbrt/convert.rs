@@ -13,7 +13,7 @@ use crate::formats::schema::{
     RenderDesc, SceneFile, ShapeDesc, TransformDesc,
 };
 use glam::{Affine3A, DMat4, DVec3, DVec4};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 mod lights;
@@ -105,14 +105,15 @@ struct Converter<'a> {
     film: (i64, i64, Option<[f64; 4]>),
     filter: String,
     spp: i64,
-    /// The integrator's name and its `max-depth`.
-    integrator: Option<(&'static str, f64)>,
+    /// The integrator's name and its parameters (`max-depth`, and sppm's).
+    integrator: Option<(&'static str, BTreeMap<String, f64>)>,
     materials: Vec<(String, MaterialDesc)>,
     /// The materials by name, and the first name of each description (anonymous materials
     /// that are alike share one).
     material_descs: HashMap<String, MaterialDesc>,
     material_by_desc: HashMap<String, String>,
-    named_materials: HashMap<String, String>,
+    /// `MakeNamedMaterial` names: their table names, `None` for an `interface`.
+    named_materials: HashMap<String, Option<String>>,
     textures: Textures,
     meshes: Vec<(String, ShapeDesc)>,
     mesh_names: std::collections::HashSet<String>,
@@ -455,11 +456,11 @@ impl<'a> Converter<'a> {
                 let mut p = self.params(&mut d)?;
                 let kind = p.string("type")?.ok_or_else(|| (d.pos, format!("MakeNamedMaterial \"{name}\" needs \"string type\"")))?;
                 let desc = self.material(&kind, &mut p)?;
-                let desc = desc.ok_or_else(|| (d.pos, format!("MakeNamedMaterial \"{name}\": `interface` as a named material is not supported")))?;
                 if self.named_materials.contains_key(&name) {
                     return Err((d.pos, format!("MakeNamedMaterial: \"{name}\" is defined twice")));
                 }
-                let table_name = self.add_material(&name, desc);
+                // An `interface` (a medium's boundary, no surface) has no table entry.
+                let table_name = desc.map(|desc| self.add_material(&name, desc));
                 self.named_materials.insert(name, table_name);
             }
             "NamedMaterial" => {
@@ -467,7 +468,14 @@ impl<'a> Converter<'a> {
                 let table_name = self.named_materials.get(name).cloned().ok_or_else(|| {
                     (d.pos, format!("NamedMaterial: no material is named \"{name}\" (MakeNamedMaterial must come before)"))
                 })?;
-                self.state.material = Current::Named(table_name);
+                self.state.material = match table_name {
+                    Some(table_name) => Current::Named(table_name),
+                    None => Current::Desc {
+                        desc: None,
+                        kind: "interface".into(),
+                        key: String::new(),
+                    },
+                };
             }
             "Material" => {
                 world_only(self, &d)?;
@@ -616,7 +624,15 @@ pub fn to_ron(
     if c.camera.is_none() {
         c.report.push("Camera: none given; pbrt-v4's default, a perspective camera of fov 90 at the origin looking along +z".into());
     }
-    let (integrator, depth) = c.integrator.unwrap_or(("path", 5.0));
+    let (integrator, mut params) = c
+        .integrator
+        .take()
+        .unwrap_or(("path", [("max-depth".to_string(), 5.0)].into()));
+    if integrator == "sppm" {
+        // pbrt-v4 traces as many photons per pass as the film has pixels unless told.
+        let pixels = (c.film.0 * c.film.1) as f64;
+        params.entry("photons".into()).or_insert(pixels);
+    }
     let header = format!(
         "Imported by raylab from a pbrt-v4 scene ({}).",
         path.file_name()
@@ -630,7 +646,7 @@ pub fn to_ron(
         render: RenderDesc {
             integrator: integrator.to_string(),
             spp,
-            params: [("max-depth".to_string(), depth)].into_iter().collect(),
+            params,
             filter,
             ..RenderDesc::default()
         },

@@ -208,13 +208,14 @@ impl<'a> Converter<'a> {
             }
             other => return Err((d.pos, format!("Integrator \"{other}\" is not supported (path, volpath, simplepath, randomwalk, lightpath, bdpt, sppm are)"))),
         };
-        // raylab's bdpt keeps its subpaths in fixed arrays: at most 30 scattering events.
-        let depth = if name == "bdpt" && depth > 30 {
+        // raylab's bdpt keeps its subpaths in fixed arrays: at most DEPTH_LIMIT events.
+        let limit = raylab_integrators::integrator::bdpt::DEPTH_LIMIT as i64;
+        let depth = if name == "bdpt" && depth > limit {
             self.approximate(
                 d.pos,
-                format!("Integrator \"bdpt\": maxdepth {depth} cut to raylab's bdpt's 30 (paths of more bounces are left out)"),
+                format!("Integrator \"bdpt\": maxdepth {depth} cut to raylab's bdpt's {limit} (paths of more bounces are left out)"),
             )?;
-            30
+            limit
         } else {
             depth
         };
@@ -233,16 +234,34 @@ impl<'a> Converter<'a> {
             "largestepprobability",
             "sigma",
             "iterations",
-            "photonsperiteration",
-            "radius",
             "seed",
             "visualizestrategies",
             "visualizeweights",
         ]);
-        p.finish()?;
         // pbrt-v4's maxdepth counts scattering events as raylab's max-depth does (1 is direct
         // light only).
-        self.integrator = Some((name, depth as f64));
+        let mut params = BTreeMap::from([("max-depth".to_string(), depth as f64)]);
+        if name == "sppm" {
+            // pbrt-v4's SPPM bounds the camera side by maxdepth and, apart, lets a photon land
+            // after 1 to maxdepth - 1 bounces; its first radius (default 1) is in scene units.
+            params.insert("photon-depth".into(), (depth - 1).max(0) as f64);
+            let radius = p.float("radius")?.unwrap_or(1.0);
+            if !(radius.is_finite() && radius > 0.0) {
+                return Err((
+                    d.pos,
+                    format!("Integrator \"sppm\": radius must be a positive number, got {radius}"),
+                ));
+            }
+            params.insert("radius".into(), radius);
+            // (Without it, the film's pixel count, known once the header is read.)
+            if let Some(n) = p.integer("photonsperiteration")?.filter(|n| *n > 0) {
+                params.insert("photons".into(), n as f64);
+            }
+        } else {
+            p.ignore(&["photonsperiteration", "radius"]);
+        }
+        p.finish()?;
+        self.integrator = Some((name, params));
         if kind != name {
             self.report(format!(
                 "Integrator \"{kind}\": raylab's {name} (without media the same estimate)"

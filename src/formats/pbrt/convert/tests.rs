@@ -83,6 +83,57 @@ fn textures_follow_pbrts_coordinates() {
     assert!(checks.ron().unwrap().contains("Checkerboard(color0: (1.0, 0.0, 0.0), color1: (0.0, 0.0, 0.0), uv_scale: (4.0, 2.0), uv_offset: (0.0, 0.0))"), "{}", checks.ron().unwrap());
 }
 
+/// Bitterli's scenes: diffuse transmission (its `scale` over a texture too), a scale
+/// texture of a texture, a named `interface`, bdpt deeper than 30 and sppm's settings.
+#[test]
+fn diffuse_transmission_interfaces_and_integrator_settings_map() {
+    let ron = |text: &str| convert(text, false).unwrap().ron().unwrap();
+    let shape = "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]";
+    let leaf = ron(&format!(
+        r#"WorldBegin
+Texture "t" "spectrum" "imagemap" "string filename" "leaf.png"
+Texture "s" "spectrum" "scale" "texture tex" "t" "float scale" 0.8
+Material "diffusetransmission" "texture reflectance" "t" "texture transmittance" "s" "float scale" 0.5
+{shape}
+"#
+    ));
+    assert!(
+        leaf.contains("DiffuseTransmission(reflectance: Image(path: \"leaf.png\""),
+        "{leaf}"
+    );
+    assert!(leaf.contains("scale: 0.5)"), "{leaf}");
+    assert!(leaf.contains("scale: 0.4)"), "{leaf}");
+    let plain = ron(&format!("WorldBegin\nMaterial \"diffusetransmission\" \"rgb reflectance\" [0.3 0.25 0.2]\n{shape}\n"));
+    assert!(
+        plain.contains(
+            "DiffuseTransmission(reflectance: (0.3, 0.25, 0.2), transmittance: (0.25, 0.25, 0.25))"
+        ),
+        "{plain}"
+    );
+    // A named interface leaves its shapes out, as an anonymous one does (with --approximate).
+    let text = format!("WorldBegin\nMakeNamedMaterial \"i\" \"string type\" \"interface\"\nNamedMaterial \"i\"\n{shape}\n");
+    assert!(convert(&text, false).unwrap_err().3.contains("interface"));
+    let with_sphere = format!("{text}Material \"diffuse\"\nShape \"sphere\"\n");
+    let kept = convert(&with_sphere, true).unwrap().ron().unwrap();
+    assert!(
+        !kept.contains("trianglemesh") && kept.contains("Sphere"),
+        "{kept}"
+    );
+    let bdpt = ron(&format!(
+        "Integrator \"bdpt\" \"integer maxdepth\" 33\nWorldBegin\n{shape}\n"
+    ));
+    assert!(bdpt.contains("\"max-depth\": 33.0"), "{bdpt}");
+    let sppm = ron(&format!("Integrator \"sppm\" \"integer maxdepth\" 6 \"float radius\" 0.05\nFilm \"rgb\" \"integer xresolution\" 40 \"integer yresolution\" 30\nWorldBegin\n{shape}\n"));
+    for needle in [
+        "\"max-depth\": 6.0",
+        "\"photon-depth\": 5.0",
+        "\"radius\": 0.05",
+        "\"photons\": 1200.0",
+    ] {
+        assert!(sppm.contains(needle), "no {needle} in {sppm}");
+    }
+}
+
 #[test]
 fn materials_map_with_pbrts_defaults() {
     for (material, expected) in [
