@@ -218,12 +218,34 @@ pub fn material(
             }
         }
     };
-    for name in ["displacement", "normalmap"] {
-        if let Some(pos) = p.present(name) {
-            notes.approximate(pos, format!("{what}: `{name}` ignored (raylab's bump and normal maps follow Mitsuba's conventions; pbrt-v4's are not mapped yet)"))?;
-            p.ignore(&[name]);
-        }
+    if let Some(pos) = p.present("normalmap") {
+        notes.approximate(
+            pos,
+            format!("{what}: `normalmap` ignored (pbrt-v4's normal maps are not mapped yet)"),
+        )?;
+        p.ignore(&["normalmap"]);
     }
+    // pbrt-v4's bump map: the surface displaced along its shading normal by the float
+    // texture (scene units), shaded with the displaced surface's normal turned to the
+    // geometric normal's side; neither of Mitsuba 3.7's corrections.
+    let displacement = match p.float_or_texture("displacement")? {
+        None => None,
+        Some((Colour::Rgb(v), _)) => Some(FloatDesc::Constant(v[0] as f32)),
+        Some((Colour::Texture(t), pos)) => {
+            Some(textures.float.get(&t).cloned().ok_or_else(|| {
+                (
+                    pos,
+                    format!("{what}: no float texture is named \"{t}\" (`displacement`)"),
+                )
+            })?)
+        }
+        Some((_, pos)) => {
+            return Err((
+                pos,
+                format!("{what}: `displacement` must be a float or a float texture"),
+            ))
+        }
+    };
     let out = match kind {
         "diffuse" => MaterialDesc::Lambert {
             albedo: col(p, "reflectance", notes)?.unwrap_or_else(|| grey(0.5)),
@@ -385,5 +407,15 @@ pub fn material(
             return Err((at, format!("material `{other}` is not supported (diffuse, coateddiffuse, conductor, dielectric, thindielectric, diffusetransmission, interface are)")))
         }
     };
-    Ok(Some(out))
+    Ok(Some(match displacement {
+        // A constant displacement moves the surface without tilting it.
+        None | Some(FloatDesc::Constant(_)) => out,
+        Some(texture) => MaterialDesc::BumpMap {
+            texture,
+            scale: 1.0,
+            material: Box::new(out),
+            flip_invalid_normals: false,
+            shadowing: false,
+        },
+    }))
 }

@@ -144,13 +144,16 @@ impl<'a> Converter<'a> {
                         return Err((d.pos, format!("{what}: only \"repeat\" and \"clamp\" wraps are supported")))
                     }
                 };
+                // pbrt-v4 (Image::Read): a PNG is decoded as `encoding` says (default sRGB);
+                // what stb_image reads (TGA, JPEG, BMP, ...) always as sRGB, whatever
+                // `encoding` says; EXR, PFM and HDR hold linear floats.
+                let lower = file.to_ascii_lowercase();
+                let float = [".exr", ".pfm", ".hdr"].iter().any(|e| lower.ends_with(e));
                 let linear = match p.string("encoding")?.as_deref() {
-                    None => {
-                        let lower = file.to_ascii_lowercase();
-                        ![".png", ".jpg", ".jpeg", ".tga", ".bmp"].iter().any(|e| lower.ends_with(e))
-                    }
+                    _ if float => true,
+                    _ if !lower.ends_with(".png") => false,
+                    None | Some("sRGB") => false,
                     Some("linear") => true,
-                    Some("sRGB") => false,
                     Some(e) => return Err((d.pos, format!("{what}: encoding \"{e}\" is not supported (sRGB, linear are)"))),
                 };
                 if p.boolean("invert")? == Some(true) {
