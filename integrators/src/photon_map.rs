@@ -240,7 +240,8 @@ pub fn land(
             beta,
             bounces: path.bounces,
         };
-        if !tracer.scene.material(hit.material).bsdf().has_delta_lobe() {
+        let surface = tracer.scene.material(hit.material);
+        if !surface.bsdf().has_delta_lobe() && surface.opacity().is_none() {
             return Some(landing(path.beta));
         }
         let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);

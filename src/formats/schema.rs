@@ -325,6 +325,14 @@ pub enum MaterialDesc {
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         shadowing: bool,
     },
+    /// `material` cut out by a mask (Mitsuba's `mask`): where `opacity` (a number or a
+    /// texture's value, in [0, 1]) is below 1, a path goes on straight through the surface
+    /// with probability 1 - opacity, and the material's value is scaled by it. Shadow rays
+    /// stop at the surface (as in Mitsuba 3's path tracer).
+    Mask {
+        opacity: FloatDesc,
+        material: Box<MaterialDesc>,
+    },
     /// `material` on a surface displaced along its normal by `scale` times `texture`'s
     /// luminance (Mitsuba's `bumpmap`), shaded with the displaced surface's normal. Default
     /// `scale: 1`; `flip_invalid_normals` and `shadowing` as for `NormalMap`.
@@ -401,6 +409,7 @@ impl MaterialDesc {
             } => c(diffuse_reflectance) || c(specular_reflectance) || f(alpha),
             TwoSided(inner) => inner.is_textured(),
             NormalMap { .. } | BumpMap { .. } => true,
+            Mask { opacity, material } => f(opacity) || material.is_textured(),
         }
     }
 }

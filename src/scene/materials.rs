@@ -202,6 +202,22 @@ pub fn material_from_desc(
             };
             return perturbed(material, Perturbation::NormalMap(map), options, textures);
         }
+        MaterialDesc::Mask { opacity, material } => {
+            let opacity = match opacity {
+                FloatDesc::Constant(a) if (0.0..=1.0).contains(a) => {
+                    Texture::Constant(Vec3A::splat(*a))
+                }
+                FloatDesc::Constant(a) => {
+                    return Err(format!("a mask's opacity must lie in [0, 1], got {a}"))
+                }
+                FloatDesc::Texture(t) => textures.texture(t, Role::Reflectance)?,
+            };
+            let m = material_from_desc(material, textures)?;
+            if m.opacity().is_some() {
+                return Err("a material takes one mask, not one inside another".into());
+            }
+            return Ok(m.with_opacity(opacity));
+        }
         MaterialDesc::BumpMap {
             texture,
             scale,

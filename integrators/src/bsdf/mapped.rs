@@ -1,5 +1,7 @@
-//! The BSDF at a shading point, with what a normal or bump map adds beyond tilting the
-//! shading normal. Mitsuba 3 (since 3.7) evaluates a mapped BSDF in the tilted frame, and:
+//! The BSDF at a shading point, with what a normal or bump map and a cut-out mask add to the
+//! material's own model.
+//!
+//! **Maps.** Mitsuba 3 (since 3.7) evaluates a mapped BSDF in the tilted frame, and:
 //!
 //! * passes only directions on the same side of the tilted and of the surface's own shading
 //!   normal (its `cos_theta(wo) * cos_theta(perturbed_wo) > 0`);
@@ -9,15 +11,22 @@
 //!   `alpha^2 = min(tan^2(tilt) / 8, 1)` and `theta_0` measured from the surface's own
 //!   shading normal, for the direction leaving the point away from the path's arrival.
 //!
+//! **Masks.** Mitsuba's `mask` of opacity `a`: the material's value and density times `a`,
+//! and with probability `1 - a` a null event, a path going on straight through the surface
+//! unchanged (a delta transmission of weight 1, `eta` 1). Shadow rays still stop at the
+//! surface, as in Mitsuba 3's path tracer. The null lobe is taken when `u_lobe < 1 - a`, the
+//! material's lobes above (rescaled), so that delta events stay those below
+//! [`MappedBsdf::delta_probability`].
+//!
 //! [`MappedBsdf`] is the material as a [`Cow`] of [`Material`] (it dereferences to it) whose
-//! `eval`, `pdf`, `eval_pdf`, `sample` and `sample_weight` apply both; without a map they are
-//! the material's own. Its arguments are those of [`Material`]'s (local frame, `wo` first):
-//! the term belongs to the direction that is not the arrival `wo` the point was built with,
-//! which callers pass as either argument (a light subpath's vertex evaluates with the two
-//! swapped), so the value carries `G(a) G(b) / G(arrival)`: `G` of the other direction
-//! whichever it is.
+//! `eval`, `pdf`, `eval_pdf`, `sample`, `sample_weight` and lobe queries apply both; without a
+//! map or mask they are the material's own. Its arguments are those of [`Material`]'s (local
+//! frame, `wo` first): the map's term belongs to the direction that is not the arrival `wo`
+//! the point was built with, which callers pass as either argument (a light subpath's vertex
+//! evaluates with the two swapped), so the value carries `G(a) G(b) / G(arrival)`: `G` of the
+//! other direction whichever it is.
 
-use super::{BsdfSample, Material, TransportMode};
+use super::{BsdfSample, Lobes, Material, TransportMode};
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::borrow::Cow;
@@ -81,11 +90,12 @@ impl MapTerms {
 }
 
 /// A shading point's BSDF: the material (looked up at the hit) and, under a normal or bump
-/// map, the map's terms.
+/// map, the map's terms; under a mask, its opacity there (1: opaque).
 #[derive(Clone, Debug)]
 pub struct MappedBsdf<'a> {
     pub material: Cow<'a, Material>,
     pub map: Option<MapTerms>,
+    pub opacity: f32,
 }
 
 impl Deref for MappedBsdf<'_> {
@@ -97,11 +107,12 @@ impl Deref for MappedBsdf<'_> {
 }
 
 impl<'a> MappedBsdf<'a> {
-    /// A material without a map.
+    /// A material without a map or mask.
     pub fn plain(material: Cow<'a, Material>) -> MappedBsdf<'a> {
         MappedBsdf {
             material,
             map: None,
+            opacity: 1.0,
         }
     }
 
@@ -110,6 +121,7 @@ impl<'a> MappedBsdf<'a> {
         MappedBsdf {
             material: Cow::Owned(self.material.into_owned()),
             map: self.map,
+            opacity: self.opacity,
         }
     }
 
@@ -118,53 +130,137 @@ impl<'a> MappedBsdf<'a> {
         MappedBsdf {
             material: Cow::Borrowed(&self.material),
             map: self.map,
+            opacity: self.opacity,
         }
     }
 
-    /// [`Material::eval`] with the map's terms.
+    /// Whether a mask lets some paths through.
+    #[inline]
+    fn see_through(&self) -> bool {
+        self.opacity < 1.0
+    }
+
+    /// The lobes: the material's, and a delta transmission where a mask lets paths through.
+    #[inline]
+    pub fn lobes(&self) -> Lobes {
+        let own = if self.opacity > 0.0 {
+            self.material.lobes()
+        } else {
+            Lobes::DELTA_TRANSMISSION
+        };
+        if self.see_through() {
+            own.with(Lobes::DELTA_TRANSMISSION)
+        } else {
+            own
+        }
+    }
+
+    /// See [`Material::is_transmissive`]: also a mask that lets paths through.
+    #[inline]
+    pub fn is_transmissive(&self) -> bool {
+        self.lobes().any(Lobes::TRANSMISSION)
+    }
+
+    /// See [`Material::is_specular`].
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        self.lobes().only(Lobes::DELTA)
+    }
+
+    /// See [`Material::has_delta_lobe`].
+    #[inline]
+    pub fn has_delta_lobe(&self) -> bool {
+        self.lobes().any(Lobes::DELTA)
+    }
+
+    /// See [`Material::delta_probability`]: the null event's `1 - a`, and `a` times the
+    /// material's.
+    #[inline]
+    pub fn delta_probability(&self, wo: Vec3A) -> f32 {
+        if !self.see_through() {
+            return self.material.delta_probability(wo);
+        }
+        (1.0 - self.opacity) + self.opacity * self.material.delta_probability(wo)
+    }
+
+    /// [`Material::eval`] with the map's terms and the mask's opacity.
     #[inline]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
-        match &self.map {
-            None => self.material.eval(wo, wi),
-            Some(m) => match m.factor(wo, wi) {
-                0.0 => Rgb::ZERO,
-                g => self.material.eval(wo, wi) * g,
-            },
+        let g = match &self.map {
+            None => 1.0,
+            Some(m) => m.factor(wo, wi),
+        } * self.opacity;
+        if g == 0.0 {
+            return Rgb::ZERO;
+        }
+        let f = self.material.eval(wo, wi);
+        if g == 1.0 {
+            f
+        } else {
+            f * g
         }
     }
 
-    /// [`Material::pdf`], zero across either normal.
+    /// [`Material::pdf`], zero across either normal, times the mask's opacity.
     #[inline]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
         match &self.map {
             Some(m) if !(m.passes(wo) && m.passes(wi)) => 0.0,
+            _ if self.see_through() => self.material.pdf(wo, wi) * self.opacity,
             _ => self.material.pdf(wo, wi),
         }
     }
 
-    /// [`Material::eval_pdf`] with the map's terms.
+    /// [`Material::eval_pdf`] with the map's terms and the mask's opacity.
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
-        match &self.map {
-            None => self.material.eval_pdf(wo, wi),
-            Some(m) => match m.factor(wo, wi) {
-                0.0 => (Rgb::ZERO, 0.0),
-                g => {
-                    let (f, pdf) = self.material.eval_pdf(wo, wi);
-                    (f * g, pdf)
-                }
-            },
+        let g = match &self.map {
+            None => 1.0,
+            Some(m) => m.factor(wo, wi),
+        };
+        if g == 0.0 || self.opacity == 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (f, pdf) = self.material.eval_pdf(wo, wi);
+        if g == 1.0 && !self.see_through() {
+            (f, pdf)
+        } else {
+            (f * (g * self.opacity), pdf * self.opacity)
         }
     }
 
-    /// [`Material::sample`]; `None` for a direction across either normal.
+    /// [`Material::sample`]: under a mask, the null event or the material's lobes; `None` for
+    /// a direction across either normal of a map.
     #[inline]
     pub fn sample(&self, wo: Vec3A, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        let s = self.material.sample(wo, u_lobe, u)?;
-        match &self.map {
-            Some(m) if !m.passes(s.wi) => None,
-            _ => Some(s),
+        let mut u_lobe = u_lobe;
+        if self.see_through() {
+            let null = 1.0 - self.opacity;
+            if u_lobe < null {
+                // Straight on: weight f |cos| / pdf = 1.
+                let wi = -wo;
+                let cos = wi.z.abs();
+                return (cos > 0.0).then_some(BsdfSample {
+                    wi,
+                    f: Rgb::splat(null / cos),
+                    pdf: null,
+                    specular: true,
+                    eta: 1.0,
+                });
+            }
+            u_lobe = ((u_lobe - null) / self.opacity).min(1.0 - f32::EPSILON);
         }
+        let mut s = self.material.sample(wo, u_lobe, u)?;
+        if let Some(m) = &self.map {
+            if !m.passes(s.wi) {
+                return None;
+            }
+        }
+        if self.see_through() {
+            s.f *= self.opacity;
+            s.pdf *= self.opacity;
+        }
+        Some(s)
     }
 
     /// [`Material::sample_weight`] times the shadowing of the sampled direction.
@@ -196,6 +292,7 @@ mod tests {
         let flat = MappedBsdf {
             material: Cow::Owned(lambert()),
             map: Some(MapTerms::new(Vec3A::Z, 0.0, wo)),
+            opacity: 1.0,
         };
         let wi = Vec3A::new(0.5, 0.0, 1.0).normalize();
         assert_eq!(flat.eval(wo, wi), lambert().eval(wo, wi));
@@ -205,6 +302,7 @@ mod tests {
         let mapped = MappedBsdf {
             material: Cow::Owned(lambert()),
             map: Some(MapTerms::new(n0, alpha2, wo)),
+            opacity: 1.0,
         };
         let g = |w: Vec3A| {
             let c = w.dot(n0);
@@ -222,5 +320,42 @@ mod tests {
         assert!(across.z > 0.0 && across.dot(n0) < 0.0);
         assert_eq!(mapped.eval(wo, across), Rgb::ZERO);
         assert_eq!(mapped.pdf(wo, across), 0.0);
+    }
+
+    /// A mask of opacity a: value and density times a; the null event with probability 1 - a,
+    /// straight through with weight 1; the delta probability and lobes say so.
+    #[test]
+    fn a_mask_scales_the_material_and_lets_the_rest_through() {
+        let m = MappedBsdf {
+            material: Cow::Owned(lambert()),
+            map: None,
+            opacity: 0.3,
+        };
+        let (wo, wi) = (Vec3A::new(0.0, 0.3, 1.0).normalize(), Vec3A::Z);
+        assert!(
+            (m.eval(wo, wi) - lambert().eval(wo, wi) * 0.3)
+                .abs()
+                .max_element()
+                < 1e-7
+        );
+        assert!((m.pdf(wo, wi) - lambert().pdf(wo, wi) * 0.3).abs() < 1e-7);
+        assert!(m.has_delta_lobe() && m.is_transmissive() && !m.is_specular());
+        assert!((m.delta_probability(wo) - 0.7).abs() < 1e-7);
+        let mut s = crate::Sampler::new(5, 0, 0);
+        let (mut through, n) = (0, 20_000);
+        for _ in 0..n {
+            let u_lobe = s.next_1d();
+            let b = m.sample(wo, u_lobe, s.next_2d()).expect("a sample");
+            assert_eq!(b.specular, u_lobe < m.delta_probability(wo));
+            if b.specular {
+                through += 1;
+                assert_eq!(b.wi, -wo);
+                assert!((b.weight() - Rgb::ONE).abs().max_element() < 1e-5);
+            } else {
+                assert!((m.pdf(wo, b.wi) - b.pdf).abs() < 1e-5 * b.pdf);
+                assert!((m.eval(wo, b.wi) - b.f).abs().max_element() < 1e-6);
+            }
+        }
+        assert!((through as f64 / n as f64 - 0.7).abs() < 0.02);
     }
 }

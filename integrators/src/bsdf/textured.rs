@@ -239,6 +239,8 @@ pub struct SurfaceMaterial {
     varies: bool,
     textures: MaterialTextures,
     perturbation: Option<(Perturbation, MapOptions)>,
+    /// A cut-out mask's opacity (Mitsuba's `mask`), if any.
+    opacity: Option<Texture>,
 }
 
 impl From<Material> for SurfaceMaterial {
@@ -258,6 +260,7 @@ impl SurfaceMaterial {
             bsdf,
             textures,
             perturbation,
+            opacity: None,
         }
     }
 
@@ -275,7 +278,24 @@ impl SurfaceMaterial {
 
     /// The same material under the normal or bump map `map`, used with `options`.
     pub fn with_perturbation(self, map: Perturbation, options: MapOptions) -> SurfaceMaterial {
-        SurfaceMaterial::new(self.bsdf, self.textures, Some((map, options)))
+        SurfaceMaterial {
+            opacity: self.opacity.clone(),
+            ..SurfaceMaterial::new(self.bsdf, self.textures, Some((map, options)))
+        }
+    }
+
+    /// The same material cut out by a mask of `opacity` (its value, clamped to [0, 1]).
+    pub fn with_opacity(self, opacity: Texture) -> SurfaceMaterial {
+        SurfaceMaterial {
+            varies: true,
+            opacity: Some(opacity),
+            ..self
+        }
+    }
+
+    /// The cut-out mask's opacity, if any.
+    pub fn opacity(&self) -> Option<&Texture> {
+        self.opacity.as_ref()
     }
 
     /// True when the material needs the hit's texture coordinates or tangents: it has
@@ -323,7 +343,15 @@ impl SurfaceMaterial {
         } else {
             Cow::Borrowed(&self.bsdf)
         };
-        MappedBsdf { material, map }
+        let opacity = self
+            .opacity
+            .as_ref()
+            .map_or(1.0, |t| t.eval_scalar(hit.uv).clamp(0.0, 1.0));
+        MappedBsdf {
+            material,
+            map,
+            opacity,
+        }
     }
 }
 

@@ -125,7 +125,7 @@ impl FixedDepth {
             return l;
         }
         let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
-        let material = &*sp.material;
+        let material = &sp.material;
 
         // Specular surfaces: one continuation ray, emission at its end counts.
         if material.is_specular() {

@@ -486,7 +486,7 @@ pub fn escaped(scene: &dyn Scene, ray: &Ray) -> Rgb {
 /// may be missing: no refraction under total internal reflection). Whitted-style tracers
 /// follow every lobe instead of choosing one at random.
 pub fn specular_lobes(
-    material: &crate::Material,
+    material: &crate::bsdf::MappedBsdf,
     wo: glam::Vec3A,
 ) -> [Option<(glam::Vec3A, Rgb)>; 2] {
     let lobe = |u: f32| {
@@ -506,7 +506,7 @@ pub fn specular_lobes(
 /// meshes); following it would leak light through the surface.
 #[inline]
 pub fn stays_on_viewer_side(
-    material: &crate::Material,
+    material: &crate::bsdf::MappedBsdf,
     ng: glam::Vec3A,
     wo: glam::Vec3A,
     wi: glam::Vec3A,
@@ -664,13 +664,14 @@ mod analytic_tests;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::{Conductor, Dielectric};
+    use crate::bsdf::{Conductor, Dielectric, MappedBsdf};
     use crate::Material;
     use glam::Vec3A;
 
     #[test]
     fn specular_lobes_of_glass_split_energy_by_fresnel() {
         let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
+        let glass = MappedBsdf::plain(std::borrow::Cow::Owned(glass));
         let [r, t] = specular_lobes(&glass, Vec3A::Z);
         let (r, t) = (r.unwrap(), t.unwrap());
         assert!(
@@ -691,6 +692,7 @@ mod tests {
     #[test]
     fn specular_lobes_of_a_mirror_is_one_tinted_reflection() {
         let mirror = Material::Conductor(Conductor::perfect_mirror(Rgb::new(0.9, 0.5, 0.1)));
+        let mirror = MappedBsdf::plain(std::borrow::Cow::Owned(mirror));
         let wo = Vec3A::new(0.6, 0.0, 0.8);
         let [r, t] = specular_lobes(&mirror, wo);
         let r = r.unwrap();

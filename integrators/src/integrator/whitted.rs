@@ -60,7 +60,7 @@ impl Whitted {
             return l;
         }
         let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
-        let material = &*sp.material;
+        let material = &sp.material;
 
         if material.has_delta_lobe() {
             // Specular recursion: follow every delta lobe (mirror; glass reflection and

@@ -561,23 +561,34 @@ impl<'a, 'input> Converter<'a, 'input> {
         })
     }
 
-    /// `mask`: Mitsuba's cut-out, the BSDF where opaque, nothing where not. raylab has no
-    /// transparent surfaces, so only a fully opaque mask is exact.
+    /// `mask`: Mitsuba's cut-out, the BSDF where opaque, a null event (straight through)
+    /// where not.
     fn mask(
         &mut self,
         p: &mut Props<'a, 'input>,
         node: Node<'a, 'input>,
     ) -> Result<MaterialDesc, Located> {
-        let opacity = self.constant_weight(p, node, "opacity")?;
+        // Mitsuba reads the opacity as a scalar (eval_1); default 0.5.
+        let opacity = match self.float_param(p, "opacity")? {
+            None => FloatDesc::Constant(0.5),
+            Some(FloatDesc::Constant(a)) if !(0.0..=1.0).contains(&a) => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!("`opacity` must lie in [0, 1], not {a}"),
+                ))
+            }
+            Some(o) => o,
+        };
         let inner = self.nested_bsdfs(p, node, 1)?;
         let material = self.bsdf(inner[0])?;
-        if opacity != Some(1.0) {
-            self.approximate(
-                node,
-                "<bsdf type=\"mask\"> with an opacity below 1: raylab has no see-through surfaces; rendered opaque".to_string(),
-            )?;
-        }
-        Ok(material)
+        Ok(match opacity {
+            FloatDesc::Constant(a) if a == 1.0 => material,
+            opacity => MaterialDesc::Mask {
+                opacity,
+                material: Box::new(material),
+            },
+        })
     }
 
     /// A blend weight or opacity in `[0, 1]`: the number, `None` when it is a texture (the
