@@ -234,7 +234,7 @@ impl Hit {
 }
 
 /// An orthonormal basis with `n` as its `z` axis.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
     pub s: Vec3A,
     pub t: Vec3A,

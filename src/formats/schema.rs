@@ -119,6 +119,26 @@ pub struct RenderDesc {
     /// Default: `"box"`.
     #[serde(default, deserialize_with = "filter_name", serialize_with = "display")]
     pub filter: Filter,
+    /// How a light sample picks an emitter: `"power"` (each light in proportion to its
+    /// power, the default) or `"uniform"` (each emitting entity alike, then its parts in
+    /// proportion to their power: Mitsuba 3's, which its importer sets).
+    #[serde(default, skip_serializing_if = "LightSelection::is_power")]
+    pub light_selection: LightSelection,
+}
+
+/// How light sampling picks an emitter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LightSelection {
+    #[default]
+    Power,
+    Uniform,
+}
+
+impl LightSelection {
+    fn is_power(&self) -> bool {
+        *self == LightSelection::Power
+    }
 }
 
 /// A filter by name; an unknown name is an error at its place in the file.
@@ -135,6 +155,7 @@ impl Default for RenderDesc {
             seed: 0,
             params: BTreeMap::new(),
             filter: Filter::Box,
+            light_selection: LightSelection::Power,
         }
     }
 }
@@ -849,6 +870,12 @@ pub enum EmitterDesc {
         /// cosine (pbrt-v4's).
         #[serde(skip_serializing_if = "Option::is_none", default)]
         falloff: Option<String>,
+        /// A texture projected by the spot (Mitsuba's `texture`): the intensity towards a
+        /// direction `d` of the spot's frame (its rotated axes) is times the texture at
+        /// `u = 1/2 + d.x / (2 d.z tan(cutoff))`, `v = 1/2 + d.y / (2 d.z tan(cutoff))` (a
+        /// constant colour just scales it).
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        texture: Option<ColorDesc>,
     },
     /// Parallel light from infinitely far away (a sun, Mitsuba's `directional`) travelling
     /// along `direction` (turned by the entity's rotation), with `irradiance` (W m^-2 per

@@ -243,6 +243,8 @@ pub enum Emitter {
         cutoff_angle: f32,
         beam_width: f32,
         falloff: raylab_integrators::light::Falloff,
+        /// A projected texture, looked up in the spot's frame.
+        texture: Option<raylab_integrators::texture::Texture>,
     },
     /// Parallel light travelling along `direction` (before the entity's rotation).
     Directional { direction: Vec3A, irradiance: Rgb },

@@ -8,6 +8,7 @@ use super::error::finite;
 use crate::formats::access::SceneFiles;
 use crate::formats::mesh_files;
 use crate::formats::schema::{CameraDesc, EmitterDesc, RenderDesc, ShapeDesc};
+use crate::formats::texture_desc::ColorDesc;
 use glam::{Vec3, Vec3A};
 use raylab_integrators::light::EnvMap;
 use raylab_integrators::registry;
@@ -43,7 +44,24 @@ pub(super) fn emitter_from_desc(
             cutoff_angle,
             beam_width,
             falloff,
+            texture,
         } => Emitter::Spot {
+            texture: match texture {
+                None => None,
+                Some(ColorDesc::Constant(c)) => {
+                    Some(raylab_integrators::texture::Texture::Constant(v3(c)))
+                }
+                Some(ColorDesc::Texture(t)) => {
+                    let mut loader = super::textures::TextureLoader::new(files);
+                    let t = loader
+                        .texture(&t, super::textures::Role::Data)
+                        .map_err(|e| format!("the spot's texture: {e}"))?;
+                    if t.range().0 < 0.0 {
+                        return Err("the spot's texture has negative values".into());
+                    }
+                    Some(t)
+                }
+            },
             intensity: v3(intensity),
             look_at: look_at.map(v3),
             cutoff_angle,

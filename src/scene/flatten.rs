@@ -18,6 +18,7 @@ use super::{systems, LoadedScene};
 use crate::accel::{
     self, Accel, AccelKind, Accelerator, Geometry, InstanceDesc, Mesh, Shape, ShapeLights,
 };
+use crate::formats::schema::LightSelection;
 use glam::Vec3A;
 use hecs::Entity;
 use obvhs::triangle::Triangle;
@@ -261,7 +262,7 @@ impl RenderScene {
         // A scene without geometry: a point at the origin.
         let bounds = accel.bounds().unwrap_or((Vec3A::ZERO, Vec3A::ZERO));
         let light_counts = light_counts(scene, &light_of);
-        let lights = table(lights, scene, bounds);
+        let lights = table(lights, &light_of, scene, bounds);
         let a = accel.stats();
         // The large meshes with a BVH of their own are the scene's triangles, not instances.
         let stats = BuildStats {
@@ -319,7 +320,7 @@ impl RenderScene {
         if counts != self.light_counts {
             return None;
         }
-        let lights = table(lights, scene, self.bounds);
+        let lights = table(lights, &light_of, scene, self.bounds);
         let same = self.with_materials(scene);
         Some(RenderScene {
             stats: BuildStats {
@@ -361,12 +362,38 @@ fn light_counts(scene: &LoadedScene, light_of: &LightsOf) -> Vec<(FileOrder, usi
 
 /// The light table of `lights` and the scene's constant environment, for geometry within
 /// `bounds`.
-fn table(mut lights: Vec<Light>, scene: &LoadedScene, bounds: (Vec3A, Vec3A)) -> LightTable {
+fn table(
+    mut lights: Vec<Light>,
+    light_of: &LightsOf,
+    scene: &LoadedScene,
+    bounds: (Vec3A, Vec3A),
+) -> LightTable {
     let radius = 0.5 * (bounds.1 - bounds.0).length();
     if let Some(env) = scene.environment {
         lights.push(Light::environment(env));
     }
-    LightTable::new(lights, radius)
+    let mut weights = LightTable::powers(&lights, radius);
+    if scene.render.light_selection == LightSelection::Uniform {
+        // Each emitting entity (and the constant environment) alike, then its lights by
+        // power: an entity's share is 1, spread over its parts.
+        let mut groups: Vec<(usize, usize)> =
+            light_of.values().map(|&(s, n)| (s as usize, n)).collect();
+        if scene.environment.is_some() {
+            groups.push((lights.len() - 1, 1));
+        }
+        for (start, n) in groups {
+            let part = &mut weights[start..start + n];
+            let total: f64 = part.iter().sum();
+            for w in part.iter_mut() {
+                *w = if total > 0.0 {
+                    *w / total
+                } else {
+                    1.0 / n as f64
+                };
+            }
+        }
+    }
+    LightTable::with_weights(lights, weights)
 }
 
 impl RenderScene {

@@ -854,6 +854,7 @@ pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight,
         cutoff_angle,
         beam_width,
         falloff,
+        texture,
     } = emitter
     else {
         return Err("not a spot light".into());
@@ -863,10 +864,24 @@ pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight,
         Some(target) => *target - position,
         None => transform.direction(Vec3::Z).into(),
     };
-    Ok(
-        SpotLight::new(position, axis, *intensity, *cutoff_angle, *beam_width)?
-            .with_falloff(*falloff),
-    )
+    // A constant texture only scales the intensity.
+    let (intensity, texture) = match texture {
+        Some(raylab_integrators::texture::Texture::Constant(c)) => (*intensity * *c, &None),
+        t => (*intensity, t),
+    };
+    let spot = SpotLight::new(position, axis, intensity, *cutoff_angle, *beam_width)?
+        .with_falloff(*falloff);
+    Ok(match texture {
+        None => spot,
+        // The texture's frame: the entity's rotated x and y (a look_at: the axis's own frame).
+        Some(t) => {
+            let x = match look_at {
+                Some(_) => raylab_integrators::Frame::from_normal(spot.axis).s,
+                None => transform.direction(Vec3::X).into(),
+            };
+            spot.with_texture(t.clone(), x)?
+        }
+    })
 }
 
 #[cfg(test)]

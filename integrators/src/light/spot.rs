@@ -4,8 +4,14 @@
 //! `(cutoff - theta) / (cutoff - beam_width)`, exactly as Mitsuba's; or, as pbrt-v4's, a
 //! smoothstep in the cosine, `t^2 (3 - 2 t)` with
 //! `t = (cos theta - cos cutoff) / (cos beam_width - cos cutoff)`. A delta in position.
+//!
+//! A textured spot (Mitsuba's `texture`) projects an image: towards a direction `d` of the
+//! spot's frame (`z` the axis) the intensity is times the texture at
+//! `u = 1/2 + d.x / (2 d.z tan(cutoff))`, `v = 1/2 + d.y / (2 d.z tan(cutoff))`, so that the
+//! image spans the square the cutoff cone inscribes.
 
 use super::{lum, LeSample, LightSample};
+use crate::texture::Texture;
 use crate::{Frame, Rgb};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
@@ -30,6 +36,8 @@ pub struct SpotLight {
     pub cutoff: f32,
     pub beam_width: f32,
     pub falloff: Falloff,
+    /// A projected texture and the spot's frame (`n` the axis).
+    pub texture: Option<(Texture, Frame)>,
 }
 
 impl SpotLight {
@@ -63,7 +71,37 @@ impl SpotLight {
             cutoff: cutoff_angle.to_radians(),
             beam_width: beam_width.to_radians(),
             falloff: Falloff::Linear,
+            texture: None,
         })
+    }
+
+    /// The same spot projecting `texture`, its frame's `x` axis along `x` (made orthogonal to
+    /// the axis). The cutoff must be below 90 degrees (the image lies on a plane ahead).
+    pub fn with_texture(self, texture: Texture, x: Vec3A) -> Result<SpotLight, String> {
+        if self.cutoff >= 0.5 * PI {
+            return Err("a textured spot's cutoff_angle must be below 90 degrees".into());
+        }
+        let frame = Frame::from_normal_and_tangent(self.axis, x);
+        Ok(SpotLight {
+            texture: Some((texture, frame)),
+            ..self
+        })
+    }
+
+    /// The intensity towards unit direction `w` (from the light), before the falloff: the
+    /// texture's value there times `intensity`.
+    #[inline]
+    fn intensity_towards(&self, w: Vec3A) -> Rgb {
+        let Some((texture, frame)) = &self.texture else {
+            return self.intensity;
+        };
+        let d = frame.to_local(w);
+        if d.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let k = 0.5 / (d.z * self.cutoff.tan());
+        let uv = Vec2::new(0.5 + d.x * k, 0.5 + d.y * k);
+        self.intensity * texture.eval(uv)
     }
 
     /// The same spot with another falloff.
@@ -113,7 +151,7 @@ impl SpotLight {
         if falloff <= 0.0 {
             return None;
         }
-        let radiance = self.intensity * (falloff / dist2);
+        let radiance = self.intensity_towards(-wi) * (falloff / dist2);
         radiance.is_finite().then_some(LightSample {
             wi,
             point: self.position,
@@ -150,13 +188,14 @@ impl SpotLight {
             cos,
         ));
         let pdf_dir = self.cone_pdf();
+        let intensity = self.intensity_towards(dir);
         LeSample {
             ray: crate::Ray::new(self.position, dir),
-            radiance: self.intensity * self.falloff(dir),
+            radiance: intensity * self.falloff(dir),
             normal: Vec3A::ZERO,
             pdf_pos: 1.0,
             pdf_dir,
-            weight: self.intensity * (self.falloff(dir) / pdf_dir),
+            weight: intensity * (self.falloff(dir) / pdf_dir),
         }
     }
 
@@ -188,7 +227,12 @@ impl SpotLight {
             / N as f64
             * 2.0
             * std::f64::consts::PI;
-        lum(self.intensity) * (inner + if c > b { ring } else { 0.0 })
+        // A texture: its mean over the image (what the cone sees, roughly).
+        let tint = self
+            .texture
+            .as_ref()
+            .map_or(1.0, |(t, _)| lum(t.mean()).max(1e-6));
+        lum(self.intensity) * tint * (inner + if c > b { ring } else { 0.0 })
     }
 }
 
@@ -232,6 +276,41 @@ mod tests {
         assert!((ls.radiance.x - 0.25).abs() < 1e-6 && ls.delta);
         assert!(SpotLight::new(Vec3A::ZERO, Vec3A::Z, Rgb::ONE, 10.0, 12.0).is_err());
         assert!(SpotLight::new(Vec3A::ZERO, Vec3A::ZERO, Rgb::ONE, 10.0, 5.0).is_err());
+    }
+
+    /// A textured spot projects its image over the square the cutoff cone inscribes at any
+    /// distance: `u` along the frame's `x`, `v` along its `y`, both `1/2` on the axis.
+    #[test]
+    fn a_textured_spot_projects_its_image() {
+        use crate::texture::{ImageTexture, Texels, TextureFilter, Wrap};
+        // Four columns of grey 0.1, 0.2, 0.3, 0.4, one row: u alone picks the value.
+        let texels = Texels::Float(
+            (1..=4)
+                .map(|i| Rgb::splat(0.1 * i as f32))
+                .collect::<Vec<_>>()
+                .into(),
+        );
+        let image = ImageTexture::new(4, 1, texels, TextureFilter::Nearest, Wrap::Clamp).unwrap();
+        let texture = Texture::Image {
+            image: std::sync::Arc::new(image),
+            to_uv: glam::Affine2::IDENTITY,
+            scale: 1.0,
+        };
+        let s = SpotLight::new(Vec3A::ZERO, Vec3A::Z, Rgb::ONE, 40.0, 40.0)
+            .unwrap()
+            .with_texture(texture, Vec3A::X)
+            .unwrap();
+        let half = 40f32.to_radians().tan();
+        for z in [1.0f32, 3.0] {
+            for (x, want) in [(-0.9f32, 0.1), (-0.3, 0.2), (0.3, 0.3), (0.9, 0.4)] {
+                for y in [-0.5f32, 0.0, 0.5] {
+                    let p = Vec3A::new(x * half * z, y * half * z * 0.5, z);
+                    let ls = s.sample_li(p, Vec2::ZERO).unwrap();
+                    let got = ls.radiance.x * p.length_squared();
+                    assert!((got - want).abs() < 1e-5, "({x}, {y}, {z}): {got}");
+                }
+            }
+        }
     }
 
     #[test]

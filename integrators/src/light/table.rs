@@ -1,4 +1,5 @@
-//! The light sampler: picks an emitter in proportion to its power.
+//! The light sampler: picks an emitter in proportion to its power, or to weights the scene
+//! gives (uniform over emitting entities, as Mitsuba 3).
 
 use super::Light;
 
@@ -16,7 +17,13 @@ impl LightTable {
     /// power is zero). At most one environment light: if there are several, the first one is
     /// the one [`LightTable::environment`] reports.
     pub fn new(lights: Vec<Light>, scene_radius: f32) -> LightTable {
-        let powers: Vec<f64> = lights
+        let powers = Self::powers(&lights, scene_radius);
+        Self::with_weights(lights, powers)
+    }
+
+    /// Each light's [`Light::power`], 0 where it is not a finite positive number.
+    pub fn powers(lights: &[Light], scene_radius: f32) -> Vec<f64> {
+        lights
             .iter()
             .map(|l| {
                 let p = l.power(scene_radius);
@@ -26,7 +33,13 @@ impl LightTable {
                     0.0
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    /// Builds the table with selection proportional to `weights` (one per light, finite and
+    /// not negative; uniform if they are all zero).
+    pub fn with_weights(lights: Vec<Light>, powers: Vec<f64>) -> LightTable {
+        debug_assert_eq!(lights.len(), powers.len());
         let total: f64 = powers.iter().sum();
         let pmf: Vec<f32> = if total > 0.0 && total.is_finite() {
             powers.iter().map(|&p| (p / total) as f32).collect()

@@ -377,7 +377,11 @@ pub fn to_ron_in(
         meshes: Vec::new(),
         environment: None,
         camera: None,
-        render: RenderDesc::default(),
+        // Mitsuba 3 picks an emitter uniformly, then a point on it by area.
+        render: RenderDesc {
+            light_selection: crate::formats::schema::LightSelection::Uniform,
+            ..RenderDesc::default()
+        },
         integrator_read: false,
         report: Vec::new(),
         bsdfs_open: Vec::new(),

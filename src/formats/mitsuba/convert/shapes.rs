@@ -280,12 +280,14 @@ impl<'a, 'input> Converter<'a, 'input> {
                 let intensity = p.emission("intensity")?.unwrap_or([1.0; 3]);
                 let cutoff_angle = p.float("cutoff_angle")?.unwrap_or(20.0);
                 let beam = p.float("beam_width")?.unwrap_or(cutoff_angle * 0.75);
+                let texture = self.colour(&mut p, "texture", None)?;
                 let spot = EmitterDesc::Spot {
                     intensity,
                     look_at: None,
                     cutoff_angle,
                     beam_width: Some(beam),
                     falloff: None,
+                    texture,
                 };
                 (spot, transform)
             }

@@ -80,6 +80,7 @@ impl<'a> Converter<'a> {
                     cutoff_angle: cone as f32,
                     beam_width: Some((cone - delta).max(0.0) as f32),
                     falloff: Some("smoothstep".into()),
+                    texture: None,
                 };
                 let at = TransformDesc {
                     translate: f3(pos),
