@@ -155,9 +155,16 @@ def main():
                                     "--size", f"{w}x{h}", "-o", str(image), *args.extra],
                                    capture_output=True, text=True)
                 if r.returncode == 0:
+                    import numpy as np
+
                     img = exr_rgb(image)
-                    ratio = ", ".join(f"{img[..., c].mean() / ref[..., c].mean():.3f}"
+                    # Half floats overflow on the brightest pixels of some references (a
+                    # lamp seen edge-on): those pixels are left out of both means, and said.
+                    ok = np.isfinite(ref).all(-1) & np.isfinite(img).all(-1)
+                    ratio = ", ".join(f"{img[ok][:, c].mean() / ref[ok][:, c].mean():.3f}"
                                       for c in range(3))
+                    if not ok.all():
+                        ratio += f" ({(~ok).sum()} pixels not finite in the reference, left out)"
                 else:
                     ratio = "render failed: " + r.stderr.strip().splitlines()[-1][:80]
         print(f"| {name} | {files} | {'yes' if run.returncode == 0 else 'no'} | {said} | {ratio} |",

@@ -583,7 +583,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         let inner = self.nested_bsdfs(p, node, 1)?;
         let material = self.bsdf(inner[0])?;
         Ok(match opacity {
-            FloatDesc::Constant(a) if a == 1.0 => material,
+            FloatDesc::Constant(1.0) => material,
             opacity => MaterialDesc::Mask {
                 opacity,
                 material: Box::new(material),
