@@ -6,5 +6,5 @@ use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = raylab::scene::ply::parse_ply(Path::new("fuzz.ply"), data);
+    let _ = raylab::formats::ply::parse_ply(Path::new("fuzz.ply"), data);
 });

@@ -8,6 +8,6 @@ use std::path::Path;
 fuzz_target!(|data: &[u8]| {
     for index in [0, 1] {
         let _ =
-            raylab::scene::serialized::parse_serialized(Path::new("fuzz.serialized"), data, index);
+            raylab::formats::serialized::parse_serialized(Path::new("fuzz.serialized"), data, index);
     }
 });

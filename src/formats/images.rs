@@ -109,18 +109,37 @@ fn decode(
     file: &Path,
     extra: impl Fn(image::ColorType) -> u64,
 ) -> Result<image::DynamicImage, String> {
+    let bytes =
+        crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(file, &e))?;
+    decode_bytes(file, &bytes, extra)
+}
+
+/// The image `file`'s `bytes` hold as linear RGB, as [`read_linear_rgb`] reads a file (what
+/// the fuzzer feeds: any bytes, an error or an image, never a panic).
+pub fn parse_linear_rgb(file: &Path, bytes: &[u8], raw: bool) -> Result<LinearImage, String> {
+    to_linear(
+        file,
+        decode_bytes(file, bytes, |_| FLOAT_BYTES_PER_PIXEL)?,
+        raw,
+    )
+}
+
+/// [`decode`] of bytes read already; `file` names them (and its extension says TGA).
+fn decode_bytes(
+    file: &Path,
+    bytes: &[u8],
+    extra: impl Fn(image::ColorType) -> u64,
+) -> Result<image::DynamicImage, String> {
     use image::ImageDecoder as _;
     let cannot = |e: &dyn std::fmt::Display| cannot(file, e);
-    let bytes =
-        crate::files::read_capped(file, crate::files::MAX_BINARY).map_err(|e| cannot(&e))?;
-    if super::pfm::is_pfm(&bytes) {
+    if super::pfm::is_pfm(bytes) {
         let room = crate::system::memory_limit().map(|(room, _)| room);
-        let (w, h, values) = super::pfm::decode(&bytes, room).map_err(|e| cannot(&e))?;
+        let (w, h, values) = super::pfm::decode(bytes, room).map_err(|e| cannot(&e))?;
         let image = image::Rgb32FImage::from_raw(w, h, values)
             .ok_or_else(|| cannot(&"its size does not match its values"))?;
         return Ok(image::DynamicImage::ImageRgb32F(image));
     }
-    let mut reader = image::ImageReader::new(Cursor::new(&bytes))
+    let mut reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| cannot(&e))?;
     if reader.format().is_none() {

@@ -516,9 +516,9 @@ fn serialized_meshes_blends_masks_and_orthographic_sensors() {
 }
 
 /// What raylab's materials cannot hold is an error at its place, or with `--approximate` the
-/// nearest material and a warning: a blend of unlike BSDFs, a see-through mask.
+/// nearest material and a warning: a blend of unlike BSDFs. A see-through mask is a `Mask`.
 #[test]
-fn unlike_blends_and_see_through_masks_are_approximations() {
+fn unlike_blends_are_approximations_and_masks_cut_out() {
     let scene = |bsdf: &str| {
         format!(
             r#"<scene version="3.0.0">
@@ -527,18 +527,23 @@ fn unlike_blends_and_see_through_masks_are_approximations() {
         </scene>"#
         )
     };
-    let cases = [
-        (
-            r#"<bsdf type="blendbsdf"><float name="weight" value="0.75"/><bsdf type="diffuse"/><bsdf type="conductor"/></bsdf>"#,
-            "blendbsdf",
-            "Conductor(metal: \"none\", specular_reflectance: (1.0, 1.0, 1.0))",
-        ),
-        (
-            r#"<bsdf type="mask"><float name="opacity" value="0.5"/><bsdf type="plastic"/></bsdf>"#,
-            "no see-through surfaces",
-            "Plastic(diffuse_reflectance: (0.5, 0.5, 0.5), specular_reflectance: (1.0, 1.0, 1.0), int_ior: 1.49, ext_ior: 1.000277, nonlinear: false)",
-        ),
-    ];
+    let cases = [(
+        r#"<bsdf type="blendbsdf"><float name="weight" value="0.75"/><bsdf type="diffuse"/><bsdf type="conductor"/></bsdf>"#,
+        "blendbsdf",
+        "Conductor(metal: \"none\", specular_reflectance: (1.0, 1.0, 1.0))",
+    )];
+    let mask = raylab::formats::mitsuba::to_ron(
+        &scene(r#"<bsdf type="mask"><float name="opacity" value="0.25"/><bsdf type="diffuse"/></bsdf>"#),
+        &[],
+    )
+    .unwrap();
+    assert!(
+        mask.ron()
+            .unwrap()
+            .contains("Mask(opacity: 0.25, material: Lambert(albedo: (0.5, 0.5, 0.5)))"),
+        "{}",
+        mask.ron().unwrap()
+    );
     for (bsdf, what, nearest) in cases {
         let text = scene(bsdf);
         let err = raylab::formats::mitsuba::to_ron(&text, &[]).unwrap_err();
