@@ -10,10 +10,13 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    let Ok(imported) = raylab::scene::mitsuba::to_ron(text, &[]) else {
+    let Ok(imported) = raylab::formats::mitsuba::to_ron(text, &[]) else {
         return;
     };
-    if let Ok(loaded) = parse_scene(&imported.ron, Path::new("fuzz.xml")) {
+    let Ok(ron) = imported.ron() else {
+        return;
+    };
+    if let Ok(loaded) = parse_scene(&ron, Path::new("fuzz.xml")) {
         RenderScene::build(&loaded);
     }
 });

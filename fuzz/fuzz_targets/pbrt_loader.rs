@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use raylab::scene::access::SceneFiles;
+use raylab::formats::access::SceneFiles;
 use raylab::scene::{parse_scene, ImportOptions, RenderScene};
 use std::path::Path;
 
@@ -17,13 +17,16 @@ fuzz_target!(|data: &[u8]| {
     let path = dir.join("fuzz.pbrt");
     let files = SceneFiles::new(&path, &[]);
     let options = ImportOptions {
-        defines: Vec::new(),
         approximate: data.first().is_some_and(|b| b & 1 == 1),
+        ..ImportOptions::default()
     };
-    let Ok(imported) = raylab::scene::pbrt::to_ron(&path, text, &files, &options) else {
+    let Ok(imported) = raylab::formats::pbrt::to_ron(&path, text, &files, &options) else {
         return;
     };
-    if let Ok(loaded) = parse_scene(&imported.ron, Path::new("fuzz.pbrt")) {
+    let Ok(ron) = imported.ron() else {
+        return;
+    };
+    if let Ok(loaded) = parse_scene(&ron, Path::new("fuzz.pbrt")) {
         RenderScene::build(&loaded);
     }
 });

@@ -19,11 +19,11 @@ fuzz_target!(|data: &[u8]| {
     // 8x8 pixels, 1 spp, one thread: enough to trace every primitive kind near the camera.
     let camera = loaded.camera.with_resolution(8, 8);
     if camera.width as u64 * camera.height as u64 <= 64 * 64 {
-        let normals = raylab::integrators::find("normals")
+        let mut normals = raylab::integrators::find("normals")
             .expect("normals is registered")
             .instantiate(&[])
             .expect("normals takes no parameters");
         let settings = RenderSettings::fixed(1, 0, Some(1));
-        render(&built, &camera, normals.as_ref(), &settings).expect("a 1-thread pool builds");
+        render(&built, &camera, normals.as_mut(), &settings).expect("a 1-thread pool builds");
     }
 });
