@@ -334,6 +334,14 @@ impl Texture {
         }
     }
 
+    /// An image's width over its height (`None` for the others).
+    pub fn aspect(&self) -> Option<f32> {
+        match self {
+            Texture::Image { image, .. } => Some(image.width as f32 / image.height as f32),
+            _ => None,
+        }
+    }
+
     /// The largest value of each channel the texture takes anywhere.
     pub fn max(&self) -> Rgb {
         match self {

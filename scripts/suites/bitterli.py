@@ -11,7 +11,7 @@ once its files are there; those are never compared.
 
     python3 -m venv venv && venv/bin/pip install mitsuba numpy   # reads the EXRs
     venv/bin/python scripts/suites/bitterli.py SOURCE [--raylab BIN] [--stand-ins]
-        [--render SPP] [--only NAME] [--out DIR] [-- EXTRA RAYLAB OPTIONS]
+        [--render SPP] [--param NAME=VALUE] [--only NAME] [--out DIR] [-- EXTRA OPTIONS]
 
 SOURCE is a git directory of the mirror (bare, as `fetch` brings it) or a folder of the
 scenes as `<scene>/scene-v4.pbrt`. Renders are at the reference's resolution, `--spp SPP`.
@@ -110,6 +110,8 @@ def main():
     ap.add_argument("--stand-ins", action="store_true")
     ap.add_argument("--render", type=int, metavar="SPP")
     ap.add_argument("--only", default="")
+    ap.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                    help="an integrator parameter for the renders (raylab render -p)")
     ap.add_argument("--out", type=pathlib.Path)
     ap.add_argument("extra", nargs="*")
     args = ap.parse_args()
@@ -152,7 +154,8 @@ def main():
                 h, w = ref.shape[:2]
                 image = out / f"{name}.exr"
                 r = subprocess.run([args.raylab, "render", str(scene), "--spp", str(args.render),
-                                    "--size", f"{w}x{h}", "-o", str(image), *args.extra],
+                                    "--size", f"{w}x{h}", "-o", str(image), *args.extra,
+                                    *[a for p in args.param for a in ("-p", p)]],
                                    capture_output=True, text=True)
                 if r.returncode == 0:
                     import numpy as np

@@ -881,6 +881,20 @@ pub enum EmitterDesc {
     /// along `direction` (turned by the entity's rotation), with `irradiance` (W m^-2 per
     /// channel) on a surface facing it.
     Directional { direction: V3, irradiance: V3 },
+    /// A projector (Mitsuba's `projector`) at the entity's translation, throwing the image
+    /// `irradiance` (a colour or a texture) along the entity's rotated `+z` over a field of
+    /// view of `fov` degrees along `fov_axis` (`"x"`, the default, `"y"`, `"diagonal"`,
+    /// `"smaller"` or `"larger"` side of the image), the image's left edge towards the rotated
+    /// `+x`. The irradiance on the plane at distance 1 facing it is `pi scale` times the
+    /// image (as Mitsuba's). Default `scale: 1`.
+    Projector {
+        irradiance: ColorDesc,
+        fov: f32,
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        fov_axis: Option<String>,
+        #[serde(default = "one")]
+        scale: f32,
+    },
     /// A latitude-longitude environment map (Mitsuba's `envmap`): an EXR, Radiance HDR or
     /// PNG file (8-bit images are decoded from sRGB), `+y` up in the map's frame, turned by
     /// the entity's rotation (rotate `(90, 0, 0)` for a z-up scene), radiance times `scale`.

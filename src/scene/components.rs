@@ -248,6 +248,13 @@ pub enum Emitter {
     },
     /// Parallel light travelling along `direction` (before the entity's rotation).
     Directional { direction: Vec3A, irradiance: Rgb },
+    /// A projector: its image, horizontal field of view (degrees) and scale.
+    Projector {
+        irradiance: raylab_integrators::texture::Texture,
+        fov_x: f32,
+        aspect: f32,
+        scale: f32,
+    },
     /// An environment map, already turned into the world by the entity's rotation.
     Environment(Arc<raylab_integrators::light::EnvMap>),
 }

@@ -83,6 +83,35 @@ pub(super) fn emitter_from_desc(
             direction: v3(direction),
             irradiance: v3(irradiance),
         },
+        EmitterDesc::Projector {
+            irradiance,
+            fov,
+            fov_axis,
+            scale,
+        } => {
+            let (irradiance, aspect) = match irradiance {
+                ColorDesc::Constant(c) => {
+                    (raylab_integrators::texture::Texture::Constant(v3(c)), 1.0)
+                }
+                ColorDesc::Texture(t) => {
+                    let mut loader = super::textures::TextureLoader::new(files);
+                    let t = loader
+                        .texture(&t, super::textures::Role::Data)
+                        .map_err(|e| format!("the projector's image: {e}"))?;
+                    if t.range().0 < 0.0 {
+                        return Err("the projector's image has negative values".into());
+                    }
+                    let aspect = t.aspect().unwrap_or(1.0);
+                    (t, aspect)
+                }
+            };
+            Emitter::Projector {
+                irradiance,
+                fov_x: horizontal_fov(fov, fov_axis.as_deref(), aspect)?,
+                aspect,
+                scale,
+            }
+        }
         EmitterDesc::Environment {
             path,
             scale,
@@ -415,4 +444,30 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
         },
     })
+}
+
+/// The horizontal field of view (degrees) of a field of view `fov` along `axis` of an image of
+/// `aspect` = width / height, as Mitsuba's `parse_fov` reads it.
+fn horizontal_fov(fov: f32, axis: Option<&str>, aspect: f32) -> Result<f32, String> {
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(format!(
+            "a field of view must lie in (0, 180) degrees, got {fov}"
+        ));
+    }
+    let t = (0.5 * fov).to_radians().tan();
+    let x = match axis.unwrap_or("x") {
+        "x" => return Ok(fov),
+        "y" => t * aspect,
+        "diagonal" => t * aspect / (1.0 + aspect * aspect).sqrt(),
+        "smaller" if aspect > 1.0 => t * aspect,
+        "smaller" => return Ok(fov),
+        "larger" if aspect > 1.0 => return Ok(fov),
+        "larger" => t * aspect,
+        other => {
+            return Err(format!(
+                "fov_axis is \"x\", \"y\", \"diagonal\", \"smaller\" or \"larger\", not \"{other}\""
+            ))
+        }
+    };
+    Ok(2.0 * x.atan().to_degrees())
 }

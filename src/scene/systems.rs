@@ -19,7 +19,9 @@ use super::error::finite;
 use crate::accel::{Quadric, QuadricKind};
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
 use hecs::{Entity, World};
-use raylab_integrators::light::{CylinderLight, DirectionalLight, EnvMapLight, SpotLight};
+use raylab_integrators::light::{
+    CylinderLight, DirectionalLight, EnvMapLight, ProjectorLight, SpotLight,
+};
 use raylab_integrators::Light;
 
 /// An error message with the name of the entity it is about.
@@ -89,6 +91,7 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
             (
                 Some(
                     em @ (Emitter::Spot { .. }
+                    | Emitter::Projector { .. }
                     | Emitter::Directional { .. }
                     | Emitter::Environment(_)),
                 ),
@@ -96,7 +99,7 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
             ) => {
                 if s.is_some() {
                     return Err(fail(
-                        "a spot, directional or environment light has no shape: put it on an entity of its own without `shape`".into(),
+                        "a spot, projector, directional or environment light has no shape: put it on an entity of its own without `shape`".into(),
                     ));
                 }
                 match em {
@@ -108,6 +111,9 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                             finite("look_at", &target.to_array()).map_err(fail)?;
                         }
                         spot_light(em, transform).map_err(fail)?;
+                    }
+                    Emitter::Projector { .. } => {
+                        projector_light(em, transform).map_err(fail)?;
                     }
                     Emitter::Directional {
                         direction,
@@ -760,6 +766,10 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     Ok(spot) => vec![Light::Spot(spot)],
                     Err(_) => return None, // refused by validation
                 },
+                (Emitter::Projector { .. }, _) => match projector_light(emitter, transform) {
+                    Ok(p) => vec![Light::Projector(p)],
+                    Err(_) => return None, // refused by validation
+                },
                 (
                     Emitter::Directional {
                         direction,
@@ -843,6 +853,34 @@ fn quadric_light(q: &Quadric, radiance: raylab_integrators::Rgb, two_sided: bool
             inward: q.flipped,
         }),
     }
+}
+
+/// The projector of a `Projector` emitter at `transform`: at its translation, its frame the
+/// transform's orientation (its rotated axes, a mirror kept).
+pub fn projector_light(emitter: &Emitter, transform: &Transform) -> Result<ProjectorLight, String> {
+    let Emitter::Projector {
+        irradiance,
+        fov_x,
+        aspect,
+        scale,
+    } = emitter
+    else {
+        return Err("not a projector".into());
+    };
+    let o = transform.orientation();
+    let frame = raylab_integrators::Frame {
+        s: o.x_axis,
+        t: o.y_axis,
+        n: o.z_axis,
+    };
+    ProjectorLight::new(
+        transform.translation(),
+        frame,
+        irradiance.clone(),
+        *scale,
+        *fov_x,
+        *aspect,
+    )
 }
 
 /// The spot light of a `Spot` emitter at `transform`: at its translation, pointing at its

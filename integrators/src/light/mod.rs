@@ -34,6 +34,7 @@ pub mod env_map;
 pub mod environment;
 pub mod planar;
 pub mod point;
+pub mod projector;
 pub mod sphere;
 pub mod spot;
 pub mod table;
@@ -44,6 +45,7 @@ pub use env_map::{EnvMap, EnvMapLight};
 pub use environment::EnvironmentLight;
 pub use planar::{Planar, PlanarShape};
 pub use point::PointLight;
+pub use projector::ProjectorLight;
 pub use sphere::SphereLight;
 pub use spot::{Falloff, SpotLight};
 pub use table::LightTable;
@@ -71,6 +73,8 @@ pub enum Light {
     Directional(DirectionalLight),
     /// A point light whose intensity falls off away from its axis.
     Spot(SpotLight),
+    /// A point light throwing an image through a pinhole.
+    Projector(ProjectorLight),
 }
 
 /// Incident radiance sampled from one light at a reference point.
@@ -174,6 +178,7 @@ macro_rules! dispatch {
             Light::EnvMap($l) => $e,
             Light::Directional($l) => $e,
             Light::Spot($l) => $e,
+            Light::Projector($l) => $e,
         }
     };
 }
@@ -251,11 +256,11 @@ impl Light {
         Light::Environment(EnvironmentLight { radiance })
     }
 
-    /// True for lights that rays cannot hit (point, spot and directional lights).
+    /// True for lights that rays cannot hit (point, spot, projector and directional lights).
     pub fn is_delta(&self) -> bool {
         matches!(
             self,
-            Light::Point(_) | Light::Spot(_) | Light::Directional(_)
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_) | Light::Projector(_)
         )
     }
 
@@ -324,6 +329,7 @@ impl Light {
             Light::EnvMap(l) => l.sample_le(u_pos, u_dir, scene_center, scene_radius),
             Light::Directional(l) => l.sample_le(u_pos, scene_center, scene_radius),
             Light::Spot(l) => l.sample_le(u_dir),
+            Light::Projector(l) => l.sample_le(u_dir),
         };
         (s.weight.is_finite() && s.weight != Rgb::ZERO).then_some(s)
     }
@@ -343,6 +349,7 @@ impl Light {
             Light::EnvMap(l) => l.pdf_le(w, scene_radius),
             Light::Directional(l) => l.pdf_le(scene_radius),
             Light::Spot(l) => l.pdf_le(w),
+            Light::Projector(l) => l.pdf_le(w),
         }
     }
 
@@ -366,6 +373,7 @@ impl Light {
             Light::EnvMap(l) => l.power(scene_radius),
             Light::Directional(l) => l.power(scene_radius),
             Light::Spot(l) => l.power(),
+            Light::Projector(l) => l.power(),
             Light::Planar(l) => l.power(),
             Light::Cylinder(l) => l.power(),
             Light::Sphere(l) => l.power(),

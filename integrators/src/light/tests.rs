@@ -95,7 +95,7 @@ fn hit_light(light: &Light, p: Vec3A, w: Vec3A) -> Option<(Vec3A, Vec3A)> {
             })
         }
         Light::Environment(_) | Light::EnvMap(_) => Some((p + f(w), -f(w))),
-        Light::Point(_) | Light::Spot(_) | Light::Directional(_) => None,
+        Light::Point(_) | Light::Spot(_) | Light::Projector(_) | Light::Directional(_) => None,
     }
 }
 
@@ -714,6 +714,17 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
         Light::sphere(Vec3A::new(0.2, -0.1, 2.0), 1.2, L),
         Light::point(Vec3A::new(1.0, 2.0, 3.0), L),
         Light::environment(L),
+        Light::Projector(
+            super::ProjectorLight::new(
+                Vec3A::new(1.0, 0.0, 2.0),
+                Frame::from_normal(Vec3A::new(0.3, 0.2, -1.0).normalize()),
+                crate::texture::Texture::Constant(L),
+                2.0,
+                70.0,
+                1.5,
+            )
+            .unwrap(),
+        ),
     ];
     let mut s = Sampler::new(5, 0, 0);
     for light in &lights {
@@ -731,7 +742,7 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
             }
             assert!(close(dir, le.pdf_dir), "{light:?}: {dir} vs {}", le.pdf_dir);
             let cos = match light {
-                Light::Point(_) | Light::Spot(_) => 1.0,
+                Light::Point(_) | Light::Spot(_) | Light::Projector(_) => 1.0,
                 _ => le.normal.dot(le.ray.dir),
             };
             assert!(cos > 0.0, "{light:?}: the ray leaves the emitting side");
@@ -756,6 +767,7 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
                 }
                 Light::Point(pt) => assert_eq!(le.ray.origin, pt.position),
                 Light::Spot(sp) => assert_eq!(le.ray.origin, sp.position),
+                Light::Projector(pr) => assert_eq!(le.ray.origin, pr.position),
                 Light::Environment(_) | Light::EnvMap(_) | Light::Directional(_) => {
                     assert!((le.ray.origin - center).length() >= radius * 0.999)
                 }

@@ -249,7 +249,7 @@ impl<'a, 'input> Converter<'a, 'input> {
     /// A perspective sensor's field of view in degrees and the axis it spans: `fov` along
     /// `fov_axis` (default `x`), or, as Mitsuba 3 reads it, a `focal_length` (default
     /// `"50mm"`) of a 35 mm camera, whose 36 x 24 mm frame's diagonal it spans.
-    fn field_of_view(
+    pub(super) fn field_of_view(
         &self,
         p: &mut Props<'a, 'input>,
         node: Node<'a, 'input>,

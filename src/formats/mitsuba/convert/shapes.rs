@@ -291,12 +291,26 @@ impl<'a, 'input> Converter<'a, 'input> {
                 };
                 (spot, transform)
             }
+            "projector" => {
+                let irradiance = self
+                    .colour(&mut p, "irradiance", Some([1.0; 3]))?
+                    .unwrap_or(ColorDesc::Constant([1.0; 3]));
+                let scale = p.float("scale")?.unwrap_or(1.0);
+                let (fov, axis) = self.field_of_view(&mut p, node)?;
+                let projector = EmitterDesc::Projector {
+                    irradiance,
+                    fov,
+                    fov_axis: (axis != "x").then_some(axis),
+                    scale,
+                };
+                (projector, transform)
+            }
             "directional" => {
                 let irradiance = p.emission("irradiance")?.unwrap_or([1.0; 3]);
                 let direction = p.vector("direction")?.unwrap_or([0.0, 0.0, 1.0]);
                 (EmitterDesc::Directional { direction, irradiance }, transform)
             }
-            other => return Err(at(self.doc, node, format!("emitter `{other}` is not supported (area, point, spot, directional, constant, envmap are)"))),
+            other => return Err(at(self.doc, node, format!("emitter `{other}` is not supported (area, point, spot, projector, directional, constant, envmap are)"))),
         };
         p.finish(&[])?;
         self.entities
