@@ -150,7 +150,7 @@ fn decode_bytes(
     }
     if reader.format().is_none() {
         return Err(cannot(
-            &"it is not an image raylab reads (OpenEXR, Radiance HDR, PNG, JPEG, TGA or PFM)",
+            &"it is not an image raylab reads (OpenEXR, Radiance HDR, PNG, JPEG, TGA, BMP or PFM)",
         ));
     }
     let mut decoder = reader.into_decoder().map_err(|e| cannot(&e))?;

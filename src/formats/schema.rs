@@ -845,12 +845,16 @@ impl Serialize for MeshNormals {
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub enum EmitterDesc {
-    /// Emits `radiance` (W sr^-1 m^-2 per channel) from the shape's front side, or both sides.
+    /// Emits `radiance` (W sr^-1 m^-2 per channel) from the shape's front side, or both sides,
+    /// times `texture` (a colour or a texture over the shape's texture coordinates: Mitsuba's
+    /// textured `radiance`) if given; a texture needs a mesh or rectangle.
     Area {
         radiance: V3,
         /// Default: false.
         #[serde(default)]
         two_sided: bool,
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        texture: Option<ColorDesc>,
     },
     /// Isotropic point light of `intensity` (W/sr per channel) at the entity's translation.
     Point { intensity: V3 },

@@ -232,7 +232,12 @@ pub struct MaterialRef(pub u32);
 #[derive(Clone, Debug, PartialEq)]
 pub enum Emitter {
     /// Emits `radiance` from the front of the shape (both sides if `two_sided`).
-    Area { radiance: Rgb, two_sided: bool },
+    Area {
+        radiance: Rgb,
+        two_sided: bool,
+        /// A texture over the radiance, looked up at the shape's texture coordinates.
+        texture: Option<raylab_integrators::texture::Texture>,
+    },
     /// Isotropic point light at the entity's translation.
     Point { intensity: Rgb },
     /// A spot light at the entity's translation, pointing at `look_at` or along its rotated

@@ -31,10 +31,28 @@ pub(super) fn emitter_from_desc(
         EmitterDesc::Area {
             radiance,
             two_sided,
-        } => Emitter::Area {
-            radiance: v3(radiance),
-            two_sided,
-        },
+            texture,
+        } => {
+            let (radiance, texture) = match texture {
+                None => (v3(radiance), None),
+                Some(ColorDesc::Constant(c)) => (v3(radiance) * v3(c), None),
+                Some(ColorDesc::Texture(t)) => {
+                    let mut loader = super::textures::TextureLoader::new(files);
+                    let t = loader
+                        .texture(&t, super::textures::Role::Data)
+                        .map_err(|e| format!("the emitter's texture: {e}"))?;
+                    if t.range().0 < 0.0 {
+                        return Err("the emitter's texture has negative values".into());
+                    }
+                    (v3(radiance), Some(t))
+                }
+            };
+            Emitter::Area {
+                radiance,
+                two_sided,
+                texture,
+            }
+        }
         EmitterDesc::Point { intensity } => Emitter::Point {
             intensity: v3(intensity),
         },

@@ -67,6 +67,7 @@ pub fn file_parts(desc: &ShapeDesc, files: &SceneFiles) -> Result<Vec<Part>, Str
             let emitter = m.emission.map(|radiance| Emitter::Area {
                 radiance: Vec3A::from_array(radiance),
                 two_sided: m.two_sided,
+                texture: None,
             });
             Ok(Part {
                 name: m.name,

@@ -57,10 +57,18 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                 Some(Emitter::Area {
                     radiance,
                     two_sided,
+                    texture,
                 }),
                 s,
             ) => {
                 check_radiance("radiance", *radiance).map_err(fail)?;
+                if texture.is_some()
+                    && !matches!(s, Some(Shape::Mesh { .. } | Shape::Quad(_)) | None)
+                {
+                    return Err(fail(
+                        "a textured area emitter needs a mesh or a rectangle (its texture coordinates)".into(),
+                    ));
+                }
                 if s.is_none() {
                     return Err(fail(
                         "an area emitter needs a shape (use `Point` for a point light)".into(),
@@ -785,6 +793,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     Emitter::Area {
                         radiance,
                         two_sided,
+                        ..
                     },
                     Some(WorldShape::Quadric(q)),
                 ) => vec![quadric_light(q, radiance, two_sided)],
@@ -799,6 +808,34 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     Emitter::Area {
                         radiance,
                         two_sided,
+                        texture: Some(texture),
+                    },
+                    Some(WorldShape::Triangles { triangles, uvs, .. }),
+                ) => {
+                    // One light per triangle, with its texture coordinates (a triangle without
+                    // any has Mitsuba's (0, 0), (1, 0), (0, 1)).
+                    let texture = std::sync::Arc::new(texture);
+                    triangles
+                        .iter()
+                        .enumerate()
+                        .map(|(i, t)| {
+                            let uv = uvs
+                                .as_ref()
+                                .map_or([Vec2::ZERO, Vec2::X, Vec2::Y], |u| u[i]);
+                            let Light::Planar(p) =
+                                Light::triangle(t[0], t[1], t[2], radiance, two_sided)
+                            else {
+                                unreachable!("a triangle light is planar")
+                            };
+                            Light::Planar(p.with_texture(std::sync::Arc::clone(&texture), uv))
+                        })
+                        .collect()
+                }
+                (
+                    Emitter::Area {
+                        radiance,
+                        two_sided,
+                        ..
                     },
                     Some(WorldShape::Triangles {
                         triangles,

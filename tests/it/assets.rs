@@ -125,6 +125,7 @@ fn obj_materials_come_from_the_mtl_file() {
     let Some(Emitter::Area {
         radiance,
         two_sided: false,
+        texture: None,
     }) = glow_emits
     else {
         panic!("the glowing top emits from its front: {glow_emits:?}")
@@ -154,6 +155,7 @@ fn gltf_base_colour_and_emission_become_material_and_emitter() {
     let Some(Emitter::Area {
         radiance,
         two_sided: false,
+        texture: None,
     }) = shade_emits
     else {
         panic!("{shade_emits:?}")

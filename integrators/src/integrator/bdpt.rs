@@ -318,7 +318,7 @@ impl<'a> Vertex<'a> {
             return escaped(scene, &ray);
         }
         let w = (v.p - self.p).normalize_or_zero();
-        scene.lights().get(index).emitted(self.ng, w)
+        scene.lights().get(index).emitted_at(self.p, self.ng, w)
     }
 }
 

@@ -467,7 +467,7 @@ pub fn emit_from_a_light(
 #[inline]
 pub fn emitted_at(scene: &dyn Scene, hit: &Hit, ray: &Ray) -> Rgb {
     match hit.light {
-        Some(i) => scene.lights().get(i).emitted(hit.ng, -ray.dir),
+        Some(i) => scene.lights().get(i).emitted_at(hit.p, hit.ng, -ray.dir),
         None => Rgb::ZERO,
     }
 }

@@ -308,6 +308,16 @@ impl Light {
         dispatch!(self, l => l.emitted(n, w))
     }
 
+    /// [`Light::emitted`] from the point `q` of the emitter's surface: what a textured
+    /// emitter gives there.
+    #[inline]
+    pub fn emitted_at(&self, q: Vec3A, n: Vec3A, w: Vec3A) -> Rgb {
+        match self {
+            Light::Planar(l) => l.emitted_at(q, n, w),
+            _ => self.emitted(n, w),
+        }
+    }
+
     /// Samples a ray leaving the light (see the module docs): `u_pos` places its origin,
     /// `u_dir` its direction, `u_side` picks the side of a two-sided light. The environment's
     /// rays start outside the scene's bounding sphere (`scene_center`, `scene_radius`).

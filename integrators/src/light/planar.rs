@@ -2,6 +2,7 @@
 
 use super::{leave, lum, LeSample, LightSample, MIN_COS};
 use crate::sampling::{concentric_disk, uniform_triangle};
+use crate::texture::Texture;
 use crate::Rgb;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
@@ -40,6 +41,10 @@ pub struct Planar {
     pub radiance: Rgb,
     /// Emits on both sides.
     pub two_sided: bool,
+    /// A texture over the radiance (Mitsuba's textured `radiance`): looked up at the texture
+    /// coordinates the points `p0`, `p0 + e1`, `p0 + e2` have (`uvs`), interpolated.
+    pub texture: Option<std::sync::Arc<Texture>>,
+    pub uvs: [Vec2; 3],
 }
 
 /// Solid-angle density of uniform area sampling of a planar emitter, seen from a point at
@@ -86,6 +91,52 @@ impl Planar {
             area,
             radiance,
             two_sided,
+            texture: None,
+            uvs: [Vec2::ZERO; 3],
+        }
+    }
+
+    /// The same light with its radiance times `texture`, looked up at texture coordinates
+    /// `uvs` at `p0`, `p0 + e1`, `p0 + e2` (interpolated in between).
+    pub fn with_texture(self, texture: std::sync::Arc<Texture>, uvs: [Vec2; 3]) -> Planar {
+        Planar {
+            texture: Some(texture),
+            uvs,
+            ..self
+        }
+    }
+
+    /// The radiance leaving the point `q` of the light.
+    #[inline]
+    pub fn radiance_at(&self, q: Vec3A) -> Rgb {
+        let Some(texture) = &self.texture else {
+            return self.radiance;
+        };
+        // q - p0 = s e1 + t e2, solved on the plane.
+        let d = q - self.p0;
+        let (a, b, c) = (
+            self.e1.dot(self.e1),
+            self.e1.dot(self.e2),
+            self.e2.dot(self.e2),
+        );
+        let (x, y) = (d.dot(self.e1), d.dot(self.e2));
+        let det = a * c - b * b;
+        if det == 0.0 || !det.is_finite() {
+            return self.radiance * texture.eval(self.uvs[0]);
+        }
+        let s = (x * c - y * b) / det;
+        let t = (y * a - x * b) / det;
+        let uv = self.uvs[0] + (self.uvs[1] - self.uvs[0]) * s + (self.uvs[2] - self.uvs[0]) * t;
+        self.radiance * texture.eval(uv)
+    }
+
+    /// [`Planar::emitted`] from the point `q` of the light.
+    #[inline]
+    pub fn emitted_at(&self, q: Vec3A, n: Vec3A, w: Vec3A) -> Rgb {
+        if self.two_sided || n.dot(w) > 0.0 {
+            self.radiance_at(q)
+        } else {
+            Rgb::ZERO
         }
     }
 
@@ -116,7 +167,8 @@ impl Planar {
     }
 
     pub fn sample_li(&self, p: Vec3A, u: Vec2) -> Option<LightSample> {
-        LightSample::on_surface(p, self.point(u), self.radiance, |wi, dist2| {
+        let q = self.point(u);
+        LightSample::on_surface(p, q, self.radiance_at(q), |wi, dist2| {
             planar_pdf(dist2, self.n.dot(-wi), self.area, self.two_sided)
         })
     }
@@ -146,13 +198,14 @@ impl Planar {
             self.n
         };
         let (ray, cos) = leave(p, normal, u_dir);
+        let radiance = self.radiance_at(p);
         LeSample {
             ray,
-            radiance: self.radiance,
+            radiance,
             normal,
             pdf_pos: 1.0 / self.area,
             pdf_dir: cos / (PI * self.sides()),
-            weight: self.radiance * (self.area * PI * self.sides()),
+            weight: radiance * (self.area * PI * self.sides()),
         }
     }
 
@@ -165,6 +218,11 @@ impl Planar {
     pub fn power(&self) -> f64 {
         use std::f64::consts::PI;
         let sides = if self.two_sided { 2.0 } else { 1.0 };
-        lum(self.radiance) * self.area as f64 * PI * sides
+        // A texture: its mean (what the light's own part of it holds, roughly).
+        let radiance = match &self.texture {
+            Some(t) => self.radiance * t.mean(),
+            None => self.radiance,
+        };
+        lum(radiance) * self.area as f64 * PI * sides
     }
 }

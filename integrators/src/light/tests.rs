@@ -788,3 +788,42 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
     };
     assert_eq!(triangle(false).pdf_le(p.n, -p.n, radius).1, 0.0);
 }
+
+/// A textured emitter's radiance at a point is its texture at the point's interpolated texture
+/// coordinates, the same whether the point is sampled, hit or emits a ray.
+#[test]
+fn a_textured_planar_light_reads_its_texture_where_it_emits() {
+    use crate::texture::{ImageTexture, Texels, Texture, TextureFilter, Wrap};
+    // u picks the column: 1 on the left half, 3 on the right.
+    let texels = Texels::Float(vec![Rgb::splat(1.0), Rgb::splat(3.0)].into());
+    let image = ImageTexture::new(2, 1, texels, TextureFilter::Nearest, Wrap::Clamp).unwrap();
+    let texture = std::sync::Arc::new(Texture::Image {
+        image: std::sync::Arc::new(image),
+        to_uv: glam::Affine2::IDENTITY,
+        scale: 1.0,
+    });
+    // A unit square in z = 0 facing +z, u along x.
+    let Light::Planar(p) = Light::parallelogram(Vec3A::ZERO, Vec3A::X, Vec3A::Y, L, false) else {
+        unreachable!()
+    };
+    let uvs = [Vec2::ZERO, Vec2::X, Vec2::Y];
+    let light = Light::Planar(p.with_texture(texture, uvs));
+    for (x, want) in [(0.2f32, 1.0f32), (0.8, 3.0)] {
+        let q = Vec3A::new(x, 0.5, 0.0);
+        assert_eq!(light.emitted_at(q, Vec3A::Z, Vec3A::Z), L * want);
+        assert_eq!(light.emitted_at(q, Vec3A::Z, -Vec3A::Z), Rgb::ZERO);
+    }
+    let mut s = Sampler::new(3, 0, 0);
+    for _ in 0..200 {
+        let ls = light
+            .sample_li(Vec3A::new(0.5, 0.5, 2.0), s.next_2d())
+            .unwrap();
+        let want = if ls.point.x < 0.5 { 1.0 } else { 3.0 };
+        assert_eq!(ls.radiance, L * want, "at {}", ls.point);
+        let le = light
+            .sample_le(s.next_2d(), s.next_2d(), 0.0, Vec3A::ZERO, 10.0)
+            .unwrap();
+        let want = if le.ray.origin.x < 0.5 { 1.0 } else { 3.0 };
+        assert!((le.radiance - L * want).abs().max_element() < 1e-6);
+    }
+}

@@ -198,11 +198,20 @@ impl<'a, 'input> Converter<'a, 'input> {
                         ));
                     }
                     let mut e = self.props(child)?;
-                    let radiance = e.emission("radiance")?.ok_or_else(|| at(self.doc, child, "<emitter type=\"area\"> needs a constant `radiance` (a texture is not supported)"))?;
+                    // A constant (a spectrum too) or a texture; Mitsuba's default is 1.
+                    let (radiance, texture) = match e.emission("radiance")? {
+                        Some(r) => (r, None),
+                        None => match self.colour(&mut e, "radiance", None)? {
+                            Some(ColorDesc::Texture(t)) => ([1.0; 3], Some(ColorDesc::Texture(t))),
+                            Some(ColorDesc::Constant(c)) => (c, None),
+                            None => ([1.0; 3], None),
+                        },
+                    };
                     e.finish(&[])?;
                     emitter = Some(EmitterDesc::Area {
                         radiance,
                         two_sided: false,
+                        texture,
                     });
                 }
                 tag => {

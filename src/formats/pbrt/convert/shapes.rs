@@ -183,6 +183,7 @@ impl<'a> Converter<'a> {
             emitter = Some(EmitterDesc::Area {
                 radiance: l.map(|x| x as f32),
                 two_sided: two,
+                texture: None,
             });
         }
         let transform = if a != Affine3A::IDENTITY {
