@@ -775,7 +775,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     Err(_) => return None, // refused by validation
                 },
                 (Emitter::Projector { .. }, _) => match projector_light(emitter, transform) {
-                    Ok(p) => vec![Light::Projector(p)],
+                    Ok(p) => vec![Light::Projector(Box::new(p))],
                     Err(_) => return None, // refused by validation
                 },
                 (
@@ -814,7 +814,6 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                 ) => {
                     // One light per triangle, with its texture coordinates (a triangle without
                     // any has Mitsuba's (0, 0), (1, 0), (0, 1)).
-                    let texture = std::sync::Arc::new(texture);
                     triangles
                         .iter()
                         .enumerate()
@@ -827,7 +826,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                             else {
                                 unreachable!("a triangle light is planar")
                             };
-                            Light::Planar(p.with_texture(std::sync::Arc::clone(&texture), uv))
+                            Light::Planar(p.with_texture(texture.clone(), uv))
                         })
                         .collect()
                 }

@@ -35,8 +35,9 @@ use std::ops::Deref;
 /// A normal or bump map's terms at one shading point, in its (tilted) shading frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MapTerms {
-    /// The surface's shading normal before the map, in the tilted frame.
-    pub n0: Vec3A,
+    /// The surface's shading normal before the map, in the tilted frame (unaligned: a
+    /// shading point carries it beside the material).
+    pub n0: glam::Vec3,
     /// Estevez's `alpha^2` of the tilt; 0 without the shadowing term.
     pub alpha2: f32,
     /// `G` of the arrival direction.
@@ -48,7 +49,7 @@ impl MapTerms {
     /// roughness `alpha2`, for a path arriving along `wo` (local).
     pub fn new(n0: Vec3A, alpha2: f32, wo: Vec3A) -> MapTerms {
         let mut t = MapTerms {
-            n0,
+            n0: n0.into(),
             alpha2,
             g_arrival: 1.0,
         };
@@ -59,7 +60,7 @@ impl MapTerms {
     /// Whether `w` lies on the same side of the tilted normal and of the unperturbed one.
     #[inline]
     fn passes(&self, w: Vec3A) -> bool {
-        w.z * w.dot(self.n0) > 0.0
+        w.z * w.dot(Vec3A::from(self.n0)) > 0.0
     }
 
     /// Estevez's shadowing of direction `w` (1 without the term).
@@ -68,7 +69,7 @@ impl MapTerms {
         if self.alpha2 == 0.0 {
             return 1.0;
         }
-        let c2 = w.dot(self.n0).powi(2);
+        let c2 = w.dot(Vec3A::from(self.n0)).powi(2);
         let tan2 = (1.0 - c2).max(0.0) / c2;
         2.0 / (1.0 + (1.0 + self.alpha2 * tan2).sqrt())
     }

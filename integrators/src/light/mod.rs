@@ -73,8 +73,9 @@ pub enum Light {
     Directional(DirectionalLight),
     /// A point light whose intensity falls off away from its axis.
     Spot(SpotLight),
-    /// A point light throwing an image through a pinhole.
-    Projector(ProjectorLight),
+    /// A point light throwing an image through a pinhole (boxed: every light of a scene takes
+    /// the largest kind's room).
+    Projector(Box<ProjectorLight>),
 }
 
 /// Incident radiance sampled from one light at a reference point.

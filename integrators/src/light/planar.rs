@@ -41,9 +41,16 @@ pub struct Planar {
     pub radiance: Rgb,
     /// Emits on both sides.
     pub two_sided: bool,
-    /// A texture over the radiance (Mitsuba's textured `radiance`): looked up at the texture
-    /// coordinates the points `p0`, `p0 + e1`, `p0 + e2` have (`uvs`), interpolated.
-    pub texture: Option<std::sync::Arc<Texture>>,
+    /// A texture over the radiance (Mitsuba's textured `radiance`), boxed: few lights have
+    /// one, and every light of a scene takes the largest kind's room.
+    pub emission: Option<Box<EmissionTexture>>,
+}
+
+/// A texture over a planar light's radiance: looked up at the texture coordinates the points
+/// `p0`, `p0 + e1`, `p0 + e2` have (`uvs`), interpolated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EmissionTexture {
+    pub texture: Texture,
     pub uvs: [Vec2; 3],
 }
 
@@ -91,17 +98,15 @@ impl Planar {
             area,
             radiance,
             two_sided,
-            texture: None,
-            uvs: [Vec2::ZERO; 3],
+            emission: None,
         }
     }
 
     /// The same light with its radiance times `texture`, looked up at texture coordinates
     /// `uvs` at `p0`, `p0 + e1`, `p0 + e2` (interpolated in between).
-    pub fn with_texture(self, texture: std::sync::Arc<Texture>, uvs: [Vec2; 3]) -> Planar {
+    pub fn with_texture(self, texture: Texture, uvs: [Vec2; 3]) -> Planar {
         Planar {
-            texture: Some(texture),
-            uvs,
+            emission: Some(Box::new(EmissionTexture { texture, uvs })),
             ..self
         }
     }
@@ -109,7 +114,7 @@ impl Planar {
     /// The radiance leaving the point `q` of the light.
     #[inline]
     pub fn radiance_at(&self, q: Vec3A) -> Rgb {
-        let Some(texture) = &self.texture else {
+        let Some(EmissionTexture { texture, uvs }) = self.emission.as_deref() else {
             return self.radiance;
         };
         // q - p0 = s e1 + t e2, solved on the plane.
@@ -122,11 +127,11 @@ impl Planar {
         let (x, y) = (d.dot(self.e1), d.dot(self.e2));
         let det = a * c - b * b;
         if det == 0.0 || !det.is_finite() {
-            return self.radiance * texture.eval(self.uvs[0]);
+            return self.radiance * texture.eval(uvs[0]);
         }
         let s = (x * c - y * b) / det;
         let t = (y * a - x * b) / det;
-        let uv = self.uvs[0] + (self.uvs[1] - self.uvs[0]) * s + (self.uvs[2] - self.uvs[0]) * t;
+        let uv = uvs[0] + (uvs[1] - uvs[0]) * s + (uvs[2] - uvs[0]) * t;
         self.radiance * texture.eval(uv)
     }
 
@@ -219,8 +224,8 @@ impl Planar {
         use std::f64::consts::PI;
         let sides = if self.two_sided { 2.0 } else { 1.0 };
         // A texture: its mean (what the light's own part of it holds, roughly).
-        let radiance = match &self.texture {
-            Some(t) => self.radiance * t.mean(),
+        let radiance = match self.emission.as_deref() {
+            Some(e) => self.radiance * e.texture.mean(),
             None => self.radiance,
         };
         lum(radiance) * self.area as f64 * PI * sides

@@ -36,8 +36,9 @@ pub struct SpotLight {
     pub cutoff: f32,
     pub beam_width: f32,
     pub falloff: Falloff,
-    /// A projected texture and the spot's frame (`n` the axis).
-    pub texture: Option<(Texture, Frame)>,
+    /// A projected texture and the spot's frame (`n` the axis); boxed, as few spots have one
+    /// and every light of a scene takes the largest kind's room.
+    pub texture: Option<Box<(Texture, Frame)>>,
 }
 
 impl SpotLight {
@@ -83,7 +84,7 @@ impl SpotLight {
         }
         let frame = Frame::from_normal_and_tangent(self.axis, x);
         Ok(SpotLight {
-            texture: Some((texture, frame)),
+            texture: Some(Box::new((texture, frame))),
             ..self
         })
     }
@@ -92,7 +93,7 @@ impl SpotLight {
     /// texture's value there times `intensity`.
     #[inline]
     fn intensity_towards(&self, w: Vec3A) -> Rgb {
-        let Some((texture, frame)) = &self.texture else {
+        let Some((texture, frame)) = self.texture.as_deref() else {
             return self.intensity;
         };
         let d = frame.to_local(w);
@@ -231,7 +232,7 @@ impl SpotLight {
         let tint = self
             .texture
             .as_ref()
-            .map_or(1.0, |(t, _)| lum(t.mean()).max(1e-6));
+            .map_or(1.0, |b| lum(b.0.mean()).max(1e-6));
         lum(self.intensity) * tint * (inner + if c > b { ring } else { 0.0 })
     }
 }
