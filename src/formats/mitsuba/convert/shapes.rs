@@ -290,6 +290,9 @@ impl<'a, 'input> Converter<'a, 'input> {
                 let cutoff_angle = p.float("cutoff_angle")?.unwrap_or(20.0);
                 let beam = p.float("beam_width")?.unwrap_or(cutoff_angle * 0.75);
                 let texture = self.colour(&mut p, "texture", None)?;
+                if matches!(texture, Some(ColorDesc::Texture(_))) && cutoff_angle >= 90.0 {
+                    return Err(at(self.doc, node, format!("a textured spot's cutoff_angle must be below 90 degrees (its image lies on a plane ahead), got {cutoff_angle}")));
+                }
                 let spot = EmitterDesc::Spot {
                     intensity,
                     look_at: None,
@@ -306,6 +309,9 @@ impl<'a, 'input> Converter<'a, 'input> {
                     .unwrap_or(ColorDesc::Constant([1.0; 3]));
                 let scale = p.float("scale")?.unwrap_or(1.0);
                 let (fov, axis) = self.field_of_view(&mut p, node)?;
+                if !(fov > 0.0 && fov < 180.0) {
+                    return Err(at(self.doc, node, format!("a projector's field of view must lie in (0, 180) degrees, got {fov}")));
+                }
                 let projector = EmitterDesc::Projector {
                     irradiance,
                     fov,
