@@ -218,13 +218,25 @@ pub fn material(
             }
         }
     };
-    if let Some(pos) = p.present("normalmap") {
-        notes.approximate(
-            pos,
-            format!("{what}: `normalmap` ignored (pbrt-v4's normal maps are not mapped yet)"),
-        )?;
-        p.ignore(&["normalmap"]);
-    }
+    // pbrt-v4's normal map: an image of tangent-space normals (2 rgb - 1 in the frame of
+    // dpdu and the shading normal), looked up at (u, 1 - v), bilinear, repeating; read as
+    // pbrt-v4's Image::Read reads it (a PNG as linear, what stb_image reads as sRGB, floats as
+    // they are); without Mitsuba 3.7's corrections. A displacement, if any, wins, as in pbrt.
+    let normal_map = p.string("normalmap")?.map(|file| {
+        let lower = file.to_ascii_lowercase();
+        let linear = [".png", ".exr", ".pfm", ".hdr"]
+            .iter()
+            .any(|e| lower.ends_with(e));
+        crate::formats::texture_desc::TextureDesc::Image(crate::formats::texture_desc::ImageDesc {
+            path: file,
+            filter: "bilinear".into(),
+            wrap: "repeat".into(),
+            raw: Some(linear),
+            uv_scale: [1.0, -1.0],
+            uv_offset: [0.0, 1.0],
+            scale: 1.0,
+        })
+    });
     // pbrt-v4's bump map: the surface displaced along its shading normal by the float
     // texture (scene units), shaded with the displaced surface's normal turned to the
     // geometric normal's side; neither of Mitsuba 3.7's corrections.
@@ -408,8 +420,18 @@ pub fn material(
         }
     };
     Ok(Some(match displacement {
-        // A constant displacement moves the surface without tilting it.
-        None | Some(FloatDesc::Constant(_)) => out,
+        None => match normal_map {
+            None => out,
+            Some(texture) => MaterialDesc::NormalMap {
+                texture: ColorDesc::Texture(texture),
+                material: Box::new(out),
+                flip_invalid_normals: false,
+                shadowing: false,
+            },
+        },
+        // A constant displacement moves the surface without tilting it (and, as any
+        // displacement in pbrt-v4, takes the normal map's place).
+        Some(FloatDesc::Constant(_)) => out,
         Some(texture) => MaterialDesc::BumpMap {
             texture,
             scale: 1.0,

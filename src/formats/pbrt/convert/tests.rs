@@ -119,6 +119,11 @@ Material "diffusetransmission" "texture reflectance" "t" "texture transmittance"
         !kept.contains("trianglemesh") && kept.contains("Sphere"),
         "{kept}"
     );
+    // A normal map, as pbrt-v4 reads it: a PNG as linear, at (u, 1 - v), no Mitsuba terms.
+    let mapped = ron(&format!(
+        "WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"nm.png\"\n{shape}\n"
+    ));
+    assert!(mapped.contains(r#"NormalMap(texture: Image(path: "nm.png", filter: "bilinear", wrap: "repeat", raw: true, uv_scale: (1.0, -1.0), uv_offset: (0.0, 1.0)), material: Lambert(albedo: (0.5, 0.5, 0.5)), flip_invalid_normals: false, shadowing: false)"#), "{mapped}");
     let bdpt = ron(&format!(
         "Integrator \"bdpt\" \"integer maxdepth\" 33\nWorldBegin\n{shape}\n"
     ));
