@@ -353,6 +353,19 @@ impl Texture {
     }
 }
 
+/// A test texture of two columns and one row, 1 on the left (u < 1/2) and 3 on the right,
+/// looked up by nearest texel: where a lookup lands is plain from its value.
+#[cfg(test)]
+pub(crate) fn two_columns() -> Texture {
+    let texels = Texels::Float(vec![Rgb::splat(1.0), Rgb::splat(3.0)].into());
+    let image = ImageTexture::new(2, 1, texels, TextureFilter::Nearest, Wrap::Clamp).unwrap();
+    Texture::Image {
+        image: Arc::new(image),
+        to_uv: Affine2::IDENTITY,
+        scale: 1.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -36,16 +36,10 @@ pub(super) fn emitter_from_desc(
             let (radiance, texture) = match texture {
                 None => (v3(radiance), None),
                 Some(ColorDesc::Constant(c)) => (v3(radiance) * v3(c), None),
-                Some(ColorDesc::Texture(t)) => {
-                    let mut loader = super::textures::TextureLoader::new(files);
-                    let t = loader
-                        .texture(&t, super::textures::Role::Data)
-                        .map_err(|e| format!("the emitter's texture: {e}"))?;
-                    if t.range().0 < 0.0 {
-                        return Err("the emitter's texture has negative values".into());
-                    }
-                    (v3(radiance), Some(t))
-                }
+                Some(ColorDesc::Texture(t)) => (
+                    v3(radiance),
+                    Some(emitter_texture(&t, "emitter's texture", files)?),
+                ),
             };
             Emitter::Area {
                 radiance,
@@ -69,16 +63,7 @@ pub(super) fn emitter_from_desc(
                 Some(ColorDesc::Constant(c)) => {
                     Some(raylab_integrators::texture::Texture::Constant(v3(c)))
                 }
-                Some(ColorDesc::Texture(t)) => {
-                    let mut loader = super::textures::TextureLoader::new(files);
-                    let t = loader
-                        .texture(&t, super::textures::Role::Data)
-                        .map_err(|e| format!("the spot's texture: {e}"))?;
-                    if t.range().0 < 0.0 {
-                        return Err("the spot's texture has negative values".into());
-                    }
-                    Some(t)
-                }
+                Some(ColorDesc::Texture(t)) => Some(emitter_texture(&t, "spot's texture", files)?),
             },
             intensity: v3(intensity),
             look_at: look_at.map(v3),
@@ -112,13 +97,7 @@ pub(super) fn emitter_from_desc(
                     (raylab_integrators::texture::Texture::Constant(v3(c)), 1.0)
                 }
                 ColorDesc::Texture(t) => {
-                    let mut loader = super::textures::TextureLoader::new(files);
-                    let t = loader
-                        .texture(&t, super::textures::Role::Data)
-                        .map_err(|e| format!("the projector's image: {e}"))?;
-                    if t.range().0 < 0.0 {
-                        return Err("the projector's image has negative values".into());
-                    }
+                    let t = emitter_texture(&t, "projector's image", files)?;
                     let aspect = t.aspect().unwrap_or(1.0);
                     (t, aspect)
                 }
@@ -462,6 +441,18 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
         },
     })
+}
+
+/// An emitter's texture (`what` names it in messages): finite values, none negative, 8-bit
+/// images decoded from sRGB unless the description says `raw`.
+fn emitter_texture(
+    t: &crate::formats::texture_desc::TextureDesc,
+    what: &str,
+    files: &SceneFiles,
+) -> Result<raylab_integrators::texture::Texture, String> {
+    super::textures::TextureLoader::new(files)
+        .texture(t, super::textures::Role::Emission)
+        .map_err(|e| format!("the {what}: {e}"))
 }
 
 /// The horizontal field of view (degrees) of a field of view `fov` along `axis` of an image of

@@ -29,6 +29,9 @@ pub enum Role {
     Roughness,
     /// A normal or bump map: raw by default, any finite values.
     Data,
+    /// An emitter's texture (over an area light's radiance, a spot's or projector's image):
+    /// sRGB-decoded by default, not negative.
+    Emission,
 }
 
 /// The texels of a decoded image: width, height, and the texels row by row from the top.
@@ -107,6 +110,7 @@ impl<'a> TextureLoader<'a> {
             Role::Reflectance => Some(("a reflectance", 0.0, 1.0)),
             Role::Roughness => Some(("a roughness (alpha)", 0.0, 2.0)),
             Role::Data => None,
+            Role::Emission => Some(("an emission", 0.0, f32::INFINITY)),
         };
         if let Some((kind, min, max)) = range {
             if lo < min || hi > max {
@@ -138,7 +142,9 @@ impl<'a> TextureLoader<'a> {
                 ))
             }
         };
-        let raw = desc.raw.unwrap_or(role != Role::Reflectance);
+        let raw = desc
+            .raw
+            .unwrap_or(!matches!(role, Role::Reflectance | Role::Emission));
         let file = self.files.named(&desc.path)?;
         let (width, height, texels) = match self.images.get(&(file.clone(), raw)) {
             Some(t) => t.clone(),

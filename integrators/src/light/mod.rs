@@ -97,6 +97,33 @@ pub struct LightSample {
 }
 
 impl LightSample {
+    /// The light at `position` (a delta in position) seen from `p`: `radiance(w, dist^2)`
+    /// is what arrives from it along the unit direction `w` leaving it, at that squared
+    /// distance (`None`: nothing that way). `None` where `p` is the light's position.
+    #[inline]
+    pub fn from_position(
+        p: Vec3A,
+        position: Vec3A,
+        radiance: impl FnOnce(Vec3A, f32) -> Option<Rgb>,
+    ) -> Option<LightSample> {
+        let d = position - p;
+        let dist2 = d.length_squared();
+        if !(dist2 > 0.0 && dist2.is_finite()) {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let radiance = radiance(-wi, dist2)?;
+        radiance.is_finite().then_some(LightSample {
+            wi,
+            point: position,
+            dist,
+            radiance,
+            pdf: 1.0,
+            delta: true,
+        })
+    }
+
     /// The point `q` of a surface light, sampled from `p` with solid-angle density
     /// `pdf(wi, dist^2)`; `None` where `p` and `q` coincide or the density vanishes.
     #[inline]

@@ -16,21 +16,7 @@ pub struct PointLight {
 
 impl PointLight {
     pub fn sample_li(&self, p: Vec3A, _u: Vec2) -> Option<LightSample> {
-        let d = self.position - p;
-        let dist2 = d.length_squared();
-        if !(dist2 > 0.0 && dist2.is_finite()) {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let radiance = self.intensity / dist2;
-        radiance.is_finite().then_some(LightSample {
-            wi: d / dist,
-            point: self.position,
-            dist,
-            radiance,
-            pdf: 1.0,
-            delta: true,
-        })
+        LightSample::from_position(p, self.position, |_, dist2| Some(self.intensity / dist2))
     }
 
     pub fn pdf_li(&self, _p: Vec3A, _wi: Vec3A, _q: Vec3A) -> f32 {

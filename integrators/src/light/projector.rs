@@ -100,23 +100,10 @@ impl ProjectorLight {
     }
 
     pub fn sample_li(&self, p: Vec3A, _u: Vec2) -> Option<LightSample> {
-        let d = self.position - p;
-        let dist2 = d.length_squared();
-        if !(dist2 > 0.0 && dist2.is_finite()) {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = d / dist;
-        let local = self.frame.to_local(-wi);
-        self.uv(local)?;
-        let radiance = self.intensity(local) / dist2;
-        radiance.is_finite().then_some(LightSample {
-            wi,
-            point: self.position,
-            dist,
-            radiance,
-            pdf: 1.0,
-            delta: true,
+        LightSample::from_position(p, self.position, |w, dist2| {
+            let local = self.frame.to_local(w);
+            self.uv(local)?;
+            Some(self.intensity(local) / dist2)
         })
     }
 
@@ -172,17 +159,10 @@ impl ProjectorLight {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::texture::{ImageTexture, Texels, TextureFilter, Wrap};
 
     fn projector(fov: f32) -> ProjectorLight {
         // Two columns, 1 and 3, one row, as an image twice as wide as high (aspect 2).
-        let texels = Texels::Float(vec![Rgb::splat(1.0), Rgb::splat(3.0)].into());
-        let image = ImageTexture::new(2, 1, texels, TextureFilter::Nearest, Wrap::Clamp).unwrap();
-        let texture = Texture::Image {
-            image: std::sync::Arc::new(image),
-            to_uv: glam::Affine2::IDENTITY,
-            scale: 1.0,
-        };
+        let texture = crate::texture::two_columns();
         let frame = Frame::from_normal_and_tangent(Vec3A::Z, Vec3A::X);
         ProjectorLight::new(Vec3A::ZERO, frame, texture, 0.5, fov, 2.0).unwrap()
     }

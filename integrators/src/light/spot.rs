@@ -141,25 +141,9 @@ impl SpotLight {
     }
 
     pub fn sample_li(&self, p: Vec3A, _u: Vec2) -> Option<LightSample> {
-        let d = self.position - p;
-        let dist2 = d.length_squared();
-        if !(dist2 > 0.0 && dist2.is_finite()) {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = d / dist;
-        let falloff = self.falloff(-wi);
-        if falloff <= 0.0 {
-            return None;
-        }
-        let radiance = self.intensity_towards(-wi) * (falloff / dist2);
-        radiance.is_finite().then_some(LightSample {
-            wi,
-            point: self.position,
-            dist,
-            radiance,
-            pdf: 1.0,
-            delta: true,
+        LightSample::from_position(p, self.position, |w, dist2| {
+            let falloff = self.falloff(w);
+            (falloff > 0.0).then(|| self.intensity_towards(w) * (falloff / dist2))
         })
     }
 

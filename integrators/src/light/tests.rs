@@ -793,15 +793,8 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
 /// coordinates, the same whether the point is sampled, hit or emits a ray.
 #[test]
 fn a_textured_planar_light_reads_its_texture_where_it_emits() {
-    use crate::texture::{ImageTexture, Texels, Texture, TextureFilter, Wrap};
     // u picks the column: 1 on the left half, 3 on the right.
-    let texels = Texels::Float(vec![Rgb::splat(1.0), Rgb::splat(3.0)].into());
-    let image = ImageTexture::new(2, 1, texels, TextureFilter::Nearest, Wrap::Clamp).unwrap();
-    let texture = Texture::Image {
-        image: std::sync::Arc::new(image),
-        to_uv: glam::Affine2::IDENTITY,
-        scale: 1.0,
-    };
+    let texture = crate::texture::two_columns();
     // A unit square in z = 0 facing +z, u along x.
     let Light::Planar(p) = Light::parallelogram(Vec3A::ZERO, Vec3A::X, Vec3A::Y, L, false) else {
         unreachable!()
