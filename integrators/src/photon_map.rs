@@ -240,8 +240,7 @@ pub fn land(
             beta,
             bounces: path.bounces,
         };
-        let surface = tracer.scene.material(hit.material);
-        if !surface.bsdf().has_delta_lobe() && surface.opacity().is_none() {
+        if !tracer.scene.material(hit.material).may_have_delta_lobe() {
             return Some(landing(path.beta));
         }
         let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);

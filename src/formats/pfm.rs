@@ -76,15 +76,20 @@ pub fn decode(bytes: &[u8], room: Option<u64>) -> Result<(u32, u32, Vec<f32>), S
     }
     let little = scale < 0.0;
     let magnitude = scale.abs();
-    let value = |i: usize| {
-        let b: [u8; 4] = data[4 * i..4 * i + 4].try_into().expect("four bytes");
-        let v = if little {
-            f32::from_le_bytes(b)
-        } else {
-            f32::from_be_bytes(b)
-        };
-        v * magnitude
-    };
+    // The values, in the file's order (its length checked above).
+    let values: Vec<f32> = data[..count as usize * 4]
+        .chunks_exact(4)
+        .map(|c| {
+            let b = [c[0], c[1], c[2], c[3]];
+            let v = if little {
+                f32::from_le_bytes(b)
+            } else {
+                f32::from_be_bytes(b)
+            };
+            v * magnitude
+        })
+        .collect();
+    let value = |i: usize| values[i];
     let (w, h) = (width as usize, height as usize);
     let mut out = Vec::with_capacity(w * h * 3);
     for row in (0..h).rev() {

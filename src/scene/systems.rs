@@ -20,7 +20,7 @@ use crate::accel::{Quadric, QuadricKind};
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
 use hecs::{Entity, World};
 use raylab_integrators::light::{
-    CylinderLight, DirectionalLight, EnvMapLight, ProjectorLight, SpotLight,
+    CylinderLight, DirectionalLight, EnvMapLight, Planar, PlanarShape, ProjectorLight, SpotLight,
 };
 use raylab_integrators::Light;
 
@@ -821,12 +821,16 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                             let uv = uvs
                                 .as_ref()
                                 .map_or([Vec2::ZERO, Vec2::X, Vec2::Y], |u| u[i]);
-                            let Light::Planar(p) =
-                                Light::triangle(t[0], t[1], t[2], radiance, two_sided)
-                            else {
-                                unreachable!("a triangle light is planar")
-                            };
-                            Light::Planar(p.with_texture(texture.clone(), uv))
+                            let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+                            let triangle = Planar::new(
+                                PlanarShape::Triangle,
+                                t[0],
+                                e1,
+                                e2,
+                                radiance,
+                                two_sided,
+                            );
+                            Light::Planar(triangle.with_texture(texture.clone(), uv))
                         })
                         .collect()
                 }

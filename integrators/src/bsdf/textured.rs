@@ -298,6 +298,13 @@ impl SurfaceMaterial {
         self.opacity.as_ref()
     }
 
+    /// Whether the BSDF at some hit may have a Dirac lobe: the material's own, or a mask's
+    /// null event (which [`MappedBsdf`] adds where the opacity is below 1).
+    #[inline]
+    pub fn may_have_delta_lobe(&self) -> bool {
+        self.bsdf.has_delta_lobe() || self.opacity.is_some()
+    }
+
     /// True when the material needs the hit's texture coordinates or tangents: it has
     /// textures, a normal or bump map, or an anisotropic roughness (which the tangents
     /// orient). The shading frame of the others may come from the normal alone.
