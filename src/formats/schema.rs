@@ -171,6 +171,10 @@ fn default_spp() -> u32 {
 /// A material model with its parameters. Colours are linear RGB reflectances in `[0, 1]`:
 /// `(r, g, b)`, a grey number, or a texture (see [`crate::scene::textures`]); so may be the rough
 /// metals' and glasses' `alpha`.
+///
+/// The principled variants are larger than the others; a description is read once and
+/// flattened, never held per hit, so they stay inline (RON writes them as the others).
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub enum MaterialDesc {
@@ -328,6 +332,65 @@ pub enum MaterialDesc {
         #[serde(default = "default_alpha")]
         alpha: FloatDesc,
     },
+    /// Burley's principled BSDF as Mitsuba 3's `principled`: a diffuse base with a sheen, a
+    /// GGX dielectric specular that `metallic` turns into a metal, a glossy transmission
+    /// (`spec_trans`, present or not) and a clear coat. Every weight lies in [0, 1] and may be
+    /// a texture. `eta` or `specular` (not both) sets the dielectric (`eta = 2 / (1 -
+    /// sqrt(0.08 specular)) - 1`). Defaults as Mitsuba's: `base_color` 0.5, `roughness` 0.5,
+    /// `specular` 0.5, the rest 0. Without `spec_trans` it is opaque (and two-sided).
+    Principled {
+        #[serde(default = "half_colour")]
+        base_color: ColorDesc,
+        #[serde(default = "half_float")]
+        roughness: FloatDesc,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        anisotropic: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        metallic: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        spec_trans: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        spec_tint: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sheen: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sheen_tint: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        flatness: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        clearcoat: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        clearcoat_gloss: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        eta: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        specular: Option<f32>,
+    },
+    /// Burley's thin-sheet model as Mitsuba 3's `principledthin`: two-sided, with a diffuse
+    /// transmission `diff_trans` in [0, 2] and a glossy one through the sheet (`spec_trans`);
+    /// `eta` the sheet's IOR (default 1.5). Other parameters as `Principled`.
+    PrincipledThin {
+        #[serde(default = "half_colour")]
+        base_color: ColorDesc,
+        #[serde(default = "half_float")]
+        roughness: FloatDesc,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        anisotropic: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        spec_trans: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        spec_tint: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sheen: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sheen_tint: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        flatness: Option<FloatDesc>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        diff_trans: Option<FloatDesc>,
+        #[serde(default = "glass_ior")]
+        eta: f32,
+    },
     /// The same material on both faces (Mitsuba's `twosided`). raylab's opaque materials are
     /// two-sided already, so this is the material itself; a dielectric inside is an error.
     TwoSided(Box<MaterialDesc>),
@@ -428,6 +491,62 @@ impl MaterialDesc {
                 alpha,
                 ..
             } => c(diffuse_reflectance) || c(specular_reflectance) || f(alpha),
+            Principled {
+                base_color,
+                roughness,
+                anisotropic,
+                metallic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                clearcoat,
+                clearcoat_gloss,
+                ..
+            } => {
+                c(base_color)
+                    || f(roughness)
+                    || [
+                        anisotropic,
+                        metallic,
+                        spec_trans,
+                        spec_tint,
+                        sheen,
+                        sheen_tint,
+                        flatness,
+                        clearcoat,
+                        clearcoat_gloss,
+                    ]
+                    .iter()
+                    .any(|a| a.as_ref().is_some_and(f))
+            }
+            PrincipledThin {
+                base_color,
+                roughness,
+                anisotropic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                diff_trans,
+                ..
+            } => {
+                c(base_color)
+                    || f(roughness)
+                    || [
+                        anisotropic,
+                        spec_trans,
+                        spec_tint,
+                        sheen,
+                        sheen_tint,
+                        flatness,
+                        diff_trans,
+                    ]
+                    .iter()
+                    .any(|a| a.as_ref().is_some_and(f))
+            }
             TwoSided(inner) => inner.is_textured(),
             NormalMap { .. } | BumpMap { .. } => true,
             Mask { opacity, material } => f(opacity) || material.is_textured(),
@@ -548,6 +667,10 @@ pub(crate) fn half_colour() -> ColorDesc {
 
 pub(crate) fn white_colour() -> ColorDesc {
     ColorDesc::Constant([1.0; 3])
+}
+
+pub(crate) fn half_float() -> FloatDesc {
+    FloatDesc::Constant(0.5)
 }
 
 pub(crate) fn default_alpha() -> FloatDesc {

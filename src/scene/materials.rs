@@ -7,10 +7,11 @@ use crate::formats::schema::{MaterialDesc, Metal};
 use crate::formats::texture_desc::{ColorDesc, FloatDesc};
 use glam::Vec3A;
 use raylab_integrators::bsdf::{
-    checks, relative_ior, ComplexIor, Conductor, Dielectric, DiffuseTransmission, Distribution,
-    Lambert, MapOptions, MaterialTextures, Microfacet, OrenNayar, Perturbation, Phong, Plastic,
+    checks, relative_ior, Burley, ComplexIor, Conductor, Dielectric, DiffuseTransmission,
+    Distribution, Lambert, MapOptions, MaterialTextures, Microfacet, OrenNayar, Perturbation,
+    Phong, Plastic, Principled, PrincipledRates, PrincipledTextures, PrincipledThin,
     RoughConductor, RoughDielectric, RoughPlastic, RoughnessTextures, SurfaceMaterial,
-    ThinDielectric,
+    ThinDielectric, ThinRates,
 };
 use raylab_integrators::texture::Texture;
 use raylab_integrators::Material;
@@ -177,6 +178,99 @@ pub fn material_from_desc(
                 alphas(*distribution, (alpha, alpha))?,
             )?)
         }
+        MaterialDesc::Principled {
+            base_color,
+            roughness,
+            anisotropic,
+            metallic,
+            spec_trans,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            flatness,
+            clearcoat,
+            clearcoat_gloss,
+            eta,
+            specular,
+        } => {
+            let mut p = PrincipledTextures::default();
+            let (burley, transmits) = burley(
+                BurleyDescs {
+                    base_color,
+                    roughness,
+                    anisotropic,
+                    spec_trans,
+                    spec_tint,
+                    sheen,
+                    sheen_tint,
+                    flatness,
+                },
+                textures,
+                &mut t.diffuse,
+                &mut p,
+            )?;
+            let metallic = weight(metallic, textures, &mut p.metallic, 1.0)?;
+            let clearcoat = weight(clearcoat, textures, &mut p.clearcoat, 1.0)?;
+            let gloss = weight(clearcoat_gloss, textures, &mut p.clearcoat_gloss, 1.0)?;
+            let eta = match (eta, specular) {
+                (Some(_), Some(_)) => return Err("give `eta` or `specular`, not both".into()),
+                (Some(eta), None) => *eta,
+                (None, specular) => {
+                    let s = specular.unwrap_or(0.5);
+                    if !(0.0..=1.0).contains(&s) {
+                        return Err(format!("`specular` must lie in [0, 1], got {s}"));
+                    }
+                    Principled::eta_from_specular(s, transmits)
+                }
+            };
+            t.principled = p.any().then(|| Box::new(p));
+            Material::Principled(Principled::new(
+                burley,
+                metallic,
+                clearcoat,
+                gloss,
+                eta,
+                transmits,
+                PrincipledRates::default(),
+            )?)
+        }
+        MaterialDesc::PrincipledThin {
+            base_color,
+            roughness,
+            anisotropic,
+            spec_trans,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            flatness,
+            diff_trans,
+            eta,
+        } => {
+            let mut p = PrincipledTextures::default();
+            let (burley, _) = burley(
+                BurleyDescs {
+                    base_color,
+                    roughness,
+                    anisotropic,
+                    spec_trans,
+                    spec_tint,
+                    sheen,
+                    sheen_tint,
+                    flatness,
+                },
+                textures,
+                &mut t.diffuse,
+                &mut p,
+            )?;
+            let diff_trans = weight(diff_trans, textures, &mut p.diff_trans, 2.0)?;
+            t.principled = p.any().then(|| Box::new(p));
+            Material::PrincipledThin(PrincipledThin::new(
+                burley,
+                diff_trans,
+                *eta,
+                ThinRates::default(),
+            )?)
+        }
         MaterialDesc::TwoSided(inner) => {
             let m = material_from_desc(inner, textures)?;
             if m.bsdf().is_transmissive() {
@@ -244,6 +338,80 @@ pub fn material_from_desc(
         }
     };
     Ok(SurfaceMaterial::new(bsdf, t, None))
+}
+
+/// The principled models' shared parameters as the description gives them.
+struct BurleyDescs<'a> {
+    base_color: &'a ColorDesc,
+    roughness: &'a FloatDesc,
+    anisotropic: &'a Option<FloatDesc>,
+    spec_trans: &'a Option<FloatDesc>,
+    spec_tint: &'a Option<FloatDesc>,
+    sheen: &'a Option<FloatDesc>,
+    sheen_tint: &'a Option<FloatDesc>,
+    flatness: &'a Option<FloatDesc>,
+}
+
+/// The base layer of a principled model, its textures kept in `base` and `p`, and whether it
+/// transmits (`spec_trans` given and not the number 0, as Mitsuba decides).
+fn burley(
+    d: BurleyDescs,
+    textures: &mut TextureLoader,
+    base: &mut Option<Texture>,
+    p: &mut PrincipledTextures,
+) -> Result<(Burley, bool), String> {
+    let (base_color, texture) = textures.colour(d.base_color, Role::Reflectance)?;
+    *base = texture;
+    let (roughness, texture) = textures.scalar(d.roughness, Role::Roughness)?;
+    if let Some(t) = &texture {
+        if t.max().max_element() > 1.0 + 1e-6 {
+            return Err("`roughness` must lie in [0, 1]; its texture exceeds 1".into());
+        }
+    }
+    p.roughness = texture;
+    let transmits = match d.spec_trans {
+        None => false,
+        Some(FloatDesc::Constant(x)) => *x != 0.0,
+        Some(FloatDesc::Texture(_)) => true,
+    };
+    let burley = Burley {
+        base_color,
+        roughness,
+        anisotropic: weight(d.anisotropic, textures, &mut p.anisotropic, 1.0)?,
+        spec_trans: weight(d.spec_trans, textures, &mut p.spec_trans, 1.0)?,
+        spec_tint: weight(d.spec_tint, textures, &mut p.spec_tint, 1.0)?,
+        sheen: weight(d.sheen, textures, &mut p.sheen, 1.0)?,
+        sheen_tint: weight(d.sheen_tint, textures, &mut p.sheen_tint, 1.0)?,
+        flatness: weight(d.flatness, textures, &mut p.flatness, 1.0)?,
+    };
+    burley.check()?;
+    Ok((burley, transmits))
+}
+
+/// A principled weight in `[0, max]` (0 when absent): its constant (a texture's mean), its
+/// texture kept in `slot`.
+fn weight(
+    desc: &Option<FloatDesc>,
+    textures: &mut TextureLoader,
+    slot: &mut Option<Texture>,
+    max: f32,
+) -> Result<f32, String> {
+    let Some(desc) = desc else {
+        return Ok(0.0);
+    };
+    let role = if max > 1.0 {
+        Role::Roughness
+    } else {
+        Role::Reflectance
+    };
+    let (x, texture) = textures.scalar(desc, role)?;
+    if let Some(t) = &texture {
+        if t.max().max_element() > max + 1e-6 {
+            return Err(format!("a principled weight's texture exceeds {max}"));
+        }
+    }
+    *slot = texture;
+    Ok(x)
 }
 
 /// `inner` under the normal or bump map `map`: one map per material.

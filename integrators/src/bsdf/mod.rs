@@ -17,6 +17,7 @@ pub mod microfacet;
 mod oren_nayar;
 mod phong;
 mod plastic;
+pub mod principled;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
@@ -35,11 +36,13 @@ pub use microfacet::{Distribution, Microfacet};
 pub use oren_nayar::OrenNayar;
 pub use phong::Phong;
 pub use plastic::Plastic;
+pub use principled::{Burley, Principled, PrincipledRates, PrincipledThin, ThinRates};
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
 pub use textured::{
-    material_at, MapOptions, MaterialTextures, Perturbation, RoughnessTextures, SurfaceMaterial,
+    material_at, MapOptions, MaterialTextures, Perturbation, PrincipledTextures, RoughnessTextures,
+    SurfaceMaterial,
 };
 pub use thin_dielectric::ThinDielectric;
 
@@ -183,6 +186,8 @@ pub enum Material {
     RoughConductor(RoughConductor),
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
+    Principled(Principled),
+    PrincipledThin(PrincipledThin),
 }
 
 macro_rules! dispatch {
@@ -199,6 +204,8 @@ macro_rules! dispatch {
             Material::RoughConductor($m) => $e,
             Material::Plastic($m) => $e,
             Material::RoughPlastic($m) => $e,
+            Material::Principled($m) => $e,
+            Material::PrincipledThin($m) => $e,
         }
     };
 }
@@ -335,6 +342,8 @@ impl Material {
         match self {
             Material::RoughConductor(m) => m.microfacet.alpha_u != m.microfacet.alpha_v,
             Material::RoughDielectric(m) => m.microfacet.alpha_u != m.microfacet.alpha_v,
+            Material::Principled(m) => m.burley.anisotropic != 0.0,
+            Material::PrincipledThin(m) => m.burley.anisotropic != 0.0,
             _ => false,
         }
     }

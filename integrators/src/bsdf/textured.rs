@@ -37,6 +37,64 @@ pub struct MaterialTextures {
     pub transmittance: Option<Texture>,
     /// The rough conductor's and rough dielectric's roughness.
     pub alpha: Option<RoughnessTextures>,
+    /// The principled models' scalar parameters (their base colour is `diffuse`).
+    pub principled: Option<Box<PrincipledTextures>>,
+}
+
+/// The principled models' textured scalars, by Mitsuba's names; each a texture's scalar
+/// (its first channel).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PrincipledTextures {
+    pub roughness: Option<Texture>,
+    pub anisotropic: Option<Texture>,
+    pub spec_trans: Option<Texture>,
+    pub spec_tint: Option<Texture>,
+    pub sheen: Option<Texture>,
+    pub sheen_tint: Option<Texture>,
+    pub flatness: Option<Texture>,
+    pub metallic: Option<Texture>,
+    pub clearcoat: Option<Texture>,
+    pub clearcoat_gloss: Option<Texture>,
+    pub diff_trans: Option<Texture>,
+}
+
+impl PrincipledTextures {
+    /// True when some parameter is textured.
+    pub fn any(&self) -> bool {
+        self.slots().iter().any(|t| t.is_some())
+    }
+
+    fn slots(&self) -> [&Option<Texture>; 11] {
+        [
+            &self.roughness,
+            &self.anisotropic,
+            &self.spec_trans,
+            &self.spec_tint,
+            &self.sheen,
+            &self.sheen_tint,
+            &self.flatness,
+            &self.metallic,
+            &self.clearcoat,
+            &self.clearcoat_gloss,
+            &self.diff_trans,
+        ]
+    }
+
+    /// The base layer's textured scalars looked up at `uv`.
+    fn apply(&self, b: &mut super::Burley, uv: glam::Vec2) {
+        let at = |t: &Option<Texture>, x: &mut f32| {
+            if let Some(t) = t {
+                *x = t.eval_scalar(uv);
+            }
+        };
+        at(&self.roughness, &mut b.roughness);
+        at(&self.anisotropic, &mut b.anisotropic);
+        at(&self.spec_trans, &mut b.spec_trans);
+        at(&self.spec_tint, &mut b.spec_tint);
+        at(&self.sheen, &mut b.sheen);
+        at(&self.sheen_tint, &mut b.sheen_tint);
+        at(&self.flatness, &mut b.flatness);
+    }
 }
 
 /// A textured microfacet roughness.
@@ -77,6 +135,7 @@ impl MaterialTextures {
             || self.specular.is_some()
             || self.transmittance.is_some()
             || self.alpha.is_some()
+            || self.principled.as_ref().is_some_and(|p| p.any())
     }
 
     /// `m` with its textured parameters looked up at `uv`.
@@ -123,6 +182,27 @@ impl MaterialTextures {
             Material::RoughPlastic(p) => {
                 p.diffuse = at(&self.diffuse, p.diffuse);
                 p.specular = at(&self.specular, p.specular);
+            }
+            Material::Principled(p) => {
+                p.burley.base_color = at(&self.diffuse, p.burley.base_color);
+                if let Some(t) = &self.principled {
+                    t.apply(&mut p.burley, uv);
+                    let scalar =
+                        |t: &Option<Texture>, x: f32| t.as_ref().map_or(x, |t| t.eval_scalar(uv));
+                    p.metallic = scalar(&t.metallic, p.metallic);
+                    p.clearcoat = scalar(&t.clearcoat, p.clearcoat);
+                    p.clearcoat_gloss = scalar(&t.clearcoat_gloss, p.clearcoat_gloss);
+                }
+            }
+            Material::PrincipledThin(p) => {
+                p.burley.base_color = at(&self.diffuse, p.burley.base_color);
+                if let Some(t) = &self.principled {
+                    t.apply(&mut p.burley, uv);
+                    p.diff_trans = t
+                        .diff_trans
+                        .as_ref()
+                        .map_or(p.diff_trans, |t| t.eval_scalar(uv));
+                }
             }
         }
     }

@@ -267,8 +267,9 @@ impl<'a, 'input> Converter<'a, 'input> {
             "normalmap" | "bumpmap" => self.normal_or_bump_map(&mut p, node, &kind)?,
             "blendbsdf" => self.blend(&mut p, node)?,
             "mask" => self.mask(&mut p, node)?,
+            "principled" | "principledthin" => self.principled(&mut p, node, &kind)?,
             other => {
-                let message = format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, blendbsdf and mask where raylab's materials hold them are)");
+                let message = format!("BSDF `{other}` is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, principledthin, twosided, normalmap, bumpmap, blendbsdf and mask where raylab's materials hold them are)");
                 self.approximate(
                     node,
                     format!("{message}: replaced by Mitsuba's default, diffuse 0.5"),
@@ -451,6 +452,98 @@ impl<'a, 'input> Converter<'a, 'input> {
             nonlinear,
             distribution: r.distribution,
             alpha: r.alpha.unwrap_or_else(schema::default_alpha),
+        })
+    }
+
+    /// `principled` and `principledthin` (Burley's model as Mitsuba 3 has it). Their
+    /// sampling rates change how lobes are sampled, not the image: raylab samples with
+    /// Mitsuba's default weights and says so.
+    fn principled(
+        &mut self,
+        p: &mut Props<'a, 'input>,
+        node: Node<'a, 'input>,
+        kind: &str,
+    ) -> Result<MaterialDesc, Located> {
+        let base_color = self
+            .colour(p, "base_color", None)?
+            .unwrap_or_else(schema::half_colour);
+        let roughness = self
+            .float_param(p, "roughness")?
+            .unwrap_or_else(schema::half_float);
+        let anisotropic = self.float_param(p, "anisotropic")?;
+        let spec_trans = self.float_param(p, "spec_trans")?;
+        let spec_tint = self.float_param(p, "spec_tint")?;
+        let sheen = self.float_param(p, "sheen")?;
+        let sheen_tint = self.float_param(p, "sheen_tint")?;
+        let flatness = self.float_param(p, "flatness")?;
+        let rates: &[&str] = if kind == "principled" {
+            &[
+                "main_specular_sampling_rate",
+                "clearcoat_sampling_rate",
+                "diffuse_reflectance_sampling_rate",
+            ]
+        } else {
+            &[
+                "specular_reflectance_sampling_rate",
+                "specular_transmittance_sampling_rate",
+                "diffuse_reflectance_sampling_rate",
+                "diffuse_transmittance_sampling_rate",
+            ]
+        };
+        for rate in rates {
+            if p.float(rate)?.is_some() {
+                self.report.push(format!(
+                    "<bsdf type=\"{kind}\">: `{rate}` changes only how lobes are sampled; raylab samples with Mitsuba's default weights (the same image)"
+                ));
+            }
+        }
+        if kind == "principledthin" {
+            let eta = match self.float_param(p, "eta")? {
+                None => 1.5,
+                Some(FloatDesc::Constant(eta)) => eta,
+                Some(FloatDesc::Texture(_)) => {
+                    return Err(at(
+                        self.doc,
+                        node,
+                        "<bsdf type=\"principledthin\">: a textured `eta` is not supported (a number is)",
+                    ))
+                }
+            };
+            return Ok(MaterialDesc::PrincipledThin {
+                base_color,
+                roughness,
+                anisotropic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                diff_trans: self.float_param(p, "diff_trans")?,
+                eta,
+            });
+        }
+        let (eta, specular) = (p.float("eta")?, p.float("specular")?);
+        if eta.is_some() && specular.is_some() {
+            return Err(at(
+                self.doc,
+                node,
+                "<bsdf type=\"principled\">: give `eta` or `specular`, not both (as Mitsuba)",
+            ));
+        }
+        Ok(MaterialDesc::Principled {
+            base_color,
+            roughness,
+            anisotropic,
+            metallic: self.float_param(p, "metallic")?,
+            spec_trans,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            flatness,
+            clearcoat: self.float_param(p, "clearcoat")?,
+            clearcoat_gloss: self.float_param(p, "clearcoat_gloss")?,
+            eta,
+            specular,
         })
     }
 
