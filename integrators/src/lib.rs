@@ -20,6 +20,7 @@
 
 pub mod bsdf;
 pub mod camera;
+pub mod cutout;
 pub mod filter;
 pub mod geometry;
 pub mod integrator;

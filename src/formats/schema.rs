@@ -417,6 +417,14 @@ pub enum MaterialDesc {
         opacity: FloatDesc,
         material: Box<MaterialDesc>,
     },
+    /// `material` on a surface cut out by pbrt-v4's `alpha` (a number or a texture's value):
+    /// where it is below 1 a ray passes the surface with probability `1 - alpha`, as if it
+    /// were not there (no scattering, shadow rays too); pbrt-v4 decides by a hash of the ray,
+    /// and so does raylab. Not on emitters.
+    Cutout {
+        alpha: FloatDesc,
+        material: Box<MaterialDesc>,
+    },
     /// `material` on a surface displaced along its normal by `scale` times `texture`'s
     /// luminance (Mitsuba's `bumpmap`), shaded with the displaced surface's normal. Default
     /// `scale: 1`; `flip_invalid_normals` and `shadowing` as for `NormalMap`.
@@ -550,6 +558,7 @@ impl MaterialDesc {
             TwoSided(inner) => inner.is_textured(),
             NormalMap { .. } | BumpMap { .. } => true,
             Mask { opacity, material } => f(opacity) || material.is_textured(),
+            Cutout { material, .. } => material.is_textured(),
         }
     }
 }

@@ -224,6 +224,14 @@ impl Table {
 
     /// Checks that hold between an entity and its material.
     fn check(&self, e: &EntityDesc) -> Result<(), String> {
+        let material = e
+            .material
+            .as_ref()
+            .and_then(|m| self.names.iter().position(|n| n == m))
+            .map(|i| &self.materials[i]);
+        if e.emitter.is_some() && material.is_some_and(|m| m.cutout().is_some()) {
+            return Err("an emitter's material cannot be a Cutout (pbrt-v4's alpha)".into());
+        }
         if !e.flip_normals {
             return Ok(());
         }

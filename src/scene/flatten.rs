@@ -72,6 +72,9 @@ pub struct RenderScene {
     /// them rather than going over the triangles again.
     own_bounds: Vec<(u64, (Vec3A, Vec3A))>,
     bounds: (Vec3A, Vec3A),
+    /// Whether some material is cut out by an `alpha`: rays then go on past the surfaces
+    /// it lets them through.
+    has_cutouts: bool,
     pub stats: BuildStats,
 }
 
@@ -283,6 +286,7 @@ impl RenderScene {
         };
         RenderScene {
             accel: Arc::new(accel),
+            has_cutouts: has_cutouts(&scene.materials),
             materials: scene.materials.clone(),
             lights: Arc::new(lights),
             light_counts,
@@ -297,6 +301,7 @@ impl RenderScene {
     pub fn with_materials(&self, scene: &LoadedScene) -> RenderScene {
         RenderScene {
             accel: Arc::clone(&self.accel),
+            has_cutouts: has_cutouts(&scene.materials),
             materials: scene.materials.clone(),
             lights: Arc::clone(&self.lights),
             light_counts: self.light_counts.clone(),
@@ -333,6 +338,11 @@ impl RenderScene {
             ..same
         })
     }
+}
+
+/// Whether some material is cut out by an `alpha`.
+fn has_cutouts(materials: &[SurfaceMaterial]) -> bool {
+    materials.iter().any(|m| m.cutout().is_some())
 }
 
 /// Entity -> (first light, count), in the light list's order.
@@ -414,14 +424,32 @@ impl RenderScene {
     }
 }
 
+impl RenderScene {
+    /// The closest hit past the surfaces pbrt's `alpha` lets `ray` through.
+    fn closest_through_cutouts(&self, ray: &Ray) -> Option<Hit> {
+        raylab_integrators::cutout::closest_through_cutouts(
+            ray,
+            |r| self.accel.closest(r),
+            |h| self.accel.parametrise(h),
+            |m| &self.materials[m as usize],
+        )
+    }
+}
+
 impl Scene for RenderScene {
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.has_cutouts {
+            return self.closest_through_cutouts(ray);
+        }
         self.accel.closest(ray)
     }
 
     #[inline]
     fn occluded(&self, ray: &Ray) -> bool {
+        if self.has_cutouts {
+            return self.closest_through_cutouts(ray).is_some();
+        }
         self.accel.occluded(ray)
     }
 

@@ -312,6 +312,20 @@ pub fn material_from_desc(
             }
             return Ok(m.with_opacity(opacity));
         }
+        MaterialDesc::Cutout { alpha, material } => {
+            let alpha = match alpha {
+                FloatDesc::Constant(a) if a.is_finite() => Texture::Constant(Vec3A::splat(*a)),
+                FloatDesc::Constant(a) => {
+                    return Err(format!("an alpha cut-out must be a finite number, got {a}"))
+                }
+                FloatDesc::Texture(t) => textures.texture(t, Role::Reflectance)?,
+            };
+            let m = material_from_desc(material, textures)?;
+            if m.cutout().is_some() {
+                return Err("a material takes one alpha cut-out, not one inside another".into());
+            }
+            return Ok(m.with_cutout(alpha));
+        }
         MaterialDesc::BumpMap {
             texture,
             scale,

@@ -467,3 +467,23 @@ fn a_long_number_list_reads_in_a_bounded_memory() {
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(e.contains("MB of pbrt text need about"), "{e}");
 }
+
+/// pbrt-v4's `alpha`: a ray passes a surface of alpha `a` with probability `1 - a`, shadow
+/// rays too. A large square at 1 m shadows the floor from a light straight above; through an
+/// alpha of `a` the floor under it gets `1 - a` of the light (irradiance 1: radiance
+/// `(1 - a) 0.5 / pi`); the square is black, so that no light comes back from it.
+#[test]
+fn a_pbrt_alpha_cut_out_lets_its_share_of_the_light_through() {
+    let light = r#"LightSource "distant" "point3 from" [0 0 1] "point3 to" [0 0 0] "rgb L" [1 1 1]"#;
+    for (alpha, expected) in [("", 0.0), ("\"float alpha\" 0", 1.0), ("\"float alpha\" 0.3", 0.7)] {
+        let occluder = format!(
+            "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\nShape \"trianglemesh\" {alpha} \"point3 P\" [-20 -20 1  20 -20 1  20 20 1  -20 20 1] \"integer indices\" [0 1 2 0 2 3]"
+        );
+        let (mean, err) = floor_under(&format!("{light}\n{occluder}"));
+        let expected = expected * 0.5 / PI;
+        assert!(
+            (mean - expected).abs() <= 4.0 * err + 1e-4,
+            "alpha {alpha:?}: {mean} +- {err}, expected {expected}"
+        );
+    }
+}

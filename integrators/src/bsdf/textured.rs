@@ -321,6 +321,10 @@ pub struct SurfaceMaterial {
     perturbation: Option<(Perturbation, MapOptions)>,
     /// A cut-out mask's opacity (Mitsuba's `mask`), if any.
     opacity: Option<Texture>,
+    /// pbrt-v4's `alpha`, if any: where it is below 1 the surface is absent for a share of
+    /// the rays (every ray, shadow rays too), which pass as if it were not there
+    /// ([`crate::cutout`]).
+    cutout: Option<Texture>,
 }
 
 impl From<Material> for SurfaceMaterial {
@@ -341,6 +345,7 @@ impl SurfaceMaterial {
             textures,
             perturbation,
             opacity: None,
+            cutout: None,
         }
     }
 
@@ -376,6 +381,20 @@ impl SurfaceMaterial {
     /// The cut-out mask's opacity, if any.
     pub fn opacity(&self) -> Option<&Texture> {
         self.opacity.as_ref()
+    }
+
+    /// The material on a surface cut out by pbrt-v4's `alpha` (a texture's scalar).
+    pub fn with_cutout(self, alpha: Texture) -> SurfaceMaterial {
+        SurfaceMaterial {
+            cutout: Some(alpha),
+            ..self
+        }
+    }
+
+    /// pbrt-v4's `alpha` of the surface, if it has one.
+    #[inline]
+    pub fn cutout(&self) -> Option<&Texture> {
+        self.cutout.as_ref()
     }
 
     /// Whether the BSDF at some hit may have a Dirac lobe: the material's own, or a mask's

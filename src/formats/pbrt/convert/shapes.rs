@@ -1,6 +1,7 @@
 //! `Shape` and `ObjectInstance`: pbrt-v4's shapes as raylab's entities, with their area
 //! lights and the areas their power divides by; inline meshes.
 
+use super::textures::material_key;
 use super::*;
 use crate::formats::schema::MeshNormals;
 
@@ -56,13 +57,7 @@ impl<'a> Converter<'a> {
         let kind = d.strings[0].clone();
         let mut p = self.params(d)?;
         let what = p.what.clone();
-        if let Some(pos) = p.present("alpha") {
-            self.approximate(
-                pos,
-                format!("{what}: an alpha cut-out ignored (the shape is opaque)"),
-            )?;
-            p.ignore(&["alpha"]);
-        }
+        let alpha = self.alpha(&mut p)?;
         let world = self.state.ctm;
         let swaps = world.determinant() < 0.0;
         // pbrt-v4 turns a shape's normal around under ReverseOrientation and under a
@@ -146,6 +141,16 @@ impl<'a> Converter<'a> {
             )?;
             return Ok(());
         };
+        let material = match alpha {
+            None => material,
+            Some(_) if self.state.area.is_some() => {
+                return Err((
+                    d.pos,
+                    format!("{what}: an alpha cut-out on an area light is not supported"),
+                ))
+            }
+            Some(alpha) => self.cut_out(material, alpha),
+        };
         let placed = world * local;
         let name = format!("{kind} ({})", self.place(d.pos));
         if let Some((shapes_name, _, _)) = &self.defining {
@@ -202,6 +207,46 @@ impl<'a> Converter<'a> {
         crate::formats::import::check_entities_made(self.entities.len(), &self.room)
             .map_err(|e| (d.pos, e))?;
         Ok(())
+    }
+
+    /// A shape's `alpha`: `None` where it is opaque (absent, or a number of at least 1).
+    fn alpha(&self, p: &mut ParamList) -> Result<Option<FloatDesc>, Located> {
+        Ok(match p.float_or_texture("alpha")? {
+            None => None,
+            Some((Colour::Rgb(v), _)) if v[0] >= 1.0 => None,
+            Some((Colour::Rgb(v), _)) => Some(FloatDesc::Constant(v[0] as f32)),
+            Some((Colour::Texture(t), pos)) => {
+                let tex = self.textures.float.get(&t).cloned().ok_or_else(|| {
+                    (
+                        pos,
+                        format!("{}: no float texture is named \"{t}\" (`alpha`)", p.what),
+                    )
+                })?;
+                Some(tex)
+            }
+            Some((_, pos)) => {
+                return Err((
+                    pos,
+                    format!("{}: `alpha` must be a float or a float texture", p.what),
+                ))
+            }
+        })
+    }
+
+    /// The material `material` cut out by `alpha`, made once per pair.
+    fn cut_out(&mut self, material: String, alpha: FloatDesc) -> String {
+        let inner = self.material_descs.get(&material).cloned();
+        let Some(inner) = inner else {
+            return material;
+        };
+        let desc = MaterialDesc::Cutout {
+            alpha,
+            material: Box::new(inner),
+        };
+        if let Some(name) = self.material_by_desc.get(&material_key(&desc)) {
+            return name.clone();
+        }
+        self.add_material(&format!("{material} (alpha)"), desc)
     }
 
     pub(super) fn instance(&mut self, d: &Directive) -> Result<(), Located> {
