@@ -3,13 +3,15 @@
 //! All functions work in the local shading frame (`z` = shading normal); see the crate docs for
 //! the direction conventions. Opaque materials are two-sided: [`Material`] mirrors both
 //! directions into the upper hemisphere before calling them, so each model only sees
-//! `wo.z >= 0`. Dielectric sees the true side: `wo.z > 0` means the ray arrives from outside.
+//! `wo.z >= 0`. Transmissive models see the true side: for a dielectric `wo.z > 0` means the
+//! ray arrives from outside; [`Hair`] works in the fibre's frame (`x` along the fibre).
 
 pub mod checks;
 mod conductor;
 mod dielectric;
 mod diffuse_transmission;
 pub mod fresnel;
+mod hair;
 pub mod ior;
 mod lambert;
 pub mod mapped;
@@ -29,6 +31,7 @@ pub use conductor::{ComplexIor, Conductor};
 pub use dielectric::{relative_ior, Dielectric};
 pub use diffuse_transmission::DiffuseTransmission;
 pub use fresnel::fresnel_dielectric;
+pub use hair::Hair;
 pub use lambert::Lambert;
 pub use mapped::MappedBsdf;
 pub use microfacet::{Distribution, Microfacet};
@@ -183,6 +186,7 @@ pub enum Material {
     RoughConductor(RoughConductor),
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
+    Hair(Hair),
 }
 
 macro_rules! dispatch {
@@ -199,6 +203,7 @@ macro_rules! dispatch {
             Material::RoughConductor($m) => $e,
             Material::Plastic($m) => $e,
             Material::RoughPlastic($m) => $e,
+            Material::Hair($m) => $e,
         }
     };
 }
@@ -227,9 +232,9 @@ impl Material {
         dispatch!(self, m => m.lobes())
     }
 
-    /// True for materials that let light through (a transmission lobe: the dielectrics): only
-    /// they may send a path to the other side of the surface, and they see which side a ray
-    /// arrives from.
+    /// True for materials that let light through (a transmission lobe: the dielectrics,
+    /// diffuse transmission, hair): only they may send a path to the other side of the
+    /// surface, and they see which side a ray arrives from.
     #[inline]
     pub fn is_transmissive(&self) -> bool {
         self.lobes().any(Lobes::TRANSMISSION)
@@ -328,13 +333,14 @@ impl Material {
         }
     }
 
-    /// True for a roughness that differs along the two tangents: its lobe turns with the
-    /// shading frame's tangent.
+    /// True when the lobes turn with the shading frame's tangent: a roughness that differs
+    /// along the two tangents, or hair (whose frame's `x` is the fibre).
     #[inline]
     pub fn is_anisotropic(&self) -> bool {
         match self {
             Material::RoughConductor(m) => m.microfacet.alpha_u != m.microfacet.alpha_v,
             Material::RoughDielectric(m) => m.microfacet.alpha_u != m.microfacet.alpha_v,
+            Material::Hair(_) => true,
             _ => false,
         }
     }

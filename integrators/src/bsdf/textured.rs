@@ -124,6 +124,8 @@ impl MaterialTextures {
                 p.diffuse = at(&self.diffuse, p.diffuse);
                 p.specular = at(&self.specular, p.specular);
             }
+            // No texture slot maps onto a fibre's absorption or roughness.
+            Material::Hair(_) => {}
         }
     }
 }
