@@ -474,8 +474,13 @@ fn a_long_number_list_reads_in_a_bounded_memory() {
 /// `(1 - a) 0.5 / pi`); the square is black, so that no light comes back from it.
 #[test]
 fn a_pbrt_alpha_cut_out_lets_its_share_of_the_light_through() {
-    let light = r#"LightSource "distant" "point3 from" [0 0 1] "point3 to" [0 0 0] "rgb L" [1 1 1]"#;
-    for (alpha, expected) in [("", 0.0), ("\"float alpha\" 0", 1.0), ("\"float alpha\" 0.3", 0.7)] {
+    let light =
+        r#"LightSource "distant" "point3 from" [0 0 1] "point3 to" [0 0 0] "rgb L" [1 1 1]"#;
+    for (alpha, expected) in [
+        ("", 0.0),
+        ("\"float alpha\" 0", 1.0),
+        ("\"float alpha\" 0.3", 0.7),
+    ] {
         let occluder = format!(
             "Material \"diffuse\" \"rgb reflectance\" [0 0 0]\nShape \"trianglemesh\" {alpha} \"point3 P\" [-20 -20 1  20 -20 1  20 20 1  -20 20 1] \"integer indices\" [0 1 2 0 2 3]"
         );

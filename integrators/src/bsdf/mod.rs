@@ -3,13 +3,15 @@
 //! All functions work in the local shading frame (`z` = shading normal); see the crate docs for
 //! the direction conventions. Opaque materials are two-sided: [`Material`] mirrors both
 //! directions into the upper hemisphere before calling them, so each model only sees
-//! `wo.z >= 0`. Dielectric sees the true side: `wo.z > 0` means the ray arrives from outside.
+//! `wo.z >= 0`. Transmissive models see the true side: for a dielectric `wo.z > 0` means the
+//! ray arrives from outside; [`Hair`] works in the fibre's frame (`x` along the fibre).
 
 pub mod checks;
 mod conductor;
 mod dielectric;
 mod diffuse_transmission;
 pub mod fresnel;
+mod hair;
 pub mod ior;
 mod lambert;
 pub mod mapped;
@@ -30,6 +32,7 @@ pub use conductor::{ComplexIor, Conductor};
 pub use dielectric::{relative_ior, Dielectric};
 pub use diffuse_transmission::DiffuseTransmission;
 pub use fresnel::fresnel_dielectric;
+pub use hair::Hair;
 pub use lambert::Lambert;
 pub use mapped::MappedBsdf;
 pub use microfacet::{Distribution, Microfacet};
@@ -188,6 +191,7 @@ pub enum Material {
     RoughPlastic(RoughPlastic),
     Principled(Principled),
     PrincipledThin(PrincipledThin),
+    Hair(Hair),
 }
 
 macro_rules! dispatch {
@@ -206,6 +210,7 @@ macro_rules! dispatch {
             Material::RoughPlastic($m) => $e,
             Material::Principled($m) => $e,
             Material::PrincipledThin($m) => $e,
+            Material::Hair($m) => $e,
         }
     };
 }
@@ -234,9 +239,9 @@ impl Material {
         dispatch!(self, m => m.lobes())
     }
 
-    /// True for materials that let light through (a transmission lobe: the dielectrics): only
-    /// they may send a path to the other side of the surface, and they see which side a ray
-    /// arrives from.
+    /// True for materials that let light through (a transmission lobe: the dielectrics,
+    /// diffuse transmission, hair): only they may send a path to the other side of the
+    /// surface, and they see which side a ray arrives from.
     #[inline]
     pub fn is_transmissive(&self) -> bool {
         self.lobes().any(Lobes::TRANSMISSION)
@@ -335,8 +340,8 @@ impl Material {
         }
     }
 
-    /// True for a roughness that differs along the two tangents: its lobe turns with the
-    /// shading frame's tangent.
+    /// True when the lobes turn with the shading frame's tangent: a roughness that differs
+    /// along the two tangents, or hair (whose frame's `x` is the fibre).
     #[inline]
     pub fn is_anisotropic(&self) -> bool {
         match self {
@@ -344,6 +349,7 @@ impl Material {
             Material::RoughDielectric(m) => m.microfacet.alpha_u != m.microfacet.alpha_v,
             Material::Principled(m) => m.burley.anisotropic != 0.0,
             Material::PrincipledThin(m) => m.burley.anisotropic != 0.0,
+            Material::Hair(_) => true,
             _ => false,
         }
     }

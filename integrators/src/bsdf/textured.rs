@@ -204,6 +204,8 @@ impl MaterialTextures {
                         .map_or(p.diff_trans, |t| t.eval_scalar(uv));
                 }
             }
+            // No texture slot maps onto a fibre's absorption or roughness.
+            Material::Hair(_) => {}
         }
     }
 }

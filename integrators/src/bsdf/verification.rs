@@ -719,6 +719,7 @@ fn every_model_declares_the_lobes_it_samples() {
             "conductor",
             Material::Conductor(Conductor::new(None, Rgb::ONE).unwrap()),
         ),
+        ("hair", Material::Hair(Hair::default().with_h(0.3))),
     ]);
     for (name, m) in &materials {
         let lobes = m.lobes();
