@@ -104,6 +104,10 @@ pub struct Hit {
     pub pending: Pending,
     /// The media on either side of the surface.
     pub media: MediumInterface,
+    /// The least distance spawned rays start from the surface along `ng`: zero but on
+    /// curves, which rays leave a width away (pbrt-v4's error bounds of a curve hit), out of
+    /// the fibre they model.
+    pub spawn_offset: f32,
 }
 
 /// A hit's parametrisation not yet computed.
@@ -163,6 +167,7 @@ impl Hit {
             uv: Vec2::ZERO,
             pending: Pending::None,
             media: MediumInterface::VACUUM,
+            spawn_offset: 0.0,
         }
     }
 
@@ -192,7 +197,8 @@ impl Hit {
     /// This is the cure for the report's "shadow acne" (section 2.7), scaled to the scene.
     #[inline]
     pub fn offset_origin(&self, dir: Vec3A) -> Vec3A {
-        let eps = ABSOLUTE_OFFSET + RELATIVE_OFFSET * self.p.abs().max_element();
+        let eps =
+            (ABSOLUTE_OFFSET + RELATIVE_OFFSET * self.p.abs().max_element()).max(self.spawn_offset);
         let side = if self.ng.dot(dir) >= 0.0 { 1.0 } else { -1.0 };
         self.p + self.ng * (eps * side)
     }

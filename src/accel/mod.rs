@@ -1,7 +1,8 @@
 //! The accelerator: raylab's own BVH over the scene's primitives, and every SIMD routine and
 //! `unsafe` block of the project.
 //!
-//! It takes geometry as plain data ([`Input`]: triangles, spheres, disks and cylinders, mesh
+//! It takes geometry as plain data ([`Input`]: triangles, spheres, disks and cylinders,
+//! curves ([`curves`]: pbrt-v4's, each Bézier segment split into pieces the BVH bounds), mesh
 //! assets and their instances, each primitive with a material and light index to report) and
 //! answers closest hits and occlusion. Triangles and analytic shapes share one 8-wide BVH
 //! ([`bvh`]); the primitives are laid out in [`packet::Packet`]s, one or two per BVH leaf (the
@@ -13,6 +14,7 @@
 //! (`crate::scene::flatten`).
 
 mod bvh;
+mod curves;
 mod huge_pages;
 mod instances;
 mod obvhs_backend;
@@ -24,6 +26,7 @@ pub use obvhs_backend::ObvhsBvh;
 
 use arrayvec::ArrayVec;
 use bvh::{isa, isa::Isa, Bvh};
+pub use curves::{CurveKind, CurvePiece, CurveSegment, Curves};
 use glam::{Affine3A, Vec2, Vec3A};
 use instances::InstanceSet;
 use obvhs::aabb::Aabb;
@@ -66,6 +69,8 @@ pub enum Geometry<'a> {
     },
     /// A disk or an open cylinder.
     Quadric(Quadric),
+    /// World-space curves, each of their segments split into pieces.
+    Curves(Curves<'a>),
 }
 
 /// Which light a shape's primitives report when hit.
@@ -125,6 +130,8 @@ pub struct AccelStats {
     pub spheres: usize,
     /// Disks and cylinders.
     pub quadrics: usize,
+    /// Pieces of curves (each segment's `2^split_depth` parts).
+    pub curve_pieces: usize,
     pub bvh_nodes: usize,
     /// Leaves of the flat geometry's BVH.
     pub bvh_leaves: usize,
@@ -293,6 +300,9 @@ pub struct WideBvh {
     pub(crate) sph_radius: Vec<f32>,
     /// Disks and cylinders, in BVH order.
     pub(crate) quadrics: Vec<Quadric>,
+    /// The curves' segments, shape after shape, and their pieces in BVH order.
+    pub(crate) curve_segments: Vec<CurveSegment>,
+    pub(crate) curve_pieces: Vec<CurvePiece>,
     /// Instanced meshes (a two-level BVH); empty in most scenes.
     instances: InstanceSet,
     /// Bounds of everything, or `None` without geometry.
@@ -308,7 +318,7 @@ pub struct WideBvh {
 struct Prim {
     /// Index into the input's shapes.
     shape: u32,
-    /// Triangle index within the shape (0 for an analytic shape).
+    /// Triangle index, or curve piece index, within the shape (0 for another analytic shape).
     index: u32,
     light: u32,
 }
@@ -324,8 +334,34 @@ impl Prim {
                 let (min, max) = q.bounds();
                 Aabb::new(min, max)
             }
+            Geometry::Curves(c) => {
+                let (s, u0, u1) = c.piece(self.index as usize);
+                c.segments[s].bounds(u0, u1)
+            }
         }
     }
+}
+
+/// Primitives the geometry `g` makes.
+fn primitive_count(g: &Geometry) -> usize {
+    match g {
+        Geometry::Triangles(mesh) => mesh.triangles.len(),
+        Geometry::Sphere { .. } | Geometry::Quadric(_) => 1,
+        Geometry::Curves(c) => c.pieces(),
+    }
+}
+
+/// The input's curve segments, shape after shape, and where each shape's start among them.
+fn curve_segments(shapes: &[Shape]) -> (Vec<CurveSegment>, Vec<u32>) {
+    let mut segments = Vec::new();
+    let mut first = Vec::with_capacity(shapes.len());
+    for shape in shapes {
+        first.push(segments.len() as u32);
+        if let Geometry::Curves(c) = shape.geometry {
+            segments.extend_from_slice(c.segments);
+        }
+    }
+    (segments, first)
 }
 
 impl WideBvh {
@@ -338,10 +374,8 @@ impl WideBvh {
     /// [`WideBvh::build`], taking the BVHs of mesh assets whose keys `previous` holds from it.
     fn build_reusing(input: &Input, previous: Option<&InstanceSet>) -> WideBvh {
         let shapes = &input.shapes;
-        let count = |g: &Geometry| match g {
-            Geometry::Triangles(mesh) => mesh.triangles.len(),
-            Geometry::Sphere { .. } | Geometry::Quadric(_) => 1,
-        };
+        let count = primitive_count;
+        let (curve_segments, first_segment) = curve_segments(shapes);
         // Read at random while the packets are made: on huge pages (see `huge_pages`).
         let mut prims: Vec<Prim> =
             huge_pages::with_capacity(shapes.iter().map(|s| count(&s.geometry)).sum());
@@ -376,6 +410,7 @@ impl WideBvh {
         let mut aux = Vec::with_capacity(order.len());
         let (mut with_data, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
         let mut quadrics = Vec::new();
+        let mut curve_pieces = Vec::new();
         for &original in &order {
             let p = prims[original as usize];
             placed.push(p);
@@ -394,6 +429,15 @@ impl WideBvh {
                     quadrics.push(q);
                     quadrics.len() as u32 - 1
                 }
+                Geometry::Curves(c) => {
+                    let (s, u0, u1) = c.piece(p.index as usize);
+                    curve_pieces.push(CurvePiece {
+                        segment: first_segment[p.shape as usize] + s as u32,
+                        u0,
+                        u1,
+                    });
+                    curve_pieces.len() as u32 - 1
+                }
             });
         }
         // The primitives in their original order are not needed again (the build's peak).
@@ -407,7 +451,7 @@ impl WideBvh {
                 .par_iter()
                 .filter_map(|p| match shapes[p.shape as usize].geometry {
                     Geometry::Triangles(mesh) => mesh.vertex_data(p.index as usize),
-                    Geometry::Sphere { .. } | Geometry::Quadric(_) => None,
+                    Geometry::Sphere { .. } | Geometry::Quadric(_) | Geometry::Curves(_) => None,
                 })
                 .collect()
         };
@@ -431,6 +475,11 @@ impl WideBvh {
                     material: shape.material,
                     light: p.light,
                 },
+                Geometry::Curves(_) => Lane::Curve {
+                    index: aux[k as usize],
+                    material: shape.material,
+                    light: p.light,
+                },
             }
         };
         let runs: Vec<(u32, u32)> = leaves
@@ -444,9 +493,10 @@ impl WideBvh {
             Stored { packet, data }
         }));
         let stats = AccelStats {
-            triangles: placed.len() - sph_center.len() - quadrics.len(),
+            triangles: placed.len() - sph_center.len() - quadrics.len() - curve_pieces.len(),
             spheres: sph_center.len(),
             quadrics: quadrics.len(),
+            curve_pieces: curve_pieces.len(),
             bvh_nodes: bvh.node_count() + instances.bvh_nodes(),
             bvh_leaves: leaves.len(),
             instances: instances.len(),
@@ -460,6 +510,8 @@ impl WideBvh {
             sph_center,
             sph_radius,
             quadrics,
+            curve_segments,
+            curve_pieces,
             instances,
             bounds: bounds.valid().then_some((bounds.min, bounds.max)),
             avx2: isa::Avx2::detect(),
@@ -483,6 +535,8 @@ impl WideBvh {
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
             + v(self.quadrics.capacity(), size_of::<Quadric>())
+            + v(self.curve_segments.capacity(), size_of::<CurveSegment>())
+            + v(self.curve_pieces.capacity(), size_of::<CurvePiece>())
             + self.bvh.memory_bytes()
     }
 
@@ -491,6 +545,8 @@ impl WideBvh {
             center: &self.sph_center,
             radius: &self.sph_radius,
             quadrics: &self.quadrics,
+            curves: &self.curve_pieces,
+            segments: &self.curve_segments,
         }
     }
 
@@ -512,6 +568,9 @@ impl WideBvh {
                 }
                 AnalyticIndex::Quadric(i) => {
                     self.quadrics[i].hit(ray.origin, ray.dir, t, material, light)
+                }
+                AnalyticIndex::Curve(i) => {
+                    self.curve_pieces[i].hit(&self.curve_segments, ray, t, material, light)
                 }
             }
         } else {

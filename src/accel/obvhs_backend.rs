@@ -4,11 +4,12 @@
 //!
 //! Triangles are tested with raylab's Möller–Trumbore ([`super::primitives`]), which counts a
 //! barycentric of -0.0 as inside (obvhs's own test lets rays on a shared edge through), and
-//! spheres, disks and cylinders analytically; rays carry their exact inverse direction ([`super::bvh::ray`]).
+//! spheres, disks, cylinders and curves' pieces analytically; rays carry their exact inverse direction ([`super::bvh::ray`]).
 //! Instances get a CWBVH per mesh asset and one over the instances' world boxes; a ray that
 //! reaches an instance is moved into its space without renormalising its direction, as in
 //! [`super::instances`], so that local and world distances agree.
 
+use super::curves::{CurvePiece, CurveSegment};
 use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle, Quadric};
 use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
 use super::{box_corners, bvh, AccelStats, Geometry, Input, ShapeLights};
@@ -45,6 +46,12 @@ enum Prim {
         material: u32,
         light: u32,
     },
+    /// A curve's piece, by its index in [`ObvhsBvh::curve_pieces`].
+    Curve {
+        index: u32,
+        material: u32,
+        light: u32,
+    },
 }
 
 /// A mesh asset's triangles in the order of its CWBVH, with their vertex data if any.
@@ -66,6 +73,8 @@ pub struct ObvhsBvh {
     prims: Vec<Prim>,
     vertex_data: Vec<VertexData>,
     quadrics: Vec<Quadric>,
+    curve_segments: Vec<CurveSegment>,
+    curve_pieces: Vec<CurvePiece>,
     tlas: Option<CwBvh>,
     /// In the TLAS's primitive order.
     instances: Vec<Instance>,
@@ -97,6 +106,8 @@ impl ObvhsBvh {
         let mut prims = Vec::new();
         let mut vertex_data = Vec::new();
         let mut quadrics = Vec::new();
+        let mut curve_segments: Vec<CurveSegment> = Vec::new();
+        let mut curve_pieces = Vec::new();
         for shape in &input.shapes {
             let light = |i: usize| match shape.lights {
                 ShapeLights::None => NONE,
@@ -135,6 +146,23 @@ impl ObvhsBvh {
                         light: light(0),
                     });
                 }
+                Geometry::Curves(c) => {
+                    let first = curve_segments.len() as u32;
+                    curve_segments.extend_from_slice(c.segments);
+                    for i in 0..c.pieces() {
+                        let (s, u0, u1) = c.piece(i);
+                        curve_pieces.push(CurvePiece {
+                            segment: first + s as u32,
+                            u0,
+                            u1,
+                        });
+                        prims.push(Prim::Curve {
+                            index: curve_pieces.len() as u32 - 1,
+                            material: shape.material,
+                            light: light(0),
+                        });
+                    }
+                }
             }
         }
         let boxes: Vec<Aabb> = prims
@@ -148,6 +176,7 @@ impl ObvhsBvh {
                     let (min, max) = quadrics[index as usize].bounds();
                     Aabb::new(min, max)
                 }
+                Prim::Curve { index, .. } => curve_pieces[index as usize].bounds(&curve_segments),
             })
             .collect();
         let flat = cwbvh(&boxes);
@@ -217,9 +246,10 @@ impl ObvhsBvh {
             .count();
         let mesh_triangles = |m: u32| meshes[m as usize].triangles.len();
         let stats = AccelStats {
-            triangles: prims.len() - spheres - quadrics.len(),
+            triangles: prims.len() - spheres - quadrics.len() - curve_pieces.len(),
             spheres,
             quadrics: quadrics.len(),
+            curve_pieces: curve_pieces.len(),
             bvh_nodes: node_count(&flat)
                 + node_count(&tlas)
                 + meshes.iter().map(|m| m.bvh.nodes.len()).sum::<usize>(),
@@ -238,6 +268,8 @@ impl ObvhsBvh {
             prims,
             vertex_data,
             quadrics,
+            curve_segments,
+            curve_pieces,
             tlas,
             instances,
             meshes,
@@ -263,6 +295,8 @@ impl ObvhsBvh {
             + self.prims.capacity() * size_of::<Prim>()
             + self.vertex_data.capacity() * size_of::<VertexData>()
             + self.quadrics.capacity() * size_of::<Quadric>()
+            + self.curve_segments.capacity() * size_of::<CurveSegment>()
+            + self.curve_pieces.capacity() * size_of::<CurvePiece>()
             + self.instances.capacity() * size_of::<Instance>()
             + self
                 .meshes
@@ -301,6 +335,9 @@ impl ObvhsBvh {
                 Prim::Triangle { corners, .. } => intersect_triangle(&corners, r),
                 Prim::Sphere { center, radius, .. } => intersect_sphere(center, radius, r),
                 Prim::Quadric { index, .. } => self.quadrics[index as usize].intersect(r),
+                Prim::Curve { index, .. } => {
+                    self.curve_pieces[index as usize].intersect(&self.curve_segments, r, false)
+                }
             })
         });
         if flat {
@@ -341,6 +378,9 @@ impl ObvhsBvh {
                 Prim::Triangle { corners, .. } => occludes_triangle(&corners, r),
                 Prim::Sphere { center, radius, .. } => intersect_sphere(center, radius, r),
                 Prim::Quadric { index, .. } => self.quadrics[index as usize].intersect(r),
+                Prim::Curve { index, .. } => {
+                    self.curve_pieces[index as usize].intersect(&self.curve_segments, r, true)
+                }
             })
         });
         hit_flat
@@ -377,6 +417,17 @@ impl ObvhsBvh {
                 material,
                 light: l,
             } => self.quadrics[index as usize].hit(ray.origin, ray.dir, t, material, light(l)),
+            Prim::Curve {
+                index,
+                material,
+                light: l,
+            } => self.curve_pieces[index as usize].hit(
+                &self.curve_segments,
+                ray,
+                t,
+                material,
+                light(l),
+            ),
             Prim::Triangle {
                 corners: [v0, v1, v2],
                 vertex_data,

@@ -12,10 +12,11 @@
 //! The triangle test is [`super::primitives::intersect_triangle`]'s Möller–Trumbore with the
 //! same operations in the same order, lane by lane (the stored edges and normal are the values
 //! it computes), so a packet finds the same distances, to the bit, as testing its triangles one
-//! at a time. An analytic shape's lane (a sphere, a disk, a cylinder) has NaN corners, which no
-//! triangle test passes, and is tested on its own; an unused lane is all zeros (a degenerate
+//! at a time. An analytic shape's lane (a sphere, a disk, a cylinder, a piece of a curve) has
+//! NaN corners, which no triangle test passes, and is tested on its own; an unused lane is all zeros (a degenerate
 //! triangle, which no ray hits) and has the material [`NONE`].
 
+use super::curves::{CurvePiece, CurveSegment};
 use super::primitives::{intersect_sphere, Quadric};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::ray::Ray;
@@ -45,6 +46,10 @@ pub const NONE: u32 = u32::MAX;
 /// quadrics), clear for a sphere.
 const QUADRIC: u32 = 1 << 31;
 
+/// Set (without [`QUADRIC`]) in an analytic lane's index when it is a curve's piece (an index
+/// into the curve pieces).
+const CURVE: u32 = 1 << 30;
+
 /// Three coordinates, a lane per primitive.
 type Lanes3 = [Vec4; 3];
 
@@ -68,6 +73,12 @@ pub enum Lane {
         material: u32,
         light: u32,
     },
+    /// A curve's piece, by its index among the curve pieces.
+    Curve {
+        index: u32,
+        material: u32,
+        light: u32,
+    },
 }
 
 /// An analytic lane's shape, by its index in the [`Analytic`] arrays.
@@ -75,6 +86,7 @@ pub enum Lane {
 pub enum AnalyticIndex {
     Sphere(usize),
     Quadric(usize),
+    Curve(usize),
 }
 
 /// What the intersection test reads of up to four primitives.
@@ -183,6 +195,14 @@ impl Packet {
                     assert!(index < QUADRIC, "{index} quadrics");
                     ([Vec3A::NAN; 3], material, light, index | QUADRIC)
                 }
+                Lane::Curve {
+                    index,
+                    material,
+                    light,
+                } => {
+                    assert!(index < CURVE, "{index} curve pieces");
+                    ([Vec3A::NAN; 3], material, light, index | CURVE)
+                }
             };
             corners[i] = c;
             (data.material[i], data.light[i], data.aux[i]) = (material, light, aux);
@@ -207,9 +227,10 @@ impl Packet {
     }
 
     /// Each lane's distance along `ray` in `[tmin, tmax]`, or infinity; analytic lanes are
-    /// tested on their own against `shapes`, found through `data` (read only for them).
+    /// tested on their own against `shapes`, found through `data` (read only for them). With
+    /// `ANY` a curve's lane has the distance of the first point found, not the nearest.
     #[inline(always)]
-    fn distances(
+    fn distances<const ANY: bool>(
         &self,
         r: &PacketRay,
         ray: &Ray,
@@ -241,6 +262,7 @@ impl Packet {
                     intersect_sphere(shapes.center[i], shapes.radius[i], &r)
                 }
                 AnalyticIndex::Quadric(i) => shapes.quadrics[i].intersect(&r),
+                AnalyticIndex::Curve(i) => shapes.curves[i].intersect(shapes.segments, &r, ANY),
             };
         }
         t
@@ -257,7 +279,7 @@ impl Packet {
         shapes: &Analytic,
         data: &LaneData,
     ) -> Option<(usize, f32)> {
-        let t = self.distances(r, ray, tmax, shapes, data);
+        let t = self.distances::<false>(r, ray, tmax, shapes, data);
         let hit = t.cmplt(Vec4::splat(tmax)).bitmask();
         if hit == 0 {
             return None;
@@ -270,7 +292,7 @@ impl Packet {
     /// Whether `ray` meets any of the packet's primitives within `[ray.tmin, ray.tmax]`.
     #[inline(always)]
     pub fn any(&self, r: &PacketRay, ray: &Ray, shapes: &Analytic, data: &LaneData) -> bool {
-        self.distances(r, ray, ray.tmax, shapes, data)
+        self.distances::<true>(r, ray, ray.tmax, shapes, data)
             .cmplt(Vec4::INFINITY)
             .any()
     }
@@ -329,10 +351,12 @@ impl LaneData {
     #[inline(always)]
     fn analytic(&self, lane: usize) -> AnalyticIndex {
         let i = self.aux[lane];
-        if i & QUADRIC == 0 {
-            AnalyticIndex::Sphere(i as usize)
-        } else {
+        if i & QUADRIC != 0 {
             AnalyticIndex::Quadric((i & !QUADRIC) as usize)
+        } else if i & CURVE != 0 {
+            AnalyticIndex::Curve((i & !CURVE) as usize)
+        } else {
+            AnalyticIndex::Sphere(i as usize)
         }
     }
 
@@ -569,13 +593,15 @@ mod avx2 {
     }
 }
 
-/// The analytic shapes that packets refer to by index: spheres' centres and radii, and the
-/// disks and cylinders.
+/// The analytic shapes that packets refer to by index: spheres' centres and radii, the
+/// disks and cylinders, and the curves' pieces (with the segments they are parts of).
 #[derive(Clone, Copy)]
 pub struct Analytic<'a> {
     pub center: &'a [Vec3A],
     pub radius: &'a [f32],
     pub quadrics: &'a [Quadric],
+    pub curves: &'a [CurvePiece],
+    pub segments: &'a [CurveSegment],
 }
 
 /// No analytic shapes (instanced meshes have none).
@@ -583,6 +609,8 @@ pub const NO_ANALYTIC: Analytic = Analytic {
     center: &[],
     radius: &[],
     quadrics: &[],
+    curves: &[],
+    segments: &[],
 };
 
 #[cfg(test)]
@@ -628,7 +656,7 @@ mod tests {
                 };
                 let ray = Ray::new(origin, target - origin, 0.0, [f32::INFINITY, 1.5][k % 2]);
                 let pr = PacketRay::new(&ray);
-                let t = packet.distances(&pr, &ray, ray.tmax, &NO_ANALYTIC, &data);
+                let t = packet.distances::<false>(&pr, &ray, ray.tmax, &NO_ANALYTIC, &data);
                 for (i, tri) in tris.iter().enumerate() {
                     assert_eq!(t[i].to_bits(), intersect_triangle(tri, &ray).to_bits());
                     hits += usize::from(t[i].is_finite());
@@ -684,6 +712,8 @@ mod tests {
             center: &centers,
             radius: &radii,
             quadrics: &quadrics,
+            curves: &[],
+            segments: &[],
         };
         let tri = [
             Vec3A::new(-1.0, -1.0, 7.0),
@@ -779,6 +809,8 @@ mod tests {
             center: &centers,
             radius: &radii,
             quadrics: &[],
+            curves: &[],
+            segments: &[],
         };
         let mut rng = StdRng::seed_from_u64(9);
         let mut p3 = |s: f32| Vec3A::new(rng.random(), rng.random(), rng.random()) * s;
@@ -817,7 +849,9 @@ mod tests {
                         Lane::Triangle { corners, .. } => {
                             (corners[0] + corners[1] + corners[2]) / 3.0
                         }
-                        Lane::Sphere { .. } | Lane::Quadric { .. } => unreachable!(),
+                        Lane::Sphere { .. } | Lane::Quadric { .. } | Lane::Curve { .. } => {
+                            unreachable!()
+                        }
                     },
                     _ => p3(3.0),
                 };
