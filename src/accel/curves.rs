@@ -383,6 +383,14 @@ impl CurveSegment {
         }
     }
 
+    /// The same segment with its normals turned around (`flip_normals`).
+    pub fn flipped(self) -> CurveSegment {
+        CurveSegment {
+            flipped: !self.flipped,
+            ..self
+        }
+    }
+
     /// A ribbon's normal at `u`: the two ends' normals interpolated along the great circle
     /// (pbrt-v4's), or straight where they are opposite.
     #[inline]

@@ -467,6 +467,9 @@ pub fn validate(
     if s.quadrics > 0 {
         say!("  disks and cylinders {}", s.quadrics);
     }
+    if s.curve_pieces > 0 {
+        say!("  curve pieces {}", s.curve_pieces);
+    }
     if s.instances > 0 {
         say!(
             "  instances  {} of {} mesh(es): {} triangles held once, {} placed",

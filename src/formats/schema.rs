@@ -425,6 +425,32 @@ pub enum MaterialDesc {
         alpha: FloatDesc,
         material: Box<MaterialDesc>,
     },
+    /// Hair fibres (pbrt-v4's `hair`, Chiang et al. 2016) for `Curves`: a dielectric fibre of
+    /// index `eta` (default 1.55) with an absorbing interior and cuticle scales tilted by
+    /// `alpha` degrees (default 2), longitudinal and azimuthal roughness `beta_m` and `beta_n`
+    /// in [0, 1] (default 0.3 each). The interior's absorption is one of: `sigma_a` (per unit
+    /// radius, per channel), `reflectance` (the colour a head of such hair takes, per Chiang's
+    /// fit), or the concentrations of `eumelanin` and `pheomelanin` (pigments: about 0.3
+    /// blond, 1.3 brown, 8 black); none given is eumelanin 1.3 (pbrt's default). `h`, where
+    /// across the fibre a ray meets it, is `2 v - 1` of the hit.
+    Hair {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sigma_a: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reflectance: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        eumelanin: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pheomelanin: Option<f32>,
+        #[serde(default = "hair_eta")]
+        eta: f32,
+        #[serde(default = "hair_roughness")]
+        beta_m: f32,
+        #[serde(default = "hair_roughness")]
+        beta_n: f32,
+        #[serde(default = "hair_alpha")]
+        alpha: f32,
+    },
     /// `material` on a surface displaced along its normal by `scale` times `texture`'s
     /// luminance (Mitsuba's `bumpmap`), shaded with the displaced surface's normal. Default
     /// `scale: 1`; `flip_invalid_normals` and `shadowing` as for `NormalMap`.
@@ -454,7 +480,7 @@ impl MaterialDesc {
                 transmittance,
             } => c(reflectance) || c(transmittance),
             Phong { kd, ks, .. } => c(kd) || c(ks),
-            Mirror { .. } | Glass { .. } => false,
+            Mirror { .. } | Glass { .. } | Hair { .. } => false,
             Dielectric {
                 specular_reflectance,
                 specular_transmittance,
@@ -684,6 +710,18 @@ pub(crate) fn half_float() -> FloatDesc {
 
 pub(crate) fn default_alpha() -> FloatDesc {
     FloatDesc::Constant(0.1)
+}
+
+fn hair_eta() -> f32 {
+    1.55
+}
+
+fn hair_roughness() -> f32 {
+    0.3
+}
+
+fn hair_alpha() -> f32 {
+    2.0
 }
 
 fn default_subdivisions() -> u32 {
@@ -934,6 +972,79 @@ pub enum ShapeDesc {
         #[serde(skip_serializing_if = "Option::is_none", default)]
         uvs: Option<Vec<[f32; 2]>>,
     },
+    /// pbrt-v4's `curve`: cubic Bézier curves swept to a width (hair, fur, grass), each
+    /// [`CurveDesc`]. `type` is `"flat"` (the default: a ribbon facing every ray),
+    /// `"cylinder"` (the same, shaded as a cylinder) or `"ribbon"` (oriented by the curves'
+    /// `normals`). Each segment is split into `2^split_depth` pieces that the BVH bounds
+    /// (pbrt's `splitdepth`, default 3, at most [`MAX_SPLIT_DEPTH`]). The transform must be a
+    /// rotation (or mirror), a uniform scale and a translation, which keep a curve's width.
+    /// Curves cannot emit, nor be mesh assets.
+    Curves {
+        #[serde(rename = "type", default)]
+        kind: CurveType,
+        #[serde(default = "default_split_depth")]
+        split_depth: u32,
+        curves: Vec<CurveDesc>,
+    },
+}
+
+/// Deepest `split_depth` of [`ShapeDesc::Curves`]: 256 pieces a segment.
+pub const MAX_SPLIT_DEPTH: u32 = 8;
+
+fn default_split_depth() -> u32 {
+    3
+}
+
+/// One curve of [`ShapeDesc::Curves`]: `points`, the control points of `n` cubic Bézier
+/// segments one after the other (`3 n + 1`: each segment's last point is the next one's
+/// first); `width`, its width at the start and at the end, linear in between along the
+/// segments (default `(1, 1)`, pbrt's); for a ribbon, `normals` at the `n + 1` ends of its
+/// segments, which orient it (interpolated along each segment on the great circle).
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveDesc {
+    pub points: Vec<V3>,
+    #[serde(default = "unit_widths")]
+    pub width: (f32, f32),
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub normals: Option<Vec<V3>>,
+}
+
+fn unit_widths() -> (f32, f32) {
+    (1.0, 1.0)
+}
+
+/// How a curve faces rays (pbrt-v4's curve `type`): `"flat"`, `"cylinder"` or `"ribbon"`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CurveType {
+    #[default]
+    Flat,
+    Cylinder,
+    Ribbon,
+}
+
+impl<'de> Deserialize<'de> for CurveType {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        match name.as_str() {
+            "flat" => Ok(CurveType::Flat),
+            "cylinder" => Ok(CurveType::Cylinder),
+            "ribbon" => Ok(CurveType::Ribbon),
+            _ => Err(de::Error::custom(format!(
+                "unknown curve type {name:?}; known: \"flat\", \"cylinder\", \"ribbon\""
+            ))),
+        }
+    }
+}
+
+impl Serialize for CurveType {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match self {
+            CurveType::Flat => "flat",
+            CurveType::Cylinder => "cylinder",
+            CurveType::Ribbon => "ribbon",
+        })
+    }
 }
 
 /// How a mesh file's triangles are shaded: `"file"` (the default) with the file's vertex

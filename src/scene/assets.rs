@@ -134,6 +134,13 @@ fn load_asset(
         ShapeDesc::Instance { .. } => {
             return Err("a mesh asset cannot itself be an Instance".into());
         }
+        ShapeDesc::Curves { .. } => {
+            return Err(
+                "a mesh asset must be made of triangles; Curves are analytic (place them as an \
+                 entity's shape)"
+                    .into(),
+            )
+        }
         _ => {}
     }
     let shape = super::describe::shape_from_desc(desc.clone(), files)?;

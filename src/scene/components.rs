@@ -1,6 +1,6 @@
 //! ECS components of scene entities, and the resources that live beside the world.
 
-use crate::accel::Quadric;
+use crate::accel::{CurveKind, CurveSegment, Quadric};
 use glam::{Affine3A, EulerRot, Quat, Vec2, Vec3, Vec3A};
 use raylab_integrators::Rgb;
 use std::sync::Arc;
@@ -141,6 +141,21 @@ pub enum Shape {
     Instance {
         mesh: String,
     },
+    /// Curves as cubic Bézier segments, each split into `2^split_depth` pieces for the BVH.
+    Curves {
+        kind: CurveKind,
+        split_depth: u32,
+        segments: Vec<LocalCurveSegment>,
+    },
+}
+
+/// One cubic Bézier segment of a curve in its entity's space: control points, the width at
+/// each end and, for a ribbon, the normals there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalCurveSegment {
+    pub cp: [Vec3A; 4],
+    pub width: [f32; 2],
+    pub normals: Option<[Vec3A; 2]>,
 }
 
 /// A key no other geometry of this process carries ([`GeometryId`], [`LocalMesh::id`]):
@@ -282,10 +297,15 @@ pub enum WorldShape {
     },
     /// A disk or cylinder, placed.
     Quadric(Quadric),
+    /// Curves' segments, placed, each split into `2^split_depth` pieces for the BVH.
+    Curves {
+        segments: Vec<CurveSegment>,
+        split_depth: u32,
+    },
 }
 
 impl WorldShape {
-    /// Total surface area.
+    /// Total surface area (of curves, pbrt-v4's approximation).
     pub fn area(&self) -> f32 {
         match self {
             WorldShape::Triangles { triangles, .. } => triangles
@@ -294,6 +314,7 @@ impl WorldShape {
                 .sum(),
             WorldShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
             WorldShape::Quadric(q) => q.area(),
+            WorldShape::Curves { segments, .. } => segments.iter().map(CurveSegment::area).sum(),
         }
     }
 }

@@ -3,11 +3,14 @@
 //! what is wrong. Loading a file ([`super::load`]) and applying an edit ([`super::edit`]) both
 //! make their components here.
 
-use super::components::{Emitter, Shape, Transform};
+use super::components::{Emitter, LocalCurveSegment, Shape, Transform};
 use super::error::finite;
+use crate::accel::CurveKind;
 use crate::formats::access::SceneFiles;
 use crate::formats::mesh_files;
-use crate::formats::schema::{CameraDesc, EmitterDesc, RenderDesc, ShapeDesc};
+use crate::formats::schema::{
+    CameraDesc, CurveDesc, CurveType, EmitterDesc, RenderDesc, ShapeDesc,
+};
 use crate::formats::texture_desc::ColorDesc;
 use glam::{Vec3, Vec3A};
 use raylab_integrators::light::EnvMap;
@@ -440,6 +443,78 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             normals: normals.map(|n| n.into_iter().map(v3).collect()),
             uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
         },
+        ShapeDesc::Curves {
+            kind,
+            split_depth,
+            curves,
+        } => curves_from_desc(kind, split_depth, &curves)?,
+    })
+}
+
+/// `Curves` as their cubic Bézier segments: each curve's `3 n + 1` points make `n` segments,
+/// its width runs linearly along them (pbrt-v4's `Lerp(i / n, width0, width1)` at the ends of
+/// segment `i`), and a ribbon's `n + 1` normals orient them.
+fn curves_from_desc(
+    kind: CurveType,
+    split_depth: u32,
+    curves: &[CurveDesc],
+) -> Result<Shape, String> {
+    if curves.is_empty() {
+        return Err("Curves has no curves".into());
+    }
+    let ribbon = kind == CurveType::Ribbon;
+    let segment_count: usize = curves.iter().map(|c| c.points.len() / 3).sum();
+    let mut segments = Vec::with_capacity(segment_count);
+    for (i, c) in curves.iter().enumerate() {
+        let n = c.points.len();
+        if n < 4 || (n - 1) % 3 != 0 {
+            return Err(format!(
+                "curve {i} has {n} points; a curve of cubic Bézier segments has 3 n + 1 (4, 7, \
+                 10, ...), each segment's last point the next one's first"
+            ));
+        }
+        let count = (n - 1) / 3;
+        let normals = match (&c.normals, ribbon) {
+            (Some(normals), true) if normals.len() == count + 1 => Some(normals),
+            (Some(normals), true) => {
+                return Err(format!(
+                    "curve {i}: a ribbon of {count} segment(s) needs {} normals (one at each \
+                     segment's ends), got {}",
+                    count + 1,
+                    normals.len()
+                ))
+            }
+            (None, true) => {
+                return Err(format!(
+                    "curve {i}: a ribbon needs `normals` at its segments' ends"
+                ))
+            }
+            (Some(_), false) => {
+                return Err(format!(
+                    "curve {i}: `normals` orient ribbons only (`type: \"ribbon\"`)"
+                ))
+            }
+            (None, false) => None,
+        };
+        let (w0, w1) = c.width;
+        for s in 0..count {
+            let at = |k: usize| k as f32 / count as f32;
+            let width = |t: f32| (1.0 - t) * w0 + t * w1;
+            segments.push(LocalCurveSegment {
+                cp: std::array::from_fn(|k| v3(c.points[3 * s + k])),
+                width: [width(at(s)), width(at(s + 1))],
+                normals: normals.map(|n| [v3(n[s]), v3(n[s + 1])]),
+            });
+        }
+    }
+    Ok(Shape::Curves {
+        kind: match kind {
+            CurveType::Flat => CurveKind::Flat,
+            CurveType::Cylinder => CurveKind::Cylinder,
+            CurveType::Ribbon => CurveKind::Ribbon,
+        },
+        split_depth,
+        segments,
     })
 }
 

@@ -494,6 +494,10 @@ impl SceneState {
             .map(|s| match &*s {
                 WorldShape::Triangles { triangles, .. } => triangles.len() as u64,
                 WorldShape::Sphere { .. } | WorldShape::Quadric(_) => 0,
+                WorldShape::Curves {
+                    segments,
+                    split_depth,
+                } => systems::curve_triangle_equivalent(segments.len() as u64, *split_depth),
             })
             .sum();
         let mut warnings =

@@ -40,6 +40,8 @@ pub struct BuildStats {
     pub spheres: usize,
     /// Disks and cylinders.
     pub quadrics: usize,
+    /// Pieces of curves (BVH primitives).
+    pub curve_pieces: usize,
     /// Entries in the light table (a quad light is one, a mesh light one per triangle).
     pub lights: usize,
     /// Entities that emit.
@@ -173,6 +175,13 @@ impl RenderScene {
                         radius: *radius,
                     },
                     WorldShape::Quadric(q) => Geometry::Quadric(*q),
+                    WorldShape::Curves {
+                        segments,
+                        split_depth,
+                    } => Geometry::Curves(accel::Curves {
+                        segments,
+                        split_depth: *split_depth,
+                    }),
                 },
                 material: material.0,
                 // One light for the whole entity (a sphere, a quad), or one per triangle.
@@ -273,6 +282,7 @@ impl RenderScene {
             triangles: a.triangles + own_triangles,
             spheres: a.spheres,
             quadrics: a.quadrics,
+            curve_pieces: a.curve_pieces,
             lights: lights.len(),
             emitters: light_counts.len() + usize::from(scene.environment.is_some()),
             bvh_nodes: a.bvh_nodes,
@@ -482,7 +492,7 @@ pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
         .iter()
         .flat_map(|(_, shape)| match shape {
             WorldShape::Triangles { triangles, .. } => triangles.as_slice(),
-            WorldShape::Sphere { .. } | WorldShape::Quadric(_) => &[],
+            WorldShape::Sphere { .. } | WorldShape::Quadric(_) | WorldShape::Curves { .. } => &[],
         })
         .map(|&[v0, v1, v2]| Triangle { v0, v1, v2 })
         .collect()
@@ -496,7 +506,9 @@ pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
         .iter()
         .filter_map(|(order, shape)| match shape {
             WorldShape::Sphere { center, radius } => Some((*order, *center, *radius)),
-            WorldShape::Triangles { .. } | WorldShape::Quadric(_) => None,
+            WorldShape::Triangles { .. } | WorldShape::Quadric(_) | WorldShape::Curves { .. } => {
+                None
+            }
         })
         .collect();
     spheres.sort_by_key(|s| s.0);

@@ -8,7 +8,7 @@ use crate::formats::texture_desc::{ColorDesc, FloatDesc};
 use glam::Vec3A;
 use raylab_integrators::bsdf::{
     checks, relative_ior, Burley, ComplexIor, Conductor, Dielectric, DiffuseTransmission,
-    Distribution, Lambert, MapOptions, MaterialTextures, Microfacet, OrenNayar, Perturbation,
+    Distribution, Hair, Lambert, MapOptions, MaterialTextures, Microfacet, OrenNayar, Perturbation,
     Phong, Plastic, Principled, PrincipledRates, PrincipledTextures, PrincipledThin,
     RoughConductor, RoughDielectric, RoughPlastic, RoughnessTextures, SurfaceMaterial,
     ThinDielectric, ThinRates,
@@ -271,6 +271,23 @@ pub fn material_from_desc(
                 ThinRates::default(),
             )?)
         }
+        MaterialDesc::Hair {
+            sigma_a,
+            reflectance,
+            eumelanin,
+            pheomelanin,
+            eta,
+            beta_m,
+            beta_n,
+            alpha,
+        } => Material::Hair(Hair::new(
+            0.0,
+            *eta,
+            hair_absorption(*sigma_a, *reflectance, *eumelanin, *pheomelanin, *beta_n)?,
+            *beta_m,
+            *beta_n,
+            *alpha,
+        )?),
         MaterialDesc::TwoSided(inner) => {
             let m = material_from_desc(inner, textures)?;
             if m.bsdf().is_transmissive() {
@@ -352,6 +369,46 @@ pub fn material_from_desc(
         }
     };
     Ok(SurfaceMaterial::new(bsdf, t, None))
+}
+
+/// A hair fibre's absorption from the one way the description gives it: `sigma_a` itself, a
+/// `reflectance` (Chiang's fit, for azimuthal roughness `beta_n`), or the melanin
+/// concentrations; none is eumelanin 1.3, pbrt-v4's brown.
+fn hair_absorption(
+    sigma_a: Option<[f32; 3]>,
+    reflectance: Option<[f32; 3]>,
+    eumelanin: Option<f32>,
+    pheomelanin: Option<f32>,
+    beta_n: f32,
+) -> Result<Vec3A, String> {
+    let melanin = eumelanin.is_some() || pheomelanin.is_some();
+    let given = [sigma_a.is_some(), reflectance.is_some(), melanin];
+    if given.iter().filter(|g| **g).count() > 1 {
+        return Err(
+            "hair: give one of `sigma_a`, `reflectance`, or `eumelanin` and `pheomelanin`".into(),
+        );
+    }
+    if let Some(s) = sigma_a {
+        return checks::colour("hair's sigma_a", v3(s));
+    }
+    if let Some(r) = reflectance {
+        let r = checks::reflectance("hair's reflectance", v3(r))?;
+        checks::finite("hair's beta_n", &[beta_n])?;
+        return Ok(Hair::sigma_a_from_reflectance(r, beta_n.clamp(0.0, 1.0)));
+    }
+    let (e, p) = (eumelanin.unwrap_or(0.0), pheomelanin.unwrap_or(0.0));
+    for (what, c) in [("eumelanin", e), ("pheomelanin", p)] {
+        if !(c.is_finite() && c >= 0.0) {
+            return Err(format!(
+                "hair's {what} concentration must be finite and not negative, got {c}"
+            ));
+        }
+    }
+    Ok(if melanin {
+        Hair::sigma_a_from_concentration(e, p)
+    } else {
+        Hair::sigma_a_from_concentration(1.3, 0.0)
+    })
 }
 
 /// The principled models' shared parameters as the description gives them.

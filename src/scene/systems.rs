@@ -16,7 +16,7 @@ use super::components::{
     WorldShape,
 };
 use super::error::finite;
-use crate::accel::{Quadric, QuadricKind};
+use crate::accel::{CurveKind, CurveSegment, Quadric, QuadricKind};
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
 use hecs::{Entity, World};
 use raylab_integrators::light::{
@@ -46,6 +46,11 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
             validate_shape(shape, transform).map_err(fail)?;
         }
         match (emitter, shape) {
+            (Some(Emitter::Area { .. }), Some(Shape::Curves { .. })) => {
+                return Err(fail(
+                    "curves cannot emit light (nor can pbrt-v4's): give them no emitter".into(),
+                ));
+            }
             (Some(Emitter::Area { .. }), Some(Shape::Instance { mesh })) => {
                 return Err(fail(format!(
                     "an instance of mesh `{mesh}` cannot emit light: instances share one mesh \
@@ -198,6 +203,11 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
         }
     };
     match shape {
+        Shape::Curves {
+            kind,
+            split_depth,
+            segments,
+        } => validate_curves(*kind, *split_depth, segments, t)?,
         Shape::Sphere { center, radius } => {
             all("sphere center", &[*center])?;
             finite("sphere radius", &[*radius])?;
@@ -347,8 +357,66 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
     Ok(())
 }
 
+/// Checks curves' numbers (finite points, widths not negative, a ribbon's normals not zero,
+/// the split depth) and that `t` keeps their width: a rotation or mirror, a uniform scale and
+/// a translation.
+fn validate_curves(
+    kind: CurveKind,
+    split_depth: u32,
+    segments: &[super::components::LocalCurveSegment],
+    t: &Transform,
+) -> Result<(), String> {
+    use crate::formats::schema::MAX_SPLIT_DEPTH;
+    if split_depth > MAX_SPLIT_DEPTH {
+        return Err(format!(
+            "curves' split_depth must be at most {MAX_SPLIT_DEPTH} ({} pieces a segment), got \
+             {split_depth}",
+            1u32 << MAX_SPLIT_DEPTH
+        ));
+    }
+    for (i, s) in segments.iter().enumerate() {
+        if !s.cp.iter().all(|p| p.is_finite()) {
+            return Err(format!("curve segment {i}: its points must be finite"));
+        }
+        if !(s.width.iter().all(|w| w.is_finite() && *w >= 0.0)) {
+            return Err(format!(
+                "curve segment {i}: its width must be finite and not negative, got {:?}",
+                s.width
+            ));
+        }
+        if kind == CurveKind::Ribbon {
+            let normals = s.normals.unwrap_or([Vec3A::ZERO; 2]);
+            if normals
+                .iter()
+                .any(|n| !n.is_finite() || n.length_squared() == 0.0)
+            {
+                return Err(format!(
+                    "curve segment {i}: a ribbon's normals must be finite and not zero"
+                ));
+            }
+        }
+    }
+    let m = t.matrix().matrix3;
+    let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
+    let l = x.length();
+    let tol = 1e-4 * l * l;
+    if (y.length_squared() - l * l).abs() > 2.0 * tol
+        || (z.length_squared() - l * l).abs() > 2.0 * tol
+        || x.dot(y).abs() > tol
+        || x.dot(z).abs() > tol
+        || y.dot(z).abs() > tol
+    {
+        return Err(
+            "curves need a transform that keeps their width: a rotation, a uniform scale and a \
+             translation (this one stretches or shears them)"
+                .into(),
+        );
+    }
+    Ok(())
+}
+
 pub use crate::formats::memory::{
-    check_bytes, check_mesh_memory, check_triangle_memory, mesh_bytes,
+    check_bytes, check_mesh_memory, check_triangle_memory, curve_triangle_equivalent, mesh_bytes,
     BYTES_PER_ATTRIBUTED_TRIANGLE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX,
 };
 
@@ -374,9 +442,15 @@ fn local_uvs(shape: &Shape) -> Option<Vec<[Vec2; 3]>> {
     }
 }
 
-/// Triangles a shape will make, known before making them.
+/// Triangles a shape will make, known before making them (for curves, the triangles of as
+/// much memory as their pieces take: [`curve_triangle_equivalent`]).
 fn triangle_count(shape: &Shape) -> u64 {
     match shape {
+        Shape::Curves {
+            split_depth,
+            segments,
+            ..
+        } => curve_triangle_equivalent(segments.len() as u64, *split_depth),
         Shape::Sphere { .. } | Shape::Disk | Shape::Cylinder { .. } | Shape::Instance { .. } => 0,
         Shape::Icosphere { subdivisions, .. } => 20 * 4u64.pow((*subdivisions).min(31)),
         Shape::Triangle(_) => 1,
@@ -393,9 +467,11 @@ pub const MAX_SUBDIVISIONS: u32 = 10;
 
 fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
     match shape {
-        Shape::Sphere { .. } | Shape::Disk | Shape::Cylinder { .. } | Shape::Instance { .. } => {
-            Vec::new()
-        }
+        Shape::Sphere { .. }
+        | Shape::Disk
+        | Shape::Cylinder { .. }
+        | Shape::Instance { .. }
+        | Shape::Curves { .. } => Vec::new(),
         Shape::Icosphere {
             subdivisions,
             displacement,
@@ -493,6 +569,11 @@ pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
         }
         WorldShape::Triangles { triangles, .. } => {
             check_points_reach(triangles.iter().flatten().copied())
+        }
+        WorldShape::Curves { segments, .. } => {
+            check_points_reach(segments.iter().flat_map(|s| s.cp))?;
+            let width = segments.iter().flat_map(|s| s.width).fold(0.0f32, f32::max);
+            check_reach_of(width)
         }
     }
 }
@@ -651,6 +732,13 @@ fn flip_faces(shape: WorldShape) -> WorldShape {
             flipped: !q.flipped,
             ..q
         }),
+        WorldShape::Curves {
+            segments,
+            split_depth,
+        } => WorldShape::Curves {
+            segments: segments.into_iter().map(CurveSegment::flipped).collect(),
+            split_depth,
+        },
     }
 }
 
@@ -714,6 +802,34 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
             center: m.transform_point3a(*center),
             radius: radius * m.matrix3.x_axis.length(),
         },
+        Shape::Curves {
+            kind,
+            split_depth,
+            segments,
+        } => {
+            // A uniform scale (validated), which widths take too; normals turn as directions
+            // (the inverse transpose of a uniform scale and rotation is the same map).
+            let scale = m.matrix3.x_axis.length();
+            let segments = segments
+                .iter()
+                .map(|s| {
+                    let normals = s
+                        .normals
+                        .map_or([Vec3A::ZERO; 2], |n| n.map(|n| (m.matrix3 * n).normalize()));
+                    CurveSegment::new(
+                        s.cp.map(|p| m.transform_point3a(p)),
+                        s.width.map(|w| w * scale),
+                        *kind,
+                        normals,
+                        false,
+                    )
+                })
+                .collect();
+            WorldShape::Curves {
+                segments,
+                split_depth: *split_depth,
+            }
+        }
         _ => {
             let triangles: Vec<[Vec3A; 3]> = local_triangles(shape)
                 .iter()
@@ -854,9 +970,10 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                         .map(|t| Light::triangle(t[0], t[1], t[2], radiance, two_sided))
                         .collect(),
                 },
-                // Validation guarantees area emitters have shapes; a shape dropped by the bake
-                // step (all triangles degenerate) was already reported.
-                (Emitter::Area { .. }, None) => return None,
+                // Validation guarantees area emitters have shapes (and none on curves); a
+                // shape dropped by the bake step (all triangles degenerate) was already
+                // reported.
+                (Emitter::Area { .. }, None | Some(WorldShape::Curves { .. })) => return None,
             };
             Some((*order, entity, lights))
         })

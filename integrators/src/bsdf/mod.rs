@@ -354,6 +354,13 @@ impl Material {
         }
     }
 
+    /// True when the model depends on where on the surface it is hit beyond its textures:
+    /// hair, whose offset across the fibre is the hit's (`h = 2 v - 1`).
+    #[inline]
+    pub fn varies_per_hit(&self) -> bool {
+        matches!(self, Material::Hair(_))
+    }
+
     /// Base colour, for the `albedo` debug view.
     #[inline]
     pub fn albedo(&self) -> Rgb {

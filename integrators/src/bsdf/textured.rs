@@ -204,8 +204,9 @@ impl MaterialTextures {
                         .map_or(p.diff_trans, |t| t.eval_scalar(uv));
                 }
             }
-            // No texture slot maps onto a fibre's absorption or roughness.
-            Material::Hair(_) => {}
+            // No texture slot maps onto a fibre's absorption or roughness; its offset across
+            // the fibre is the hit's (pbrt-v4's curves: h = 2 v - 1).
+            Material::Hair(h) => *h = h.clone().with_h(2.0 * uv.y - 1.0),
         }
     }
 }
@@ -342,7 +343,7 @@ impl SurfaceMaterial {
         perturbation: Option<(Perturbation, MapOptions)>,
     ) -> SurfaceMaterial {
         SurfaceMaterial {
-            varies: textures.any() || perturbation.is_some(),
+            varies: textures.any() || perturbation.is_some() || bsdf.varies_per_hit(),
             bsdf,
             textures,
             perturbation,
@@ -444,7 +445,7 @@ impl SurfaceMaterial {
                 }
             }
         }
-        let material = if self.textures.any() {
+        let material = if self.textures.any() || self.bsdf.varies_per_hit() {
             let mut m = self.bsdf.clone();
             self.textures.apply(&mut m, hit.uv);
             Cow::Owned(m)
