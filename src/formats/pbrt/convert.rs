@@ -16,6 +16,7 @@ use glam::{Affine3A, DMat4, DVec3, DVec4};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
+mod curves;
 mod lights;
 mod options;
 mod shapes;
@@ -121,6 +122,11 @@ struct Converter<'a> {
     /// The object being defined: its name and shapes so far.
     defining: Option<(String, Vec<ObjectShape>, Pos)>,
     entities: Vec<EntityDesc>,
+    /// The entity the last curves joined, which the next may join ([`Converter::curve`]).
+    curve_group: Option<usize>,
+    /// The curve segments made so far, and the triangles of as much memory.
+    curve_segments: u64,
+    curve_triangles: u64,
     environment: Option<[f64; 3]>,
     report: Vec<String>,
     approximated: Vec<String>,
@@ -588,6 +594,9 @@ pub fn to_ron(
         objects: HashMap::new(),
         defining: None,
         entities: Vec::new(),
+        curve_group: None,
+        curve_segments: 0,
+        curve_triangles: 0,
         environment: None,
         report: Vec::new(),
         approximated: Vec::new(),

@@ -1,4 +1,5 @@
-//! pbrt-v4's materials and textures as raylab's materials and colours.
+//! pbrt-v4's materials and textures as raylab's materials and colours (pbrt-v4's
+//! `materials.cpp`: each material's `Create` and its parameters' defaults).
 
 use super::params::{Colour, Located, ParamList};
 use super::tokens::Pos;
@@ -414,9 +415,16 @@ pub fn material(
                 transmittance: side(p, "transmittance")?,
             }
         }
+        "hair" => {
+            let hair = hair(p, notes)?;
+            if displacement.is_some() || normal_map.is_some() {
+                notes.report(format!("{what}: `displacement` and `normalmap` ignored on hair, as pbrt-v4 ignores them"));
+            }
+            return Ok(Some(hair));
+        }
         "interface" => return Ok(None),
         other => {
-            return Err((at, format!("material `{other}` is not supported (diffuse, coateddiffuse, conductor, dielectric, thindielectric, diffusetransmission, interface are)")))
+            return Err((at, format!("material `{other}` is not supported (diffuse, coateddiffuse, conductor, dielectric, thindielectric, diffusetransmission, hair, interface are)")))
         }
     };
     Ok(Some(match displacement {
@@ -440,4 +448,153 @@ pub fn material(
             shadowing: false,
         },
     }))
+}
+
+/// A number of a hair material: a `float` (raylab's hair takes no textures).
+fn hair_number(p: &mut ParamList, name: &str) -> Result<Option<(f64, Pos)>, Located> {
+    match p.float_or_texture(name)? {
+        None => Ok(None),
+        Some((Colour::Rgb(v), pos)) if v[0].is_finite() => Ok(Some((v[0], pos))),
+        Some((Colour::Rgb(v), pos)) => Err((
+            pos,
+            format!("{}: `{name}` must be finite, got {}", p.what, v[0]),
+        )),
+        Some((_, pos)) => Err((
+            pos,
+            format!(
+                "{}: a texture for `{name}` is not supported (raylab's hair takes numbers)",
+                p.what
+            ),
+        )),
+    }
+}
+
+/// A colour of a hair material: `rgb` (or a grey `float`), finite.
+fn hair_colour(p: &mut ParamList, name: &str) -> Result<Option<([f64; 3], Pos)>, Located> {
+    match p.colour(name)? {
+        None => Ok(None),
+        Some((Colour::Rgb(v), pos)) if v.iter().all(|x| x.is_finite()) => Ok(Some((v, pos))),
+        Some((Colour::Rgb(v), pos)) => Err((
+            pos,
+            format!("{}: `{name}` must be finite, got {v:?}", p.what),
+        )),
+        Some((_, pos)) => Err((
+            pos,
+            format!(
+                "{}: `{name}` must be rgb (a texture or a spectrum is not supported on hair)",
+                p.what
+            ),
+        )),
+    }
+}
+
+/// pbrt-v4's `hair` (`HairMaterial::Create`): the absorption from `sigma_a`, else
+/// `reflectance` (or `color`), else `eumelanin` and `pheomelanin`, else pbrt's brown
+/// (eumelanin 1.3, the description's default); the parameters not used noted, as pbrt warns.
+/// Values are clamped as pbrt-v4's `GetBxDF` clamps them (absorption and concentrations not
+/// negative, a reflectance in [0, 1], `beta_m` and `beta_n` in [0.01, 1]); an `eta` below 1
+/// or a scale tilt `alpha` beyond 90 degrees is an error.
+fn hair(p: &mut ParamList, notes: &mut dyn Notes) -> Result<MaterialDesc, Located> {
+    let what = p.what.clone();
+    let sigma_a = hair_colour(p, "sigma_a")?;
+    let mut reflectance = hair_colour(p, "reflectance")?.map(|r| (r, "reflectance"));
+    if reflectance.is_none() {
+        reflectance = hair_colour(p, "color")?.map(|r| (r, "color"));
+    } else if p.present("color").is_some() {
+        hair_colour(p, "color")?;
+        notes.report(format!(
+            "{what}: `color` ignored since `reflectance` is given (as pbrt-v4)"
+        ));
+    }
+    let eumelanin = hair_number(p, "eumelanin")?;
+    let pheomelanin = hair_number(p, "pheomelanin")?;
+    let eta = hair_number(p, "eta")?;
+    let beta_m = hair_number(p, "beta_m")?;
+    let beta_n = hair_number(p, "beta_n")?;
+    let alpha = hair_number(p, "alpha")?;
+    let ignored = |names: &[(&str, bool)], winner: &str, notes: &mut dyn Notes| {
+        for (name, given) in names {
+            if *given {
+                notes.report(format!(
+                    "{what}: `{name}` ignored since `{winner}` is given (as pbrt-v4)"
+                ));
+            }
+        }
+    };
+    let melanin = eumelanin.is_some() || pheomelanin.is_some();
+    let clamped = |x: f64, lo: f64, hi: f64, name: &str, notes: &mut dyn Notes| {
+        let c = x.clamp(lo, hi);
+        if c != x {
+            notes.report(format!(
+                "{what}: `{name}` {x} clamped to {c}, as pbrt-v4 clamps it"
+            ));
+        }
+        c as f32
+    };
+    let (mut desc_sigma_a, mut desc_reflectance) = (None, None);
+    let (mut desc_eumelanin, mut desc_pheomelanin) = (None, None);
+    if let Some((s, _)) = sigma_a {
+        ignored(
+            &[
+                (
+                    reflectance.map_or("reflectance", |r| r.1),
+                    reflectance.is_some(),
+                ),
+                ("eumelanin", eumelanin.is_some()),
+                ("pheomelanin", pheomelanin.is_some()),
+            ],
+            "sigma_a",
+            notes,
+        );
+        desc_sigma_a = Some(s.map(|x| clamped(x, 0.0, f64::MAX, "sigma_a", notes)));
+    } else if let Some(((r, _), name)) = reflectance {
+        ignored(
+            &[
+                ("eumelanin", eumelanin.is_some()),
+                ("pheomelanin", pheomelanin.is_some()),
+            ],
+            name,
+            notes,
+        );
+        desc_reflectance = Some(r.map(|x| clamped(x, 0.0, 1.0, name, notes)));
+    } else if melanin {
+        desc_eumelanin = eumelanin.map(|(e, _)| clamped(e, 0.0, f64::MAX, "eumelanin", notes));
+        desc_pheomelanin =
+            pheomelanin.map(|(e, _)| clamped(e, 0.0, f64::MAX, "pheomelanin", notes));
+    }
+    let eta_value = match eta {
+        Some((e, pos)) if e < 1.0 => {
+            return Err((
+                pos,
+                format!("{what}: `eta` must be at least 1 (a fibre denser than air), got {e}"),
+            ))
+        }
+        Some((e, _)) => e as f32,
+        None => 1.55,
+    };
+    let alpha_value = match alpha {
+        Some((a, pos)) if a.abs() > 90.0 => {
+            return Err((
+                pos,
+                format!(
+                    "{what}: `alpha`, the scales' tilt, must lie in [-90, 90] degrees, got {a}"
+                ),
+            ))
+        }
+        Some((a, _)) => a as f32,
+        None => 2.0,
+    };
+    let beta = |b: Option<(f64, Pos)>, name: &str, notes: &mut dyn Notes| {
+        b.map_or(0.3, |(b, _)| clamped(b, 0.01, 1.0, name, notes))
+    };
+    Ok(MaterialDesc::Hair {
+        sigma_a: desc_sigma_a,
+        reflectance: desc_reflectance,
+        eumelanin: desc_eumelanin,
+        pheomelanin: desc_pheomelanin,
+        eta: eta_value,
+        beta_m: beta(beta_m, "beta_m", notes),
+        beta_n: beta(beta_n, "beta_n", notes),
+        alpha: alpha_value,
+    })
 }

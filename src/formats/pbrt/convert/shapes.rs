@@ -1,5 +1,5 @@
 //! `Shape` and `ObjectInstance`: pbrt-v4's shapes as raylab's entities, with their area
-//! lights and the areas their power divides by; inline meshes.
+//! lights and the areas their power divides by; inline meshes. (Curves: [`super::curves`].)
 
 use super::textures::material_key;
 use super::*;
@@ -58,6 +58,9 @@ impl<'a> Converter<'a> {
         let mut p = self.params(d)?;
         let what = p.what.clone();
         let alpha = self.alpha(&mut p)?;
+        if kind == "curve" {
+            return self.curve(d, p, alpha);
+        }
         let world = self.state.ctm;
         let swaps = world.determinant() < 0.0;
         // pbrt-v4 turns a shape's normal around under ReverseOrientation and under a
@@ -128,7 +131,7 @@ impl<'a> Converter<'a> {
                 let ply = ShapeDesc::Ply { path: file, normals: MeshNormals::File };
                 (ply, DMat4::IDENTITY, true, Area::Unknown)
             }
-            other => return Err((d.pos, format!("Shape \"{other}\" is not supported (sphere, disk, cylinder, trianglemesh, bilinearmesh, plymesh are)"))),
+            other => return Err((d.pos, format!("Shape \"{other}\" is not supported (sphere, disk, cylinder, trianglemesh, bilinearmesh, plymesh, curve are)"))),
         };
         p.ignore(&["emissionfilename"]);
         p.finish()?;
@@ -234,7 +237,7 @@ impl<'a> Converter<'a> {
     }
 
     /// The material `material` cut out by `alpha`, made once per pair.
-    fn cut_out(&mut self, material: String, alpha: FloatDesc) -> String {
+    pub(super) fn cut_out(&mut self, material: String, alpha: FloatDesc) -> String {
         let inner = self.material_descs.get(&material).cloned();
         let Some(inner) = inner else {
             return material;
