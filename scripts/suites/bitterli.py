@@ -6,8 +6,9 @@ are complete, how the image's mean per channel compares with Tungsten's.
 The public copy (github.com/gonsolo/bitterli: `<scene>/pbrt/scene-v4.pbrt`) lacks its files of
 4 MiB or more when fetched as a mirror; a scene missing a file is listed with them. With
 `--stand-ins`, each missing texture, environment map or mesh is replaced by a small stand-in
-(a grey TGA, a grey PFM, one triangle, an empty file) in a copy, to show that the scene loads
-once its files are there; those are never compared.
+(a grey TGA, a grey PFM, one triangle, one curve for an included `.pbrt` model such as the
+hair scenes' hair, an empty file) in a copy, to show that the scene loads once its files are
+there; those are never compared.
 
     python3 -m venv venv && venv/bin/pip install mitsuba numpy   # reads the EXRs
     venv/bin/python scripts/suites/bitterli.py SOURCE [--raylab BIN] [--stand-ins]
@@ -89,6 +90,10 @@ def stand_in(path):
                         "property float y\nproperty float z\nelement face 1\n"
                         "property list uchar int vertex_indices\nend_header\n"
                         "0 0 -1000\n0.001 0 -1000\n0 0.001 -1000\n3 0 1 2\n")
+    elif ext == ".pbrt":
+        # An included model (the hair scenes' curves): one short curve far below.
+        path.write_text('Shape "curve" "string type" "cylinder" "float width" 0.0001\n'
+                        '    "point3 P" [0 0 -1000  0.001 0 -1000  0.002 0 -1000  0.003 0 -1000]\n')
     else:
         path.write_text("")
 
