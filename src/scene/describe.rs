@@ -497,6 +497,11 @@ fn curves_from_desc(
             (None, false) => None,
         };
         let (w0, w1) = c.width;
+        if !(w0.is_finite() && w1.is_finite() && w0 >= 0.0 && w1 >= 0.0) {
+            return Err(format!(
+                "curve {i}: its width must be finite and not negative, got ({w0}, {w1})"
+            ));
+        }
         for s in 0..count {
             let at = |k: usize| k as f32 / count as f32;
             let width = |t: f32| (1.0 - t) * w0 + t * w1;

@@ -385,7 +385,9 @@ fn hair_absorption(
     let given = [sigma_a.is_some(), reflectance.is_some(), melanin];
     if given.iter().filter(|g| **g).count() > 1 {
         return Err(
-            "hair: give one of `sigma_a`, `reflectance`, or `eumelanin` and `pheomelanin`".into(),
+            "a hair's absorption comes from one of `sigma_a`, `reflectance`, or \
+             `eumelanin` and `pheomelanin`: give one"
+                .into(),
         );
     }
     if let Some(s) = sigma_a {

@@ -492,3 +492,122 @@ fn a_pbrt_alpha_cut_out_lets_its_share_of_the_light_through() {
         );
     }
 }
+
+/// A row of the film as its mean radiance.
+fn row_mean(film: &Film, y: u32) -> glam::Vec3 {
+    let w = film.width as usize;
+    let row = &film.pixels[y as usize * w..(y as usize + 1) * w];
+    row.iter().copied().sum::<glam::Vec3>() / w as f32
+}
+
+/// Three hairs (pbrt-v4's `curve` under its `hair` material) across a black sky, seen from
+/// above: a cylinder B-spline, a ribbon facing the camera and a flat Bézier. Every pixel is
+/// finite; the rows where the hairs are have light, and blond light (its blue absorbed
+/// most); the rows between them and above them are black.
+#[test]
+fn pbrt_curves_under_hair_render_where_they_are() {
+    let text = r#"LookAt 0 0 5  0 0 0  0 1 0
+Camera "perspective" "float fov" 30
+Film "rgb" "integer xresolution" 32 "integer yresolution" 32
+WorldBegin
+LightSource "distant" "point3 from" [0 1 1] "point3 to" [0 0 0] "rgb L" [3 3 3]
+Material "hair" "float eumelanin" 0.3
+Shape "curve" "string type" "cylinder" "string basis" "bspline"
+    "point3 P" [-3 0.7 0  -1 0.7 0  1 0.7 0  3 0.7 0] "float width" 0.3
+Shape "curve" "string type" "ribbon" "point3 P" [-3 0 0  -1 0 0  1 0 0  3 0 0]
+    "normal N" [0 0 1  0 0 1] "float width" 0.3
+Shape "curve" "point3 P" [-3 -0.7 0  -1 -0.7 0  1 -0.7 0  3 -0.7 0] "float width" 0.3
+"#;
+    let loaded = load(text);
+    let built = RenderScene::build(&loaded);
+    assert_eq!(built.stats.curve_pieces, 3 * 8);
+    assert_eq!(
+        built.stats.entities, 4,
+        "a curve entity of each type, and the light"
+    );
+    let film = render_loaded(&loaded, 16, 5);
+    assert_eq!(film.non_finite(), None);
+    // y = 0.7 falls at row 16 - 0.7 / (5 tan 15 deg) 16 = 7.6, y = 0 at 16, -0.7 at 24.4.
+    for (y, what) in [
+        (7, "cylinder"),
+        (8, "cylinder"),
+        (15, "ribbon"),
+        (16, "ribbon"),
+    ] {
+        let m = row_mean(&film, y);
+        assert!(m.min_element() > 0.0, "{what}, row {y}: {m}");
+        assert!(
+            m.x > m.z,
+            "{what}, row {y}: blond hair absorbs blue most: {m}"
+        );
+    }
+    for y in [24, 25] {
+        assert!(row_mean(&film, y).max_element() > 0.0, "flat, row {y}");
+    }
+    for y in [0, 1, 2, 12, 20, 30, 31] {
+        assert_eq!(row_mean(&film, y), glam::Vec3::ZERO, "row {y} is sky");
+    }
+}
+
+/// The start of `hair-curl/pbrt/models/blonde_one_hair.pbrt` (Bitterli's, in pbrt-v4 form): a
+/// cubic B-spline of cylinder type, imported through `Import` under the scene's named hair
+/// material, as a `Curves` entity of its Bézier segments and a `Hair` material; it loads
+/// and renders.
+#[test]
+fn blonde_one_hair_imports_as_curves_under_hair() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("models")).unwrap();
+    std::fs::write(
+        d.join("models/blonde_one_hair.pbrt"),
+        r#"Shape "curve" "string type" [ "cylinder" ] "string basis" [ "bspline" ] "point3 P" [
+4.08999 9.48827 0.247713
+4.0842 9.40788 0.245733 
+4.0784 9.32749 0.243753 
+4.06378 9.22808 0.241286 
+4.0425 9.1011 0.237411 
+4.01521 8.97297 0.230375 
+3.98279 8.88315 0.218102 
+3.94715 8.78222 0.199706 
+3.91066 8.64807 0.173901 
+3.87583 8.55209 0.138531 
+]
+ "float width" [ 0.1000888 ]
+"#,
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("scene.pbrt"),
+        r#"LookAt 4 9 10  4 9 0  0 1 0
+Camera "perspective" "float fov" 5
+Film "rgb" "integer xresolution" 24 "integer yresolution" 24
+WorldBegin
+MakeNamedMaterial "blonde_hair"
+    "string type" [ "hair" ]
+    "float eumelanin" [ 0.2 ]
+NamedMaterial "blonde_hair"
+Import "models/blonde_one_hair.pbrt"
+LightSource "distant" "rgb L" [ 19.091171 19.091171 19.091171 ] "point3 to" [ 0 0 0 ]
+    "point3 from" [ -0.376047 0.758426 0.532333 ]
+"#,
+    )
+    .unwrap();
+    let o = raylab_in(d, &["import", "scene.pbrt", "-o", "scene.ron"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ron = std::fs::read_to_string(d.join("scene.ron")).unwrap();
+    for needle in [
+        "\"blonde_hair\": Hair(eumelanin: 0.2",
+        "shape: Curves(type: \"cylinder\", split_depth: 3, curves: [(points: [",
+        "width: (0.1000888, 0.1000888)",
+        "material: \"blonde_hair\"",
+    ] {
+        assert!(ron.contains(needle), "{needle}:\n{ron}");
+    }
+    let loaded = load_scene(&d.join("scene.pbrt")).unwrap();
+    let built = RenderScene::build(&loaded);
+    // Ten B-spline points: seven cubic segments of eight pieces.
+    assert_eq!(built.stats.curve_pieces, 7 * 8);
+    let film = render_loaded(&loaded, 4, 1);
+    assert_eq!(film.non_finite(), None);
+    assert!(film.mean().min_element() > 0.0, "{}", film.mean());
+}

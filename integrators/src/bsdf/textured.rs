@@ -554,6 +554,21 @@ mod tests {
         assert!((c.microfacet.alpha_v - 0.8).abs() < 1e-6);
     }
 
+    /// A hair fibre is met at `h = 2 v - 1` across its width (pbrt-v4's curves): the material
+    /// at a hit is the fibre with the hit's offset, however it was made.
+    #[test]
+    fn hair_takes_its_offset_from_each_hit() {
+        let hair = SurfaceMaterial::from(Material::Hair(crate::bsdf::Hair::default()));
+        assert!(hair.needs_parametrisation());
+        for (v, h) in [(0.5, 0.0), (0.9, 0.8), (0.0, -1.0), (1.0, 1.0)] {
+            let at = hair.at(&mut hit_at(Vec2::new(0.3, v)), Vec3A::Z);
+            let Material::Hair(fibre) = &*at.material else {
+                panic!("hair")
+            };
+            assert!((fibre.h() - h).abs() < 1e-6, "v {v}: h {}", fibre.h());
+        }
+    }
+
     #[test]
     fn normal_maps_tilt_the_normal_in_the_tangent_frame() {
         // rgb (1, 0.5, 0.5) -> tangent-space normal (1, 0, 0): along dpdu; halfway with z.

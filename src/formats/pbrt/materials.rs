@@ -566,7 +566,9 @@ fn hair(p: &mut ParamList, notes: &mut dyn Notes) -> Result<MaterialDesc, Locate
         Some((e, pos)) if e < 1.0 => {
             return Err((
                 pos,
-                format!("{what}: `eta` must be at least 1 (a fibre denser than air), got {e}"),
+                format!(
+                    "{what}: `eta`, the fibre's index of refraction, must be at least 1, got {e}"
+                ),
             ))
         }
         Some((e, _)) => e as f32,

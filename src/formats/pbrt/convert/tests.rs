@@ -1,6 +1,7 @@
 //! The pbrt-v4 importer's tests: what each directive becomes, and mangled files.
 
 use super::*;
+use crate::formats::schema::CurveType;
 use proptest::prelude::*;
 
 const CORNELL: &str = include_str!("../../../../scenes/pbrt/cornell_box.pbrt");
@@ -28,6 +29,8 @@ proptest! {
             "", "[", "]", "\"", "#", "1e39", "-1", "nan", "AttributeEnd", "ObjectEnd",
             "\"float radius\"", "Scale 0 0 0", "ReverseOrientation", "Include \"cornell_box.pbrt\"",
             "Shape \"sphere\"", "Camera \"perspective\"", "WorldBegin", "\"integer indices\" [9]",
+            "Shape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 1 0 3 1 0] \"float width\" 0.1",
+            "Material \"hair\" \"float eumelanin\" 2",
         ]),
     ) {
         let mut start = at.index(CORNELL.len() + 1);
@@ -230,4 +233,150 @@ fn states_lights_samplers_and_uvs_follow_pbrt_v4() {
         .ron()
         .unwrap()
         .contains("indices: [(0, 2, 1)]"));
+}
+
+/// Consecutive curves that agree (material, transform, orientation, type, split depth) make
+/// one `Curves` entity; a change of any starts another. B-splines become Bézier chains.
+#[test]
+fn consecutive_curves_gather_into_one_entity() {
+    let curve = |extra: &str| {
+        format!("Shape \"curve\" \"point3 P\" [0 0 0  1 0 0  2 1 0  3 1 0] \"float width\" 0.1 {extra}\n")
+    };
+    let text = format!(
+        "Camera \"perspective\"\nWorldBegin\nMaterial \"hair\"\n{}{}{}{}Material \"diffuse\"\n{}\
+         AttributeBegin\nTranslate 1 0 0\n{}AttributeEnd\n{}{}",
+        curve(""),
+        curve("\"string basis\" \"bspline\""),
+        curve("\"float width0\" 0.2"),
+        curve("\"string type\" \"cylinder\""),
+        curve(""),
+        curve(""),
+        curve(""),
+        curve("\"integer splitdepth\" 1"),
+    );
+    let imported = convert(&text, false).unwrap();
+    let shapes: Vec<(&str, usize, CurveType, u32)> = imported
+        .scene
+        .entities
+        .iter()
+        .map(|e| match &e.shape {
+            Some(ShapeDesc::Curves {
+                kind,
+                split_depth,
+                curves,
+            }) => (
+                e.material.as_deref().unwrap_or(""),
+                curves.len(),
+                *kind,
+                *split_depth,
+            ),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    let hair = shapes[0].0;
+    assert!(hair.starts_with("hair"), "{hair}");
+    use CurveType::{Cylinder, Flat};
+    assert_eq!(
+        shapes.iter().map(|s| (s.1, s.2, s.3)).collect::<Vec<_>>(),
+        [
+            (3, Flat, 3),
+            (1, Cylinder, 3),
+            (1, Flat, 3),
+            (1, Flat, 3),
+            (1, Flat, 3),
+            (1, Flat, 1)
+        ]
+    );
+    assert_ne!(shapes[2].0, hair);
+    let Some(ShapeDesc::Curves { curves, .. }) = &imported.scene.entities[0].shape else {
+        unreachable!()
+    };
+    // A cubic B-spline of 4 points is one segment, from (p0 + 4 p1 + p2) / 6.
+    assert_eq!(curves[1].points.len(), 4);
+    let start = curves[1].points[0];
+    assert!((start[0] - 1.0).abs() < 1e-6 && (start[1] - 1.0 / 6.0).abs() < 1e-6);
+    assert_eq!((curves[0].width, curves[2].width), ((0.1, 0.1), (0.2, 0.1)));
+    // The one under the translation is placed by it; the RON loads.
+    assert!(imported.scene.entities[3].transform.matrix.is_some());
+    assert!(imported.scene.entities[4].transform.matrix.is_none());
+    crate::scene::parse_scene(&imported.ron().unwrap(), Path::new("curves.pbrt")).unwrap();
+}
+
+/// pbrt-v4's hair takes its absorption from `sigma_a`, else `reflectance`, else the melanins;
+/// the ones left out are noted; numbers clamped as pbrt-v4 clamps them.
+#[test]
+fn hair_takes_one_absorption_as_pbrt_v4_does() {
+    let hair = |params: &str| {
+        let text = format!(
+            "Camera \"perspective\"\nWorldBegin\nMaterial \"hair\" {params}\nShape \"sphere\"\n"
+        );
+        let imported = convert(&text, false).unwrap();
+        let (_, desc) = imported.scene.materials.0[0].clone();
+        (desc, imported.report.join("\n"))
+    };
+    let (desc, report) = hair(
+        "\"rgb sigma_a\" [0.1 0.2 -0.3] \"float eumelanin\" 3 \"rgb reflectance\" [0.5 0.5 0.5]",
+    );
+    assert_eq!(
+        desc,
+        MaterialDesc::Hair {
+            sigma_a: Some([0.1, 0.2, 0.0]),
+            reflectance: None,
+            eumelanin: None,
+            pheomelanin: None,
+            eta: 1.55,
+            beta_m: 0.3,
+            beta_n: 0.3,
+            alpha: 2.0,
+        }
+    );
+    for needle in [
+        "`reflectance` ignored since `sigma_a` is given",
+        "`eumelanin` ignored since `sigma_a` is given",
+        "`sigma_a` -0.3 clamped to 0",
+    ] {
+        assert!(report.contains(needle), "{needle}: {report}");
+    }
+    let (desc, report) = hair("\"rgb color\" [0.6 0.5 0.4] \"float pheomelanin\" 1 \"float beta_m\" 2 \"float eta\" 1.6 \"float alpha\" -3");
+    let MaterialDesc::Hair {
+        reflectance,
+        pheomelanin,
+        beta_m,
+        eta,
+        alpha,
+        ..
+    } = desc
+    else {
+        panic!("{desc:?}")
+    };
+    assert_eq!(
+        (reflectance, pheomelanin, beta_m, eta, alpha),
+        (Some([0.6, 0.5, 0.4]), None, 1.0, 1.6, -3.0)
+    );
+    assert!(
+        report.contains("`pheomelanin` ignored since `color` is given"),
+        "{report}"
+    );
+    let (desc, _) = hair("\"float pheomelanin\" 0.5");
+    assert!(matches!(
+        desc,
+        MaterialDesc::Hair {
+            eumelanin: None,
+            pheomelanin: Some(0.5),
+            sigma_a: None,
+            ..
+        }
+    ));
+    // None: the description's default, pbrt's brown (eumelanin 1.3).
+    let (desc, _) = hair("");
+    assert!(matches!(
+        desc,
+        MaterialDesc::Hair {
+            eumelanin: None,
+            pheomelanin: None,
+            sigma_a: None,
+            reflectance: None,
+            ..
+        }
+    ));
 }
