@@ -56,7 +56,7 @@ pub fn closest_through_cutouts<'m>(
             tmax: ray.tmax - travelled,
             ..next
         };
-        if !(r.tmax > 0.0) {
+        if r.tmax.is_nan() || r.tmax <= 0.0 {
             return None;
         }
     }
