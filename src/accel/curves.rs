@@ -234,7 +234,7 @@ impl RayFrame {
     }
 
     #[inline(always)]
-    fn to_world(&self, v: Vec3A) -> Vec3A {
+    fn world(&self, v: Vec3A) -> Vec3A {
         self.x * v.x + self.y * v.y + self.z * v.z
     }
 }
@@ -516,7 +516,7 @@ impl CurveSegment {
                         + axis.cross(dpdv_plane) * sin
                         + axis * (axis.dot(dpdv_plane) * (1.0 - cos));
                 }
-                frame.to_world(dpdv_plane)
+                frame.world(dpdv_plane)
             }
         };
         let n = dpdu.cross(dpdv).normalize_or_zero();

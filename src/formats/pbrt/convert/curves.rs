@@ -142,7 +142,7 @@ impl Converter<'_> {
             .collect();
         let n = points.len();
         let segments = if basis == "bezier" {
-            if n < degree + 1 || (n - 1 - degree) % degree != 0 {
+            if n < degree + 1 || !(n - 1 - degree).is_multiple_of(degree) {
                 return Err((ppos, format!("{what}: {n} control points; a degree {degree} Bézier curve has {} + n * {degree} (n >= 0)", degree + 1)));
             }
             (n - 1) / degree
