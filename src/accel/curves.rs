@@ -23,6 +23,12 @@
 //! Rays spawned from a hit start a width away from the curve along the normal
 //! ([`Hit::spawn_offset`]: pbrt-v4's error bounds of a curve hit), out of the fibre.
 //!
+//! With pbrt-v4's `HairBxDF` this record puts a fibre's surface reflection on the mirror
+//! image of the side a cylinder would (the BSDF's exit azimuth assumes a normal facing the
+//! ray, `h` measured the other way round); raylab keeps pbrt-v4's convention, as pbrt-v4's
+//! images show it, and a fibre narrower than a pixel, averaged over `h`, is the same either
+//! way (see the test `hair_on_a_curve_reflects_where_pbrt_v4_reflects`).
+//!
 //! Departures from pbrt-v4: the segments are placed in world space when the scene is loaded
 //! (pbrt intersects in the shape's own space), so `v` runs the other way under a mirroring
 //! transform; and the intersection runs in single precision as pbrt's does, but with rays of

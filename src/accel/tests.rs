@@ -374,6 +374,15 @@ fn the_build_does_not_depend_on_the_thread_count() {
     let data =
         |s: &RenderScene| -> Vec<LaneData> { wide(s).packets.iter().map(|p| p.data).collect() };
     assert_eq!(data(&a), data(&b));
+    // Curves' pieces too.
+    let loaded = parse_scene(&curves_scene(13), Path::new("curves.ron")).unwrap();
+    let build = |threads: usize| {
+        RenderScene::build_on_threads(&loaded, AccelKind::Raylab, Some(threads)).unwrap()
+    };
+    let (a, b) = (build(1), build(2));
+    assert_eq!(wide(&a).bvh, wide(&b).bvh);
+    assert_eq!(wide(&a).curve_pieces, wide(&b).curve_pieces);
+    assert_eq!(data(&a), data(&b));
 }
 
 /// Random triangles and curves of the three kinds (split two, three and no times), as RON.
