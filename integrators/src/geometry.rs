@@ -99,6 +99,9 @@ pub struct Hit {
     /// parametrisation (Mitsuba 3's for spheres and rectangles; `(b1, b2)` on triangles
     /// without any).
     pub uv: Vec2,
+    /// The mesh attribute the surface carries (a vertex colour interpolated, a face's value),
+    /// once parametrised; zero where it has none.
+    pub attribute: Vec3A,
     /// What `uv`, `dpdu` and `dpdv` still wait for: most hits never need them, so they are
     /// computed only when a material asks ([`crate::Scene::parametrise`]).
     pub pending: Pending,
@@ -161,6 +164,7 @@ impl Hit {
             dpdu: Vec3A::ZERO,
             dpdv: Vec3A::ZERO,
             uv: Vec2::ZERO,
+            attribute: Vec3A::ZERO,
             pending: Pending::None,
             media: MediumInterface::VACUUM,
         }

@@ -40,18 +40,34 @@ pub struct Mesh<'a> {
     pub triangles: &'a [[Vec3A; 3]],
     pub normals: Option<&'a [[Vec3A; 3]]>,
     pub uvs: Option<&'a [[Vec2; 3]]>,
+    /// Per triangle, the mesh attribute at its corners (a face's value at all three).
+    pub attributes: Option<&'a [[Vec3A; 3]]>,
     pub bounds: (Vec3A, Vec3A),
 }
 
 impl Mesh<'_> {
     /// Whether its triangles carry vertex data.
     fn has_vertex_data(&self) -> bool {
-        self.normals.is_some() || self.uvs.is_some()
+        self.normals.is_some() || self.uvs.is_some() || self.attributes.is_some()
+    }
+
+    /// Triangle `i`'s attribute at its corners (zero without attributes): the array beside
+    /// the vertex data, in its order, where some mesh has attributes.
+    pub(crate) fn attribute(&self, i: usize) -> [Vec3A; 3] {
+        self.attributes.map_or([Vec3A::ZERO; 3], |a| a[i])
     }
 
     /// Triangle `i`'s vertex data, if the mesh has any.
     fn vertex_data(&self, i: usize) -> Option<VertexData> {
-        VertexData::of(self.normals, self.uvs, i)
+        VertexData::of(self.normals, self.uvs, i).or_else(|| {
+            // Attributes alone: the vertex data holds the triangle's place beside them.
+            self.attributes.map(|_| VertexData {
+                normals: [Vec3A::ZERO; 3],
+                uvs: surface::DEFAULT_UVS,
+                has_normals: false,
+                has_uvs: false,
+            })
+        })
     }
 }
 
@@ -288,6 +304,9 @@ pub struct WideBvh {
     pub(crate) packets: Vec<Stored>,
     /// Vertex data of the triangles that have any ([`packet::LaneData::vertex_data`]).
     pub(crate) vertex_data: Vec<VertexData>,
+    /// Beside `vertex_data`, index for index, the mesh attributes at the corners; empty when
+    /// no mesh has any.
+    pub(crate) attributes: Vec<[Vec3A; 3]>,
     // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
     pub(crate) sph_center: Vec<Vec3A>,
     pub(crate) sph_radius: Vec<f32>,
@@ -411,6 +430,22 @@ impl WideBvh {
                 })
                 .collect()
         };
+        let any_attributes = shapes
+            .iter()
+            .any(|s| matches!(s.geometry, Geometry::Triangles(m) if m.attributes.is_some()));
+        let attributes: Vec<[Vec3A; 3]> = if any_attributes {
+            placed
+                .par_iter()
+                .filter_map(|p| match shapes[p.shape as usize].geometry {
+                    Geometry::Triangles(mesh) if mesh.has_vertex_data() => {
+                        Some(mesh.attribute(p.index as usize))
+                    }
+                    _ => None,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let lane = |k: u32| {
             let p = placed[k as usize];
             let shape = &shapes[p.shape as usize];
@@ -457,6 +492,7 @@ impl WideBvh {
             bvh,
             packets,
             vertex_data,
+            attributes,
             sph_center,
             sph_radius,
             quadrics,
@@ -480,6 +516,7 @@ impl WideBvh {
         self.instances.memory_bytes()
             + v(self.packets.capacity(), size_of::<Stored>())
             + v(self.vertex_data.capacity(), size_of::<VertexData>())
+            + v(self.attributes.capacity(), size_of::<[Vec3A; 3]>())
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
             + v(self.quadrics.capacity(), size_of::<Quadric>())
@@ -547,8 +584,10 @@ impl WideBvh {
             let (p, lane) = (prim as usize / packet::WIDTH, prim as usize % packet::WIDTH);
             let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
             let (v0, e1, e2) = s.edges(lane);
-            let vertex = data.vertex_data(lane).map(|k| &self.vertex_data[k]);
-            parametrisation(barycentrics(v0, e1, e2, hit.p), e1, e2, vertex)
+            let k = data.vertex_data(lane);
+            let vertex = k.map(|k| &self.vertex_data[k]);
+            let attribute = k.and_then(|k| self.attributes.get(k));
+            parametrisation(barycentrics(v0, e1, e2, hit.p), e1, e2, vertex, attribute)
         } else {
             self.instances.parametrisation(instance, prim, hit.p)
         };

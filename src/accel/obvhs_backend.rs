@@ -52,6 +52,8 @@ struct MeshBvh {
     bvh: CwBvh,
     triangles: Vec<[Vec3A; 3]>,
     vertex_data: Vec<VertexData>,
+    /// The mesh attribute at each triangle's corners (BVH order), or empty.
+    attributes: Vec<[Vec3A; 3]>,
 }
 
 struct Instance {
@@ -65,6 +67,8 @@ pub struct ObvhsBvh {
     flat: Option<CwBvh>,
     prims: Vec<Prim>,
     vertex_data: Vec<VertexData>,
+    /// Beside `vertex_data`, the mesh attributes at the corners; empty when no mesh has any.
+    attributes: Vec<[Vec3A; 3]>,
     quadrics: Vec<Quadric>,
     tlas: Option<CwBvh>,
     /// In the TLAS's primitive order.
@@ -96,6 +100,11 @@ impl ObvhsBvh {
         // The flat primitives in input order, and their boxes.
         let mut prims = Vec::new();
         let mut vertex_data = Vec::new();
+        let mut attributes = Vec::new();
+        let any_attributes = input
+            .shapes
+            .iter()
+            .any(|s| matches!(s.geometry, Geometry::Triangles(m) if m.attributes.is_some()));
         let mut quadrics = Vec::new();
         for shape in &input.shapes {
             let light = |i: usize| match shape.lights {
@@ -109,6 +118,9 @@ impl ObvhsBvh {
                         let index = match mesh.vertex_data(i) {
                             Some(d) => {
                                 vertex_data.push(d);
+                                if any_attributes {
+                                    attributes.push(mesh.attribute(i));
+                                }
                                 vertex_data.len() as u32 - 1
                             }
                             None => NONE,
@@ -179,6 +191,10 @@ impl ObvhsBvh {
                         .iter()
                         .filter_map(|&i| mesh.vertex_data(i as usize))
                         .collect(),
+                    attributes: match mesh.attributes {
+                        Some(a) => order.iter().map(|&i| a[i as usize]).collect(),
+                        None => Vec::new(),
+                    },
                     bvh,
                 });
             }
@@ -237,6 +253,7 @@ impl ObvhsBvh {
             flat,
             prims,
             vertex_data,
+            attributes,
             quadrics,
             tlas,
             instances,
@@ -262,6 +279,7 @@ impl ObvhsBvh {
             + self.tlas.as_ref().map_or(0, bvh)
             + self.prims.capacity() * size_of::<Prim>()
             + self.vertex_data.capacity() * size_of::<VertexData>()
+            + self.attributes.capacity() * size_of::<[Vec3A; 3]>()
             + self.quadrics.capacity() * size_of::<Quadric>()
             + self.instances.capacity() * size_of::<Instance>()
             + self
@@ -271,6 +289,7 @@ impl ObvhsBvh {
                     bvh(&m.bvh)
                         + m.triangles.capacity() * size_of::<[Vec3A; 3]>()
                         + m.vertex_data.capacity() * size_of::<VertexData>()
+                        + m.attributes.capacity() * size_of::<[Vec3A; 3]>()
                 })
                 .sum::<usize>()
     }
@@ -449,14 +468,16 @@ impl ObvhsBvh {
             };
             let (e1, e2) = (v1 - v0, v2 - v0);
             let b = barycentrics(v0, e1, e2, hit.p);
-            parametrisation(b, e1, e2, self.vertex_data.get(vertex_data as usize))
+            let k = vertex_data as usize;
+            parametrisation(b, e1, e2, self.vertex_data.get(k), self.attributes.get(k))
         } else {
             let inst = &self.instances[instance as usize];
             let mesh = &self.meshes[inst.mesh as usize];
             let [v0, v1, v2] = mesh.triangles[prim as usize];
             let (e1, e2) = (v1 - v0, v2 - v0);
             let b = barycentrics(v0, e1, e2, inst.world_to_local.transform_point3a(hit.p));
-            parametrisation(b, e1, e2, mesh.vertex_data.get(prim as usize))
+            let k = prim as usize;
+            parametrisation(b, e1, e2, mesh.vertex_data.get(k), mesh.attributes.get(k))
                 .mapped(inst.world_to_local.matrix3.inverse())
         };
         param.write_to(hit);

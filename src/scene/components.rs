@@ -135,6 +135,8 @@ pub enum Shape {
         indices: Vec<[u32; 3]>,
         normals: Option<Vec<Vec3A>>,
         uvs: Option<Vec<Vec2>>,
+        /// The file's attribute the entity's material reads, if any.
+        attribute: Option<crate::formats::mesh_files::MeshAttribute>,
     },
     /// A mesh asset of the scene, by name; resolved to [`Instanced`] by
     /// [`super::assets::resolve_instances`].
@@ -274,6 +276,8 @@ pub enum WorldShape {
         triangles: Vec<[Vec3A; 3]>,
         normals: Option<Vec<[Vec3A; 3]>>,
         uvs: Option<Vec<[Vec2; 3]>>,
+        /// The mesh attribute its material reads, at each triangle's corners.
+        attributes: Option<Vec<[Vec3A; 3]>>,
         parallelogram: Option<[Vec3A; 3]>,
     },
     Sphere {
@@ -306,6 +310,7 @@ impl From<crate::formats::mesh_files::FileMesh> for Shape {
             indices: mesh.indices,
             normals: mesh.normals,
             uvs: mesh.uvs,
+            attribute: None,
         }
     }
 }

@@ -376,14 +376,51 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             )
             .shaded(normals),
         ),
-        ShapeDesc::Ply { path, normals } => Shape::from(
-            noted(
+        ShapeDesc::Ply {
+            path,
+            normals,
+            attribute,
+        } => {
+            let mut mesh = noted(
                 crate::formats::ply::load_ply(&files.named(&path)?)?,
                 &path,
                 files,
-            )
-            .shaded(normals),
-        ),
+            );
+            let chosen = match attribute {
+                None => None,
+                Some(name) => {
+                    let Some(i) = mesh.attributes.iter().position(|a| a.name == name) else {
+                        let have: Vec<&str> =
+                            mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+                        return Err(format!(
+                            "`{path}` has no attribute `{name}` (it has: {})",
+                            if have.is_empty() {
+                                "none".to_string()
+                            } else {
+                                have.join(", ")
+                            }
+                        ));
+                    };
+                    Some(mesh.attributes.swap_remove(i))
+                }
+            };
+            match Shape::from(mesh.shaded(normals)) {
+                Shape::Mesh {
+                    positions,
+                    indices,
+                    normals,
+                    uvs,
+                    ..
+                } => Shape::Mesh {
+                    positions,
+                    indices,
+                    normals,
+                    uvs,
+                    attribute: chosen,
+                },
+                other => other,
+            }
+        }
         ShapeDesc::Serialized {
             path,
             shape_index,
@@ -439,6 +476,7 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             indices,
             normals: normals.map(|n| n.into_iter().map(v3).collect()),
             uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
+            attribute: None,
         },
     })
 }

@@ -232,6 +232,19 @@ impl Table {
         if e.emitter.is_some() && material.is_some_and(|m| m.cutout().is_some()) {
             return Err("an emitter's material cannot be a Cutout (pbrt-v4's alpha)".into());
         }
+        let carries = matches!(
+            e.shape,
+            Some(ShapeDesc::Ply {
+                attribute: Some(_),
+                ..
+            })
+        );
+        if !carries && material.is_some_and(|m| m.reads_attribute()) {
+            return Err(format!(
+                "material `{}` reads a mesh attribute, but the shape carries none (a `Ply` shape names one with `attribute`)",
+                e.material.as_deref().unwrap_or_default()
+            ));
+        }
         if !e.flip_normals {
             return Ok(());
         }

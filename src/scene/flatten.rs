@@ -161,11 +161,13 @@ impl RenderScene {
                         triangles,
                         normals,
                         uvs,
+                        attributes,
                         ..
                     } => Geometry::Triangles(Mesh {
                         triangles,
                         normals: normals.as_deref(),
                         uvs: uvs.as_deref(),
+                        attributes: attributes.as_deref(),
                         bounds: (Vec3A::ZERO, Vec3A::ZERO),
                     }),
                     WorldShape::Sphere { center, radius } => Geometry::Sphere {
@@ -202,6 +204,7 @@ impl RenderScene {
                 triangles: &m.triangles,
                 normals: m.normals.as_deref(),
                 uvs: m.uvs.as_deref(),
+                attributes: None,
                 bounds: m.bounds,
             })
             .collect();
@@ -213,6 +216,7 @@ impl RenderScene {
                 triangles,
                 normals,
                 uvs,
+                attributes,
                 ..
             } = shape
             else {
@@ -249,6 +253,7 @@ impl RenderScene {
                 triangles,
                 normals: normals.as_deref(),
                 uvs: uvs.as_deref(),
+                attributes: attributes.as_deref(),
                 bounds,
             });
             mesh_keys.push(key);

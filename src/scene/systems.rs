@@ -301,8 +301,33 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             indices,
             normals,
             uvs,
+            attribute,
         } => {
             all("mesh positions", positions)?;
+            if let Some(a) = attribute {
+                let want = if a.per_face {
+                    indices.len()
+                } else {
+                    positions.len()
+                };
+                if a.values.len() != want {
+                    return Err(format!(
+                        "mesh attribute `{}` has {} values for {want} {}",
+                        a.name,
+                        a.values.len(),
+                        if a.per_face { "triangles" } else { "vertices" }
+                    ));
+                }
+                if let Some((i, v)) = a.values.iter().enumerate().find(|(_, v)| {
+                    !(v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= 1.0)
+                }) {
+                    return Err(format!(
+                        "mesh attribute `{}`: value {i} is {:?}; a material reads it as a colour or weight in [0, 1]",
+                        a.name,
+                        v.to_array()
+                    ));
+                }
+            }
             if let Some(uv) = uvs {
                 if !uv.iter().all(|v| v.is_finite()) {
                     return Err("mesh uvs must be finite".into());
@@ -585,10 +610,13 @@ pub fn bake_transforms(
                 triangles,
                 normals,
                 uvs,
+                attributes,
                 parallelogram,
             } = world_shape
             {
                 let before = triangles.len();
+                let keep = nondegenerate(&triangles);
+                let attributes = attributes.map(|a| kept(a, keep.as_deref()));
                 let (triangles, normals, uvs) = drop_degenerate(triangles, normals, uvs);
                 if triangles.len() < before {
                     warnings.push(format!(
@@ -616,6 +644,7 @@ pub fn bake_transforms(
                             triangles,
                             normals,
                             uvs,
+                            attributes,
                             parallelogram,
                         },
                         GeometryId(new_geometry_id()),
@@ -639,11 +668,13 @@ fn flip_faces(shape: WorldShape) -> WorldShape {
             triangles,
             normals,
             uvs,
+            attributes,
             parallelogram,
         } => WorldShape::Triangles {
             triangles: triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect(),
             normals: normals.map(|n| n.into_iter().map(|[a, b, c]| [-a, -c, -b]).collect()),
             uvs: uvs.map(|u| u.into_iter().map(|[a, b, c]| [a, c, b]).collect()),
+            attributes: attributes.map(|u| u.into_iter().map(|[a, b, c]| [a, c, b]).collect()),
             parallelogram: parallelogram.map(|[p0, e1, e2]| [p0, e2, e1]),
         },
         sphere @ WorldShape::Sphere { .. } => sphere,
@@ -661,6 +692,27 @@ type TriangleData = (
     Option<Vec<[Vec2; 3]>>,
 );
 
+/// Which triangles are not degenerate, or `None` when all are not.
+fn nondegenerate(triangles: &[[Vec3A; 3]]) -> Option<Vec<bool>> {
+    triangles
+        .iter()
+        .any(is_degenerate)
+        .then(|| triangles.iter().map(|t| !is_degenerate(t)).collect())
+}
+
+/// The items whose `keep` is set (all of them without a mask).
+fn kept<T>(items: Vec<T>, keep: Option<&[bool]>) -> Vec<T> {
+    match keep {
+        None => items,
+        Some(keep) => items
+            .into_iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(t, _)| t)
+            .collect(),
+    }
+}
+
 /// Triangles without the degenerate ones (see [`is_degenerate`]), with their normals and
 /// texture coordinates.
 pub fn drop_degenerate(
@@ -668,22 +720,12 @@ pub fn drop_degenerate(
     normals: Option<Vec<[Vec3A; 3]>>,
     uvs: Option<Vec<[Vec2; 3]>>,
 ) -> TriangleData {
-    if !triangles.iter().any(is_degenerate) {
-        return (triangles, normals, uvs);
-    }
-    let keep: Vec<bool> = triangles.iter().map(|t| !is_degenerate(t)).collect();
-    fn kept<T>(items: Vec<T>, keep: &[bool]) -> Vec<T> {
-        items
-            .into_iter()
-            .zip(keep)
-            .filter(|(_, k)| **k)
-            .map(|(t, _)| t)
-            .collect()
-    }
+    let keep = nondegenerate(&triangles);
+    let keep = keep.as_deref();
     (
-        kept(triangles, &keep),
-        normals.map(|n| kept(n, &keep)),
-        uvs.map(|u| kept(u, &keep)),
+        kept(triangles, keep),
+        normals.map(|n| kept(n, keep)),
+        uvs.map(|u| kept(u, keep)),
     )
 }
 
@@ -742,10 +784,19 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
                 }
                 _ => None,
             };
+            let attributes = match shape {
+                Shape::Mesh {
+                    attribute: Some(a),
+                    indices,
+                    ..
+                } => Some((0..indices.len()).map(|i| a.corners(indices, i)).collect()),
+                _ => None,
+            };
             WorldShape::Triangles {
                 triangles,
                 normals,
                 uvs: local_uvs(shape),
+                attributes,
                 parallelogram,
             }
         }

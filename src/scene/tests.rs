@@ -232,6 +232,7 @@ fn bake_transforms_mesh_normals_with_the_inverse_transpose() {
         indices: vec![[0, 1, 2]],
         normals: Some(vec![Vec3A::new(1.0, 1.0, 0.0).normalize(); 3]),
         uvs: None,
+        attribute: None,
     };
     let t = Transform {
         scale: Vec3::new(2.0, 1.0, 1.0),

@@ -3,7 +3,9 @@
 
 use super::*;
 use crate::formats::schema::{self, Metal};
-use crate::formats::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
+use crate::formats::texture_desc::{
+    AttributeDesc, CheckerboardDesc, ImageDesc, MixDesc, TextureDesc,
+};
 use raylab_integrators::bsdf::Distribution;
 
 /// A microfacet model's distribution and roughness as Mitsuba gives them.
@@ -193,6 +195,16 @@ impl<'a, 'input> Converter<'a, 'input> {
                     scale: 1.0,
                 })
             }
+            "mesh_attribute" => TextureDesc::Attribute(AttributeDesc {
+                name: p.string("name")?.ok_or_else(|| {
+                    at(
+                        self.doc,
+                        node,
+                        "<texture type=\"mesh_attribute\"> needs `name`",
+                    )
+                })?,
+                scale: p.float("scale")?.unwrap_or(1.0),
+            }),
             "checkerboard" => TextureDesc::Checkerboard(CheckerboardDesc {
                 color0: p.vector("color0")?.unwrap_or([0.4; 3]),
                 color1: p.vector("color1")?.unwrap_or([0.2; 3]),
@@ -203,7 +215,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 return Err(at(
                     self.doc,
                     node,
-                    format!("texture type `{other}` is not supported (bitmap, checkerboard are)"),
+                    format!("texture type `{other}` is not supported (bitmap, checkerboard, mesh_attribute are)"),
                 ))
             }
         };
@@ -626,9 +638,36 @@ impl<'a, 'input> Converter<'a, 'input> {
         p: &mut Props<'a, 'input>,
         node: Node<'a, 'input>,
     ) -> Result<MaterialDesc, Located> {
-        let weight = self.constant_weight(p, node, "weight")?;
+        // Mitsuba reads the weight as a scalar (eval_1); default 0.5.
+        let (weight, textured) = match self.float_param(p, "weight")? {
+            Some(FloatDesc::Texture(t)) => (None, Some(t)),
+            Some(FloatDesc::Constant(w)) if !(0.0..=1.0).contains(&w) => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!("`weight` must lie in [0, 1], not {w}"),
+                ))
+            }
+            Some(FloatDesc::Constant(w)) => (Some(w), None),
+            None => (Some(0.5), None),
+        };
         let inner = self.nested_bsdfs(p, node, 2)?;
         let (a, b) = (self.bsdf(inner[0])?, self.bsdf(inner[1])?);
+        // Two diffuse reflectances blended by a texture: one diffuse of the mixed colour.
+        if let (
+            Some(amount),
+            MaterialDesc::Lambert { albedo: ka },
+            MaterialDesc::Lambert { albedo: kb },
+        ) = (&textured, &a, &b)
+        {
+            return Ok(MaterialDesc::Lambert {
+                albedo: ColorDesc::Texture(TextureDesc::Mix(Box::new(MixDesc {
+                    tex0: ka.clone(),
+                    tex1: kb.clone(),
+                    amount: FloatDesc::Texture(amount.clone()),
+                }))),
+            });
+        }
         let w = weight.unwrap_or(0.5);
         Ok(match (weight, lambert_albedo(&a), lambert_albedo(&b)) {
             (Some(0.0), ..) => a,
@@ -682,29 +721,6 @@ impl<'a, 'input> Converter<'a, 'input> {
                 material: Box::new(material),
             },
         })
-    }
-
-    /// A blend weight or opacity in `[0, 1]`: the number, `None` when it is a texture (the
-    /// texture is consumed), Mitsuba's 0.5 when absent.
-    fn constant_weight(
-        &mut self,
-        p: &mut Props<'a, 'input>,
-        node: Node<'a, 'input>,
-        name: &str,
-    ) -> Result<Option<f32>, Located> {
-        if let Some(i) = p.children.iter().position(|(n, _)| n == name) {
-            p.children.remove(i);
-            return Ok(None);
-        }
-        let w = p.float(name)?.unwrap_or(0.5);
-        if !(0.0..=1.0).contains(&w) {
-            return Err(at(
-                self.doc,
-                node,
-                format!("`{name}` must lie in [0, 1], not {w}"),
-            ));
-        }
-        Ok(Some(w))
     }
 
     /// Exactly `n` nested (or referenced) BSDFs of `node`.

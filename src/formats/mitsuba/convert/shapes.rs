@@ -137,7 +137,11 @@ impl<'a, 'input> Converter<'a, 'input> {
                 if kind == "obj" {
                     ShapeDesc::Obj { path, normals }
                 } else {
-                    ShapeDesc::Ply { path, normals }
+                    ShapeDesc::Ply {
+                        path,
+                        normals,
+                        attribute: None,
+                    }
                 }
             }
             "serialized" => {
@@ -245,6 +249,39 @@ impl<'a, 'input> Converter<'a, 'input> {
                     name
                 }
             }),
+        };
+        // The mesh attribute its material reads, which the shape carries to it.
+        let read = material
+            .as_ref()
+            .and_then(|m| self.materials.iter().find(|(n, _)| n == m))
+            .map_or(Vec::new(), |(_, desc)| desc.attributes());
+        let shape = match (shape, read.as_slice()) {
+            (shape, []) => shape,
+            (ShapeDesc::Ply { path, normals, .. }, [one]) => ShapeDesc::Ply {
+                path,
+                normals,
+                attribute: Some(one.clone()),
+            },
+            (ShapeDesc::Ply { .. }, _) => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!(
+                        "the shape's BSDF reads the mesh attributes {}: raylab carries one per shape",
+                        read.join(", ")
+                    ),
+                ))
+            }
+            (_, _) => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!(
+                        "the shape's BSDF reads the mesh attribute `{}`: only a `ply` shape carries attributes",
+                        read[0]
+                    ),
+                ))
+            }
         };
         Ok(ShapeParts {
             name,
