@@ -18,6 +18,7 @@ mod instances;
 mod obvhs_backend;
 mod packet;
 mod primitives;
+pub mod sdf_grid;
 mod surface;
 
 pub use obvhs_backend::ObvhsBvh;
