@@ -19,6 +19,7 @@ mod obvhs_backend;
 mod packet;
 mod primitives;
 pub mod sdf_grid;
+mod sdf_set;
 mod surface;
 
 pub use obvhs_backend::ObvhsBvh;
@@ -32,6 +33,8 @@ use packet::{Analytic, AnalyticIndex, Lane, LeafTest, Packet, PacketRay, Stored,
 pub use primitives::{Quadric, QuadricKind};
 use raylab_integrators::{Hit, Pending, Ray};
 use rayon::prelude::*;
+pub use sdf_set::SdfInput;
+use sdf_set::SdfSet;
 use surface::{barycentrics, parametrisation, shading_normal, VertexData};
 
 /// Triangles in their own space, with optional per-triangle vertex normals (smooth shading)
@@ -122,6 +125,8 @@ pub struct Input<'a> {
     /// accelerator before, instead of building it again.
     pub mesh_keys: Vec<u64>,
     pub instances: Vec<InstanceDesc>,
+    /// SDF grids (Mitsuba's `sdfgrid`), placed.
+    pub sdf_grids: Vec<SdfInput>,
 }
 
 /// The eight corners of the box `(min, max)`.
@@ -315,6 +320,8 @@ pub struct WideBvh {
     pub(crate) quadrics: Vec<Quadric>,
     /// Instanced meshes (a two-level BVH); empty in most scenes.
     instances: InstanceSet,
+    /// The SDF grids' voxels; empty in most scenes.
+    sdf: SdfSet,
     /// Bounds of everything, or `None` without geometry.
     bounds: Option<(Vec3A, Vec3A)>,
     /// The AVX2 build of the traversal, where the processor has AVX2.
@@ -379,14 +386,18 @@ impl WideBvh {
 
         let instances =
             InstanceSet::build(&input.meshes, &input.mesh_keys, &input.instances, previous);
+        let sdf = SdfSet::build(&input.sdf_grids);
         // BVH over every primitive's box, for leaves that test a packet at a time; then one or
         // two packets per leaf, the leaves numbered in the BVH's primitive order.
         let (mut bvh, order) = Bvh::build::<bvh::Packets>(prims.len(), |i| prims[i].aabb(shapes));
         let leaves = bvh.number_leaves(packet::packets_for);
-        let bounds = match bvh.bounds() {
+        let mut bounds = match bvh.bounds() {
             Some(b) => instances.bounds.union(&b),
             None => instances.bounds,
         };
+        if let Some(b) = sdf.bounds() {
+            bounds = bounds.union(&b);
+        }
 
         // Each position of the BVH's order: its primitive, read from `prims` once here (in
         // this order the reads are random; the passes below then read `placed` in turn),
@@ -498,6 +509,7 @@ impl WideBvh {
             sph_radius,
             quadrics,
             instances,
+            sdf,
             bounds: bounds.valid().then_some((bounds.min, bounds.max)),
             avx2: isa::Avx2::detect(),
             stats,
@@ -518,6 +530,7 @@ impl WideBvh {
             + v(self.packets.capacity(), size_of::<Stored>())
             + v(self.vertex_data.capacity(), size_of::<VertexData>())
             + v(self.attributes.capacity(), size_of::<[Vec3A; 3]>())
+            + self.sdf.memory_bytes()
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
             + v(self.quadrics.capacity(), size_of::<Quadric>())
@@ -628,18 +641,28 @@ impl WideBvh {
                 Some((first * packet::WIDTH as u32 + k as u32, t))
             },
         );
+        // Instances, then SDF grids, only count nearer than the hit so far.
+        let mut r = bvh_ray;
+        if let Some((_, t)) = flat {
+            r.tmax = t;
+        }
+        let mut instanced = None;
         if !self.instances.is_empty() {
-            // Instances only count nearer than the flat geometry's hit.
-            let mut r = bvh_ray;
-            if let Some((_, t)) = flat {
+            if let Some((slot, prim, t)) = self.instances.intersect(isa, &r) {
+                instanced = Some((slot, prim));
                 r.tmax = t;
             }
-            if let Some((slot, prim, t)) = self.instances.intersect(isa, &r) {
-                return Some(
-                    self.instances
-                        .hit_record(ray.origin, ray.dir, slot, prim, t),
-                );
+        }
+        if !self.sdf.is_empty() {
+            if let Some((k, t)) = self.sdf.closest(isa, &r) {
+                return Some(self.sdf.hit_record(ray.origin, ray.dir, k, t));
             }
+        }
+        if let Some((slot, prim)) = instanced {
+            return Some(
+                self.instances
+                    .hit_record(ray.origin, ray.dir, slot, prim, r.tmax),
+            );
         }
         flat.map(|(id, t)| self.hit_record(ray, id, t))
     }
@@ -663,6 +686,7 @@ impl WideBvh {
                         )
                     },
                 ) || (!self.instances.is_empty() && self.instances.occluded(isa, &r))
+                    || (!self.sdf.is_empty() && self.sdf.any(isa, &r))
             }
             None => false,
         }

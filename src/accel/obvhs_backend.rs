@@ -10,6 +10,7 @@
 //! [`super::instances`], so that local and world distances agree.
 
 use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle, Quadric};
+use super::sdf_set::SdfSet;
 use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
 use super::{box_corners, bvh, AccelStats, Geometry, Input, ShapeLights};
 use glam::{Affine3A, Vec3A};
@@ -74,6 +75,8 @@ pub struct ObvhsBvh {
     /// In the TLAS's primitive order.
     instances: Vec<Instance>,
     meshes: Vec<MeshBvh>,
+    /// The SDF grids' voxels (raylab's own BVH over them, searched last).
+    sdf: SdfSet,
     bounds: Option<(Vec3A, Vec3A)>,
     pub stats: AccelStats,
 }
@@ -223,8 +226,13 @@ impl ObvhsBvh {
                 .collect()
         });
 
+        let sdf = SdfSet::build(&input.sdf_grids);
         let mut bounds = Aabb::empty();
-        for b in boxes.iter().chain(&instance_boxes) {
+        for b in boxes
+            .iter()
+            .chain(&instance_boxes)
+            .chain(sdf.bounds().as_ref())
+        {
             bounds = bounds.union(b);
         }
         let spheres = prims
@@ -258,6 +266,7 @@ impl ObvhsBvh {
             tlas,
             instances,
             meshes,
+            sdf,
             bounds: bounds.valid().then_some((bounds.min, bounds.max)),
             stats,
         }
@@ -282,6 +291,7 @@ impl ObvhsBvh {
             + self.attributes.capacity() * size_of::<[Vec3A; 3]>()
             + self.quadrics.capacity() * size_of::<Quadric>()
             + self.instances.capacity() * size_of::<Instance>()
+            + self.sdf.memory_bytes()
             + self
                 .meshes
                 .iter()
@@ -325,6 +335,7 @@ impl ObvhsBvh {
         if flat {
             r.tmax = flat_hit.t;
         }
+        let mut instanced = None;
         if let Some(tlas) = &self.tlas {
             let mut found = None;
             let mut tlas_hit = RayHit::none();
@@ -343,9 +354,19 @@ impl ObvhsBvh {
                 }
             });
             // Each instance hit the closure reports is nearer than the last: the last is it.
-            if let Some((slot, k, t)) = found {
-                return Some(self.instance_hit(ray, slot, k, t));
+            if let Some((_, _, t)) = found {
+                r.tmax = t;
             }
+            instanced = found;
+        }
+        // Then the SDF grids, nearer than both.
+        if !self.sdf.is_empty() {
+            if let Some((k, t)) = self.sdf.closest(super::bvh::isa::Portable, &r) {
+                return Some(self.sdf.hit_record(ray.origin, ray.dir, k, t));
+            }
+        }
+        if let Some((slot, k, t)) = instanced {
+            return Some(self.instance_hit(ray, slot, k, t));
         }
         flat.then(|| self.flat_hit(ray, flat_hit.primitive_id as usize, flat_hit.t))
     }
@@ -378,6 +399,7 @@ impl ObvhsBvh {
                     }
                 })
             })
+            || (!self.sdf.is_empty() && self.sdf.any(super::bvh::isa::Portable, &r))
     }
 
     /// The surface record of flat primitive `k` hit at distance `t`, as [`super::WideBvh`]

@@ -22,7 +22,7 @@ pub struct SdfGrid {
     /// Values in `x`, `y`, `z`, each at least 2.
     resolution: [usize; 3],
     /// `values[(z * ny + y) * nx + x]`.
-    values: Vec<f32>,
+    values: std::sync::Arc<[f32]>,
     to_world: Affine3A,
     to_object: Affine3A,
     /// The inverse transpose of `to_world`'s linear part: object normals to world normals.
@@ -32,26 +32,34 @@ pub struct SdfGrid {
 }
 
 impl SdfGrid {
-    /// A grid of `resolution` values placed by `to_world` (invertible); `None` when it has
-    /// fewer than 2 values along an axis or as many values as the resolution says.
+    /// A grid of `resolution` values placed by `to_world`; `None` when it has fewer than 2
+    /// values along an axis, not as many values as the resolution says, or a transform that
+    /// cannot be inverted.
     pub fn new(
         resolution: [usize; 3],
-        values: Vec<f32>,
+        values: std::sync::Arc<[f32]>,
         to_world: Affine3A,
         smooth: bool,
     ) -> Option<SdfGrid> {
         let n = resolution.iter().product::<usize>();
-        (resolution.iter().all(|&r| r >= 2)
-            && values.len() == n
-            && to_world.matrix3.determinant() != 0.0)
-            .then(|| SdfGrid {
-                resolution,
-                values,
-                to_world,
-                to_object: to_world.inverse(),
-                normal_to_world: to_world.matrix3.inverse().transpose(),
-                smooth,
-            })
+        let to_object = to_world.inverse();
+        let normal_to_world = to_world.matrix3.inverse().transpose();
+        let invertible = to_world.matrix3.determinant() != 0.0
+            && to_object.is_finite()
+            && normal_to_world.is_finite();
+        (resolution.iter().all(|&r| r >= 2) && values.len() == n && invertible).then_some(SdfGrid {
+            resolution,
+            values,
+            to_world,
+            to_object,
+            normal_to_world,
+            smooth,
+        })
+    }
+
+    /// The corners of the placed unit cube the grid spans.
+    pub fn bounds(&self) -> [Vec3A; 8] {
+        super::box_corners((Vec3A::ZERO, Vec3A::ONE)).map(|c| self.to_world.transform_point3a(c))
     }
 
     /// Voxels along each axis.
@@ -396,7 +404,7 @@ mod tests {
                 }
             }
         }
-        SdfGrid::new([n; 3], values, to_world, true).unwrap()
+        SdfGrid::new([n; 3], values.into(), to_world, true).unwrap()
     }
 
     /// The closest hit over every occupied voxel, by brute force.

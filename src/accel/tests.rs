@@ -106,6 +106,11 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
                 .map(|t| primitives::intersect_triangle(t, &obvhs_ray))
                 .collect(),
             WorldShape::Quadric(q) => vec![q.intersect(&obvhs_ray)],
+            WorldShape::SdfGrid(g) => g
+                .occupied_voxels()
+                .iter()
+                .filter_map(|&(v, _)| g.intersect(v, ray.origin, ray.dir, ray.tmax))
+                .collect(),
         };
         for t in ts {
             if t.is_finite() && best.is_none_or(|(b, _)| t < b) {
@@ -146,7 +151,7 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
         .iter()
         .map(|s| match s {
             WorldShape::Triangles { triangles, .. } => triangles.len(),
-            WorldShape::Sphere { .. } | WorldShape::Quadric(_) => 0,
+            WorldShape::Sphere { .. } | WorldShape::Quadric(_) | WorldShape::SdfGrid(_) => 0,
         })
         .sum();
     assert_eq!(

@@ -1093,6 +1093,16 @@ pub enum ShapeDesc {
         #[serde(default)]
         normals: MeshNormals,
     },
+    /// A signed distance function sampled on a grid (Mitsuba 3's `sdfgrid`): a `.vol` file of
+    /// one channel, `path` relative to the scene file, over the unit cube of the entity's
+    /// space, interpolated trilinearly, its zero set the surface; shaded with Hansson-Söderlund
+    /// et al.'s smooth normals unless `smooth_normals: false` (the interpolant's gradient).
+    /// No texture coordinates; not an emitter.
+    SdfGrid {
+        path: String,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        smooth_normals: bool,
+    },
     /// A mesh asset of the scene's `meshes` table, placed by the entity's transform. Every
     /// instance shares one copy of the mesh and its BVH. Instances cannot emit light.
     Instance { mesh: String },

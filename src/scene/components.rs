@@ -138,6 +138,12 @@ pub enum Shape {
         /// The file's attribute the entity's material reads, if any.
         attribute: Option<crate::formats::mesh_files::MeshAttribute>,
     },
+    /// An SDF grid over the unit cube (Mitsuba's `sdfgrid`): `values` in `x`, `y`, `z` order.
+    SdfGrid {
+        resolution: [usize; 3],
+        values: std::sync::Arc<[f32]>,
+        smooth: bool,
+    },
     /// A mesh asset of the scene, by name; resolved to [`Instanced`] by
     /// [`super::assets::resolve_instances`].
     Instance {
@@ -286,6 +292,8 @@ pub enum WorldShape {
     },
     /// A disk or cylinder, placed.
     Quadric(Quadric),
+    /// An SDF grid, placed.
+    SdfGrid(std::sync::Arc<crate::accel::sdf_grid::SdfGrid>),
 }
 
 impl WorldShape {
@@ -298,6 +306,8 @@ impl WorldShape {
                 .sum(),
             WorldShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
             WorldShape::Quadric(q) => q.area(),
+            // Not measured: an SDF grid cannot emit, and nothing else asks.
+            WorldShape::SdfGrid(_) => 0.0,
         }
     }
 }

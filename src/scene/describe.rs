@@ -421,6 +421,29 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
                 other => other,
             }
         }
+        ShapeDesc::SdfGrid {
+            path,
+            smooth_normals,
+        } => {
+            let g = crate::formats::volume_grid::load_volume_grid(&files.named(&path)?)?;
+            if g.channels != 1 {
+                return Err(format!(
+                    "`{path}` holds {} channels; an SDF grid has one",
+                    g.channels
+                ));
+            }
+            if g.resolution.iter().any(|&r| r < 2) {
+                return Err(format!(
+                    "`{path}` is {} x {} x {}: an SDF grid needs at least 2 values along each axis",
+                    g.resolution[0], g.resolution[1], g.resolution[2]
+                ));
+            }
+            Shape::SdfGrid {
+                resolution: g.resolution,
+                values: g.values.into(),
+                smooth: smooth_normals,
+            }
+        }
         ShapeDesc::Serialized {
             path,
             shape_index,

@@ -506,7 +506,7 @@ impl SceneState {
             .filter_map(|&e| self.loaded.world.get::<&WorldShape>(e).ok())
             .map(|s| match &*s {
                 WorldShape::Triangles { triangles, .. } => triangles.len() as u64,
-                WorldShape::Sphere { .. } | WorldShape::Quadric(_) => 0,
+                WorldShape::Sphere { .. } | WorldShape::Quadric(_) | WorldShape::SdfGrid(_) => 0,
             })
             .sum();
         let mut warnings =

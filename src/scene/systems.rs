@@ -74,6 +74,11 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                         "an area emitter needs a shape (use `Point` for a point light)".into(),
                     ));
                 }
+                if matches!(s, Some(Shape::SdfGrid { .. })) {
+                    return Err(fail(
+                        "an SDF grid cannot emit light (in Mitsuba neither)".into(),
+                    ));
+                }
                 if *two_sided && matches!(s, Some(Shape::Sphere { .. })) {
                     return Err(fail(
                         "a sphere is closed and emits outwards: `two_sided` has no meaning on it"
@@ -198,6 +203,8 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
         }
     };
     match shape {
+        // Read from a file whose values and size are checked; its transform when it is baked.
+        Shape::SdfGrid { .. } => {}
         Shape::Sphere { center, radius } => {
             all("sphere center", &[*center])?;
             finite("sphere radius", &[*radius])?;
@@ -402,7 +409,11 @@ fn local_uvs(shape: &Shape) -> Option<Vec<[Vec2; 3]>> {
 /// Triangles a shape will make, known before making them.
 fn triangle_count(shape: &Shape) -> u64 {
     match shape {
-        Shape::Sphere { .. } | Shape::Disk | Shape::Cylinder { .. } | Shape::Instance { .. } => 0,
+        Shape::Sphere { .. }
+        | Shape::Disk
+        | Shape::Cylinder { .. }
+        | Shape::Instance { .. }
+        | Shape::SdfGrid { .. } => 0,
         Shape::Icosphere { subdivisions, .. } => 20 * 4u64.pow((*subdivisions).min(31)),
         Shape::Triangle(_) => 1,
         Shape::Quad(_) => 2,
@@ -418,9 +429,11 @@ pub const MAX_SUBDIVISIONS: u32 = 10;
 
 fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
     match shape {
-        Shape::Sphere { .. } | Shape::Disk | Shape::Cylinder { .. } | Shape::Instance { .. } => {
-            Vec::new()
-        }
+        Shape::Sphere { .. }
+        | Shape::Disk
+        | Shape::Cylinder { .. }
+        | Shape::Instance { .. }
+        | Shape::SdfGrid { .. } => Vec::new(),
         Shape::Icosphere {
             subdivisions,
             displacement,
@@ -519,6 +532,7 @@ pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
         WorldShape::Triangles { triangles, .. } => {
             check_points_reach(triangles.iter().flatten().copied())
         }
+        WorldShape::SdfGrid(g) => check_points_reach(g.bounds().into_iter()),
     }
 }
 
@@ -599,7 +613,34 @@ pub fn bake_transforms(
                 continue;
             }
             let m = transform.matrix();
-            let world_shape = bake_shape(shape, &m);
+            let world_shape = match shape {
+                Shape::SdfGrid {
+                    resolution,
+                    values,
+                    smooth,
+                } => {
+                    if flip.is_some() {
+                        return Err((
+                            name.0.clone(),
+                            "flip_normals on an SDF grid is not supported: its normals are the function's gradient".into(),
+                        ));
+                    }
+                    let grid = crate::accel::sdf_grid::SdfGrid::new(
+                        *resolution,
+                        values.clone(),
+                        m,
+                        *smooth,
+                    )
+                    .ok_or_else(|| {
+                        (
+                            name.0.clone(),
+                            "the SDF grid's transform cannot be inverted".to_string(),
+                        )
+                    })?;
+                    WorldShape::SdfGrid(std::sync::Arc::new(grid))
+                }
+                _ => bake_shape(shape, &m),
+            };
             let world_shape = if flip.is_some() {
                 flip_faces(world_shape)
             } else {
@@ -678,6 +719,8 @@ fn flip_faces(shape: WorldShape) -> WorldShape {
             parallelogram: parallelogram.map(|[p0, e1, e2]| [p0, e2, e1]),
         },
         sphere @ WorldShape::Sphere { .. } => sphere,
+        // Its normals are the function's gradient: `flip_normals` is refused on it.
+        grid @ WorldShape::SdfGrid(_) => grid,
         WorldShape::Quadric(q) => WorldShape::Quadric(Quadric {
             flipped: !q.flipped,
             ..q
@@ -908,6 +951,8 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                 // Validation guarantees area emitters have shapes; a shape dropped by the bake
                 // step (all triangles degenerate) was already reported.
                 (Emitter::Area { .. }, None) => return None,
+                // Refused by validation: an SDF grid cannot emit.
+                (Emitter::Area { .. }, Some(WorldShape::SdfGrid(_))) => return None,
             };
             Some((*order, entity, lights))
         })

@@ -157,6 +157,24 @@ impl<'a, 'input> Converter<'a, 'input> {
                     normals,
                 }
             }
+            "sdfgrid" => {
+                let path = self.file_name(file(&mut p)?);
+                let smooth_normals = match p.string("normals")?.as_deref() {
+                    None | Some("smooth") => true,
+                    Some("analytic") => false,
+                    Some(other) => {
+                        return Err(at(
+                            self.doc,
+                            node,
+                            format!("<shape type=\"sdfgrid\">: `normals` must be \"smooth\" or \"analytic\", not \"{other}\""),
+                        ))
+                    }
+                };
+                ShapeDesc::SdfGrid {
+                    path,
+                    smooth_normals,
+                }
+            }
             "rectangle" => ShapeDesc::Rectangle,
             "cube" => ShapeDesc::Box {
                 min: [-1.0; 3],
@@ -173,7 +191,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 radius: p.float("radius")?.unwrap_or(1.0),
             },
             other => {
-                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, serialized, rectangle, cube, disk, sphere, cylinder are)")))
+                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, sdfgrid are)")))
             }
         };
         let mut flip = p.boolean("flip_normals")?.unwrap_or(false);
