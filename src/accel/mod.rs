@@ -83,6 +83,8 @@ pub enum Geometry<'a> {
     Sphere {
         center: Vec3A,
         radius: f32,
+        /// Its own axes in the world, which orient its parametrisation.
+        frame: glam::Mat3A,
     },
     /// A disk or an open cylinder.
     Quadric(Quadric),
@@ -316,6 +318,8 @@ pub struct WideBvh {
     // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
     pub(crate) sph_center: Vec<Vec3A>,
     pub(crate) sph_radius: Vec<f32>,
+    /// Each sphere's own axes (its parametrisation's frame).
+    pub(crate) sph_frame: Vec<glam::Mat3A>,
     /// Disks and cylinders, in BVH order.
     pub(crate) quadrics: Vec<Quadric>,
     /// Instanced meshes (a two-level BVH); empty in most scenes.
@@ -344,7 +348,7 @@ impl Prim {
     fn aabb(self, shapes: &[Shape]) -> Aabb {
         match shapes[self.shape as usize].geometry {
             Geometry::Triangles(mesh) => Aabb::from_points(&mesh.triangles[self.index as usize]),
-            Geometry::Sphere { center, radius } => {
+            Geometry::Sphere { center, radius, .. } => {
                 Aabb::new(center - Vec3A::splat(radius), center + Vec3A::splat(radius))
             }
             Geometry::Quadric(q) => {
@@ -406,6 +410,7 @@ impl WideBvh {
         let mut placed: Vec<Prim> = huge_pages::with_capacity(order.len());
         let mut aux = Vec::with_capacity(order.len());
         let (mut with_data, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
+        let mut sph_frame = Vec::new();
         let mut quadrics = Vec::new();
         for &original in &order {
             let p = prims[original as usize];
@@ -416,9 +421,14 @@ impl WideBvh {
                     with_data - 1
                 }
                 Geometry::Triangles(_) => NONE,
-                Geometry::Sphere { center, radius } => {
+                Geometry::Sphere {
+                    center,
+                    radius,
+                    frame,
+                } => {
                     sph_center.push(center);
                     sph_radius.push(radius);
+                    sph_frame.push(frame);
                     sph_center.len() as u32 - 1
                 }
                 Geometry::Quadric(q) => {
@@ -507,6 +517,7 @@ impl WideBvh {
             attributes,
             sph_center,
             sph_radius,
+            sph_frame,
             quadrics,
             instances,
             sdf,
@@ -559,7 +570,7 @@ impl WideBvh {
             match shape {
                 AnalyticIndex::Sphere(i) => {
                     let (c, r) = (self.sph_center[i], self.sph_radius[i]);
-                    Hit::on_sphere(ray, t, c, r, material, light)
+                    Hit::on_oriented_sphere(ray, t, c, r, self.sph_frame[i], material, light)
                 }
                 AnalyticIndex::Quadric(i) => {
                     self.quadrics[i].hit(ray.origin, ray.dir, t, material, light)

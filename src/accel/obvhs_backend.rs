@@ -37,6 +37,7 @@ enum Prim {
     Sphere {
         center: Vec3A,
         radius: f32,
+        frame: glam::Mat3A,
         material: u32,
         light: u32,
     },
@@ -136,9 +137,14 @@ impl ObvhsBvh {
                         });
                     }
                 }
-                Geometry::Sphere { center, radius } => prims.push(Prim::Sphere {
+                Geometry::Sphere {
                     center,
                     radius,
+                    frame,
+                } => prims.push(Prim::Sphere {
+                    center,
+                    radius,
+                    frame,
                     material: shape.material,
                     light: light(0),
                 }),
@@ -410,9 +416,10 @@ impl ObvhsBvh {
             Prim::Sphere {
                 center,
                 radius,
+                frame,
                 material,
                 light: l,
-            } => Hit::on_sphere(ray, t, center, radius, material, light(l)),
+            } => Hit::on_oriented_sphere(ray, t, center, radius, frame, material, light(l)),
             Prim::Quadric {
                 index,
                 material,

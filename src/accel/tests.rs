@@ -98,7 +98,7 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
     let obvhs_ray = obvhs::ray::Ray::new(ray.origin, ray.dir, 0.0, ray.tmax);
     for shape in scene.world.query::<&WorldShape>().iter() {
         let ts: Vec<f32> = match shape {
-            WorldShape::Sphere { center, radius } => {
+            WorldShape::Sphere { center, radius, .. } => {
                 vec![primitives::intersect_sphere(*center, *radius, &obvhs_ray)]
             }
             WorldShape::Triangles { triangles, .. } => triangles

@@ -391,6 +391,10 @@ pub enum MaterialDesc {
         #[serde(default = "glass_ior")]
         eta: f32,
     },
+    /// An opaque material seen from its front only (Mitsuba 3's opaque BSDFs outside a
+    /// `twosided`): from behind its shading normal it reflects nothing. raylab's own opaque
+    /// materials are two-sided; the Mitsuba importer wraps Mitsuba's one-sided ones in this.
+    OneSided(Box<MaterialDesc>),
     /// The same material on both faces (Mitsuba's `twosided`). raylab's opaque materials are
     /// two-sided already, so this is the material itself; a dielectric inside is an error.
     TwoSided(Box<MaterialDesc>),
@@ -583,7 +587,7 @@ impl MaterialDesc {
                     &mut out,
                 );
             }
-            TwoSided(inner) => out = inner.attributes(),
+            TwoSided(inner) | OneSided(inner) => out = inner.attributes(),
             NormalMap {
                 texture, material, ..
             } => {
@@ -724,7 +728,7 @@ impl MaterialDesc {
                     .iter()
                     .any(|a| a.as_ref().is_some_and(f))
             }
-            TwoSided(inner) => inner.is_textured(),
+            TwoSided(inner) | OneSided(inner) => inner.is_textured(),
             NormalMap { .. } | BumpMap { .. } => true,
             Mask { opacity, material } => f(opacity) || material.is_textured(),
             Cutout { material, .. } => material.is_textured(),

@@ -289,6 +289,9 @@ pub enum WorldShape {
     Sphere {
         center: Vec3A,
         radius: f32,
+        /// The sphere's own axes in the world (a rotation, perhaps a mirror): Mitsuba's
+        /// parametrisation is the object's, so a rotated sphere's texture turns with it.
+        frame: glam::Mat3A,
     },
     /// A disk or cylinder, placed.
     Quadric(Quadric),

@@ -185,9 +185,14 @@ impl RenderScene {
                             attributes: attributes.as_deref(),
                             bounds: (Vec3A::ZERO, Vec3A::ZERO),
                         }),
-                        WorldShape::Sphere { center, radius } => Geometry::Sphere {
+                        WorldShape::Sphere {
+                            center,
+                            radius,
+                            frame,
+                        } => Geometry::Sphere {
                             center: *center,
                             radius: *radius,
+                            frame: *frame,
                         },
                         WorldShape::Quadric(q) => Geometry::Quadric(*q),
                         // Set apart above.
@@ -519,7 +524,7 @@ pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
         .query::<(&FileOrder, &WorldShape)>()
         .iter()
         .filter_map(|(order, shape)| match shape {
-            WorldShape::Sphere { center, radius } => Some((*order, *center, *radius)),
+            WorldShape::Sphere { center, radius, .. } => Some((*order, *center, *radius)),
             WorldShape::Triangles { .. } | WorldShape::Quadric(_) | WorldShape::SdfGrid(_) => None,
         })
         .collect();

@@ -516,7 +516,7 @@ pub const MAX_COORDINATE: f32 = 1e7;
 /// axis (a finite transform of finite numbers can still overflow).
 pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
     match shape {
-        WorldShape::Sphere { center, radius } => check_reach_of(far(center) + radius),
+        WorldShape::Sphere { center, radius, .. } => check_reach_of(far(center) + radius),
         WorldShape::Quadric(q) => {
             let (min, max) = q.bounds();
             check_reach_of(far(&min).max(far(&max)))?;
@@ -786,6 +786,19 @@ pub fn cylinder_to_world(p0: Vec3A, p1: Vec3A, radius: f32, m: &Affine3A) -> Aff
     *m * local
 }
 
+/// A sphere's own axes from its placement's linear part `m` of scale `scale`: the identity
+/// where `m` is a uniform scale (to the last bit, so that such spheres are parametrised as
+/// before), else `m` over its scale.
+fn sphere_frame(m: Mat3A, scale: f32) -> Mat3A {
+    let frame = m * (1.0 / scale);
+    let off = (frame - Mat3A::IDENTITY).to_cols_array();
+    if off.iter().all(|x| x.abs() < 1e-6) {
+        Mat3A::IDENTITY
+    } else {
+        frame
+    }
+}
+
 /// The world-space geometry of one shape under matrix `m`.
 pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
     match shape {
@@ -795,10 +808,14 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
             cylinder_to_world(*p0, *p1, *radius, m),
             false,
         )),
-        Shape::Sphere { center, radius } => WorldShape::Sphere {
-            center: m.transform_point3a(*center),
-            radius: radius * m.matrix3.x_axis.length(),
-        },
+        Shape::Sphere { center, radius } => {
+            let scale = m.matrix3.x_axis.length();
+            WorldShape::Sphere {
+                center: m.transform_point3a(*center),
+                radius: radius * scale,
+                frame: sphere_frame(m.matrix3, scale),
+            }
+        }
         _ => {
             let triangles: Vec<[Vec3A; 3]> = local_triangles(shape)
                 .iter()
@@ -891,7 +908,10 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     },
                     Some(WorldShape::Quadric(q)),
                 ) => vec![quadric_light(q, radiance, two_sided)],
-                (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
+                (
+                    Emitter::Area { radiance, .. },
+                    Some(WorldShape::Sphere { center, radius, .. }),
+                ) => {
                     if flip.is_some() {
                         vec![Light::sphere_inward(*center, *radius, radiance)]
                     } else {

@@ -197,7 +197,8 @@ fn bake_applies_transforms_and_orients_closed_shapes_outwards() {
         *w.get::<&WorldShape>(ball).unwrap(),
         WorldShape::Sphere {
             center: Vec3A::new(1.0, 2.0, 3.0),
-            radius: 1.0
+            radius: 1.0,
+            frame: glam::Mat3A::IDENTITY
         }
     );
     for name in ["tet", "box"] {

@@ -323,6 +323,9 @@ pub struct SurfaceMaterial {
     perturbation: Option<(Perturbation, MapOptions)>,
     /// A cut-out mask's opacity (Mitsuba's `mask`), if any.
     opacity: Option<Texture>,
+    /// Seen from its front only (Mitsuba's opaque BSDFs): nothing from behind the shading
+    /// normal.
+    one_sided: bool,
     /// pbrt-v4's `alpha`, if any: where it is below 1 the surface is absent for a share of
     /// the rays (every ray, shadow rays too), which pass as if it were not there
     /// ([`crate::cutout`]).
@@ -347,6 +350,7 @@ impl SurfaceMaterial {
             textures,
             perturbation,
             opacity: None,
+            one_sided: false,
             cutout: None,
         }
     }
@@ -410,6 +414,19 @@ impl SurfaceMaterial {
         .any(Texture::reads_attribute)
     }
 
+    /// The material seen from its front only (see [`MappedBsdf::one_sided`]).
+    pub fn with_one_sided(self) -> SurfaceMaterial {
+        SurfaceMaterial {
+            one_sided: true,
+            ..self
+        }
+    }
+
+    /// Whether the material is seen from its front only.
+    pub fn is_one_sided(&self) -> bool {
+        self.one_sided
+    }
+
     /// The material on a surface cut out by pbrt-v4's `alpha` (a texture's scalar).
     pub fn with_cutout(self, alpha: Texture) -> SurfaceMaterial {
         SurfaceMaterial {
@@ -445,7 +462,10 @@ impl SurfaceMaterial {
     #[inline(always)]
     pub(crate) fn at(&self, hit: &mut Hit, towards_viewer: Vec3A) -> MappedBsdf<'_> {
         if !self.varies {
-            return MappedBsdf::plain(Cow::Borrowed(&self.bsdf));
+            return MappedBsdf {
+                one_sided: self.one_sided,
+                ..MappedBsdf::plain(Cow::Borrowed(&self.bsdf))
+            };
         }
         self.at_varying(hit, towards_viewer)
     }
@@ -483,6 +503,7 @@ impl SurfaceMaterial {
             material,
             map,
             opacity,
+            one_sided: self.one_sided,
         }
     }
 }

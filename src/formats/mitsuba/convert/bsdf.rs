@@ -67,6 +67,37 @@ fn lambert_albedo(m: &MaterialDesc) -> Option<V3> {
     }
 }
 
+/// Whether Mitsuba sees the material from its front only: an opaque model not inside a
+/// `twosided` (through maps, masks and blends, which keep their BSDFs' sides).
+fn one_sided(m: &MaterialDesc) -> bool {
+    use MaterialDesc::*;
+    match m {
+        Lambert { .. }
+        | OrenNayar { .. }
+        | Phong { .. }
+        | Mirror { .. }
+        | Conductor { .. }
+        | RoughConductor { .. }
+        | Plastic { .. }
+        | RoughPlastic { .. } => true,
+        Principled { spec_trans, .. } => {
+            !matches!(spec_trans, Some(FloatDesc::Texture(_)))
+                && !matches!(spec_trans, Some(FloatDesc::Constant(x)) if *x != 0.0)
+        }
+        NormalMap { material, .. }
+        | BumpMap { material, .. }
+        | Mask { material, .. }
+        | Cutout { material, .. } => one_sided(material),
+        TwoSided(_) | OneSided(_) => false,
+        Glass { .. }
+        | Dielectric { .. }
+        | RoughDielectric { .. }
+        | ThinDielectric { .. }
+        | DiffuseTransmission { .. }
+        | PrincipledThin { .. } => false,
+    }
+}
+
 /// Mitsuba's default BSDF: diffuse 0.5.
 pub(super) fn default_bsdf() -> MaterialDesc {
     MaterialDesc::Lambert {
@@ -771,16 +802,10 @@ impl<'a, 'input> Converter<'a, 'input> {
         while self.materials.iter().any(|(n, _)| *n == name) {
             name.push('\'');
         }
-        let desc = self.bsdf(node)?;
-        let kind = self.kind(node)?;
-        if matches!(
-            kind.as_str(),
-            "diffuse" | "conductor" | "roughconductor" | "plastic" | "roughplastic"
-        ) {
-            self.report.push(format!(
-                "{name}: Mitsuba's `{kind}` is one-sided (black from behind); raylab's opaque \
-                 materials are two-sided (as inside `twosided`)"
-            ));
+        let mut desc = self.bsdf(node)?;
+        // Mitsuba's opaque BSDFs reflect nothing from behind unless inside a `twosided`.
+        if one_sided(&desc) {
+            desc = MaterialDesc::OneSided(Box::new(desc));
         }
         self.materials.push((name.clone(), desc));
         self.origins
