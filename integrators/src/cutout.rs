@@ -47,7 +47,10 @@ pub fn closest_through_cutouts<'m>(
             return Some(along(ray, hit));
         };
         parametrise(&mut hit);
-        if !passes(alpha.eval_scalar(hit.uv), &r) {
+        if !passes(
+            alpha.at_scalar(&crate::texture::TextureLookup::at(&hit)),
+            &r,
+        ) {
             return Some(along(ray, hit));
         }
         let next = hit.spawn_ray(r.dir);

@@ -99,6 +99,9 @@ pub struct Hit {
     /// parametrisation (Mitsuba 3's for spheres and rectangles; `(b1, b2)` on triangles
     /// without any).
     pub uv: Vec2,
+    /// The mesh attribute the surface carries (a vertex colour interpolated, a face's value),
+    /// once parametrised; zero where it has none.
+    pub attribute: Vec3A,
     /// What `uv`, `dpdu` and `dpdv` still wait for: most hits never need them, so they are
     /// computed only when a material asks ([`crate::Scene::parametrise`]).
     pub pending: Pending,
@@ -152,6 +155,40 @@ impl Hit {
         }
     }
 
+    /// [`Hit::on_sphere`] for a sphere whose own axes in the world are `frame` (a rotation,
+    /// perhaps with a mirror): its texture coordinates and tangents are those of its own
+    /// space (Mitsuba 3's parametrisation of the object), computed at once. The identity is
+    /// [`Hit::on_sphere`] exactly.
+    #[inline]
+    pub fn on_oriented_sphere(
+        ray: &Ray,
+        t: f32,
+        center: Vec3A,
+        radius: f32,
+        frame: glam::Mat3A,
+        material: u32,
+        light: Option<u32>,
+    ) -> Hit {
+        let hit = Hit::on_sphere(ray, t, center, radius, material, light);
+        if frame == glam::Mat3A::IDENTITY {
+            return hit;
+        }
+        let n = frame.transpose() * hit.ng;
+        let mut local = Hit {
+            ng: n,
+            dpdu: Vec3A::new(-n.y, n.x, 0.0),
+            ..hit
+        };
+        local.parametrise_sphere();
+        Hit {
+            uv: local.uv,
+            dpdu: frame * local.dpdu,
+            dpdv: frame * local.dpdv,
+            pending: Pending::None,
+            ..hit
+        }
+    }
+
     /// A hit whose shading normal is its geometric normal `n`.
     #[inline]
     pub fn new(t: f32, p: Vec3A, n: Vec3A, material: u32, light: Option<u32>) -> Hit {
@@ -165,6 +202,7 @@ impl Hit {
             dpdu: Vec3A::ZERO,
             dpdv: Vec3A::ZERO,
             uv: Vec2::ZERO,
+            attribute: Vec3A::ZERO,
             pending: Pending::None,
             media: MediumInterface::VACUUM,
             spawn_offset: 0.0,

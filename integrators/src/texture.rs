@@ -256,9 +256,66 @@ pub enum Texture {
         color1: Rgb,
         to_uv: Affine2,
     },
+    /// The attribute the hit mesh carries (Mitsuba 3's `mesh_attribute`): a vertex colour
+    /// interpolated, or a face's value. Only a material's parameters read it (through
+    /// [`Texture::at`]), times `scale`; a lookup by `uv` alone sees black.
+    Attribute {
+        scale: f32,
+    },
+    /// `(1 - amount) tex0 + amount tex1`, `amount` read as a number (pbrt-v4's `mix`; a
+    /// Mitsuba `blendbsdf` of two diffuse reflectances by a texture).
+    Mix(Box<[Texture; 3]>),
+}
+
+/// Where a material's textures are looked up: the hit's texture coordinates and the mesh
+/// attribute it carries.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TextureLookup {
+    pub uv: Vec2,
+    pub attribute: Rgb,
+}
+
+impl TextureLookup {
+    /// The lookup at a hit (parametrised).
+    #[inline]
+    pub fn at(hit: &crate::Hit) -> TextureLookup {
+        TextureLookup {
+            uv: hit.uv,
+            attribute: hit.attribute,
+        }
+    }
 }
 
 impl Texture {
+    /// The colour at a hit: [`Texture::eval`] at its `uv`, the hit's mesh attribute for
+    /// [`Texture::Attribute`].
+    #[inline]
+    pub fn at(&self, l: &TextureLookup) -> Rgb {
+        match self {
+            Texture::Attribute { scale } => l.attribute * *scale,
+            Texture::Mix(t) => {
+                let a = t[2].at_scalar(l);
+                t[0].at(l) * (1.0 - a) + t[1].at(l) * a
+            }
+            _ => self.eval(l.uv),
+        }
+    }
+
+    /// A scalar parameter at a hit: the colour's luminance.
+    #[inline]
+    pub fn at_scalar(&self, l: &TextureLookup) -> f32 {
+        luminance(self.at(l))
+    }
+
+    /// Whether the texture reads the hit's mesh attribute.
+    pub fn reads_attribute(&self) -> bool {
+        match self {
+            Texture::Attribute { .. } => true,
+            Texture::Mix(t) => t.iter().any(Texture::reads_attribute),
+            _ => false,
+        }
+    }
+
     /// The colour at texture coordinates `uv`.
     #[inline]
     pub fn eval(&self, uv: Vec2) -> Rgb {
@@ -282,6 +339,11 @@ impl Texture {
                     *color1
                 }
             }
+            Texture::Attribute { .. } => Rgb::ZERO,
+            Texture::Mix(t) => {
+                let a = t[2].eval_scalar(uv);
+                t[0].eval(uv) * (1.0 - a) + t[1].eval(uv) * a
+            }
         }
     }
 
@@ -304,7 +366,17 @@ impl Texture {
                 let g = image.luminance_gradient(to_uv.transform_point2(uv));
                 to_uv.matrix2.transpose() * g * *scale
             }
-            Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
+            Texture::Constant(_) | Texture::Checkerboard { .. } | Texture::Attribute { .. } => {
+                Vec2::ZERO
+            }
+            Texture::Mix(t) => {
+                // d/duv of (1 - a) x + a y = (1 - a) dx + a dy + (y - x) da, by luminance.
+                let (a, (x, y)) = (
+                    t[2].eval_scalar(uv),
+                    (t[0].eval_scalar(uv), t[1].eval_scalar(uv)),
+                );
+                t[0].gradient(uv) * (1.0 - a) + t[1].gradient(uv) * a + t[2].gradient(uv) * (y - x)
+            }
         }
     }
 
@@ -321,6 +393,12 @@ impl Texture {
                 color0.min_element().min(color1.min_element()),
                 color0.max_element().max(color1.max_element()),
             ),
+            // The loader keeps attributes read as colours within [0, 1].
+            Texture::Attribute { scale } => (0.0_f32.min(*scale), 0.0_f32.max(*scale)),
+            Texture::Mix(t) => {
+                let ((a0, a1), (b0, b1)) = (t[0].range(), t[1].range());
+                (a0.min(b0), a1.max(b1))
+            }
         }
     }
 
@@ -331,6 +409,12 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Image { image, scale, .. } => image.mean() * *scale,
             Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
+            // Unknown until a mesh carries it: the middle of its range.
+            Texture::Attribute { scale } => Rgb::splat(0.5 * scale),
+            Texture::Mix(t) => {
+                let a = luminance(t[2].mean()).clamp(0.0, 1.0);
+                t[0].mean() * (1.0 - a) + t[1].mean() * a
+            }
         }
     }
 
@@ -349,6 +433,8 @@ impl Texture {
             // The scale is not negative (the loader checks).
             Texture::Image { image, scale, .. } => image.max() * *scale,
             Texture::Checkerboard { color0, color1, .. } => color0.max(*color1),
+            Texture::Attribute { scale } => Rgb::splat(scale.max(0.0)),
+            Texture::Mix(t) => t[0].max().max(t[1].max()),
         }
     }
 }

@@ -21,7 +21,8 @@ A scene raylab refuses is listed with the first line it said. Prints a Markdown 
         [--only SUBSTRING] [--out DIR] [-- EXTRA RAYLAB OPTIONS]
 
 MITSUBA_DATA is a checkout of github.com/mitsuba-renderer/mitsuba-data (its `common/` is the
-search folder, `-a`, as Mitsuba's resolver has it).
+search folder, `-a`, as Mitsuba's resolver has it; the scenes may read files anywhere in it:
+`--allow-path`).
 """
 import argparse
 import math
@@ -109,7 +110,9 @@ def main():
         spp = SAMPLE_BUDGET // pixels
         integrator = scene.stem.rsplit("_", 1)[-1]
         image = out / (str(name).replace("/", "__") + ".exr")
+        # The scenes read files across the repository (tests/obj, docs/scenes/sdfgrid).
         cmd = [args.raylab, "render", str(scene), "-a", str(args.data / "common"),
+               "--allow-path", str(args.data),
                "-D", f"spp={spp}", "-D", f"integrator={integrator}", "--spp", str(spp),
                "-o", str(image), *args.extra]
         run = subprocess.run(cmd, capture_output=True, text=True)

@@ -31,6 +31,8 @@ struct MeshBlas {
     packets: Vec<Stored>,
     /// Vertex data per triangle (BVH order), or empty when the mesh has none.
     vertex_data: Vec<VertexData>,
+    /// The mesh attribute at each triangle's corners (BVH order), or empty.
+    attributes: Vec<[Vec3A; 3]>,
     triangles: usize,
 }
 
@@ -97,11 +99,16 @@ impl MeshBlas {
             .par_iter()
             .filter_map(|&i| mesh.vertex_data(i as usize))
             .collect();
+        let attributes = match mesh.attributes {
+            Some(a) => order.iter().map(|&i| a[i as usize]).collect(),
+            None => Vec::new(),
+        };
         MeshBlas {
             key,
             bvh,
             packets,
             vertex_data,
+            attributes,
             triangles: order.len(),
         }
     }
@@ -111,6 +118,7 @@ impl MeshBlas {
         self.bvh.memory_bytes()
             + self.packets.capacity() * size_of::<Stored>()
             + self.vertex_data.capacity() * size_of::<VertexData>()
+            + self.attributes.capacity() * size_of::<[Vec3A; 3]>()
     }
 }
 
@@ -336,11 +344,13 @@ impl InstanceSet {
         let mesh = &self.meshes[inst.mesh as usize];
         let (k, lane) = (prim as usize / packet::WIDTH, prim as usize % packet::WIDTH);
         let Stored { packet, data } = &mesh.packets[k];
-        let vertex = data.vertex_data(lane).and_then(|i| mesh.vertex_data.get(i));
+        let index = data.vertex_data(lane);
+        let vertex = index.and_then(|i| mesh.vertex_data.get(i));
+        let attribute = index.and_then(|i| mesh.attributes.get(i));
         let (v0, e1, e2) = packet.edges(lane);
         let b = barycentrics(v0, e1, e2, inst.world_to_local.transform_point3a(p));
         // Tangents go back to world space by the local-to-world map (rarely needed: inverted
         // here rather than stored beside every instance the traversal reads).
-        parametrisation(b, e1, e2, vertex).mapped(inst.world_to_local.matrix3.inverse())
+        parametrisation(b, e1, e2, vertex, attribute).mapped(inst.world_to_local.matrix3.inverse())
     }
 }

@@ -20,6 +20,8 @@ mod instances;
 mod obvhs_backend;
 mod packet;
 mod primitives;
+pub mod sdf_grid;
+mod sdf_set;
 mod surface;
 
 pub use obvhs_backend::ObvhsBvh;
@@ -34,6 +36,8 @@ use packet::{Analytic, AnalyticIndex, Lane, LeafTest, Packet, PacketRay, Stored,
 pub use primitives::{Quadric, QuadricKind};
 use raylab_integrators::{Hit, Pending, Ray};
 use rayon::prelude::*;
+pub use sdf_set::SdfInput;
+use sdf_set::SdfSet;
 use surface::{barycentrics, parametrisation, shading_normal, VertexData};
 
 /// Triangles in their own space, with optional per-triangle vertex normals (smooth shading)
@@ -43,18 +47,34 @@ pub struct Mesh<'a> {
     pub triangles: &'a [[Vec3A; 3]],
     pub normals: Option<&'a [[Vec3A; 3]]>,
     pub uvs: Option<&'a [[Vec2; 3]]>,
+    /// Per triangle, the mesh attribute at its corners (a face's value at all three).
+    pub attributes: Option<&'a [[Vec3A; 3]]>,
     pub bounds: (Vec3A, Vec3A),
 }
 
 impl Mesh<'_> {
     /// Whether its triangles carry vertex data.
     fn has_vertex_data(&self) -> bool {
-        self.normals.is_some() || self.uvs.is_some()
+        self.normals.is_some() || self.uvs.is_some() || self.attributes.is_some()
+    }
+
+    /// Triangle `i`'s attribute at its corners (zero without attributes): the array beside
+    /// the vertex data, in its order, where some mesh has attributes.
+    pub(crate) fn attribute(&self, i: usize) -> [Vec3A; 3] {
+        self.attributes.map_or([Vec3A::ZERO; 3], |a| a[i])
     }
 
     /// Triangle `i`'s vertex data, if the mesh has any.
     fn vertex_data(&self, i: usize) -> Option<VertexData> {
-        VertexData::of(self.normals, self.uvs, i)
+        VertexData::of(self.normals, self.uvs, i).or_else(|| {
+            // Attributes alone: the vertex data holds the triangle's place beside them.
+            self.attributes.map(|_| VertexData {
+                normals: [Vec3A::ZERO; 3],
+                uvs: surface::DEFAULT_UVS,
+                has_normals: false,
+                has_uvs: false,
+            })
+        })
     }
 }
 
@@ -66,6 +86,8 @@ pub enum Geometry<'a> {
     Sphere {
         center: Vec3A,
         radius: f32,
+        /// Its own axes in the world, which orient its parametrisation.
+        frame: glam::Mat3A,
     },
     /// A disk or an open cylinder.
     Quadric(Quadric),
@@ -110,6 +132,8 @@ pub struct Input<'a> {
     /// accelerator before, instead of building it again.
     pub mesh_keys: Vec<u64>,
     pub instances: Vec<InstanceDesc>,
+    /// SDF grids (Mitsuba's `sdfgrid`), placed.
+    pub sdf_grids: Vec<SdfInput>,
 }
 
 /// The eight corners of the box `(min, max)`.
@@ -295,9 +319,14 @@ pub struct WideBvh {
     pub(crate) packets: Vec<Stored>,
     /// Vertex data of the triangles that have any ([`packet::LaneData::vertex_data`]).
     pub(crate) vertex_data: Vec<VertexData>,
+    /// Beside `vertex_data`, index for index, the mesh attributes at the corners; empty when
+    /// no mesh has any.
+    pub(crate) attributes: Vec<[Vec3A; 3]>,
     // Spheres' geometry, in BVH order; their materials and lights are in their lane data.
     pub(crate) sph_center: Vec<Vec3A>,
     pub(crate) sph_radius: Vec<f32>,
+    /// Each sphere's own axes (its parametrisation's frame).
+    pub(crate) sph_frame: Vec<glam::Mat3A>,
     /// Disks and cylinders, in BVH order.
     pub(crate) quadrics: Vec<Quadric>,
     /// The curves' segments, shape after shape, and their pieces in BVH order.
@@ -305,6 +334,8 @@ pub struct WideBvh {
     pub(crate) curve_pieces: Vec<CurvePiece>,
     /// Instanced meshes (a two-level BVH); empty in most scenes.
     instances: InstanceSet,
+    /// The SDF grids' voxels; empty in most scenes.
+    sdf: SdfSet,
     /// Bounds of everything, or `None` without geometry.
     bounds: Option<(Vec3A, Vec3A)>,
     /// The AVX2 build of the traversal, where the processor has AVX2.
@@ -327,7 +358,7 @@ impl Prim {
     fn aabb(self, shapes: &[Shape]) -> Aabb {
         match shapes[self.shape as usize].geometry {
             Geometry::Triangles(mesh) => Aabb::from_points(&mesh.triangles[self.index as usize]),
-            Geometry::Sphere { center, radius } => {
+            Geometry::Sphere { center, radius, .. } => {
                 Aabb::new(center - Vec3A::splat(radius), center + Vec3A::splat(radius))
             }
             Geometry::Quadric(q) => {
@@ -393,14 +424,18 @@ impl WideBvh {
 
         let instances =
             InstanceSet::build(&input.meshes, &input.mesh_keys, &input.instances, previous);
+        let sdf = SdfSet::build(&input.sdf_grids);
         // BVH over every primitive's box, for leaves that test a packet at a time; then one or
         // two packets per leaf, the leaves numbered in the BVH's primitive order.
         let (mut bvh, order) = Bvh::build::<bvh::Packets>(prims.len(), |i| prims[i].aabb(shapes));
         let leaves = bvh.number_leaves(packet::packets_for);
-        let bounds = match bvh.bounds() {
+        let mut bounds = match bvh.bounds() {
             Some(b) => instances.bounds.union(&b),
             None => instances.bounds,
         };
+        if let Some(b) = sdf.bounds() {
+            bounds = bounds.union(&b);
+        }
 
         // Each position of the BVH's order: its primitive, read from `prims` once here (in
         // this order the reads are random; the passes below then read `placed` in turn),
@@ -409,6 +444,7 @@ impl WideBvh {
         let mut placed: Vec<Prim> = huge_pages::with_capacity(order.len());
         let mut aux = Vec::with_capacity(order.len());
         let (mut with_data, mut sph_center, mut sph_radius) = (0u32, Vec::new(), Vec::new());
+        let mut sph_frame = Vec::new();
         let mut quadrics = Vec::new();
         let mut curve_pieces = Vec::new();
         for &original in &order {
@@ -420,9 +456,14 @@ impl WideBvh {
                     with_data - 1
                 }
                 Geometry::Triangles(_) => NONE,
-                Geometry::Sphere { center, radius } => {
+                Geometry::Sphere {
+                    center,
+                    radius,
+                    frame,
+                } => {
                     sph_center.push(center);
                     sph_radius.push(radius);
+                    sph_frame.push(frame);
                     sph_center.len() as u32 - 1
                 }
                 Geometry::Quadric(q) => {
@@ -454,6 +495,22 @@ impl WideBvh {
                     Geometry::Sphere { .. } | Geometry::Quadric(_) | Geometry::Curves(_) => None,
                 })
                 .collect()
+        };
+        let any_attributes = shapes
+            .iter()
+            .any(|s| matches!(s.geometry, Geometry::Triangles(m) if m.attributes.is_some()));
+        let attributes: Vec<[Vec3A; 3]> = if any_attributes {
+            placed
+                .par_iter()
+                .filter_map(|p| match shapes[p.shape as usize].geometry {
+                    Geometry::Triangles(mesh) if mesh.has_vertex_data() => {
+                        Some(mesh.attribute(p.index as usize))
+                    }
+                    _ => None,
+                })
+                .collect()
+        } else {
+            Vec::new()
         };
         let lane = |k: u32| {
             let p = placed[k as usize];
@@ -507,12 +564,15 @@ impl WideBvh {
             bvh,
             packets,
             vertex_data,
+            attributes,
             sph_center,
             sph_radius,
+            sph_frame,
             quadrics,
             curve_segments,
             curve_pieces,
             instances,
+            sdf,
             bounds: bounds.valid().then_some((bounds.min, bounds.max)),
             avx2: isa::Avx2::detect(),
             stats,
@@ -532,6 +592,8 @@ impl WideBvh {
         self.instances.memory_bytes()
             + v(self.packets.capacity(), size_of::<Stored>())
             + v(self.vertex_data.capacity(), size_of::<VertexData>())
+            + v(self.attributes.capacity(), size_of::<[Vec3A; 3]>())
+            + self.sdf.memory_bytes()
             + v(self.sph_center.capacity(), size_of::<Vec3A>())
             + v(self.sph_radius.capacity(), 4)
             + v(self.quadrics.capacity(), size_of::<Quadric>())
@@ -564,7 +626,7 @@ impl WideBvh {
             match shape {
                 AnalyticIndex::Sphere(i) => {
                     let (c, r) = (self.sph_center[i], self.sph_radius[i]);
-                    Hit::on_sphere(ray, t, c, r, material, light)
+                    Hit::on_oriented_sphere(ray, t, c, r, self.sph_frame[i], material, light)
                 }
                 AnalyticIndex::Quadric(i) => {
                     self.quadrics[i].hit(ray.origin, ray.dir, t, material, light)
@@ -606,8 +668,10 @@ impl WideBvh {
             let (p, lane) = (prim as usize / packet::WIDTH, prim as usize % packet::WIDTH);
             let (s, data) = (&self.packets[p].packet, &self.packets[p].data);
             let (v0, e1, e2) = s.edges(lane);
-            let vertex = data.vertex_data(lane).map(|k| &self.vertex_data[k]);
-            parametrisation(barycentrics(v0, e1, e2, hit.p), e1, e2, vertex)
+            let k = data.vertex_data(lane);
+            let vertex = k.map(|k| &self.vertex_data[k]);
+            let attribute = k.and_then(|k| self.attributes.get(k));
+            parametrisation(barycentrics(v0, e1, e2, hit.p), e1, e2, vertex, attribute)
         } else {
             self.instances.parametrisation(instance, prim, hit.p)
         };
@@ -647,18 +711,28 @@ impl WideBvh {
                 Some((first * packet::WIDTH as u32 + k as u32, t))
             },
         );
+        // Instances, then SDF grids, only count nearer than the hit so far.
+        let mut r = bvh_ray;
+        if let Some((_, t)) = flat {
+            r.tmax = t;
+        }
+        let mut instanced = None;
         if !self.instances.is_empty() {
-            // Instances only count nearer than the flat geometry's hit.
-            let mut r = bvh_ray;
-            if let Some((_, t)) = flat {
+            if let Some((slot, prim, t)) = self.instances.intersect(isa, &r) {
+                instanced = Some((slot, prim));
                 r.tmax = t;
             }
-            if let Some((slot, prim, t)) = self.instances.intersect(isa, &r) {
-                return Some(
-                    self.instances
-                        .hit_record(ray.origin, ray.dir, slot, prim, t),
-                );
+        }
+        if !self.sdf.is_empty() {
+            if let Some((k, t)) = self.sdf.closest(isa, &r) {
+                return Some(self.sdf.hit_record(ray.origin, ray.dir, k, t));
             }
+        }
+        if let Some((slot, prim)) = instanced {
+            return Some(
+                self.instances
+                    .hit_record(ray.origin, ray.dir, slot, prim, r.tmax),
+            );
         }
         flat.map(|(id, t)| self.hit_record(ray, id, t))
     }
@@ -682,6 +756,7 @@ impl WideBvh {
                         )
                     },
                 ) || (!self.instances.is_empty() && self.instances.occluded(isa, &r))
+                    || (!self.sdf.is_empty() && self.sdf.any(isa, &r))
             }
             None => false,
         }

@@ -11,6 +11,7 @@
 
 use super::curves::{CurvePiece, CurveSegment};
 use super::primitives::{intersect_sphere, intersect_triangle, occludes_triangle, Quadric};
+use super::sdf_set::SdfSet;
 use super::surface::{barycentrics, parametrisation, shading_normal, VertexData};
 use super::{box_corners, bvh, AccelStats, Geometry, Input, ShapeLights};
 use glam::{Affine3A, Vec3A};
@@ -37,6 +38,7 @@ enum Prim {
     Sphere {
         center: Vec3A,
         radius: f32,
+        frame: glam::Mat3A,
         material: u32,
         light: u32,
     },
@@ -59,6 +61,8 @@ struct MeshBvh {
     bvh: CwBvh,
     triangles: Vec<[Vec3A; 3]>,
     vertex_data: Vec<VertexData>,
+    /// The mesh attribute at each triangle's corners (BVH order), or empty.
+    attributes: Vec<[Vec3A; 3]>,
 }
 
 struct Instance {
@@ -72,6 +76,8 @@ pub struct ObvhsBvh {
     flat: Option<CwBvh>,
     prims: Vec<Prim>,
     vertex_data: Vec<VertexData>,
+    /// Beside `vertex_data`, the mesh attributes at the corners; empty when no mesh has any.
+    attributes: Vec<[Vec3A; 3]>,
     quadrics: Vec<Quadric>,
     curve_segments: Vec<CurveSegment>,
     curve_pieces: Vec<CurvePiece>,
@@ -79,6 +85,8 @@ pub struct ObvhsBvh {
     /// In the TLAS's primitive order.
     instances: Vec<Instance>,
     meshes: Vec<MeshBvh>,
+    /// The SDF grids' voxels (raylab's own BVH over them, searched last).
+    sdf: SdfSet,
     bounds: Option<(Vec3A, Vec3A)>,
     pub stats: AccelStats,
 }
@@ -105,6 +113,11 @@ impl ObvhsBvh {
         // The flat primitives in input order, and their boxes.
         let mut prims = Vec::new();
         let mut vertex_data = Vec::new();
+        let mut attributes = Vec::new();
+        let any_attributes = input
+            .shapes
+            .iter()
+            .any(|s| matches!(s.geometry, Geometry::Triangles(m) if m.attributes.is_some()));
         let mut quadrics = Vec::new();
         let mut curve_segments: Vec<CurveSegment> = Vec::new();
         let mut curve_pieces = Vec::new();
@@ -120,6 +133,9 @@ impl ObvhsBvh {
                         let index = match mesh.vertex_data(i) {
                             Some(d) => {
                                 vertex_data.push(d);
+                                if any_attributes {
+                                    attributes.push(mesh.attribute(i));
+                                }
                                 vertex_data.len() as u32 - 1
                             }
                             None => NONE,
@@ -132,9 +148,14 @@ impl ObvhsBvh {
                         });
                     }
                 }
-                Geometry::Sphere { center, radius } => prims.push(Prim::Sphere {
+                Geometry::Sphere {
                     center,
                     radius,
+                    frame,
+                } => prims.push(Prim::Sphere {
+                    center,
+                    radius,
+                    frame,
                     material: shape.material,
                     light: light(0),
                 }),
@@ -208,6 +229,10 @@ impl ObvhsBvh {
                         .iter()
                         .filter_map(|&i| mesh.vertex_data(i as usize))
                         .collect(),
+                    attributes: match mesh.attributes {
+                        Some(a) => order.iter().map(|&i| a[i as usize]).collect(),
+                        None => Vec::new(),
+                    },
                     bvh,
                 });
             }
@@ -236,8 +261,13 @@ impl ObvhsBvh {
                 .collect()
         });
 
+        let sdf = SdfSet::build(&input.sdf_grids);
         let mut bounds = Aabb::empty();
-        for b in boxes.iter().chain(&instance_boxes) {
+        for b in boxes
+            .iter()
+            .chain(&instance_boxes)
+            .chain(sdf.bounds().as_ref())
+        {
             bounds = bounds.union(b);
         }
         let spheres = prims
@@ -267,12 +297,14 @@ impl ObvhsBvh {
             flat,
             prims,
             vertex_data,
+            attributes,
             quadrics,
             curve_segments,
             curve_pieces,
             tlas,
             instances,
             meshes,
+            sdf,
             bounds: bounds.valid().then_some((bounds.min, bounds.max)),
             stats,
         }
@@ -294,10 +326,12 @@ impl ObvhsBvh {
             + self.tlas.as_ref().map_or(0, bvh)
             + self.prims.capacity() * size_of::<Prim>()
             + self.vertex_data.capacity() * size_of::<VertexData>()
+            + self.attributes.capacity() * size_of::<[Vec3A; 3]>()
             + self.quadrics.capacity() * size_of::<Quadric>()
             + self.curve_segments.capacity() * size_of::<CurveSegment>()
             + self.curve_pieces.capacity() * size_of::<CurvePiece>()
             + self.instances.capacity() * size_of::<Instance>()
+            + self.sdf.memory_bytes()
             + self
                 .meshes
                 .iter()
@@ -305,6 +339,7 @@ impl ObvhsBvh {
                     bvh(&m.bvh)
                         + m.triangles.capacity() * size_of::<[Vec3A; 3]>()
                         + m.vertex_data.capacity() * size_of::<VertexData>()
+                        + m.attributes.capacity() * size_of::<[Vec3A; 3]>()
                 })
                 .sum::<usize>()
     }
@@ -343,6 +378,7 @@ impl ObvhsBvh {
         if flat {
             r.tmax = flat_hit.t;
         }
+        let mut instanced = None;
         if let Some(tlas) = &self.tlas {
             let mut found = None;
             let mut tlas_hit = RayHit::none();
@@ -361,9 +397,19 @@ impl ObvhsBvh {
                 }
             });
             // Each instance hit the closure reports is nearer than the last: the last is it.
-            if let Some((slot, k, t)) = found {
-                return Some(self.instance_hit(ray, slot, k, t));
+            if let Some((_, _, t)) = found {
+                r.tmax = t;
             }
+            instanced = found;
+        }
+        // Then the SDF grids, nearer than both.
+        if !self.sdf.is_empty() {
+            if let Some((k, t)) = self.sdf.closest(super::bvh::isa::Portable, &r) {
+                return Some(self.sdf.hit_record(ray.origin, ray.dir, k, t));
+            }
+        }
+        if let Some((slot, k, t)) = instanced {
+            return Some(self.instance_hit(ray, slot, k, t));
         }
         flat.then(|| self.flat_hit(ray, flat_hit.primitive_id as usize, flat_hit.t))
     }
@@ -399,6 +445,7 @@ impl ObvhsBvh {
                     }
                 })
             })
+            || (!self.sdf.is_empty() && self.sdf.any(super::bvh::isa::Portable, &r))
     }
 
     /// The surface record of flat primitive `k` hit at distance `t`, as [`super::WideBvh`]
@@ -409,9 +456,10 @@ impl ObvhsBvh {
             Prim::Sphere {
                 center,
                 radius,
+                frame,
                 material,
                 light: l,
-            } => Hit::on_sphere(ray, t, center, radius, material, light(l)),
+            } => Hit::on_oriented_sphere(ray, t, center, radius, frame, material, light(l)),
             Prim::Quadric {
                 index,
                 material,
@@ -500,14 +548,16 @@ impl ObvhsBvh {
             };
             let (e1, e2) = (v1 - v0, v2 - v0);
             let b = barycentrics(v0, e1, e2, hit.p);
-            parametrisation(b, e1, e2, self.vertex_data.get(vertex_data as usize))
+            let k = vertex_data as usize;
+            parametrisation(b, e1, e2, self.vertex_data.get(k), self.attributes.get(k))
         } else {
             let inst = &self.instances[instance as usize];
             let mesh = &self.meshes[inst.mesh as usize];
             let [v0, v1, v2] = mesh.triangles[prim as usize];
             let (e1, e2) = (v1 - v0, v2 - v0);
             let b = barycentrics(v0, e1, e2, inst.world_to_local.transform_point3a(hit.p));
-            parametrisation(b, e1, e2, mesh.vertex_data.get(prim as usize))
+            let k = prim as usize;
+            parametrisation(b, e1, e2, mesh.vertex_data.get(k), mesh.attributes.get(k))
                 .mapped(inst.world_to_local.matrix3.inverse())
         };
         param.write_to(hit);

@@ -41,6 +41,8 @@ pub struct Parametrisation {
     pub uv: Vec2,
     pub dpdu: Vec3A,
     pub dpdv: Vec3A,
+    /// The mesh attribute interpolated at the hit (zero without one).
+    pub attribute: Vec3A,
 }
 
 impl Parametrisation {
@@ -48,9 +50,9 @@ impl Parametrisation {
     #[inline]
     pub fn mapped(self, m: glam::Mat3A) -> Parametrisation {
         Parametrisation {
-            uv: self.uv,
             dpdu: m * self.dpdu,
             dpdv: m * self.dpdv,
+            ..self
         }
     }
 
@@ -58,6 +60,7 @@ impl Parametrisation {
     #[inline]
     pub fn write_to(self, hit: &mut raylab_integrators::Hit) {
         (hit.uv, hit.dpdu, hit.dpdv) = (self.uv, self.dpdu, self.dpdv);
+        hit.attribute = self.attribute;
         hit.pending = raylab_integrators::Pending::None;
     }
 }
@@ -66,19 +69,23 @@ impl Parametrisation {
 /// and `e2 = v2 - v0` (in whatever space the caller works in): `uv` interpolated from the
 /// vertices' texture coordinates, `dpdu` and `dpdv` solved from them as Mitsuba 3 does. A
 /// triangle without texture coordinates (or with degenerate ones) has no tangents: its frame
-/// is its normal's, as Mitsuba 3's `coordinate_system(n)`.
+/// is its normal's, as Mitsuba 3's `coordinate_system(n)`. The triangle's `attribute` at its
+/// corners, if it has one, is interpolated likewise.
 #[inline]
 pub fn parametrisation(
     b: Vec3A,
     e1: Vec3A,
     e2: Vec3A,
     data: Option<&VertexData>,
+    attribute: Option<&[Vec3A; 3]>,
 ) -> Parametrisation {
+    let attribute = attribute.map_or(Vec3A::ZERO, |a| a[0] * b.x + a[1] * b.y + a[2] * b.z);
     let Some(data) = data.filter(|d| d.has_uvs) else {
         return Parametrisation {
             uv: Vec2::new(b.y, b.z),
             dpdu: Vec3A::ZERO,
             dpdv: Vec3A::ZERO,
+            attribute,
         };
     };
     let [uv0, uv1, uv2] = data.uvs;
@@ -94,7 +101,12 @@ pub fn parametrisation(
     } else {
         (Vec3A::ZERO, Vec3A::ZERO)
     };
-    Parametrisation { uv, dpdu, dpdv }
+    Parametrisation {
+        uv,
+        dpdu,
+        dpdv,
+        attribute,
+    }
 }
 
 /// The shading normal at barycentric weights `b` from the vertex normals `n`, turned to the
@@ -151,7 +163,7 @@ mod tests {
             has_uvs: true,
         };
         let b = Vec3A::new(0.5, 0.25, 0.25);
-        let p = parametrisation(b, e1, e2, Some(&data));
+        let p = parametrisation(b, e1, e2, Some(&data), None);
         assert!((p.uv - Vec2::new(0.5, 0.5)).length() < 1e-6);
         assert!(
             (p.dpdu - Vec3A::new(0.0, -0.5, 0.0)).length() < 1e-6,
@@ -164,13 +176,20 @@ mod tests {
             p.dpdv
         );
         // Without texture coordinates: uv is (b1, b2) and there are no tangents.
-        let q = parametrisation(b, e1, e2, None);
+        let q = parametrisation(b, e1, e2, None, None);
         assert_eq!((q.uv, q.dpdu), (Vec2::new(0.25, 0.25), Vec3A::ZERO));
         // Degenerate uvs give no tangents rather than infinities.
         let flat = VertexData {
             uvs: [Vec2::ONE; 3],
             ..data
         };
-        assert_eq!(parametrisation(b, e1, e2, Some(&flat)).dpdu, Vec3A::ZERO);
+        assert_eq!(
+            parametrisation(b, e1, e2, Some(&flat), None).dpdu,
+            Vec3A::ZERO
+        );
+        // An attribute is interpolated with the barycentric weights.
+        let a = [Vec3A::X, Vec3A::Y, Vec3A::Z];
+        let with = parametrisation(b, e1, e2, None, Some(&a));
+        assert_eq!(with.attribute, Vec3A::new(0.5, 0.25, 0.25));
     }
 }

@@ -98,7 +98,7 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
     let obvhs_ray = obvhs::ray::Ray::new(ray.origin, ray.dir, 0.0, ray.tmax);
     for shape in scene.world.query::<&WorldShape>().iter() {
         let ts: Vec<f32> = match shape {
-            WorldShape::Sphere { center, radius } => {
+            WorldShape::Sphere { center, radius, .. } => {
                 vec![primitives::intersect_sphere(*center, *radius, &obvhs_ray)]
             }
             WorldShape::Triangles { triangles, .. } => triangles
@@ -121,6 +121,11 @@ fn brute_force(scene: &crate::scene::LoadedScene, ray: &Ray) -> Option<(f32, Vec
                     })
                     .collect()
             }
+            WorldShape::SdfGrid(g) => g
+                .occupied_voxels()
+                .iter()
+                .filter_map(|&(v, _)| g.intersect(v, ray.origin, ray.dir, ray.tmax))
+                .collect(),
         };
         for t in ts {
             if t.is_finite() && best.is_none_or(|(b, _)| t < b) {
@@ -161,7 +166,10 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
         .iter()
         .map(|s| match s {
             WorldShape::Triangles { triangles, .. } => triangles.len(),
-            WorldShape::Sphere { .. } | WorldShape::Quadric(_) | WorldShape::Curves { .. } => 0,
+            WorldShape::Sphere { .. }
+            | WorldShape::Quadric(_)
+            | WorldShape::SdfGrid(_)
+            | WorldShape::Curves { .. } => 0,
         })
         .sum();
     assert_eq!(

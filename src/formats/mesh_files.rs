@@ -42,6 +42,31 @@ pub struct FileMesh {
     /// Vertex normals the file gave as NaN or infinite (or zero), replaced by the angle-weighted
     /// normal of the triangles around the vertex.
     pub repaired_normals: usize,
+    /// The file's other per-vertex and per-face values (PLY), named as Mitsuba 3 names them.
+    pub attributes: Vec<MeshAttribute>,
+}
+
+/// Values a mesh file gives per vertex or per face beside its geometry (Mitsuba 3's mesh
+/// attributes): one or three numbers each (one is kept in all three channels).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAttribute {
+    /// `vertex_NAME` or `face_NAME` (`vertex_color` for `red green blue` or `r g b`).
+    pub name: String,
+    /// Per vertex, or per triangle (a face's value for each triangle it was split into).
+    pub values: Vec<Vec3A>,
+    pub per_face: bool,
+}
+
+impl MeshAttribute {
+    /// The values at the corners of triangle `i` of `indices`.
+    #[inline]
+    pub fn corners(&self, indices: &[[u32; 3]], i: usize) -> [Vec3A; 3] {
+        if self.per_face {
+            [self.values[i]; 3]
+        } else {
+            indices[i].map(|k| self.values[k as usize])
+        }
+    }
 }
 
 impl FileMesh {

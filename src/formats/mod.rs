@@ -20,3 +20,4 @@ pub mod serialized;
 pub mod spectra;
 mod spectra_tables;
 pub mod texture_desc;
+pub mod volume_grid;

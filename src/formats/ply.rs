@@ -2,13 +2,14 @@
 //! positions, normals (`nx ny nz`) and texture coordinates (`u v`, `s t`, `texture_u
 //! texture_v` or `texture_s texture_t`) in any property order and of any numeric type, faces
 //! as `vertex_indices` or `vertex_index` lists, polygons split into triangle fans. Other
-//! elements and properties are read past and ignored, as Mitsuba 3 does.
+//! scalar properties of vertices and faces become mesh attributes named as Mitsuba 3 names
+//! them (see [`group`]); other elements are read past and ignored, as Mitsuba 3 does.
 //!
 //! The file is third-party input to a third-party parser: its header's counts are checked
 //! against the memory raylab may use before any payload is read, a panic in the parser is an
 //! error naming the file, and indices and values are checked once read.
 
-use super::mesh_files::{check_mesh, guarded, FileMesh};
+use super::mesh_files::{check_mesh, guarded, FileMesh, MeshAttribute};
 use glam::{Vec2, Vec3A};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
@@ -45,28 +46,63 @@ fn list(p: Property) -> Option<Vec<i64>> {
     })
 }
 
-/// One vertex: position, normal, texture coordinates (NaN where the file gives none).
-struct Vertex([f32; 8]);
+/// The slot of a vertex's position, normal or texture coordinate property, `None` for the
+/// others (an attribute's).
+fn vertex_slot(key: &str) -> Option<usize> {
+    Some(match key {
+        "x" => 0,
+        "y" => 1,
+        "z" => 2,
+        "nx" => 3,
+        "ny" => 4,
+        "nz" => 5,
+        "u" | "s" | "texture_u" | "texture_s" => 6,
+        "v" | "t" | "texture_v" | "texture_t" => 7,
+        _ => return None,
+    })
+}
+
+/// Whether a face's property holds its vertex indices.
+fn is_face_indices(key: &str) -> bool {
+    matches!(key, "vertex_indices" | "vertex_index")
+}
+
+/// One vertex: position, normal, texture coordinates (NaN where the file gives none), and
+/// its other scalar properties in the header's order.
+struct Vertex([f32; 8], Vec<f32>);
 
 impl PropertyAccess for Vertex {
     fn new() -> Self {
-        Vertex([f32::NAN; 8])
+        Vertex([f32::NAN; 8], Vec::new())
     }
     fn set_property(&mut self, key: &str, property: Property) -> PropertyAccessResult {
-        let slot = match key {
-            "x" => 0,
-            "y" => 1,
-            "z" => 2,
-            "nx" => 3,
-            "ny" => 4,
-            "nz" => 5,
-            "u" | "s" | "texture_u" | "texture_s" => 6,
-            "v" | "t" | "texture_v" | "texture_t" => 7,
-            _ => return PropertyAccessResult::Ignored,
+        let Some(v) = scalar(&property) else {
+            return PropertyAccessResult::Ignored;
         };
+        match vertex_slot(key) {
+            Some(slot) => self.0[slot] = v as f32,
+            None => self.1.push(v as f32),
+        }
+        PropertyAccessResult::Set
+    }
+}
+
+/// One face: its vertex indices (empty if the file gives none; `None` if they are not
+/// integers), and its other scalar properties in the header's order.
+struct Face(Option<Vec<i64>>, Vec<f32>);
+
+impl PropertyAccess for Face {
+    fn new() -> Self {
+        Face(Some(Vec::new()), Vec::new())
+    }
+    fn set_property(&mut self, key: &str, property: Property) -> PropertyAccessResult {
+        if is_face_indices(key) {
+            self.0 = list(property);
+            return PropertyAccessResult::Set;
+        }
         match scalar(&property) {
             Some(v) => {
-                self.0[slot] = v as f32;
+                self.1.push(v as f32);
                 PropertyAccessResult::Set
             }
             None => PropertyAccessResult::Ignored,
@@ -74,21 +110,123 @@ impl PropertyAccess for Vertex {
     }
 }
 
-/// One face: its vertex indices (empty if the file gives none; `None` if they are not
-/// integers).
-struct Face(Option<Vec<i64>>);
-
-impl PropertyAccess for Face {
-    fn new() -> Self {
-        Face(Some(Vec::new()))
+/// Mitsuba 3's grouping of an element's other properties (`names`, in the header's order)
+/// into attributes: `r g b` (or `red green blue`) as `color`; consecutive
+/// `PREFIX_x y z`, `_r g b`, `_0 1 2` or `_1 2 3` as `PREFIX` (`PREFIX_color` for `_r g b`),
+/// of one or three fields; names without a one-letter suffix, and groups of other sizes, are
+/// left out (Mitsuba warns and leaves them out too). Each attribute: its name and the
+/// positions of its fields in `names`.
+pub fn group(names: &[&str]) -> Vec<(String, Vec<usize>)> {
+    let find = |n: &str| names.iter().position(|m| *m == n);
+    let mut out = Vec::new();
+    let colour = match (find("r"), find("g"), find("b")) {
+        (Some(r), Some(g), Some(b)) => Some([r, g, b]),
+        _ => match (find("red"), find("green"), find("blue")) {
+            (Some(r), Some(g), Some(b)) => Some([r, g, b]),
+            _ => None,
+        },
+    };
+    let reserved: &[&str] = if colour.is_some() && find("r").is_none() {
+        &["red", "green", "blue", "alpha", "r", "g", "b", "a"]
+    } else {
+        &["r", "g", "b", "a"]
+    };
+    if let Some(c) = colour {
+        out.push(("color".to_string(), c.to_vec()));
     }
-    fn set_property(&mut self, key: &str, property: Property) -> PropertyAccessResult {
-        if !matches!(key, "vertex_indices" | "vertex_index") {
-            return PropertyAccessResult::Ignored;
+    const POSTFIXES: [&[u8; 4]; 4] = [b"xr01", b"yg12", b"zb23", b"wa34"];
+    let mut seen: Vec<&str> = Vec::new();
+    // The attribute being read: its prefix, its postfix family, its fields.
+    let mut current: Option<(&str, usize, Vec<usize>)> = None;
+    fn flush<'a>(
+        current: &mut Option<(&'a str, usize, Vec<usize>)>,
+        seen: &mut Vec<&'a str>,
+        out: &mut Vec<(String, Vec<usize>)>,
+    ) {
+        if let Some((prefix, family, fields)) = current.take() {
+            if fields.len() == 1 || fields.len() == 3 {
+                let suffix = if family == 1 { "_color" } else { "" };
+                out.push((format!("{prefix}{suffix}"), fields));
+                seen.push(prefix);
+            }
         }
-        self.0 = list(property);
-        PropertyAccessResult::Set
     }
+    for (i, name) in names.iter().enumerate() {
+        if reserved.contains(name) {
+            continue;
+        }
+        let Some((prefix, postfix)) = name.rsplit_once('_') else {
+            flush(&mut current, &mut seen, &mut out);
+            continue;
+        };
+        let [postfix] = postfix.as_bytes() else {
+            flush(&mut current, &mut seen, &mut out);
+            continue;
+        };
+        if current.as_ref().is_some_and(|(p, ..)| *p != prefix) {
+            flush(&mut current, &mut seen, &mut out);
+        }
+        match &mut current {
+            None => {
+                if seen.contains(&prefix) {
+                    continue;
+                }
+                if let Some(family) = POSTFIXES[0].iter().position(|c| c == postfix) {
+                    current = Some((prefix, family, vec![i]));
+                }
+            }
+            Some((_, family, fields)) => {
+                let level = fields.len();
+                if level < 4 && POSTFIXES[level][*family] == *postfix {
+                    fields.push(i);
+                } else {
+                    // A broken sequence: the attribute is left out.
+                    seen.push(prefix);
+                    current = None;
+                }
+            }
+        }
+    }
+    flush(&mut current, &mut seen, &mut out);
+    out
+}
+
+/// The attributes of one element (`kind` `vertex` or `face`) from its records' other values
+/// (`records[i]`, in the order of `names`).
+fn attributes_of(kind: &str, names: &[&str], records: &[&[f32]]) -> Vec<MeshAttribute> {
+    group(names)
+        .into_iter()
+        .map(|(name, fields)| MeshAttribute {
+            name: format!("{kind}_{name}"),
+            values: records
+                .iter()
+                .map(|r| {
+                    let at = |k: usize| fields.get(k).and_then(|&f| r.get(f)).copied();
+                    match (at(0), at(1), at(2)) {
+                        (Some(a), Some(b), Some(c)) => Vec3A::new(a, b, c),
+                        (Some(a), _, _) => Vec3A::splat(a),
+                        _ => Vec3A::ZERO,
+                    }
+                })
+                .collect(),
+            per_face: kind == "face",
+        })
+        .collect()
+}
+
+/// The names of element `kind`'s scalar properties that are not its geometry, in order.
+fn other_names<'h>(header: &'h ply_rs_bw::ply::Header, kind: &str) -> Vec<&'h str> {
+    header.elements.get(kind).map_or(Vec::new(), |e| {
+        e.properties
+            .values()
+            .filter(|p| matches!(p.data_type, ply_rs_bw::ply::PropertyType::Scalar(_)))
+            .map(|p| p.name.as_str())
+            .filter(|n| match kind {
+                "vertex" => vertex_slot(n).is_none(),
+                _ => !is_face_indices(n),
+            })
+            .collect()
+    })
 }
 
 /// An element raylab does not use, read past.
@@ -219,7 +357,11 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
         mesh.uvs = Some(vertices.iter().map(|v| Vec2::new(v.0[6], v.0[7])).collect());
     }
     let n = vertices.len() as i64;
-    for (f, Face(indices)) in faces.iter().enumerate() {
+    let vertex_values: Vec<&[f32]> = vertices.iter().map(|v| v.1.as_slice()).collect();
+    mesh.attributes = attributes_of("vertex", &other_names(&header, "vertex"), &vertex_values);
+    // A face's values go to each triangle it is split into.
+    let mut triangle_values: Vec<&[f32]> = Vec::new();
+    for (f, Face(indices, values)) in faces.iter().enumerate() {
         let Some(indices) = indices else {
             return Err(cannot(&format!(
                 "face {f}'s vertex indices are not integers"
@@ -234,8 +376,12 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
         for k in 1..indices.len().saturating_sub(1) {
             mesh.indices
                 .push([indices[0], indices[k], indices[k + 1]].map(|i| i as u32));
+            triangle_values.push(values);
         }
     }
+    let face_names = other_names(&header, "face");
+    mesh.attributes
+        .extend(attributes_of("face", &face_names, &triangle_values));
     check_mesh("PLY", file, &mut mesh)?;
     Ok(mesh)
 }
@@ -366,6 +512,52 @@ mod tests {
             file.truncate(cut.index(file.len() + 1));
             let _ = parse_ply(Path::new("cut.ply"), &file);
         }
+    }
+
+    #[test]
+    fn other_properties_group_into_attributes_as_mitsuba_names_them() {
+        let names = |g: Vec<(String, Vec<usize>)>| g.into_iter().collect::<Vec<_>>();
+        // r g b (or red green blue) anywhere: `color`; PREFIX_0 1 2 and PREFIX_x y z: PREFIX;
+        // PREFIX_r g b: PREFIX_color; one field alone: itself.
+        assert_eq!(
+            names(group(&[
+                "weight_0", "red", "green", "blue", "n_x", "n_y", "n_z", "tint_r", "tint_g",
+                "tint_b"
+            ])),
+            vec![
+                ("color".to_string(), vec![1, 2, 3]),
+                ("weight".to_string(), vec![0]),
+                ("n".to_string(), vec![4, 5, 6]),
+                ("tint_color".to_string(), vec![7, 8, 9]),
+            ]
+        );
+        // Two fields, a broken sequence, no one-letter suffix: left out, as Mitsuba does.
+        assert_eq!(
+            names(group(&[
+                "a_0",
+                "a_1",
+                "b_0",
+                "b_2",
+                "b_1",
+                "confidence",
+                "c_12"
+            ])),
+            vec![]
+        );
+    }
+
+    #[test]
+    fn a_ply_gives_its_vertex_and_face_attributes() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                    property float color_0\nproperty float color_1\nproperty float color_2\nelement face 1\n\
+                    property list uchar int vertex_indices\nproperty float weight_0\nend_header\n\
+                    0 0 0 0.1 0.2 0.3\n1 0 0 0.4 0.5 0.6\n0 1 0 0.7 0.8 0.9\n3 0 1 2 0.25\n";
+        let mesh = load(text.as_bytes()).unwrap();
+        let names: Vec<&str> = mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(names, ["vertex_color", "face_weight"]);
+        assert_eq!(mesh.attributes[0].values[2], Vec3A::new(0.7, 0.8, 0.9));
+        assert!(!mesh.attributes[0].per_face && mesh.attributes[1].per_face);
+        assert_eq!(mesh.attributes[1].values, vec![Vec3A::splat(0.25)]);
     }
 
     #[test]

@@ -391,6 +391,10 @@ pub enum MaterialDesc {
         #[serde(default = "glass_ior")]
         eta: f32,
     },
+    /// An opaque material seen from its front only (Mitsuba 3's opaque BSDFs outside a
+    /// `twosided`): from behind its shading normal it reflects nothing. raylab's own opaque
+    /// materials are two-sided; the Mitsuba importer wraps Mitsuba's one-sided ones in this.
+    OneSided(Box<MaterialDesc>),
     /// The same material on both faces (Mitsuba's `twosided`). raylab's opaque materials are
     /// two-sided already, so this is the material itself; a dielectric inside is an error.
     TwoSided(Box<MaterialDesc>),
@@ -467,6 +471,175 @@ pub enum MaterialDesc {
 }
 
 impl MaterialDesc {
+    /// The names of the mesh attributes its textures read (`Attribute(...)`), each once.
+    pub fn attributes(&self) -> Vec<String> {
+        use MaterialDesc::*;
+        let mut out = Vec::new();
+        let colour = |c: &ColorDesc, out: &mut Vec<String>| {
+            if let ColorDesc::Texture(t) = c {
+                t.attributes(out);
+            }
+        };
+        let float = |f: &FloatDesc, out: &mut Vec<String>| {
+            if let FloatDesc::Texture(t) = f {
+                t.attributes(out);
+            }
+        };
+        let floats = |fs: &[&Option<FloatDesc>], out: &mut Vec<String>| {
+            for f in fs.iter().copied().flatten() {
+                float(f, out);
+            }
+        };
+        match self {
+            Lambert { albedo } | OrenNayar { albedo, .. } => colour(albedo, &mut out),
+            DiffuseTransmission {
+                reflectance: a,
+                transmittance: b,
+            }
+            | Phong { kd: a, ks: b, .. }
+            | Dielectric {
+                specular_reflectance: a,
+                specular_transmittance: b,
+                ..
+            }
+            | ThinDielectric {
+                specular_reflectance: a,
+                specular_transmittance: b,
+                ..
+            } => {
+                colour(a, &mut out);
+                colour(b, &mut out);
+            }
+            Plastic {
+                diffuse_reflectance: a,
+                specular_reflectance: b,
+                ..
+            } => {
+                colour(a, &mut out);
+                colour(b, &mut out);
+            }
+            RoughPlastic {
+                diffuse_reflectance: a,
+                specular_reflectance: b,
+                alpha,
+                ..
+            } => {
+                colour(a, &mut out);
+                colour(b, &mut out);
+                float(alpha, &mut out);
+            }
+            RoughDielectric {
+                specular_reflectance: a,
+                specular_transmittance: b,
+                alpha,
+                alpha_u,
+                alpha_v,
+                ..
+            } => {
+                colour(a, &mut out);
+                colour(b, &mut out);
+                floats(&[alpha, alpha_u, alpha_v], &mut out);
+            }
+            Mirror { .. } | Glass { .. } | Hair { .. } => {}
+            Conductor {
+                specular_reflectance,
+                ..
+            } => colour(specular_reflectance, &mut out),
+            RoughConductor {
+                specular_reflectance,
+                alpha,
+                alpha_u,
+                alpha_v,
+                ..
+            } => {
+                colour(specular_reflectance, &mut out);
+                floats(&[alpha, alpha_u, alpha_v], &mut out);
+            }
+            Principled {
+                base_color,
+                roughness,
+                anisotropic,
+                metallic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                clearcoat,
+                clearcoat_gloss,
+                ..
+            } => {
+                colour(base_color, &mut out);
+                float(roughness, &mut out);
+                floats(
+                    &[
+                        anisotropic,
+                        metallic,
+                        spec_trans,
+                        spec_tint,
+                        sheen,
+                        sheen_tint,
+                        flatness,
+                        clearcoat,
+                        clearcoat_gloss,
+                    ],
+                    &mut out,
+                );
+            }
+            PrincipledThin {
+                base_color,
+                roughness,
+                anisotropic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                diff_trans,
+                ..
+            } => {
+                colour(base_color, &mut out);
+                float(roughness, &mut out);
+                floats(
+                    &[
+                        anisotropic,
+                        spec_trans,
+                        spec_tint,
+                        sheen,
+                        sheen_tint,
+                        flatness,
+                        diff_trans,
+                    ],
+                    &mut out,
+                );
+            }
+            TwoSided(inner) | OneSided(inner) => out = inner.attributes(),
+            NormalMap {
+                texture, material, ..
+            } => {
+                colour(texture, &mut out);
+                out.extend(material.attributes());
+            }
+            Mask { opacity, material } => {
+                float(opacity, &mut out);
+                out.extend(material.attributes());
+            }
+            Cutout { alpha, material } => {
+                float(alpha, &mut out);
+                out.extend(material.attributes());
+            }
+            BumpMap {
+                texture, material, ..
+            } => {
+                float(texture, &mut out);
+                out.extend(material.attributes());
+            }
+        }
+        out.sort();
+        out.dedup();
+        out
+    }
+
     /// Whether any of its parameters is a texture (a normal or bump map always is).
     pub fn is_textured(&self) -> bool {
         use MaterialDesc::*;
@@ -581,7 +754,7 @@ impl MaterialDesc {
                     .iter()
                     .any(|a| a.as_ref().is_some_and(f))
             }
-            TwoSided(inner) => inner.is_textured(),
+            TwoSided(inner) | OneSided(inner) => inner.is_textured(),
             NormalMap { .. } | BumpMap { .. } => true,
             Mask { opacity, material } => f(opacity) || material.is_textured(),
             Cutout { material, .. } => material.is_textured(),
@@ -942,11 +1115,15 @@ pub enum ShapeDesc {
     Gltf { path: String },
     /// A Stanford PLY file (ASCII or binary), `path` relative to the scene file: its faces
     /// (polygons split into triangles), with vertex normals (see [`MeshNormals`]) and texture
-    /// coordinates when present.
+    /// coordinates when present. `attribute` names one of its other per-vertex or per-face
+    /// values (Mitsuba 3's names: `vertex_color`, `face_NAME`, ...) for the material's
+    /// `Attribute` textures to read.
     Ply {
         path: String,
         #[serde(default)]
         normals: MeshNormals,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        attribute: Option<String>,
     },
     /// Mesh `shape_index` (default 0) of a Mitsuba `.serialized` file (versions 3 and 4),
     /// `path` relative to the scene file, with its normals (see [`MeshNormals`]) and texture
@@ -957,6 +1134,16 @@ pub enum ShapeDesc {
         shape_index: u32,
         #[serde(default)]
         normals: MeshNormals,
+    },
+    /// A signed distance function sampled on a grid (Mitsuba 3's `sdfgrid`): a `.vol` file of
+    /// one channel, `path` relative to the scene file, over the unit cube of the entity's
+    /// space, interpolated trilinearly, its zero set the surface; shaded with Hansson-Söderlund
+    /// et al.'s smooth normals unless `smooth_normals: false` (the interpolant's gradient).
+    /// No texture coordinates; not an emitter.
+    SdfGrid {
+        path: String,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        smooth_normals: bool,
     },
     /// A mesh asset of the scene's `meshes` table, placed by the entity's transform. Every
     /// instance shares one copy of the mesh and its BVH. Instances cannot emit light.

@@ -13,6 +13,35 @@ type V3 = [f32; 3];
 pub enum TextureDesc {
     Image(ImageDesc),
     Checkerboard(CheckerboardDesc),
+    /// `Attribute(name: "vertex_color")`: the value the shape's mesh carries per vertex
+    /// (interpolated) or per face (Mitsuba 3's `mesh_attribute`); the shape names the same
+    /// attribute (`Ply(..., attribute: "vertex_color")`).
+    Attribute(AttributeDesc),
+    /// `Mix(tex0: ..., tex1: ..., amount: ...)`: `(1 - amount) tex0 + amount tex1`, `amount`
+    /// read as a number in [0, 1] (pbrt-v4's `mix`).
+    Mix(Box<MixDesc>),
+}
+
+/// `Attribute(...)`: a mesh attribute by its name, times `scale` (default 1).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttributeDesc {
+    pub name: String,
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub scale: f32,
+}
+
+/// `Mix(...)`: two colours (or textures) blended by a number (or a texture).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MixDesc {
+    pub tex0: ColorDesc,
+    pub tex1: ColorDesc,
+    pub amount: FloatDesc,
+}
+
+fn is_one(x: &f32) -> bool {
+    *x == 1.0
 }
 
 impl TextureDesc {
@@ -28,6 +57,39 @@ impl TextureDesc {
                 color1: c.color1.map(|x| x * s),
                 ..c
             }),
+            TextureDesc::Attribute(a) => TextureDesc::Attribute(AttributeDesc {
+                scale: a.scale * s,
+                ..a
+            }),
+            TextureDesc::Mix(m) => {
+                let scaled = |c: ColorDesc| match c {
+                    ColorDesc::Constant(v) => ColorDesc::Constant(v.map(|x| x * s)),
+                    ColorDesc::Texture(t) => ColorDesc::Texture(t.scaled(s)),
+                };
+                TextureDesc::Mix(Box::new(MixDesc {
+                    tex0: scaled(m.tex0),
+                    tex1: scaled(m.tex1),
+                    amount: m.amount,
+                }))
+            }
+        }
+    }
+
+    /// The names of the mesh attributes the texture reads.
+    pub fn attributes(&self, out: &mut Vec<String>) {
+        match self {
+            TextureDesc::Attribute(a) => out.push(a.name.clone()),
+            TextureDesc::Mix(m) => {
+                for c in [&m.tex0, &m.tex1] {
+                    if let ColorDesc::Texture(t) = c {
+                        t.attributes(out);
+                    }
+                }
+                if let FloatDesc::Texture(t) = &m.amount {
+                    t.attributes(out);
+                }
+            }
+            TextureDesc::Image(_) | TextureDesc::Checkerboard(_) => {}
         }
     }
 }
@@ -170,8 +232,16 @@ fn texture_from_named<E: de::Error>(named: BTreeMap<String, ron::Value>) -> Resu
             .into_rust()
             .map(TextureDesc::Checkerboard)
             .map_err(inner),
+        "Attribute" => fields
+            .into_rust()
+            .map(TextureDesc::Attribute)
+            .map_err(inner),
+        "Mix" => fields
+            .into_rust()
+            .map(|m| TextureDesc::Mix(Box::new(m)))
+            .map_err(inner),
         _ => Err(E::custom(format!(
-            "unknown texture `{name}`; known: Image, Checkerboard"
+            "unknown texture `{name}`; known: Image, Checkerboard, Attribute, Mix"
         ))),
     }
 }
@@ -229,6 +299,23 @@ impl serde::Serialize for TextureDesc {
                 v.serialize_field("color1", &d.color1)?;
                 v.serialize_field("uv_scale", &d.uv_scale)?;
                 v.serialize_field("uv_offset", &d.uv_offset)?;
+                v.end()
+            }
+            TextureDesc::Attribute(d) => {
+                let mut v = s.serialize_struct_variant("Texture", 2, "Attribute", 2)?;
+                v.serialize_field("name", &d.name)?;
+                if d.scale == 1.0 {
+                    v.skip_field("scale")?;
+                } else {
+                    v.serialize_field("scale", &d.scale)?;
+                }
+                v.end()
+            }
+            TextureDesc::Mix(d) => {
+                let mut v = s.serialize_struct_variant("Texture", 3, "Mix", 3)?;
+                v.serialize_field("tex0", &d.tex0)?;
+                v.serialize_field("tex1", &d.tex1)?;
+                v.serialize_field("amount", &d.amount)?;
                 v.end()
             }
         }

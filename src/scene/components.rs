@@ -135,6 +135,14 @@ pub enum Shape {
         indices: Vec<[u32; 3]>,
         normals: Option<Vec<Vec3A>>,
         uvs: Option<Vec<Vec2>>,
+        /// The file's attribute the entity's material reads, if any.
+        attribute: Option<crate::formats::mesh_files::MeshAttribute>,
+    },
+    /// An SDF grid over the unit cube (Mitsuba's `sdfgrid`): `values` in `x`, `y`, `z` order.
+    SdfGrid {
+        resolution: [usize; 3],
+        values: std::sync::Arc<[f32]>,
+        smooth: bool,
     },
     /// A mesh asset of the scene, by name; resolved to [`Instanced`] by
     /// [`super::assets::resolve_instances`].
@@ -289,11 +297,16 @@ pub enum WorldShape {
         triangles: Vec<[Vec3A; 3]>,
         normals: Option<Vec<[Vec3A; 3]>>,
         uvs: Option<Vec<[Vec2; 3]>>,
+        /// The mesh attribute its material reads, at each triangle's corners.
+        attributes: Option<Vec<[Vec3A; 3]>>,
         parallelogram: Option<[Vec3A; 3]>,
     },
     Sphere {
         center: Vec3A,
         radius: f32,
+        /// The sphere's own axes in the world (a rotation, perhaps a mirror): Mitsuba's
+        /// parametrisation is the object's, so a rotated sphere's texture turns with it.
+        frame: glam::Mat3A,
     },
     /// A disk or cylinder, placed.
     Quadric(Quadric),
@@ -302,6 +315,8 @@ pub enum WorldShape {
         segments: Vec<CurveSegment>,
         split_depth: u32,
     },
+    /// An SDF grid, placed.
+    SdfGrid(std::sync::Arc<crate::accel::sdf_grid::SdfGrid>),
 }
 
 impl WorldShape {
@@ -315,6 +330,8 @@ impl WorldShape {
             WorldShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
             WorldShape::Quadric(q) => q.area(),
             WorldShape::Curves { segments, .. } => segments.iter().map(CurveSegment::area).sum(),
+            // Not measured: an SDF grid cannot emit, and nothing else asks.
+            WorldShape::SdfGrid(_) => 0.0,
         }
     }
 }
@@ -327,6 +344,7 @@ impl From<crate::formats::mesh_files::FileMesh> for Shape {
             indices: mesh.indices,
             normals: mesh.normals,
             uvs: mesh.uvs,
+            attribute: None,
         }
     }
 }

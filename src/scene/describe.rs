@@ -379,14 +379,74 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             )
             .shaded(normals),
         ),
-        ShapeDesc::Ply { path, normals } => Shape::from(
-            noted(
+        ShapeDesc::Ply {
+            path,
+            normals,
+            attribute,
+        } => {
+            let mut mesh = noted(
                 crate::formats::ply::load_ply(&files.named(&path)?)?,
                 &path,
                 files,
-            )
-            .shaded(normals),
-        ),
+            );
+            let chosen = match attribute {
+                None => None,
+                Some(name) => {
+                    let Some(i) = mesh.attributes.iter().position(|a| a.name == name) else {
+                        let have: Vec<&str> =
+                            mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+                        return Err(format!(
+                            "`{path}` has no attribute `{name}` (it has: {})",
+                            if have.is_empty() {
+                                "none".to_string()
+                            } else {
+                                have.join(", ")
+                            }
+                        ));
+                    };
+                    Some(mesh.attributes.swap_remove(i))
+                }
+            };
+            match Shape::from(mesh.shaded(normals)) {
+                Shape::Mesh {
+                    positions,
+                    indices,
+                    normals,
+                    uvs,
+                    ..
+                } => Shape::Mesh {
+                    positions,
+                    indices,
+                    normals,
+                    uvs,
+                    attribute: chosen,
+                },
+                other => other,
+            }
+        }
+        ShapeDesc::SdfGrid {
+            path,
+            smooth_normals,
+        } => {
+            let g = crate::formats::volume_grid::load_volume_grid(&files.named(&path)?)?;
+            if g.channels != 1 {
+                return Err(format!(
+                    "`{path}` holds {} channels; an SDF grid has one",
+                    g.channels
+                ));
+            }
+            if g.resolution.iter().any(|&r| r < 2) {
+                return Err(format!(
+                    "`{path}` is {} x {} x {}: an SDF grid needs at least 2 values along each axis",
+                    g.resolution[0], g.resolution[1], g.resolution[2]
+                ));
+            }
+            Shape::SdfGrid {
+                resolution: g.resolution,
+                values: g.values.into(),
+                smooth: smooth_normals,
+            }
+        }
         ShapeDesc::Serialized {
             path,
             shape_index,
@@ -442,6 +502,7 @@ pub(crate) fn shape_from_desc(desc: ShapeDesc, files: &SceneFiles) -> Result<Sha
             indices,
             normals: normals.map(|n| n.into_iter().map(v3).collect()),
             uvs: uvs.map(|t| t.into_iter().map(glam::Vec2::from_array).collect()),
+            attribute: None,
         },
         ShapeDesc::Curves {
             kind,

@@ -232,6 +232,19 @@ impl Table {
         if e.emitter.is_some() && material.is_some_and(|m| m.cutout().is_some()) {
             return Err("an emitter's material cannot be a Cutout (pbrt-v4's alpha)".into());
         }
+        let carries = matches!(
+            e.shape,
+            Some(ShapeDesc::Ply {
+                attribute: Some(_),
+                ..
+            })
+        );
+        if !carries && material.is_some_and(|m| m.reads_attribute()) {
+            return Err(format!(
+                "material `{}` reads a mesh attribute, but the shape carries none (a `Ply` shape names one with `attribute`)",
+                e.material.as_deref().unwrap_or_default()
+            ));
+        }
         if !e.flip_normals {
             return Ok(());
         }
@@ -493,7 +506,7 @@ impl SceneState {
             .filter_map(|&e| self.loaded.world.get::<&WorldShape>(e).ok())
             .map(|s| match &*s {
                 WorldShape::Triangles { triangles, .. } => triangles.len() as u64,
-                WorldShape::Sphere { .. } | WorldShape::Quadric(_) => 0,
+                WorldShape::Sphere { .. } | WorldShape::Quadric(_) | WorldShape::SdfGrid(_) => 0,
                 WorldShape::Curves {
                     segments,
                     split_depth,

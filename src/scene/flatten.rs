@@ -149,6 +149,20 @@ impl RenderScene {
                 if triangles.len() >= OWN_BVH_TRIANGLES)
                 && !light_of.contains_key(entity)
         };
+        // SDF grids go to the accelerator's set of them, the rest to its BVHs.
+        let (grids, shaped): (Vec<_>, Vec<_>) = shaped
+            .into_iter()
+            .partition(|(_, _, shape, ..)| matches!(shape, WorldShape::SdfGrid(_)));
+        let sdf_grids = grids
+            .iter()
+            .filter_map(|(_, _, shape, material, _)| match shape {
+                WorldShape::SdfGrid(grid) => Some(accel::SdfInput {
+                    grid: Arc::clone(grid),
+                    material: material.0,
+                }),
+                _ => None,
+            })
+            .collect();
         let (mut own, mut flat): (Vec<_>, Vec<_>) = shaped.into_iter().partition(own_bvh);
         if own.len() == 1 && flat.is_empty() {
             // Nothing to keep apart from: one BVH, without the top level's cost per ray
@@ -157,39 +171,50 @@ impl RenderScene {
         }
         let shapes = flat
             .iter()
-            .map(|(entity, _, shape, material, _)| Shape {
-                geometry: match shape {
-                    WorldShape::Triangles {
-                        triangles,
-                        normals,
-                        uvs,
-                        ..
-                    } => Geometry::Triangles(Mesh {
-                        triangles,
-                        normals: normals.as_deref(),
-                        uvs: uvs.as_deref(),
-                        bounds: (Vec3A::ZERO, Vec3A::ZERO),
-                    }),
-                    WorldShape::Sphere { center, radius } => Geometry::Sphere {
-                        center: *center,
-                        radius: *radius,
+            .filter_map(|(entity, _, shape, material, _)| {
+                Some(Shape {
+                    geometry: match shape {
+                        WorldShape::Triangles {
+                            triangles,
+                            normals,
+                            uvs,
+                            attributes,
+                            ..
+                        } => Geometry::Triangles(Mesh {
+                            triangles,
+                            normals: normals.as_deref(),
+                            uvs: uvs.as_deref(),
+                            attributes: attributes.as_deref(),
+                            bounds: (Vec3A::ZERO, Vec3A::ZERO),
+                        }),
+                        WorldShape::Sphere {
+                            center,
+                            radius,
+                            frame,
+                        } => Geometry::Sphere {
+                            center: *center,
+                            radius: *radius,
+                            frame: *frame,
+                        },
+                        WorldShape::Quadric(q) => Geometry::Quadric(*q),
+                        WorldShape::Curves {
+                            segments,
+                            split_depth,
+                        } => Geometry::Curves(accel::Curves {
+                            segments,
+                            split_depth: *split_depth,
+                        }),
+                        // Set apart above.
+                        WorldShape::SdfGrid(_) => return None,
                     },
-                    WorldShape::Quadric(q) => Geometry::Quadric(*q),
-                    WorldShape::Curves {
-                        segments,
-                        split_depth,
-                    } => Geometry::Curves(accel::Curves {
-                        segments,
-                        split_depth: *split_depth,
-                    }),
-                },
-                material: material.0,
-                // One light for the whole entity (a sphere, a quad), or one per triangle.
-                lights: match light_of.get(entity) {
-                    None => ShapeLights::None,
-                    Some(&(first, 1)) => ShapeLights::Whole(first),
-                    Some(&(first, _)) => ShapeLights::PerTriangle(first),
-                },
+                    material: material.0,
+                    // One light for the whole entity (a sphere, a quad), or one per triangle.
+                    lights: match light_of.get(entity) {
+                        None => ShapeLights::None,
+                        Some(&(first, 1)) => ShapeLights::Whole(first),
+                        Some(&(first, _)) => ShapeLights::PerTriangle(first),
+                    },
+                })
             })
             .collect();
         let mut instances: Vec<(FileOrder, InstanceDesc)> = world
@@ -211,6 +236,7 @@ impl RenderScene {
                 triangles: &m.triangles,
                 normals: m.normals.as_deref(),
                 uvs: m.uvs.as_deref(),
+                attributes: None,
                 bounds: m.bounds,
             })
             .collect();
@@ -222,6 +248,7 @@ impl RenderScene {
                 triangles,
                 normals,
                 uvs,
+                attributes,
                 ..
             } = shape
             else {
@@ -258,6 +285,7 @@ impl RenderScene {
                 triangles,
                 normals: normals.as_deref(),
                 uvs: uvs.as_deref(),
+                attributes: attributes.as_deref(),
                 bounds,
             });
             mesh_keys.push(key);
@@ -268,6 +296,7 @@ impl RenderScene {
             meshes,
             mesh_keys,
             instances: instances.into_iter().map(|(_, d)| d).collect(),
+            sdf_grids,
         };
         let accel = Accel::build_reusing(kind, &input, previous.map(|p| &*p.accel));
 
@@ -492,7 +521,10 @@ pub fn flat_triangles(scene: &LoadedScene) -> Vec<Triangle> {
         .iter()
         .flat_map(|(_, shape)| match shape {
             WorldShape::Triangles { triangles, .. } => triangles.as_slice(),
-            WorldShape::Sphere { .. } | WorldShape::Quadric(_) | WorldShape::Curves { .. } => &[],
+            WorldShape::Sphere { .. }
+            | WorldShape::Quadric(_)
+            | WorldShape::SdfGrid(_)
+            | WorldShape::Curves { .. } => &[],
         })
         .map(|&[v0, v1, v2]| Triangle { v0, v1, v2 })
         .collect()
@@ -505,10 +537,11 @@ pub fn flat_spheres(scene: &LoadedScene) -> Vec<(Vec3A, f32)> {
         .query::<(&FileOrder, &WorldShape)>()
         .iter()
         .filter_map(|(order, shape)| match shape {
-            WorldShape::Sphere { center, radius } => Some((*order, *center, *radius)),
-            WorldShape::Triangles { .. } | WorldShape::Quadric(_) | WorldShape::Curves { .. } => {
-                None
-            }
+            WorldShape::Sphere { center, radius, .. } => Some((*order, *center, *radius)),
+            WorldShape::Triangles { .. }
+            | WorldShape::Quadric(_)
+            | WorldShape::SdfGrid(_)
+            | WorldShape::Curves { .. } => None,
         })
         .collect();
     spheres.sort_by_key(|s| s.0);

@@ -288,6 +288,16 @@ pub fn material_from_desc(
             *beta_n,
             *alpha,
         )?),
+        MaterialDesc::OneSided(inner) => {
+            let m = material_from_desc(inner, textures)?;
+            if m.bsdf().is_transmissive() {
+                return Err(
+                    "OneSided holds an opaque material: a dielectric has two sides of its own"
+                        .into(),
+                );
+            }
+            return Ok(m.with_one_sided());
+        }
         MaterialDesc::TwoSided(inner) => {
             let m = material_from_desc(inner, textures)?;
             if m.bsdf().is_transmissive() {

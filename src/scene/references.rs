@@ -45,9 +45,9 @@ pub fn shape_files(shape: &ShapeDesc, scene_files: &SceneFiles) -> Vec<PathBuf> 
             }
             files.push(gltf);
         }
-        ShapeDesc::Ply { path, .. } | ShapeDesc::Serialized { path, .. } => {
-            files.push(dir.join(path))
-        }
+        ShapeDesc::Ply { path, .. }
+        | ShapeDesc::Serialized { path, .. }
+        | ShapeDesc::SdfGrid { path, .. } => files.push(dir.join(path)),
         _ => {}
     }
     files

@@ -79,6 +79,11 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                         "an area emitter needs a shape (use `Point` for a point light)".into(),
                     ));
                 }
+                if matches!(s, Some(Shape::SdfGrid { .. })) {
+                    return Err(fail(
+                        "an SDF grid cannot emit light (in Mitsuba neither)".into(),
+                    ));
+                }
                 if *two_sided && matches!(s, Some(Shape::Sphere { .. })) {
                     return Err(fail(
                         "a sphere is closed and emits outwards: `two_sided` has no meaning on it"
@@ -208,6 +213,8 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             split_depth,
             segments,
         } => validate_curves(*kind, *split_depth, segments, t)?,
+        // Read from a file whose values and size are checked; its transform when it is baked.
+        Shape::SdfGrid { .. } => {}
         Shape::Sphere { center, radius } => {
             all("sphere center", &[*center])?;
             finite("sphere radius", &[*radius])?;
@@ -311,8 +318,33 @@ pub fn validate_shape(shape: &Shape, t: &Transform) -> Result<(), String> {
             indices,
             normals,
             uvs,
+            attribute,
         } => {
             all("mesh positions", positions)?;
+            if let Some(a) = attribute {
+                let want = if a.per_face {
+                    indices.len()
+                } else {
+                    positions.len()
+                };
+                if a.values.len() != want {
+                    return Err(format!(
+                        "mesh attribute `{}` has {} values for {want} {}",
+                        a.name,
+                        a.values.len(),
+                        if a.per_face { "triangles" } else { "vertices" }
+                    ));
+                }
+                if let Some((i, v)) = a.values.iter().enumerate().find(|(_, v)| {
+                    !(v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= 1.0)
+                }) {
+                    return Err(format!(
+                        "mesh attribute `{}`: value {i} is {:?}; a material reads it as a colour or weight in [0, 1]",
+                        a.name,
+                        v.to_array()
+                    ));
+                }
+            }
             if let Some(uv) = uvs {
                 if !uv.iter().all(|v| v.is_finite()) {
                     return Err("mesh uvs must be finite".into());
@@ -451,7 +483,11 @@ fn triangle_count(shape: &Shape) -> u64 {
             segments,
             ..
         } => curve_triangle_equivalent(segments.len() as u64, *split_depth),
-        Shape::Sphere { .. } | Shape::Disk | Shape::Cylinder { .. } | Shape::Instance { .. } => 0,
+        Shape::Sphere { .. }
+        | Shape::Disk
+        | Shape::Cylinder { .. }
+        | Shape::Instance { .. }
+        | Shape::SdfGrid { .. } => 0,
         Shape::Icosphere { subdivisions, .. } => 20 * 4u64.pow((*subdivisions).min(31)),
         Shape::Triangle(_) => 1,
         Shape::Quad(_) => 2,
@@ -471,7 +507,8 @@ fn local_triangles(shape: &Shape) -> Vec<[Vec3A; 3]> {
         | Shape::Disk
         | Shape::Cylinder { .. }
         | Shape::Instance { .. }
-        | Shape::Curves { .. } => Vec::new(),
+        | Shape::Curves { .. }
+        | Shape::SdfGrid { .. } => Vec::new(),
         Shape::Icosphere {
             subdivisions,
             displacement,
@@ -554,7 +591,7 @@ pub const MAX_COORDINATE: f32 = 1e7;
 /// axis (a finite transform of finite numbers can still overflow).
 pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
     match shape {
-        WorldShape::Sphere { center, radius } => check_reach_of(far(center) + radius),
+        WorldShape::Sphere { center, radius, .. } => check_reach_of(far(center) + radius),
         WorldShape::Quadric(q) => {
             let (min, max) = q.bounds();
             check_reach_of(far(&min).max(far(&max)))?;
@@ -575,6 +612,7 @@ pub fn check_reach(shape: &WorldShape) -> Result<(), String> {
             let width = segments.iter().flat_map(|s| s.width).fold(0.0f32, f32::max);
             check_reach_of(width)
         }
+        WorldShape::SdfGrid(g) => check_points_reach(g.bounds().into_iter()),
     }
 }
 
@@ -655,7 +693,34 @@ pub fn bake_transforms(
                 continue;
             }
             let m = transform.matrix();
-            let world_shape = bake_shape(shape, &m);
+            let world_shape = match shape {
+                Shape::SdfGrid {
+                    resolution,
+                    values,
+                    smooth,
+                } => {
+                    if flip.is_some() {
+                        return Err((
+                            name.0.clone(),
+                            "flip_normals on an SDF grid is not supported: its normals are the function's gradient".into(),
+                        ));
+                    }
+                    let grid = crate::accel::sdf_grid::SdfGrid::new(
+                        *resolution,
+                        values.clone(),
+                        m,
+                        *smooth,
+                    )
+                    .ok_or_else(|| {
+                        (
+                            name.0.clone(),
+                            "the SDF grid's transform cannot be inverted".to_string(),
+                        )
+                    })?;
+                    WorldShape::SdfGrid(std::sync::Arc::new(grid))
+                }
+                _ => bake_shape(shape, &m),
+            };
             let world_shape = if flip.is_some() {
                 flip_faces(world_shape)
             } else {
@@ -666,10 +731,13 @@ pub fn bake_transforms(
                 triangles,
                 normals,
                 uvs,
+                attributes,
                 parallelogram,
             } = world_shape
             {
                 let before = triangles.len();
+                let keep = nondegenerate(&triangles);
+                let attributes = attributes.map(|a| kept(a, keep.as_deref()));
                 let (triangles, normals, uvs) = drop_degenerate(triangles, normals, uvs);
                 if triangles.len() < before {
                     warnings.push(format!(
@@ -697,6 +765,7 @@ pub fn bake_transforms(
                             triangles,
                             normals,
                             uvs,
+                            attributes,
                             parallelogram,
                         },
                         GeometryId(new_geometry_id()),
@@ -720,14 +789,18 @@ fn flip_faces(shape: WorldShape) -> WorldShape {
             triangles,
             normals,
             uvs,
+            attributes,
             parallelogram,
         } => WorldShape::Triangles {
             triangles: triangles.into_iter().map(|[a, b, c]| [a, c, b]).collect(),
             normals: normals.map(|n| n.into_iter().map(|[a, b, c]| [-a, -c, -b]).collect()),
             uvs: uvs.map(|u| u.into_iter().map(|[a, b, c]| [a, c, b]).collect()),
+            attributes: attributes.map(|u| u.into_iter().map(|[a, b, c]| [a, c, b]).collect()),
             parallelogram: parallelogram.map(|[p0, e1, e2]| [p0, e2, e1]),
         },
         sphere @ WorldShape::Sphere { .. } => sphere,
+        // Its normals are the function's gradient: `flip_normals` is refused on it.
+        grid @ WorldShape::SdfGrid(_) => grid,
         WorldShape::Quadric(q) => WorldShape::Quadric(Quadric {
             flipped: !q.flipped,
             ..q
@@ -749,6 +822,27 @@ type TriangleData = (
     Option<Vec<[Vec2; 3]>>,
 );
 
+/// Which triangles are not degenerate, or `None` when all are not.
+fn nondegenerate(triangles: &[[Vec3A; 3]]) -> Option<Vec<bool>> {
+    triangles
+        .iter()
+        .any(is_degenerate)
+        .then(|| triangles.iter().map(|t| !is_degenerate(t)).collect())
+}
+
+/// The items whose `keep` is set (all of them without a mask).
+fn kept<T>(items: Vec<T>, keep: Option<&[bool]>) -> Vec<T> {
+    match keep {
+        None => items,
+        Some(keep) => items
+            .into_iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(t, _)| t)
+            .collect(),
+    }
+}
+
 /// Triangles without the degenerate ones (see [`is_degenerate`]), with their normals and
 /// texture coordinates.
 pub fn drop_degenerate(
@@ -756,22 +850,12 @@ pub fn drop_degenerate(
     normals: Option<Vec<[Vec3A; 3]>>,
     uvs: Option<Vec<[Vec2; 3]>>,
 ) -> TriangleData {
-    if !triangles.iter().any(is_degenerate) {
-        return (triangles, normals, uvs);
-    }
-    let keep: Vec<bool> = triangles.iter().map(|t| !is_degenerate(t)).collect();
-    fn kept<T>(items: Vec<T>, keep: &[bool]) -> Vec<T> {
-        items
-            .into_iter()
-            .zip(keep)
-            .filter(|(_, k)| **k)
-            .map(|(t, _)| t)
-            .collect()
-    }
+    let keep = nondegenerate(&triangles);
+    let keep = keep.as_deref();
     (
-        kept(triangles, &keep),
-        normals.map(|n| kept(n, &keep)),
-        uvs.map(|u| kept(u, &keep)),
+        kept(triangles, keep),
+        normals.map(|n| kept(n, keep)),
+        uvs.map(|u| kept(u, keep)),
     )
 }
 
@@ -789,6 +873,19 @@ pub fn cylinder_to_world(p0: Vec3A, p1: Vec3A, radius: f32, m: &Affine3A) -> Aff
     *m * local
 }
 
+/// A sphere's own axes from its placement's linear part `m` of scale `scale`: the identity
+/// where `m` is a uniform scale (to the last bit, so that such spheres are parametrised as
+/// before), else `m` over its scale.
+fn sphere_frame(m: Mat3A, scale: f32) -> Mat3A {
+    let frame = m * (1.0 / scale);
+    let off = (frame - Mat3A::IDENTITY).to_cols_array();
+    if off.iter().all(|x| x.abs() < 1e-6) {
+        Mat3A::IDENTITY
+    } else {
+        frame
+    }
+}
+
 /// The world-space geometry of one shape under matrix `m`.
 pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
     match shape {
@@ -798,10 +895,14 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
             cylinder_to_world(*p0, *p1, *radius, m),
             false,
         )),
-        Shape::Sphere { center, radius } => WorldShape::Sphere {
-            center: m.transform_point3a(*center),
-            radius: radius * m.matrix3.x_axis.length(),
-        },
+        Shape::Sphere { center, radius } => {
+            let scale = m.matrix3.x_axis.length();
+            WorldShape::Sphere {
+                center: m.transform_point3a(*center),
+                radius: radius * scale,
+                frame: sphere_frame(m.matrix3, scale),
+            }
+        }
         Shape::Curves {
             kind,
             split_depth,
@@ -858,10 +959,19 @@ pub fn bake_shape(shape: &Shape, m: &Affine3A) -> WorldShape {
                 }
                 _ => None,
             };
+            let attributes = match shape {
+                Shape::Mesh {
+                    attribute: Some(a),
+                    indices,
+                    ..
+                } => Some((0..indices.len()).map(|i| a.corners(indices, i)).collect()),
+                _ => None,
+            };
             WorldShape::Triangles {
                 triangles,
                 normals,
                 uvs: local_uvs(shape),
+                attributes,
                 parallelogram,
             }
         }
@@ -913,7 +1023,10 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     },
                     Some(WorldShape::Quadric(q)),
                 ) => vec![quadric_light(q, radiance, two_sided)],
-                (Emitter::Area { radiance, .. }, Some(WorldShape::Sphere { center, radius })) => {
+                (
+                    Emitter::Area { radiance, .. },
+                    Some(WorldShape::Sphere { center, radius, .. }),
+                ) => {
                     if flip.is_some() {
                         vec![Light::sphere_inward(*center, *radius, radiance)]
                     } else {
@@ -970,10 +1083,14 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                         .map(|t| Light::triangle(t[0], t[1], t[2], radiance, two_sided))
                         .collect(),
                 },
-                // Validation guarantees area emitters have shapes (and none on curves); a
-                // shape dropped by the bake step (all triangles degenerate) was already
-                // reported.
-                (Emitter::Area { .. }, None | Some(WorldShape::Curves { .. })) => return None,
+                // Validation guarantees area emitters have shapes; a shape dropped by the bake
+                // step (all triangles degenerate) was already reported.
+                (Emitter::Area { .. }, None) => return None,
+                // Refused by validation: an SDF grid or curves cannot emit.
+                (
+                    Emitter::Area { .. },
+                    Some(WorldShape::SdfGrid(_) | WorldShape::Curves { .. }),
+                ) => return None,
             };
             Some((*order, entity, lights))
         })

@@ -197,7 +197,8 @@ fn bake_applies_transforms_and_orients_closed_shapes_outwards() {
         *w.get::<&WorldShape>(ball).unwrap(),
         WorldShape::Sphere {
             center: Vec3A::new(1.0, 2.0, 3.0),
-            radius: 1.0
+            radius: 1.0,
+            frame: glam::Mat3A::IDENTITY
         }
     );
     for name in ["tet", "box"] {
@@ -232,6 +233,7 @@ fn bake_transforms_mesh_normals_with_the_inverse_transpose() {
         indices: vec![[0, 1, 2]],
         normals: Some(vec![Vec3A::new(1.0, 1.0, 0.0).normalize(); 3]),
         uvs: None,
+        attribute: None,
     };
     let t = Transform {
         scale: Vec3::new(2.0, 1.0, 1.0),

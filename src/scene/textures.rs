@@ -97,10 +97,45 @@ impl<'a> TextureLoader<'a> {
                     ));
                 },
             },
+            TextureDesc::Attribute(a) => {
+                if matches!(role, Role::Data | Role::Emission) {
+                    return Err(format!(
+                        "the mesh attribute `{}` can be read by a material's colours and numbers only",
+                        a.name
+                    ));
+                }
+                if !(a.scale.is_finite() && a.scale >= 0.0) {
+                    return Err(format!(
+                        "the mesh attribute `{}`: scale must be finite and not negative, got {}",
+                        a.name, a.scale
+                    ));
+                }
+                Texture::Attribute { scale: a.scale }
+            }
+            TextureDesc::Mix(m) => {
+                let mut colour = |c: &ColorDesc| match c {
+                    ColorDesc::Constant(v) => Ok(Texture::Constant(Vec3A::from_array(*v))),
+                    ColorDesc::Texture(t) => self.texture(t, role),
+                };
+                let (tex0, tex1) = (colour(&m.tex0)?, colour(&m.tex1)?);
+                let amount = match &m.amount {
+                    FloatDesc::Constant(x) => Texture::Constant(Vec3A::splat(*x)),
+                    FloatDesc::Texture(t) => self.texture(t, Role::Reflectance)?,
+                };
+                let (lo, hi) = amount.range();
+                if !(lo >= 0.0 && hi <= 1.0) {
+                    return Err(format!(
+                        "a mix's amount must lie in [0, 1], got values from {lo} to {hi}"
+                    ));
+                }
+                Texture::Mix(Box::new([tex0, tex1, amount]))
+            }
         };
         let what = match desc {
             TextureDesc::Image(i) => format!("texture `{}`", i.path),
             TextureDesc::Checkerboard(_) => "checkerboard".to_string(),
+            TextureDesc::Attribute(a) => format!("mesh attribute `{}`", a.name),
+            TextureDesc::Mix(_) => "mix".to_string(),
         };
         let (lo, hi) = texture.range();
         if !(lo.is_finite() && hi.is_finite()) {

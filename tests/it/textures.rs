@@ -323,3 +323,83 @@ fn ply_texture_coordinates_are_read_unflipped_as_mitsuba_reads_them() {
     );
     assert_ne!(a.mean(), c.mean());
 }
+
+/// Mitsuba 3's mesh attributes from a PLY: a face's value over its triangle, a vertex colour
+/// interpolated, and a blend of two colours by a face value, the same through both
+/// accelerators. The square's lower-right triangle has `weight_0` 0, the upper-left 1; the
+/// vertices' `r g b` run from red 0 on the left to 1 on the right.
+#[test]
+fn mesh_attributes_from_a_ply_reach_the_material() {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+               property float r\nproperty float g\nproperty float b\nelement face 2\nproperty list uchar int vertex_indices\n\
+               property float weight_0\nend_header\n\
+               -1 -1 0 0 0.5 0.25\n1 -1 0 1 0.5 0.25\n1 1 0 1 0.5 0.25\n-1 1 0 0 0.5 0.25\n3 0 1 2 0\n3 0 2 3 1\n";
+    let files = [("sq.ply", ply.as_bytes().to_vec())];
+    let scene = |attribute: &str, albedo: &str| {
+        format!(
+            r#"({CAMERA}
+            environment: (1, 1, 1),
+            materials: {{"m": Lambert(albedo: {albedo})}},
+            entities: [(name: "square", shape: Ply(path: "sq.ply", attribute: "{attribute}"), material: "m")])"#
+        )
+    };
+    let cases = [
+        (
+            scene("face_weight", r#"Attribute(name: "face_weight")"#),
+            [[0.0; 3], [1.0; 3]],
+        ),
+        (
+            scene(
+                "face_weight",
+                r#"Mix(tex0: (0, 0.5, 0.5), tex1: (1, 1, 0), amount: Attribute(name: "face_weight"))"#,
+            ),
+            [[0.0, 0.5, 0.5], [1.0, 1.0, 0.0]],
+        ),
+    ];
+    for accel in [AccelKind::Raylab, AccelKind::Obvhs] {
+        for (text, [lower_right, upper_left]) in &cases {
+            let film = render_text(text, &files, "albedo", 4, 1, accel);
+            // Corners well inside each triangle.
+            for ((x, y), want) in [((12, 12), lower_right), ((1, 1), upper_left)] {
+                let got = film.crop(x, y, 3, 3).unwrap().mean();
+                for c in 0..3 {
+                    assert!(
+                        (got[c] - want[c]).abs() < 1e-4,
+                        "{accel:?}: at ({x}, {y}) {got} vs {want:?}\n{text}"
+                    );
+                }
+            }
+        }
+        // The vertex colour, interpolated: red is (x + 1) / 2, so the columns over x in
+        // [-0.8, -0.4] and [0.4, 0.8] average 0.2 and 0.8.
+        let film = render_text(
+            &scene("vertex_color", r#"Attribute(name: "vertex_color")"#),
+            &files,
+            "albedo",
+            16,
+            1,
+            accel,
+        );
+        for (x, want) in [(0, 0.2), (12, 0.8)] {
+            let got = film.crop(x, 0, 4, 16).unwrap().mean();
+            assert!((got.x - want).abs() < 0.01, "{accel:?}: column {x}: {got}");
+            assert!((got.y - 0.5).abs() < 1e-4 && (got.z - 0.25).abs() < 1e-4);
+        }
+    }
+    // A material reading an attribute on a shape that carries none is refused.
+    let bare = format!(
+        r#"({CAMERA}
+        materials: {{"m": Lambert(albedo: Attribute(name: "face_weight"))}},
+        entities: [(name: "square", shape: Ply(path: "sq.ply"), material: "m")])"#
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("sq.ply"), ply).unwrap();
+    std::fs::write(dir.path().join("s.ron"), bare).unwrap();
+    let Err(err) = raylab::scene::load_scene(&dir.path().join("s.ron")) else {
+        panic!("a material reading an attribute of a shape without one loaded");
+    };
+    assert!(
+        format!("{err:#}").contains("reads a mesh attribute, but the shape carries none"),
+        "{err:#}"
+    );
+}

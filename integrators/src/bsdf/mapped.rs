@@ -97,6 +97,10 @@ pub struct MappedBsdf<'a> {
     pub material: Cow<'a, Material>,
     pub map: Option<MapTerms>,
     pub opacity: f32,
+    /// Seen from the front only (Mitsuba 3's opaque BSDFs outside a `twosided`): nothing
+    /// passes unless both directions lie above the shading normal, and nothing is sampled
+    /// from behind it (a mask's null event still is).
+    pub one_sided: bool,
 }
 
 impl Deref for MappedBsdf<'_> {
@@ -114,6 +118,7 @@ impl<'a> MappedBsdf<'a> {
             material,
             map: None,
             opacity: 1.0,
+            one_sided: false,
         }
     }
 
@@ -123,6 +128,7 @@ impl<'a> MappedBsdf<'a> {
             material: Cow::Owned(self.material.into_owned()),
             map: self.map,
             opacity: self.opacity,
+            one_sided: self.one_sided,
         }
     }
 
@@ -132,6 +138,7 @@ impl<'a> MappedBsdf<'a> {
             material: Cow::Borrowed(&self.material),
             map: self.map,
             opacity: self.opacity,
+            one_sided: self.one_sided,
         }
     }
 
@@ -187,6 +194,9 @@ impl<'a> MappedBsdf<'a> {
     /// [`Material::eval`] with the map's terms and the mask's opacity.
     #[inline]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+        if self.behind(wo, wi) {
+            return Rgb::ZERO;
+        }
         let g = match &self.map {
             None => 1.0,
             Some(m) => m.factor(wo, wi),
@@ -205,6 +215,9 @@ impl<'a> MappedBsdf<'a> {
     /// [`Material::pdf`], zero across either normal, times the mask's opacity.
     #[inline]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
+        if self.behind(wo, wi) {
+            return 0.0;
+        }
         match &self.map {
             Some(m) if !(m.passes(wo) && m.passes(wi)) => 0.0,
             _ if self.see_through() => self.material.pdf(wo, wi) * self.opacity,
@@ -215,6 +228,9 @@ impl<'a> MappedBsdf<'a> {
     /// [`Material::eval_pdf`] with the map's terms and the mask's opacity.
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+        if self.behind(wo, wi) {
+            return (Rgb::ZERO, 0.0);
+        }
         let g = match &self.map {
             None => 1.0,
             Some(m) => m.factor(wo, wi),
@@ -251,7 +267,13 @@ impl<'a> MappedBsdf<'a> {
             }
             u_lobe = ((u_lobe - null) / self.opacity).min(1.0 - f32::EPSILON);
         }
+        if self.one_sided && wo.z <= 0.0 {
+            return None;
+        }
         let mut s = self.material.sample(wo, u_lobe, u)?;
+        if self.one_sided && s.wi.z <= 0.0 {
+            return None;
+        }
         if let Some(m) = &self.map {
             if !m.passes(s.wi) {
                 return None;
@@ -262,6 +284,12 @@ impl<'a> MappedBsdf<'a> {
             s.pdf *= self.opacity;
         }
         Some(s)
+    }
+
+    /// Whether a one-sided material sees `wo` or `wi` from behind.
+    #[inline]
+    fn behind(&self, wo: Vec3A, wi: Vec3A) -> bool {
+        self.one_sided && !(wo.z > 0.0 && wi.z > 0.0)
     }
 
     /// [`Material::sample_weight`] times the shadowing of the sampled direction.
@@ -294,6 +322,7 @@ mod tests {
             material: Cow::Owned(lambert()),
             map: Some(MapTerms::new(Vec3A::Z, 0.0, wo)),
             opacity: 1.0,
+            one_sided: false,
         };
         let wi = Vec3A::new(0.5, 0.0, 1.0).normalize();
         assert_eq!(flat.eval(wo, wi), lambert().eval(wo, wi));
@@ -304,6 +333,7 @@ mod tests {
             material: Cow::Owned(lambert()),
             map: Some(MapTerms::new(n0, alpha2, wo)),
             opacity: 1.0,
+            one_sided: false,
         };
         let g = |w: Vec3A| {
             let c = w.dot(n0);
@@ -331,6 +361,7 @@ mod tests {
             material: Cow::Owned(lambert()),
             map: None,
             opacity: 0.3,
+            one_sided: false,
         };
         let (wo, wi) = (Vec3A::new(0.0, 0.3, 1.0).normalize(), Vec3A::Z);
         assert!(

@@ -19,7 +19,7 @@
 
 use super::mapped::{MapTerms, MappedBsdf};
 use super::Material;
-use crate::texture::Texture;
+use crate::texture::{Texture, TextureLookup};
 use crate::{Frame, Hit, Scene};
 use glam::Vec3A;
 use std::borrow::Cow;
@@ -80,11 +80,11 @@ impl PrincipledTextures {
         ]
     }
 
-    /// The base layer's textured scalars looked up at `uv`.
-    fn apply(&self, b: &mut super::Burley, uv: glam::Vec2) {
+    /// The base layer's textured scalars looked up at `l`.
+    fn apply(&self, b: &mut super::Burley, l: &TextureLookup) {
         let at = |t: &Option<Texture>, x: &mut f32| {
             if let Some(t) = t {
-                *x = t.eval_scalar(uv);
+                *x = t.at_scalar(l);
             }
         };
         at(&self.roughness, &mut b.roughness);
@@ -111,10 +111,10 @@ pub enum RoughnessTextures {
 }
 
 impl RoughnessTextures {
-    /// `mf` with its roughness looked up at `uv`, kept within the microfacet range.
+    /// `mf` with its roughness looked up at `l`, kept within the microfacet range.
     #[inline]
-    fn apply(&self, mf: &mut super::Microfacet, uv: glam::Vec2) {
-        let at = |t: &Texture| t.eval_scalar(uv).clamp(super::microfacet::MIN_ALPHA, 2.0);
+    fn apply(&self, mf: &mut super::Microfacet, l: &TextureLookup) {
+        let at = |t: &Texture| t.at_scalar(l).clamp(super::microfacet::MIN_ALPHA, 2.0);
         match self {
             RoughnessTextures::Isotropic(t) => {
                 let a = at(t);
@@ -138,12 +138,12 @@ impl MaterialTextures {
             || self.principled.as_ref().is_some_and(|p| p.any())
     }
 
-    /// `m` with its textured parameters looked up at `uv`.
-    fn apply(&self, m: &mut Material, uv: glam::Vec2) {
-        let at = |t: &Option<Texture>, default| t.as_ref().map_or(default, |t| t.eval(uv));
+    /// `m` with its textured parameters looked up at `l`.
+    fn apply(&self, m: &mut Material, l: &TextureLookup) {
+        let at = |t: &Option<Texture>, default| t.as_ref().map_or(default, |t| t.at(l));
         let roughness = |mf: &mut super::Microfacet| {
             if let Some(a) = &self.alpha {
-                a.apply(mf, uv);
+                a.apply(mf, l);
             }
         };
         match m {
@@ -186,9 +186,9 @@ impl MaterialTextures {
             Material::Principled(p) => {
                 p.burley.base_color = at(&self.diffuse, p.burley.base_color);
                 if let Some(t) = &self.principled {
-                    t.apply(&mut p.burley, uv);
+                    t.apply(&mut p.burley, l);
                     let scalar =
-                        |t: &Option<Texture>, x: f32| t.as_ref().map_or(x, |t| t.eval_scalar(uv));
+                        |t: &Option<Texture>, x: f32| t.as_ref().map_or(x, |t| t.at_scalar(l));
                     p.metallic = scalar(&t.metallic, p.metallic);
                     p.clearcoat = scalar(&t.clearcoat, p.clearcoat);
                     p.clearcoat_gloss = scalar(&t.clearcoat_gloss, p.clearcoat_gloss);
@@ -197,16 +197,16 @@ impl MaterialTextures {
             Material::PrincipledThin(p) => {
                 p.burley.base_color = at(&self.diffuse, p.burley.base_color);
                 if let Some(t) = &self.principled {
-                    t.apply(&mut p.burley, uv);
+                    t.apply(&mut p.burley, l);
                     p.diff_trans = t
                         .diff_trans
                         .as_ref()
-                        .map_or(p.diff_trans, |t| t.eval_scalar(uv));
+                        .map_or(p.diff_trans, |t| t.at_scalar(l));
                 }
             }
             // No texture slot maps onto a fibre's absorption or roughness; its offset across
             // the fibre is the hit's (pbrt-v4's curves: h = 2 v - 1).
-            Material::Hair(h) => *h = h.clone().with_h(2.0 * uv.y - 1.0),
+            Material::Hair(h) => *h = h.clone().with_h(2.0 * l.uv.y - 1.0),
         }
     }
 }
@@ -324,6 +324,9 @@ pub struct SurfaceMaterial {
     perturbation: Option<(Perturbation, MapOptions)>,
     /// A cut-out mask's opacity (Mitsuba's `mask`), if any.
     opacity: Option<Texture>,
+    /// Seen from its front only (Mitsuba's opaque BSDFs): nothing from behind the shading
+    /// normal.
+    one_sided: bool,
     /// pbrt-v4's `alpha`, if any: where it is below 1 the surface is absent for a share of
     /// the rays (every ray, shadow rays too), which pass as if it were not there
     /// ([`crate::cutout`]).
@@ -348,6 +351,7 @@ impl SurfaceMaterial {
             textures,
             perturbation,
             opacity: None,
+            one_sided: false,
             cutout: None,
         }
     }
@@ -386,6 +390,44 @@ impl SurfaceMaterial {
         self.opacity.as_ref()
     }
 
+    /// Whether some texture of the material reads the hit mesh's attribute.
+    pub fn reads_attribute(&self) -> bool {
+        let t = &self.textures;
+        let alpha = match &t.alpha {
+            Some(RoughnessTextures::Isotropic(a)) => vec![a],
+            Some(RoughnessTextures::Anisotropic { u, v }) => u.iter().chain(v.iter()).collect(),
+            None => Vec::new(),
+        };
+        let principled = t.principled.as_ref().map_or(Vec::new(), |p| {
+            p.slots().into_iter().flatten().collect::<Vec<_>>()
+        });
+        [
+            &t.diffuse,
+            &t.specular,
+            &t.transmittance,
+            &self.opacity,
+            &self.cutout,
+        ]
+        .into_iter()
+        .flatten()
+        .chain(alpha)
+        .chain(principled)
+        .any(Texture::reads_attribute)
+    }
+
+    /// The material seen from its front only (see [`MappedBsdf::one_sided`]).
+    pub fn with_one_sided(self) -> SurfaceMaterial {
+        SurfaceMaterial {
+            one_sided: true,
+            ..self
+        }
+    }
+
+    /// Whether the material is seen from its front only.
+    pub fn is_one_sided(&self) -> bool {
+        self.one_sided
+    }
+
     /// The material on a surface cut out by pbrt-v4's `alpha` (a texture's scalar).
     pub fn with_cutout(self, alpha: Texture) -> SurfaceMaterial {
         SurfaceMaterial {
@@ -421,7 +463,10 @@ impl SurfaceMaterial {
     #[inline(always)]
     pub(crate) fn at(&self, hit: &mut Hit, towards_viewer: Vec3A) -> MappedBsdf<'_> {
         if !self.varies {
-            return MappedBsdf::plain(Cow::Borrowed(&self.bsdf));
+            return MappedBsdf {
+                one_sided: self.one_sided,
+                ..MappedBsdf::plain(Cow::Borrowed(&self.bsdf))
+            };
         }
         self.at_varying(hit, towards_viewer)
     }
@@ -447,19 +492,19 @@ impl SurfaceMaterial {
         }
         let material = if self.textures.any() || self.bsdf.varies_per_hit() {
             let mut m = self.bsdf.clone();
-            self.textures.apply(&mut m, hit.uv);
+            self.textures.apply(&mut m, &TextureLookup::at(hit));
             Cow::Owned(m)
         } else {
             Cow::Borrowed(&self.bsdf)
         };
-        let opacity = self
-            .opacity
-            .as_ref()
-            .map_or(1.0, |t| t.eval_scalar(hit.uv).clamp(0.0, 1.0));
+        let opacity = self.opacity.as_ref().map_or(1.0, |t| {
+            t.at_scalar(&TextureLookup::at(hit)).clamp(0.0, 1.0)
+        });
         MappedBsdf {
             material,
             map,
             opacity,
+            one_sided: self.one_sided,
         }
     }
 }

@@ -3,7 +3,9 @@
 
 use super::*;
 use crate::formats::schema::{self, Metal};
-use crate::formats::texture_desc::{CheckerboardDesc, ImageDesc, TextureDesc};
+use crate::formats::texture_desc::{
+    AttributeDesc, CheckerboardDesc, ImageDesc, MixDesc, TextureDesc,
+};
 use raylab_integrators::bsdf::Distribution;
 
 /// A microfacet model's distribution and roughness as Mitsuba gives them.
@@ -62,6 +64,38 @@ fn lambert_albedo(m: &MaterialDesc) -> Option<V3> {
             albedo: ColorDesc::Constant(c),
         } => Some(*c),
         _ => None,
+    }
+}
+
+/// Whether Mitsuba sees the material from its front only: an opaque model not inside a
+/// `twosided` (through maps, masks and blends, which keep their BSDFs' sides).
+fn one_sided(m: &MaterialDesc) -> bool {
+    use MaterialDesc::*;
+    match m {
+        Lambert { .. }
+        | OrenNayar { .. }
+        | Phong { .. }
+        | Mirror { .. }
+        | Conductor { .. }
+        | RoughConductor { .. }
+        | Plastic { .. }
+        | RoughPlastic { .. } => true,
+        Principled { spec_trans, .. } => {
+            !matches!(spec_trans, Some(FloatDesc::Texture(_)))
+                && !matches!(spec_trans, Some(FloatDesc::Constant(x)) if *x != 0.0)
+        }
+        NormalMap { material, .. }
+        | BumpMap { material, .. }
+        | Mask { material, .. }
+        | Cutout { material, .. } => one_sided(material),
+        TwoSided(_) | OneSided(_) => false,
+        Glass { .. }
+        | Dielectric { .. }
+        | RoughDielectric { .. }
+        | ThinDielectric { .. }
+        | DiffuseTransmission { .. }
+        | PrincipledThin { .. }
+        | Hair { .. } => false,
     }
 }
 
@@ -193,6 +227,16 @@ impl<'a, 'input> Converter<'a, 'input> {
                     scale: 1.0,
                 })
             }
+            "mesh_attribute" => TextureDesc::Attribute(AttributeDesc {
+                name: p.string("name")?.ok_or_else(|| {
+                    at(
+                        self.doc,
+                        node,
+                        "<texture type=\"mesh_attribute\"> needs `name`",
+                    )
+                })?,
+                scale: p.float("scale")?.unwrap_or(1.0),
+            }),
             "checkerboard" => TextureDesc::Checkerboard(CheckerboardDesc {
                 color0: p.vector("color0")?.unwrap_or([0.4; 3]),
                 color1: p.vector("color1")?.unwrap_or([0.2; 3]),
@@ -203,7 +247,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 return Err(at(
                     self.doc,
                     node,
-                    format!("texture type `{other}` is not supported (bitmap, checkerboard are)"),
+                    format!("texture type `{other}` is not supported (bitmap, checkerboard, mesh_attribute are)"),
                 ))
             }
         };
@@ -626,9 +670,36 @@ impl<'a, 'input> Converter<'a, 'input> {
         p: &mut Props<'a, 'input>,
         node: Node<'a, 'input>,
     ) -> Result<MaterialDesc, Located> {
-        let weight = self.constant_weight(p, node, "weight")?;
+        // Mitsuba reads the weight as a scalar (eval_1); default 0.5.
+        let (weight, textured) = match self.float_param(p, "weight")? {
+            Some(FloatDesc::Texture(t)) => (None, Some(t)),
+            Some(FloatDesc::Constant(w)) if !(0.0..=1.0).contains(&w) => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!("`weight` must lie in [0, 1], not {w}"),
+                ))
+            }
+            Some(FloatDesc::Constant(w)) => (Some(w), None),
+            None => (Some(0.5), None),
+        };
         let inner = self.nested_bsdfs(p, node, 2)?;
         let (a, b) = (self.bsdf(inner[0])?, self.bsdf(inner[1])?);
+        // Two diffuse reflectances blended by a texture: one diffuse of the mixed colour.
+        if let (
+            Some(amount),
+            MaterialDesc::Lambert { albedo: ka },
+            MaterialDesc::Lambert { albedo: kb },
+        ) = (&textured, &a, &b)
+        {
+            return Ok(MaterialDesc::Lambert {
+                albedo: ColorDesc::Texture(TextureDesc::Mix(Box::new(MixDesc {
+                    tex0: ka.clone(),
+                    tex1: kb.clone(),
+                    amount: FloatDesc::Texture(amount.clone()),
+                }))),
+            });
+        }
         let w = weight.unwrap_or(0.5);
         Ok(match (weight, lambert_albedo(&a), lambert_albedo(&b)) {
             (Some(0.0), ..) => a,
@@ -684,29 +755,6 @@ impl<'a, 'input> Converter<'a, 'input> {
         })
     }
 
-    /// A blend weight or opacity in `[0, 1]`: the number, `None` when it is a texture (the
-    /// texture is consumed), Mitsuba's 0.5 when absent.
-    fn constant_weight(
-        &mut self,
-        p: &mut Props<'a, 'input>,
-        node: Node<'a, 'input>,
-        name: &str,
-    ) -> Result<Option<f32>, Located> {
-        if let Some(i) = p.children.iter().position(|(n, _)| n == name) {
-            p.children.remove(i);
-            return Ok(None);
-        }
-        let w = p.float(name)?.unwrap_or(0.5);
-        if !(0.0..=1.0).contains(&w) {
-            return Err(at(
-                self.doc,
-                node,
-                format!("`{name}` must lie in [0, 1], not {w}"),
-            ));
-        }
-        Ok(Some(w))
-    }
-
     /// Exactly `n` nested (or referenced) BSDFs of `node`.
     fn nested_bsdfs(
         &mut self,
@@ -755,16 +803,10 @@ impl<'a, 'input> Converter<'a, 'input> {
         while self.materials.iter().any(|(n, _)| *n == name) {
             name.push('\'');
         }
-        let desc = self.bsdf(node)?;
-        let kind = self.kind(node)?;
-        if matches!(
-            kind.as_str(),
-            "diffuse" | "conductor" | "roughconductor" | "plastic" | "roughplastic"
-        ) {
-            self.report.push(format!(
-                "{name}: Mitsuba's `{kind}` is one-sided (black from behind); raylab's opaque \
-                 materials are two-sided (as inside `twosided`)"
-            ));
+        let mut desc = self.bsdf(node)?;
+        // Mitsuba's opaque BSDFs reflect nothing from behind unless inside a `twosided`.
+        if one_sided(&desc) {
+            desc = MaterialDesc::OneSided(Box::new(desc));
         }
         self.materials.push((name.clone(), desc));
         self.origins

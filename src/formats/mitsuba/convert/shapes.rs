@@ -137,7 +137,11 @@ impl<'a, 'input> Converter<'a, 'input> {
                 if kind == "obj" {
                     ShapeDesc::Obj { path, normals }
                 } else {
-                    ShapeDesc::Ply { path, normals }
+                    ShapeDesc::Ply {
+                        path,
+                        normals,
+                        attribute: None,
+                    }
                 }
             }
             "serialized" => {
@@ -153,11 +157,26 @@ impl<'a, 'input> Converter<'a, 'input> {
                     normals,
                 }
             }
+            "sdfgrid" => {
+                let path = self.file_name(file(&mut p)?);
+                let smooth_normals = match p.string("normals")?.as_deref() {
+                    None | Some("smooth") => true,
+                    Some("analytic") => false,
+                    Some(other) => {
+                        return Err(at(
+                            self.doc,
+                            node,
+                            format!("<shape type=\"sdfgrid\">: `normals` must be \"smooth\" or \"analytic\", not \"{other}\""),
+                        ))
+                    }
+                };
+                ShapeDesc::SdfGrid {
+                    path,
+                    smooth_normals,
+                }
+            }
             "rectangle" => ShapeDesc::Rectangle,
-            "cube" => ShapeDesc::Box {
-                min: [-1.0; 3],
-                max: [1.0; 3],
-            },
+            "cube" => mitsuba_cube(),
             "disk" => ShapeDesc::Disk,
             "sphere" => ShapeDesc::Sphere {
                 center: p.vector("center")?.unwrap_or([0.0; 3]),
@@ -169,13 +188,24 @@ impl<'a, 'input> Converter<'a, 'input> {
                 radius: p.float("radius")?.unwrap_or(1.0),
             },
             other => {
-                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, serialized, rectangle, cube, disk, sphere, cylinder are)")))
+                return Err(at(self.doc, node, format!("shape `{other}` is not supported (obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, sdfgrid are)")))
             }
         };
         let mut flip = p.boolean("flip_normals")?.unwrap_or(false);
         // Mitsuba's rectangle faces its inverse transpose's +z; raylab's Rectangle is two
         // triangles facing their winding, which a mirroring to_world turns the other way.
-        if kind == "rectangle" && to_world.matrix3.determinant() < 0.0 {
+        // A mesh with vertex normals under a mirroring to_world: Mitsuba's shading normals
+        // (the object's, by the inverse transpose) face where the winding does not, and its
+        // BSDFs see the side the shading normal gives; raylab keeps a shading normal on its
+        // triangle's side, so the triangles are turned to face with them.
+        let normals_of_shape = match &shape {
+            ShapeDesc::Obj { normals, .. }
+            | ShapeDesc::Ply { normals, .. }
+            | ShapeDesc::Serialized { normals, .. } => *normals != MeshNormals::Flat,
+            ShapeDesc::Mesh { normals, .. } => normals.is_some(),
+            _ => false,
+        };
+        if (kind == "rectangle" || normals_of_shape) && to_world.matrix3.determinant() < 0.0 {
             flip = !flip;
             self.report.push(format!(
                 "{name}: a mirroring to_world: its faces turned to face where Mitsuba's do"
@@ -236,15 +266,51 @@ impl<'a, 'input> Converter<'a, 'input> {
                     while self.materials.iter().any(|(n, _)| *n == name) {
                         name.push('\'');
                     }
-                    self.materials.push((name.clone(), bsdf::default_bsdf()));
+                    self.materials.push((
+                        name.clone(),
+                        MaterialDesc::OneSided(Box::new(bsdf::default_bsdf())),
+                    ));
                     self.report.push(format!(
-                        "{name}: Mitsuba's default BSDF (diffuse 0.5), for shapes without one; \
-                         two-sided in raylab"
+                        "{name}: Mitsuba's default BSDF (diffuse 0.5, one-sided), for shapes \
+                         without one"
                     ));
                     self.default_material = Some(name.clone());
                     name
                 }
             }),
+        };
+        // The mesh attribute its material reads, which the shape carries to it.
+        let read = material
+            .as_ref()
+            .and_then(|m| self.materials.iter().find(|(n, _)| n == m))
+            .map_or(Vec::new(), |(_, desc)| desc.attributes());
+        let shape = match (shape, read.as_slice()) {
+            (shape, []) => shape,
+            (ShapeDesc::Ply { path, normals, .. }, [one]) => ShapeDesc::Ply {
+                path,
+                normals,
+                attribute: Some(one.clone()),
+            },
+            (ShapeDesc::Ply { .. }, _) => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!(
+                        "the shape's BSDF reads the mesh attributes {}: raylab carries one per shape",
+                        read.join(", ")
+                    ),
+                ))
+            }
+            (_, _) => {
+                return Err(at(
+                    self.doc,
+                    node,
+                    format!(
+                        "the shape's BSDF reads the mesh attribute `{}`: only a `ply` shape carries attributes",
+                        read[0]
+                    ),
+                ))
+            }
         };
         Ok(ShapeParts {
             name,
@@ -331,5 +397,39 @@ impl<'a, 'input> Converter<'a, 'input> {
         self.entities
             .push(EntityDesc::light(name, transform, emitter));
         Ok(())
+    }
+}
+
+/// Mitsuba 3's `cube`: the 24 vertices of its six faces (`[-1, 1]^3`), each face with its own
+/// normal and one pattern of texture coordinates, in Mitsuba's order (`src/shapes/cube.cpp`),
+/// so that a texture lies on each face as Mitsuba lays it.
+fn mitsuba_cube() -> ShapeDesc {
+    const NORMALS: [[f32; 3]; 6] = [
+        [0.0, -1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 0.0, -1.0],
+    ];
+    const UVS: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+    // The corner of each vertex: bit k of a corner gives the sign of axis k.
+    const CORNERS: [u32; 24] = [
+        1, 5, 4, 0, 3, 2, 6, 7, 1, 3, 7, 5, 5, 7, 6, 4, 4, 6, 2, 0, 3, 1, 0, 2,
+    ];
+    let corner = |c: u32| {
+        let s = |bit: u32| if c & bit != 0 { 1.0 } else { -1.0 };
+        [s(1), s(2), s(4)]
+    };
+    ShapeDesc::Mesh {
+        positions: CORNERS.iter().map(|&c| corner(c)).collect(),
+        indices: (0..6u32)
+            .flat_map(|f| {
+                let v = 4 * f;
+                [[v, v + 1, v + 2], [v + 3, v, v + 2]]
+            })
+            .collect(),
+        normals: Some((0..24).map(|v| NORMALS[v / 4]).collect()),
+        uvs: Some((0..24).map(|v| UVS[v % 4]).collect()),
     }
 }

@@ -128,7 +128,7 @@ impl<'a> Converter<'a> {
                     return Err((d.pos, format!("{what}: a PLY mesh turned around (ReverseOrientation or a mirroring transform) inside an object definition is not supported")));
                 }
                 self.report(format!("{what}: faces by its winding; pbrt-v4 faces a PLY mesh with normals towards them"));
-                let ply = ShapeDesc::Ply { path: file, normals: MeshNormals::File };
+                let ply = ShapeDesc::Ply { path: file, normals: MeshNormals::File, attribute: None };
                 (ply, DMat4::IDENTITY, true, Area::Unknown)
             }
             other => return Err((d.pos, format!("Shape \"{other}\" is not supported (sphere, disk, cylinder, trianglemesh, bilinearmesh, plymesh, curve are)"))),
