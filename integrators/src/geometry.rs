@@ -269,6 +269,20 @@ impl Hit {
         }
     }
 
+    /// A connection from this surface to the surface point of `other` (two path vertices): a
+    /// shadow ray as [`Hit::spawn_ray_to`] towards `other.p`, or, where `other` keeps spawned
+    /// rays a width away (a curve's hit, inside the fibre it models), towards that point pushed
+    /// off `other` as far towards this one, so that the fibre around `other` does not block
+    /// the connection to it (pbrt-v4's `SpawnRayTo` between two interactions).
+    #[inline]
+    pub fn spawn_ray_between(&self, other: &Hit) -> Ray {
+        if other.spawn_offset > 0.0 {
+            self.spawn_ray_to(other.offset_origin(self.p - other.p))
+        } else {
+            self.spawn_ray_to(other.p)
+        }
+    }
+
     /// The shading frame at the hit: `z` the shading normal, `x` the tangent `dpdu` made
     /// orthogonal to it where the shape has one (anisotropic materials follow it).
     #[inline]

@@ -763,7 +763,7 @@ impl Subpaths<'_, '_> {
                 * joined(pt, qs.p, TransportMode::Radiance)
                 * pt.beta
                 / d2;
-            if c == Rgb::ZERO || !tracer.connected(&qs.hit(), pt.p) {
+            if c == Rgb::ZERO || !tracer.connected_to(&qs.hit(), &pt.hit()) {
                 return NONE;
             }
             c

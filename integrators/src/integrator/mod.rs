@@ -136,6 +136,14 @@ impl<'a> Tracer<'a> {
         !self.scene.occluded(&hit.spawn_ray_to(to))
     }
 
+    /// True if nothing blocks the segment between the surfaces at `hit` and `to` (a
+    /// connection between two path vertices: [`Hit::spawn_ray_between`]).
+    #[inline]
+    pub fn connected_to(&mut self, hit: &Hit, to: &Hit) -> bool {
+        self.counters.connection += 1;
+        !self.scene.occluded(&hit.spawn_ray_between(to))
+    }
+
     /// Casts a shadow ray from `hit` towards a light sample; true if nothing blocks it.
     #[inline]
     pub fn unoccluded(&mut self, hit: &Hit, ls: &LightSample) -> bool {

@@ -754,7 +754,7 @@ fn connect(
     let w_camera = mis(light_area) * (w.vm + weights.vcm + weights.vc * camera_rev);
     let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
     let c = f_camera * f_light * (weight / d2);
-    if c == Rgb::ZERO || !c.is_finite() || !tracer.connected(&lsp.hit, sp.hit.p) {
+    if c == Rgb::ZERO || !c.is_finite() || !tracer.connected_to(&lsp.hit, &sp.hit) {
         return Rgb::ZERO;
     }
     c

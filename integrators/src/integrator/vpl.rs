@@ -195,7 +195,7 @@ impl Vpl {
                 continue;
             }
             let c = here * there * v.power / d2.max(self.min_dist2);
-            if c.is_finite() && tracer.connected(&sp.hit, v.hit.p) {
+            if c.is_finite() && tracer.connected_to(&sp.hit, &v.hit) {
                 l += c;
             }
         }
