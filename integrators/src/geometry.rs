@@ -390,6 +390,25 @@ pub fn icosahedron() -> ([Vec3A; 12], [[u32; 3]; 20]) {
 mod tests {
     use super::*;
 
+    /// A connection to a curve's hit ends a width off it, towards the other end; to any
+    /// other surface, exactly as a shadow ray to its point.
+    #[test]
+    fn connections_end_outside_a_curves_fibre() {
+        let here = Hit::new(1.0, Vec3A::new(0.0, 0.0, 5.0), Vec3A::Z, 0, None);
+        let plain = Hit::new(1.0, Vec3A::new(0.3, 0.0, 0.0), -Vec3A::Z, 0, None);
+        let (a, b) = (here.spawn_ray_between(&plain), here.spawn_ray_to(plain.p));
+        assert_eq!((a.origin, a.dir, a.tmax), (b.origin, b.dir, b.tmax));
+        let fibre = Hit {
+            spawn_offset: 0.1,
+            ..plain
+        };
+        let r = here.spawn_ray_between(&fibre);
+        let end = r.origin + r.dir * r.tmax;
+        // Pushed off along the normal towards `here` (-z faces away: +z side).
+        assert!(end.z > 0.099 && end.z < 0.1 + 1e-3, "{end}");
+        assert!((end.x - 0.3).abs() < 1e-3, "{end}");
+    }
+
     #[test]
     fn a_ray_carries_its_medium_in_the_padding() {
         assert_eq!(std::mem::size_of::<Ray>(), 48);
