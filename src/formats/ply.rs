@@ -311,6 +311,25 @@ pub fn parse_ply(file: &Path, bytes: &[u8]) -> Result<FileMesh, String> {
     // may claim billions).
     super::memory::check_mesh_memory(count("face"), count("vertex"), has_normals || has_uvs)
         .map_err(|e| cannot(&e))?;
+    // Other properties are kept per record while reading (a vector of their values), then
+    // as attributes of three channels: charged before any is read.
+    let (vertex_extra, face_extra) = (
+        other_names(&header, "vertex").len() as u64,
+        other_names(&header, "face").len() as u64,
+    );
+    let extra = |records: u64, fields: u64| {
+        if fields == 0 {
+            0
+        } else {
+            records.saturating_mul(24 + 4 * fields + 16 * fields)
+        }
+    };
+    let extra_bytes = extra(count("vertex"), vertex_extra)
+        .saturating_add(extra(count("face").saturating_mul(2), face_extra));
+    if extra_bytes > 0 {
+        super::memory::check_bytes(extra_bytes, "the mesh's other properties")
+            .map_err(|e| cannot(&e))?;
+    }
 
     let (face_parser, skip_parser) = (Parser::<Face>::new(), Parser::<Skipped>::new());
     let (mut vertices, mut faces) = (Vec::new(), Vec::new());

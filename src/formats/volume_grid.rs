@@ -53,7 +53,10 @@ pub fn parse_volume_grid(bytes: &[u8]) -> Result<VolumeGrid, String> {
             dims[0], dims[1], dims[2], dims[3]
         ));
     }
-    let count = dims.iter().map(|&d| d as u64).product::<u64>();
+    let count = dims
+        .iter()
+        .try_fold(1u64, |n, &d| n.checked_mul(d as u64))
+        .unwrap_or(u64::MAX);
     if count > MAX_VALUES {
         return Err(format!(
             "{count} values, more than the {MAX_VALUES} raylab reads"
@@ -128,6 +131,11 @@ mod tests {
         assert!(parse_volume_grid(&bad).is_err());
         let mut huge = bytes.clone();
         huge[8..12].copy_from_slice(&i32::MAX.to_le_bytes());
+        assert!(parse_volume_grid(&huge).unwrap_err().contains("more than"));
+        // Every dimension at its largest: the count saturates rather than overflows.
+        for at in [8, 12, 16, 20] {
+            huge[at..at + 4].copy_from_slice(&i32::MAX.to_le_bytes());
+        }
         assert!(parse_volume_grid(&huge).unwrap_err().contains("more than"));
         assert!(parse_volume_grid(b"VOL").is_err());
     }
