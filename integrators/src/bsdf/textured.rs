@@ -320,6 +320,9 @@ pub struct SurfaceMaterial {
     /// hit makes, kept beside the BSDF rather than read from the five textures' slots (which
     /// span several cache lines).
     varies: bool,
+    /// Whether the BSDF itself changes per hit (a textured parameter, a hair's offset): a
+    /// copy is made there; decided once here.
+    own_copy: bool,
     textures: MaterialTextures,
     perturbation: Option<(Perturbation, MapOptions)>,
     /// A cut-out mask's opacity (Mitsuba's `mask`), if any.
@@ -345,8 +348,10 @@ impl SurfaceMaterial {
         textures: MaterialTextures,
         perturbation: Option<(Perturbation, MapOptions)>,
     ) -> SurfaceMaterial {
+        let own_copy = textures.any() || bsdf.varies_per_hit();
         SurfaceMaterial {
-            varies: textures.any() || perturbation.is_some() || bsdf.varies_per_hit(),
+            varies: own_copy || perturbation.is_some(),
+            own_copy,
             bsdf,
             textures,
             perturbation,
@@ -423,11 +428,6 @@ impl SurfaceMaterial {
         }
     }
 
-    /// Whether the material is seen from its front only.
-    pub fn is_one_sided(&self) -> bool {
-        self.one_sided
-    }
-
     /// The material on a surface cut out by pbrt-v4's `alpha` (a texture's scalar).
     pub fn with_cutout(self, alpha: Texture) -> SurfaceMaterial {
         SurfaceMaterial {
@@ -490,16 +490,18 @@ impl SurfaceMaterial {
                 }
             }
         }
-        let material = if self.textures.any() || self.bsdf.varies_per_hit() {
+        let lookup = TextureLookup::at(hit);
+        let material = if self.own_copy {
             let mut m = self.bsdf.clone();
-            self.textures.apply(&mut m, &TextureLookup::at(hit));
+            self.textures.apply(&mut m, &lookup);
             Cow::Owned(m)
         } else {
             Cow::Borrowed(&self.bsdf)
         };
-        let opacity = self.opacity.as_ref().map_or(1.0, |t| {
-            t.at_scalar(&TextureLookup::at(hit)).clamp(0.0, 1.0)
-        });
+        let opacity = self
+            .opacity
+            .as_ref()
+            .map_or(1.0, |t| t.at_scalar(&lookup).clamp(0.0, 1.0));
         MappedBsdf {
             material,
             map,
