@@ -1,6 +1,9 @@
 //! The principled models against Mitsuba 3's own values, their sampling against their
 //! densities.
 
+// Mitsuba's values are printed to eight digits, more than an f32 holds: kept as printed.
+#![allow(clippy::excessive_precision)]
+
 use super::*;
 use crate::bsdf::{Bxdf, Material};
 use crate::testing::chi2::{assert_chi2, check_sample_matches_eval, dir, Grid, SAMPLES};
