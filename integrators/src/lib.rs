@@ -25,6 +25,7 @@ pub mod filter;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
+pub mod medium;
 pub mod mlt;
 pub mod photon_map;
 pub mod random;
@@ -48,6 +49,7 @@ pub use integrator::{
     SampleContext, ShardBy, Splats, Stop, Tracer, Work,
 };
 pub use light::{LeSample, Light, LightSample, LightTable};
+pub use medium::{Medium, Phase};
 pub use registry::{find, IntegratorEntry, ParamError, ParamKind, ParamSpec, Params, REGISTRY};
 pub use sampler::Sampler;
 pub use scene::Scene;

@@ -1,6 +1,6 @@
 //! What an integrator needs from a scene, and nothing more.
 
-use crate::{Hit, LightTable, Ray, SurfaceMaterial};
+use crate::{Hit, LightTable, Medium, MediumId, Ray, SurfaceMaterial};
 use glam::Vec3A;
 
 /// A renderable scene as light transport sees it. The engine implements this for its
@@ -16,6 +16,25 @@ pub trait Scene: Sync {
     fn lights(&self) -> &LightTable;
     /// Axis-aligned bounds of the geometry (min, max).
     fn bounds(&self) -> (Vec3A, Vec3A);
+    /// The scene's participating media, which [`MediumId`]s index. Hits report the media on
+    /// either side of their surface ([`Hit::media`]): for a surface that bounds none, the
+    /// medium of the ray that found it on both sides.
+    fn media(&self) -> &[Medium] {
+        &[]
+    }
+    /// The medium the camera sits in.
+    fn camera_medium(&self) -> MediumId {
+        MediumId::VACUUM
+    }
+    /// Whether any ray may travel through a medium.
+    fn has_media(&self) -> bool {
+        !self.media().is_empty()
+    }
+    /// The medium `id` (none for vacuum).
+    #[inline]
+    fn medium(&self, id: MediumId) -> Option<&Medium> {
+        self.media().get(id.0 as usize)
+    }
     /// Computes `hit`'s texture coordinates and tangents if they are pending (see
     /// [`crate::geometry::Pending`]). Scenes of spheres alone need not override it.
     fn parametrise(&self, hit: &mut Hit) {

@@ -519,6 +519,9 @@ pub fn integrators_listing() -> String {
     let mut out = String::new();
     for e in registry::REGISTRY {
         let _ = writeln!(out, "{}\n    {}", e.name, e.summary);
+        if e.media {
+            let _ = writeln!(out, "    renders participating media");
+        }
         for p in e.params {
             let kind = match p.kind {
                 ParamKind::Int => "int",
@@ -538,5 +541,6 @@ pub fn integrators_listing() -> String {
     }
     out.push_str(raylab_integrators::DEPTH_CONVENTION);
     out.push('\n');
+    out.push_str("participating media: only the integrators marked \"renders participating media\" take a scene with media; the others refuse it rather than render it as vacuum\n");
     out
 }

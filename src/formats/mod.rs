@@ -8,6 +8,7 @@
 pub mod access;
 pub mod images;
 pub mod import;
+pub mod medium_desc;
 pub mod memory;
 pub mod mesh_files;
 pub mod mitsuba;

@@ -4,6 +4,7 @@
 //! `implicit_some` extension is on), so `emitter: Area(radiance: (1, 1, 1))` works.
 //! See `scenes/README.md` for a guide with examples.
 
+pub use super::medium_desc::{MediumDesc, MediumInterfaceDesc, PhaseDesc, VolumeDesc};
 pub use super::texture_desc::{ColorDesc, FloatDesc};
 use raylab_integrators::bsdf::{ior, ComplexIor, Distribution};
 use raylab_integrators::Filter;
@@ -42,6 +43,14 @@ pub struct SceneFile {
     /// emitter). Default: none (black).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub environment: Option<V3>,
+    /// Named participating media that entities bound (`medium`) and the camera may sit in
+    /// (`camera_medium`), e.g. `{"fog": Homogeneous(sigma_t: (0.5, 0.5, 0.5), albedo: (0.9,
+    /// 0.9, 0.9))}`. Default: none.
+    #[serde(default, skip_serializing_if = "NamedTable::is_empty")]
+    pub media: MediumTable,
+    /// The medium around the camera, by name. Default: vacuum.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub camera_medium: Option<String>,
     /// The objects of the scene (required, may not be empty).
     pub entities: Vec<EntityDesc>,
 }
@@ -416,11 +425,16 @@ pub enum MaterialDesc {
     /// `material` cut out by a mask (Mitsuba's `mask`): where `opacity` (a number or a
     /// texture's value, in [0, 1]) is below 1, a path goes on straight through the surface
     /// with probability 1 - opacity, and the material's value is scaled by it. Shadow rays
-    /// stop at the surface (as in Mitsuba 3's path tracer).
+    /// stop at the surface (as in Mitsuba 3's path tracer), but for `volpath`'s, which pass
+    /// with weight 1 - opacity (as Mitsuba 3's `volpath`'s).
     Mask {
         opacity: FloatDesc,
         material: Box<MaterialDesc>,
     },
+    /// No surface at all: the boundary of a participating medium that does not scatter
+    /// (Mitsuba 3's `null`, pbrt-v4's `interface`). Rays cross it unchanged, into the medium
+    /// on its other side; volumetric integrators count no scattering event there.
+    Null,
     /// `material` on a surface cut out by pbrt-v4's `alpha` (a number or a texture's value):
     /// where it is below 1 a ray passes the surface with probability `1 - alpha`, as if it
     /// were not there (no scattering, shadow rays too); pbrt-v4 decides by a hash of the ray,
@@ -491,6 +505,7 @@ impl MaterialDesc {
             }
         };
         match self {
+            Null => {}
             Lambert { albedo } | OrenNayar { albedo, .. } => colour(albedo, &mut out),
             DiffuseTransmission {
                 reflectance: a,
@@ -647,6 +662,7 @@ impl MaterialDesc {
         let f = |f: &FloatDesc| matches!(f, FloatDesc::Texture(_));
         let any = |a: [&Option<FloatDesc>; 3]| a.iter().any(|a| a.as_ref().is_some_and(f));
         match self {
+            Null => false,
             Lambert { albedo } | OrenNayar { albedo, .. } => c(albedo),
             DiffuseTransmission {
                 reflectance,
@@ -945,6 +961,9 @@ pub type MaterialTable = NamedTable<MaterialDesc>;
 /// The named mesh assets (shapes made of triangles), in file order.
 pub type MeshTable = NamedTable<ShapeDesc>;
 
+/// The named participating media, in file order.
+pub type MediumTable = NamedTable<MediumDesc>;
+
 impl<'de, T: Deserialize<'de> + TableEntry> Deserialize<'de> for NamedTable<T> {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         struct TableVisitor<T>(std::marker::PhantomData<T>);
@@ -1003,6 +1022,10 @@ pub struct EntityDesc {
     /// Light emission. Default: none.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub emitter: Option<EmitterDesc>,
+    /// The media the shape's surface bounds (Mitsuba's `interior`/`exterior`, pbrt-v4's
+    /// `MediumInterface`), e.g. `(inside: "fog")`. Default: none (rays keep their medium).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub medium: Option<MediumInterfaceDesc>,
     /// Turns the shape's faces around (Mitsuba's `flip_normals`): a one-sided emitter then
     /// emits from its other side, and a sphere emits into its inside. Default: false.
     #[serde(default, skip_serializing_if = "is_false")]
@@ -1019,6 +1042,7 @@ impl EntityDesc {
             shape: None,
             material: None,
             emitter: Some(emitter),
+            medium: None,
             flip_normals: false,
         }
     }

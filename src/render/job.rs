@@ -119,6 +119,20 @@ impl Job {
             request.scene_params,
         )?;
         let integrator = entry.build_checked(&params)?;
+        if !loaded.media.media.is_empty() && !entry.media {
+            let capable: Vec<&str> = raylab_integrators::REGISTRY
+                .iter()
+                .filter(|e| e.media)
+                .map(|e| e.name)
+                .collect();
+            bail!(
+                "{}: the scene has participating media ({}), which integrator `{}` does not render (it would treat them as vacuum); integrators that do: {}",
+                loaded.path.display(),
+                loaded.media.names.join(", "),
+                entry.name,
+                capable.join(", ")
+            );
+        }
         let camera = match request.size {
             Some((w, h)) => loaded.camera.with_resolution(w, h),
             None => loaded.camera.clone(),

@@ -243,6 +243,11 @@ pub struct Instanced {
     pub asset: Arc<LocalMesh>,
 }
 
+/// The media an entity's surface bounds, by name (resolved when the scene is flattened, so
+/// that an entity kept across an edit of the media table never holds a stale index).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MediumBoundary(pub crate::formats::schema::MediumInterfaceDesc);
+
 /// Marks an entity whose shape's faces are turned around (`flip_normals`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FlipNormals;

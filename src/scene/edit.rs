@@ -21,8 +21,8 @@
 //! renders the bits the same scene loaded fresh renders.
 
 use super::components::{
-    Changed, Emitter, FileOrder, FlipNormals, Instanced, LocalMesh, MaterialRef, Name, Shape,
-    Transform, WorldShape,
+    Changed, Emitter, FileOrder, FlipNormals, Instanced, LocalMesh, MaterialRef, MediumBoundary,
+    Name, Shape, Transform, WorldShape,
 };
 use super::describe::{
     camera_from_desc, check_render, emitter_from_desc, shape_from_desc, transform_from_desc, v3,
@@ -303,6 +303,7 @@ fn same_but_material(a: &EntityDesc, b: &EntityDesc) -> bool {
         && a.transform == b.transform
         && a.shape == b.shape
         && a.emitter == b.emitter
+        && a.medium == b.medium
         && a.flip_normals == b.flip_normals
 }
 
@@ -322,6 +323,7 @@ impl SceneState {
                 material_names: Vec::new(),
                 meshes: Vec::new(),
                 environment: None,
+                media: Default::default(),
                 warnings: Vec::new(),
                 inputs: Default::default(),
             },
@@ -390,6 +392,8 @@ impl SceneState {
             None => None,
         };
         self.check_one_sky(&file, environment.is_some())?;
+        let media =
+            super::media::Media::from_file(&file, &self.files).map_err(|m| self.error(m))?;
         if file.entities.is_empty() {
             return Err(self.error("the scene has no entities".into()));
         }
@@ -415,6 +419,9 @@ impl SceneState {
             let name = e.name.clone().unwrap_or_else(|| format!("entity #{index}"));
             let fail = |message: String| self.entity_error(name.clone(), message);
             table.check(&e).map_err(fail)?;
+            if let Some(m) = &e.medium {
+                media.interface(m).map_err(fail)?;
+            }
             let old = before.get(&key).map(|&i| (i, &self.records[i]));
             // The files its shape and emitter read, stamped before they are read.
             let stamps = match old {
@@ -548,6 +555,7 @@ impl SceneState {
         loaded.materials = table.materials;
         loaded.material_names = table.names;
         loaded.environment = environment;
+        loaded.media = media;
         loaded.warnings = warnings;
         self.materials = materials;
         Ok(report)
@@ -684,6 +692,9 @@ impl SceneState {
         if e.flip_normals {
             entity.add(FlipNormals);
         }
+        if let Some(m) = &e.medium {
+            entity.add(MediumBoundary(m.clone()));
+        }
         if let Some(shape) = shape {
             entity.add(shape);
         }
@@ -743,6 +754,9 @@ impl SceneState {
             ));
             if let Some(emitter) = part.emitter {
                 entity.add(emitter);
+            }
+            if let Some(m) = &e.medium {
+                entity.add(MediumBoundary(m.clone()));
             }
             staged.push(staging.spawn(entity.build()));
         }
@@ -910,7 +924,11 @@ impl SceneState {
         kind: AccelKind,
         threads: Option<usize>,
     ) -> anyhow::Result<(Arc<RenderScene>, Rebuilt)> {
-        let mut geometry = self.removed > 0;
+        // Media: every edit builds the scene again (the material slots of the surfaces that
+        // bound media, and the media themselves, follow the world).
+        let mut geometry = self.removed > 0
+            || !self.loaded.media.media.is_empty()
+            || self.built.as_ref().is_some_and(|b| b.has_media());
         let mut emitters = self.environment_changed;
         let mut marked = Vec::new();
         for (entity, changed) in self.loaded.world.query::<(Entity, &Changed)>().iter() {

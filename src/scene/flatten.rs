@@ -12,7 +12,7 @@
 //! same way, so an edited scene and the same scene loaded fresh are the same bits.
 
 use super::components::{
-    FileOrder, GeometryId, Instanced, MaterialRef, Name, Transform, WorldShape,
+    FileOrder, GeometryId, Instanced, MaterialRef, MediumBoundary, Name, Transform, WorldShape,
 };
 use super::{systems, LoadedScene};
 use crate::accel::{
@@ -22,7 +22,9 @@ use crate::formats::schema::LightSelection;
 use glam::Vec3A;
 use hecs::Entity;
 use obvhs::triangle::Triangle;
-use raylab_integrators::{Hit, Light, LightTable, Ray, Scene, SurfaceMaterial};
+use raylab_integrators::{
+    Hit, Light, LightTable, Medium, MediumId, MediumInterface, Ray, Scene, SurfaceMaterial,
+};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -77,7 +79,95 @@ pub struct RenderScene {
     /// Whether some material is cut out by an `alpha`: rays then go on past the surfaces
     /// it lets them through.
     has_cutouts: bool,
+    /// The participating media and the camera's.
+    media: Vec<Medium>,
+    camera_medium: MediumId,
+    /// Per material slot, the media its surfaces bound (empty without media): a material
+    /// used by surfaces with different interfaces has one slot per interface.
+    interfaces: Vec<Option<MediumInterface>>,
     pub stats: BuildStats,
+}
+
+/// The material table as the accelerator's primitives index it: the scene's materials, then
+/// a copy of a material for each further medium interface the surfaces that use it bound.
+struct Slots {
+    materials: Vec<SurfaceMaterial>,
+    interfaces: Vec<Option<MediumInterface>>,
+    /// Each entity's slot, where it differs from its material's index.
+    of: HashMap<Entity, u32>,
+}
+
+impl Slots {
+    /// The slots of `scene`'s shaped and instanced entities, in file order.
+    fn of_scene(scene: &LoadedScene) -> Slots {
+        let mut slots = Slots {
+            materials: scene.materials.clone(),
+            interfaces: Vec::new(),
+            of: HashMap::new(),
+        };
+        if scene.media.media.is_empty() {
+            return slots;
+        }
+        slots.interfaces = vec![None; slots.materials.len()];
+        let mut made: HashMap<(u32, [u32; 2]), u32> = HashMap::new();
+        let mut bounded: Vec<(FileOrder, Entity, u32, MediumInterface)> = scene
+            .world
+            .query::<(Entity, &FileOrder, &MaterialRef, &MediumBoundary)>()
+            .iter()
+            .filter_map(|(e, order, m, b)| {
+                let interface = scene.media.interface(&b.0).ok()?;
+                Some((*order, e, m.0, interface))
+            })
+            .collect();
+        bounded.sort_by_key(|b| b.0);
+        for (_, entity, material, interface) in bounded {
+            let key = (material, [interface.inside.0, interface.outside.0]);
+            let slot = match made.get(&key) {
+                Some(&slot) => slot,
+                None if slots.interfaces[material as usize].is_none() => {
+                    slots.interfaces[material as usize] = Some(interface);
+                    material
+                }
+                None => {
+                    slots
+                        .materials
+                        .push(slots.materials[material as usize].clone());
+                    slots.interfaces.push(Some(interface));
+                    (slots.materials.len() - 1) as u32
+                }
+            };
+            made.insert(key, slot);
+            slots.of.insert(entity, slot);
+        }
+        // A material some surfaces use without an interface and others with one: those
+        // without keep the original slot only if no interface took it.
+        let mut free: Vec<(FileOrder, Entity, u32)> = scene
+            .world
+            .query::<(Entity, &FileOrder, &MaterialRef)>()
+            .without::<&MediumBoundary>()
+            .iter()
+            .filter(|(_, _, m)| slots.interfaces[m.0 as usize].is_some())
+            .map(|(e, order, m)| (*order, e, m.0))
+            .collect();
+        free.sort_by_key(|f| f.0);
+        let mut plain: HashMap<u32, u32> = HashMap::new();
+        for (_, entity, material) in free {
+            let slot = *plain.entry(material).or_insert_with(|| {
+                slots
+                    .materials
+                    .push(slots.materials[material as usize].clone());
+                slots.interfaces.push(None);
+                (slots.materials.len() - 1) as u32
+            });
+            slots.of.insert(entity, slot);
+        }
+        slots
+    }
+
+    /// The slot of `entity`, whose material is `material`.
+    fn slot(&self, entity: Entity, material: u32) -> u32 {
+        self.of.get(&entity).copied().unwrap_or(material)
+    }
 }
 
 impl RenderScene {
@@ -153,12 +243,13 @@ impl RenderScene {
         let (grids, shaped): (Vec<_>, Vec<_>) = shaped
             .into_iter()
             .partition(|(_, _, shape, ..)| matches!(shape, WorldShape::SdfGrid(_)));
+        let slots = Slots::of_scene(scene);
         let sdf_grids = grids
             .iter()
-            .filter_map(|(_, _, shape, material, _)| match shape {
+            .filter_map(|(entity, _, shape, material, _)| match shape {
                 WorldShape::SdfGrid(grid) => Some(accel::SdfInput {
                     grid: Arc::clone(grid),
-                    material: material.0,
+                    material: slots.slot(*entity, material.0),
                 }),
                 _ => None,
             })
@@ -207,7 +298,7 @@ impl RenderScene {
                         // Set apart above.
                         WorldShape::SdfGrid(_) => return None,
                     },
-                    material: material.0,
+                    material: slots.slot(*entity, material.0),
                     // One light for the whole entity (a sphere, a quad), or one per triangle.
                     lights: match light_of.get(entity) {
                         None => ShapeLights::None,
@@ -218,12 +309,12 @@ impl RenderScene {
             })
             .collect();
         let mut instances: Vec<(FileOrder, InstanceDesc)> = world
-            .query::<(&FileOrder, &Instanced, &MaterialRef, &Transform)>()
+            .query::<(Entity, &FileOrder, &Instanced, &MaterialRef, &Transform)>()
             .iter()
-            .map(|(order, inst, m, t)| {
+            .map(|(entity, order, inst, m, t)| {
                 let desc = InstanceDesc {
                     mesh: inst.mesh,
-                    material: m.0,
+                    material: slots.slot(entity, m.0),
                     local_to_world: t.matrix(),
                 };
                 (*order, desc)
@@ -243,7 +334,7 @@ impl RenderScene {
         let mut mesh_keys: Vec<u64> = scene.meshes.iter().map(|m| m.id).collect();
         let mut own_triangles = 0;
         let mut own_bounds = Vec::with_capacity(own.len());
-        for (_, order, shape, material, id) in &own {
+        for (entity, order, shape, material, id) in &own {
             let WorldShape::Triangles {
                 triangles,
                 normals,
@@ -277,7 +368,7 @@ impl RenderScene {
                 **order,
                 InstanceDesc {
                     mesh: meshes.len() as u32,
-                    material: material.0,
+                    material: slots.slot(*entity, material.0),
                     local_to_world: glam::Affine3A::IDENTITY,
                 },
             ));
@@ -325,8 +416,11 @@ impl RenderScene {
         };
         RenderScene {
             accel: Arc::new(accel),
-            has_cutouts: has_cutouts(&scene.materials),
-            materials: scene.materials.clone(),
+            has_cutouts: has_cutouts(&slots.materials),
+            materials: slots.materials,
+            interfaces: slots.interfaces,
+            media: scene.media.media.clone(),
+            camera_medium: scene.media.camera,
             lights: Arc::new(lights),
             light_counts,
             own_bounds,
@@ -338,10 +432,14 @@ impl RenderScene {
     /// This scene with the materials of `scene` (after an edit that changed no geometry and
     /// no material index): nothing rebuilt.
     pub fn with_materials(&self, scene: &LoadedScene) -> RenderScene {
+        let slots = Slots::of_scene(scene);
         RenderScene {
             accel: Arc::clone(&self.accel),
-            has_cutouts: has_cutouts(&scene.materials),
-            materials: scene.materials.clone(),
+            has_cutouts: has_cutouts(&slots.materials),
+            materials: slots.materials,
+            interfaces: slots.interfaces,
+            media: scene.media.media.clone(),
+            camera_medium: scene.media.camera,
             lights: Arc::clone(&self.lights),
             light_counts: self.light_counts.clone(),
             own_bounds: self.own_bounds.clone(),
@@ -457,6 +555,11 @@ impl RenderScene {
         self.accel.mesh_bvhs().0
     }
 
+    /// Whether the scene has participating media.
+    pub fn has_media(&self) -> bool {
+        !self.media.is_empty()
+    }
+
     /// Which accelerator the scene was built over.
     pub fn accel_kind(&self) -> AccelKind {
         self.accel.kind()
@@ -478,10 +581,30 @@ impl RenderScene {
 impl Scene for RenderScene {
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if self.has_cutouts {
-            return self.closest_through_cutouts(ray);
+        let hit = if self.has_cutouts {
+            self.closest_through_cutouts(ray)
+        } else {
+            self.accel.closest(ray)
+        };
+        if self.interfaces.is_empty() {
+            return hit;
         }
-        self.accel.closest(ray)
+        // The media either side: the surface's own, or, where it bounds none, the ray's.
+        hit.map(|mut h| {
+            h.media = self.interfaces[h.material as usize].unwrap_or(MediumInterface {
+                inside: ray.medium,
+                outside: ray.medium,
+            });
+            h
+        })
+    }
+
+    fn media(&self) -> &[Medium] {
+        &self.media
+    }
+
+    fn camera_medium(&self) -> MediumId {
+        self.camera_medium
     }
 
     #[inline]

@@ -34,6 +34,7 @@ pub fn material_from_desc(
         Ok::<_, String>(c)
     };
     let bsdf = match desc {
+        MaterialDesc::Null => return Ok(SurfaceMaterial::null()),
         MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert::new(colour(
             albedo,
             Role::Reflectance,

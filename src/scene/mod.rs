@@ -11,6 +11,7 @@ pub mod flatten;
 pub mod inputs;
 pub mod load;
 pub mod materials;
+pub mod media;
 pub mod procedural;
 pub mod references;
 mod stamps;
@@ -48,6 +49,8 @@ pub struct LoadedScene {
     pub meshes: Vec<std::sync::Arc<components::LocalMesh>>,
     /// Constant environment radiance, if any.
     pub environment: Option<Rgb>,
+    /// The participating media, their names and the camera's.
+    pub media: media::Media,
     /// Non-fatal problems found while loading (e.g. dropped degenerate triangles).
     pub warnings: Vec<String>,
     /// Every file the load read, and how the scene was read: what no output may replace,

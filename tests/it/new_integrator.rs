@@ -27,6 +27,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.5, 10, 10),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
+    // Surfaces only: a scene with participating media is refused before rendering.
+    media: false,
 };
 
 struct Direct;

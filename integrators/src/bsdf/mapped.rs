@@ -286,6 +286,20 @@ impl<'a> MappedBsdf<'a> {
         Some(s)
     }
 
+    /// What passes straight through the surface from `wo`'s side, undeviated (Mitsuba 3's
+    /// `eval_null_transmission`): a mask's null event, and a thin dielectric's transmission.
+    /// Volumetric tracers count such a crossing as no scattering event, and let shadow rays
+    /// through with this weight.
+    #[inline]
+    pub fn null_transmission(&self, wo: Vec3A) -> Rgb {
+        let own = if self.opacity > 0.0 {
+            self.material.null_transmission(wo) * self.opacity
+        } else {
+            Rgb::ZERO
+        };
+        Rgb::splat(1.0 - self.opacity) + own
+    }
+
     /// Whether a one-sided material sees `wo` or `wi` from behind.
     #[inline]
     fn behind(&self, wo: Vec3A, wi: Vec3A) -> bool {

@@ -110,6 +110,13 @@ impl BsdfSample {
         (pdf > 0.0 && pdf.is_finite()).then(|| BsdfSample::reflection(wi, f, pdf))
     }
 
+    /// Whether the sample goes straight on through the surface, undeviated (a null event: a
+    /// mask's, a thin dielectric's transmission), for `wo` it was drawn for.
+    #[inline]
+    pub fn is_straight_through(&self, wo: Vec3A) -> bool {
+        self.specular && self.wi == -wo
+    }
+
     /// Throughput weight `f * |cos(wi)| / pdf`.
     #[inline]
     pub fn weight(&self) -> Rgb {
@@ -231,6 +238,16 @@ impl Material {
     #[inline]
     fn two_sided_opaque(&self) -> bool {
         !self.is_transmissive()
+    }
+
+    /// What passes straight through from `wo`'s side, undeviated: a thin dielectric's
+    /// transmission; nothing for every other model.
+    #[inline]
+    pub fn null_transmission(&self, wo: Vec3A) -> Rgb {
+        match self {
+            Material::ThinDielectric(m) => m.transmittance * (1.0 - m.pane_reflectance(wo.z)),
+            _ => Rgb::ZERO,
+        }
     }
 
     /// The kinds of lobe the material's model declares.

@@ -20,7 +20,7 @@
 use super::mapped::{MapTerms, MappedBsdf};
 use super::Material;
 use crate::texture::{Texture, TextureLookup};
-use crate::{Frame, Hit, Scene};
+use crate::{Frame, Hit, Rgb, Scene};
 use glam::Vec3A;
 use std::borrow::Cow;
 
@@ -379,6 +379,20 @@ impl SurfaceMaterial {
             opacity: self.opacity.clone(),
             ..SurfaceMaterial::new(self.bsdf, self.textures, Some((map, options)))
         }
+    }
+
+    /// No surface: a medium's boundary that does not scatter, crossed by every ray (a mask
+    /// of opacity 0 around a black material).
+    pub fn null() -> SurfaceMaterial {
+        SurfaceMaterial::from(Material::Lambert(crate::bsdf::Lambert {
+            albedo: Rgb::ZERO,
+        }))
+        .with_opacity(Texture::Constant(Vec3A::ZERO))
+    }
+
+    /// Whether it is no surface at all ([`SurfaceMaterial::null`]).
+    pub fn is_null(&self) -> bool {
+        matches!(&self.opacity, Some(Texture::Constant(c)) if *c == Vec3A::ZERO)
     }
 
     /// The same material cut out by a mask of `opacity` (its value, clamped to [0, 1]).

@@ -53,6 +53,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.5, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
+    media: false,
 };
 
 struct Direct {

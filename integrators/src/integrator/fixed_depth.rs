@@ -65,6 +65,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.75, 40, 100),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
+    media: false,
 };
 
 struct FixedDepth {

@@ -96,6 +96,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
+    media: false,
 };
 
 /// A quadtree cell is split past this share of its leaf's energy (the paper's 1%).

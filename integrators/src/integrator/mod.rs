@@ -23,6 +23,7 @@ mod russian_roulette;
 mod sppm;
 mod sppm_pixel;
 mod vcm;
+mod volpath;
 mod vpl;
 mod whitted;
 

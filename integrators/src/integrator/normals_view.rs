@@ -12,6 +12,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     params: &[],
     build: |_: &Params| Box::new(NormalsView),
     analytic: None,
+    media: false,
 };
 
 struct NormalsView;

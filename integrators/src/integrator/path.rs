@@ -32,6 +32,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
+    media: false,
 };
 
 pub(crate) struct PathTracer {

@@ -74,6 +74,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         })
     },
     analytic: None,
+    media: false,
 };
 
 /// Specular bounces a camera or gather path follows before Russian roulette may end it.

@@ -194,6 +194,9 @@ pub struct IntegratorEntry {
     /// What it must give on the testing kit's analytic scenes (`None`: debug views, and
     /// integrators whose estimates are not independent between passes, tested on their own).
     pub analytic: Option<Analytic>,
+    /// Whether it renders participating media; the others refuse a scene with media rather
+    /// than render it as vacuum.
+    pub media: bool,
 }
 
 /// What an integrator gives, with `params`, on the testing kit's analytic scenes: each
@@ -378,6 +381,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::mmlt::ENTRY,
     super::vpl::ENTRY,
     super::guided::ENTRY,
+    super::volpath::ENTRY,
     super::normals_view::ENTRY,
     super::albedo_view::ENTRY,
     super::depth_view::ENTRY,

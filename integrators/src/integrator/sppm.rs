@@ -76,6 +76,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: None,
     }),
+    media: false,
 };
 
 struct Sppm {

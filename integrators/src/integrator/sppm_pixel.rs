@@ -84,6 +84,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: None,
     }),
+    media: false,
 };
 
 /// Pixels whose visible points are traced per parallel work item.

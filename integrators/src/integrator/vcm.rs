@@ -63,6 +63,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 900),
         sphere_under_sky: expect(1.2, 40, 1600),
     }),
+    media: false,
 };
 
 /// The parameters of `vcm` and `bpm`.

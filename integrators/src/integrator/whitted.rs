@@ -38,6 +38,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.5, 10, 10),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
+    media: false,
 };
 
 struct Whitted {

@@ -237,6 +237,9 @@ struct Converter<'a, 'input> {
     /// The name given to Mitsuba's default BSDF, once a shape needs it.
     default_material: Option<String>,
     entities: Vec<EntityDesc>,
+    /// The participating media made so far, by name, and the one around the camera.
+    media: Vec<(String, crate::formats::schema::MediumDesc)>,
+    camera_medium: Option<String>,
     /// `--approximate`, and what it replaced.
     approximate: bool,
     approximated: Vec<String>,
@@ -370,6 +373,8 @@ pub fn to_ron_in(
         material_of: HashMap::new(),
         default_material: None,
         entities: Vec::new(),
+        media: Vec::new(),
+        camera_medium: None,
         approximate: options.approximate,
         approximated: Vec::new(),
         files: files.cloned(),
@@ -457,6 +462,8 @@ pub fn to_ron_in(
         materials: NamedTable(c.materials),
         meshes: NamedTable(c.meshes),
         environment: c.environment,
+        media: NamedTable(c.media),
+        camera_medium: c.camera_medium,
         entities: c.entities,
     };
     // Places in the text converted (no file: the caller knows which file each came from).

@@ -122,6 +122,9 @@ struct Converter<'a> {
     /// The object being defined: its name and shapes so far.
     defining: Option<(String, Vec<ObjectShape>, Pos)>,
     entities: Vec<EntityDesc>,
+    /// The participating media made so far, by name, and the one around the camera.
+    media: Vec<(String, crate::formats::schema::MediumDesc)>,
+    camera_medium: Option<String>,
     /// The entity the last curves joined, which the next may join ([`Converter::curve`]).
     curve_group: Option<usize>,
     /// The curve segments made so far, and the triangles of as much memory.
@@ -594,6 +597,8 @@ pub fn to_ron(
         objects: HashMap::new(),
         defining: None,
         entities: Vec::new(),
+        media: Vec::new(),
+        camera_medium: None,
         curve_group: None,
         curve_segments: 0,
         curve_triangles: 0,
@@ -662,6 +667,8 @@ pub fn to_ron(
         materials: NamedTable(c.materials),
         meshes: NamedTable(c.meshes),
         environment: c.environment.map(|env| env.map(|x| x as f32)),
+        media: NamedTable(c.media),
+        camera_medium: c.camera_medium,
         entities: c.entities,
     };
     Ok(Imported {

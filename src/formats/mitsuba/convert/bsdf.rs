@@ -95,7 +95,8 @@ fn one_sided(m: &MaterialDesc) -> bool {
         | ThinDielectric { .. }
         | DiffuseTransmission { .. }
         | PrincipledThin { .. }
-        | Hair { .. } => false,
+        | Hair { .. }
+        | Null => false,
     }
 }
 

@@ -25,6 +25,7 @@ impl<'a, 'input> Converter<'a, 'input> {
             shape: Some(parts.shape),
             material: parts.material,
             emitter: parts.emitter,
+            medium: None,
             flip_normals: parts.flip,
         });
         crate::formats::import::check_entities_made(self.entities.len(), &self.room)
@@ -98,6 +99,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 shape: Some(shape),
                 material: parts.material,
                 emitter: None,
+                medium: None,
                 flip_normals,
             });
             crate::formats::import::check_entities_made(self.entities.len(), &self.room)

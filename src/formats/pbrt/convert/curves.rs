@@ -292,6 +292,7 @@ impl Converter<'_> {
             }),
             material: Some(material),
             emitter: None,
+            medium: None,
             flip_normals: flip,
         });
         self.curve_group = Some(self.entities.len() - 1);

@@ -205,6 +205,7 @@ impl<'a> Converter<'a> {
             shape: Some(shape),
             material: Some(material),
             emitter,
+            medium: None,
             flip_normals: flip,
         });
         crate::formats::import::check_entities_made(self.entities.len(), &self.room)
@@ -284,6 +285,7 @@ impl<'a> Converter<'a> {
                 shape: Some(shape),
                 material: Some(s.material.clone()),
                 emitter: None,
+                medium: None,
                 flip_normals: s.flip && !s.is_mesh,
             });
         }

@@ -1,0 +1,237 @@
+//! Participating media: what fills the space between surfaces (fog, smoke, the inside of a
+//! glass of milk). A medium absorbs (`sigma_a`), scatters (`sigma_s`, by its [`Phase`]) and
+//! may emit (`Le`, radiance per unit length times `sigma_a`); `sigma_t = sigma_a + sigma_s`
+//! is its extinction, per unit length of the scene.
+//!
+//! Light transport through a medium is sampled against a **majorant** `sigma_maj >= sigma_t`
+//! ([`Medium::majorant`]): tentative collisions are drawn at rate `sigma_maj` along a ray, and
+//! each is real (absorption, scattering) or null by the ratios of the coefficients there
+//! (delta and ratio tracking; pbrt-v4's `SampleT_maj`, [`tracking`]). A homogeneous medium's
+//! majorant is its extinction, so every collision is real.
+//!
+//! Rays carry the medium they travel in ([`crate::Ray::medium`]); surfaces carry the media on
+//! their two sides ([`crate::MediumInterface`]).
+
+pub mod phase;
+pub mod tracking;
+pub mod volume;
+
+pub use phase::{Phase, PhaseSample};
+pub use volume::{DensityGrid, Volume};
+
+use crate::{Ray, Rgb};
+use glam::{Affine3A, Vec3A};
+
+/// A participating medium.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Medium {
+    /// The same coefficients everywhere.
+    Homogeneous(Homogeneous),
+    /// Coefficients that vary over space, within a box (boxed: a scene's media are few).
+    Heterogeneous(Box<Heterogeneous>),
+}
+
+/// A medium with the same coefficients everywhere (Mitsuba 3's `homogeneous`, pbrt-v4's
+/// `homogeneous`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Homogeneous {
+    pub sigma_a: Rgb,
+    pub sigma_s: Rgb,
+    /// Emitted radiance (the medium adds `sigma_a * le` per unit length).
+    pub le: Rgb,
+    pub phase: Phase,
+}
+
+/// A medium whose extinction and albedo vary over space (Mitsuba 3's `heterogeneous`, pbrt-v4's
+/// `uniformgrid`): `sigma_t(p)` and `albedo(p)`, `sigma_s = albedo sigma_t`, inside the box
+/// `region` maps onto the unit cube and vacuum outside it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Heterogeneous {
+    pub sigma_t: Volume,
+    pub albedo: Volume,
+    /// Emitted radiance (times `sigma_a` there).
+    pub le: Rgb,
+    pub phase: Phase,
+    /// World to the unit cube of the box the medium fills; `None`: everywhere.
+    pub region: Option<Affine3A>,
+    /// The largest extinction anywhere.
+    majorant: Rgb,
+}
+
+/// The coefficients of a medium at a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MediumPoint {
+    pub sigma_a: Rgb,
+    pub sigma_s: Rgb,
+    /// Emitted radiance (the medium adds `sigma_a * le` per unit length).
+    pub le: Rgb,
+}
+
+/// A stretch `[t0, t1)` of a ray over which the majorant is `sigma_maj`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    pub t0: f32,
+    pub t1: f32,
+    pub sigma_maj: Rgb,
+}
+
+impl Homogeneous {
+    /// A medium of extinction `sigma_t` and single-scattering albedo `albedo` (in `[0, 1]`).
+    pub fn new(sigma_t: Rgb, albedo: Rgb, le: Rgb, phase: Phase) -> Homogeneous {
+        let sigma_s = sigma_t * albedo;
+        Homogeneous {
+            sigma_a: sigma_t - sigma_s,
+            sigma_s,
+            le,
+            phase,
+        }
+    }
+}
+
+impl Heterogeneous {
+    /// Extinction `sigma_t` and albedo `albedo` over space, within `region` (world to the unit
+    /// cube of the box; `None`: everywhere).
+    pub fn new(
+        sigma_t: Volume,
+        albedo: Volume,
+        le: Rgb,
+        phase: Phase,
+        region: Option<Affine3A>,
+    ) -> Heterogeneous {
+        Heterogeneous {
+            majorant: sigma_t.max(),
+            sigma_t,
+            albedo,
+            le,
+            phase,
+            region,
+        }
+    }
+}
+
+impl Medium {
+    /// How the medium scatters.
+    #[inline]
+    pub fn phase(&self) -> Phase {
+        match self {
+            Medium::Homogeneous(m) => m.phase,
+            Medium::Heterogeneous(m) => m.phase,
+        }
+    }
+
+    /// Whether the medium emits light.
+    pub fn is_emissive(&self) -> bool {
+        match self {
+            Medium::Homogeneous(m) => m.le != Rgb::ZERO && m.sigma_a != Rgb::ZERO,
+            Medium::Heterogeneous(m) => m.le != Rgb::ZERO,
+        }
+    }
+
+    /// Whether the extinction differs between channels somewhere (a coloured medium, which
+    /// the trackers sample by one channel and weight by all).
+    pub fn is_chromatic(&self) -> bool {
+        let c = self.majorant_rgb();
+        c.x != c.y || c.y != c.z
+    }
+
+    fn majorant_rgb(&self) -> Rgb {
+        match self {
+            Medium::Homogeneous(m) => m.sigma_a + m.sigma_s,
+            Medium::Heterogeneous(m) => m.majorant,
+        }
+    }
+
+    /// The coefficients at `p` (world).
+    #[inline]
+    pub fn at(&self, p: Vec3A) -> MediumPoint {
+        match self {
+            Medium::Homogeneous(m) => MediumPoint {
+                sigma_a: m.sigma_a,
+                sigma_s: m.sigma_s,
+                le: m.le,
+            },
+            Medium::Heterogeneous(m) => {
+                let sigma_t = m.sigma_t.at(p);
+                let sigma_s = sigma_t * m.albedo.at(p).clamp(Rgb::ZERO, Rgb::ONE);
+                MediumPoint {
+                    sigma_a: sigma_t - sigma_s,
+                    sigma_s,
+                    le: m.le,
+                }
+            }
+        }
+    }
+
+    /// The stretch of `ray` before `tmax` over which the medium may be dense, with its
+    /// majorant; `None` where the ray misses it. (One stretch with the largest extinction
+    /// anywhere; a grid of majorants would split it.)
+    #[inline]
+    pub fn majorant(&self, ray: &Ray, tmax: f32) -> Option<Segment> {
+        match self {
+            Medium::Homogeneous(m) => Some(Segment {
+                t0: 0.0,
+                t1: tmax,
+                sigma_maj: m.sigma_a + m.sigma_s,
+            }),
+            Medium::Heterogeneous(m) => {
+                let (t0, t1) = match &m.region {
+                    None => (0.0, tmax),
+                    Some(to_unit) => unit_cube_overlap(to_unit, ray, tmax)?,
+                };
+                Some(Segment {
+                    t0,
+                    t1,
+                    sigma_maj: m.majorant,
+                })
+            }
+        }
+    }
+}
+
+/// The stretch `[t0, t1)` of `ray` (before `tmax`) inside the unit cube that `to_unit` maps
+/// the box onto: the ray is taken into the cube's space unnormalised, so that `t` keeps its
+/// meaning.
+fn unit_cube_overlap(to_unit: &Affine3A, ray: &Ray, tmax: f32) -> Option<(f32, f32)> {
+    let o = to_unit.transform_point3a(ray.origin);
+    let d = to_unit.transform_vector3a(ray.dir);
+    let (mut t0, mut t1) = (0.0f32, tmax);
+    for axis in 0..3 {
+        let inv = 1.0 / d[axis];
+        let (mut near, mut far) = ((0.0 - o[axis]) * inv, (1.0 - o[axis]) * inv);
+        if near > far {
+            std::mem::swap(&mut near, &mut far);
+        }
+        // A ray parallel to a slab and outside it gives NaN bounds: missed.
+        if near.is_nan() || far.is_nan() {
+            return None;
+        }
+        t0 = t0.max(near);
+        t1 = t1.min(far);
+    }
+    (t0 < t1).then_some((t0, t1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_unit_cube_overlap_keeps_distances_of_the_world() {
+        // A box [-1, 3]^3: world to the unit cube scales by 1/4 after moving by 1.
+        let to_unit = Affine3A::from_scale(glam::Vec3::splat(0.25))
+            * Affine3A::from_translation(glam::Vec3::splat(1.0));
+        let ray = Ray::new(Vec3A::new(-5.0, 0.0, 0.0), Vec3A::X);
+        let (t0, t1) = unit_cube_overlap(&to_unit, &ray, f32::INFINITY).unwrap();
+        assert!(
+            (t0 - 4.0).abs() < 1e-5 && (t1 - 8.0).abs() < 1e-5,
+            "{t0} {t1}"
+        );
+        assert!(unit_cube_overlap(&to_unit, &ray, 3.0).is_none());
+        let (_, t1) = unit_cube_overlap(&to_unit, &ray, 6.0).unwrap();
+        assert_eq!(t1, 6.0);
+        let parallel_outside = Ray::new(Vec3A::new(-5.0, 5.0, 0.0), Vec3A::X);
+        assert!(unit_cube_overlap(&to_unit, &parallel_outside, f32::INFINITY).is_none());
+        let parallel_inside = Ray::new(Vec3A::new(-5.0, 0.5, 0.5), Vec3A::X);
+        assert!(unit_cube_overlap(&to_unit, &parallel_inside, f32::INFINITY).is_some());
+    }
+}

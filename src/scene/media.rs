@@ -1,0 +1,224 @@
+//! Participating media loaded: the scene file's `media` table made into the integrators'
+//! [`Medium`]s (grid files read through the scene's files), and the names entities and the
+//! camera give resolved to them.
+
+use super::describe::transform_from_desc;
+use crate::formats::access::SceneFiles;
+use crate::formats::schema::{
+    MediumDesc, MediumInterfaceDesc, MediumTable, PhaseDesc, SceneFile, VolumeDesc, V3,
+};
+use glam::{Affine3A, Vec3, Vec3A};
+use raylab_integrators::medium::{DensityGrid, Heterogeneous, Homogeneous, Volume};
+use raylab_integrators::{Medium, MediumId, MediumInterface, Phase, Rgb};
+use std::sync::Arc;
+
+/// The scene's media, in file order, and their names.
+#[derive(Clone, Debug)]
+pub struct Media {
+    pub media: Vec<Medium>,
+    pub names: Vec<String>,
+    /// The medium around the camera.
+    pub camera: MediumId,
+}
+
+impl Default for Media {
+    /// No media; the camera in vacuum.
+    fn default() -> Self {
+        Media {
+            media: Vec::new(),
+            names: Vec::new(),
+            camera: MediumId::VACUUM,
+        }
+    }
+}
+
+impl Media {
+    /// The media `file` describes, each named in its errors, and the camera's.
+    pub fn from_file(file: &SceneFile, files: &SceneFiles) -> Result<Media, String> {
+        let (media, names) = media_from_table(&file.media, files)?;
+        let mut out = Media {
+            media,
+            names,
+            camera: MediumId::VACUUM,
+        };
+        if let Some(name) = &file.camera_medium {
+            out.camera = out.id(name).map_err(|e| format!("`camera_medium`: {e}"))?;
+        }
+        Ok(out)
+    }
+
+    /// The medium named `name`.
+    pub fn id(&self, name: &str) -> Result<MediumId, String> {
+        match self.names.iter().position(|n| n == name) {
+            Some(i) => Ok(MediumId(i as u32)),
+            None if self.names.is_empty() => Err(format!(
+                "no medium `{name}`: the scene defines no media (`media`)"
+            )),
+            None => Err(format!(
+                "no medium `{name}`; defined media: {}",
+                self.names.join(", ")
+            )),
+        }
+    }
+
+    /// The interface an entity's `medium` describes: each side named, vacuum where left out.
+    pub fn interface(&self, desc: &MediumInterfaceDesc) -> Result<MediumInterface, String> {
+        let side = |name: &Option<String>, which: &str| match name {
+            None => Ok(MediumId::VACUUM),
+            Some(n) => self.id(n).map_err(|e| format!("`medium` {which}: {e}")),
+        };
+        Ok(MediumInterface {
+            inside: side(&desc.inside, "inside")?,
+            outside: side(&desc.outside, "outside")?,
+        })
+    }
+}
+
+/// Every medium of `table`, in file order, with its name.
+fn media_from_table(
+    table: &MediumTable,
+    files: &SceneFiles,
+) -> Result<(Vec<Medium>, Vec<String>), String> {
+    let mut media = Vec::with_capacity(table.0.len());
+    let mut names = Vec::with_capacity(table.0.len());
+    for (name, desc) in &table.0 {
+        let medium = medium_from_desc(desc, files).map_err(|e| format!("medium `{name}`: {e}"))?;
+        media.push(medium);
+        names.push(name.clone());
+    }
+    Ok((media, names))
+}
+
+fn rgb(v: V3) -> Rgb {
+    Vec3A::from_array(v)
+}
+
+/// `v` if each component is finite and non-negative.
+fn non_negative(what: &str, v: V3) -> Result<Rgb, String> {
+    if v.iter().all(|x| x.is_finite() && *x >= 0.0) {
+        Ok(rgb(v))
+    } else {
+        Err(format!(
+            "`{what}` must be finite and non-negative, not {v:?}"
+        ))
+    }
+}
+
+fn phase_from_desc(desc: PhaseDesc) -> Result<Phase, String> {
+    match desc {
+        PhaseDesc::Isotropic => Ok(Phase::Isotropic),
+        PhaseDesc::HenyeyGreenstein(g) => Phase::henyey_greenstein(g),
+    }
+}
+
+/// One medium.
+pub fn medium_from_desc(desc: &MediumDesc, files: &SceneFiles) -> Result<Medium, String> {
+    match desc {
+        MediumDesc::Homogeneous {
+            sigma_t,
+            albedo,
+            scale,
+            phase,
+            emission,
+        } => {
+            let scale = check_scale(*scale)?;
+            Ok(Medium::Homogeneous(Homogeneous::new(
+                non_negative("sigma_t", *sigma_t)? * scale,
+                albedo_of(*albedo)?,
+                non_negative("emission", *emission)?,
+                phase_from_desc(*phase)?,
+            )))
+        }
+        MediumDesc::Heterogeneous {
+            sigma_t,
+            albedo,
+            scale,
+            phase,
+            emission,
+            transform,
+            bounds,
+        } => {
+            let scale = check_scale(*scale)?;
+            let (lo, hi) = (Vec3::from_array(bounds.0), Vec3::from_array(bounds.1));
+            if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
+                return Err(format!(
+                    "`bounds` must be a box with min below max on each axis, not {bounds:?}"
+                ));
+            }
+            let placement = transform_from_desc(transform)
+                .map_err(|e| format!("`transform`: {e}"))?
+                .matrix();
+            let det = placement.matrix3.determinant();
+            if det == 0.0 || !det.is_finite() {
+                return Err("`transform` is singular".into());
+            }
+            // World to the unit cube of the box: the inverse placement, then the box's own
+            // corner to the origin and its size to 1.
+            let to_unit = Affine3A::from_scale((hi - lo).recip())
+                * Affine3A::from_translation(-lo)
+                * placement.inverse();
+            let sigma_t =
+                volume_from_desc("sigma_t", sigma_t, to_unit, files)?.scaled(Rgb::splat(scale));
+            let albedo = volume_from_desc("albedo", albedo, to_unit, files)?;
+            if albedo.max().max_element() > 1.0 + 1e-4 {
+                return Err(format!(
+                    "`albedo` must lie in [0, 1]; its largest value is {}",
+                    albedo.max().max_element()
+                ));
+            }
+            Ok(Medium::Heterogeneous(Box::new(Heterogeneous::new(
+                sigma_t,
+                albedo,
+                non_negative("emission", *emission)?,
+                phase_from_desc(*phase)?,
+                Some(to_unit),
+            ))))
+        }
+    }
+}
+
+fn check_scale(scale: f32) -> Result<f32, String> {
+    if scale.is_finite() && scale >= 0.0 {
+        Ok(scale)
+    } else {
+        Err(format!(
+            "`scale` must be finite and non-negative, not {scale}"
+        ))
+    }
+}
+
+fn albedo_of(albedo: V3) -> Result<Rgb, String> {
+    let a = non_negative("albedo", albedo)?;
+    if a.max_element() > 1.0 {
+        return Err(format!("`albedo` must lie in [0, 1], not {albedo:?}"));
+    }
+    Ok(a)
+}
+
+/// A volume of `what`, filling the box `to_unit` maps to the unit cube.
+fn volume_from_desc(
+    what: &str,
+    desc: &VolumeDesc,
+    to_unit: Affine3A,
+    files: &SceneFiles,
+) -> Result<Volume, String> {
+    let grid = match desc {
+        VolumeDesc::Constant(c) => return Ok(Volume::Constant(non_negative(what, *c)?)),
+        VolumeDesc::Grid(path) => {
+            let g = crate::formats::volume_grid::load_volume_grid(&files.named(path)?)?;
+            DensityGrid::new(g.resolution, g.channels, g.values)
+                .map_err(|e| format!("`{what}` grid `{path}`: {e}"))?
+        }
+        VolumeDesc::Values { size, values } => DensityGrid::new(
+            [size.0 as usize, size.1 as usize, size.2 as usize],
+            1,
+            values.clone(),
+        )
+        .map_err(|e| format!("`{what}`: {e}"))?,
+    };
+    Ok(Volume::Grid {
+        grid: Arc::new(grid),
+        to_local: to_unit,
+        scale: Rgb::ONE,
+    })
+}
