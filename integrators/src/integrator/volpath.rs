@@ -4,8 +4,9 @@
 //! **Estimates** the radiative transfer equation: surfaces as `path` does, and in media the
 //! emission, absorption and scattering along every ray. Distances are sampled by delta
 //! tracking against the medium's majorant ([`crate::medium::tracking`]); at each tentative
-//! collision the path is absorbed, scatters (by the phase function) or goes on (a null
-//! collision), with the probabilities of one colour channel, the *hero*, chosen per path.
+//! collision the path scatters (by the phase function, weighted by the albedo) or goes on (a
+//! null collision), with the probabilities of one colour channel, the *hero*, chosen per
+//! path; absorption is left to Russian roulette.
 //! Every channel's own probabilities are carried beside the throughput (pbrt-v4's rescaled
 //! path densities `r_u`, `r_l`), and the estimate divides by their average: one-sample
 //! multiple importance sampling over the channels, so that a coloured medium (RGB `sigma_t`)
@@ -134,23 +135,20 @@ impl RayIntegrator for VolPath {
                             l += beta * pt.sigma_a * pt.le / average(r_e);
                         }
                     }
-                    let p_absorb = pt.sigma_a[hero] / c.sigma_maj[hero];
-                    let p_scatter = pt.sigma_s[hero] / c.sigma_maj[hero];
-                    let u = sampler.next_1d();
-                    if u < p_absorb {
-                        terminated = true;
-                        return false;
-                    }
-                    if u < p_absorb + p_scatter {
-                        // A real scattering event.
+                    // Real (absorption or scattering) or null, by the hero's share of the
+                    // majorant; a real collision scatters with weight albedo (absorption is
+                    // left to the roulette, which is kinder to a dark channel than ending
+                    // every absorbed path).
+                    let sigma_t = pt.sigma_a + pt.sigma_s;
+                    if sampler.next_1d() < sigma_t[hero] / c.sigma_maj[hero] {
                         if w.depth >= self.max_depth {
                             terminated = true;
                             return false;
                         }
                         w.depth += 1;
-                        let pdf = c.t_maj[hero] * pt.sigma_s[hero];
+                        let pdf = c.t_maj[hero] * sigma_t[hero];
                         w.beta *= c.t_maj * pt.sigma_s / pdf;
-                        w.r_u *= c.t_maj * pt.sigma_s / pdf;
+                        w.r_u *= c.t_maj * sigma_t / pdf;
                         if !(w.beta.is_finite() && w.beta != Rgb::ZERO && w.r_u != Rgb::ZERO) {
                             terminated = true;
                             return false;

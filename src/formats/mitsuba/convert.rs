@@ -13,6 +13,7 @@ use roxmltree::{Document, Node};
 use std::collections::HashMap;
 
 mod bsdf;
+mod medium;
 mod sensor;
 mod shapes;
 
@@ -240,6 +241,8 @@ struct Converter<'a, 'input> {
     /// The participating media made so far, by name, and the one around the camera.
     media: Vec<(String, crate::formats::schema::MediumDesc)>,
     camera_medium: Option<String>,
+    /// The name of each medium node converted so far.
+    medium_of: HashMap<roxmltree::NodeId, String>,
     /// `--approximate`, and what it replaced.
     approximate: bool,
     approximated: Vec<String>,
@@ -375,6 +378,7 @@ pub fn to_ron_in(
         entities: Vec::new(),
         media: Vec::new(),
         camera_medium: None,
+        medium_of: HashMap::new(),
         approximate: options.approximate,
         approximated: Vec::new(),
         files: files.cloned(),
@@ -432,6 +436,8 @@ pub fn to_ron_in(
                 _ => c.shape(node, index)?,
             },
             "emitter" => c.emitter(node, index)?,
+            // Converted when a shape or the sensor refers to it (unused ones are left out).
+            "medium" => {}
             "sensor" => c.sensor(node)?,
             "integrator" => c.integrator(node)?,
             other => {

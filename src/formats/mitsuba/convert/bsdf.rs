@@ -298,6 +298,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         let out = match kind.as_str() {
+            "null" => MaterialDesc::Null,
             "diffuse" => MaterialDesc::Lambert {
                 albedo: self
                     .colour(&mut p, "reflectance", Some([0.5; 3]))?

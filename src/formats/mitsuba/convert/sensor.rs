@@ -67,8 +67,12 @@ impl<'a, 'input> Converter<'a, 'input> {
         let (mut width, mut height, mut filter, mut spp) =
             (768i64, 576i64, "gaussian".to_string(), None);
         let mut crop: Option<(i64, i64, i64, i64)> = None;
-        for (_, child) in std::mem::take(&mut p.children) {
+        for (child_name, child) in std::mem::take(&mut p.children) {
+            let child = self.resolve(child)?;
             match child.tag_name().name() {
+                "medium" if child_name.is_empty() || child_name == "medium" => {
+                    self.camera_medium = Some(self.medium(child)?);
+                }
                 "film" => {
                     let film = self.kind(child)?;
                     if film != "hdrfilm" {
@@ -314,7 +318,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         let kind = self.kind(node)?;
         let mut p = self.props(node)?;
         match kind.as_str() {
-            "path" | "ptracer" => {
+            "path" | "ptracer" | "volpath" | "volpathmis" => {
                 let max_depth = p.integer("max_depth")?.unwrap_or(-1);
                 if max_depth == 0 || max_depth < -1 {
                     return Err(at(
@@ -338,11 +342,13 @@ impl<'a, 'input> Converter<'a, 'input> {
                     (max_depth - 1).max(0) as f64
                 };
                 // Mitsuba's ptracer is raylab's lighttracer (paths from the lights, each vertex
-                // connected to the sensor); its passes are raylab's passes.
-                let name = if kind == "path" {
-                    "path"
-                } else {
-                    "lighttracer"
+                // connected to the sensor); its passes are raylab's passes. Its volpath and
+                // volpathmis (spectral MIS) estimate what raylab's volpath does, which weighs
+                // the colour channels by MIS as volpathmis does.
+                let name = match kind.as_str() {
+                    "path" => "path",
+                    "ptracer" => "lighttracer",
+                    _ => "volpath",
                 };
                 if kind == "ptracer" {
                     p.integer("samples_per_pass")?;

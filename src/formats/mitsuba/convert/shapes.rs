@@ -2,7 +2,7 @@
 //! shapegroups and their instances, and the lights that are not shapes.
 
 use super::*;
-use crate::formats::schema::MeshNormals;
+use crate::formats::schema::{MediumInterfaceDesc, MeshNormals};
 
 /// A shape as the pieces of an entity.
 struct ShapeParts {
@@ -11,6 +11,8 @@ struct ShapeParts {
     to_world: Affine3A,
     material: Option<String>,
     emitter: Option<EmitterDesc>,
+    /// The media it bounds (`interior`, `exterior`), if any.
+    medium: Option<MediumInterfaceDesc>,
     flip: bool,
 }
 
@@ -25,7 +27,7 @@ impl<'a, 'input> Converter<'a, 'input> {
             shape: Some(parts.shape),
             material: parts.material,
             emitter: parts.emitter,
-            medium: None,
+            medium: parts.medium,
             flip_normals: parts.flip,
         });
         crate::formats::import::check_entities_made(self.entities.len(), &self.room)
@@ -99,7 +101,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 shape: Some(shape),
                 material: parts.material,
                 emitter: None,
-                medium: None,
+                medium: parts.medium.clone(),
                 flip_normals,
             });
             crate::formats::import::check_entities_made(self.entities.len(), &self.room)
@@ -214,9 +216,32 @@ impl<'a, 'input> Converter<'a, 'input> {
             ));
         }
         let (mut material, mut emitter) = (None, None);
-        for (_, child) in std::mem::take(&mut p.children) {
+        let mut medium: Option<MediumInterfaceDesc> = None;
+        for (child_name, child) in std::mem::take(&mut p.children) {
             let child = self.resolve(child)?;
             match child.tag_name().name() {
+                "medium" => {
+                    let m = self.medium(child)?;
+                    let sides = medium.get_or_insert_with(MediumInterfaceDesc::default);
+                    match child_name.as_str() {
+                        "interior" if sides.inside.is_none() => sides.inside = Some(m),
+                        "exterior" if sides.outside.is_none() => sides.outside = Some(m),
+                        "interior" | "exterior" => {
+                            return Err(at(
+                                self.doc,
+                                child,
+                                format!("a shape's {child_name} medium is given twice"),
+                            ))
+                        }
+                        other => return Err(at(
+                            self.doc,
+                            child,
+                            format!(
+                                "a shape's medium is its `interior` or `exterior`, not `{other}`"
+                            ),
+                        )),
+                    }
+                }
                 "bsdf" if material.is_none() => {
                     material = Some(self.material(child, &format!("{name} material"))?)
                 }
@@ -320,6 +345,7 @@ impl<'a, 'input> Converter<'a, 'input> {
             to_world,
             material,
             emitter,
+            medium,
             flip,
         })
     }
