@@ -119,7 +119,9 @@ impl Job {
             request.scene_params,
         )?;
         let integrator = entry.build_checked(&params)?;
-        if !loaded.media.media.is_empty() && !entry.media {
+        // Debug views show the surfaces, which media do not hide from them.
+        let debug_view = entry.summary.starts_with("debug view");
+        if !loaded.media.media.is_empty() && !entry.media && !debug_view {
             let capable: Vec<&str> = raylab_integrators::REGISTRY
                 .iter()
                 .filter(|e| e.media)
