@@ -669,6 +669,8 @@ pub fn russian_roulette(beta: Rgb, sampler: &mut Sampler) -> Option<f32> {
 
 #[cfg(test)]
 mod analytic_tests;
+#[cfg(test)]
+mod media_tests;
 
 #[cfg(test)]
 mod tests {

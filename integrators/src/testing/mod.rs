@@ -7,7 +7,12 @@ pub mod chi2;
 use crate::bsdf::Lambert;
 use crate::integrator::{Integrator, RayIntegrator, Tracer};
 use crate::sampling::uniform_sphere;
-use crate::{find, Hit, Light, LightTable, Material, Ray, Rgb, Sampler, Scene, SurfaceMaterial};
+use crate::{
+    find, Hit, Light, LightTable, Material, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene,
+    SurfaceMaterial,
+};
+
+pub mod media;
 use crate::{PassContext, SampleContext};
 use glam::Vec3A;
 
@@ -21,6 +26,14 @@ enum Surface {
         center: Vec3A,
         radius: f32,
         material: u32,
+    },
+    /// A sphere that bounds media (`interface`): material `material` (a null one, for a
+    /// boundary that does not scatter).
+    Boundary {
+        center: Vec3A,
+        radius: f32,
+        material: u32,
+        interface: MediumInterface,
     },
     /// An emitting sphere (light `light` of the table), black.
     SphereLight {
@@ -57,6 +70,9 @@ pub struct TestScene {
     materials: Vec<SurfaceMaterial>,
     lights: LightTable,
     pub camera: Probe,
+    /// Participating media (none in most), and the one the probe rays start in.
+    media: Vec<crate::Medium>,
+    camera_medium: MediumId,
 }
 
 fn intersect_triangle(v: &[Vec3A; 3], ray: &Ray) -> Option<f32> {
@@ -89,6 +105,11 @@ fn intersect_sphere(c: Vec3A, r: f32, ray: &Ray) -> Option<f32> {
 
 impl Scene for TestScene {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        // A surface that bounds no medium has the ray's on both sides.
+        let around = MediumInterface {
+            inside: ray.medium,
+            outside: ray.medium,
+        };
         let mut best: Option<Hit> = None;
         for s in &self.surfaces {
             let tmax = best.map_or(ray.tmax, |h| h.t);
@@ -96,26 +117,50 @@ impl Scene for TestScene {
             let hit = match *s {
                 Surface::Triangle { v, light } => intersect_triangle(&v, &r).map(|t| {
                     let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
-                    Hit::new(t, ray.at(t), n, 0, light)
+                    Hit {
+                        media: around,
+                        ..Hit::new(t, ray.at(t), n, 0, light)
+                    }
                 }),
                 Surface::Sphere {
                     center,
                     radius,
                     material,
-                } => intersect_sphere(center, radius, &r)
-                    .map(|t| Hit::on_sphere(&r, t, center, radius, material, None)),
+                } => intersect_sphere(center, radius, &r).map(|t| Hit {
+                    media: around,
+                    ..Hit::on_sphere(&r, t, center, radius, material, None)
+                }),
                 Surface::SphereLight {
                     center,
                     radius,
                     light,
-                } => intersect_sphere(center, radius, &r)
-                    .map(|t| Hit::on_sphere(&r, t, center, radius, 1, Some(light))),
+                } => intersect_sphere(center, radius, &r).map(|t| Hit {
+                    media: around,
+                    ..Hit::on_sphere(&r, t, center, radius, 1, Some(light))
+                }),
+                Surface::Boundary {
+                    center,
+                    radius,
+                    material,
+                    interface,
+                } => intersect_sphere(center, radius, &r).map(|t| Hit {
+                    media: interface,
+                    ..Hit::on_sphere(&r, t, center, radius, material, None)
+                }),
             };
             if hit.is_some() {
                 best = hit;
             }
         }
         best
+    }
+
+    fn media(&self) -> &[crate::Medium] {
+        &self.media
+    }
+
+    fn camera_medium(&self) -> MediumId {
+        self.camera_medium
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -179,6 +224,8 @@ pub fn furnace_sphere(a: f32, le: f32) -> TestScene {
         materials: vec![lambert(a)],
         lights: LightTable::new(lights, 1.0),
         camera: Probe::Omni(Vec3A::new(0.1, -0.2, 0.3)),
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
     }
 }
 
@@ -199,6 +246,8 @@ pub fn furnace_emitting_sphere(a: f32, le: f32) -> TestScene {
             1.0,
         ),
         camera: Probe::Omni(Vec3A::new(0.1, -0.2, 0.3)),
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
     }
 }
 
@@ -213,6 +262,8 @@ pub fn point_in_sphere(a: f32) -> TestScene {
             1.0,
         ),
         camera: Probe::Omni(Vec3A::ZERO),
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
     }
 }
 
@@ -228,6 +279,8 @@ pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
             center: Vec3A::ZERO,
             radius: 1.0,
         },
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
     }
 }
 
@@ -509,6 +562,8 @@ pub fn inside_a_mirror() -> TestScene {
         ],
         lights: LightTable::new(Vec::new(), 1.0),
         camera: Probe::Omni(Vec3A::new(0.2, 0.1, 0.0)),
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
     }
 }
 
@@ -566,6 +621,8 @@ pub fn floor_under_sphere_light(a: f32, l: f32, r: f32, d: f32) -> TestScene {
             Vec3A::new(3.0, 0.0, 1.0),
             Vec3A::new(-3.0, 0.0, -1.0).normalize(),
         )),
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
     }
 }
 
@@ -613,5 +670,7 @@ pub fn floor_under_light_facing_away() -> TestScene {
             s,
         ),
         camera: Probe::Omni(Vec3A::new(0.3, 0.2, 0.5)),
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
     }
 }

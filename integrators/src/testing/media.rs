@@ -1,0 +1,171 @@
+//! Analytic scenes with participating media, and their exact answers: a ray through an
+//! absorbing ball (Beer's law), a furnace of white fog (every estimate 1), single scattering
+//! of a point light along one ray (a 1-D quadrature), and a glowing ball (emission and
+//! absorption).
+
+use super::{Probe, Surface, TestScene};
+use crate::medium::{Homogeneous, Phase};
+use crate::{Light, LightTable, Medium, MediumId, MediumInterface, Ray, Rgb, SurfaceMaterial};
+use glam::Vec3A;
+
+/// A ball of radius `radius` at the origin, filled with `medium` (id 0) behind a null
+/// boundary, lit by `lights`, probed by `camera` (which starts in the medium when `inside`).
+fn ball_of(
+    medium: Medium,
+    radius: f32,
+    lights: Vec<Light>,
+    camera: Probe,
+    inside: bool,
+) -> TestScene {
+    TestScene {
+        surfaces: vec![Surface::Boundary {
+            center: Vec3A::ZERO,
+            radius,
+            material: 0,
+            interface: MediumInterface {
+                inside: MediumId(0),
+                outside: MediumId::VACUUM,
+            },
+        }],
+        materials: vec![SurfaceMaterial::null()],
+        lights: LightTable::new(lights, radius),
+        camera,
+        media: vec![medium],
+        camera_medium: if inside {
+            MediumId(0)
+        } else {
+            MediumId::VACUUM
+        },
+    }
+}
+
+/// The probe ray of the balls: from `z = -5` along `+z` through the centre.
+fn through_the_centre() -> Probe {
+    Probe::Fixed(Ray::new(Vec3A::new(0.0, 0.0, -5.0), Vec3A::Z))
+}
+
+/// A unit ball of a purely absorbing medium of extinction `sigma_t` under a sky of `sky`,
+/// probed through its centre: radiance `sky exp(-2 sigma_t)` per channel.
+pub fn absorbing_ball(sigma_t: Rgb, sky: f32) -> (TestScene, Rgb) {
+    let medium = Medium::Homogeneous(Homogeneous::new(
+        sigma_t,
+        Rgb::ZERO,
+        Rgb::ZERO,
+        Phase::Isotropic,
+    ));
+    let scene = ball_of(
+        medium,
+        1.0,
+        vec![Light::environment(Rgb::splat(sky))],
+        through_the_centre(),
+        false,
+    );
+    let exact = crate::medium::tracking::transmittance(sigma_t, 2.0) * sky;
+    (scene, exact)
+}
+
+/// A furnace: the probe inside a unit ball of fog that scatters without absorbing (extinction
+/// `sigma_t`, phase `phase`) under a sky of 1. Whatever the density, radiance is 1.
+pub fn fog_furnace(sigma_t: Rgb, phase: Phase) -> TestScene {
+    let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, Rgb::ONE, Rgb::ZERO, phase));
+    ball_of(
+        medium,
+        1.0,
+        vec![Light::environment(Rgb::ONE)],
+        Probe::Omni(Vec3A::new(0.1, -0.2, 0.3)),
+        true,
+    )
+}
+
+/// A unit ball of a medium that absorbs (`sigma_a`) and emits `le`, probed through its
+/// centre: radiance `le (1 - exp(-2 sigma_a))`.
+pub fn glowing_ball(sigma_a: Rgb, le: Rgb) -> (TestScene, Rgb) {
+    let medium = Medium::Homogeneous(Homogeneous::new(sigma_a, Rgb::ZERO, le, Phase::Isotropic));
+    let scene = ball_of(medium, 1.0, Vec::new(), through_the_centre(), false);
+    let exact = le * (Rgb::ONE - crate::medium::tracking::transmittance(sigma_a, 2.0));
+    (scene, exact)
+}
+
+/// Single scattering: a point light of intensity `intensity` at `(0.5, 0, 0)` inside a ball
+/// of radius 2 of a medium (extinction `sigma_t`, albedo `albedo`, phase `phase`); the probe
+/// ray runs along the `z` axis through it. With one scattering event (`max-depth` 1) the
+/// radiance is the integral over the ray of transmittance in, `sigma_s`, the phase function,
+/// the light's `I / d^2` and transmittance out, which [`single_scattering_exact`] sums.
+pub fn single_scattering(sigma_t: Rgb, albedo: Rgb, phase: Phase, intensity: f32) -> TestScene {
+    let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, albedo, Rgb::ZERO, phase));
+    ball_of(
+        medium,
+        2.0,
+        vec![Light::point(LIGHT, Rgb::splat(intensity))],
+        through_the_centre(),
+        false,
+    )
+}
+
+/// Where [`single_scattering`]'s light is.
+const LIGHT: Vec3A = Vec3A::new(0.5, 0.0, 0.0);
+
+/// The radiance [`single_scattering`] gives along its probe ray, by the midpoint rule over the
+/// chord (200,000 steps, in f64).
+pub fn single_scattering_exact(sigma_t: Rgb, albedo: Rgb, phase: Phase, intensity: f32) -> Rgb {
+    let n = 200_000;
+    let dz = 4.0 / n as f64;
+    let mut sum = [0.0f64; 3];
+    for i in 0..n {
+        let z = -2.0 + (i as f64 + 0.5) * dz;
+        let p = Vec3A::new(0.0, 0.0, z as f32);
+        let to_light = LIGHT - p;
+        let d2 = to_light.length_squared() as f64;
+        let d = d2.sqrt();
+        let f = phase.eval(-Vec3A::Z, to_light / d as f32) as f64;
+        for c in 0..3 {
+            let st = sigma_t[c] as f64;
+            let ss = st * albedo[c] as f64;
+            let tr = (-st * (z + 2.0)).exp() * (-st * d).exp();
+            sum[c] += tr * ss * f * intensity as f64 / d2 * dz;
+        }
+    }
+    Rgb::new(sum[0] as f32, sum[1] as f32, sum[2] as f32)
+}
+
+/// Asserts that integrator `name` (with `params`) matches `expected` in every channel by a
+/// t-test over `n` probe rays (|t| < 4, and a standard error small enough to see a 5% bias).
+pub fn expect_rgb(name: &str, params: &[(&str, &str)], scene: &TestScene, expected: Rgb, n: u32) {
+    let given: Vec<(String, String)> = params
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    let integrator = crate::find(name)
+        .and_then(|e| e.instantiate(&given))
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let rays = super::as_ray_integrator(name, integrator.as_ref());
+    let mut tracer = crate::Tracer::new(scene);
+    let (mut sum, mut sum_sq) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+    for i in 0..n {
+        let mut sampler = crate::Sampler::new(777, i as u64, 0);
+        let ray = super::camera_ray(&scene.camera, &mut sampler);
+        let l = rays.radiance(&ray, &mut tracer, &mut sampler).as_dvec3();
+        assert!(l.is_finite(), "{name}: non-finite sample {l}");
+        sum += l;
+        sum_sq += l * l;
+    }
+    let mean = sum / n as f64;
+    let var =
+        (sum_sq / n as f64 - mean * mean).max(glam::DVec3::ZERO) * (n as f64 / (n as f64 - 1.0));
+    let se = (var / n as f64).powf(0.5);
+    for c in 0..3 {
+        let e = expected[c] as f64;
+        let t = (mean[c] - e) / se[c].max(1e-9 * e.abs().max(1e-30));
+        assert!(
+            t.abs() < 4.0 || (se[c] == 0.0 && (mean[c] - e).abs() <= 1e-5 * e.abs()),
+            "{name} {params:?} channel {c}: mean {:.5} +- {:.5}, expected {e:.5} (t = {t:.2})",
+            mean[c],
+            se[c]
+        );
+        assert!(
+            se[c] < e.abs() / 80.0 || e == 0.0,
+            "{name} channel {c}: standard error {:.5} too large to see a 5% bias of {e:.5}",
+            se[c]
+        );
+    }
+}
