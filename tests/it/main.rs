@@ -15,6 +15,7 @@ mod corpus;
 mod files;
 mod guiding;
 mod lights;
+mod media;
 mod mitsuba;
 mod new_integrator;
 mod passes;

@@ -217,8 +217,8 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
         let (mut material, mut emitter) = (None, None);
         let mut medium: Option<MediumInterfaceDesc> = None;
-        for (child_name, child) in std::mem::take(&mut p.children) {
-            let child = self.resolve(child)?;
+        for (child_name, given) in std::mem::take(&mut p.children) {
+            let child = self.resolve(given)?;
             match child.tag_name().name() {
                 "medium" => {
                     let m = self.medium(child)?;
@@ -229,14 +229,14 @@ impl<'a, 'input> Converter<'a, 'input> {
                         "interior" | "exterior" => {
                             return Err(at(
                                 self.doc,
-                                child,
+                                given,
                                 format!("a shape's {child_name} medium is given twice"),
                             ))
                         }
                         other => {
                             return Err(at(
                                 self.doc,
-                                child,
+                                given,
                                 format!(
                                 "a shape's medium is its `interior` or `exterior`, not `{other}`"
                             ),
