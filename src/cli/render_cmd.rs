@@ -519,8 +519,14 @@ pub fn integrators_listing() -> String {
     let mut out = String::new();
     for e in registry::REGISTRY {
         let _ = writeln!(out, "{}\n    {}", e.name, e.summary);
-        if e.media {
-            let _ = writeln!(out, "    renders participating media");
+        match e.media {
+            registry::MediaSupport::None => {}
+            registry::MediaSupport::Scattering => {
+                let _ = writeln!(out, "    renders participating media (not emitting ones)");
+            }
+            registry::MediaSupport::Full => {
+                let _ = writeln!(out, "    renders participating media");
+            }
         }
         for p in e.params {
             let kind = match p.kind {

@@ -99,6 +99,54 @@ pub fn choose_integrator(
     Ok((entry, params))
 }
 
+/// Refuses a scene with participating media for an integrator that does not render them
+/// (debug views show the surfaces, which media do not hide from them), and one with emitting
+/// media for one that renders only scattering ones.
+fn check_media(loaded: &LoadedScene, entry: &IntegratorEntry) -> Result<()> {
+    use raylab_integrators::registry::MediaSupport;
+    let media = &loaded.media;
+    if media.media.is_empty() || entry.summary.starts_with("debug view") {
+        return Ok(());
+    }
+    let able = |full: bool| -> String {
+        let names: Vec<&str> = raylab_integrators::REGISTRY
+            .iter()
+            .filter(|e| e.media == MediaSupport::Full || (!full && e.media.any()))
+            .map(|e| e.name)
+            .collect();
+        names.join(", ")
+    };
+    match entry.media {
+        MediaSupport::None => bail!(
+            "{}: the scene has participating media ({}), which integrator `{}` does not render (it would treat them as vacuum); integrators that do: {}",
+            loaded.path.display(),
+            media.names.join(", "),
+            entry.name,
+            able(false)
+        ),
+        MediaSupport::Scattering => {
+            let emitting: Vec<&str> = media
+                .media
+                .iter()
+                .zip(&media.names)
+                .filter(|(m, _)| m.is_emissive())
+                .map(|(_, n)| n.as_str())
+                .collect();
+            if !emitting.is_empty() {
+                bail!(
+                    "{}: medium {} emits light, which integrator `{}` does not render (its light paths do not start in media); integrators that do: {}",
+                    loaded.path.display(),
+                    emitting.join(", "),
+                    entry.name,
+                    able(true)
+                );
+            }
+            Ok(())
+        }
+        MediaSupport::Full => Ok(()),
+    }
+}
+
 /// The error of a shard asked for an open-ended render.
 pub fn shard_needs_passes(spec: ShardSpec) -> anyhow::Error {
     anyhow!(
@@ -119,22 +167,7 @@ impl Job {
             request.scene_params,
         )?;
         let integrator = entry.build_checked(&params)?;
-        // Debug views show the surfaces, which media do not hide from them.
-        let debug_view = entry.summary.starts_with("debug view");
-        if !loaded.media.media.is_empty() && !entry.media && !debug_view {
-            let capable: Vec<&str> = raylab_integrators::REGISTRY
-                .iter()
-                .filter(|e| e.media)
-                .map(|e| e.name)
-                .collect();
-            bail!(
-                "{}: the scene has participating media ({}), which integrator `{}` does not render (it would treat them as vacuum); integrators that do: {}",
-                loaded.path.display(),
-                loaded.media.names.join(", "),
-                entry.name,
-                capable.join(", ")
-            );
-        }
+        check_media(loaded, entry)?;
         let camera = match request.size {
             Some((w, h)) => loaded.camera.with_resolution(w, h),
             None => loaded.camera.clone(),

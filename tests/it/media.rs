@@ -11,7 +11,7 @@ const MEDIA_SCENES: [&str; 2] = ["scenes/fog_room.ron", "scenes/volumetric_caust
 fn media_integrators() -> Vec<&'static str> {
     let names: Vec<&str> = raylab_integrators::REGISTRY
         .iter()
-        .filter(|e| e.media)
+        .filter(|e| e.media.any())
         .map(|e| e.name)
         .collect();
     assert!(!names.is_empty());
@@ -145,7 +145,10 @@ fn media_render_resumes_from_a_checkpoint_to_the_same_image() {
 #[test]
 fn surface_integrators_refuse_media_and_debug_views_show_them() {
     let dir = tempfile::tempdir().unwrap();
-    for entry in raylab_integrators::REGISTRY.iter().filter(|e| !e.media) {
+    for entry in raylab_integrators::REGISTRY
+        .iter()
+        .filter(|e| !e.media.any())
+    {
         let out = dir.path().join(format!("{}.exr", entry.name));
         let o = raylab(&[
             "render",

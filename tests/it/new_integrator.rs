@@ -8,7 +8,7 @@
 use raylab_integrators::integrator::{
     emitted_at, escaped, sample_one_light, RayIntegrator, ShadingPoint, Tracer,
 };
-use raylab_integrators::registry::{expect, Analytic, IntegratorEntry, Params};
+use raylab_integrators::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params};
 use raylab_integrators::{Ray, Rgb, Sampler};
 
 /// The registry entry: name, summary, parameters, constructor. In the crate, one line in
@@ -28,7 +28,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 400),
     }),
     // Surfaces only: a scene with participating media is refused before rendering.
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct Direct;

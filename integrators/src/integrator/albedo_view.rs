@@ -2,7 +2,7 @@
 //! radiance). Not radiance: for checking materials and the build step.
 
 use crate::integrator::{emitted_at, RayIntegrator, Tracer};
-use crate::registry::{IntegratorEntry, Params};
+use crate::registry::{IntegratorEntry, MediaSupport, Params};
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -12,7 +12,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     params: &[],
     build: |_: &Params| Box::new(AlbedoView),
     analytic: None,
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct AlbedoView;

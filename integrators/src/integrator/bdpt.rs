@@ -43,7 +43,8 @@ use crate::integrator::{
     MAX_SURVIVAL,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
+    RR_DEPTH,
 };
 use crate::{Camera, Hit, Rgb, Sampler, Scene};
 use crate::{SampleContext, Spectrum};
@@ -104,7 +105,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: expect(1.2, 40, 1600),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 const STRATEGY: ParamSpec = ParamSpec {

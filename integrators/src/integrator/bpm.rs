@@ -22,7 +22,7 @@
 //! unbiased). Truncation with a finite `max-depth`.
 
 use super::vcm::{VertexMerging, PARAMS};
-use crate::registry::{expect, Analytic, IntegratorEntry, Params};
+use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "bpm",
@@ -37,5 +37,5 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 900),
         sphere_under_sky: expect(1.2, 40, 3600),
     }),
-    media: false,
+    media: MediaSupport::None,
 };

@@ -2,7 +2,7 @@
 //! bounds (so 1 is the scene's size), grey. Misses are black. Not radiance.
 
 use crate::integrator::{RayIntegrator, Tracer};
-use crate::registry::{IntegratorEntry, Params};
+use crate::registry::{IntegratorEntry, MediaSupport, Params};
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -12,7 +12,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     params: &[],
     build: |_: &Params| Box::new(DepthView),
     analytic: None,
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct DepthView;

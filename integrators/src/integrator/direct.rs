@@ -17,7 +17,9 @@
 //! **Bias**: none for direct illumination; it leaves out all indirect light by design.
 
 use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint, Tracer};
-use crate::registry::{expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params,
+};
 use crate::sampling::power_heuristic;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
@@ -53,7 +55,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.5, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct Direct {

@@ -16,7 +16,9 @@
 
 use crate::bsdf::TransportMode::Radiance;
 use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint, Tracer};
-use crate::registry::{expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params,
+};
 use crate::Spectrum;
 use crate::{Hit, Ray, Rgb, Sampler};
 use glam::Vec2;
@@ -65,7 +67,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.75, 40, 100),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct FixedDepth {

@@ -40,7 +40,8 @@ use crate::integrator::{
     RayCounters, RayIntegrator, ShadingPoint, Stop, Tracer,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
+    RR_DEPTH,
 };
 use crate::sd_tree::{Guide, Record, SdTree};
 use crate::{luminance, Camera, Ray, Rgb, Sampler, Scene};
@@ -96,7 +97,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 /// A quadtree cell is split past this share of its leaf's energy (the paper's 1%).

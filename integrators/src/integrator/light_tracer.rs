@@ -28,11 +28,14 @@
 //! (`L S+ D E`), which the path tracer finds slowly, come fast.
 
 use crate::bsdf::TransportMode;
+use crate::integrator::media_walk::{average, fly, hero_channel, medium_at, transmittance, Flight};
 use crate::integrator::{
     emit_from_a_light, escaped, Demand, Integrator, ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
 };
-use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
-use crate::{Camera, Hit, Rgb, Sampler};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+};
+use crate::{Camera, Hit, Ray, Rgb, Sampler};
 use crate::{SampleContext, Spectrum};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -53,7 +56,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: expect(1.2, 40, 10000),
     }),
-    media: false,
+    media: MediaSupport::Scattering,
 };
 
 struct LightTracer {
@@ -74,7 +77,15 @@ impl Integrator for LightTracer {
         let mut seen = Rgb::ZERO;
         if tracer.scene.lights().environment().is_some() {
             let ray = camera.ray(pixel.film.x, pixel.film.y);
-            if tracer.camera(&ray).is_none() {
+            if tracer.scene.has_media() {
+                // Through the media and crossable surfaces in the way.
+                let ray = Ray {
+                    medium: tracer.scene.camera_medium(),
+                    ..ray
+                };
+                let hero = hero_channel(sampler.next_1d());
+                seen = escaped(tracer.scene, &ray) * transmittance(tracer, &ray, hero, sampler);
+            } else if tracer.camera(&ray).is_none() {
                 seen = escaped(tracer.scene, &ray);
             }
         }
@@ -124,8 +135,16 @@ impl LightTracer {
         };
         let cos_lens = ls.wi.dot(camera.normal());
         let eye = Hit::new(0.0, camera.eye, glam::Vec3A::ZERO, 0, None);
-        if tracer.unoccluded(&eye, &ls) {
-            splats.add(raster, ls.radiance * we * (cos_lens / (ls.pdf * pmf)));
+        let l = ls.radiance * we * (cos_lens / (ls.pdf * pmf));
+        if tracer.scene.has_media() {
+            let ray = Ray {
+                medium: tracer.scene.camera_medium(),
+                ..eye.spawn_ray_to(ls.point)
+            };
+            let hero = hero_channel(sampler.next_1d());
+            splats.add(raster, l * transmittance(tracer, &ray, hero, sampler));
+        } else if tracer.unoccluded(&eye, &ls) {
+            splats.add(raster, l);
         }
     }
 
@@ -146,17 +165,88 @@ impl LightTracer {
         let emitted = emission.weight / pmf;
         let mut beta = emitted;
         let mut ray = emission.ray;
+        // In media: the light's medium (walked from the camera's), the hero channel and each
+        // channel's density over the hero's.
+        let media = scene.has_media();
+        let mut walk = Walk {
+            hero: 0,
+            r_u: Rgb::ONE,
+        };
+        if media {
+            walk.hero = hero_channel(sampler.next_1d());
+            ray.medium = medium_at(scene, camera.eye, scene.camera_medium(), ray.origin);
+        }
         let mut bounces = 0u32;
         while bounces < self.max_depth {
             // Trace the next segment.
-            let Some(hit) = tracer.light(&ray) else {
+            let hit = tracer.light(&ray);
+            if media {
+                let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+                let flight = fly(
+                    scene,
+                    &ray,
+                    tmax,
+                    walk.hero,
+                    sampler,
+                    &mut beta,
+                    &mut walk.r_u,
+                );
+                match flight {
+                    Flight::Ended => return,
+                    Flight::Through => {}
+                    Flight::Scattered(p) => {
+                        bounces += 1;
+                        let Some(medium) = scene.medium(ray.medium) else {
+                            return;
+                        };
+                        let (phase, wo) = (medium.phase(), -ray.dir);
+                        if let Some(l) = connect_medium_to_lens(
+                            p, wo, &ray, beta, &walk, camera, tracer, sampler,
+                        ) {
+                            splats.add(l.0, l.1);
+                        }
+                        if bounces >= self.max_depth {
+                            return;
+                        }
+                        let ps = phase.sample(wo, sampler.next_2d());
+                        beta *= ps.p / ps.pdf;
+                        if !self.roulette(bounces, &mut beta, emitted, &walk, sampler) {
+                            return;
+                        }
+                        ray = Ray {
+                            origin: p,
+                            dir: ps.wi,
+                            tmax: f32::INFINITY,
+                            medium: ray.medium,
+                        };
+                        continue;
+                    }
+                }
+            }
+            let Some(hit) = hit else {
                 return;
             };
-            bounces += 1;
             let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            if media && sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION {
+                // A medium's boundary (or a mask's hole): crossed, no scattering event.
+                if let Some(s) = sp.sample(
+                    sampler.next_1d(),
+                    sampler.next_2d(),
+                    TransportMode::Importance,
+                ) {
+                    if s.bsdf.is_straight_through(sp.wo) {
+                        beta = s.throughput(beta);
+                        ray = hit.spawn_ray(ray.dir);
+                        continue;
+                    }
+                }
+                return;
+            }
+            bounces += 1;
             // Connect this vertex to the lens.
             if !sp.material.is_specular() {
-                if let Some(l) = connect_to_lens(&sp, beta, camera, tracer) {
+                let medium = media.then_some((&walk, &mut *sampler));
+                if let Some(l) = connect_to_lens(&sp, beta, camera, tracer, medium) {
                     splats.add(l.0, l.1);
                 }
             }
@@ -175,30 +265,97 @@ impl LightTracer {
             if !(beta.is_finite() && beta != Rgb::ZERO) {
                 return;
             }
-            // Russian roulette on the throughput relative to the emitted power.
-            if bounces >= self.rr_depth {
-                let survive = (beta.max_element() / emitted.max_element()).min(MAX_SURVIVAL);
-                if survive.is_nan() || sampler.next_1d() >= survive {
-                    return;
-                }
-                beta /= survive;
+            if !self.roulette(bounces, &mut beta, emitted, &walk, sampler) {
+                return;
             }
             ray = sp.hit.spawn_ray(s.wi);
         }
     }
+
+    /// Russian roulette from `rr-depth` scattering events on, on the throughput relative to
+    /// the emitted power; false ends the path.
+    fn roulette(
+        &self,
+        bounces: u32,
+        beta: &mut Rgb,
+        emitted: Rgb,
+        walk: &Walk,
+        sampler: &mut Sampler,
+    ) -> bool {
+        if bounces < self.rr_depth {
+            return true;
+        }
+        let carried = beta.max_element() / average(walk.r_u);
+        let survive = (carried / emitted.max_element()).min(MAX_SURVIVAL);
+        if survive.is_nan() || sampler.next_1d() >= survive {
+            return false;
+        }
+        *beta /= survive;
+        true
+    }
+}
+
+/// A light path's state in media: its hero channel and each channel's density over the
+/// hero's (all ones without media).
+struct Walk {
+    hero: usize,
+    r_u: Rgb,
+}
+
+/// The light-path vertex in a medium at `p` (reached along `ray`, `wo` back along it) seen
+/// by the camera: the phase function towards the eye and the transmittance to it.
+#[allow(clippy::too_many_arguments)]
+fn connect_medium_to_lens(
+    p: glam::Vec3A,
+    wo: glam::Vec3A,
+    ray: &Ray,
+    beta: Rgb,
+    walk: &Walk,
+    camera: &Camera,
+    tracer: &mut Tracer,
+    sampler: &mut Sampler,
+) -> Option<(glam::Vec2, Rgb)> {
+    let cs = camera.sample_wi(p)?;
+    let phase = tracer.scene.medium(ray.medium)?.phase();
+    let f = phase.eval(wo, cs.wi);
+    let to_eye = Ray {
+        origin: p,
+        dir: cs.wi,
+        tmax: cs.dist * (1.0 - 1e-4),
+        medium: ray.medium,
+    };
+    let tr = transmittance(tracer, &to_eye, walk.hero, sampler);
+    let l = beta * tr * (f * cs.we / cs.pdf) / average(walk.r_u);
+    (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
 }
 
 /// The light-path vertex `sp`, reached with power `beta`, seen by the camera: where it lands
 /// on the film and the radiance it sends there, `beta f |wi.ns| corr We cos_lens / dist^2`
 /// with Veach's shading-normal correction `corr = |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)` (`wo`
 /// back towards the light, `wi` towards the eye). `None` when the eye cannot see it.
+/// In media (`medium`: the path's walk and the sampler), the connection carries the
+/// transmittance to the eye instead of a visibility test.
 fn connect_to_lens(
     sp: &ShadingPoint,
     beta: Rgb,
     camera: &Camera,
     tracer: &mut Tracer,
+    medium: Option<(&Walk, &mut Sampler)>,
 ) -> Option<(glam::Vec2, Rgb)> {
     let cs = camera.sample_wi(sp.hit.p)?;
     let l = beta * sp.connection_factor(cs.wi, TransportMode::Importance) * (cs.we / cs.pdf);
-    (l != Rgb::ZERO && tracer.connected(&sp.hit, cs.point)).then_some((cs.raster, l))
+    if l == Rgb::ZERO {
+        return None;
+    }
+    match medium {
+        None => tracer
+            .connected(&sp.hit, cs.point)
+            .then_some((cs.raster, l)),
+        Some((walk, sampler)) => {
+            let ray = sp.hit.spawn_ray_to(cs.point);
+            let tr = transmittance(tracer, &ray, walk.hero, sampler);
+            let l = l * tr / average(walk.r_u);
+            (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
+        }
+    }
 }

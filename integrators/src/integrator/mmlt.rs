@@ -22,7 +22,7 @@
 use crate::integrator::bdpt::Bdpt;
 use crate::integrator::metropolis::{Metropolis, PathSpace, PARAMS};
 use crate::integrator::Tracer;
-use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH};
+use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH};
 use crate::{Camera, Rgb, Sampler};
 use glam::Vec2;
 
@@ -58,7 +58,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.999_755_86, 40, 400),
         sphere_under_sky: None,
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 /// `bdpt`'s strategies, one depth per class, as points of primary sample space.

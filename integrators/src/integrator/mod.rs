@@ -12,6 +12,7 @@ mod direct;
 mod fixed_depth;
 mod guided;
 mod light_tracer;
+pub mod media_walk;
 mod metropolis;
 mod mmlt;
 mod normals_view;

@@ -2,7 +2,7 @@
 //! [0, 1] per axis. Not radiance: for checking geometry and the build step.
 
 use crate::integrator::{RayIntegrator, Tracer};
-use crate::registry::{IntegratorEntry, Params};
+use crate::registry::{IntegratorEntry, MediaSupport, Params};
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -12,7 +12,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     params: &[],
     build: |_: &Params| Box::new(NormalsView),
     analytic: None,
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct NormalsView;

@@ -14,7 +14,9 @@
 use crate::integrator::{
     emitted_at, escaped, sample_one_light, PathState, RayIntegrator, ShadingPoint, Tracer,
 };
-use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+};
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -32,7 +34,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 pub(crate) struct PathTracer {

@@ -29,7 +29,7 @@ use crate::integrator::{
 };
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
-    IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
+    IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
 };
 use crate::{PassContext, Spectrum};
 use crate::{Ray, RayCounters, Rgb, Sampler};
@@ -74,7 +74,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         })
     },
     analytic: None,
-    media: false,
+    media: MediaSupport::None,
 };
 
 /// Specular bounces a camera or gather path follows before Russian roulette may end it.

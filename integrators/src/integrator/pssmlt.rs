@@ -20,7 +20,9 @@
 use crate::integrator::metropolis::{Metropolis, PathSpace, PARAMS};
 use crate::integrator::path::PathTracer;
 use crate::integrator::{RayIntegrator, Tracer};
-use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+};
 use crate::{Camera, Rgb, Sampler};
 use glam::Vec2;
 
@@ -46,7 +48,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 /// `path`'s camera samples as points of primary sample space.

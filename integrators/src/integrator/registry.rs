@@ -194,9 +194,28 @@ pub struct IntegratorEntry {
     /// What it must give on the testing kit's analytic scenes (`None`: debug views, and
     /// integrators whose estimates are not independent between passes, tested on their own).
     pub analytic: Option<Analytic>,
-    /// Whether it renders participating media; the others refuse a scene with media rather
-    /// than render it as vacuum.
-    pub media: bool,
+    /// Which participating media it renders; it refuses a scene with others rather than
+    /// render them as vacuum (or dark).
+    pub media: MediaSupport,
+}
+
+/// Which participating media an integrator renders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MediaSupport {
+    /// None: surfaces in vacuum only.
+    None,
+    /// Media that absorb and scatter, not media that emit (its paths from the lights do not
+    /// start in a glowing medium).
+    Scattering,
+    /// Every medium, emitting ones too.
+    Full,
+}
+
+impl MediaSupport {
+    /// Whether it renders media at all.
+    pub fn any(self) -> bool {
+        self != MediaSupport::None
+    }
 }
 
 /// What an integrator gives, with `params`, on the testing kit's analytic scenes: each

@@ -27,8 +27,8 @@
 use crate::integrator::{sample_one_light, Demand, RayIntegrator, ShadingPoint, Tracer};
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
-    PHOTONS, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
+    MAX_DEPTH, PHOTONS, RR_DEPTH,
 };
 use crate::{PassContext, Spectrum};
 use crate::{Ray, RayCounters, Rgb, Sampler};
@@ -76,7 +76,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: None,
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct Sppm {

@@ -37,8 +37,8 @@ use crate::integrator::{sample_one_light, Demand, Integrator, ShadingPoint};
 use crate::integrator::{Stop, Tracer};
 use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
-    PHOTONS, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
+    MAX_DEPTH, PHOTONS, RR_DEPTH,
 };
 use crate::{Camera, Hit, Ray, RayCounters, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
@@ -84,7 +84,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: None,
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 /// Pixels whose visible points are traced per parallel work item.

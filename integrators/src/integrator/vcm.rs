@@ -42,8 +42,8 @@ use crate::integrator::{
 };
 use crate::photon_map::{Located, PointGrid};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH,
-    RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
+    MAX_DEPTH, RR_DEPTH,
 };
 use crate::{Camera, Hit, Light, Ray, RayCounters, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
@@ -63,7 +63,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 900),
         sphere_under_sky: expect(1.2, 40, 1600),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 /// The parameters of `vcm` and `bpm`.

@@ -26,10 +26,13 @@
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::bsdf::TransportMode;
+use crate::integrator::media_walk::{average, hero_channel, positive};
 use crate::integrator::{emitted_at, escaped, stays_on_viewer_side, RayIntegrator, ShadingPoint};
 use crate::medium::tracking::sample_t_maj;
 use crate::medium::Phase;
-use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH, RR_DEPTH};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+};
 use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene, Spectrum, Tracer};
 use glam::Vec3A;
 
@@ -49,7 +52,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
-    media: true,
+    media: MediaSupport::Full,
 };
 
 /// Scattering events after which Russian roulette plays even on a path that loses nothing.
@@ -58,12 +61,6 @@ const LONG_PATH: u32 = 1024;
 pub(crate) struct VolPath {
     pub(crate) max_depth: u32,
     pub(crate) rr_depth: u32,
-}
-
-/// The average of the three channels.
-#[inline]
-fn average(v: Rgb) -> f32 {
-    (v.x + v.y + v.z) / 3.0
 }
 
 /// The path's state between segments.
@@ -94,7 +91,7 @@ enum Vertex<'s, 'a> {
 impl RayIntegrator for VolPath {
     fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         let scene: &dyn Scene = tracer.scene;
-        let hero = ((sampler.next_1d() * 3.0) as usize).min(2);
+        let hero = hero_channel(sampler.next_1d());
         let mut ray = Ray {
             medium: scene.camera_medium(),
             ..*camera_ray
@@ -466,10 +463,4 @@ fn shadow_transmittance(
             h.spawn_ray(ray.dir)
         };
     }
-}
-
-/// Whether `x` is above zero (false for NaN).
-#[inline]
-fn positive(x: f32) -> bool {
-    x > 0.0
 }

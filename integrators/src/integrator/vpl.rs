@@ -27,7 +27,8 @@ use crate::integrator::{
     RayCounters, RayIntegrator, ShadingPoint, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, ParamKind, ParamSpec, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
+    RR_DEPTH,
 };
 use crate::{Frame, Hit, Ray, Rgb, Sampler, Scene};
 use crate::{PassContext, Spectrum};
@@ -74,7 +75,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct Vpl {

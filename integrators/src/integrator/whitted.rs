@@ -17,7 +17,7 @@
 //! the truncated series `Le + direct`. Unbiased for that truncated quantity.
 
 use crate::integrator::{emitted_at, escaped, specular_lobes, RayIntegrator, ShadingPoint, Tracer};
-use crate::registry::{expect, Analytic, IntegratorEntry, Params, MAX_DEPTH};
+use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH};
 use crate::Spectrum;
 use crate::{Hit, Ray, Rgb, Sampler};
 
@@ -38,7 +38,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.5, 10, 10),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
-    media: false,
+    media: MediaSupport::None,
 };
 
 struct Whitted {

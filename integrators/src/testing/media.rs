@@ -77,6 +77,24 @@ pub fn fog_furnace(sigma_t: Rgb, phase: Phase) -> TestScene {
     )
 }
 
+/// The same fog as [`fog_furnace`] seen from outside, at a distance of 5: radiance 1 across
+/// the ball. (Light paths connect to a camera inside a medium with a variance that diverges
+/// at the lens, so integrators of light paths are checked from outside.)
+pub fn fog_ball_under_sky(sigma_t: Rgb, phase: Phase) -> TestScene {
+    let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, Rgb::ONE, Rgb::ZERO, phase));
+    ball_of(
+        medium,
+        1.0,
+        vec![Light::environment(Rgb::ONE)],
+        Probe::AtSphere {
+            eye: Vec3A::new(0.0, 0.0, 5.0),
+            center: Vec3A::ZERO,
+            radius: 1.0,
+        },
+        false,
+    )
+}
+
 /// A unit ball of a medium that absorbs (`sigma_a`) and emits `le`, probed through its
 /// centre: radiance `le (1 - exp(-2 sigma_a))`.
 pub fn glowing_ball(sigma_a: Rgb, le: Rgb) -> (TestScene, Rgb) {

@@ -1,0 +1,166 @@
+//! What paths from the lights need to walk participating media, shared by the integrators
+//! that trace them: which medium a point sits in, free flights to the next real scattering
+//! event (delta tracking against the majorant, one colour channel setting the rate), and the
+//! transmittance of a connection between two vertices (ratio tracking, through the surfaces
+//! a ray can cross).
+//!
+//! Throughputs are carried as in `volpath`: `beta` over the hero channel's density, and
+//! `r_u`, each channel's density over the hero's; an estimate divides by the average of
+//! `r_u`, one-sample MIS over the channels that keeps coloured media from being noisy.
+
+use crate::integrator::{ShadingPoint, Tracer};
+use crate::medium::tracking::sample_t_maj;
+use crate::{Hit, MediumId, Ray, Rgb, Sampler, Scene};
+use glam::Vec3A;
+
+/// How many surfaces a walk crosses before it gives up (a bound on one ray's work).
+const MAX_CROSSINGS: usize = 256;
+
+/// The average of the three channels.
+#[inline]
+pub fn average(v: Rgb) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
+
+/// Whether `x` is above zero (false for NaN).
+#[inline]
+pub fn positive(x: f32) -> bool {
+    x > 0.0
+}
+
+/// The hero channel of a path, from one uniform number.
+#[inline]
+pub fn hero_channel(u: f32) -> usize {
+    ((u * 3.0) as usize).min(2)
+}
+
+/// The medium at `to`, found by walking the segment from `from`, which lies in `medium`,
+/// across every surface between them that bounds media (a light's medium, from the camera's).
+pub fn medium_at(scene: &dyn Scene, from: Vec3A, medium: MediumId, to: Vec3A) -> MediumId {
+    let mut medium = medium;
+    let mut origin = from;
+    for _ in 0..MAX_CROSSINGS {
+        let d = to - origin;
+        let dist = d.length();
+        if !(positive(dist) && dist.is_finite()) {
+            return medium;
+        }
+        let ray = Ray {
+            tmax: dist,
+            medium,
+            ..Ray::new(origin, d / dist)
+        };
+        let Some(hit) = scene.intersect(&ray) else {
+            return medium;
+        };
+        medium = hit.media.towards(hit.ng, ray.dir);
+        origin = hit.spawn_ray(ray.dir).origin;
+    }
+    medium
+}
+
+/// Where a free flight ends.
+pub enum Flight {
+    /// A real scattering event at `p` in the ray's medium (`beta` and `r_u` updated).
+    Scattered(Vec3A),
+    /// The surface the ray was going to, or nothing: no scattering on the way.
+    Through,
+    /// The path ends (absorbed to nothing).
+    Ended,
+}
+
+/// The free flight of `ray` (in its medium) up to `tmax`: delta tracking at channel `hero`'s
+/// rate; a real collision scatters with the albedo as weight. Updates `beta` and `r_u`.
+pub fn fly(
+    scene: &dyn Scene,
+    ray: &Ray,
+    tmax: f32,
+    hero: usize,
+    sampler: &mut Sampler,
+    beta: &mut Rgb,
+    r_u: &mut Rgb,
+) -> Flight {
+    let Some(medium) = scene.medium(ray.medium) else {
+        return Flight::Through;
+    };
+    let mut scattered = None;
+    let mut ended = false;
+    let t_maj = sample_t_maj(medium, ray, tmax, hero, sampler, |c, sampler| {
+        let pt = &c.point;
+        let sigma_t = pt.sigma_a + pt.sigma_s;
+        if sampler.next_1d() < sigma_t[hero] / c.sigma_maj[hero] {
+            let pdf = c.t_maj[hero] * sigma_t[hero];
+            *beta *= c.t_maj * pt.sigma_s / pdf;
+            *r_u *= c.t_maj * sigma_t / pdf;
+            scattered = Some(c.p);
+            return false;
+        }
+        let sigma_n = (c.sigma_maj - sigma_t).max(Rgb::ZERO);
+        let pdf = c.t_maj[hero] * sigma_n[hero];
+        if !positive(pdf) {
+            ended = true;
+            return false;
+        }
+        *beta *= c.t_maj * sigma_n / pdf;
+        *r_u *= c.t_maj * sigma_n / pdf;
+        true
+    });
+    let alive = |b: &Rgb, r: &Rgb| b.is_finite() && *b != Rgb::ZERO && *r != Rgb::ZERO;
+    if let Some(p) = scattered {
+        return if alive(beta, r_u) {
+            Flight::Scattered(p)
+        } else {
+            Flight::Ended
+        };
+    }
+    let end = t_maj[hero];
+    if ended || !positive(end) {
+        return Flight::Ended;
+    }
+    *beta *= t_maj / end;
+    *r_u *= t_maj / end;
+    if alive(beta, r_u) {
+        Flight::Through
+    } else {
+        Flight::Ended
+    }
+}
+
+/// The transmittance along `ray` (in its medium, up to its `tmax`): through media by ratio
+/// tracking at channel `hero`'s rate (unbiased in every channel), through the surfaces a ray
+/// can cross with their null transmission (a `Null` boundary, a mask's hole, a thin
+/// dielectric); zero where a surface blocks it. Each ray cast counts as a connection.
+pub fn transmittance(tracer: &mut Tracer, ray: &Ray, hero: usize, sampler: &mut Sampler) -> Rgb {
+    let scene: &dyn Scene = tracer.scene;
+    let target = ray.at(ray.tmax);
+    let mut ray = *ray;
+    let mut tr = Rgb::ONE;
+    for _ in 0..MAX_CROSSINGS {
+        tracer.counters.connection += 1;
+        let hit = scene.intersect(&ray);
+        if let Some(medium) = scene.medium(ray.medium) {
+            let tmax = hit.map_or(ray.tmax, |h| h.t);
+            tr *= crate::medium::tracking::ratio_tracking(medium, &ray, tmax, hero, sampler);
+        }
+        let Some(h) = hit else {
+            return tr;
+        };
+        let sp = ShadingPoint::new(&h, ray.dir, scene);
+        tr *= sp.material.null_transmission(sp.wo);
+        if tr == Rgb::ZERO || !tr.is_finite() {
+            return Rgb::ZERO;
+        }
+        ray = next_towards(&h, &ray, target);
+    }
+    Rgb::ZERO
+}
+
+/// The ray on from a crossed surface `h` towards `target` (or along `ray` past a target at
+/// infinity), in the medium on the far side.
+fn next_towards(h: &Hit, ray: &Ray, target: Vec3A) -> Ray {
+    if ray.tmax.is_finite() {
+        h.spawn_ray_to(target)
+    } else {
+        h.spawn_ray(ray.dir)
+    }
+}
