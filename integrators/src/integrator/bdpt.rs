@@ -30,6 +30,15 @@
 //! image of its own, written beside the output as `OUT_sS_tT` (pbrt-v4's
 //! `visualizestrategies`): with the box filter they add up to the image.
 //!
+//! In participating media both subpaths fly by delta tracking (one colour channel, the
+//! hero, chosen per sample, sets the rate; each channel's density rides along and every
+//! estimate divides by their average) and scatter at medium vertices by the phase function;
+//! medium vertices join like surface ones, without a cosine, and every join carries the
+//! transmittance of its segment (ratio tracking) instead of a visibility test. Boundaries
+//! that do not scatter (`Null`) are crossed without a vertex. The MIS densities are those of
+//! directions and areas, without transmittance (as pbrt-v4's): still weights that sum to 1.
+//! Media that emit are refused (no subpath starts in one).
+//!
 //! Connections to the lens need a pinhole camera: an orthographic one is refused.
 //!
 //! **Parameters**: `max-depth` (scattering events, default 16, at most 128), `rr-depth`
@@ -38,15 +47,19 @@
 //! **Bias**: truncation at `max-depth`, otherwise none.
 
 use crate::bsdf::TransportMode;
+use crate::integrator::media_walk::{
+    self, average, fly, hero_channel, medium_at, transmittance, Flight,
+};
 use crate::integrator::{
     emit_from_a_light, escaped, scene_radius, Demand, Integrator, ShadingPoint, Tracer,
     MAX_SURVIVAL,
 };
+use crate::medium::Phase;
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
     RR_DEPTH,
 };
-use crate::{Camera, Hit, Rgb, Sampler, Scene};
+use crate::{Camera, Hit, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene};
 use crate::{SampleContext, Spectrum};
 use arrayvec::ArrayVec;
 use glam::Vec3A;
@@ -105,7 +118,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: expect(1.2, 40, 1600),
     }),
-    media: MediaSupport::None,
+    media: MediaSupport::Scattering,
 };
 
 const STRATEGY: ParamSpec = ParamSpec {
@@ -144,6 +157,8 @@ enum Kind {
     Light,
     /// A surface hit.
     Surface,
+    /// A scattering event in a participating medium (no surface: no normal, no cosine).
+    Medium,
 }
 
 /// One vertex of a subpath (pbrt-v4's `Vertex`).
@@ -170,6 +185,14 @@ struct Vertex<'a> {
     pdf_rev: f32,
     /// Sampled from a Dirac lobe (or, for a light, a delta light).
     delta: bool,
+    /// The medium the vertex sits in (the lens, lights and medium vertices; a surface's
+    /// segments leave into the media its hit reports).
+    medium: MediumId,
+    /// A medium vertex's phase function.
+    phase: Phase,
+    /// Each colour channel's density of the subpath up to here over the hero channel's (all
+    /// ones without media): an estimate divides by their average ([`media_walk`]).
+    r_u: Rgb,
 }
 
 type Subpath<'a> = ArrayVec<Vertex<'a>, MAX_VERTICES>;
@@ -187,6 +210,9 @@ impl<'a> Vertex<'a> {
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
             delta: false,
+            medium: MediumId::VACUUM,
+            phase: Phase::Isotropic,
+            r_u: Rgb::ONE,
         }
     }
 
@@ -195,14 +221,14 @@ impl<'a> Vertex<'a> {
         match self.kind {
             Kind::Surface => true,
             Kind::Light => !self.infinite && self.ng != Vec3A::ZERO,
-            Kind::Camera => false,
+            Kind::Camera | Kind::Medium => false,
         }
     }
 
     /// True when a segment may end here: not a mirror or glass, not a directional light.
     fn connectible(&self, scene: &dyn Scene) -> bool {
         match self.kind {
-            Kind::Camera => true,
+            Kind::Camera | Kind::Medium => true,
             Kind::Surface => self
                 .sp
                 .as_ref()
@@ -215,12 +241,24 @@ impl<'a> Vertex<'a> {
         self.kind == Kind::Light && self.light.is_some_and(|i| scene.lights().get(i).is_delta())
     }
 
-    /// The hit to spawn a segment from (lights and the lens: a point with no offset normal).
+    /// The hit to spawn a segment from (lights, the lens and medium vertices: a point with no
+    /// offset normal, in the vertex's medium).
     fn hit(&self) -> Hit {
         match &self.sp {
             Some(sp) => sp.hit,
-            None => Hit::new(0.0, self.p, Vec3A::ZERO, 0, None),
+            None => Hit {
+                media: MediumInterface {
+                    inside: self.medium,
+                    outside: self.medium,
+                },
+                ..Hit::new(0.0, self.p, Vec3A::ZERO, 0, None)
+            },
         }
+    }
+
+    /// Whether this is a surface or a medium vertex (a scattering event).
+    fn scatters(&self) -> bool {
+        matches!(self.kind, Kind::Surface | Kind::Medium)
     }
 
     /// Converts a solid-angle density at this vertex towards `next` into an area density
@@ -255,6 +293,10 @@ impl<'a> Vertex<'a> {
         };
         let pdf = match (&self.sp, self.kind) {
             (_, Kind::Camera) => camera.pdf_we(w).1,
+            (_, Kind::Medium) => {
+                let Some(prev) = prev else { return 0.0 };
+                self.phase.eval((prev.p - self.p).normalize_or_zero(), w)
+            }
             (Some(sp), _) => {
                 let Some(prev) = prev else { return 0.0 };
                 let wo = sp.frame.to_local((prev.p - self.p).normalize_or_zero());
@@ -335,11 +377,16 @@ fn remap0(x: f32) -> f32 {
 }
 
 /// The BSDF factor of joining surface vertex `v` to the point `to`, times `|cos|` at `v`
-/// (see [`ShadingPoint::connection_factor`]).
-fn joined(v: &Vertex, to: Vec3A, mode: TransportMode) -> Rgb {
-    match &v.sp {
-        Some(sp) => sp.connection_factor((to - v.p).normalize_or_zero(), mode),
-        None => Rgb::ZERO,
+/// (see [`ShadingPoint::connection_factor`]); for a medium vertex, its phase function
+/// between the direction it was reached from (`from`, the previous vertex) and `to`.
+fn joined(v: &Vertex, from: Option<&Vertex>, to: Vec3A, mode: TransportMode) -> Rgb {
+    match (&v.sp, v.kind, from) {
+        (Some(sp), _, _) => sp.connection_factor((to - v.p).normalize_or_zero(), mode),
+        (None, Kind::Medium, Some(prev)) => Rgb::splat(v.phase.eval(
+            (prev.p - v.p).normalize_or_zero(),
+            (to - v.p).normalize_or_zero(),
+        )),
+        _ => Rgb::ZERO,
     }
 }
 
@@ -360,13 +407,28 @@ impl Integrator for Bdpt {
         let mut cam: Subpath = ArrayVec::new();
         let mut light: Subpath = ArrayVec::new();
         let depth = self.max_depth.min(DEPTH_LIMIT);
-        self.camera_subpath(pixel.film, camera, depth + 1, tracer, sampler, &mut cam);
-        self.light_subpath(depth, tracer, sampler, &mut light);
+        // In media, both subpaths sample distances by one colour channel, the hero.
+        let hero = if scene.has_media() {
+            hero_channel(sampler.next_1d())
+        } else {
+            0
+        };
+        self.camera_subpath(
+            pixel.film,
+            camera,
+            depth + 1,
+            hero,
+            tracer,
+            sampler,
+            &mut cam,
+        );
+        self.light_subpath(depth, camera, hero, tracer, sampler, &mut light);
         let paths = Subpaths {
             scene,
             camera,
             light: &light,
             cam: &cam,
+            hero,
         };
         // Every join of a camera prefix (t vertices) and a light prefix (s vertices).
         let mut l = Rgb::ZERO;
@@ -460,7 +522,12 @@ impl Bdpt {
             return (NONE, film);
         }
         let mut cam: Subpath = ArrayVec::new();
-        self.camera_subpath(film, camera, t as u32 - 1, tracer, sampler, &mut cam);
+        let hero = if tracer.scene.has_media() {
+            hero_channel(sampler.next_1d())
+        } else {
+            0
+        };
+        self.camera_subpath(film, camera, t as u32 - 1, hero, tracer, sampler, &mut cam);
         if cam.len() != t {
             return (NONE, film);
         }
@@ -468,7 +535,7 @@ impl Bdpt {
         sampler.start_stream(1);
         // s = 1 samples its light vertex anew in the join.
         if s >= 2 {
-            self.light_subpath(s as u32 - 1, tracer, sampler, &mut light);
+            self.light_subpath(s as u32 - 1, camera, hero, tracer, sampler, &mut light);
             if light.len() != s {
                 return (NONE, film);
             }
@@ -479,6 +546,7 @@ impl Bdpt {
             camera,
             light: &light,
             cam: &cam,
+            hero,
         };
         let (c, weight, raster) = paths.connect(s, t, tracer, sampler);
         if !c.is_finite() || weight.is_nan() || weight <= 0.0 {
@@ -489,30 +557,34 @@ impl Bdpt {
 
     /// The camera subpath: the lens, then up to `max_vertices` vertices from the ray through
     /// the film position `film`.
+    #[allow(clippy::too_many_arguments)]
     fn camera_subpath<'a>(
         &self,
         film: glam::Vec2,
         camera: &Camera,
         max_vertices: u32,
+        hero: usize,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
         path: &mut Subpath<'a>,
     ) {
-        let ray = camera.ray(film.x, film.y);
+        let medium = tracer.scene.camera_medium();
+        let ray = Ray {
+            medium,
+            ..camera.ray(film.x, film.y)
+        };
         let (_, pdf_dir) = camera.pdf_we(ray.dir);
         let mut lens = Vertex::new(Kind::Camera, camera.eye, camera.normal(), Rgb::ONE);
         lens.pdf_fwd = 1.0;
+        lens.medium = medium;
         path.push(lens);
-        self.random_walk(
-            ray,
-            Rgb::ONE,
-            pdf_dir,
+        let walk = Walk {
+            mode: TransportMode::Radiance,
+            hero,
             max_vertices,
-            TransportMode::Radiance,
-            tracer,
-            sampler,
-            path,
-        );
+            pdf_dir,
+        };
+        self.random_walk(ray, Rgb::ONE, &walk, tracer, sampler, path);
     }
 
     /// The light subpath: a point on a light chosen in proportion to power, then up to
@@ -520,12 +592,14 @@ impl Bdpt {
     fn light_subpath<'a>(
         &self,
         max_vertices: u32,
+        camera: &Camera,
+        hero: usize,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
         path: &mut Subpath<'a>,
     ) {
         let scene = tracer.scene;
-        let Some((index, pmf, le)) = emit_from_a_light(scene, sampler) else {
+        let Some((index, pmf, mut le)) = emit_from_a_light(scene, sampler) else {
             return;
         };
         let light = scene.lights().get(index);
@@ -534,18 +608,20 @@ impl Bdpt {
         start.light = Some(index);
         start.infinite = infinite;
         start.pdf_fwd = le.pdf_pos * pmf;
+        if scene.has_media() {
+            // The light's medium, walked from the camera's.
+            le.ray.medium = medium_at(scene, camera.eye, scene.camera_medium(), le.ray.origin);
+            start.medium = le.ray.medium;
+        }
         // For lights at infinity `le.normal` is the rays' direction, as `infinite` asks.
         path.push(start);
-        self.random_walk(
-            le.ray,
-            le.weight / pmf,
-            le.pdf_dir,
+        let walk = Walk {
+            mode: TransportMode::Importance,
+            hero,
             max_vertices,
-            TransportMode::Importance,
-            tracer,
-            sampler,
-            path,
-        );
+            pdf_dir: le.pdf_dir,
+        };
+        self.random_walk(le.ray, le.weight / pmf, &walk, tracer, sampler, path);
         if infinite {
             // A ray from infinity: its first vertex's density is that of the disk it starts
             // from, and the light's "position" density that of its direction.
@@ -564,25 +640,27 @@ impl Bdpt {
         }
     }
 
-    /// Extends `path` from its last vertex along `ray` (direction density `pdf`): up to
-    /// `max_vertices` more vertices, each BSDF-sampled in `mode`, with the densities MIS
-    /// needs (pbrt-v4's `RandomWalk`). A camera subpath that escapes ends at the environment
-    /// when the scene has one.
-    #[allow(clippy::too_many_arguments)]
+    /// Extends `path` from its last vertex along `ray` (direction density `walk.pdf_dir`): up to
+    /// `walk.max_vertices` more vertices, each BSDF- or phase-sampled in `walk.mode`, with the
+    /// densities MIS needs (pbrt-v4's `RandomWalk`). In media, free flights end in medium
+    /// vertices (delta tracking at the hero channel's rate); boundaries that do not scatter
+    /// (`Null`) are crossed without a vertex. A camera subpath that escapes ends at the
+    /// environment when the scene has one.
     fn random_walk<'a>(
         &self,
         mut ray: crate::Ray,
         mut beta: Rgb,
-        pdf: f32,
-        max_vertices: u32,
-        mode: TransportMode,
+        walk: &Walk,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
         path: &mut Subpath<'a>,
     ) {
+        let (mode, max_vertices) = (walk.mode, walk.max_vertices);
         let scene = tracer.scene;
+        let media = scene.has_media();
         let start = beta.max_element();
-        let mut pdf_fwd = pdf;
+        let mut r_u = Rgb::ONE;
+        let mut pdf_fwd = walk.pdf_dir;
         let mut added = 0u32;
         while added < max_vertices && !path.is_full() {
             // Trace the next segment.
@@ -591,6 +669,49 @@ impl Bdpt {
                 (TransportMode::Radiance, _) => tracer.extend(&ray),
                 (TransportMode::Importance, _) => tracer.light(&ray),
             };
+            if media {
+                let tmax = found.map_or(f32::INFINITY, |h| h.t);
+                match fly(scene, &ray, tmax, walk.hero, sampler, &mut beta, &mut r_u) {
+                    Flight::Ended => return,
+                    Flight::Through => {}
+                    Flight::Scattered(p) => {
+                        let Some(medium) = scene.medium(ray.medium) else {
+                            return;
+                        };
+                        let mut v = Vertex::new(Kind::Medium, p, Vec3A::ZERO, beta);
+                        v.medium = ray.medium;
+                        v.phase = medium.phase();
+                        v.r_u = r_u;
+                        let prev = path.len() - 1;
+                        v.pdf_fwd = path[prev].to_area(pdf_fwd, &v);
+                        path.push(v);
+                        added += 1;
+                        if added >= max_vertices || path.is_full() {
+                            return;
+                        }
+                        // Scatter by the phase function (symmetric: the reverse density is
+                        // the same).
+                        let last = path.len() - 1;
+                        let ps = path[last].phase.sample(-ray.dir, sampler.next_2d());
+                        if !media_walk::positive(ps.pdf) {
+                            return;
+                        }
+                        beta *= ps.p / ps.pdf;
+                        pdf_fwd = ps.pdf;
+                        path[last - 1].pdf_rev = path[last].to_area(ps.pdf, &path[last - 1]);
+                        if !self.roulette(added, &mut beta, start, r_u, sampler) {
+                            return;
+                        }
+                        ray = Ray {
+                            origin: p,
+                            dir: ps.wi,
+                            tmax: f32::INFINITY,
+                            medium: ray.medium,
+                        };
+                        continue;
+                    }
+                }
+            }
             let Some(hit) = found else {
                 // Escaped: the environment, for camera subpaths.
                 if let (TransportMode::Radiance, Some(env)) = (mode, scene.lights().environment()) {
@@ -598,13 +719,27 @@ impl Bdpt {
                     v.light = Some(env);
                     v.infinite = true;
                     v.pdf_fwd = pdf_fwd;
+                    v.r_u = r_u;
                     path.push(v);
                 }
                 return;
             };
             let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            if media && sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION {
+                // A medium's boundary (or a mask's hole): crossed, no vertex.
+                let s = sp.sample(sampler.next_1d(), sampler.next_2d(), mode);
+                match s {
+                    Some(s) if s.bsdf.is_straight_through(sp.wo) => {
+                        beta = s.throughput(beta);
+                        ray = hit.spawn_ray(ray.dir);
+                        continue;
+                    }
+                    _ => return,
+                }
+            }
             let mut v = Vertex::new(Kind::Surface, sp.hit.p, sp.hit.ng, beta);
             v.light = hit.light;
+            v.r_u = r_u;
             let prev = path.len() - 1;
             v.pdf_fwd = path[prev].to_area(pdf_fwd, &v);
             v.sp = Some(sp);
@@ -636,17 +771,43 @@ impl Bdpt {
             let rev_area = path[last].to_area(rev, &path[last - 1]);
             path[last - 1].pdf_rev = rev_area;
             pdf_fwd = fwd;
-            // Russian roulette, relative to what the subpath started with.
-            if added >= self.rr_depth {
-                let survive = (beta.max_element() / start).min(MAX_SURVIVAL);
-                if survive.is_nan() || sampler.next_1d() >= survive {
-                    return;
-                }
-                beta /= survive;
+            if !self.roulette(added, &mut beta, start, r_u, sampler) {
+                return;
             }
             ray = next_origin;
         }
     }
+
+    /// Russian roulette from `rr-depth` vertices on, relative to what the subpath started
+    /// with (the throughput over the channels' average density in media); false ends it.
+    fn roulette(
+        &self,
+        added: u32,
+        beta: &mut Rgb,
+        start: f32,
+        r_u: Rgb,
+        sampler: &mut Sampler,
+    ) -> bool {
+        if added < self.rr_depth {
+            return true;
+        }
+        let survive = (beta.max_element() / average(r_u) / start).min(MAX_SURVIVAL);
+        if survive.is_nan() || sampler.next_1d() >= survive {
+            return false;
+        }
+        *beta /= survive;
+        true
+    }
+}
+
+/// How a subpath walks: radiance (from the camera) or importance (from a light), the hero
+/// colour channel of its media, how many vertices it may add, and the density of the
+/// direction of its first ray.
+struct Walk {
+    mode: TransportMode,
+    hero: usize,
+    max_vertices: u32,
+    pdf_dir: f32,
 }
 
 /// A camera sample's two subpaths, with what joining them needs.
@@ -655,6 +816,8 @@ struct Subpaths<'p, 'a> {
     camera: &'p Camera,
     light: &'p Subpath<'a>,
     cam: &'p Subpath<'a>,
+    /// The colour channel both subpaths sampled media by.
+    hero: usize,
 }
 
 impl Subpaths<'_, '_> {
@@ -689,7 +852,7 @@ impl Subpaths<'_, '_> {
         } else if t == 1 {
             // A light vertex joined to the lens.
             let qs = &light[s - 1];
-            if !qs.connectible(scene) || qs.kind != Kind::Surface {
+            if !qs.connectible(scene) || !qs.scatters() {
                 return NONE;
             }
             let Some(cs) = camera.sample_wi(qs.p) else {
@@ -697,8 +860,16 @@ impl Subpaths<'_, '_> {
             };
             let mut lens = Vertex::new(Kind::Camera, cs.point, camera.normal(), cs.we / cs.pdf);
             lens.pdf_fwd = 1.0;
-            let c = qs.beta * joined(qs, cs.point, TransportMode::Importance) * lens.beta;
-            if c == Rgb::ZERO || !tracer.connected(&qs.hit(), cs.point) {
+            let from = s.checked_sub(2).map(|i| &light[i]);
+            let c = qs.beta * joined(qs, from, cs.point, TransportMode::Importance) * lens.beta;
+            let c = if scene.has_media() {
+                self.through(c, qs.hit().spawn_ray_to(cs.point), tracer, sampler)
+            } else if c != Rgb::ZERO && tracer.connected(&qs.hit(), cs.point) {
+                c
+            } else {
+                Rgb::ZERO
+            };
+            if c == Rgb::ZERO {
                 return NONE;
             }
             raster = Some(cs.raster);
@@ -706,7 +877,7 @@ impl Subpaths<'_, '_> {
             c
         } else if s == 1 {
             // A camera vertex joined to a new sample on a light.
-            if !pt.connectible(scene) || pt.kind != Kind::Surface {
+            if !pt.connectible(scene) || !pt.scatters() {
                 return NONE;
             }
             let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
@@ -715,10 +886,11 @@ impl Subpaths<'_, '_> {
                 return NONE;
             };
             let light_ref = lights.get(index);
-            let Some(sp) = pt.sp.as_ref() else {
-                return NONE;
-            };
-            if !sp.can_receive(index, lights) {
+            if pt
+                .sp
+                .as_ref()
+                .is_some_and(|sp| !sp.can_receive(index, lights))
+            {
                 return NONE;
             }
             let Some(ls) = light_ref.sample_li(pt.p, u) else {
@@ -741,8 +913,29 @@ impl Subpaths<'_, '_> {
             v.light = Some(index);
             v.infinite = infinite;
             v.pdf_fwd = v.pdf_light_origin(scene, pt);
-            let c = pt.beta * joined(pt, pt.p + ls.wi, TransportMode::Radiance) * v.beta;
-            if c == Rgb::ZERO || !tracer.unoccluded(&sp.hit, &ls) {
+            let from = t.checked_sub(2).map(|i| &cam[i]);
+            let c = pt.beta * joined(pt, from, pt.p + ls.wi, TransportMode::Radiance) * v.beta;
+            if c == Rgb::ZERO {
+                return NONE;
+            }
+            let c = if scene.has_media() {
+                let hit = pt.hit();
+                let ray = if infinite {
+                    hit.spawn_ray(ls.wi)
+                } else {
+                    hit.spawn_ray_to(ls.point)
+                };
+                self.through(c, ray, tracer, sampler)
+            } else if pt
+                .sp
+                .as_ref()
+                .is_some_and(|sp| tracer.unoccluded(&sp.hit, &ls))
+            {
+                c
+            } else {
+                Rgb::ZERO
+            };
+            if c == Rgb::ZERO {
                 return NONE;
             }
             sampled = Some(v);
@@ -750,28 +943,56 @@ impl Subpaths<'_, '_> {
         } else {
             // A light vertex and a camera vertex joined by a segment.
             let qs = &light[s - 1];
-            if !qs.connectible(scene) || !pt.connectible(scene) || qs.kind != Kind::Surface {
+            if !qs.connectible(scene) || !pt.connectible(scene) || !qs.scatters() {
                 return NONE;
             }
-            if pt.kind != Kind::Surface {
+            if !pt.scatters() {
                 return NONE;
             }
             let d2 = (qs.p - pt.p).length_squared();
             if d2.is_nan() || d2 <= 0.0 {
                 return NONE;
             }
+            let (q_from, p_from) = (&light[s - 2], &cam[t - 2]);
             let c = qs.beta
-                * joined(qs, pt.p, TransportMode::Importance)
-                * joined(pt, qs.p, TransportMode::Radiance)
+                * joined(qs, Some(q_from), pt.p, TransportMode::Importance)
+                * joined(pt, Some(p_from), qs.p, TransportMode::Radiance)
                 * pt.beta
                 / d2;
-            if c == Rgb::ZERO || !tracer.connected_to(&qs.hit(), &pt.hit()) {
+            let c = if scene.has_media() {
+                self.through(c, qs.hit().spawn_ray_between(&pt.hit()), tracer, sampler)
+            } else if c != Rgb::ZERO && tracer.connected_to(&qs.hit(), &pt.hit()) {
+                c
+            } else {
+                Rgb::ZERO
+            };
+            if c == Rgb::ZERO {
                 return NONE;
             }
             c
         };
+        // In media: the channels' densities of both subpaths, averaged (one-sample MIS over
+        // the channels: `media_walk`).
+        let r_u = |path: &Subpath, n: usize, fresh: bool| {
+            if fresh || n == 0 {
+                Rgb::ONE
+            } else {
+                path[n - 1].r_u
+            }
+        };
+        let r_u = r_u(cam, t, t == 1) * r_u(light, s, s == 1);
+        let contribution = contribution / average(r_u);
         let weight = self.mis_weight(s, t, sampled.as_ref());
         (contribution, weight, raster)
+    }
+
+    /// A connection's contribution `c` in media, carried along `ray`: times its
+    /// transmittance through media and crossable surfaces (zero where a surface blocks it).
+    fn through(&self, c: Rgb, ray: Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+        if c == Rgb::ZERO {
+            return c;
+        }
+        c * transmittance(tracer, &ray, self.hero, sampler)
     }
 
     /// The power-heuristic weight of strategy `(s, t)` against every other strategy that could

@@ -38,7 +38,7 @@ fn check(name: &str, params: Params, rays: bool, scene: &TestScene, exact: Rgb, 
     if rays {
         expect_rgb(name, params, scene, exact, n);
     } else {
-        expect_mean_passes(name, params, scene, exact.y, 40, 10000);
+        expect_mean_passes(name, params, scene, exact.y, 80, 10000);
     }
 }
 

@@ -58,7 +58,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(0.999_755_86, 40, 400),
         sphere_under_sky: None,
     }),
-    media: MediaSupport::None,
+    media: MediaSupport::Scattering,
 };
 
 /// `bdpt`'s strategies, one depth per class, as points of primary sample space.

@@ -24,7 +24,7 @@ mod russian_roulette;
 mod sppm;
 mod sppm_pixel;
 mod vcm;
-mod volpath;
+pub(crate) mod volpath;
 mod vpl;
 mod whitted;
 

@@ -1,8 +1,8 @@
 //! `pssmlt`: primary-sample-space Metropolis light transport (Kelemen, Szirmay-Kalos, Antal,
 //! Csonka 2002) over unidirectional path tracing (Mitsuba 0.6's `pssmlt`, Tungsten's).
 //!
-//! **Estimates** the image by Markov chains over the uniform numbers `path` draws for one
-//! camera sample: the first two pick the film position anywhere on the image, the rest build
+//! **Estimates** the image by Markov chains over the uniform numbers `path` (in a scene with
+//! participating media, `volpath`) draws for one camera sample: the first two pick the film position anywhere on the image, the rest build
 //! the path, and `path`'s estimate (next-event estimation, MIS, Russian roulette) is the
 //! chain's target, its luminance the density the chain visits. A mutation moves every number
 //! by a small Gaussian step or, with `large-step-probability`, draws all anew; it is accepted
@@ -19,6 +19,7 @@
 
 use crate::integrator::metropolis::{Metropolis, PathSpace, PARAMS};
 use crate::integrator::path::PathTracer;
+use crate::integrator::volpath::VolPath;
 use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
@@ -34,11 +35,18 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         MAX_DEPTH, RR_DEPTH, PARAMS[0], PARAMS[1], PARAMS[2], PARAMS[3], PARAMS[4],
     ],
     build: |p: &Params| {
+        let (max_depth, rr_depth) = (p.get_depth("max-depth"), p.get_u32("rr-depth"));
         Box::new(Metropolis::new(
-            UnidirectionalPaths(PathTracer {
-                max_depth: p.get_depth("max-depth"),
-                rr_depth: p.get_u32("rr-depth"),
-            }),
+            UnidirectionalPaths {
+                path: PathTracer {
+                    max_depth,
+                    rr_depth,
+                },
+                volpath: VolPath {
+                    max_depth,
+                    rr_depth,
+                },
+            },
             p,
         ))
     },
@@ -48,11 +56,15 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: expect(1.2, 40, 400),
     }),
-    media: MediaSupport::None,
+    media: MediaSupport::Full,
 };
 
-/// `path`'s camera samples as points of primary sample space.
-struct UnidirectionalPaths(PathTracer);
+/// `path`'s camera samples as points of primary sample space; in a scene with media,
+/// `volpath`'s.
+struct UnidirectionalPaths {
+    path: PathTracer,
+    volpath: VolPath,
+}
 
 impl PathSpace for UnidirectionalPaths {
     fn streams(&self) -> u32 {
@@ -75,6 +87,11 @@ impl PathSpace for UnidirectionalPaths {
         let u = sampler.next_2d();
         let film = Vec2::new(u.x * camera.width as f32, u.y * camera.height as f32);
         let ray = camera.ray(film.x, film.y);
-        (self.0.radiance(&ray, tracer, sampler), film)
+        let l = if tracer.scene.has_media() {
+            self.volpath.radiance(&ray, tracer, sampler)
+        } else {
+            self.path.radiance(&ray, tracer, sampler)
+        };
+        (l, film)
     }
 }
