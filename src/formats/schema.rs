@@ -4,7 +4,9 @@
 //! `implicit_some` extension is on), so `emitter: Area(radiance: (1, 1, 1))` works.
 //! See `scenes/README.md` for a guide with examples.
 
-pub use super::medium_desc::{MediumDesc, MediumInterfaceDesc, PhaseDesc, VolumeDesc};
+pub use super::medium_desc::{
+    GridEdgeDesc, MediumDesc, MediumInterfaceDesc, PhaseDesc, VolumeDesc,
+};
 pub use super::texture_desc::{ColorDesc, FloatDesc};
 use raylab_integrators::bsdf::{ior, ComplexIor, Distribution};
 use raylab_integrators::Filter;
