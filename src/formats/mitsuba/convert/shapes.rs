@@ -233,13 +233,15 @@ impl<'a, 'input> Converter<'a, 'input> {
                                 format!("a shape's {child_name} medium is given twice"),
                             ))
                         }
-                        other => return Err(at(
-                            self.doc,
-                            child,
-                            format!(
+                        other => {
+                            return Err(at(
+                                self.doc,
+                                child,
+                                format!(
                                 "a shape's medium is its `interior` or `exterior`, not `{other}`"
                             ),
-                        )),
+                            ))
+                        }
                     }
                 }
                 "bsdf" if material.is_none() => {
