@@ -76,20 +76,36 @@ impl MediaBook {
     }
 }
 
-/// `sigma_s / (sigma_a + sigma_s)` by channel, 0 where nothing scatters or absorbs.
-fn albedo(sigma_a: [f64; 3], sigma_s: [f64; 3]) -> [f32; 3] {
-    std::array::from_fn(|i| {
-        let t = sigma_a[i] + sigma_s[i];
-        if t > 0.0 {
-            (sigma_s[i] / t) as f32
-        } else {
-            0.0
-        }
-    })
+/// A medium's absorption and scattering coefficients, per unit length (RGB).
+#[derive(Clone, Copy)]
+struct Coefficients {
+    sigma_a: [f64; 3],
+    sigma_s: [f64; 3],
 }
 
-fn sum(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|i| a[i] + b[i])
+impl Coefficients {
+    /// The extinction, `sigma_a + sigma_s`.
+    fn sigma_t(&self) -> [f64; 3] {
+        std::array::from_fn(|i| self.sigma_a[i] + self.sigma_s[i])
+    }
+
+    /// `sigma_s / sigma_t` by channel, 0 where nothing scatters or absorbs.
+    fn albedo(&self) -> [f32; 3] {
+        let sigma_t = self.sigma_t();
+        std::array::from_fn(|i| {
+            if sigma_t[i] > 0.0 {
+                (self.sigma_s[i] / sigma_t[i]) as f32
+            } else {
+                0.0
+            }
+        })
+    }
+}
+
+/// A grid medium's `density`: its voxels along x, y, z and their values, x fastest.
+struct Density {
+    size: (u32, u32, u32),
+    values: Vec<f32>,
 }
 
 /// pbrt-v4 clamps a Henyey-Greenstein `g` into [-0.99, 0.99].
@@ -152,7 +168,7 @@ impl<'a> Converter<'a> {
     /// pbrt-v4's `homogeneous`: `sigma_a` and `sigma_s` (1 each unless given, or a `preset`),
     /// `scale`, `g`, and the emission `Le` times `Lescale`.
     fn homogeneous(&mut self, p: &mut ParamList) -> Result<MediumDesc, Located> {
-        let (sigma_a, sigma_s) = match self.preset(p)? {
+        let coefficients = match self.preset(p)? {
             Some(found) => found,
             None => self.coefficients(p)?,
         };
@@ -167,8 +183,8 @@ impl<'a> Converter<'a> {
             ));
         }
         Ok(MediumDesc::Homogeneous {
-            sigma_t: sum(sigma_a, sigma_s).map(|x| x as f32),
-            albedo: albedo(sigma_a, sigma_s),
+            sigma_t: coefficients.sigma_t().map(|x| x as f32),
+            albedo: coefficients.albedo(),
             scale: scale as f32,
             phase,
             emission: le.map(|x| (x * le_scale) as f32),
@@ -177,7 +193,7 @@ impl<'a> Converter<'a> {
 
     /// A `preset`'s coefficients (which take the place of `sigma_a` and `sigma_s`), if one
     /// is named and pbrt-v4 has it.
-    fn preset(&mut self, p: &mut ParamList) -> Result<Option<([f64; 3], [f64; 3])>, Located> {
+    fn preset(&mut self, p: &mut ParamList) -> Result<Option<Coefficients>, Located> {
         let Some((name, pos)) = p.string_at("preset")? else {
             return Ok(None);
         };
@@ -199,14 +215,17 @@ impl<'a> Converter<'a> {
                 ));
             }
         }
-        Ok(Some((found.sigma_a, found.sigma_prime_s)))
+        Ok(Some(Coefficients {
+            sigma_a: found.sigma_a,
+            sigma_s: found.sigma_prime_s,
+        }))
     }
 
     /// `sigma_a` and `sigma_s`, 1 where not given (pbrt-v4's defaults).
-    fn coefficients(&mut self, p: &mut ParamList) -> Result<([f64; 3], [f64; 3]), Located> {
+    fn coefficients(&mut self, p: &mut ParamList) -> Result<Coefficients, Located> {
         let sigma_a = self.coefficient(p, "sigma_a")?;
         let sigma_s = self.coefficient(p, "sigma_s")?;
-        Ok((sigma_a, sigma_s))
+        Ok(Coefficients { sigma_a, sigma_s })
     }
 
     /// One coefficient (per unit length of the scene): an RGB, a number, or (with
@@ -272,9 +291,9 @@ impl<'a> Converter<'a> {
     /// `scale (sigma_a + sigma_s)`, zero past the outermost voxel centres as pbrt-v4 reads it.
     fn uniform_grid(&mut self, p: &mut ParamList) -> Result<MediumDesc, Located> {
         let what = p.what.clone();
-        let (size, density) = self.density_grid(p)?;
-        self.grid_emission(p, density.len())?;
-        let (sigma_a, sigma_s) = self.coefficients(p)?;
+        let density = self.density_grid(p)?;
+        self.grid_emission(p, density.values.len())?;
+        let coefficients = self.coefficients(p)?;
         let scale = self.sigma_scale(p)?;
         let phase = self.phase(p)?;
         let p0 = p.point("p0")?.unwrap_or([0.0; 3]);
@@ -292,7 +311,7 @@ impl<'a> Converter<'a> {
             placed(&placed_by)
         };
         // The extinction's colour: folded into `scale` when grey, else a tint.
-        let sigma_t = sum(sigma_a, sigma_s);
+        let sigma_t = coefficients.sigma_t();
         let (scale, tint) = if sigma_t[0] == sigma_t[1] && sigma_t[1] == sigma_t[2] {
             (scale * sigma_t[0], [1.0; 3])
         } else {
@@ -300,11 +319,11 @@ impl<'a> Converter<'a> {
         };
         Ok(MediumDesc::Heterogeneous {
             sigma_t: VolumeDesc::Values {
-                size,
-                values: density,
+                size: density.size,
+                values: density.values,
                 edge: GridEdgeDesc::Zero,
             },
-            albedo: VolumeDesc::Constant(albedo(sigma_a, sigma_s)),
+            albedo: VolumeDesc::Constant(coefficients.albedo()),
             scale: scale as f32,
             tint: tint.map(|x| x as f32),
             phase,
@@ -315,7 +334,7 @@ impl<'a> Converter<'a> {
     }
 
     /// A grid's `density` values and their `nx`, `ny`, `nz`.
-    fn density_grid(&mut self, p: &mut ParamList) -> Result<((u32, u32, u32), Vec<f32>), Located> {
+    fn density_grid(&mut self, p: &mut ParamList) -> Result<Density, Located> {
         let what = p.what.clone();
         let (values, at) = p
             .numbers("density", &["float"])?
@@ -346,10 +365,10 @@ impl<'a> Converter<'a> {
         if let Some(bad) = values.iter().find(|v| **v < 0.0) {
             return Err((at, format!("{what}: a negative density {bad}")));
         }
-        Ok((
-            (size[0], size[1], size[2]),
-            values.iter().map(|v| *v as f32).collect(),
-        ))
+        Ok(Density {
+            size: (size[0], size[1], size[2]),
+            values: values.iter().map(|v| *v as f32).collect(),
+        })
     }
 
     /// A grid medium's emission (`Le`, `Lescale`, `temperature` and its offset and scale),
