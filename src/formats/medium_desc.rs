@@ -2,8 +2,11 @@
 //! surface bounds (`medium: (inside: ..., outside: ...)`) and where the camera sits
 //! (`camera_medium`). Every importer builds these types.
 
-use super::schema::{TableEntry, TransformDesc, V3};
+use super::transform_desc::TransformDesc;
 use serde::{Deserialize, Serialize};
+
+/// A 3-vector as written in RON: `(x, y, z)` (the schema's `V3`).
+type V3 = [f32; 3];
 
 /// A participating medium. Coefficients are per unit length of the scene.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
@@ -117,10 +120,6 @@ pub struct MediumInterfaceDesc {
     pub inside: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outside: Option<String>,
-}
-
-impl TableEntry for MediumDesc {
-    const KIND: &'static str = "medium";
 }
 
 fn one() -> f32 {
