@@ -409,7 +409,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 return self.integrator_plugin(inner);
             }
             other => {
-                self.approximate(node, format!("integrator `{other}` is not supported (path, ptracer, direct, moment are): rendered with path"))?;
+                self.approximate(node, format!("integrator `{other}` is not supported (path, ptracer, volpath, volpathmis, direct, moment are): rendered with path"))?;
                 self.set_integrator("path", &[]);
                 return Ok(());
             }
