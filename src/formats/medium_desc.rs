@@ -2,8 +2,11 @@
 //! surface bounds (`medium: (inside: ..., outside: ...)`) and where the camera sits
 //! (`camera_medium`). Every importer builds these types.
 
-use super::schema::{TableEntry, TransformDesc, V3};
+use super::transform_desc::TransformDesc;
 use serde::{Deserialize, Serialize};
+
+/// A 3-vector as written in RON: `(x, y, z)` (the schema's `V3`).
+type V3 = [f32; 3];
 
 /// A participating medium. Coefficients are per unit length of the scene.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
@@ -29,12 +32,17 @@ pub enum MediumDesc {
     /// `uniformgrid`): inside the box `bounds` of the medium's own space, placed by
     /// `transform`, and vacuum outside it. A grid volume fills that box.
     Heterogeneous {
-        /// Extinction (times `scale`).
+        /// Extinction (times `scale` and `tint`).
         sigma_t: VolumeDesc,
         albedo: VolumeDesc,
         /// Default: 1.
         #[serde(default = "one", skip_serializing_if = "is_one")]
         scale: f32,
+        /// A colour the extinction is multiplied by, channel by channel: pbrt-v4's
+        /// `uniformgrid`, a grid of densities times an RGB `sigma_a + sigma_s`. Default:
+        /// (1, 1, 1).
+        #[serde(default = "white", skip_serializing_if = "is_white")]
+        tint: V3,
         /// Default: `Isotropic`.
         #[serde(default, skip_serializing_if = "PhaseDesc::is_isotropic")]
         phase: PhaseDesc,
@@ -63,7 +71,27 @@ pub enum VolumeDesc {
     Values {
         size: (u32, u32, u32),
         values: Vec<f32>,
+        /// What lies past the outermost voxel centres. Default: `Clamp`.
+        #[serde(default, skip_serializing_if = "GridEdgeDesc::is_clamp")]
+        edge: GridEdgeDesc,
     },
+}
+
+/// What a grid holds between its outermost voxel centres and the faces of its box.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+pub enum GridEdgeDesc {
+    /// The nearest voxels' values hold up to the faces (Mitsuba 3's grids).
+    #[default]
+    Clamp,
+    /// Voxels past the faces count as 0, so values fade to half the edge voxels' at the
+    /// faces (pbrt-v4's grids).
+    Zero,
+}
+
+impl GridEdgeDesc {
+    fn is_clamp(&self) -> bool {
+        *self == GridEdgeDesc::Clamp
+    }
 }
 
 /// How a medium scatters.
@@ -94,16 +122,20 @@ pub struct MediumInterfaceDesc {
     pub outside: Option<String>,
 }
 
-impl TableEntry for MediumDesc {
-    const KIND: &'static str = "medium";
-}
-
 fn one() -> f32 {
     1.0
 }
 
 fn is_one(v: &f32) -> bool {
     *v == 1.0
+}
+
+fn white() -> V3 {
+    [1.0; 3]
+}
+
+fn is_white(v: &V3) -> bool {
+    *v == white()
 }
 
 fn is_zero(v: &V3) -> bool {

@@ -1,5 +1,5 @@
 //! What files say, beside the ECS world: the scene description (the RON schema,
-//! `schema.rs` and `texture_desc.rs`), the importers that build it from other renderers'
+//! `schema.rs`, with `texture_desc.rs`, `medium_desc.rs` and `transform_desc.rs`), the importers that build it from other renderers'
 //! scenes (`mitsuba/`, `pbrt/`, sharing `import.rs`), and the readers of the files scenes
 //! name (meshes: `mesh_files.rs` for OBJ and glTF, `ply.rs`, `serialized.rs`; images:
 //! `images.rs`, `pfm.rs`, `octahedral.rs`; spectra: `spectra.rs`), with which files a scene may read
@@ -21,4 +21,5 @@ pub mod serialized;
 pub mod spectra;
 mod spectra_tables;
 pub mod texture_desc;
+pub mod transform_desc;
 pub mod volume_grid;

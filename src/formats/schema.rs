@@ -4,8 +4,11 @@
 //! `implicit_some` extension is on), so `emitter: Area(radiance: (1, 1, 1))` works.
 //! See `scenes/README.md` for a guide with examples.
 
-pub use super::medium_desc::{MediumDesc, MediumInterfaceDesc, PhaseDesc, VolumeDesc};
+pub use super::medium_desc::{
+    GridEdgeDesc, MediumDesc, MediumInterfaceDesc, PhaseDesc, VolumeDesc,
+};
 pub use super::texture_desc::{ColorDesc, FloatDesc};
+pub use super::transform_desc::TransformDesc;
 use raylab_integrators::bsdf::{ior, ComplexIor, Distribution};
 use raylab_integrators::Filter;
 use serde::de::{self, MapAccess, Visitor};
@@ -1048,38 +1051,6 @@ impl EntityDesc {
     }
 }
 
-/// Scale, then rotate (degrees about x, then y, then z, fixed axes), then translate; or a
-/// whole affine `matrix` instead of the three.
-#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct TransformDesc {
-    /// Default: `(0, 0, 0)`.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub translate: V3,
-    /// Degrees. Default: `(0, 0, 0)`.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub rotate: V3,
-    /// Default: `(1, 1, 1)`. Every component must be positive.
-    #[serde(default = "white", skip_serializing_if = "is_one")]
-    pub scale: V3,
-    /// The local-to-world matrix, row by row: 12 numbers (three rows of four) or 16 (the
-    /// last row `0 0 0 1`), as Mitsuba's `<matrix value="...">`. It replaces `translate`,
-    /// `rotate` and `scale`, which must then be left out. Default: none.
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub matrix: Option<Vec<f32>>,
-}
-
-impl Default for TransformDesc {
-    fn default() -> Self {
-        TransformDesc {
-            translate: [0.0; 3],
-            rotate: [0.0; 3],
-            scale: [1.0; 3],
-            matrix: None,
-        }
-    }
-}
-
 /// Geometry in local space.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -1370,12 +1341,6 @@ pub enum EmitterDesc {
 }
 
 // What a written scene leaves out, being the default.
-fn is_zero(v: &V3) -> bool {
-    *v == [0.0; 3]
-}
-fn is_one(v: &V3) -> bool {
-    *v == [1.0; 3]
-}
 fn is_false(b: &bool) -> bool {
     !*b
 }
@@ -1401,4 +1366,8 @@ fn is_true(b: &bool) -> bool {
 
 fn unit_z() -> V3 {
     [0.0, 0.0, 1.0]
+}
+
+impl TableEntry for MediumDesc {
+    const KIND: &'static str = "medium";
 }

@@ -5,10 +5,11 @@
 use super::describe::transform_from_desc;
 use crate::formats::access::SceneFiles;
 use crate::formats::schema::{
-    MediumDesc, MediumInterfaceDesc, MediumTable, PhaseDesc, SceneFile, VolumeDesc, V3,
+    GridEdgeDesc, MediumDesc, MediumInterfaceDesc, MediumTable, PhaseDesc, SceneFile, VolumeDesc,
+    V3,
 };
 use glam::{Affine3A, Vec3, Vec3A};
-use raylab_integrators::medium::{DensityGrid, Heterogeneous, Homogeneous, Volume};
+use raylab_integrators::medium::{DensityGrid, GridEdge, Heterogeneous, Homogeneous, Volume};
 use raylab_integrators::{Medium, MediumId, MediumInterface, Phase, Rgb};
 use std::sync::Arc;
 
@@ -133,12 +134,14 @@ pub fn medium_from_desc(desc: &MediumDesc, files: &SceneFiles) -> Result<Medium,
             sigma_t,
             albedo,
             scale,
+            tint,
             phase,
             emission,
             transform,
             bounds,
         } => {
             let scale = check_scale(*scale)?;
+            let tint = non_negative("tint", *tint)?;
             let (lo, hi) = (Vec3::from_array(bounds.0), Vec3::from_array(bounds.1));
             if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
                 return Err(format!(
@@ -158,7 +161,7 @@ pub fn medium_from_desc(desc: &MediumDesc, files: &SceneFiles) -> Result<Medium,
                 * Affine3A::from_translation(-lo)
                 * placement.inverse();
             let sigma_t =
-                volume_from_desc("sigma_t", sigma_t, to_unit, files)?.scaled(Rgb::splat(scale));
+                volume_from_desc("sigma_t", sigma_t, to_unit, files)?.scaled(tint * scale);
             let albedo = volume_from_desc("albedo", albedo, to_unit, files)?;
             if albedo.max().max_element() > 1.0 + 1e-4 {
                 return Err(format!(
@@ -209,16 +212,84 @@ fn volume_from_desc(
             DensityGrid::new(g.resolution, g.channels, g.values)
                 .map_err(|e| format!("`{what}` grid `{path}`: {e}"))?
         }
-        VolumeDesc::Values { size, values } => DensityGrid::new(
+        VolumeDesc::Values { size, values, edge } => DensityGrid::new(
             [size.0 as usize, size.1 as usize, size.2 as usize],
             1,
             values.clone(),
         )
-        .map_err(|e| format!("`{what}`: {e}"))?,
+        .map_err(|e| format!("`{what}`: {e}"))?
+        .with_edge(match edge {
+            GridEdgeDesc::Clamp => GridEdge::Clamp,
+            GridEdgeDesc::Zero => GridEdge::Zero,
+        }),
     };
     Ok(Volume::Grid {
         grid: Arc::new(grid),
         to_local: to_unit,
         scale: Rgb::ONE,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::schema::TransformDesc;
+    use std::path::Path;
+
+    fn grid_medium(edge: GridEdgeDesc, tint: V3) -> Medium {
+        let desc = MediumDesc::Heterogeneous {
+            sigma_t: VolumeDesc::Values {
+                size: (2, 1, 1),
+                values: vec![1.0, 3.0],
+                edge,
+            },
+            albedo: VolumeDesc::Constant([0.5; 3]),
+            scale: 2.0,
+            tint,
+            phase: PhaseDesc::Isotropic,
+            emission: [0.0; 3],
+            transform: TransformDesc::default(),
+            // The box [0, 2] x [0, 1] x [0, 1].
+            bounds: ([0.0; 3], [2.0, 1.0, 1.0]),
+        };
+        let files = SceneFiles::new(Path::new("scene.ron"), &[]);
+        medium_from_desc(&desc, &files).unwrap()
+    }
+
+    /// A grid's extinction is its values times `scale` times `tint`, channel by channel;
+    /// `edge: Zero` fades it to half the edge voxel's at the box's faces where `Clamp` holds.
+    #[test]
+    fn grid_extinction_takes_the_tint_and_the_edge() {
+        let sigma_t = |m: &Medium, x: f32| {
+            let p = m.at(Vec3A::new(x, 0.5, 0.5));
+            p.sigma_a + p.sigma_s
+        };
+        let clamp = grid_medium(GridEdgeDesc::Clamp, [1.0, 0.5, 0.25]);
+        let zero = grid_medium(GridEdgeDesc::Zero, [1.0, 0.5, 0.25]);
+        // Voxel centres at x = 0.5 and 1.5.
+        assert_eq!(sigma_t(&clamp, 0.5), Rgb::new(2.0, 1.0, 0.5));
+        assert_eq!(sigma_t(&zero, 1.5), Rgb::new(6.0, 3.0, 1.5));
+        assert_eq!(sigma_t(&clamp, 0.0), Rgb::new(2.0, 1.0, 0.5));
+        assert_eq!(sigma_t(&zero, 0.0), Rgb::new(1.0, 0.5, 0.25));
+        assert_eq!(sigma_t(&zero, 2.0), Rgb::new(3.0, 1.5, 0.75));
+        let white = grid_medium(GridEdgeDesc::Clamp, [1.0; 3]);
+        assert_eq!(sigma_t(&white, 1.0), Rgb::splat(4.0));
+    }
+
+    #[test]
+    fn a_negative_tint_is_refused() {
+        let desc = MediumDesc::Heterogeneous {
+            sigma_t: VolumeDesc::Constant([1.0; 3]),
+            albedo: VolumeDesc::Constant([0.5; 3]),
+            scale: 1.0,
+            tint: [1.0, -1.0, 1.0],
+            phase: PhaseDesc::Isotropic,
+            emission: [0.0; 3],
+            transform: TransformDesc::default(),
+            bounds: ([0.0; 3], [1.0; 3]),
+        };
+        let files = SceneFiles::new(Path::new("scene.ron"), &[]);
+        let err = medium_from_desc(&desc, &files).unwrap_err();
+        assert!(err.contains("`tint`"), "{err}");
+    }
 }

@@ -369,7 +369,7 @@ fn approximations_of_mitsuba_plugins_are_warnings() {
     std::fs::write(
         &scene,
         r#"<scene version="3.0.0">
-            <integrator type="volpath"/>
+            <integrator type="prb"/>
             <sensor type="perspective"><float name="fov" value="40"/></sensor>
             <shape type="sphere"><bsdf type="hair"/></shape>
         </scene>"#,
@@ -377,7 +377,7 @@ fn approximations_of_mitsuba_plugins_are_warnings() {
     .unwrap();
     let err = load_scene(&scene).err().unwrap().to_string();
     assert!(
-        err.contains("integrator `volpath` is not supported") && err.contains("--approximate"),
+        err.contains("integrator `prb` is not supported") && err.contains("--approximate"),
         "{err}"
     );
     let options = ImportOptions {
@@ -389,7 +389,7 @@ fn approximations_of_mitsuba_plugins_are_warnings() {
     assert_eq!(loaded.render.integrator, "path");
     let warned = loaded.warnings.join("\n");
     assert!(
-        warned.contains("2:13: integrator `volpath`") && warned.contains("4:34: BSDF `hair`"),
+        warned.contains("2:13: integrator `prb`") && warned.contains("4:34: BSDF `hair`"),
         "{warned}"
     );
 }

@@ -611,3 +611,89 @@ LightSource "distant" "rgb L" [ 19.091171 19.091171 19.091171 ] "point3 to" [ 0 
     assert_eq!(film.non_finite(), None);
     assert!(film.mean().min_element() > 0.0, "{}", film.mean());
 }
+
+/// A pbrt-v4 scene rendered with `integrator` (and `max-depth` 16).
+fn render_with(loaded: &LoadedScene, integrator: &str, spp: u32, seed: u64) -> Film {
+    let built = RenderScene::build(loaded);
+    let mut it = registry::find(integrator)
+        .unwrap()
+        .instantiate(&[("max-depth".into(), "16".into())])
+        .unwrap();
+    let settings = RenderSettings::fixed(spp, seed, None);
+    render(&built, &loaded.camera, it.as_mut(), &settings)
+        .unwrap()
+        .0
+}
+
+/// A pbrt-v4 medium renders as pbrt-v4 defines it: a black lamp of radiance 1 seen through a
+/// slab 2 units thick (an `interface` box, the medium inside) of absorption sigma_a is dimmed
+/// to `T = exp(-2 sigma_a)`; with emission `Le * Lescale` the slab adds `Le (1 - T)` of its
+/// own (the lamp black, so that it reflects none of it back).
+#[test]
+fn a_pbrt_medium_dims_and_lights_as_its_coefficients_say() {
+    let scene = |emission: &str| {
+        format!(
+            r#"Camera "perspective" "float fov" 10
+Film "rgb" "integer xresolution" 8 "integer yresolution" 8
+Integrator "volpath"
+MakeNamedMedium "slab" "string type" "homogeneous" "rgb sigma_a" [0.5 0.25 0.125] "rgb sigma_s" [0 0 0] {emission}
+WorldBegin
+AttributeBegin
+Material "diffuse" "rgb reflectance" [0 0 0]
+AreaLightSource "diffuse" "rgb L" [1 1 1]
+Shape "bilinearmesh" "point3 P" [-20 -20 10  -20 20 10  20 -20 10  20 20 10]
+AttributeEnd
+MediumInterface "slab" ""
+Material "interface"
+Shape "trianglemesh"
+    "point3 P" [-5 -5 3  5 -5 3  -5 5 3  5 5 3  -5 -5 5  5 -5 5  -5 5 5  5 5 5]
+    "integer indices" [0 1 5  0 5 4  2 6 7  2 7 3  0 2 3  0 3 1  4 5 7  4 7 6  0 4 6  0 6 2  1 3 7  1 7 5]
+"#
+        )
+    };
+    for (emission, le) in [
+        ("", 0.0f32),
+        (r#""rgb Le" [4 4 4] "float Lescale" 0.5"#, 2.0),
+    ] {
+        let loaded = load(&scene(emission));
+        assert_eq!(loaded.media.names, ["slab"]);
+        let film = render_with(&loaded, "volpath", 256, 5);
+        let (mean, se) = (film.mean(), film.mean_standard_error());
+        for (c, sigma_a) in [0.5f32, 0.25, 0.125].into_iter().enumerate() {
+            let t = (-2.0 * sigma_a).exp();
+            let expected = t + le * (1.0 - t);
+            assert!(
+                (mean[c] - expected).abs() < 4.0 * se[c] + 2e-3,
+                "Le {le}, channel {c}: {} vs {expected} (se {})",
+                mean[c],
+                se[c]
+            );
+        }
+    }
+}
+
+/// The shipped fog scene loads with its medium bounded by its `interface` box and renders
+/// with volpath: above the ball, where the view leaves the box into the dark, the fog is lit;
+/// with the medium emptied, the same pixels are black.
+#[test]
+fn the_shipped_fog_scene_renders_its_fog() {
+    let fog = repo_file("scenes/pbrt/fog.pbrt");
+    let small_render = |loaded: &mut LoadedScene| {
+        loaded.camera = loaded.camera.with_resolution(32, 24);
+        let film = render_with(loaded, "volpath", 16, 1);
+        // Pixels above the ball, inside the box's outline, with nothing behind.
+        film.crop(13, 6, 6, 2).unwrap().mean()
+    };
+    let mut loaded = load_scene(&fog).unwrap();
+    assert_eq!(loaded.media.names, ["fog"]);
+    assert_eq!(loaded.render.integrator, "volpath");
+    let foggy = small_render(&mut loaded);
+    let text = std::fs::read_to_string(&fog).unwrap();
+    let emptied = text
+        .replace("[0.02 0.02 0.02]", "[0 0 0]")
+        .replace("[0.3 0.3 0.3]", "[0 0 0]");
+    assert_ne!(text, emptied);
+    let clear = small_render(&mut load(&emptied));
+    assert!(foggy.min_element() > 0.01, "{foggy}");
+    assert_eq!(clear, glam::Vec3::ZERO);
+}

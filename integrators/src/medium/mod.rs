@@ -17,7 +17,7 @@ pub mod tracking;
 pub mod volume;
 
 pub use phase::{Phase, PhaseSample};
-pub use volume::{DensityGrid, Volume};
+pub use volume::{DensityGrid, GridEdge, Volume};
 
 use crate::{Ray, Rgb};
 use glam::{Affine3A, Vec3A};

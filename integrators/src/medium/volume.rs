@@ -5,6 +5,18 @@ use crate::Rgb;
 use glam::{Affine3A, Vec3A};
 use std::sync::Arc;
 
+/// What a grid holds beyond its outermost voxel centres, where a lookup blends towards the
+/// voxels past its faces.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GridEdge {
+    /// The nearest voxels' values hold up to the faces (Mitsuba 3's `clamp`).
+    #[default]
+    Clamp,
+    /// Voxels past the faces are 0, so values fade to half the edge voxels' at the faces
+    /// (pbrt-v4's `SampledGrid`).
+    Zero,
+}
+
 /// Voxel values on a regular grid over the unit cube, one or three channels each.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DensityGrid {
@@ -16,6 +28,8 @@ pub struct DensityGrid {
     values: Vec<f32>,
     /// The largest value of each channel (a single channel's in all three).
     max: Rgb,
+    /// What lies past the outermost voxel centres.
+    edge: GridEdge,
 }
 
 impl DensityGrid {
@@ -57,7 +71,14 @@ impl DensityGrid {
             channels,
             values,
             max,
+            edge: GridEdge::Clamp,
         })
+    }
+
+    /// The same grid with `edge` past its outermost voxel centres (its largest value, a
+    /// bound on every lookup, does not change).
+    pub fn with_edge(self, edge: GridEdge) -> DensityGrid {
+        DensityGrid { edge, ..self }
     }
 
     /// The largest value of each channel.
@@ -82,8 +103,16 @@ impl DensityGrid {
     }
 
     /// The trilinear interpolation at `p` of the unit cube: voxel `i` is centred on
-    /// `(i + 1/2) / n`, and outside the centres the nearest voxels' values hold.
+    /// `(i + 1/2) / n`; outside the centres the grid's [`GridEdge`] holds.
     pub fn lookup(&self, p: Vec3A) -> Rgb {
+        match self.edge {
+            GridEdge::Clamp => self.lookup_clamped(p),
+            GridEdge::Zero => self.lookup_zero_outside(p),
+        }
+    }
+
+    /// The lookup where the nearest voxels' values hold outside the centres.
+    fn lookup_clamped(&self, p: Vec3A) -> Rgb {
         let mut base = [0usize; 3];
         let mut frac = [0.0f32; 3];
         for axis in 0..3 {
@@ -96,12 +125,70 @@ impl DensityGrid {
         let next = |axis: usize| (base[axis] + 1).min(self.resolution[axis] - 1);
         let (x0, y0, z0) = (base[0], base[1], base[2]);
         let (x1, y1, z1) = (next(0), next(1), next(2));
+        let corner = |x: usize, y: usize, z: usize| self.voxel(x, y, z);
+        Self::trilinear(
+            frac,
+            [
+                corner(x0, y0, z0),
+                corner(x1, y0, z0),
+                corner(x0, y1, z0),
+                corner(x1, y1, z0),
+                corner(x0, y0, z1),
+                corner(x1, y0, z1),
+                corner(x0, y1, z1),
+                corner(x1, y1, z1),
+            ],
+        )
+    }
+
+    /// pbrt-v4's lookup (`SampledGrid::Lookup`): voxels past the faces are 0.
+    fn lookup_zero_outside(&self, p: Vec3A) -> Rgb {
+        let mut base = [0i64; 3];
+        let mut frac = [0.0f32; 3];
+        for axis in 0..3 {
+            let x = p[axis] * self.resolution[axis] as f32 - 0.5;
+            let i = x.floor();
+            // Far outside, every neighbour is 0 (and the cast stays in range).
+            if !(i >= -2.0 && i <= self.resolution[axis] as f32 + 1.0) {
+                return Rgb::ZERO;
+            }
+            base[axis] = i as i64;
+            frac[axis] = x - i;
+        }
+        let corner = |dx: i64, dy: i64, dz: i64| {
+            let at = [base[0] + dx, base[1] + dy, base[2] + dz];
+            let inside = (0..3).all(|a| (0..self.resolution[a] as i64).contains(&at[a]));
+            if inside {
+                self.voxel(at[0] as usize, at[1] as usize, at[2] as usize)
+            } else {
+                Rgb::ZERO
+            }
+        };
+        Self::trilinear(
+            frac,
+            [
+                corner(0, 0, 0),
+                corner(1, 0, 0),
+                corner(0, 1, 0),
+                corner(1, 1, 0),
+                corner(0, 0, 1),
+                corner(1, 0, 1),
+                corner(0, 1, 1),
+                corner(1, 1, 1),
+            ],
+        )
+    }
+
+    /// The trilinear blend of a cell's eight corners (`x` fastest, then `y`, then `z`) at
+    /// `frac` across it.
+    #[inline]
+    fn trilinear(frac: [f32; 3], c: [Rgb; 8]) -> Rgb {
         let [fx, fy, fz] = frac;
         let lerp = |a: Rgb, b: Rgb, t: f32| a + (b - a) * t;
-        let c00 = lerp(self.voxel(x0, y0, z0), self.voxel(x1, y0, z0), fx);
-        let c10 = lerp(self.voxel(x0, y1, z0), self.voxel(x1, y1, z0), fx);
-        let c01 = lerp(self.voxel(x0, y0, z1), self.voxel(x1, y0, z1), fx);
-        let c11 = lerp(self.voxel(x0, y1, z1), self.voxel(x1, y1, z1), fx);
+        let c00 = lerp(c[0], c[1], fx);
+        let c10 = lerp(c[2], c[3], fx);
+        let c01 = lerp(c[4], c[5], fx);
+        let c11 = lerp(c[6], c[7], fx);
         lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz)
     }
 
@@ -182,6 +269,40 @@ mod tests {
         let g = DensityGrid::new([1, 1, 2], 3, vec![0.0, 1.0, 2.0, 4.0, 5.0, 6.0]).unwrap();
         assert_eq!(g.lookup(Vec3A::new(0.5, 0.5, 0.5)), Rgb::new(2.0, 3.0, 4.0));
         assert_eq!(g.max(), Rgb::new(4.0, 5.0, 6.0));
+    }
+
+    /// pbrt-v4's grid: its voxels past the faces are 0, so a lookup at a face is half the
+    /// edge voxel's value and one beyond half a voxel outside is 0; inside the centres both
+    /// edges agree.
+    #[test]
+    fn the_zero_edge_fades_to_half_at_the_faces_where_clamp_holds() {
+        let values = vec![1.0, 3.0];
+        let clamp = DensityGrid::new([2, 1, 1], 1, values.clone()).unwrap();
+        let zero = DensityGrid::new([2, 1, 1], 1, values)
+            .unwrap()
+            .with_edge(GridEdge::Zero);
+        let at = |g: &DensityGrid, x: f32, y: f32| g.lookup(Vec3A::new(x, y, 0.5)).x;
+        for x in [0.25, 0.5, 0.6, 0.75] {
+            assert_eq!(at(&zero, x, 0.5), at(&clamp, x, 0.5), "{x}");
+        }
+        assert_eq!(at(&clamp, 0.0, 0.5), 1.0);
+        assert_eq!(at(&clamp, 1.0, 0.5), 3.0);
+        assert_eq!(at(&zero, 0.0, 0.5), 0.5);
+        assert_eq!(at(&zero, 1.0, 0.5), 1.5);
+        assert_eq!(at(&zero, 0.125, 0.5), 0.75);
+        // The face of a single-voxel axis: half, and a corner of the cube an eighth.
+        assert_eq!(at(&zero, 0.25, 0.0), 0.5);
+        assert_eq!(zero.lookup(Vec3A::new(0.0, 0.0, 0.0)).x, 0.125);
+        assert_eq!(clamp.lookup(Vec3A::new(0.0, 0.0, 0.0)).x, 1.0);
+        for p in [
+            Vec3A::new(-0.25, 0.5, 0.5),
+            Vec3A::new(0.5, 2.0, 0.5),
+            Vec3A::splat(-1e30),
+        ] {
+            assert_eq!(zero.lookup(p), Rgb::ZERO, "{p}");
+        }
+        assert_eq!(zero.lookup(Vec3A::splat(f32::NAN)), Rgb::ZERO);
+        assert_eq!(zero.max(), clamp.max());
     }
 
     #[test]

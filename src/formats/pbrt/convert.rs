@@ -18,6 +18,8 @@ use std::path::{Path, PathBuf};
 
 mod curves;
 mod lights;
+mod media;
+mod media_presets;
 mod options;
 mod shapes;
 mod textures;
@@ -48,6 +50,8 @@ struct State {
     area: Option<([f64; 3], bool, Option<f64>, Pos)>,
     /// After `ActiveTransform EndTime`: transforms set the shutter's end only.
     end_time_only: bool,
+    /// `MediumInterface`: the media either side of the shapes to come.
+    medium: media::MediumSides,
 }
 
 #[derive(Clone)]
@@ -72,6 +76,8 @@ struct ObjectShape {
     ctm: DMat4,
     flip: bool,
     name: String,
+    /// The media it bounds, if any.
+    medium: Option<crate::formats::schema::MediumInterfaceDesc>,
 }
 
 /// The camera as the scene gives it, placed once the film is known.
@@ -106,8 +112,8 @@ struct Converter<'a> {
     film: (i64, i64, Option<[f64; 4]>),
     filter: String,
     spp: i64,
-    /// The integrator's name and its parameters (`max-depth`, and sppm's).
-    integrator: Option<(&'static str, BTreeMap<String, f64>)>,
+    /// The `Integrator` directive as raylab's integrator.
+    integrator: Option<options::IntegratorChoice>,
     materials: Vec<(String, MaterialDesc)>,
     /// The materials by name, and the first name of each description (anonymous materials
     /// that are alike share one).
@@ -122,9 +128,8 @@ struct Converter<'a> {
     /// The object being defined: its name and shapes so far.
     defining: Option<(String, Vec<ObjectShape>, Pos)>,
     entities: Vec<EntityDesc>,
-    /// The participating media made so far, by name, and the one around the camera.
-    media: Vec<(String, crate::formats::schema::MediumDesc)>,
-    camera_medium: Option<String>,
+    /// The participating media made so far, the ones used, and the one around the camera.
+    media: media::MediaBook,
     /// The entity the last curves joined, which the next may join ([`Converter::curve`]).
     curve_group: Option<usize>,
     /// The curve segments made so far, and the triangles of as much memory.
@@ -384,6 +389,7 @@ impl<'a> Converter<'a> {
             }
             "WorldBegin" => {
                 before_world(self, &d)?;
+                self.check_camera_medium()?;
                 self.world = true;
                 self.state.ctm = DMat4::IDENTITY;
                 self.state.end_time_only = false;
@@ -394,6 +400,8 @@ impl<'a> Converter<'a> {
                 let name = d.params[0].name.clone();
                 if name == "forcediffuse" {
                     self.approximate(d.pos, "Option forcediffuse (every material diffuse) ignored".into())?;
+                } else if name == "rendercoordsys" {
+                    self.render_space(&d)?;
                 } else {
                     self.report(format!("Option {name}: ignored (it changes how pbrt-v4 runs, not the image it converges to)"));
                 }
@@ -415,9 +423,8 @@ impl<'a> Converter<'a> {
                 }
                 other => return Err((d.pos, format!("ActiveTransform {other}: StartTime, EndTime or All"))),
             },
-            "MakeNamedMedium" | "MediumInterface" => {
-                self.approximate(d.pos, format!("{}: participating media are not supported: ignored, surfaces render as in vacuum", d.name))?;
-            }
+            "MakeNamedMedium" => self.make_named_medium(&mut d)?,
+            "MediumInterface" => self.medium_interface(&d),
             "Camera" => {
                 before_world(self, &d)?;
                 self.camera(&mut d)?;
@@ -577,6 +584,7 @@ pub fn to_ron(
             },
             area: None,
             end_time_only: false,
+            medium: media::MediumSides::vacuum(),
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
@@ -597,8 +605,7 @@ pub fn to_ron(
         objects: HashMap::new(),
         defining: None,
         entities: Vec::new(),
-        media: Vec::new(),
-        camera_medium: None,
+        media: media::MediaBook::default(),
         curve_group: None,
         curve_segments: 0,
         curve_triangles: 0,
@@ -632,16 +639,14 @@ pub fn to_ron(
         if c.entities.is_empty() && c.environment.is_none() {
             return Err((root, "the scene has no shapes or lights".into()));
         }
+        c.finish_media()?;
         c.camera_desc(root)
     });
     let camera = result.map_err(|e| located(&c, e))?;
     if c.camera.is_none() {
         c.report.push("Camera: none given; pbrt-v4's default, a perspective camera of fov 90 at the origin looking along +z".into());
     }
-    let (integrator, mut params) = c
-        .integrator
-        .take()
-        .unwrap_or(("path", [("max-depth".to_string(), 5.0)].into()));
+    let (integrator, mut params) = c.integrator_setting();
     if integrator == "sppm" {
         // pbrt-v4 traces as many photons per pass as the film has pixels unless told.
         let pixels = (c.film.0 * c.film.1) as f64;
@@ -667,8 +672,8 @@ pub fn to_ron(
         materials: NamedTable(c.materials),
         meshes: NamedTable(c.meshes),
         environment: c.environment.map(|env| env.map(|x| x as f32)),
-        media: NamedTable(c.media),
-        camera_medium: c.camera_medium,
+        media: NamedTable(c.media.made),
+        camera_medium: c.media.camera.map(|(name, _)| name),
         entities: c.entities,
     };
     Ok(Imported {

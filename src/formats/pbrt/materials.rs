@@ -423,6 +423,10 @@ pub fn material(
             return Ok(Some(hair));
         }
         "interface" => return Ok(None),
+        "" | "none" => {
+            notes.report(format!("{what}: material \"{kind}\" is read as `interface`, as pbrt-v4 reads it (it warns that the name is deprecated)"));
+            return Ok(None);
+        }
         other => {
             return Err((at, format!("material `{other}` is not supported (diffuse, coateddiffuse, conductor, dielectric, thindielectric, diffusetransmission, hair, interface are)")))
         }

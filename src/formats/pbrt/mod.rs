@@ -13,7 +13,9 @@
 //! `thindielectric`; textures `imagemap`, `checkerboard`, `constant`, `scale`; lights
 //! `point`, `spot` (with pbrt's smoothstep falloff), `distant`, `infinite` (constant, or an octahedral image), `diffuse`
 //! area lights;
-//! shapes `trianglemesh`, `bilinearmesh`, `plymesh`, `sphere`, `disk`, `cylinder`.
+//! shapes `trianglemesh`, `bilinearmesh`, `plymesh`, `sphere`, `disk`, `cylinder`;
+//! participating media (`MakeNamedMedium` `homogeneous` and `uniformgrid`, `MediumInterface`,
+//! the `interface` material as raylab's `Null`), rendered with `volpath`.
 //! Anything else is an error at its file, line and column, or with `--approximate` the
 //! nearest thing raylab has, listed in the report.
 

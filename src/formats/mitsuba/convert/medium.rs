@@ -170,6 +170,7 @@ impl<'a, 'input> Converter<'a, 'input> {
             sigma_t: volume(sigma_t),
             albedo: volume(albedo),
             scale,
+            tint: [1.0; 3],
             phase,
             emission: [0.0; 3],
             transform: placed(&to_world),

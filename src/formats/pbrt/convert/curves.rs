@@ -219,6 +219,7 @@ impl Converter<'_> {
         let (w0, w1) = (width("width0", w)?, width("width1", w)?);
         p.finish()?;
 
+        let medium = self.shape_media();
         let Some(material) = self.current_material() else {
             return self.approximate(
                 d.pos,
@@ -276,6 +277,7 @@ impl Converter<'_> {
                     && e.material.as_deref() == Some(material.as_str())
                     && e.transform == transform
                     && e.flip_normals == flip
+                    && e.medium == medium
                 {
                     curves.push(curve);
                     return Ok(());
@@ -292,7 +294,7 @@ impl Converter<'_> {
             }),
             material: Some(material),
             emitter: None,
-            medium: None,
+            medium,
             flip_normals: flip,
         });
         self.curve_group = Some(self.entities.len() - 1);

@@ -13,8 +13,23 @@ impl<'a> Converter<'a> {
         name: &str,
     ) -> Result<[f64; 3], Located> {
         let scale = p.float("scale")?.unwrap_or(1.0);
-        let c = match p.colour(name)? {
-            None => [1.0; 3],
+        let c = self.emitted_rgb(p, name)?.unwrap_or([1.0; 3]);
+        if c.iter().any(|x| *x < 0.0) || scale < 0.0 {
+            return Err((p.at, format!("{}: negative emission", p.what)));
+        }
+        Ok(c.map(|x| x * scale * self.exposure))
+    }
+
+    /// The emitted colour `name` as written (`None` if absent), read as pbrt-v4 reads an
+    /// illuminant spectrum: `rgb` as it is, `stdillum-D65` as white, any other spectrum as
+    /// white of luminance 1 (with `--approximate`).
+    pub(super) fn emitted_rgb(
+        &mut self,
+        p: &mut ParamList,
+        name: &str,
+    ) -> Result<Option<[f64; 3]>, Located> {
+        Ok(Some(match p.colour(name)? {
+            None => return Ok(None),
             Some((Colour::Rgb(v), _)) => v,
             Some((Colour::Named(n), _)) if n == "stdillum-D65" => {
                 self.report(format!(
@@ -41,16 +56,15 @@ impl<'a> Converter<'a> {
                 )?;
                 [1.0; 3]
             }
-        };
-        if c.iter().any(|x| *x < 0.0) || scale < 0.0 {
-            return Err((p.at, format!("{}: negative emission", p.what)));
-        }
-        Ok(c.map(|x| x * scale * self.exposure))
+        }))
     }
 
     pub(super) fn light(&mut self, d: &mut Directive) -> Result<(), Located> {
         let kind = d.strings[0].clone();
         let mut p = self.params(d)?;
+        // pbrt-v4 looks up every light's medium (the outside one), though only point-like
+        // lights use it.
+        self.note_light_medium();
         let name = format!("{kind} light ({})", self.place(d.pos));
         let m = self.state.ctm;
         let f32s = |c: [f64; 3]| c.map(|x| x as f32);

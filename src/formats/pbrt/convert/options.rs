@@ -3,6 +3,18 @@
 
 use super::*;
 
+/// pbrt-v4's `Integrator` as raylab's: the name in the file, raylab's integrator for a scene
+/// without media, its parameters.
+pub(super) struct IntegratorChoice {
+    kind: String,
+    name: &'static str,
+    params: BTreeMap<String, f64>,
+}
+
+/// pbrt-v4's integrators that render media: raylab's `volpath` renders them when the scene
+/// has media (without, `path` gives the same image).
+const VOLUMETRIC: [&str; 2] = ["volpath", "simplevolpath"];
+
 impl<'a> Converter<'a> {
     pub(super) fn camera(&mut self, d: &mut Directive) -> Result<(), Located> {
         let kind = d.strings[0].clone();
@@ -69,6 +81,7 @@ impl<'a> Converter<'a> {
         }
         self.named_coords
             .insert("camera".into(), camera_from_world.inverse());
+        self.camera_media(camera_from_world.inverse(), d.pos)?;
         self.camera = Some(CameraSpec {
             camera_from_world,
             fov,
@@ -261,13 +274,40 @@ impl<'a> Converter<'a> {
             p.ignore(&["photonsperiteration", "radius"]);
         }
         p.finish()?;
-        self.integrator = Some((name, params));
-        if kind != name {
-            self.report(format!(
-                "Integrator \"{kind}\": raylab's {name} (without media the same estimate)"
-            ));
-        }
+        self.integrator = Some(IntegratorChoice { kind, name, params });
         Ok(())
+    }
+
+    /// raylab's integrator and its parameters, once the scene's media are known: `volpath`
+    /// for pbrt-v4's volumetric ones (and its default, `volpath` of maxdepth 5) on a scene
+    /// with media, else the mapping of [`Converter::integrator`].
+    pub(super) fn integrator_setting(&mut self) -> (&'static str, BTreeMap<String, f64>) {
+        let given = self.integrator.take();
+        let choice = given.as_ref().map_or(("volpath", "path", None), |c| {
+            (c.kind.as_str(), c.name, Some(&c.params))
+        });
+        let (kind, name, params) = choice;
+        let params = params
+            .cloned()
+            .unwrap_or_else(|| [("max-depth".to_string(), 5.0)].into());
+        let has_media = !self.media.made.is_empty();
+        let name = if has_media && VOLUMETRIC.contains(&kind) {
+            "volpath"
+        } else {
+            name
+        };
+        if given.is_some() && kind != name {
+            let why = if name == "volpath" {
+                "the same estimate"
+            } else if has_media {
+                "which does not render media: raylab refuses it on this scene"
+            } else {
+                "without media the same estimate"
+            };
+            let line = format!("Integrator \"{kind}\": raylab's {name} ({why})");
+            self.report(line);
+        }
+        (name, params)
     }
 
     /// The camera as raylab's image-plane camera: the eye and the corners of the (cropped)

@@ -135,18 +135,23 @@ impl<'a> Converter<'a> {
         };
         p.ignore(&["emissionfilename"]);
         p.finish()?;
-        let Some(material) = self.current_material() else {
-            self.approximate(
-                d.pos,
-                format!(
-                    "{what}: a shape with the `interface` material (a medium's boundary) left out"
-                ),
-            )?;
-            return Ok(());
+        let medium = self.shape_media();
+        // A shape with the `interface` material: a `Null` surface where it bounds a medium,
+        // without its area light or alpha.
+        let (material, area_light, alpha) = match self.current_material() {
+            Some(material) => (material, self.state.area, alpha),
+            None => {
+                let bounds_medium = medium.is_some();
+                let null = self.interface_material(d.pos, &what, bounds_medium, alpha.is_some())?;
+                let Some(null) = null else {
+                    return Ok(());
+                };
+                (null, None, None)
+            }
         };
         let material = match alpha {
             None => material,
-            Some(_) if self.state.area.is_some() => {
+            Some(_) if area_light.is_some() => {
                 return Err((
                     d.pos,
                     format!("{what}: an alpha cut-out on an area light is not supported"),
@@ -157,7 +162,7 @@ impl<'a> Converter<'a> {
         let placed = world * local;
         let name = format!("{kind} ({})", self.place(d.pos));
         if let Some((shapes_name, _, _)) = &self.defining {
-            if self.state.area.is_some() {
+            if area_light.is_some() {
                 return Err((d.pos, format!("{what}: an area light inside the object \"{shapes_name}\" (pbrt-v4 does not support them either)")));
             }
             let shape = ObjectShape {
@@ -167,6 +172,7 @@ impl<'a> Converter<'a> {
                 ctm: placed,
                 flip,
                 name,
+                medium,
             };
             if let Some((_, shapes, _)) = &mut self.defining {
                 shapes.push(shape);
@@ -176,7 +182,7 @@ impl<'a> Converter<'a> {
         let a =
             affine(&placed).ok_or_else(|| (d.pos, format!("{what}: a projective transform")))?;
         let mut emitter = None;
-        if let Some((l, two, power, pos)) = self.state.area {
+        if let Some((l, two, power, pos)) = area_light {
             let mut l = l;
             if let Some(power) = power {
                 let area = area.single().map_err(|why| {
@@ -205,7 +211,7 @@ impl<'a> Converter<'a> {
             shape: Some(shape),
             material: Some(material),
             emitter,
-            medium: None,
+            medium,
             flip_normals: flip,
         });
         crate::formats::import::check_entities_made(self.entities.len(), &self.room)
@@ -285,7 +291,7 @@ impl<'a> Converter<'a> {
                 shape: Some(shape),
                 material: Some(s.material.clone()),
                 emitter: None,
-                medium: None,
+                medium: s.medium.clone(),
                 flip_normals: s.flip && !s.is_mesh,
             });
         }

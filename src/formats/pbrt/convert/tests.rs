@@ -1,7 +1,9 @@
 //! The pbrt-v4 importer's tests: what each directive becomes, and mangled files.
 
 use super::*;
-use crate::formats::schema::CurveType;
+use crate::formats::schema::{
+    CurveType, GridEdgeDesc, MediumDesc, MediumInterfaceDesc, PhaseDesc, VolumeDesc,
+};
 use proptest::prelude::*;
 
 const CORNELL: &str = include_str!("../../../../scenes/pbrt/cornell_box.pbrt");
@@ -379,4 +381,368 @@ fn hair_takes_one_absorption_as_pbrt_v4_does() {
             ..
         }
     ));
+}
+
+/// The media a scene defines, by name.
+fn media_of(text: &str) -> Vec<(String, MediumDesc)> {
+    convert(text, false)
+        .unwrap_or_else(|e| panic!("{e:?}"))
+        .scene
+        .media
+        .0
+}
+
+const SPHERE: &str = "Shape \"sphere\"";
+
+/// pbrt-v4's `homogeneous`: sigma_a and sigma_s of 1 unless given, sigma_t their sum and
+/// the albedo their ratio (0 where both are 0), `g` as Henyey-Greenstein's (0 isotropic,
+/// clamped as pbrt clamps it), `Le` times `Lescale` (and the exposure) as the emission, a
+/// `preset` from pbrt's table.
+#[test]
+fn homogeneous_media_take_pbrts_defaults_and_coefficients() {
+    let one = |params: &str| {
+        let text = format!(
+            "MakeNamedMedium \"m\" \"string type\" \"homogeneous\" {params}\nWorldBegin\n{SPHERE}\n"
+        );
+        media_of(&text).remove(0)
+    };
+    let (name, defaults) = one("");
+    assert_eq!(name, "m");
+    assert_eq!(
+        defaults,
+        MediumDesc::Homogeneous {
+            sigma_t: [2.0; 3],
+            albedo: [0.5; 3],
+            scale: 1.0,
+            phase: PhaseDesc::Isotropic,
+            emission: [0.0; 3],
+        }
+    );
+    let (_, given) = one("\"rgb sigma_a\" [0.125 0.25 0.5] \"rgb sigma_s\" [0.375 0.25 0] \"float scale\" 2 \"float g\" 0.5 \"rgb Le\" [1 2 3] \"float Lescale\" 0.5");
+    assert_eq!(
+        given,
+        MediumDesc::Homogeneous {
+            sigma_t: [0.5, 0.5, 0.5],
+            albedo: [0.75, 0.5, 0.0],
+            scale: 2.0,
+            phase: PhaseDesc::HenyeyGreenstein(0.5),
+            emission: [0.5, 1.0, 1.5],
+        }
+    );
+    let (_, empty) = one("\"rgb sigma_a\" [0 0 0] \"float sigma_s\" 0");
+    assert!(
+        matches!(
+            empty,
+            MediumDesc::Homogeneous {
+                sigma_t: [0.0, 0.0, 0.0],
+                albedo: [0.0, 0.0, 0.0],
+                ..
+            }
+        ),
+        "{empty:?}"
+    );
+    let (_, milk) = one("\"string preset\" \"Skimmilk\" \"float scale\" 10");
+    let MediumDesc::Homogeneous {
+        sigma_t,
+        albedo,
+        scale,
+        ..
+    } = milk
+    else {
+        panic!("{milk:?}")
+    };
+    assert_eq!(scale, 10.0);
+    let expected_t = [0.70 + 0.0014, 1.22 + 0.0025, 1.90 + 0.0142];
+    for c in 0..3 {
+        assert!(
+            (f64::from(sigma_t[c]) - expected_t[c]).abs() < 1e-6,
+            "{sigma_t:?}"
+        );
+    }
+    assert!((f64::from(albedo[0]) - 0.70 / (0.70 + 0.0014)).abs() < 1e-6);
+    let clamped = convert(&format!("MakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"float g\" -1.5\nWorldBegin\n{SPHERE}\n"), false).unwrap();
+    assert!(matches!(
+        clamped.scene.media.0[0].1,
+        MediumDesc::Homogeneous { phase: PhaseDesc::HenyeyGreenstein(g), .. } if g == -0.99
+    ));
+    assert!(clamped.report.join("\n").contains("clamped to -0.99"));
+    // The shutter's open time scales the medium's emission as every emitter's.
+    let text = format!("Camera \"perspective\" \"float shutterclose\" 0.5\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"rgb Le\" [4 4 4]\nWorldBegin\n{SPHERE}\n");
+    assert!(matches!(
+        media_of(&text)[0].1,
+        MediumDesc::Homogeneous {
+            emission: [2.0, 2.0, 2.0],
+            ..
+        }
+    ));
+    // A preset replaces sigma_a and sigma_s: giving them too is an error, as in pbrt-v4.
+    let text = format!("WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"string preset\" \"Ketchup\" \"rgb sigma_a\" [1 1 1]\n{SPHERE}\n");
+    let e = convert(&text, false).unwrap_err();
+    assert!(
+        e.3.contains("`sigma_a` is not read with a `preset`"),
+        "{e:?}"
+    );
+}
+
+/// pbrt-v4's `uniformgrid`: its densities as an inline grid read with zero past its voxel
+/// centres, in the box p0..p1 placed by the transform at the directive, times
+/// `scale (sigma_a + sigma_s)` (a tint where that is not grey).
+#[test]
+fn uniform_grids_become_value_grids_in_their_box() {
+    let text = format!(
+        "WorldBegin\nAttributeBegin\nTranslate 1 2 3\nScale 2 2 2\n\
+         MakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"integer nx\" 2 \"float density\" [0.5 1]\n\
+         \"point3 p0\" [1 0 0] \"point3 p1\" [0 2 1] \"rgb sigma_a\" [1 1 1] \"rgb sigma_s\" [1 2 3] \"float scale\" 0.5 \"float g\" 0.25\n\
+         AttributeEnd\n{SPHERE}\n"
+    );
+    let imported = convert(&text, false).unwrap();
+    let (_, grid) = &imported.scene.media.0[0];
+    assert_eq!(
+        *grid,
+        MediumDesc::Heterogeneous {
+            sigma_t: VolumeDesc::Values {
+                size: (2, 1, 1),
+                values: vec![0.5, 1.0],
+                edge: GridEdgeDesc::Zero,
+            },
+            albedo: VolumeDesc::Constant([0.5, 2.0 / 3.0, 0.75]),
+            scale: 0.5,
+            tint: [2.0, 3.0, 4.0],
+            phase: PhaseDesc::HenyeyGreenstein(0.25),
+            emission: [0.0; 3],
+            transform: TransformDesc {
+                matrix: Some(vec![
+                    2.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.0, 2.0, 0.0, 0.0, 2.0, 3.0
+                ]),
+                ..TransformDesc::default()
+            },
+            bounds: ([0.0; 3], [1.0, 2.0, 1.0]),
+        }
+    );
+    // The RON loads, and the grey default folds sigma_a + sigma_s = 2 into `scale`.
+    crate::scene::parse_scene(&imported.ron().unwrap(), Path::new("grid.pbrt")).unwrap();
+    let grey = media_of(&format!("WorldBegin\nMakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"float density\" [3]\n{SPHERE}\n"));
+    assert!(
+        matches!(&grey[0].1, MediumDesc::Heterogeneous { scale, tint: [1.0, 1.0, 1.0], transform, .. } if *scale == 2.0 && *transform == TransformDesc::default()),
+        "{grey:?}"
+    );
+    // Made before the camera, a grid is placed in pbrt-v4's render space: the world moved
+    // by the camera's position (here the transform is the camera's, which takes the medium's
+    // origin to (0, 0, 5), and the eye is at (0, 0, 5)).
+    let before = media_of(&format!("LookAt 0 0 5  0 0 0  0 1 0\nMakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"float density\" [1]\nCamera \"perspective\"\nWorldBegin\n{SPHERE}\n"));
+    let MediumDesc::Heterogeneous { transform, .. } = &before[0].1 else {
+        panic!("{before:?}")
+    };
+    let m = transform.matrix.as_ref().unwrap();
+    let origin = [m[3], m[7], m[11]];
+    assert!(
+        (0..3).all(|i| (origin[i] - [0.0, 0.0, 10.0][i]).abs() < 1e-5),
+        "{m:?}"
+    );
+    // Counts checked as pbrt-v4 checks them; emission is not supported.
+    let bad = |params: &str| {
+        let text = format!("WorldBegin\nMakeNamedMedium \"g\" \"string type\" \"uniformgrid\" {params}\n{SPHERE}\n");
+        convert(&text, false).unwrap_err().3
+    };
+    assert!(bad("\"integer nx\" 2 \"float density\" [1]")
+        .contains("1 density values for a grid of 2 x 1 x 1"));
+    assert!(bad("").contains("needs \"float density\""));
+    assert!(bad("\"float density\" [1] \"rgb Le\" [1 1 1]").contains("--approximate"));
+    assert!(bad("\"float density\" [1] \"point3 p1\" [0 1 1]").contains("bound no volume"));
+}
+
+/// `MediumInterface` is part of the graphics state: AttributeEnd restores it, WorldBegin
+/// does not reset it, one name means the same medium on both sides (no boundary), "" is
+/// vacuum. The camera sits in the outside medium at `Camera`; instances keep their shapes'.
+#[test]
+fn medium_interfaces_scope_with_attributes_and_follow_shapes() {
+    let text = format!(
+        "MakeNamedMedium \"a\" \"string type\" \"homogeneous\"\n\
+         MakeNamedMedium \"b\" \"string type\" \"homogeneous\"\n\
+         MediumInterface \"a\" \"b\"\nCamera \"perspective\"\nWorldBegin\n\
+         {SPHERE}\nAttributeBegin\nMediumInterface \"b\"\n{SPHERE}\nMediumInterface \"\" \"a\"\n{SPHERE}\n\
+         ObjectBegin \"o\"\nMediumInterface \"b\" \"\"\n{SPHERE}\nObjectEnd\nAttributeEnd\n{SPHERE}\nObjectInstance \"o\"\n"
+    );
+    let imported = convert(&text, false).unwrap();
+    assert_eq!(imported.scene.camera_medium.as_deref(), Some("b"));
+    let side = |s: &str| (!s.is_empty()).then(|| s.to_string());
+    let sides = |inside: &str, outside: &str| {
+        Some(MediumInterfaceDesc {
+            inside: side(inside),
+            outside: side(outside),
+        })
+    };
+    let media: Vec<_> = imported
+        .scene
+        .entities
+        .iter()
+        .map(|e| e.medium.clone())
+        .collect();
+    assert_eq!(
+        media,
+        [
+            sides("a", "b"),
+            None,
+            sides("", "a"),
+            sides("a", "b"),
+            sides("b", "")
+        ]
+    );
+    // pbrt-v4 looks shapes' media up once the scene is read: defined later is defined.
+    let later = format!("WorldBegin\nMediumInterface \"late\" \"\"\n{SPHERE}\nMakeNamedMedium \"late\" \"string type\" \"homogeneous\"\n");
+    assert_eq!(
+        convert(&later, false).unwrap().scene.entities[0].medium,
+        sides("late", "")
+    );
+}
+
+/// The camera's medium must be defined by WorldBegin; a medium nobody defines is an error at
+/// the `MediumInterface` that names it.
+#[test]
+fn undefined_media_are_errors_where_they_are_named() {
+    let camera = "MediumInterface \"\" \"fog\"\nCamera \"perspective\"\nWorldBegin\nMakeNamedMedium \"fog\" \"string type\" \"homogeneous\"\nShape \"sphere\"\n";
+    let e = convert(camera, false).unwrap_err();
+    assert_eq!((e.1, e.2), (1, 1), "{e:?}");
+    assert!(
+        e.3.contains("\"fog\" is not defined before WorldBegin"),
+        "{e:?}"
+    );
+    let shape = format!("WorldBegin\n{SPHERE}\n  MediumInterface \"smoke\" \"\"\n{SPHERE}\n");
+    let e = convert(&shape, false).unwrap_err();
+    assert_eq!((e.1, e.2), (3, 3), "{e:?}");
+    assert!(e.3.contains("no medium is named \"smoke\""), "{e:?}");
+    // A light looks its (outside) medium up too.
+    let light = "WorldBegin\nMediumInterface \"\" \"smoke\"\nLightSource \"point\"\n";
+    assert!(convert(light, false).unwrap_err().3.contains("\"smoke\""));
+}
+
+/// Bad media: a type pbrt-v4 lacks, a parameter it does not read (names are
+/// case-sensitive), a name defined twice; types raylab lacks are vacuum with --approximate.
+#[test]
+fn bad_media_are_errors_at_their_place() {
+    let medium = |params: &str| {
+        format!(
+            "WorldBegin\nMakeNamedMedium \"m\" {params}\nMediumInterface \"m\" \"\"\n{SPHERE}\n"
+        )
+    };
+    let e = convert(&medium("\"string type\" \"heterogeneous\""), false).unwrap_err();
+    assert_eq!((e.1, e.2), (2, 1));
+    assert!(
+        e.3.contains("`heterogeneous` is not a pbrt-v4 medium") && e.3.contains("uniformgrid"),
+        "{e:?}"
+    );
+    let text = medium("\"string type\" \"homogeneous\" \"rgb Le\" [1 1 1] \"float LeScale\" 2");
+    let e = convert(&text, false).unwrap_err();
+    let col = text
+        .lines()
+        .nth(1)
+        .and_then(|l| l.find("\"float LeScale\""))
+        .unwrap()
+        + 1;
+    assert_eq!((e.1, e.2 as usize), (2, col), "{e:?}");
+    assert!(
+        e.3.contains("parameter `float LeScale` is not supported"),
+        "{e:?}"
+    );
+    assert!(convert(&medium(""), false)
+        .unwrap_err()
+        .3
+        .contains("needs \"string type\""));
+    let twice = format!(
+        "MakeNamedMedium \"m\" \"string type\" \"homogeneous\"\n{}",
+        medium("\"string type\" \"homogeneous\"")
+    );
+    assert!(convert(&twice, false)
+        .unwrap_err()
+        .3
+        .contains("defined twice"));
+    let cloud = medium("\"string type\" \"cloud\" \"float wispiness\" 2");
+    let e = convert(&cloud, false).unwrap_err();
+    assert!(
+        e.3.contains("`cloud` medium is not supported") && e.3.contains("--approximate"),
+        "{e:?}"
+    );
+    // As vacuum: no medium, and the sphere bounds none.
+    let vacuum = convert(&cloud, true).unwrap();
+    assert!(vacuum.scene.media.0.is_empty());
+    assert_eq!(vacuum.scene.entities[0].medium, None);
+    assert_eq!(vacuum.scene.render.integrator, "path");
+}
+
+/// A shape of the `interface` material (or "none") that bounds a medium is a `Null`
+/// surface; one that bounds none is left out (with --approximate), and an area light on it
+/// is dropped, as pbrt-v4 drops it.
+#[test]
+fn interface_shapes_bound_media_as_null_surfaces() {
+    let text = format!(
+        "WorldBegin\nMakeNamedMedium \"fog\" \"string type\" \"homogeneous\"\n\
+         AttributeBegin\nMediumInterface \"fog\" \"\"\nMaterial \"interface\"\n\
+         AreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\n{SPHERE}\nMaterial \"none\"\n{SPHERE}\nAttributeEnd\n\
+         Material \"diffuse\"\n{SPHERE}\n"
+    );
+    let imported = convert(&text, false).unwrap();
+    let e = &imported.scene.entities;
+    assert_eq!(e.len(), 3);
+    for boundary in &e[..2] {
+        assert_eq!(boundary.material.as_deref(), Some("interface"));
+        assert!(boundary.emitter.is_none());
+        assert_eq!(
+            boundary.medium.as_ref().and_then(|m| m.inside.as_deref()),
+            Some("fog")
+        );
+    }
+    assert_eq!(
+        imported
+            .scene
+            .materials
+            .0
+            .iter()
+            .filter(|(_, m)| *m == MaterialDesc::Null)
+            .count(),
+        1
+    );
+    assert!(e[2].medium.is_none());
+    let report = imported.report.join("\n");
+    assert!(
+        report.contains("area light on a shape with the `interface` material ignored"),
+        "{report}"
+    );
+    assert!(
+        report.contains("\"none\" is read as `interface`"),
+        "{report}"
+    );
+    crate::scene::parse_scene(&imported.ron().unwrap(), Path::new("fog.pbrt")).unwrap();
+    // Bounding nothing (the same medium both sides): left out, as before.
+    let same = format!("WorldBegin\nMakeNamedMedium \"fog\" \"string type\" \"homogeneous\"\nMediumInterface \"fog\"\nMaterial \"interface\"\n{SPHERE}\nMaterial \"diffuse\"\n{SPHERE}\n");
+    assert!(convert(&same, false).unwrap_err().3.contains("left out"));
+    assert_eq!(convert(&same, true).unwrap().scene.entities.len(), 1);
+}
+
+/// pbrt-v4's volpath (its default too) is raylab's volpath on a scene with media and path
+/// on one without (the same image); other integrators keep their mapping.
+#[test]
+fn volumetric_integrators_map_to_volpath_when_the_scene_has_media() {
+    let fog = "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\"\n";
+    let render = |integrator: &str, media: &str| {
+        let text = format!("{integrator}\n{media}WorldBegin\n{SPHERE}\n");
+        convert(&text, false).unwrap().scene.render
+    };
+    let with = render("Integrator \"volpath\" \"integer maxdepth\" 7", fog);
+    assert_eq!(
+        (with.integrator.as_str(), with.params.get("max-depth")),
+        ("volpath", Some(&7.0))
+    );
+    assert_eq!(render("Integrator \"volpath\"", "").integrator, "path");
+    assert_eq!(
+        render("Integrator \"simplevolpath\"", fog).integrator,
+        "volpath"
+    );
+    let default = render("", fog);
+    assert_eq!(
+        (default.integrator.as_str(), default.params.get("max-depth")),
+        ("volpath", Some(&5.0))
+    );
+    assert_eq!(render("", "").integrator, "path");
+    assert_eq!(render("Integrator \"path\"", fog).integrator, "path");
+    assert_eq!(render("Integrator \"bdpt\"", fog).integrator, "bdpt");
 }
