@@ -127,9 +127,11 @@ pub fn fly(
 }
 
 /// The transmittance along `ray` (in its medium, up to its `tmax`): through media by ratio
-/// tracking at channel `hero`'s rate (unbiased in every channel), through the surfaces a ray
-/// can cross with their null transmission (a `Null` boundary, a mask's hole, a thin
-/// dielectric); zero where a surface blocks it. Each ray cast counts as a connection.
+/// tracking at channel `hero`'s rate (unbiased in every channel), and through the surfaces
+/// that are no surface at all (a `Null` boundary; a mask of opacity 0); zero where any other
+/// surface lies on it. A thin dielectric or a partial mask blocks it: light subpaths make a
+/// vertex there (a Dirac lobe), so a join that went through one would count again, under
+/// other MIS weights, the paths with that vertex. Each ray cast counts as a connection.
 pub fn transmittance(tracer: &mut Tracer, ray: &Ray, hero: usize, sampler: &mut Sampler) -> Rgb {
     let scene: &dyn Scene = tracer.scene;
     let target = ray.at(ray.tmax);
@@ -138,21 +140,33 @@ pub fn transmittance(tracer: &mut Tracer, ray: &Ray, hero: usize, sampler: &mut 
     for _ in 0..MAX_CROSSINGS {
         tracer.counters.connection += 1;
         let hit = scene.intersect(&ray);
-        if let Some(medium) = scene.medium(ray.medium) {
-            let tmax = hit.map_or(ray.tmax, |h| h.t);
-            tr *= crate::medium::tracking::ratio_tracking(medium, &ray, tmax, hero, sampler);
-        }
         let Some(h) = hit else {
+            if let Some(medium) = scene.medium(ray.medium) {
+                tr *=
+                    crate::medium::tracking::ratio_tracking(medium, &ray, ray.tmax, hero, sampler);
+            }
             return tr;
         };
-        let sp = ShadingPoint::new(&h, ray.dir, scene);
-        tr *= sp.material.null_transmission(sp.wo);
+        if !crosses(scene, &h, &ray) {
+            return Rgb::ZERO;
+        }
+        if let Some(medium) = scene.medium(ray.medium) {
+            tr *= crate::medium::tracking::ratio_tracking(medium, &ray, h.t, hero, sampler);
+        }
         if tr == Rgb::ZERO || !tr.is_finite() {
             return Rgb::ZERO;
         }
         ray = next_towards(&h, &ray, target);
     }
     Rgb::ZERO
+}
+
+/// Whether a walk crosses the surface at `h` without a vertex: no surface at all (only a
+/// straight-on null event).
+pub fn crosses(scene: &dyn Scene, h: &Hit, ray: &Ray) -> bool {
+    let sp = ShadingPoint::new(h, ray.dir, scene);
+    sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION
+        && sp.material.null_transmission(sp.wo) == Rgb::ONE
 }
 
 /// The ray on from a crossed surface `h` towards `target` (or along `ray` past a target at
