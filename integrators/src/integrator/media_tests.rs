@@ -27,6 +27,21 @@ fn media_entries(emitting: bool) -> Vec<(&'static str, Params, bool)> {
     entries
 }
 
+/// The largest `max-depth` integrator `name` takes (`inf` where it has no bound).
+fn deepest(name: &str) -> String {
+    let entry = crate::find(name).unwrap_or_else(|e| panic!("{e}"));
+    let max = entry
+        .params
+        .iter()
+        .find(|p| p.name == "max-depth")
+        .map_or(f64::INFINITY, |p| p.max);
+    if max.is_finite() {
+        format!("{max}")
+    } else {
+        "inf".to_string()
+    }
+}
+
 fn by_rays(e: &IntegratorEntry) -> bool {
     e.instantiate(&[])
         .is_ok_and(|i| i.as_ray_integrator().is_some())
@@ -34,7 +49,7 @@ fn by_rays(e: &IntegratorEntry) -> bool {
 
 /// [`expect_rgb`] for an integrator of rays; for one of light paths, the image means of
 /// passes (green).
-fn check(name: &str, params: Params, rays: bool, scene: &TestScene, exact: Rgb, n: u32) {
+fn check(name: &str, params: &[(&str, &str)], rays: bool, scene: &TestScene, exact: Rgb, n: u32) {
     if rays {
         expect_rgb(name, params, scene, exact, n);
     } else {
@@ -63,6 +78,23 @@ fn a_furnace_of_white_fog_gives_one_at_any_density() {
                 check(name, params, rays, &inside, Rgb::ONE, 40_000);
             }
             check(name, params, rays, &outside, Rgb::ONE, 40_000);
+        }
+        // The light tracer sees nothing through the pane: a light path's vertex behind a
+        // Dirac lobe cannot be joined to the lens, with media or without.
+        // Paths bounce inside the pane for long: every integrator at its deepest (the
+        // coloured fog only, the costlier check).
+        let pane = fog_ball_behind_a_pane(sigma_t, phase);
+        for (name, params, rays) in media_entries(false) {
+            if name != "lighttracer" && g > 0.0 {
+                let deepest = deepest(name);
+                let params: Vec<(&str, &str)> = params
+                    .iter()
+                    .copied()
+                    .filter(|(k, _)| *k != "max-depth")
+                    .chain([("max-depth", deepest.as_str())])
+                    .collect();
+                check(name, &params, rays, &pane, Rgb::ONE, 40_000);
+            }
         }
     }
 }

@@ -17,6 +17,25 @@ fn ball_of(
     camera: Probe,
     inside: bool,
 ) -> TestScene {
+    ball_behind(
+        SurfaceMaterial::null(),
+        medium,
+        radius,
+        lights,
+        camera,
+        inside,
+    )
+}
+
+/// [`ball_of`] with a boundary of material `boundary`.
+fn ball_behind(
+    boundary: SurfaceMaterial,
+    medium: Medium,
+    radius: f32,
+    lights: Vec<Light>,
+    camera: Probe,
+    inside: bool,
+) -> TestScene {
     TestScene {
         surfaces: vec![Surface::Boundary {
             center: Vec3A::ZERO,
@@ -27,7 +46,7 @@ fn ball_of(
                 outside: MediumId::VACUUM,
             },
         }],
-        materials: vec![SurfaceMaterial::null()],
+        materials: vec![boundary],
         lights: LightTable::new(lights, radius),
         camera,
         media: vec![medium],
@@ -83,6 +102,30 @@ pub fn fog_furnace(sigma_t: Rgb, phase: Phase) -> TestScene {
 pub fn fog_ball_under_sky(sigma_t: Rgb, phase: Phase) -> TestScene {
     let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, Rgb::ONE, Rgb::ZERO, phase));
     ball_of(
+        medium,
+        1.0,
+        vec![Light::environment(Rgb::ONE)],
+        Probe::AtSphere {
+            eye: Vec3A::new(0.0, 0.0, 5.0),
+            center: Vec3A::ZERO,
+            radius: 1.0,
+        },
+        false,
+    )
+}
+
+/// [`fog_ball_under_sky`] behind a thin pane of water (a thin dielectric sphere, which loses
+/// nothing: what it does not transmit it reflects): radiance 1 still. Paths cross the pane
+/// with its transmission or reflect off it; an integrator that counted the light through it
+/// twice (a join through the pane, and a subpath with a vertex on it) would exceed 1.
+pub fn fog_ball_behind_a_pane(sigma_t: Rgb, phase: Phase) -> TestScene {
+    let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, Rgb::ONE, Rgb::ZERO, phase));
+    let pane = crate::Material::ThinDielectric(
+        crate::bsdf::ThinDielectric::new(1.33, Rgb::ONE, Rgb::ONE)
+            .unwrap_or_else(|e| panic!("{e}")),
+    );
+    ball_behind(
+        pane.into(),
         medium,
         1.0,
         vec![Light::environment(Rgb::ONE)],
