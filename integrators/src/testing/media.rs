@@ -58,6 +58,15 @@ fn ball_behind(
     }
 }
 
+/// A unit ball seen whole from a distance of 5.
+fn seen_from_outside() -> Probe {
+    Probe::AtSphere {
+        eye: Vec3A::new(0.0, 0.0, 5.0),
+        center: Vec3A::ZERO,
+        radius: 1.0,
+    }
+}
+
 /// The probe ray of the balls: from `z = -5` along `+z` through the centre.
 fn through_the_centre() -> Probe {
     Probe::Fixed(Ray::new(Vec3A::new(0.0, 0.0, -5.0), Vec3A::Z))
@@ -105,11 +114,7 @@ pub fn fog_ball_under_sky(sigma_t: Rgb, phase: Phase) -> TestScene {
         medium,
         1.0,
         vec![Light::environment(Rgb::ONE)],
-        Probe::AtSphere {
-            eye: Vec3A::new(0.0, 0.0, 5.0),
-            center: Vec3A::ZERO,
-            radius: 1.0,
-        },
+        seen_from_outside(),
         false,
     )
 }
@@ -129,11 +134,7 @@ pub fn fog_ball_behind_a_pane(sigma_t: Rgb, phase: Phase) -> TestScene {
         medium,
         1.0,
         vec![Light::environment(Rgb::ONE)],
-        Probe::AtSphere {
-            eye: Vec3A::new(0.0, 0.0, 5.0),
-            center: Vec3A::ZERO,
-            radius: 1.0,
-        },
+        seen_from_outside(),
         false,
     )
 }
