@@ -16,7 +16,7 @@ INTEGRATORS=${*:-volpath lighttracer bdpt pssmlt mmlt}
 . "$(dirname "$0")/equal_time.sh"
 SCENES=(
   "scenes/fog_room.ron 160x120 8 volpath 4096"
-  "scenes/volumetric_caustic.ron 160x120 12 bdpt 1024"
+  "scenes/volumetric_caustic.ron 160x120 12 bdpt 4096"
 )
 # References first, then the timed renders (nothing else should run during those).
 for s in "${SCENES[@]}"; do reference $s; done
