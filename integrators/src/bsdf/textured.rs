@@ -390,6 +390,13 @@ impl SurfaceMaterial {
         .with_opacity(Texture::Constant(Vec3A::ZERO))
     }
 
+    /// Whether any light may pass straight through it (a mask, a thin dielectric): what a
+    /// shadow ray in media asks before it shades the surface, which it need not for the rest.
+    #[inline]
+    pub fn may_pass_straight(&self) -> bool {
+        self.opacity.is_some() || matches!(self.bsdf, Material::ThinDielectric(_))
+    }
+
     /// Whether it is no surface at all ([`SurfaceMaterial::null`]).
     pub fn is_null(&self) -> bool {
         matches!(&self.opacity, Some(Texture::Constant(c)) if *c == Vec3A::ZERO)

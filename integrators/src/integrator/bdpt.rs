@@ -48,7 +48,7 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::media_walk::{
-    self, average, fly, hero_channel, medium_at, transmittance, Flight,
+    self, average, cross_null, fly, hero_channel, medium_at, transmittance, Flight,
 };
 use crate::integrator::{
     emit_from_a_light, escaped, scene_radius, Demand, Integrator, ShadingPoint, Tracer,
@@ -725,16 +725,15 @@ impl Bdpt {
                 return;
             };
             let sp = ShadingPoint::new(&hit, ray.dir, scene);
-            if media && sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION {
+            if media {
                 // A medium's boundary (or a mask's hole): crossed, no vertex.
-                let s = sp.sample(sampler.next_1d(), sampler.next_2d(), mode);
-                match s {
-                    Some(s) if s.bsdf.is_straight_through(sp.wo) => {
-                        beta = s.throughput(beta);
-                        ray = hit.spawn_ray(ray.dir);
+                match cross_null(&sp, &ray, mode, &mut beta, sampler) {
+                    Some(Some(next)) => {
+                        ray = next;
                         continue;
                     }
-                    _ => return,
+                    Some(None) => return,
+                    None => {}
                 }
             }
             let mut v = Vertex::new(Kind::Surface, sp.hit.p, sp.hit.ng, beta);

@@ -28,7 +28,9 @@
 //! (`L S+ D E`), which the path tracer finds slowly, come fast.
 
 use crate::bsdf::TransportMode;
-use crate::integrator::media_walk::{average, fly, hero_channel, medium_at, transmittance, Flight};
+use crate::integrator::media_walk::{
+    average, cross_null, fly, hero_channel, medium_at, transmittance, Flight,
+};
 use crate::integrator::{
     emit_from_a_light, escaped, Demand, Integrator, ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
 };
@@ -227,20 +229,16 @@ impl LightTracer {
                 return;
             };
             let sp = ShadingPoint::new(&hit, ray.dir, scene);
-            if media && sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION {
+            if media {
                 // A medium's boundary (or a mask's hole): crossed, no scattering event.
-                if let Some(s) = sp.sample(
-                    sampler.next_1d(),
-                    sampler.next_2d(),
-                    TransportMode::Importance,
-                ) {
-                    if s.bsdf.is_straight_through(sp.wo) {
-                        beta = s.throughput(beta);
-                        ray = hit.spawn_ray(ray.dir);
+                match cross_null(&sp, &ray, TransportMode::Importance, &mut beta, sampler) {
+                    Some(Some(next)) => {
+                        ray = next;
                         continue;
                     }
+                    Some(None) => return,
+                    None => {}
                 }
-                return;
             }
             bounces += 1;
             // Connect this vertex to the lens.

@@ -164,9 +164,37 @@ pub fn transmittance(tracer: &mut Tracer, ray: &Ray, hero: usize, sampler: &mut 
 /// Whether a walk crosses the surface at `h` without a vertex: no surface at all (only a
 /// straight-on null event).
 pub fn crosses(scene: &dyn Scene, h: &Hit, ray: &Ray) -> bool {
+    // Most surfaces are surfaces, known without shading them.
+    if scene.material(h.material).opacity().is_none() {
+        return false;
+    }
     let sp = ShadingPoint::new(h, ray.dir, scene);
     sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION
         && sp.material.null_transmission(sp.wo) == Rgb::ONE
+}
+
+/// What a light-path walk in media does at the surface `sp` (reached along `ray`): a
+/// boundary that is no surface at all (`Null`, a mask's hole) is crossed without a vertex, its
+/// straight-on null event sampled in `mode` and carried by `beta`: `Some(Some(next ray))`;
+/// `Some(None)` ends the walk (no such event); `None`: a surface to make a vertex at.
+pub fn cross_null(
+    sp: &ShadingPoint,
+    ray: &Ray,
+    mode: crate::bsdf::TransportMode,
+    beta: &mut Rgb,
+    sampler: &mut Sampler,
+) -> Option<Option<Ray>> {
+    if sp.material.lobes() != crate::bsdf::Lobes::DELTA_TRANSMISSION {
+        return None;
+    }
+    let s = sp.sample(sampler.next_1d(), sampler.next_2d(), mode);
+    Some(match s {
+        Some(s) if s.bsdf.is_straight_through(sp.wo) => {
+            *beta = s.throughput(*beta);
+            Some(sp.hit.spawn_ray(ray.dir))
+        }
+        _ => None,
+    })
 }
 
 /// The ray on from a crossed surface `h` towards `target` (or along `ray` past a target at

@@ -413,6 +413,10 @@ fn shadow_transmittance(
         let hit = scene.intersect(ray);
         let crossing = match &hit {
             Some(h) => {
+                // Most surfaces block outright, unshaded.
+                if !scene.material(h.material).may_pass_straight() {
+                    return None;
+                }
                 let sp = ShadingPoint::new(h, ray.dir, scene);
                 let pass = sp.material.null_transmission(sp.wo);
                 if pass == Rgb::ZERO {

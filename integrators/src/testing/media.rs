@@ -8,26 +8,9 @@ use crate::medium::{Homogeneous, Phase};
 use crate::{Light, LightTable, Medium, MediumId, MediumInterface, Ray, Rgb, SurfaceMaterial};
 use glam::Vec3A;
 
-/// A ball of radius `radius` at the origin, filled with `medium` (id 0) behind a null
-/// boundary, lit by `lights`, probed by `camera` (which starts in the medium when `inside`).
-fn ball_of(
-    medium: Medium,
-    radius: f32,
-    lights: Vec<Light>,
-    camera: Probe,
-    inside: bool,
-) -> TestScene {
-    ball_behind(
-        SurfaceMaterial::null(),
-        medium,
-        radius,
-        lights,
-        camera,
-        inside,
-    )
-}
-
-/// [`ball_of`] with a boundary of material `boundary`.
+/// A ball of radius `radius` at the origin, filled with `medium` (id 0) behind a boundary of
+/// material `boundary`, lit by `lights`, probed by `camera` (which starts in the medium when
+/// `inside`).
 fn ball_behind(
     boundary: SurfaceMaterial,
     medium: Medium,
@@ -81,7 +64,8 @@ pub fn absorbing_ball(sigma_t: Rgb, sky: f32) -> (TestScene, Rgb) {
         Rgb::ZERO,
         Phase::Isotropic,
     ));
-    let scene = ball_of(
+    let scene = ball_behind(
+        SurfaceMaterial::null(),
         medium,
         1.0,
         vec![Light::environment(Rgb::splat(sky))],
@@ -96,7 +80,8 @@ pub fn absorbing_ball(sigma_t: Rgb, sky: f32) -> (TestScene, Rgb) {
 /// `sigma_t`, phase `phase`) under a sky of 1. Whatever the density, radiance is 1.
 pub fn fog_furnace(sigma_t: Rgb, phase: Phase) -> TestScene {
     let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, Rgb::ONE, Rgb::ZERO, phase));
-    ball_of(
+    ball_behind(
+        SurfaceMaterial::null(),
         medium,
         1.0,
         vec![Light::environment(Rgb::ONE)],
@@ -110,7 +95,8 @@ pub fn fog_furnace(sigma_t: Rgb, phase: Phase) -> TestScene {
 /// at the lens, so integrators of light paths are checked from outside.)
 pub fn fog_ball_under_sky(sigma_t: Rgb, phase: Phase) -> TestScene {
     let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, Rgb::ONE, Rgb::ZERO, phase));
-    ball_of(
+    ball_behind(
+        SurfaceMaterial::null(),
         medium,
         1.0,
         vec![Light::environment(Rgb::ONE)],
@@ -143,7 +129,14 @@ pub fn fog_ball_behind_a_pane(sigma_t: Rgb, phase: Phase) -> TestScene {
 /// centre: radiance `le (1 - exp(-2 sigma_a))`.
 pub fn glowing_ball(sigma_a: Rgb, le: Rgb) -> (TestScene, Rgb) {
     let medium = Medium::Homogeneous(Homogeneous::new(sigma_a, Rgb::ZERO, le, Phase::Isotropic));
-    let scene = ball_of(medium, 1.0, Vec::new(), through_the_centre(), false);
+    let scene = ball_behind(
+        SurfaceMaterial::null(),
+        medium,
+        1.0,
+        Vec::new(),
+        through_the_centre(),
+        false,
+    );
     let exact = le * (Rgb::ONE - crate::medium::tracking::transmittance(sigma_a, 2.0));
     (scene, exact)
 }
@@ -155,7 +148,8 @@ pub fn glowing_ball(sigma_a: Rgb, le: Rgb) -> (TestScene, Rgb) {
 /// the light's `I / d^2` and transmittance out, which [`single_scattering_exact`] sums.
 pub fn single_scattering(sigma_t: Rgb, albedo: Rgb, phase: Phase, intensity: f32) -> TestScene {
     let medium = Medium::Homogeneous(Homogeneous::new(sigma_t, albedo, Rgb::ZERO, phase));
-    ball_of(
+    ball_behind(
+        SurfaceMaterial::null(),
         medium,
         2.0,
         vec![Light::point(LIGHT, Rgb::splat(intensity))],
