@@ -1,5 +1,6 @@
-//! Photons: traced from the lights, stored at non-specular surfaces, and gathered around a
-//! point to estimate the radiance it reflects. Shared by the `photon` and `sppm` integrators.
+//! Photons: traced from the lights, stored at non-specular surfaces and, in participating
+//! media, where they scatter in a medium, and gathered around a point to estimate the
+//! radiance it reflects or scatters. Shared by the `photon` and `sppm` integrators.
 //!
 //! * **Emission.** A light is picked in proportion to its power ([`crate::LightTable`]), a ray
 //!   leaves it by [`crate::Light::sample_le`], and the photon carries
@@ -13,23 +14,33 @@
 //!   gather radius wide, so a gather looks at 8 cells at most. Buckets are computed in
 //!   parallel and photons counting-sorted by bucket: the map is two flat arrays and its build
 //!   is linear and deterministic.
+//! * **Media.** Photons walk media by delta tracking at one colour channel's rate
+//!   ([`crate::integrator::media_walk::fly`]), scatter at real collisions with the albedo as
+//!   weight and the phase function sampled, cross `Null` boundaries without an event, and
+//!   carry `beta / mean(r_u)` (one-sample MIS over the channels); the roulette is capped so
+//!   that a white fog ends photons too.
 //! * **Estimate.** `L_r(x, wo) = sum_p f(wo, wi_p) Phi_p / (pi r^2)` over the photons within
 //!   distance `r` of `x` (a uniform disk kernel), skipping photons that arrived on the other
-//!   side of an opaque surface.
+//!   side of an opaque surface. In a medium, `sum_p phase(wo, wi_p) Phi_p / (4/3 pi r^3)`
+//!   over the photons that landed in it estimates `sigma_s` times the in-scattered radiance.
 //!
 //! Work is split into blocks of photons traced in parallel (rayon); each photon has its own
 //! [`Sampler`] seeded from (seed, stream, photon index), and blocks are concatenated in order,
 //! so a map is the same whatever the thread count.
 
 use crate::bsdf::TransportMode;
+use crate::integrator::media_walk::{
+    average, cross_null, fly, hero_channel, medium_at, positive, Flight,
+};
+use crate::integrator::volpath::LONG_PATH;
 use crate::integrator::{
     emitted_at, escaped, stays_on_viewer_side, PathState, ShadingPoint, Stop, MAX_SURVIVAL,
 };
-use crate::{luminance, Hit, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
+use crate::{luminance, Hit, MediumId, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-/// One stored photon (40 bytes).
+/// One stored photon (40 bytes): a landing on a surface, or in a medium.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Photon {
     /// Where it landed.
@@ -43,6 +54,8 @@ pub struct Photon {
     /// Every scattering before this landing was specular (and there was at least one): the
     /// photon took a caustic path `L S+ D`.
     pub caustic: bool,
+    /// It landed in a medium (a real scattering event there), not on a surface.
+    pub in_medium: bool,
 }
 
 /// Which landings a photon pass stores.
@@ -63,19 +76,32 @@ const BLOCK: u32 = 4096;
 /// Seed offset separating photon streams from camera samples.
 const PHOTON_SEED: u64 = 0x70_686f_746f_6e73;
 
-/// Traces `count` photons from the scene's lights and returns the landings `keep` selects,
-/// with the rays cast. Photons scatter at most `max_bounces` times before their last stored
-/// landing (`u32::MAX` for no limit). `stream` separates independent photon sets under one
-/// seed (a pass number).
+/// What a photon pass traces.
+#[derive(Clone, Copy, Debug)]
+pub struct PhotonPass {
+    /// Photons emitted.
+    pub count: u32,
+    /// Which landings are stored.
+    pub keep: Keep,
+    /// Scattering events a photon may make before its last stored landing (`u32::MAX`: no
+    /// limit).
+    pub max_bounces: u32,
+    pub seed: u64,
+    /// Separates independent photon sets under one seed (a pass number).
+    pub stream: u64,
+    /// The camera's position: in scenes with media, the medium a photon starts in is found
+    /// by walking to its light from the camera's medium.
+    pub eye: Vec3A,
+}
+
+/// Traces a pass's photons from the scene's lights and returns the landings it keeps, with
+/// the rays cast.
 pub fn trace_photons(
     scene: &dyn Scene,
-    count: u32,
-    keep: Keep,
-    max_bounces: u32,
-    seed: u64,
-    stream: u64,
+    pass: &PhotonPass,
     stop: Stop,
 ) -> (Vec<Photon>, RayCounters) {
+    let count = pass.count;
     if scene.lights().is_empty() || count == 0 {
         return (Vec::new(), RayCounters::default());
     }
@@ -89,15 +115,8 @@ pub fn trace_photons(
                 if stop.requested() {
                     break;
                 }
-                let mut sampler = Sampler::new(seed ^ PHOTON_SEED, stream, i as u64);
-                trace_one(
-                    &mut tracer,
-                    &mut sampler,
-                    count,
-                    keep,
-                    max_bounces,
-                    &mut photons,
-                );
+                let mut sampler = Sampler::new(pass.seed ^ PHOTON_SEED, pass.stream, i as u64);
+                trace_one(&mut tracer, &mut sampler, pass, &mut photons);
             }
             (photons, tracer.counters)
         })
@@ -111,31 +130,125 @@ pub fn trace_photons(
     (photons, counters)
 }
 
-/// Emits one photon (of `count`) and follows it, appending its stored landings to `out`.
-fn trace_one(
-    tracer: &mut Tracer,
-    sampler: &mut Sampler,
-    count: u32,
-    keep: Keep,
-    max_bounces: u32,
-    out: &mut Vec<Photon>,
-) {
+/// A photon's state in media: the hero channel its free flights are sampled by and each
+/// channel's density over the hero's (see [`crate::integrator::media_walk`]).
+struct InMedia {
+    hero: usize,
+    r_u: Rgb,
+}
+
+impl InMedia {
+    /// The power the photon carries: one-sample MIS over the channels.
+    #[inline]
+    fn power(&self, beta: Rgb) -> Rgb {
+        beta / average(self.r_u)
+    }
+}
+
+/// Emits one photon of the pass and follows it, appending its stored landings to `out`.
+fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out: &mut Vec<Photon>) {
     let scene = tracer.scene;
+    let (keep, max_bounces) = (pass.keep, pass.max_bounces);
     // Emission: a light in proportion to power, a ray leaving it.
     let Some((_, pmf, emission)) = crate::integrator::emit_from_a_light(scene, sampler) else {
         return;
     };
-    let mut beta = emission.weight / (pmf * count as f32);
+    let mut beta = emission.weight / (pmf * pass.count as f32);
     let mut ray = emission.ray;
     let mut specular_so_far = true;
     let mut bounces = 0u32;
+    // In media: the light's medium, walked to from the camera's.
+    let mut media = None;
+    if scene.has_media() {
+        media = Some(InMedia {
+            hero: hero_channel(sampler.next_1d()),
+            r_u: Rgb::ONE,
+        });
+        ray.medium = medium_at(scene, pass.eye, scene.camera_medium(), ray.origin);
+    }
     loop {
         // Find the next landing.
-        let Some(hit) = tracer.light(&ray) else {
+        let hit = tracer.light(&ray);
+        if let Some(m) = media.as_mut() {
+            let carried = luminance(m.power(beta));
+            let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+            match fly(scene, &ray, tmax, m.hero, sampler, &mut beta, &mut m.r_u) {
+                Flight::Ended => return,
+                Flight::Through => {}
+                Flight::Scattered(p) => {
+                    // A landing in the medium: stored in the volume map (a caustic map keeps
+                    // surface landings only, and the photon ends).
+                    if keep == Keep::Caustic {
+                        return;
+                    }
+                    if keep == Keep::All || bounces > 0 {
+                        out.push(Photon {
+                            p: p.into(),
+                            wi: (-ray.dir).into(),
+                            power: m.power(beta).into(),
+                            bounces: bounces.min(u16::MAX as u32) as u16,
+                            caustic: specular_so_far && bounces > 0,
+                            in_medium: true,
+                        });
+                    }
+                    if bounces >= max_bounces || bounces >= u16::MAX as u32 {
+                        return;
+                    }
+                    let Some(medium) = scene.medium(ray.medium) else {
+                        return;
+                    };
+                    let ps = medium.phase().sample(-ray.dir, sampler.next_2d());
+                    if !positive(ps.pdf) {
+                        return;
+                    }
+                    beta *= ps.p / ps.pdf;
+                    specular_so_far = false;
+                    // Russian roulette on what the flight and the scattering left of the
+                    // power (the albedo), so that photons keep about the same power: one that
+                    // lost none (a white fog) plays only after `LONG_PATH` events, then
+                    // capped as on surfaces, so that every photon ends. (A cap from the first
+                    // event would multiply a long walk's power at each of its landings: a
+                    // cluster of strong photons, the heavy tail of a fog's estimate.)
+                    let ratio = luminance(m.power(beta)) / carried;
+                    if ratio.is_nan() {
+                        return;
+                    }
+                    if ratio < 1.0 || bounces >= LONG_PATH {
+                        let survive = ratio.min(MAX_SURVIVAL);
+                        if sampler.next_1d() >= survive {
+                            return;
+                        }
+                        beta /= survive;
+                    }
+                    ray = Ray {
+                        origin: p,
+                        dir: ps.wi,
+                        tmax: f32::INFINITY,
+                        medium: ray.medium,
+                    };
+                    bounces += 1;
+                    continue;
+                }
+            }
+        }
+        let Some(hit) = hit else {
             return;
         };
         // Textures do not change which lobes a material has.
         let material = scene.material(hit.material).bsdf();
+        if media.is_some() {
+            // A medium's boundary (or a mask's hole): crossed, no scattering event.
+            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            match cross_null(&sp, &ray, TransportMode::Importance, &mut beta, sampler) {
+                Some(Some(next)) => {
+                    ray = next;
+                    continue;
+                }
+                Some(None) => return,
+                None => {}
+            }
+        }
+        let power = media.as_ref().map_or(beta, |m| m.power(beta));
         // Store it if this map wants it.
         if !material.is_specular() {
             // Caustic: every scattering event so far was a Dirac lobe.
@@ -149,9 +262,10 @@ fn trace_one(
                 out.push(Photon {
                     p: hit.p.into(),
                     wi: (-ray.dir).into(),
-                    power: beta.into(),
+                    power: power.into(),
                     bounces: bounces.min(u16::MAX as u32) as u16,
                     caustic,
+                    in_medium: false,
                 });
             }
             // A caustic photon ends here unless a Dirac lobe (a plastic's coating) may still
@@ -192,20 +306,31 @@ fn trace_one(
     }
 }
 
-/// A path followed through specular bounces to its first non-specular surface.
+/// Where a path followed through specular bounces stops to gather.
+#[derive(Clone, Copy, Debug)]
+pub enum Spot {
+    /// A non-specular surface.
+    Surface(Hit),
+    /// A real scattering event in the medium of the landing's ray, at this point.
+    Medium(Vec3A),
+}
+
+/// A path followed through specular bounces to its first non-specular scattering point.
 pub struct Landing {
-    pub hit: Hit,
-    /// The ray that arrived at `hit`.
+    pub at: Spot,
+    /// The ray that arrived there (in the medium it crossed).
     pub ray: Ray,
-    /// Throughput from the path's start to `hit`.
+    /// Throughput from the path's start to there (in media, divided by the average of the
+    /// channels' densities: an estimate in every channel).
     pub beta: Rgb,
-    /// Specular bounces before `hit`.
+    /// Specular bounces before it.
     pub bounces: u32,
 }
 
 /// Follows `ray` through specular bounces (at most `max_bounces`, Russian roulette from
-/// `rr_depth` on) to a non-specular surface: where photon integrators gather. With
-/// `emission`, adds the emission met on the way (and escaping radiance) to it.
+/// `rr_depth` on) to a non-specular surface, or in media to a real scattering event: where
+/// photon integrators gather. With `emission`, adds the emission met on the way (and
+/// escaping radiance) to it. A camera ray (`first_is_camera`) starts in the camera's medium.
 pub fn land(
     ray: Ray,
     first_is_camera: bool,
@@ -215,39 +340,87 @@ pub fn land(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Option<Landing> {
+    let scene = tracer.scene;
     let mut l = emission;
     let mut path = if first_is_camera {
-        PathState::from_camera(ray)
+        PathState::from_camera(Ray {
+            medium: scene.camera_medium(),
+            ..ray
+        })
     } else {
         PathState::from_surface(ray)
     };
+    // In media: the hero channel of the free flights and each channel's density over it.
+    let mut media = scene.has_media().then(|| InMedia {
+        hero: hero_channel(sampler.next_1d()),
+        r_u: Rgb::ONE,
+    });
     loop {
-        let Some(hit) = path.trace(tracer) else {
+        let hit = path.trace(tracer);
+        if let Some(m) = media.as_mut() {
+            let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+            let ray = path.ray;
+            match fly(
+                scene,
+                &ray,
+                tmax,
+                m.hero,
+                sampler,
+                &mut path.beta,
+                &mut m.r_u,
+            ) {
+                Flight::Ended => return None,
+                Flight::Through => {}
+                Flight::Scattered(p) => {
+                    return Some(Landing {
+                        at: Spot::Medium(p),
+                        ray,
+                        beta: m.power(path.beta),
+                        bounces: path.bounces,
+                    })
+                }
+            }
+        }
+        let carried = media.as_ref().map_or(path.beta, |m| m.power(path.beta));
+        let Some(hit) = hit else {
             if let Some(l) = l.as_deref_mut() {
-                *l += path.beta * escaped(tracer.scene, &path.ray);
+                *l += carried * escaped(scene, &path.ray);
             }
             return None;
         };
         if let Some(l) = l.as_deref_mut() {
-            *l += path.beta * emitted_at(tracer.scene, &hit, &path.ray);
+            *l += carried * emitted_at(scene, &hit, &path.ray);
         }
         // A surface with Dirac lobes (all of them, or a plastic's coating over its base) sends
         // the path on through one of them with their probability `p`; otherwise the path
         // lands here, weighted by 1 / (1 - p), and is gathered with the rest of the BSDF.
         let landing = |beta| Landing {
-            hit,
+            at: Spot::Surface(hit),
             ray: path.ray,
             beta,
             bounces: path.bounces,
         };
-        if !tracer.scene.material(hit.material).may_have_delta_lobe() {
-            return Some(landing(path.beta));
+        if !scene.material(hit.material).may_have_delta_lobe() {
+            return Some(landing(carried));
         }
-        let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+        let sp = ShadingPoint::new(&hit, path.ray.dir, scene);
+        if media.is_some() {
+            // A medium's boundary (or a mask's hole): crossed, no scattering event.
+            let (mut beta, ray) = (path.beta, path.ray);
+            match cross_null(&sp, &ray, TransportMode::Radiance, &mut beta, sampler) {
+                Some(Some(next)) => {
+                    path.beta = beta;
+                    path.ray = next;
+                    continue;
+                }
+                Some(None) => return None,
+                None => {}
+            }
+        }
         let p = sp.material.delta_probability(sp.wo);
         let u_lobe = if p > 0.0 { sampler.next_1d() } else { 1.0 };
         if u_lobe >= p {
-            return Some(landing(path.beta / (1.0 - p)));
+            return Some(landing(carried / (1.0 - p)));
         }
         if path.bounces >= max_bounces {
             return None;
@@ -422,6 +595,50 @@ impl PhotonMap {
     }
 }
 
+impl PhotonMap {
+    /// Radiance scattered towards `wo` (back along the ray that arrived) at `p`, in `medium`,
+    /// by the photons that landed in the medium near `p` and that `accept` admits. A photon
+    /// landing at a real scattering event carries `sigma_s L dw dV` in expectation, so
+    /// `sum phase(wo, wi) Phi / (4/3 pi r^3)` estimates `sigma_s` times the in-scattered
+    /// radiance `int phase L dw`; this returns the latter (the caller's throughput to `p`
+    /// holds the `sigma_s` of the scattering event), 0 in a channel that does not scatter.
+    pub fn in_scattered(
+        &self,
+        scene: &dyn Scene,
+        medium: MediumId,
+        p: Vec3A,
+        wo: Vec3A,
+        accept: impl Fn(&Photon) -> bool,
+    ) -> Rgb {
+        let Some(m) = scene.medium(medium) else {
+            return Rgb::ZERO;
+        };
+        let phase = m.phase();
+        let mut sum = Rgb::ZERO;
+        self.for_each_near(p, |ph| {
+            if accept(ph) {
+                sum += phase.eval(wo, Vec3A::from(ph.wi)) * Vec3A::from(ph.power);
+            }
+        });
+        let volume = 4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3);
+        let sigma_s = m.at(p).sigma_s;
+        let per = |c: usize| {
+            if positive(sigma_s[c]) {
+                sum[c] / (volume * sigma_s[c])
+            } else {
+                0.0
+            }
+        };
+        Rgb::new(per(0), per(1), per(2))
+    }
+}
+
+/// A photon set split by where its photons landed: on surfaces, and in media (kept in the
+/// same order, so the maps do not depend on the thread count).
+pub fn split_by_place(photons: Vec<Photon>) -> (Vec<Photon>, Vec<Photon>) {
+    photons.into_iter().partition(|p| !p.in_medium)
+}
+
 /// The default first gather radius: a fraction of the scene's bounding-box diagonal.
 pub fn auto_radius(scene: &dyn Scene, fraction: f32) -> f32 {
     let (lo, hi) = scene.bounds();
@@ -438,6 +655,17 @@ mod tests {
     use super::*;
     use crate::testing::{floor_under_sphere_light, furnace_sphere};
 
+    fn pass(count: u32, keep: Keep, max_bounces: u32, seed: u64, stream: u64) -> PhotonPass {
+        PhotonPass {
+            count,
+            keep,
+            max_bounces,
+            seed,
+            stream,
+            eye: Vec3A::ZERO,
+        }
+    }
+
     #[test]
     fn grid_finds_exactly_the_photons_within_the_radius() {
         let mut s = Sampler::new(3, 0, 0);
@@ -448,6 +676,7 @@ mod tests {
                 power: Vec3::splat(i as f32),
                 bounces: 0,
                 caustic: false,
+                in_medium: false,
             })
             .collect();
         let map = PhotonMap::build(photons.clone(), 0.13);
@@ -470,7 +699,7 @@ mod tests {
         // Inside the closed furnace every photon lands: the first landings carry the emitted
         // power, 2 pi Le A (both sides emit, the outward half escapes: pi Le A lands).
         let scene = furnace_sphere(0.5, 1.0);
-        let (photons, _) = trace_photons(&scene, 200_000, Keep::All, 0, 7, 0, Stop::NEVER);
+        let (photons, _) = trace_photons(&scene, &pass(200_000, Keep::All, 0, 7, 0), Stop::NEVER);
         let first: f64 = photons.iter().map(|p| p.power.y as f64).sum();
         let area: f64 = scene
             .lights()
@@ -492,7 +721,8 @@ mod tests {
     fn density_estimate_matches_the_irradiance_below_a_sphere_light() {
         // Direct landings on the floor below a sphere light: a L (r/d)^2 = 0.125.
         let scene = floor_under_sphere_light(0.5, 4.0, 0.5, 2.0);
-        let (photons, _) = trace_photons(&scene, 1_000_000, Keep::All, 0, 11, 0, Stop::NEVER);
+        let (photons, _) =
+            trace_photons(&scene, &pass(1_000_000, Keep::All, 0, 11, 0), Stop::NEVER);
         // About 5,500 photons within r = 0.15: a 1.3% standard error; the irradiance falls
         // by 1% from the centre to the disk's edge.
         let map = PhotonMap::build(photons, 0.15);
@@ -511,7 +741,11 @@ mod tests {
                 .build()
                 .unwrap()
                 .install(|| {
-                    trace_photons(&scene, 3 * BLOCK + 17, Keep::Indirect, 8, 5, 2, Stop::NEVER)
+                    trace_photons(
+                        &scene,
+                        &pass(3 * BLOCK + 17, Keep::Indirect, 8, 5, 2),
+                        Stop::NEVER,
+                    )
                 })
         };
         let (a, ca) = run(1);

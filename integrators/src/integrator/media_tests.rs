@@ -13,15 +13,29 @@ use crate::testing::media::*;
 use crate::testing::{expect_mean_passes, TestScene};
 use crate::Rgb;
 
-type Params = &'static [(&'static str, &'static str)];
+type Params = Vec<(&'static str, &'static str)>;
 
 /// The entries that render media (emitting ones too, with `emitting`), with the parameters
-/// their analytic checks use, and whether they estimate radiance along a ray.
+/// their analytic checks use, and whether they estimate radiance along a ray. Density
+/// estimates trace more photons than on the surface scenes: a photon's power in a coloured
+/// medium varies with the channel its flights were sampled by.
 fn media_entries(emitting: bool) -> Vec<(&'static str, Params, bool)> {
     let entries: Vec<_> = REGISTRY
         .iter()
         .filter(|e| e.media == MediaSupport::Full || (!emitting && e.media.any()))
-        .map(|e| (e.name, e.analytic.map_or(&[][..], |a| a.params), by_rays(e)))
+        .map(|e| {
+            let analytic = e.analytic.map_or(&[][..], |a| a.params);
+            let params = if is_density_estimate(e) {
+                let has = |name| e.params.iter().any(|p| p.name == name);
+                [("photons", "500000"), ("caustic-photons", "100000")]
+                    .into_iter()
+                    .filter(|(k, _)| has(*k))
+                    .collect()
+            } else {
+                analytic.to_vec()
+            };
+            (e.name, params, by_rays(e))
+        })
         .collect();
     assert!(!entries.is_empty(), "no integrator renders media");
     entries
@@ -47,11 +61,31 @@ fn by_rays(e: &IntegratorEntry) -> bool {
         .is_ok_and(|i| i.as_ray_integrator().is_some())
 }
 
+/// The relative bias an integrator's estimate may show: a density estimate's (an integrator
+/// with a gather `radius`) blurs radiance over its kernel, which near a medium's boundary
+/// reaches past the medium, where no photon lands; exact estimators none.
+fn allowed_bias(name: &str) -> f64 {
+    let entry = crate::find(name).unwrap_or_else(|e| panic!("{e}"));
+    if is_density_estimate(entry) {
+        DENSITY_BIAS
+    } else {
+        0.0
+    }
+}
+
+/// Whether an integrator estimates densities (has a gather `radius`).
+fn is_density_estimate(e: &IntegratorEntry) -> bool {
+    e.params.iter().any(|p| p.name == "radius")
+}
+
+/// What [`allowed_bias`] allows a density estimate.
+const DENSITY_BIAS: f64 = 0.03;
+
 /// [`expect_rgb`] for an integrator of rays; for one of light paths, the image means of
 /// passes (green).
 fn check(name: &str, params: &[(&str, &str)], rays: bool, scene: &TestScene, exact: Rgb, n: u32) {
     if rays {
-        expect_rgb(name, params, scene, exact, n);
+        expect_rgb_within(name, params, scene, exact, n, allowed_bias(name));
     } else {
         expect_mean_passes(name, params, scene, exact.y, 80, 10000);
     }
@@ -61,7 +95,7 @@ fn check(name: &str, params: &[(&str, &str)], rays: bool, scene: &TestScene, exa
 fn beers_law_through_an_absorbing_ball() {
     let (scene, exact) = absorbing_ball(Rgb::new(0.3, 0.7, 1.5), 2.0);
     for (name, params, rays) in media_entries(false) {
-        check(name, params, rays, &scene, exact, 40_000);
+        check(name, &params, rays, &scene, exact, 40_000);
     }
 }
 
@@ -75,9 +109,9 @@ fn a_furnace_of_white_fog_gives_one_at_any_density() {
         );
         for (name, params, rays) in media_entries(false) {
             if rays {
-                check(name, params, rays, &inside, Rgb::ONE, 40_000);
+                check(name, &params, rays, &inside, Rgb::ONE, 40_000);
             }
-            check(name, params, rays, &outside, Rgb::ONE, 40_000);
+            check(name, &params, rays, &outside, Rgb::ONE, 40_000);
         }
         // The light tracer sees nothing through the pane: a light path's vertex behind a
         // Dirac lobe cannot be joined to the lens, with media or without.
@@ -103,7 +137,7 @@ fn a_furnace_of_white_fog_gives_one_at_any_density() {
 fn a_glowing_ball_emits_what_it_does_not_absorb() {
     let (scene, exact) = glowing_ball(Rgb::new(0.4, 0.8, 1.6), Rgb::new(1.0, 2.0, 3.0));
     for (name, params, rays) in media_entries(true) {
-        check(name, params, rays, &scene, exact, 40_000);
+        check(name, &params, rays, &scene, exact, 40_000);
     }
 }
 
@@ -115,7 +149,8 @@ fn single_scattering_of_a_point_light_matches_the_quadrature() {
         let exact = single_scattering_exact(sigma_t, albedo, phase, 4.0);
         // A pinhole a hair's breadth wide: only integrators of rays see it well.
         for (name, _, _) in media_entries(false).into_iter().filter(|e| e.2) {
-            expect_rgb(name, &[("max-depth", "1")], &scene, exact, 40_000);
+            let bias = allowed_bias(name);
+            expect_rgb_within(name, &[("max-depth", "1")], &scene, exact, 40_000, bias);
         }
     }
 }

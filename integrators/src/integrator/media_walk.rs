@@ -8,9 +8,9 @@
 //! `r_u`, each channel's density over the hero's; an estimate divides by the average of
 //! `r_u`, one-sample MIS over the channels that keeps coloured media from being noisy.
 
-use crate::integrator::{ShadingPoint, Tracer};
+use crate::integrator::{stays_on_viewer_side, ShadingPoint, Tracer};
 use crate::medium::tracking::sample_t_maj;
-use crate::{Hit, MediumId, Ray, Rgb, Sampler, Scene};
+use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene};
 use glam::Vec3A;
 
 /// How many surfaces a walk crosses before it gives up (a bound on one ray's work).
@@ -204,5 +204,85 @@ fn next_towards(h: &Hit, ray: &Ray, target: Vec3A) -> Ray {
         h.spawn_ray_to(target)
     } else {
         h.spawn_ray(ray.dir)
+    }
+}
+
+/// A scattering point a light sample is taken at: a surface, or a point in a medium.
+pub enum Scatterer<'s, 'a> {
+    Surface(&'s ShadingPoint<'a>),
+    /// At `p` in `medium`, `wo` back along the ray that reached it.
+    Medium {
+        p: Vec3A,
+        wo: Vec3A,
+        medium: MediumId,
+    },
+}
+
+/// Direct light at `at` from one light sample (a light chosen in proportion to power), with
+/// no MIS: `f Tr Le / pdf`, `f` the BSDF and cosine or the phase function, `Tr` the
+/// transmittance to the light ([`transmittance`]: through media and `Null` boundaries only,
+/// so that it never counts light a path through a Dirac lobe counts). The photon gathers'
+/// next-event estimation in media.
+pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    let scene: &dyn Scene = tracer.scene;
+    let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
+    let hero = hero_channel(sampler.next_1d());
+    let Some((index, pmf)) = scene.lights().sample(u_light) else {
+        return Rgb::ZERO;
+    };
+    let light = scene.lights().get(index);
+    let (ls, f, ray) = match at {
+        Scatterer::Surface(sp) => {
+            if !sp.can_receive(index, scene.lights()) {
+                return Rgb::ZERO;
+            }
+            let Some(ls) = light.sample_li(sp.hit.p, u) else {
+                return Rgb::ZERO;
+            };
+            if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, ls.wi) {
+                return Rgb::ZERO;
+            }
+            let wi = sp.frame.to_local(ls.wi);
+            let ray = if ls.dist.is_finite() {
+                sp.hit.spawn_ray_to(ls.point)
+            } else {
+                sp.hit.spawn_ray(ls.wi)
+            };
+            (ls, sp.material.eval(sp.wo, wi) * wi.z.abs(), ray)
+        }
+        Scatterer::Medium { p, wo, medium } => {
+            let Some(m) = scene.medium(*medium) else {
+                return Rgb::ZERO;
+            };
+            let Some(ls) = light.sample_li(*p, u) else {
+                return Rgb::ZERO;
+            };
+            let f = Rgb::splat(m.phase().eval(*wo, ls.wi));
+            (ls, f, ray_from_point(*p, &ls, *medium))
+        }
+    };
+    if !positive(ls.pdf) || ls.radiance == Rgb::ZERO || f == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let l = f * ls.radiance / (pmf * ls.pdf) * transmittance(tracer, &ray, hero, sampler);
+    if l.is_finite() {
+        l
+    } else {
+        Rgb::ZERO
+    }
+}
+
+/// The shadow ray from a point in a medium towards a light sample, stopping short of it.
+pub fn ray_from_point(p: Vec3A, ls: &LightSample, medium: MediumId) -> Ray {
+    let tmax = if ls.dist.is_finite() {
+        (ls.dist * (1.0 - 1e-4) - 1e-5 * (1.0 + ls.point.abs().max_element())).max(0.0)
+    } else {
+        f32::INFINITY
+    };
+    Ray {
+        origin: p,
+        dir: ls.wi,
+        tmax,
+        medium,
     }
 }

@@ -17,17 +17,31 @@
 //!
 //! The maps are built once, from the seed alone, so every pass reuses them.
 //!
+//! **In participating media** (Jensen and Christensen's volume photon map, 1998): photons
+//! walk media by delta tracking and the global pass also stores a photon at every real
+//! scattering event in a medium (a volume map). A camera or gather path that scatters in a
+//! medium before reaching a surface stops there: direct light by a light sample with the
+//! transmittance to the light, and everything else (volumetric caustics included) from the
+//! volume map, `sum phase Phi / (sigma_s 4/3 pi r^3)` over the photons within the global
+//! radius; no final gathering from a point in a medium. Media that emit are refused.
+//!
 //! **Parameters**: `photons` (global map, default 200000), `caustic-photons` (emitted for the
 //! caustic map, default 1000000), `radius` (caustic gather radius; 0 = 0.5% of the scene's
 //! bounding-box diagonal), `global-radius` (0 = 1% of it), `gather` (final-gather rays,
 //! default 8), `max-depth` (default unlimited).
 //! **Bias**: density estimation blurs light over the gather radii and does not vanish with
-//! more passes (use `sppm` for a consistent estimate); truncation with a finite `max-depth`.
+//! more passes (use `sppm` for a consistent estimate); in media, the volume kernel also
+//! reaches past a medium's boundary, where no photon lands (darker within a radius of it);
+//! truncation with a finite `max-depth`.
 
+use crate::integrator::media_walk::{direct_light, Scatterer};
 use crate::integrator::{
     continue_path, sample_one_light, Demand, RayIntegrator, ShadingPoint, Tracer,
 };
-use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
+use crate::photon_map::{
+    auto_radius, land, photon_map_bytes, split_by_place, trace_photons, Keep, Photon, PhotonMap,
+    PhotonPass, Spot,
+};
 use crate::registry::{
     IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
 };
@@ -74,7 +88,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         })
     },
     analytic: None,
-    media: MediaSupport::None,
+    media: MediaSupport::Scattering,
 };
 
 /// Specular bounces a camera or gather path follows before Russian roulette may end it.
@@ -93,6 +107,8 @@ struct PhotonMapping {
 struct Maps {
     caustic: PhotonMap,
     global: PhotonMap,
+    /// The global map's landings in media.
+    volume: PhotonMap,
 }
 
 impl RayIntegrator for PhotonMapping {
@@ -106,7 +122,11 @@ impl RayIntegrator for PhotonMapping {
 
     fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
         let PassContext {
-            scene, seed, stop, ..
+            scene,
+            camera,
+            seed,
+            stop,
+            ..
         } = *cx;
         if self.maps.is_some() {
             return RayCounters::default();
@@ -120,25 +140,28 @@ impl RayIntegrator for PhotonMapping {
             }
         };
         let max_bounces = self.max_depth.saturating_sub(1);
-        let (caustic, mut rays) = trace_photons(
-            scene,
-            self.caustic_photons,
-            Keep::Caustic,
+        let pass = |count, keep, stream| PhotonPass {
+            count,
+            keep,
             max_bounces,
             seed,
-            0,
-            stop,
-        );
-        let (global, global_rays) =
-            trace_photons(scene, self.photons, Keep::All, max_bounces, seed, 1, stop);
+            stream,
+            eye: camera.eye,
+        };
+        let (caustic, mut rays) =
+            trace_photons(scene, &pass(self.caustic_photons, Keep::Caustic, 0), stop);
+        let (global, global_rays) = trace_photons(scene, &pass(self.photons, Keep::All, 1), stop);
         rays.add(&global_rays);
         if stop.requested() {
             // Cut short: not the maps of this seed, and never to be reused.
             return rays;
         }
+        let global_radius = pick(self.global_radius, 0.01);
+        let (global, volume) = split_by_place(global);
         self.maps = Some(Maps {
             caustic: PhotonMap::build(caustic, pick(self.radius, 0.005)),
-            global: PhotonMap::build(global, pick(self.global_radius, 0.01)),
+            global: PhotonMap::build(global, global_radius),
+            volume: PhotonMap::build(volume, global_radius),
         });
         rays
     }
@@ -164,12 +187,27 @@ impl RayIntegrator for PhotonMapping {
         if depth >= self.max_depth {
             return l;
         }
-        let sp = ShadingPoint::new(&x.hit, x.ray.dir, tracer.scene);
-        // Direct light by next-event estimation.
-        l += x.beta * sample_one_light(&sp, false, tracer, sampler);
-        // Caustics from the caustic map: photons that landed after b >= 1 specular bounces
-        // make paths of depth depth + 1 + b.
+        let scene = tracer.scene;
+        // Photons that landed after b bounces make paths of depth depth + 1 + b.
         let photon_budget = self.max_depth.saturating_sub(depth + 1);
+        let hit = match x.at {
+            Spot::Surface(hit) => hit,
+            Spot::Medium(p) => {
+                // In a medium: direct light by next-event estimation, the rest (caustics
+                // included) from the volume map, read directly.
+                let (wo, medium) = (-x.ray.dir, x.ray.medium);
+                l += x.beta * direct_light(&Scatterer::Medium { p, wo, medium }, tracer, sampler);
+                l += x.beta
+                    * maps.volume.in_scattered(scene, medium, p, wo, |ph| {
+                        ph.bounces >= 1 && (ph.bounces as u32) <= photon_budget
+                    });
+                return l;
+            }
+        };
+        let sp = ShadingPoint::new(&hit, x.ray.dir, scene);
+        // Direct light by next-event estimation.
+        l += x.beta * direct(&sp, tracer, sampler);
+        // Caustics from the caustic map: photons that landed after b >= 1 specular bounces.
         l += x.beta
             * maps
                 .caustic
@@ -185,8 +223,8 @@ impl RayIntegrator for PhotonMapping {
                 });
             return l;
         }
-        // Final gathering: the global map's estimate of the light leaving the first
-        // non-specular point each gather ray reaches.
+        // Final gathering: the global maps' estimate of the light leaving the first
+        // non-specular point each gather ray reaches, on a surface or in a medium.
         let mut gathered = Rgb::ZERO;
         for _ in 0..self.gather {
             let mut weight = Rgb::ONE;
@@ -202,14 +240,30 @@ impl RayIntegrator for PhotonMapping {
             let Some(photon_budget) = budget.checked_sub(y.bounces) else {
                 continue;
             };
-            let y_sp = ShadingPoint::new(&y.hit, y.ray.dir, tracer.scene);
+            let accept = |p: &Photon| (p.bounces as u32) <= photon_budget;
             gathered += weight
                 * y.beta
-                * maps
-                    .global
-                    .radiance(&y_sp, |p| (p.bounces as u32) <= photon_budget);
+                * match y.at {
+                    Spot::Surface(hit) => {
+                        let y_sp = ShadingPoint::new(&hit, y.ray.dir, scene);
+                        maps.global.radiance(&y_sp, accept)
+                    }
+                    Spot::Medium(p) => {
+                        maps.volume
+                            .in_scattered(scene, y.ray.medium, p, -y.ray.dir, accept)
+                    }
+                };
         }
         l + x.beta * gathered / self.gather as f32
+    }
+}
+
+/// Direct light at a surface by one light sample (through media where the scene has them).
+pub(super) fn direct(sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    if tracer.scene.has_media() {
+        direct_light(&Scatterer::Surface(sp), tracer, sampler)
+    } else {
+        sample_one_light(sp, false, tracer, sampler)
     }
 }
 

@@ -12,6 +12,13 @@
 //! behave exactly as for every other integrator. (pbrt-v4 shrinks a radius per pixel instead,
 //! which adapts faster but keeps state per pixel.)
 //!
+//! In participating media, photons walk media by delta tracking and are also stored where
+//! they scatter in a medium; a camera path that scatters in a medium before reaching a
+//! surface gathers there: direct light by a light sample through the media, the rest from
+//! the photons in the medium within `r_i` (`sum phase Phi / (sigma_s 4/3 pi r_i^3)`, the
+//! volume photon map's estimate). With `r_i^2 ~ i^(alpha - 1)`, `r_i^3 N` still grows, so
+//! the volume estimate is consistent too. Media that emit are refused.
+//!
 //! Caustics seen directly or through mirrors and glass (`L S+ D S* E`), which path tracing
 //! finds only by hitting a light with a BSDF sample, come from photons and converge quickly.
 //!
@@ -22,10 +29,16 @@
 //! camera side, which `max-depth` then bounds alone: pbrt-v4's convention, `maxdepth - 1`),
 //! `rr-depth` for the camera's specular chain (default 3).
 //! **Bias**: a blur of radius `r_i` in pass `i`, vanishing as passes grow (consistent, not
-//! unbiased); truncation with a finite `max-depth`.
+//! unbiased; in media also a darkening within `r_i` of a medium's boundary, vanishing with
+//! it); truncation with a finite `max-depth`.
 
-use crate::integrator::{sample_one_light, Demand, RayIntegrator, ShadingPoint, Tracer};
-use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
+use crate::integrator::media_walk::{direct_light, Scatterer};
+use crate::integrator::photon::direct;
+use crate::integrator::{Demand, RayIntegrator, ShadingPoint, Tracer};
+use crate::photon_map::{
+    auto_radius, land, photon_map_bytes, split_by_place, trace_photons, Keep, Photon, PhotonMap,
+    PhotonPass, Spot,
+};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
     MAX_DEPTH, PHOTONS, RR_DEPTH,
@@ -68,6 +81,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             photon_depth: (p.get("photon-depth") >= 0.0).then(|| p.get_u32("photon-depth")),
             rr_depth: p.get_u32("rr-depth"),
             map: PhotonMap::default(),
+            volume: PhotonMap::default(),
         })
     },
     analytic: Some(Analytic {
@@ -76,7 +90,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: None,
     }),
-    media: MediaSupport::None,
+    media: MediaSupport::Scattering,
 };
 
 struct Sppm {
@@ -88,8 +102,10 @@ struct Sppm {
     /// Photon bounces counted apart from the camera side, if so.
     photon_depth: Option<u32>,
     rr_depth: u32,
-    /// This pass's photons, built for this pass's radius.
+    /// This pass's photons on surfaces, built for this pass's radius.
     map: PhotonMap,
+    /// This pass's photons in media, likewise.
+    volume: PhotonMap,
 }
 
 /// `r_pass / r_0` for pass `pass` (0-based): `prod_{i=1}^{pass} (i + alpha) / (i + 1)`, square
@@ -114,6 +130,7 @@ impl RayIntegrator for Sppm {
     fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
         let PassContext {
             scene,
+            camera,
             seed,
             pass,
             stop,
@@ -131,17 +148,19 @@ impl RayIntegrator for Sppm {
         let max_bounces = self
             .photon_depth
             .unwrap_or(self.max_depth.saturating_sub(1));
-        let (photons, rays) = trace_photons(
-            scene,
-            self.photons,
-            Keep::Indirect,
+        let photon_pass = PhotonPass {
+            count: self.photons,
+            keep: Keep::Indirect,
             max_bounces,
             seed,
-            pass as u64,
-            stop,
-        );
+            stream: pass as u64,
+            eye: camera.eye,
+        };
+        let (photons, rays) = trace_photons(scene, &photon_pass, stop);
         if !stop.requested() {
-            self.map = PhotonMap::build(photons, radius);
+            let (surface, volume) = split_by_place(photons);
+            self.map = PhotonMap::build(surface, radius);
+            self.volume = PhotonMap::build(volume, radius);
         }
         rays
     }
@@ -164,19 +183,29 @@ impl RayIntegrator for Sppm {
         if x.bounces >= self.max_depth {
             return l;
         }
-        let sp = ShadingPoint::new(&x.hit, x.ray.dir, tracer.scene);
-        // Direct light by next-event estimation (no BSDF sample looks for emitters here, so
-        // no MIS) ...
-        l += x.beta * sample_one_light(&sp, false, tracer, sampler);
-        // ... and everything else from this pass's photons, within the depth limit: a photon
-        // that landed after b bounces makes a path of depth x.bounces + 1 + b.
+        // A photon that landed after b bounces makes a path of depth x.bounces + 1 + b.
         let max_photon_bounces = self
             .photon_depth
             .unwrap_or(self.max_depth.saturating_sub(x.bounces + 1));
-        l += x.beta
-            * self
-                .map
-                .radiance(&sp, |p| (p.bounces as u32) <= max_photon_bounces);
+        let accept = |p: &Photon| (p.bounces as u32) <= max_photon_bounces;
+        let hit = match x.at {
+            Spot::Surface(hit) => hit,
+            Spot::Medium(p) => {
+                // In a medium: direct light by next-event estimation, the rest from the
+                // photons that landed in the medium within the radius.
+                let (wo, medium) = (-x.ray.dir, x.ray.medium);
+                l += x.beta * direct_light(&Scatterer::Medium { p, wo, medium }, tracer, sampler);
+                let scene = tracer.scene;
+                l += x.beta * self.volume.in_scattered(scene, medium, p, wo, accept);
+                return l;
+            }
+        };
+        let sp = ShadingPoint::new(&hit, x.ray.dir, tracer.scene);
+        // Direct light by next-event estimation (no BSDF sample looks for emitters here, so
+        // no MIS) ...
+        l += x.beta * direct(&sp, tracer, sampler);
+        // ... and everything else from this pass's photons, within the depth limit.
+        l += x.beta * self.map.radiance(&sp, accept);
         l
     }
 }

@@ -35,7 +35,9 @@
 use crate::integrator::Work;
 use crate::integrator::{sample_one_light, Demand, Integrator, ShadingPoint};
 use crate::integrator::{Stop, Tracer};
-use crate::photon_map::{auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap};
+use crate::photon_map::{
+    auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap, PhotonPass, Spot,
+};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
     MAX_DEPTH, PHOTONS, RR_DEPTH,
@@ -171,10 +173,11 @@ impl SppmPixel {
                         &mut tracer,
                         &mut sampler,
                     ) {
-                        if x.bounces < max_depth {
-                            let sp = ShadingPoint::new(&x.hit, x.ray.dir, scene);
+                        // Without media (refused), a visible point is on a surface.
+                        if let (true, Spot::Surface(hit)) = (x.bounces < max_depth, x.at) {
+                            let sp = ShadingPoint::new(&hit, x.ray.dir, scene);
                             l += x.beta * sample_one_light(&sp, false, &mut tracer, &mut sampler);
-                            px.visible = Some((x.hit, x.ray, x.beta, x.bounces));
+                            px.visible = Some((hit, x.ray, x.beta, x.bounces));
                         }
                     }
                     direct.push(l);
@@ -199,15 +202,15 @@ impl SppmPixel {
             .map(|p| level_of(p.radius, r0))
             .collect();
         let max_bounces = self.max_depth.saturating_sub(1);
-        let (photons, photon_rays) = trace_photons(
-            scene,
-            self.photons,
-            Keep::Indirect,
+        let photon_pass = PhotonPass {
+            count: self.photons,
+            keep: Keep::Indirect,
             max_bounces,
             seed,
-            pass as u64,
-            stop,
-        );
+            stream: pass as u64,
+            eye: camera.eye,
+        };
+        let (photons, photon_rays) = trace_photons(scene, &photon_pass, stop);
         rays.add(&photon_rays);
         if stop.requested() {
             return rays;

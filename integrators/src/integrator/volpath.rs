@@ -26,7 +26,7 @@
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::bsdf::TransportMode;
-use crate::integrator::media_walk::{average, hero_channel, positive};
+use crate::integrator::media_walk::{average, hero_channel, positive, ray_from_point};
 use crate::integrator::{emitted_at, escaped, stays_on_viewer_side, RayIntegrator, ShadingPoint};
 use crate::medium::tracking::sample_t_maj;
 use crate::medium::Phase;
@@ -56,7 +56,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 };
 
 /// Scattering events after which Russian roulette plays even on a path that loses nothing.
-const LONG_PATH: u32 = 1024;
+pub(crate) const LONG_PATH: u32 = 1024;
 
 pub(crate) struct VolPath {
     pub(crate) max_depth: u32,
@@ -377,21 +377,6 @@ impl VolPath {
             return Rgb::ZERO;
         }
         w.beta * f * t_ray * ls.radiance / denom
-    }
-}
-
-/// The shadow ray from a point in a medium towards a light sample, stopping short of it.
-fn ray_from_point(p: Vec3A, ls: &LightSample, medium: MediumId) -> Ray {
-    let tmax = if ls.dist.is_finite() {
-        (ls.dist * (1.0 - 1e-4) - 1e-5 * (1.0 + ls.point.abs().max_element())).max(0.0)
-    } else {
-        f32::INFINITY
-    };
-    Ray {
-        origin: p,
-        dir: ls.wi,
-        tmax,
-        medium,
     }
 }
 

@@ -184,36 +184,85 @@ pub fn single_scattering_exact(sigma_t: Rgb, albedo: Rgb, phase: Phase, intensit
     Rgb::new(sum[0] as f32, sum[1] as f32, sum[2] as f32)
 }
 
+/// Batches of a density estimate's samples in [`expect_rgb_within`].
+const DENSITY_BATCHES: u32 = 16;
+
 /// Asserts that integrator `name` (with `params`) matches `expected` in every channel by a
 /// t-test over `n` probe rays (|t| < 4, and a standard error small enough to see a 5% bias).
 pub fn expect_rgb(name: &str, params: &[(&str, &str)], scene: &TestScene, expected: Rgb, n: u32) {
+    expect_rgb_within(name, params, scene, expected, n, 0.0);
+}
+
+/// [`expect_rgb`] for a density estimate, allowing besides the noise a relative bias `bias`
+/// (its blur, which more samples do not shrink). Its camera samples share the photons of
+/// their pass, which makes them correlated, so the samples are split into batches, each
+/// with its own integrator and photons (seed), and the standard error comes from the spread
+/// of the batches' means.
+pub fn expect_rgb_within(
+    name: &str,
+    params: &[(&str, &str)],
+    scene: &TestScene,
+    expected: Rgb,
+    n: u32,
+    bias: f64,
+) {
+    let batches = if bias > 0.0 { DENSITY_BATCHES } else { 1 };
     let given: Vec<(String, String)> = params
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
-    let integrator = crate::find(name)
-        .and_then(|e| e.instantiate(&given))
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
-    let rays = super::as_ray_integrator(name, integrator.as_ref());
-    let mut tracer = crate::Tracer::new(scene);
+    let per_batch = n / batches;
+    let mut means = Vec::new();
     let (mut sum, mut sum_sq) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-    for i in 0..n {
-        let mut sampler = crate::Sampler::new(777, i as u64, 0);
-        let ray = super::camera_ray(&scene.camera, &mut sampler);
-        let l = rays.radiance(&ray, &mut tracer, &mut sampler).as_dvec3();
-        assert!(l.is_finite(), "{name}: non-finite sample {l}");
-        sum += l;
-        sum_sq += l * l;
+    for batch in 0..batches {
+        let mut integrator = crate::find(name)
+            .and_then(|e| e.instantiate(&given))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        // The batch's first pass (the photon integrators' maps).
+        let camera = super::probe_camera(&scene.camera, 1);
+        integrator.prepare_pass(&crate::PassContext {
+            scene,
+            camera: &camera,
+            seed: 777 + batch as u64,
+            pass: 0,
+            rows: 0..camera.height,
+            stop: crate::Stop::NEVER,
+        });
+        let rays = super::as_ray_integrator(name, integrator.as_ref());
+        let mut tracer = crate::Tracer::new(scene);
+        let mut batch_sum = glam::DVec3::ZERO;
+        for i in batch * per_batch..(batch + 1) * per_batch {
+            let mut sampler = crate::Sampler::new(777, i as u64, 0);
+            let ray = super::camera_ray(&scene.camera, &mut sampler);
+            let l = rays.radiance(&ray, &mut tracer, &mut sampler).as_dvec3();
+            assert!(l.is_finite(), "{name}: non-finite sample {l}");
+            batch_sum += l;
+            sum_sq += l * l;
+        }
+        sum += batch_sum;
+        means.push(batch_sum / per_batch as f64);
     }
+    let n = per_batch * batches;
     let mean = sum / n as f64;
-    let var =
-        (sum_sq / n as f64 - mean * mean).max(glam::DVec3::ZERO) * (n as f64 / (n as f64 - 1.0));
-    let se = (var / n as f64).powf(0.5);
+    let se = if batches > 1 {
+        let k = batches as f64;
+        let var = means
+            .iter()
+            .map(|m| (*m - mean) * (*m - mean))
+            .sum::<glam::DVec3>()
+            / (k - 1.0);
+        (var / k).powf(0.5)
+    } else {
+        let var = (sum_sq / n as f64 - mean * mean).max(glam::DVec3::ZERO)
+            * (n as f64 / (n as f64 - 1.0));
+        (var / n as f64).powf(0.5)
+    };
     for c in 0..3 {
         let e = expected[c] as f64;
-        let t = (mean[c] - e) / se[c].max(1e-9 * e.abs().max(1e-30));
+        let off = ((mean[c] - e).abs() - bias * e.abs()).max(0.0);
+        let t = off / se[c].max(1e-9 * e.abs().max(1e-30));
         assert!(
-            t.abs() < 4.0 || (se[c] == 0.0 && (mean[c] - e).abs() <= 1e-5 * e.abs()),
+            t < 4.0 || (se[c] == 0.0 && off <= 1e-5 * e.abs()),
             "{name} {params:?} channel {c}: mean {:.5} +- {:.5}, expected {e:.5} (t = {t:.2})",
             mean[c],
             se[c]
