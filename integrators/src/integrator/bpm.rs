@@ -12,6 +12,11 @@
 //! counted only when seen directly or through specular bounces alone (nothing merges those);
 //! there are no light samples and no connections, so direct light comes from merges too.
 //!
+//! In participating media the subpaths walk media and merge at medium vertices too, with
+//! photon points in a kernel of `4/3 pi r^3` (see [`vcm`](super::vcm)); at SmallVCM's small
+//! default radius few light vertices fall within a camera vertex's kernel in a thin fog, so
+//! its estimate there is very noisy (give a larger `radius`).
+//!
 //! The radius shrinks as SmallVCM's: `r_i = r_0 / (i + 1)^((1 - alpha) / 2)` in pass `i`.
 //!
 //! **Parameters**: `max-depth` (scattering events, default unlimited), `rr-depth` (default
@@ -37,5 +42,5 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 900),
         sphere_under_sky: expect(1.2, 40, 3600),
     }),
-    media: MediaSupport::None,
+    media: MediaSupport::Scattering,
 };

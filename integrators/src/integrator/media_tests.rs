@@ -10,7 +10,7 @@
 use super::registry::{IntegratorEntry, MediaSupport, REGISTRY};
 use crate::medium::Phase;
 use crate::testing::media::*;
-use crate::testing::{expect_mean_passes, TestScene};
+use crate::testing::{expect_mean_passes_within, TestScene};
 use crate::Rgb;
 
 type Params = Vec<(&'static str, &'static str)>;
@@ -27,9 +27,12 @@ fn media_entries(emitting: bool) -> Vec<(&'static str, Params, bool)> {
             let analytic = e.analytic.map_or(&[][..], |a| a.params);
             let params = if is_density_estimate(e) {
                 let has = |name| e.params.iter().any(|p| p.name == name);
-                [("photons", "500000"), ("caustic-photons", "100000")]
-                    .into_iter()
-                    .filter(|(k, _)| has(*k))
+                let photons = [("photons", "500000"), ("caustic-photons", "100000")];
+                analytic
+                    .iter()
+                    .copied()
+                    .filter(|(k, _)| photons.iter().all(|(p, _)| p != k))
+                    .chain(photons.into_iter().filter(|(k, _)| has(*k)))
                     .collect()
             } else {
                 analytic.to_vec()
@@ -87,7 +90,8 @@ fn check(name: &str, params: &[(&str, &str)], rays: bool, scene: &TestScene, exa
     if rays {
         expect_rgb_within(name, params, scene, exact, n, allowed_bias(name));
     } else {
-        expect_mean_passes(name, params, scene, exact.y, 80, 10000);
+        let bias = allowed_bias(name);
+        expect_mean_passes_within(name, params, scene, exact.y, 80, 10000, bias);
     }
 }
 

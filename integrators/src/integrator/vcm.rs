@@ -23,6 +23,19 @@
 //! is taken as uniform over the light's area in the weights (not the cone a sphere is sampled
 //! by), which keeps the weights summing to 1; Russian roulette is left out of them.
 //!
+//! **In participating media** (photon points, as SmallUPBP's point-to-point estimator):
+//! both subpaths walk media by delta tracking (one channel's rate, each channel's density
+//! riding along as in `volpath`), make a vertex at every real scattering event in a medium
+//! and cross `Null` boundaries without one. Medium vertices connect (to the lens, to light
+//! samples, to each other) through ratio-tracked transmittance, with the phase function in
+//! place of the BSDF, and merge with the light vertices in media within the radius: `sum
+//! phase beta / (sigma_s 4/3 pi r^3 N)`. In the MIS weights a medium vertex is a surface
+//! vertex without cosines, merges there count as `4/3 pi r^3 N` samples' worth, and each
+//! vertex's own kernel enters the weights (a subpath's `dVM` is rescaled by the ratio of the
+//! kernels where it passes from a surface to a medium vertex or back), so one path's
+//! weights still sum to one; distances' densities and transmittance are left out of them, as
+//! in `bdpt`. Media that emit are refused.
+//!
 //! The radius shrinks as SmallVCM's: `r_i = r_0 / (i + 1)^((1 - alpha) / 2)` in pass `i`.
 //!
 //! Connections to the lens need a pinhole camera: an orthographic one is refused.
@@ -31,21 +44,27 @@
 //! 3), `radius` (first merging radius in scene units; 0 = SmallVCM's default, 0.3% of the
 //! scene's bounding radius), `alpha` (default 0.75).
 //! **Bias**: merges blur by the radius `r_i` of their pass, which vanishes as passes
-//! accumulate (consistent, not unbiased); MIS gives merges weight mostly where connections
-//! are poor (caustics seen directly or through specular surfaces). Truncation with a finite
-//! `max-depth`.
+//! accumulate (consistent, not unbiased; in media also a darkening within `r_i` of a
+//! medium's boundary); MIS gives merges weight mostly where connections are poor (caustics
+//! seen directly or through specular surfaces, volumetric caustics). Truncation with a
+//! finite `max-depth`.
 
 use crate::bsdf::TransportMode;
+use crate::integrator::media_walk::{
+    average, cross_null, fly, hero_channel, medium_at, ray_from_point, transmittance, Flight,
+};
+use crate::integrator::volpath::LONG_PATH;
 use crate::integrator::{
     emit_from_a_light, emitted_at, escaped, scene_radius, stays_on_viewer_side, Demand, Integrator,
     PixelSample, ShadingPoint, Tracer, MAX_SURVIVAL,
 };
+use crate::medium::Phase;
 use crate::photon_map::{Located, PointGrid};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
     MAX_DEPTH, RR_DEPTH,
 };
-use crate::{Camera, Hit, Light, Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{Camera, Hit, Light, MediumId, MediumInterface, Ray, RayCounters, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
@@ -63,7 +82,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 900),
         sphere_under_sky: expect(1.2, 40, 1600),
     }),
-    media: MediaSupport::None,
+    media: MediaSupport::Scattering,
 };
 
 /// The parameters of `vcm` and `bpm`.
@@ -114,7 +133,7 @@ pub(super) struct VertexMerging {
     pass: Pass,
 }
 
-/// What one pass's camera samples share: the light subpaths and their merging grid.
+/// What one pass's camera samples share: the light subpaths and their merging grids.
 #[derive(Default)]
 struct Pass {
     /// Width of the image whose pixels number the light subpaths.
@@ -127,20 +146,42 @@ struct Pass {
     /// Connections of the light subpaths to the lens, subpath by subpath.
     splats: Vec<(Vec2, Rgb)>,
     splat_ends: Vec<u32>,
-    /// Every stored light vertex, for merging.
+    /// Every stored light vertex on a surface, for merging.
     grid: PointGrid<MergeVertex>,
+    /// Every stored light vertex in a medium, for merging there.
+    volume: PointGrid<MergeVertex>,
 }
 
-/// The constants of a pass's MIS weights (the report's eq. 20, with one light subpath per
-/// camera subpath for connections and `N` for merges).
+/// The constants of a pass's MIS weights, for merges of one kind (the report's eq. 20, with
+/// one light subpath per camera subpath for connections and `N` for merges).
+#[derive(Clone, Copy, Debug, Default)]
+struct Kernel {
+    /// `mis(eta)`, `eta` the kernel's size times `N` (`pi r^2 N` on surfaces, `4/3 pi r^3 N`
+    /// in media): a merge against a connection.
+    vm: f64,
+    /// `mis(1 / eta)` with connections, 0 without: a connection against a merge.
+    vc: f64,
+    /// `1 / eta`: the density estimate's normalisation.
+    normalization: f32,
+}
+
+impl Kernel {
+    fn new(eta: f64, connect: bool) -> Kernel {
+        Kernel {
+            vm: mis(eta),
+            vc: if connect { mis(1.0 / eta) } else { 0.0 },
+            normalization: (1.0 / eta) as f32,
+        }
+    }
+}
+
+/// The MIS constants of merges at surface vertices and at medium vertices. Each vertex's own
+/// kernel enters the weights of the strategies that merge there, so the weights of one
+/// path still sum to one.
 #[derive(Clone, Copy, Debug, Default)]
 struct Weights {
-    /// `mis(pi r^2 N)`: a merge against a connection.
-    vm: f64,
-    /// `mis(1 / (pi r^2 N))` with connections, 0 without: a connection against a merge.
-    vc: f64,
-    /// `1 / (pi r^2 N)`: the density estimate's normalisation.
-    normalization: f32,
+    surface: Kernel,
+    medium: Kernel,
 }
 
 /// The partial MIS weights a subpath carries (the report's `dVCM`, `dVC`, `dVM`).
@@ -153,8 +194,8 @@ struct Partial {
 
 impl Partial {
     /// Completes the quantities with the segment just traced, of squared length `d2`,
-    /// arriving with `|cos|` `cos` at a surface; `d2` is left out for a light subpath's
-    /// first segment from a light at infinity.
+    /// arriving with `|cos|` `cos` at a surface (1 at a medium vertex); `d2` is left out for
+    /// a light subpath's first segment from a light at infinity.
     #[inline]
     fn arrive(&mut self, d2: Option<f32>, cos: f32) {
         if let Some(d2) = d2 {
@@ -167,12 +208,184 @@ impl Partial {
     }
 }
 
-/// A light-subpath vertex kept for connections: the hit as found (the material is looked up
-/// again when it is connected), how the subpath arrived, its power and its weights.
+/// The kind of vertex a subpath's `vm` is relative to merging at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Left {
+    Surface,
+    Medium,
+}
+
+impl Partial {
+    /// Makes `vm`, relative to merging at a vertex of kind `left` (the one the subpath
+    /// left, whose kernel the update used), relative to merging at `at`: times the ratio of
+    /// their kernels where the kinds differ (a path's merges at surface and medium vertices
+    /// weigh by their own kernels, `pi r^2 N` and `4/3 pi r^3 N`).
+    #[inline]
+    fn merge_here(&mut self, left: &mut Left, at: &At, w: &Weights) {
+        let here = match at {
+            At::Surface(_) => Left::Surface,
+            At::Medium(_) => Left::Medium,
+        };
+        if here != *left {
+            let from = match left {
+                Left::Surface => &w.surface,
+                Left::Medium => &w.medium,
+            };
+            self.vm *= from.vm / at.kernel(w).vm;
+            *left = here;
+        }
+    }
+}
+
+/// A point in a medium where a subpath scattered.
+#[derive(Clone, Copy, Debug)]
+struct InMedium {
+    p: Vec3A,
+    /// Unit direction back along the ray that arrived.
+    wo: Vec3A,
+    medium: MediumId,
+    phase: Phase,
+}
+
+/// A subpath's scattering point: a surface, or a real collision in a medium. In the MIS
+/// weights a medium vertex is a surface vertex without cosines; distances' densities and
+/// transmittance are left out of them (as `bdpt`'s), which keeps every path's weights
+/// summing to one.
+enum At<'s, 'a> {
+    Surface(&'s ShadingPoint<'a>),
+    Medium(InMedium),
+}
+
+impl At<'_, '_> {
+    #[inline]
+    fn p(&self) -> Vec3A {
+        match self {
+            At::Surface(sp) => sp.hit.p,
+            At::Medium(m) => m.p,
+        }
+    }
+
+    /// The hit to spawn a connection from (a medium vertex: a point with no offset normal,
+    /// in its medium).
+    fn hit(&self) -> Hit {
+        match self {
+            At::Surface(sp) => sp.hit,
+            At::Medium(m) => medium_hit(m.p, m.medium),
+        }
+    }
+
+    /// Whether every lobe is a Dirac delta (nothing to connect or merge).
+    #[inline]
+    fn is_specular(&self) -> bool {
+        match self {
+            At::Surface(sp) => sp.material.is_specular(),
+            At::Medium(_) => false,
+        }
+    }
+
+    /// The BSDF with `|cos|` and the shading-normal correction in `mode`, or the phase
+    /// function, towards `wi` (world).
+    #[inline]
+    fn f(&self, wi: Vec3A, mode: TransportMode) -> Rgb {
+        match self {
+            At::Surface(sp) => sp.connection_factor(wi, mode),
+            At::Medium(m) => Rgb::splat(m.phase.eval(m.wo, wi)),
+        }
+    }
+
+    /// The solid-angle density of sampling `wi` (world) from the arriving direction.
+    #[inline]
+    fn pdf_to(&self, wi: Vec3A) -> f32 {
+        match self {
+            At::Surface(sp) => sp.material.pdf(sp.wo, sp.frame.to_local(wi)),
+            At::Medium(m) => m.phase.eval(m.wo, wi),
+        }
+    }
+
+    /// The reverse: the density of sampling the arriving direction from `wi` (world).
+    #[inline]
+    fn pdf_from(&self, wi: Vec3A) -> f32 {
+        match self {
+            At::Surface(sp) => sp.material.pdf(sp.frame.to_local(wi), sp.wo),
+            At::Medium(m) => m.phase.eval(wi, m.wo),
+        }
+    }
+
+    /// `|cos|` of `dir` at a surface; 1 in a medium.
+    #[inline]
+    fn cos(&self, dir: Vec3A) -> f32 {
+        match self {
+            At::Surface(sp) => sp.hit.ng.dot(dir).abs(),
+            At::Medium(_) => 1.0,
+        }
+    }
+
+    /// The merging constants of this kind of vertex.
+    #[inline]
+    fn kernel<'w>(&self, w: &'w Weights) -> &'w Kernel {
+        match self {
+            At::Surface(_) => &w.surface,
+            At::Medium(_) => &w.medium,
+        }
+    }
+}
+
+/// A point in `medium` as a hit to spawn rays from.
+fn medium_hit(p: Vec3A, medium: MediumId) -> Hit {
+    Hit {
+        media: MediumInterface {
+            inside: medium,
+            outside: medium,
+        },
+        ..Hit::new(0.0, p, Vec3A::ZERO, 0, None)
+    }
+}
+
+/// Where a light-subpath vertex kept for connections lies.
+#[derive(Clone, Copy, Debug)]
+enum Stored {
+    /// On a surface: the hit as found (the material is looked up again when it is
+    /// connected) and the direction the subpath arrived along.
+    Surface {
+        hit: Hit,
+        dir: Vec3A,
+    },
+    Medium(InMedium),
+}
+
+impl Stored {
+    #[inline]
+    fn p(&self) -> Vec3A {
+        match self {
+            Stored::Surface { hit, .. } => hit.p,
+            Stored::Medium(m) => m.p,
+        }
+    }
+
+    /// The surface's shading point, for [`At::Surface`] to borrow (`None` in a medium).
+    fn shading<'a>(&self, scene: &'a dyn Scene) -> Option<ShadingPoint<'a>> {
+        match *self {
+            Stored::Surface { hit, dir } => Some(ShadingPoint::new(&hit, dir, scene)),
+            Stored::Medium(_) => None,
+        }
+    }
+
+    /// The vertex, with the shading point [`Stored::shading`] made (`None`: a surface's is
+    /// missing).
+    fn at<'s, 'a>(&self, shading: &'s Option<ShadingPoint<'a>>) -> Option<At<'s, 'a>> {
+        match (self, shading) {
+            (_, Some(sp)) => Some(At::Surface(sp)),
+            (Stored::Medium(m), None) => Some(At::Medium(*m)),
+            (Stored::Surface { .. }, None) => None,
+        }
+    }
+}
+
+/// A light-subpath vertex kept for connections: where it lies, its power and its weights.
 #[derive(Clone, Copy, Debug)]
 struct LightVertex {
-    hit: Hit,
-    dir: Vec3A,
+    at: Stored,
+    /// Power (in media, over the average of the channels' densities).
     beta: Rgb,
     /// Segments from the light.
     length: u32,
@@ -204,9 +417,26 @@ struct Traced {
     vertices: Vec<LightVertex>,
     vertex_ends: Vec<u32>,
     merge: Vec<MergeVertex>,
+    volume: Vec<MergeVertex>,
     splats: Vec<(Vec2, Rgb)>,
     splat_ends: Vec<u32>,
     rays: RayCounters,
+}
+
+/// A subpath's state in media: the hero channel of its free flights and each channel's
+/// density over the hero's (see `media_walk`).
+struct Walk {
+    hero: usize,
+    r_u: Rgb,
+}
+
+impl Walk {
+    fn new(sampler: &mut Sampler) -> Walk {
+        Walk {
+            hero: hero_channel(sampler.next_1d()),
+            r_u: Rgb::ONE,
+        }
+    }
 }
 
 impl VertexMerging {
@@ -274,40 +504,115 @@ impl VertexMerging {
             },
             vm: 0.0,
         };
-        weights.vm = weights.vc * w.vc;
+        weights.vm = weights.vc * w.surface.vc;
         let mut beta = le.weight / pmf;
         let start = beta.max_element();
         let mut ray = le.ray;
         let mut length = 1u32;
+        // In media: the light's medium (walked to from the camera's), the walk's channels,
+        // and the last vertex (a segment may cross `Null` boundaries on its way).
+        let mut walk = None;
+        if scene.has_media() {
+            walk = Some(Walk::new(sampler));
+            ray.medium = medium_at(scene, camera.eye, scene.camera_medium(), ray.origin);
+        }
+        let mut from = ray.origin;
+        // The kind of vertex `weights.vm` is relative to merging at (the start's: a surface).
+        let mut left = Left::Surface;
         loop {
             // The next vertex, and the weights completed with the segment to it.
-            let Some(hit) = tracer.light(&ray) else {
-                return;
+            let found = tracer.light(&ray);
+            let mut at = None;
+            if let Some(walk) = walk.as_mut() {
+                let tmax = found.map_or(f32::INFINITY, |h| h.t);
+                match fly(
+                    scene,
+                    &ray,
+                    tmax,
+                    walk.hero,
+                    sampler,
+                    &mut beta,
+                    &mut walk.r_u,
+                ) {
+                    Flight::Ended => return,
+                    Flight::Through => {}
+                    Flight::Scattered(p) => {
+                        let phase = match scene.medium(ray.medium) {
+                            Some(m) => m.phase(),
+                            None => return,
+                        };
+                        let wo = -ray.dir;
+                        at = Some(At::Medium(InMedium {
+                            p,
+                            wo,
+                            medium: ray.medium,
+                            phase,
+                        }));
+                    }
+                }
+            }
+            // The hit as found (a shading point parametrises its copy).
+            let raw = found;
+            let sp;
+            let at = match at {
+                Some(at) => at,
+                None => {
+                    let Some(hit) = found else {
+                        return;
+                    };
+                    sp = ShadingPoint::new(&hit, ray.dir, scene);
+                    if walk.is_some() {
+                        // A medium's boundary (or a mask's hole): crossed, no vertex.
+                        match cross_null(&sp, &ray, TransportMode::Importance, &mut beta, sampler) {
+                            Some(Some(next)) => {
+                                ray = next;
+                                continue;
+                            }
+                            Some(None) => return,
+                            None => {}
+                        }
+                    }
+                    At::Surface(&sp)
+                }
             };
-            let d2 = (!infinite || length > 1).then(|| (hit.p - ray.origin).length_squared());
-            weights.arrive(d2, hit.ng.dot(ray.dir).abs());
-            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            let p = at.p();
+            let d2 = (!infinite || length > 1).then(|| (p - from).length_squared());
+            weights.arrive(d2, at.cos(ray.dir));
+            weights.merge_here(&mut left, &at, w);
+            // The power this vertex carries (in media, over the channels' average density).
+            let power = walk.as_ref().map_or(beta, |walk| beta / average(walk.r_u));
             // Keep it (for merges, and connections) and connect it to the lens, unless its
             // BSDF is all Dirac lobes.
-            if !sp.material.is_specular() {
-                out.merge.push(MergeVertex {
-                    p: Vec3::from(hit.p),
+            if !at.is_specular() {
+                let kept = MergeVertex {
+                    p: Vec3::from(p),
                     wi: Vec3::from(-ray.dir),
-                    beta: Vec3::from(beta),
+                    beta: Vec3::from(power),
                     length,
                     vcm: weights.vcm,
                     vm: weights.vm,
-                });
+                };
+                match &at {
+                    At::Surface(_) => out.merge.push(kept),
+                    At::Medium(_) => out.volume.push(kept),
+                }
                 if self.connect {
                     out.vertices.push(LightVertex {
-                        hit,
-                        dir: ray.dir,
-                        beta,
+                        at: match (&at, raw) {
+                            (At::Surface(_), Some(hit)) => Stored::Surface { hit, dir: ray.dir },
+                            (At::Surface(sp), None) => Stored::Surface {
+                                hit: sp.hit,
+                                dir: ray.dir,
+                            },
+                            (At::Medium(m), _) => Stored::Medium(*m),
+                        },
+                        beta: power,
                         length,
                         mis: weights,
                     });
                     if length < max {
-                        if let Some(s) = to_lens(&sp, beta, &weights, w, camera, tracer) {
+                        let seen = to_lens(&at, power, &weights, w, camera, tracer, &mut *sampler);
+                        if let Some(s) = seen {
                             out.splats.push(s);
                         }
                     }
@@ -318,7 +623,7 @@ impl VertexMerging {
                 return;
             }
             let scattered = scatter(
-                &sp,
+                &at,
                 TransportMode::Importance,
                 w,
                 &mut beta,
@@ -329,13 +634,25 @@ impl VertexMerging {
             if scattered.is_none() {
                 return;
             }
-            // Russian roulette, relative to the power the subpath left the light with.
+            // The segment's start: the vertex (a segment may cross `Null` boundaries in
+            // media), or as without media the ray's offset origin.
+            from = if walk.is_some() { p } else { ray.origin };
+            // Russian roulette, relative to the power the subpath left the light with. In
+            // media a subpath that lost nothing (a white fog) plays only after `LONG_PATH`
+            // events: a cap from the first would make its vertices' powers heavy-tailed.
             if length >= self.rr_depth {
-                let survive = (beta.max_element() / start).min(MAX_SURVIVAL);
-                if survive.is_nan() || sampler.next_1d() >= survive {
-                    return;
+                let carried = match walk.as_ref() {
+                    Some(walk) => (beta / average(walk.r_u)).max_element(),
+                    None => beta.max_element(),
+                };
+                let ratio = carried / start;
+                if walk.is_none() || ratio < 1.0 || length >= LONG_PATH || ratio.is_nan() {
+                    let survive = ratio.min(MAX_SURVIVAL);
+                    if survive.is_nan() || sampler.next_1d() >= survive {
+                        return;
+                    }
+                    beta /= survive;
                 }
-                beta /= survive;
             }
             length += 1;
         }
@@ -369,22 +686,101 @@ impl VertexMerging {
         let mut specular_path = true;
         let mut length = 1u32;
         let mut l = Rgb::ZERO;
+        // In media: the walk's channels, from the camera's medium.
+        let mut walk = None;
+        if scene.has_media() {
+            walk = Some(Walk::new(sampler));
+            ray.medium = scene.camera_medium();
+        }
+        let mut from = ray.origin;
+        let mut left = Left::Surface;
+        let mut first = true;
         loop {
-            let found = if length == 1 {
+            let found = if first {
                 tracer.camera(&ray)
             } else {
                 tracer.extend(&ray)
             };
-            let Some(hit) = found else {
-                // Escaped: the environment, weighed before any distance is applied.
-                if let Some(env) = scene.lights().environment() {
-                    let e = escaped(scene, &ray);
-                    l += beta
+            first = false;
+            let mut at = None;
+            if let Some(walk) = walk.as_mut() {
+                let tmax = found.map_or(f32::INFINITY, |h| h.t);
+                match fly(
+                    scene,
+                    &ray,
+                    tmax,
+                    walk.hero,
+                    sampler,
+                    &mut beta,
+                    &mut walk.r_u,
+                ) {
+                    Flight::Ended => return l,
+                    Flight::Through => {}
+                    Flight::Scattered(p) => {
+                        let Some(medium) = scene.medium(ray.medium) else {
+                            return l;
+                        };
+                        at = Some(At::Medium(InMedium {
+                            p,
+                            wo: -ray.dir,
+                            medium: ray.medium,
+                            phase: medium.phase(),
+                        }));
+                    }
+                }
+            }
+            // This vertex's throughput (in media, over the channels' average density).
+            let carried = walk.as_ref().map_or(beta, |walk| beta / average(walk.r_u));
+            let sp;
+            let at = match at {
+                Some(at) => at,
+                None => {
+                    let Some(hit) = found else {
+                        // Escaped: the environment, weighed before any distance is applied.
+                        if let Some(env) = scene.lights().environment() {
+                            let e = escaped(scene, &ray);
+                            l += carried
+                                * e
+                                * self.emission_weight(
+                                    scene,
+                                    env,
+                                    None,
+                                    &ray,
+                                    &weights,
+                                    length,
+                                    specular_path,
+                                    e,
+                                );
+                        }
+                        return l;
+                    };
+                    sp = ShadingPoint::new(&hit, ray.dir, scene);
+                    if walk.is_some() {
+                        // A medium's boundary (or a mask's hole): crossed, no vertex.
+                        match cross_null(&sp, &ray, TransportMode::Radiance, &mut beta, sampler) {
+                            Some(Some(next)) => {
+                                ray = next;
+                                continue;
+                            }
+                            Some(None) => return l,
+                            None => {}
+                        }
+                    }
+                    At::Surface(&sp)
+                }
+            };
+            weights.arrive(Some((at.p() - from).length_squared()), at.cos(ray.dir));
+            weights.merge_here(&mut left, &at, w);
+            // Emission found (s = 0).
+            if let At::Surface(sp) = &at {
+                if let Some(i) = sp.hit.light {
+                    let e = emitted_at(scene, &sp.hit, &ray);
+                    l += carried
                         * e
                         * self.emission_weight(
                             scene,
-                            env,
-                            None,
+                            i,
+                            Some(&sp.hit),
                             &ray,
                             &weights,
                             length,
@@ -392,49 +788,27 @@ impl VertexMerging {
                             e,
                         );
                 }
-                return l;
-            };
-            weights.arrive(
-                Some((hit.p - ray.origin).length_squared()),
-                hit.ng.dot(ray.dir).abs(),
-            );
-            let sp = ShadingPoint::new(&hit, ray.dir, scene);
-            // Emission found (s = 0).
-            if let Some(i) = hit.light {
-                let e = emitted_at(scene, &hit, &ray);
-                l += beta
-                    * e
-                    * self.emission_weight(
-                        scene,
-                        i,
-                        Some(&hit),
-                        &ray,
-                        &weights,
-                        length,
-                        specular_path,
-                        e,
-                    );
             }
             if length >= max {
                 return l;
             }
-            if !sp.material.is_specular() {
+            if !at.is_specular() {
                 if self.connect {
                     // A light sample (s = 1), then this pixel's light vertices (s > 1).
-                    l += beta * light_sample(&sp, &weights, w, tracer, sampler);
+                    l += carried * light_sample(&at, &weights, w, tracer, sampler);
                     for v in light {
                         if v.length.saturating_add(length) >= max {
                             break;
                         }
-                        l += beta * v.beta * connect(&sp, &weights, v, w, tracer);
+                        l += carried * v.beta * connect(&at, &weights, v, w, tracer, sampler);
                     }
                 }
                 // Merges with every light vertex within the radius.
-                l += beta * merge(&sp, &weights, length, max, &self.pass);
+                l += carried * merge(&at, &weights, length, max, &self.pass, scene);
             }
             // Scatter, and Russian roulette.
             let Some(specular) = scatter(
-                &sp,
+                &at,
                 TransportMode::Radiance,
                 w,
                 &mut beta,
@@ -444,13 +818,26 @@ impl VertexMerging {
             ) else {
                 return l;
             };
+            from = if walk.is_some() { at.p() } else { ray.origin };
             specular_path &= specular;
             if length >= self.rr_depth {
-                let survive = beta.max_element().min(MAX_SURVIVAL);
-                if survive.is_nan() || sampler.next_1d() >= survive {
-                    return l;
+                let survive = match walk.as_ref() {
+                    Some(walk) => {
+                        let rr = (beta / average(walk.r_u)).max_element();
+                        if rr >= 1.0 && length < LONG_PATH {
+                            1.0
+                        } else {
+                            rr.min(MAX_SURVIVAL)
+                        }
+                    }
+                    None => beta.max_element().min(MAX_SURVIVAL),
+                };
+                if survive.is_nan() || survive < 1.0 {
+                    if survive.is_nan() || sampler.next_1d() >= survive {
+                        return l;
+                    }
+                    beta /= survive;
                 }
-                beta /= survive;
             }
             length += 1;
         }
@@ -538,11 +925,11 @@ impl Integrator for VertexMerging {
         // The pass's radius and weights: one light subpath per pixel.
         let count = camera.width as usize * camera.height as usize;
         let radius = self.radius_of_pass(scene, pass);
-        let eta = std::f64::consts::PI * (radius as f64).powi(2) * count as f64;
+        let r = radius as f64;
+        let pi = std::f64::consts::PI;
         let weights = Weights {
-            vm: mis(eta),
-            vc: if self.connect { mis(1.0 / eta) } else { 0.0 },
-            normalization: (1.0 / eta) as f32,
+            surface: Kernel::new(pi * r.powi(2) * count as f64, self.connect),
+            medium: Kernel::new(4.0 / 3.0 * pi * r.powi(3) * count as f64, self.connect),
         };
         self.pass = Pass {
             width: camera.width,
@@ -575,6 +962,7 @@ impl Integrator for VertexMerging {
         // Joined in block order, so the pass does not depend on the thread count.
         let mut rays = RayCounters::default();
         let mut merge = Vec::with_capacity(blocks.iter().map(|b| b.merge.len()).sum());
+        let mut volume = Vec::with_capacity(blocks.iter().map(|b| b.volume.len()).sum());
         let p = &mut self.pass;
         for mut b in blocks {
             let (v0, s0) = (p.vertices.len() as u32, p.splats.len() as u32);
@@ -583,6 +971,7 @@ impl Integrator for VertexMerging {
             p.vertices.append(&mut b.vertices);
             p.splats.append(&mut b.splats);
             merge.append(&mut b.merge);
+            volume.append(&mut b.volume);
             rays.add(&b.rays);
         }
         // A pass cut short is abandoned by the render loop; should it not be, no pixel may be
@@ -592,6 +981,7 @@ impl Integrator for VertexMerging {
             return rays;
         }
         p.grid = PointGrid::build(merge, radius);
+        p.volume = PointGrid::build(volume, radius);
         rays
     }
 
@@ -623,37 +1013,66 @@ fn finite_or_zero(x: f64) -> f32 {
     }
 }
 
-/// The light vertex `sp` (power `beta`, weights `weights`) connected to the lens (`t = 1`,
+/// Whether the segment `ray` is clear, and in media its transmittance (through media and
+/// `Null` boundaries): what a connection along it carries.
+fn visible(ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+    if tracer.scene.has_media() {
+        let hero = hero_channel(sampler.next_1d());
+        transmittance(tracer, ray, hero, sampler)
+    } else {
+        tracer.counters.connection += 1;
+        if tracer.scene.occluded(ray) {
+            Rgb::ZERO
+        } else {
+            Rgb::ONE
+        }
+    }
+}
+
+/// The light vertex `at` (power `beta`, weights `weights`) connected to the lens (`t = 1`,
 /// the report's eqs. 46-47): the film position and the MIS-weighted radiance it sends there,
 /// as `lighttracer`'s connections.
 fn to_lens(
-    sp: &ShadingPoint,
+    at: &At,
     beta: Rgb,
     weights: &Partial,
     w: &Weights,
     camera: &Camera,
     tracer: &mut Tracer,
+    sampler: &mut Sampler,
 ) -> Option<(Vec2, Rgb)> {
-    let cs = camera.sample_wi(sp.hit.p)?;
-    let f = sp.connection_factor(cs.wi, TransportMode::Importance);
+    let cs = camera.sample_wi(at.p())?;
+    let f = at.f(cs.wi, TransportMode::Importance);
     if f == Rgb::ZERO || cs.pdf <= 0.0 {
         return None;
     }
     // The area density of the camera's ray reaching this point, against this subpath.
-    let rev = mis(sp.material.pdf(sp.frame.to_local(cs.wi), sp.wo));
+    let rev = mis(at.pdf_from(cs.wi));
     let (_, pdf_lens) = camera.pdf_we(-cs.wi);
-    let camera_area = pdf_lens * sp.hit.ng.dot(cs.wi).abs() / (cs.dist * cs.dist);
-    let w_light = mis(camera_area) * (w.vm + weights.vcm + weights.vc * rev);
+    let camera_area = pdf_lens * at.cos(cs.wi) / (cs.dist * cs.dist);
+    let w_light = mis(camera_area) * (at.kernel(w).vm + weights.vcm + weights.vc * rev);
     let weight = finite_or_zero(1.0 / (w_light + 1.0));
     let l = beta * f * (cs.we * (weight / cs.pdf));
-    (l != Rgb::ZERO && l.is_finite() && tracer.connected(&sp.hit, cs.point))
-        .then_some((cs.raster, l))
+    if l == Rgb::ZERO || !l.is_finite() {
+        return None;
+    }
+    let ray = match at {
+        At::Surface(sp) => sp.hit.spawn_ray_to(cs.point),
+        At::Medium(m) => Ray {
+            origin: m.p,
+            dir: cs.wi,
+            tmax: cs.dist * (1.0 - 1e-4),
+            medium: m.medium,
+        },
+    };
+    let l = l * visible(&ray, tracer, sampler);
+    (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
 }
 
-/// A light sample at camera vertex `sp` (`s = 1`, the report's eqs. 44-45): its MIS-weighted
-/// contribution, before the camera subpath's throughput.
+/// A light sample at camera vertex `at` (`s = 1`, the report's eqs. 44-45): its
+/// MIS-weighted contribution, before the camera subpath's throughput.
 fn light_sample(
-    sp: &ShadingPoint,
+    at: &At,
     weights: &Partial,
     w: &Weights,
     tracer: &mut Tracer,
@@ -666,28 +1085,29 @@ fn light_sample(
         return Rgb::ZERO;
     };
     let light = lights.get(index);
-    if !sp.can_receive(index, lights) {
-        return Rgb::ZERO;
+    if let At::Surface(sp) = at {
+        if !sp.can_receive(index, lights) {
+            return Rgb::ZERO;
+        }
     }
-    let Some(ls) = light.sample_li(sp.hit.p, u) else {
+    let Some(ls) = light.sample_li(at.p(), u) else {
         return Rgb::ZERO;
     };
     if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let f = sp.connection_factor(ls.wi, TransportMode::Radiance);
+    let f = at.f(ls.wi, TransportMode::Radiance);
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
     // The BSDF's densities towards the light (a delta light cannot be hit) and back.
-    let local = sp.frame.to_local(ls.wi);
     let bsdf_dir = if light.is_delta() {
         0.0
     } else {
-        sp.material.pdf(sp.wo, local)
+        at.pdf_to(ls.wi)
     };
-    let bsdf_rev = mis(sp.material.pdf(local, sp.wo));
-    let cos_here = sp.hit.ng.dot(ls.wi).abs();
+    let bsdf_rev = mis(at.pdf_from(ls.wi));
+    let cos_here = at.cos(ls.wi);
     let radius = scene_radius(scene);
     // `w_light`: hitting the light by a BSDF sample against this light sample; `ratio`: the
     // area density of a light subpath reaching this point against the light sample's
@@ -711,81 +1131,149 @@ fn light_sample(
         };
         (w_light, disk * cos_here)
     };
-    let w_camera = mis(ratio) * (w.vm + weights.vcm + weights.vc * bsdf_rev);
+    let w_camera = mis(ratio) * (at.kernel(w).vm + weights.vcm + weights.vc * bsdf_rev);
     let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
     let c = f * ls.radiance * (weight / (pmf * ls.pdf));
-    if c == Rgb::ZERO || !c.is_finite() || !tracer.unoccluded(&sp.hit, &ls) {
+    if c == Rgb::ZERO || !c.is_finite() {
         return Rgb::ZERO;
     }
-    c
+    match at {
+        At::Surface(sp) if !scene.has_media() => {
+            if tracer.unoccluded(&sp.hit, &ls) {
+                c
+            } else {
+                Rgb::ZERO
+            }
+        }
+        _ => {
+            let ray = match at {
+                At::Surface(sp) if ls.dist.is_finite() => sp.hit.spawn_ray_to(ls.point),
+                At::Surface(sp) => sp.hit.spawn_ray(ls.wi),
+                At::Medium(m) => ray_from_point(m.p, &ls, m.medium),
+            };
+            tracer.counters.shadow += 1;
+            let hero = hero_channel(sampler.next_1d());
+            c * transmittance(tracer, &ray, hero, sampler)
+        }
+    }
 }
 
-/// Camera vertex `sp` connected to light vertex `v` (the report's eqs. 40-41): the
+/// Camera vertex `at` connected to light vertex `v` (the report's eqs. 40-41): the
 /// MIS-weighted contribution, before either subpath's throughput.
 fn connect(
-    sp: &ShadingPoint,
+    at: &At,
     weights: &Partial,
     v: &LightVertex,
     w: &Weights,
     tracer: &mut Tracer,
+    sampler: &mut Sampler,
 ) -> Rgb {
-    let to = v.hit.p - sp.hit.p;
+    let to = v.at.p() - at.p();
     let d2 = to.length_squared();
     if d2.is_nan() || d2 <= 0.0 {
         return Rgb::ZERO;
     }
     let dir = to / d2.sqrt();
-    let f_camera = sp.connection_factor(dir, TransportMode::Radiance);
+    let f_camera = at.f(dir, TransportMode::Radiance);
     if f_camera == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let lsp = ShadingPoint::new(&v.hit, v.dir, tracer.scene);
-    let f_light = lsp.connection_factor(-dir, TransportMode::Importance);
+    let shading = v.at.shading(tracer.scene);
+    let Some(lv) = v.at.at(&shading) else {
+        return Rgb::ZERO;
+    };
+    let f_light = lv.f(-dir, TransportMode::Importance);
     if f_light == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    // Each side's BSDF densities along the connection and back, the former as area
-    // densities at the other vertex.
-    let (cl, ll) = (sp.frame.to_local(dir), lsp.frame.to_local(-dir));
-    let camera_area = sp.material.pdf(sp.wo, cl) * lsp.hit.ng.dot(dir).abs() / d2;
-    let light_area = lsp.material.pdf(lsp.wo, ll) * sp.hit.ng.dot(dir).abs() / d2;
-    let camera_rev = mis(sp.material.pdf(cl, sp.wo));
-    let light_rev = mis(lsp.material.pdf(ll, lsp.wo));
-    let w_light = mis(camera_area) * (w.vm + v.mis.vcm + v.mis.vc * light_rev);
-    let w_camera = mis(light_area) * (w.vm + weights.vcm + weights.vc * camera_rev);
+    // Each side's densities along the connection and back, the former as area densities at
+    // the other vertex.
+    let camera_area = at.pdf_to(dir) * lv.cos(dir) / d2;
+    let light_area = lv.pdf_to(-dir) * at.cos(dir) / d2;
+    let camera_rev = mis(at.pdf_from(dir));
+    let light_rev = mis(lv.pdf_from(-dir));
+    let w_light = mis(camera_area) * (lv.kernel(w).vm + v.mis.vcm + v.mis.vc * light_rev);
+    let w_camera = mis(light_area) * (at.kernel(w).vm + weights.vcm + weights.vc * camera_rev);
     let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
     let c = f_camera * f_light * (weight / d2);
-    if c == Rgb::ZERO || !c.is_finite() || !tracer.connected_to(&lsp.hit, &sp.hit) {
+    if c == Rgb::ZERO || !c.is_finite() {
         return Rgb::ZERO;
     }
-    c
+    match (at, &lv) {
+        (At::Surface(a), At::Surface(b)) if !tracer.scene.has_media() => {
+            if tracer.connected_to(&b.hit, &a.hit) {
+                c
+            } else {
+                Rgb::ZERO
+            }
+        }
+        _ => c * visible(&lv.hit().spawn_ray_between(&at.hit()), tracer, sampler),
+    }
 }
 
-/// Camera vertex `sp`, `length` segments from the lens, merged with every light vertex of
-/// the pass within its radius (the report's eqs. 37-39): the MIS-weighted density estimate,
-/// before the camera subpath's throughput.
-fn merge(sp: &ShadingPoint, weights: &Partial, length: u32, max: u32, pass: &Pass) -> Rgb {
+/// Camera vertex `at`, `length` segments from the lens, merged with every light vertex of
+/// the pass of its kind within its radius (the report's eqs. 37-39): the MIS-weighted
+/// density estimate, before the camera subpath's throughput. In a medium the estimate is of
+/// `sigma_s` times the in-scattered radiance (a light vertex there is a real scattering
+/// event), so it is divided by `sigma_s` (the camera's throughput holds the vertex's own).
+fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass, scene: &dyn Scene) -> Rgb {
     let w = &pass.weights;
+    let kernel = at.kernel(w);
+    let grid = match at {
+        At::Surface(_) => &pass.grid,
+        At::Medium(_) => &pass.volume,
+    };
     let mut sum = Rgb::ZERO;
-    pass.grid.for_each_near(sp.hit.p, |v| {
+    // The value and the densities towards a light vertex's direction and back.
+    let eval = |wi: Vec3A| -> Option<(Rgb, f32, f32)> {
+        match at {
+            At::Surface(sp) => {
+                if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, wi) {
+                    return None;
+                }
+                let local = sp.frame.to_local(wi);
+                let f = sp.material.eval(sp.wo, local);
+                if f == Rgb::ZERO {
+                    return None;
+                }
+                let to = sp.material.pdf(sp.wo, local);
+                Some((f, to, sp.material.pdf(local, sp.wo)))
+            }
+            At::Medium(m) => {
+                let p = m.phase.eval(m.wo, wi);
+                (p > 0.0).then(|| (Rgb::splat(p), p, m.phase.eval(wi, m.wo)))
+            }
+        }
+    };
+    grid.for_each_near(at.p(), |v| {
         if v.length.saturating_add(length) > max {
             return;
         }
-        let wi = Vec3A::from(v.wi);
-        if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, wi) {
+        let Some((f, to, from)) = eval(Vec3A::from(v.wi)) else {
             return;
-        }
-        let local = sp.frame.to_local(wi);
-        let f = sp.material.eval(sp.wo, local);
-        if f == Rgb::ZERO {
-            return;
-        }
-        let w_light = v.vcm * w.vc + v.vm * mis(sp.material.pdf(sp.wo, local));
-        let w_camera = weights.vcm * w.vc + weights.vm * mis(sp.material.pdf(local, sp.wo));
+        };
+        let w_light = v.vcm * kernel.vc + v.vm * mis(to);
+        let w_camera = weights.vcm * kernel.vc + weights.vm * mis(from);
         let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
         sum += f * Vec3A::from(v.beta) * weight;
     });
-    sum * w.normalization
+    let sum = sum * kernel.normalization;
+    match at {
+        At::Surface(_) => sum,
+        At::Medium(m) => {
+            let sigma_s = scene
+                .medium(m.medium)
+                .map_or(Rgb::ZERO, |md| md.at(m.p).sigma_s);
+            let per = |c: usize| {
+                if sigma_s[c] > 0.0 {
+                    sum[c] / sigma_s[c]
+                } else {
+                    0.0
+                }
+            };
+            Rgb::new(per(0), per(1), per(2))
+        }
+    }
 }
 
 /// Light at infinity: the environment and directional lights.
@@ -794,12 +1282,13 @@ fn at_infinity(light: &Light) -> bool {
     light.is_environment() || matches!(light, Light::Directional(_))
 }
 
-/// One BSDF sample continuing a subpath in `mode`: the throughput, the next ray, and the
-/// weights for the next vertex (the report's eqs. 34-36, specular bounces as eqs. 53-55).
-/// Whether the sample was specular; `None` ends the subpath.
+/// One BSDF (or phase function) sample continuing a subpath in `mode`: the throughput, the
+/// next ray, and the weights for the next vertex (the report's eqs. 34-36, specular bounces
+/// as eqs. 53-55; the kernel of merges at the vertex left is its own kind's). Whether the
+/// sample was specular; `None` ends the subpath.
 #[inline]
 fn scatter(
-    sp: &ShadingPoint,
+    at: &At,
     mode: TransportMode,
     w: &Weights,
     beta: &mut Rgb,
@@ -807,30 +1296,48 @@ fn scatter(
     ray: &mut Ray,
     sampler: &mut Sampler,
 ) -> Option<bool> {
-    let s = sp.sample(sampler.next_1d(), sampler.next_2d(), mode)?;
-    let cos = sp.hit.ng.dot(s.wi).abs();
-    if s.bsdf.specular {
+    let kernel = at.kernel(w);
+    let (wi, fwd, specular) = match at {
+        At::Surface(sp) => {
+            let s = sp.sample(sampler.next_1d(), sampler.next_2d(), mode)?;
+            *beta = s.throughput(*beta);
+            (s.wi, s.bsdf.pdf, s.bsdf.specular)
+        }
+        At::Medium(m) => {
+            let ps = m.phase.sample(m.wo, sampler.next_2d());
+            *beta *= ps.p / ps.pdf;
+            (ps.wi, ps.pdf, false)
+        }
+    };
+    let cos = at.cos(wi);
+    if specular {
         weights.vcm = 0.0;
         weights.vc *= mis(cos);
         weights.vm *= mis(cos);
     } else {
-        let fwd = s.bsdf.pdf;
         if fwd.is_nan() || fwd <= 0.0 {
             return None;
         }
-        let rev = mis(sp.material.pdf(sp.frame.to_local(s.wi), sp.wo));
+        let rev = mis(at.pdf_from(wi));
         let g = mis(cos / fwd);
         let next = Partial {
-            vc: g * (weights.vc * rev + weights.vcm + w.vm),
-            vm: g * (weights.vm * rev + weights.vcm * w.vc + 1.0),
+            vc: g * (weights.vc * rev + weights.vcm + kernel.vm),
+            vm: g * (weights.vm * rev + weights.vcm * kernel.vc + 1.0),
             vcm: mis(1.0 / fwd),
         };
         *weights = next;
     }
-    *beta = s.throughput(*beta);
     if !(beta.is_finite() && *beta != Rgb::ZERO) {
         return None;
     }
-    *ray = sp.hit.spawn_ray(s.wi);
-    Some(s.bsdf.specular)
+    *ray = match at {
+        At::Surface(sp) => sp.hit.spawn_ray(wi),
+        At::Medium(m) => Ray {
+            origin: m.p,
+            dir: wi,
+            tmax: f32::INFINITY,
+            medium: m.medium,
+        },
+    };
+    Some(specular)
 }
