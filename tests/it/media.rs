@@ -20,18 +20,19 @@ fn media_integrators() -> Vec<&'static str> {
 
 /// Renders `scene` small with `integrator` at 8 samples per pixel and `extra` options.
 fn render(scene: &str, integrator: &str, extra: &[&str], out: &std::path::Path) -> Vec<u8> {
-    render_spp(scene, integrator, "8", extra, out)
+    render_spp(scene, integrator, "40x30", "8", extra, out)
 }
 
-/// [`render`] at `spp` samples per pixel.
+/// [`render`] at `size` and `spp` samples per pixel.
 fn render_spp(
     scene: &str,
     integrator: &str,
+    size: &str,
     spp: &str,
     extra: &[&str],
     out: &std::path::Path,
 ) -> Vec<u8> {
-    let size = ["--size", "40x30", "--spp", spp, "-q"];
+    let size = ["--size", size, "--spp", spp, "-q"];
     let args = [
         &["render", scene, "-i", integrator][..],
         &size,
@@ -69,8 +70,9 @@ fn media_shards_merge_into_the_single_run_byte_for_byte() {
     let dir = tempfile::tempdir().unwrap();
     for integrator in media_integrators() {
         let single = dir.path().join(format!("{integrator}.exr"));
-        // Three shards of whole blocks of 8 passes.
-        let single = render_spp(MEDIA_SCENES[0], integrator, "24", &[], &single);
+        // Three shards of whole blocks of 8 passes (48 rows: three bands of 16-row tiles for
+        // an integrator that keeps state per pixel).
+        let single = render_spp(MEDIA_SCENES[0], integrator, "40x48", "24", &[], &single);
         let parts: Vec<std::path::PathBuf> = (0..3)
             .map(|i| {
                 let part = dir.path().join(format!("{integrator}-{i}.exr"));
@@ -78,6 +80,7 @@ fn media_shards_merge_into_the_single_run_byte_for_byte() {
                 render_spp(
                     MEDIA_SCENES[0],
                     integrator,
+                    "40x48",
                     "24",
                     &["--shard", &shard],
                     &part,

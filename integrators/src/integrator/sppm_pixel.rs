@@ -14,6 +14,16 @@
 //! estimate is `Ld / n + tau / (n pi R^2)`, with photon powers already divided by the
 //! photons per pass.
 //!
+//! In participating media, photons walk media and land at real scattering events in them too
+//! (see `photon_map`), and a camera path that scatters in a medium before reaching a
+//! surface has its visible point there: direct light by a light sample through the media,
+//! and the photons that landed in the medium within a ball of the pixel's radius
+//! (`sum phase Phi / sigma_s`). A pixel keeps two progressive states, one for its visible
+//! points on surfaces and one for those in media, each with its own radius, count and
+//! flux (the ball's radius shrinks as `R' = R (N' / (N + M))^(1/3)` and its flux by
+//! `(R' / R)^3`), since one pixel's camera paths may end on a wall in one pass and in fog
+//! in the next; its estimate adds `tau_m / (n 4/3 pi R_m^3)`.
+//!
 //! The state lives in the pixels, not in the passes: the render loop averages what each pass
 //! returns, so pass `n` returns `n E_n - (n - 1) E_{n-1}` (`E_n` the estimate after `n`
 //! passes), whose average is exactly `E_n` with the box filter (the default; a wider filter
@@ -32,17 +42,20 @@
 //! **Bias**: a blur of each pixel's radius, which shrinks as photons arrive (consistent, not
 //! unbiased); truncation with a finite `max-depth`.
 
+use crate::integrator::media_walk::{direct_light, Scatterer};
+use crate::integrator::photon;
 use crate::integrator::Work;
-use crate::integrator::{sample_one_light, Demand, Integrator, ShadingPoint};
+use crate::integrator::{Demand, Integrator, ShadingPoint};
 use crate::integrator::{Stop, Tracer};
 use crate::photon_map::{
-    auto_radius, land, photon_map_bytes, trace_photons, Keep, PhotonMap, PhotonPass, Spot,
+    auto_radius, land, photon_map_bytes, split_by_place, trace_photons, Keep, Photon, PhotonMap,
+    PhotonPass, Spot,
 };
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
     MAX_DEPTH, PHOTONS, RR_DEPTH,
 };
-use crate::{Camera, Hit, Ray, RayCounters, Rgb, Sampler, Scene};
+use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
@@ -86,7 +99,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         point_in_sphere: expect(1.0, 40, 400),
         sphere_under_sky: None,
     }),
-    media: MediaSupport::None,
+    media: MediaSupport::Scattering,
 };
 
 /// Pixels whose visible points are traced per parallel work item.
@@ -116,19 +129,59 @@ struct SppmPixel {
 /// What a pixel keeps across passes, and this pass's visible point.
 #[derive(Clone, Copy, Debug)]
 struct Pixel {
-    radius: f32,
-    /// Photons counted so far (`N`).
-    count: f32,
-    /// Flux gathered so far, rescaled to the current radius (`tau`).
-    flux: Rgb,
+    /// The progressive estimate of the light its visible points on surfaces gather (a disk
+    /// of the radius) ...
+    surface: Progress,
+    /// ... and of what its visible points in media gather (a ball of the radius): a pixel's
+    /// camera paths may end on a wall in one pass and in fog in the next, and the two kinds
+    /// of density estimate shrink apart.
+    medium: Progress,
     /// Emission and direct light summed over passes (`Ld`).
     direct: Rgb,
     /// The estimate after the passes so far, and after one pass fewer.
     estimate: Rgb,
     previous: Rgb,
-    /// This pass's visible point: the hit, the ray that found it, the throughput to it, and
-    /// the specular bounces before it.
-    visible: Option<(Hit, Ray, Rgb, u32)>,
+    /// This pass's visible point.
+    visible: Option<Visible>,
+}
+
+/// Hachisuka and Jensen's progressive statistics of one kind of density estimate.
+#[derive(Clone, Copy, Debug)]
+struct Progress {
+    radius: f32,
+    /// Photons counted so far (`N`).
+    count: f32,
+    /// Flux gathered so far, rescaled to the current radius (`tau`).
+    flux: Rgb,
+}
+
+impl Progress {
+    /// Folds in `m` photons bringing `flux` (already times the path's throughput) with the
+    /// fraction `gamma` kept, in `dims` dimensions (2: a disk; 3: a ball).
+    fn update(&mut self, flux: Rgb, m: u32, gamma: f32, dims: i32) {
+        let m = m as f32;
+        let kept = self.count + gamma * m;
+        let ratio = kept / (self.count + m);
+        let radius = if dims == 2 {
+            self.radius * ratio.sqrt()
+        } else {
+            self.radius * ratio.cbrt()
+        };
+        let shrink = (radius / self.radius).powi(dims);
+        self.flux = (self.flux + flux) * shrink;
+        self.count = kept;
+        self.radius = radius;
+    }
+}
+
+/// Where a pass's visible point lies, with the ray that found it, the throughput to it and
+/// the specular bounces before it.
+#[derive(Clone, Copy, Debug)]
+struct Visible {
+    at: Spot,
+    ray: Ray,
+    beta: Rgb,
+    bounces: u32,
 }
 
 impl SppmPixel {
@@ -173,11 +226,27 @@ impl SppmPixel {
                         &mut tracer,
                         &mut sampler,
                     ) {
-                        // Without media (refused), a visible point is on a surface.
-                        if let (true, Spot::Surface(hit)) = (x.bounces < max_depth, x.at) {
-                            let sp = ShadingPoint::new(&hit, x.ray.dir, scene);
-                            l += x.beta * sample_one_light(&sp, false, &mut tracer, &mut sampler);
-                            px.visible = Some((hit, x.ray, x.beta, x.bounces));
+                        if x.bounces < max_depth {
+                            // Direct light by a light sample (through media, if any).
+                            let (t, s) = (&mut tracer, &mut sampler);
+                            l += x.beta
+                                * match x.at {
+                                    Spot::Surface(hit) => photon::direct(
+                                        &ShadingPoint::new(&hit, x.ray.dir, scene),
+                                        t,
+                                        s,
+                                    ),
+                                    Spot::Medium(p) => {
+                                        let (wo, medium) = (-x.ray.dir, x.ray.medium);
+                                        direct_light(&Scatterer::Medium { p, wo, medium }, t, s)
+                                    }
+                                };
+                            px.visible = Some(Visible {
+                                at: x.at,
+                                ray: x.ray,
+                                beta: x.beta,
+                                bounces: x.bounces,
+                            });
                         }
                     }
                     direct.push(l);
@@ -195,12 +264,18 @@ impl SppmPixel {
         // its estimate, depend on which other pixels are rendered: a shard of rows would
         // differ from the whole image.)
         let r0 = self.first_radius(scene);
-        let levels: std::collections::BTreeSet<usize> = self
-            .pixels
-            .iter()
-            .filter(|p| p.visible.is_some())
-            .map(|p| level_of(p.radius, r0))
-            .collect();
+        // The levels the pixels' visible points on surfaces, and in media, need.
+        let levels = |medium: bool| -> std::collections::BTreeSet<usize> {
+            self.pixels
+                .iter()
+                .filter_map(|p| match p.visible?.at {
+                    Spot::Surface(_) if !medium => Some(level_of(p.surface.radius, r0)),
+                    Spot::Medium(_) if medium => Some(level_of(p.medium.radius, r0)),
+                    _ => None,
+                })
+                .collect()
+        };
+        let (surface_levels, medium_levels) = (levels(false), levels(true));
         let max_bounces = self.max_depth.saturating_sub(1);
         let photon_pass = PhotonPass {
             count: self.photons,
@@ -215,10 +290,16 @@ impl SppmPixel {
         if stop.requested() {
             return rays;
         }
-        let mut maps: Vec<Option<PhotonMap>> = vec![None; levels.last().map_or(0, |l| l + 1)];
-        for &level in &levels {
-            maps[level] = Some(PhotonMap::build(photons.clone(), level_radius(r0, level)));
-        }
+        let (photons, in_media) = split_by_place(photons);
+        let build = |photons: &Vec<Photon>, levels: &std::collections::BTreeSet<usize>| {
+            let mut maps: Vec<Option<PhotonMap>> = vec![None; levels.last().map_or(0, |l| l + 1)];
+            for &level in levels {
+                maps[level] = Some(PhotonMap::build(photons.clone(), level_radius(r0, level)));
+            }
+            maps
+        };
+        let maps = build(&photons, &surface_levels);
+        let volume_maps = build(&in_media, &medium_levels);
         // Each pixel gathers the photons within its own radius and updates its estimate.
         let (gamma, n) = (self.gamma, pass as f32 + 1.0);
         let direct: Vec<Rgb> = direct
@@ -242,25 +323,42 @@ impl SppmPixel {
                     px.direct += ld;
                 }
                 // Every visible pixel's level has a map (built above from the same radii).
-                let visible = px
-                    .visible
-                    .zip(maps.get(level_of(px.radius, r0)).and_then(Option::as_ref));
-                if let Some(((hit, ray, beta, bounces), map)) = visible {
-                    let sp = ShadingPoint::new(&hit, ray.dir, scene);
-                    let max_photon_bounces = max_depth.saturating_sub(bounces + 1);
-                    let (flux, count) = gather(map, &sp, px.radius, max_photon_bounces);
-                    if count > 0 && flux.is_finite() {
-                        let m = count as f32;
-                        let kept = px.count + gamma * m;
-                        let radius = px.radius * (kept / (px.count + m)).sqrt();
-                        let shrink = (radius / px.radius).powi(2);
-                        px.flux = (px.flux + beta * flux) * shrink;
-                        px.count = kept;
-                        px.radius = radius;
+                if let Some(v) = px.visible {
+                    let max_photon_bounces = max_depth.saturating_sub(v.bounces + 1);
+                    match v.at {
+                        Spot::Surface(hit) => {
+                            let map = maps.get(level_of(px.surface.radius, r0));
+                            if let Some(map) = map.and_then(Option::as_ref) {
+                                let sp = ShadingPoint::new(&hit, v.ray.dir, scene);
+                                let (flux, count) =
+                                    gather(map, &sp, px.surface.radius, max_photon_bounces);
+                                if count > 0 && flux.is_finite() {
+                                    px.surface.update(v.beta * flux, count, gamma, 2);
+                                }
+                            }
+                        }
+                        Spot::Medium(p) => {
+                            let map = volume_maps.get(level_of(px.medium.radius, r0));
+                            if let Some(map) = map.and_then(Option::as_ref) {
+                                let (flux, count) = gather_in_medium(
+                                    map,
+                                    scene,
+                                    (p, -v.ray.dir, v.ray.medium),
+                                    px.medium.radius,
+                                    max_photon_bounces,
+                                );
+                                if count > 0 && flux.is_finite() {
+                                    px.medium.update(v.beta * flux, count, gamma, 3);
+                                }
+                            }
+                        }
                     }
                 }
                 px.previous = px.estimate;
-                px.estimate = px.direct / n + px.flux / (n * PI * px.radius * px.radius);
+                let (s, m) = (&px.surface, &px.medium);
+                px.estimate = px.direct / n
+                    + s.flux / (n * PI * s.radius * s.radius)
+                    + m.flux / (n * 4.0 / 3.0 * PI * m.radius.powi(3));
             });
         rays
     }
@@ -303,6 +401,40 @@ fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> 
         count += 1;
     });
     (flux, count)
+}
+
+/// The flux the photons that landed in a medium within `radius` of the visible point `(p,
+/// wo, medium)` scatter towards its viewer (`sum phase Phi / sigma_s`: the caller's
+/// throughput holds the visible point's own `sigma_s`), and their number.
+fn gather_in_medium(
+    map: &PhotonMap,
+    scene: &dyn Scene,
+    (p, wo, medium): (Vec3A, Vec3A, crate::MediumId),
+    radius: f32,
+    max_bounces: u32,
+) -> (Rgb, u32) {
+    let Some(m) = scene.medium(medium) else {
+        return (Rgb::ZERO, 0);
+    };
+    let phase = m.phase();
+    let (mut flux, mut count) = (Rgb::ZERO, 0u32);
+    let r2 = radius * radius;
+    map.for_each_near(p, |ph| {
+        if (ph.bounces as u32) > max_bounces || (Vec3A::from(ph.p) - p).length_squared() >= r2 {
+            return;
+        }
+        flux += phase.eval(wo, Vec3A::from(ph.wi)) * Vec3A::from(ph.power);
+        count += 1;
+    });
+    let sigma_s = m.at(p).sigma_s;
+    let per = |c: usize| {
+        if sigma_s[c] > 0.0 {
+            flux[c] / sigma_s[c]
+        } else {
+            0.0
+        }
+    };
+    (Rgb::new(per(0), per(1), per(2)), count)
 }
 
 impl SppmPixel {
@@ -375,9 +507,16 @@ impl Integrator for SppmPixel {
             let r0 = self.first_radius(scene);
             self.pixels = vec![
                 Pixel {
-                    radius: r0,
-                    count: 0.0,
-                    flux: Rgb::ZERO,
+                    surface: Progress {
+                        radius: r0,
+                        count: 0.0,
+                        flux: Rgb::ZERO,
+                    },
+                    medium: Progress {
+                        radius: r0,
+                        count: 0.0,
+                        flux: Rgb::ZERO,
+                    },
                     direct: Rgb::ZERO,
                     estimate: Rgb::ZERO,
                     previous: Rgb::ZERO,
@@ -446,7 +585,7 @@ mod tests {
             });
         }
         assert!(sppm.pixels.iter().all(|p| p.estimate.is_finite()));
-        sppm.pixels.iter().map(|p| p.radius).collect()
+        sppm.pixels.iter().map(|p| p.surface.radius).collect()
     }
 
     #[test]
