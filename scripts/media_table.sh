@@ -12,7 +12,7 @@
 # Usage: scripts/media_table.sh [integrators...]
 . "$(dirname "$0")/figure_setup.sh" scenes/fog_room.ron out/pages/media
 TIME=${TIME:-10}
-INTEGRATORS=${*:-volpath lighttracer bdpt pssmlt mmlt}
+INTEGRATORS=${*:-volpath lighttracer bdpt vcm bpm photon sppm sppm-pixel pssmlt mmlt}
 . "$(dirname "$0")/equal_time.sh"
 SCENES=(
   "scenes/fog_room.ron 160x120 8 volpath 4096"

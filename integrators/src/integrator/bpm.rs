@@ -13,15 +13,15 @@
 //! there are no light samples and no connections, so direct light comes from merges too.
 //!
 //! In participating media the subpaths walk media and merge at medium vertices too, with
-//! photon points in a kernel of `4/3 pi r^3` (see [`vcm`](super::vcm)); at SmallVCM's small
-//! default radius few light vertices fall within a camera vertex's kernel in a thin fog, so
-//! its estimate there is very noisy (give a larger `radius`).
+//! photon points in a kernel of `4/3 pi r^3` (see [`vcm`](super::vcm)), of `volume-radius`,
+//! by default five times the surfaces' first radius: at SmallVCM's small radius few light
+//! vertices fall within a camera vertex's ball in a thin fog, and merges are fireflies.
 //!
 //! The radius shrinks as SmallVCM's: `r_i = r_0 / (i + 1)^((1 - alpha) / 2)` in pass `i`.
 //!
 //! **Parameters**: `max-depth` (scattering events, default unlimited), `rr-depth` (default
 //! 3), `radius` (first merging radius in scene units; 0 = 0.3% of the scene's bounding
-//! radius), `alpha` (default 0.75).
+//! radius), `volume-radius` (in media; 0 = 5 times `radius`), `alpha` (default 0.75).
 //! **Bias**: every contribution but directly seen emission is a density estimate, blurred by
 //! the radius `r_i` of its pass; the blur vanishes as passes accumulate (consistent, not
 //! unbiased). Truncation with a finite `max-depth`.
