@@ -28,11 +28,16 @@ fn media_entries(emitting: bool) -> Vec<(&'static str, Params, bool)> {
             let params = if is_density_estimate(e) {
                 let has = |name| e.params.iter().any(|p| p.name == name);
                 let photons = [("photons", "500000"), ("caustic-photons", "100000")];
+                // Merges in media within the surfaces' radius: the kernel's darkening at the
+                // ball's boundary grows with it.
+                let radius = analytic.iter().find(|(k, _)| *k == "radius");
+                let volume = radius.filter(|_| has("volume-radius"));
                 analytic
                     .iter()
                     .copied()
                     .filter(|(k, _)| photons.iter().all(|(p, _)| p != k))
                     .chain(photons.into_iter().filter(|(k, _)| has(*k)))
+                    .chain(volume.map(|(_, r)| ("volume-radius", *r)))
                     .collect()
             } else {
                 analytic.to_vec()

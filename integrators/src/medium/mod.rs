@@ -7,14 +7,18 @@
 //! ([`Medium::majorant`]): tentative collisions are drawn at rate `sigma_maj` along a ray, and
 //! each is real (absorption, scattering) or null by the ratios of the coefficients there
 //! (delta and ratio tracking; pbrt-v4's `SampleT_maj`, [`tracking`]). A homogeneous medium's
-//! majorant is its extinction, so every collision is real.
+//! majorant is its extinction, so every collision is real; a grid in a box has a coarse grid
+//! of majorants ([`majorant`]), walked cell by cell.
 //!
 //! Rays carry the medium they travel in ([`crate::Ray::medium`]); surfaces carry the media on
 //! their two sides ([`crate::MediumInterface`]).
 
+pub mod majorant;
 pub mod phase;
 pub mod tracking;
 pub mod volume;
+
+use majorant::MajorantGrid;
 
 pub use phase::{Phase, PhaseSample};
 pub use volume::{DensityGrid, GridEdge, Volume};
@@ -56,6 +60,8 @@ pub struct Heterogeneous {
     pub region: Option<Affine3A>,
     /// The largest extinction anywhere.
     majorant: Rgb,
+    /// The largest extinction in each cell of the box (with a box and a grid).
+    majorants: Option<MajorantGrid>,
 }
 
 /// The coefficients of a medium at a point.
@@ -98,8 +104,13 @@ impl Heterogeneous {
         phase: Phase,
         region: Option<Affine3A>,
     ) -> Heterogeneous {
+        let majorants = match (&region, &sigma_t) {
+            (Some(to_unit), Volume::Grid { .. }) => MajorantGrid::build(&sigma_t, to_unit),
+            _ => None,
+        };
         Heterogeneous {
             majorant: sigma_t.max(),
+            majorants,
             sigma_t,
             albedo,
             le,
@@ -162,28 +173,50 @@ impl Medium {
         }
     }
 
-    /// The stretch of `ray` before `tmax` over which the medium may be dense, with its
-    /// majorant; `None` where the ray misses it. (One stretch with the largest extinction
-    /// anywhere; a grid of majorants would split it.)
+    /// The stretches of `ray` before `tmax` over which the medium may be dense, in order,
+    /// each with its majorant; none where the ray misses it. A medium in a box with a grid
+    /// gives one stretch per cell of its majorant grid the ray crosses; the others one
+    /// stretch, with the largest extinction anywhere.
     #[inline]
-    pub fn majorant(&self, ray: &Ray, tmax: f32) -> Option<Segment> {
+    pub fn majorant(&self, ray: &Ray, tmax: f32) -> Majorants<'_> {
         match self {
-            Medium::Homogeneous(m) => Some(Segment {
+            Medium::Homogeneous(m) => Majorants::One(Some(Segment {
                 t0: 0.0,
                 t1: tmax,
                 sigma_maj: m.sigma_a + m.sigma_s,
-            }),
-            Medium::Heterogeneous(m) => {
-                let (t0, t1) = match &m.region {
-                    None => (0.0, tmax),
-                    Some(to_unit) => unit_cube_overlap(to_unit, ray, tmax)?,
-                };
-                Some(Segment {
-                    t0,
-                    t1,
-                    sigma_maj: m.majorant,
-                })
-            }
+            })),
+            Medium::Heterogeneous(m) => match (&m.region, &m.majorants) {
+                (Some(to_unit), Some(grid)) => Majorants::Grid(grid.segments(to_unit, ray, tmax)),
+                (region, _) => {
+                    let stretch = match region {
+                        None => Some((0.0, tmax)),
+                        Some(to_unit) => unit_cube_overlap(to_unit, ray, tmax),
+                    };
+                    Majorants::One(stretch.map(|(t0, t1)| Segment {
+                        t0,
+                        t1,
+                        sigma_maj: m.majorant,
+                    }))
+                }
+            },
+        }
+    }
+}
+
+/// The stretches of a ray with their majorants ([`Medium::majorant`]).
+pub enum Majorants<'g> {
+    One(Option<Segment>),
+    Grid(majorant::Segments<'g>),
+}
+
+impl Iterator for Majorants<'_> {
+    type Item = Segment;
+
+    #[inline]
+    fn next(&mut self) -> Option<Segment> {
+        match self {
+            Majorants::One(one) => one.take(),
+            Majorants::Grid(cells) => cells.next(),
         }
     }
 }
@@ -191,7 +224,7 @@ impl Medium {
 /// The stretch `[t0, t1)` of `ray` (before `tmax`) inside the unit cube that `to_unit` maps
 /// the box onto: the ray is taken into the cube's space unnormalised, so that `t` keeps its
 /// meaning.
-fn unit_cube_overlap(to_unit: &Affine3A, ray: &Ray, tmax: f32) -> Option<(f32, f32)> {
+pub(crate) fn unit_cube_overlap(to_unit: &Affine3A, ray: &Ray, tmax: f32) -> Option<(f32, f32)> {
     let o = to_unit.transform_point3a(ray.origin);
     let d = to_unit.transform_vector3a(ray.dir);
     let (mut t0, mut t1) = (0.0f32, tmax);

@@ -37,36 +37,42 @@ pub fn sample_t_maj(
     sampler: &mut Sampler,
     mut collision: impl FnMut(&Collision, &mut Sampler) -> bool,
 ) -> Rgb {
-    let Some(segment) = medium.majorant(ray, tmax) else {
-        return Rgb::ONE;
-    };
-    let sigma_maj = segment.sigma_maj;
-    let rate = sigma_maj[hero];
-    if rate <= 0.0 {
-        // Nothing to collide with (the hero sees no medium): only the other channels'
-        // majorant transmittance, which the caller's weights divide out.
-        return transmittance(sigma_maj, (segment.t1 - segment.t0).max(0.0));
-    }
-    let mut t = segment.t0;
-    loop {
-        let step = -(1.0 - sampler.next_1d()).ln() / rate;
-        let next = t + step;
-        if next >= segment.t1 || next.is_nan() {
-            return transmittance(sigma_maj, (segment.t1 - t).max(0.0));
+    // Collisions are drawn afresh in each stretch (the exponential has no memory); `t_maj`
+    // is the majorant transmittance since the last collision, across stretches.
+    let mut t_maj = Rgb::ONE;
+    for segment in medium.majorant(ray, tmax) {
+        let sigma_maj = segment.sigma_maj;
+        let rate = sigma_maj[hero];
+        if rate <= 0.0 {
+            // Nothing to collide with (the hero sees no medium): only the other channels'
+            // majorant transmittance, which the caller's weights divide out.
+            t_maj *= transmittance(sigma_maj, (segment.t1 - segment.t0).max(0.0));
+            continue;
         }
-        let p = ray.at(next);
-        let c = Collision {
-            p,
-            t: next,
-            point: medium.at(p),
-            sigma_maj,
-            t_maj: transmittance(sigma_maj, next - t),
-        };
-        if !collision(&c, sampler) {
-            return Rgb::ONE;
+        let mut t = segment.t0;
+        loop {
+            let step = -(1.0 - sampler.next_1d()).ln() / rate;
+            let next = t + step;
+            if next >= segment.t1 || next.is_nan() {
+                t_maj *= transmittance(sigma_maj, (segment.t1 - t).max(0.0));
+                break;
+            }
+            let p = ray.at(next);
+            let c = Collision {
+                p,
+                t: next,
+                point: medium.at(p),
+                sigma_maj,
+                t_maj: t_maj * transmittance(sigma_maj, next - t),
+            };
+            if !collision(&c, sampler) {
+                return Rgb::ONE;
+            }
+            t_maj = Rgb::ONE;
+            t = next;
         }
-        t = next;
     }
+    t_maj
 }
 
 /// `exp(-sigma * d)` per channel; 1 where `sigma` is zero, even over an infinite `d` (a ray

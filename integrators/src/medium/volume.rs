@@ -86,6 +86,33 @@ impl DensityGrid {
         self.max
     }
 
+    /// The largest value any lookup in the box `[lo, hi]` of the unit cube can give: the
+    /// largest of the voxels whose interpolation reaches into it.
+    pub fn max_in(&self, lo: Vec3A, hi: Vec3A) -> Rgb {
+        let mut range = [(0usize, 0usize); 3];
+        for axis in 0..3 {
+            let n = self.resolution[axis];
+            let index = |x: f32| {
+                let i = (x * n as f32 - 0.5).floor();
+                if i.is_nan() {
+                    0
+                } else {
+                    i.clamp(0.0, (n - 1) as f32) as usize
+                }
+            };
+            range[axis] = (index(lo[axis]), (index(hi[axis]) + 1).min(n - 1));
+        }
+        let mut max = Rgb::ZERO;
+        for z in range[2].0..=range[2].1 {
+            for y in range[1].0..=range[1].1 {
+                for x in range[0].0..=range[0].1 {
+                    max = max.max(self.voxel(x, y, z));
+                }
+            }
+        }
+        max
+    }
+
     #[inline]
     fn rgb(voxel: &[f32]) -> Rgb {
         match voxel {
@@ -230,6 +257,24 @@ impl Volume {
         match self {
             Volume::Constant(c) => *c,
             Volume::Grid { grid, scale, .. } => grid.max() * *scale,
+        }
+    }
+
+    /// The largest value anywhere in the convex hull of `corners` (world), bounded by their
+    /// box in the grid's space.
+    pub fn max_in(&self, corners: &[Vec3A; 8]) -> Rgb {
+        match self {
+            Volume::Constant(c) => *c,
+            Volume::Grid {
+                grid,
+                to_local,
+                scale,
+            } => {
+                let local = corners.map(|c| to_local.transform_point3a(c));
+                let lo = local.iter().fold(Vec3A::INFINITY, |a, &b| a.min(b));
+                let hi = local.iter().fold(Vec3A::NEG_INFINITY, |a, &b| a.max(b));
+                grid.max_in(lo, hi) * *scale
+            }
         }
     }
 
