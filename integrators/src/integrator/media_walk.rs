@@ -233,21 +233,10 @@ pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) 
     let light = scene.lights().get(index);
     let (ls, f, ray) = match at {
         Scatterer::Surface(sp) => {
-            if !sp.can_receive(index, scene.lights()) {
-                return Rgb::ZERO;
-            }
-            let Some(ls) = light.sample_li(sp.hit.p, u) else {
+            let Some((ls, ray)) = light_at_surface(sp, index, u, scene) else {
                 return Rgb::ZERO;
             };
-            if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, ls.wi) {
-                return Rgb::ZERO;
-            }
             let wi = sp.frame.to_local(ls.wi);
-            let ray = if ls.dist.is_finite() {
-                sp.hit.spawn_ray_to(ls.point)
-            } else {
-                sp.hit.spawn_ray(ls.wi)
-            };
             (ls, sp.material.eval(sp.wo, wi) * wi.z.abs(), ray)
         }
         Scatterer::Medium { p, wo, medium } => {
@@ -270,6 +259,30 @@ pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) 
     } else {
         Rgb::ZERO
     }
+}
+
+/// One sample of light `index` (placed by `u`) seen from the surface `sp`, with the shadow
+/// ray towards it (stopping short of it); `None` where the light cannot light the point's
+/// viewer side: the emitter the point lies on, no sample, a sample across an opaque surface.
+pub fn light_at_surface(
+    sp: &ShadingPoint,
+    index: u32,
+    u: glam::Vec2,
+    scene: &dyn Scene,
+) -> Option<(LightSample, Ray)> {
+    if !sp.can_receive(index, scene.lights()) {
+        return None;
+    }
+    let ls = scene.lights().get(index).sample_li(sp.hit.p, u)?;
+    if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, ls.wi) {
+        return None;
+    }
+    let ray = if ls.dist.is_finite() {
+        sp.hit.spawn_ray_to(ls.point)
+    } else {
+        sp.hit.spawn_ray(ls.wi)
+    };
+    Some((ls, ray))
 }
 
 /// The shadow ray from a point in a medium towards a light sample, stopping short of it.

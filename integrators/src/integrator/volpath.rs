@@ -26,8 +26,10 @@
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::bsdf::TransportMode;
-use crate::integrator::media_walk::{average, hero_channel, positive, ray_from_point};
-use crate::integrator::{emitted_at, escaped, stays_on_viewer_side, RayIntegrator, ShadingPoint};
+use crate::integrator::media_walk::{
+    average, hero_channel, light_at_surface, positive, ray_from_point,
+};
+use crate::integrator::{emitted_at, escaped, RayIntegrator, ShadingPoint};
 use crate::medium::tracking::sample_t_maj;
 use crate::medium::Phase;
 use crate::registry::{
@@ -327,22 +329,11 @@ impl VolPath {
         let light = scene.lights().get(index);
         let (ls, f, scatter_pdf, mut ray) = match vertex {
             Vertex::Surface(sp) => {
-                if !sp.can_receive(index, scene.lights()) {
-                    return Rgb::ZERO;
-                }
-                let Some(ls) = light.sample_li(sp.hit.p, u) else {
+                let Some((ls, ray)) = light_at_surface(sp, index, u, scene) else {
                     return Rgb::ZERO;
                 };
-                if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, ls.wi) {
-                    return Rgb::ZERO;
-                }
                 let wi = sp.frame.to_local(ls.wi);
                 let (f, pdf) = sp.material.eval_pdf(sp.wo, wi);
-                let ray = if ls.dist.is_finite() {
-                    sp.hit.spawn_ray_to(ls.point)
-                } else {
-                    sp.hit.spawn_ray(ls.wi)
-                };
                 (ls, f * wi.z.abs(), pdf, ray)
             }
             Vertex::Medium { p, wo, phase } => {
