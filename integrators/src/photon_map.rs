@@ -30,7 +30,7 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::media_walk::{
-    average, cross_null, fly, hero_channel, medium_at, positive, Flight,
+    average, cross_null, fly, hero_channel, medium_at, over_sigma_s, positive, Flight,
 };
 use crate::integrator::volpath::LONG_PATH;
 use crate::integrator::{
@@ -40,7 +40,7 @@ use crate::{luminance, Hit, MediumId, Ray, RayCounters, Rgb, Sampler, Scene, Tra
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-/// One stored photon (40 bytes): a landing on a surface, or in a medium.
+/// One stored photon (44 bytes): a landing on a surface, or in a medium.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Photon {
     /// Where it landed.
@@ -54,8 +54,17 @@ pub struct Photon {
     /// Every scattering before this landing was specular (and there was at least one): the
     /// photon took a caustic path `L S+ D`.
     pub caustic: bool,
-    /// It landed in a medium (a real scattering event there), not on a surface.
-    pub in_medium: bool,
+    /// The medium it landed in (a real scattering event there; its power is then over
+    /// `sigma_s` there), or `MediumId::VACUUM` for a landing on a surface.
+    pub medium: MediumId,
+}
+
+impl Photon {
+    /// Whether it landed in a medium.
+    #[inline]
+    pub fn in_medium(&self) -> bool {
+        self.medium != MediumId::VACUUM
+    }
 }
 
 /// Which landings a photon pass stores.
@@ -181,22 +190,23 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
                     if keep == Keep::Caustic {
                         return;
                     }
+                    let Some(medium) = scene.medium(ray.medium) else {
+                        return;
+                    };
                     if keep == Keep::All || bounces > 0 {
+                        let sigma_s = medium.at(p).sigma_s;
                         out.push(Photon {
                             p: p.into(),
                             wi: (-ray.dir).into(),
-                            power: m.power(beta).into(),
+                            power: over_sigma_s(m.power(beta), sigma_s).into(),
                             bounces: bounces.min(u16::MAX as u32) as u16,
                             caustic: specular_so_far && bounces > 0,
-                            in_medium: true,
+                            medium: ray.medium,
                         });
                     }
                     if bounces >= max_bounces || bounces >= u16::MAX as u32 {
                         return;
                     }
-                    let Some(medium) = scene.medium(ray.medium) else {
-                        return;
-                    };
                     let ps = medium.phase().sample(-ray.dir, sampler.next_2d());
                     if !positive(ps.pdf) {
                         return;
@@ -265,7 +275,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
                     power: power.into(),
                     bounces: bounces.min(u16::MAX as u32) as u16,
                     caustic,
-                    in_medium: false,
+                    medium: MediumId::VACUUM,
                 });
             }
             // A caustic photon ends here unless a Dirac lobe (a plastic's coating) may still
@@ -597,11 +607,12 @@ impl PhotonMap {
 
 impl PhotonMap {
     /// Radiance scattered towards `wo` (back along the ray that arrived) at `p`, in `medium`,
-    /// by the photons that landed in the medium near `p` and that `accept` admits. A photon
-    /// landing at a real scattering event carries `sigma_s L dw dV` in expectation, so
-    /// `sum phase(wo, wi) Phi / (4/3 pi r^3)` estimates `sigma_s` times the in-scattered
-    /// radiance `int phase L dw`; this returns the latter (the caller's throughput to `p`
-    /// holds the `sigma_s` of the scattering event), 0 in a channel that does not scatter.
+    /// by the photons that landed in that medium near `p` and that `accept` admits. A photon
+    /// landing at a real scattering event carries `sigma_s L dw dV` in expectation, stored
+    /// over `sigma_s` there, so `sum phase(wo, wi) Phi / (4/3 pi r^3)` estimates the
+    /// in-scattered radiance `int phase L dw` (the caller's throughput to `p` holds the
+    /// `sigma_s` of the scattering event). Photons of another medium within the radius (fog
+    /// beside milk) are not counted.
     pub fn in_scattered(
         &self,
         scene: &dyn Scene,
@@ -616,27 +627,18 @@ impl PhotonMap {
         let phase = m.phase();
         let mut sum = Rgb::ZERO;
         self.for_each_near(p, |ph| {
-            if accept(ph) {
+            if ph.medium == medium && accept(ph) {
                 sum += phase.eval(wo, Vec3A::from(ph.wi)) * Vec3A::from(ph.power);
             }
         });
-        let volume = 4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3);
-        let sigma_s = m.at(p).sigma_s;
-        let per = |c: usize| {
-            if positive(sigma_s[c]) {
-                sum[c] / (volume * sigma_s[c])
-            } else {
-                0.0
-            }
-        };
-        Rgb::new(per(0), per(1), per(2))
+        sum / (4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3))
     }
 }
 
 /// A photon set split by where its photons landed: on surfaces, and in media (kept in the
 /// same order, so the maps do not depend on the thread count).
 pub fn split_by_place(photons: Vec<Photon>) -> (Vec<Photon>, Vec<Photon>) {
-    photons.into_iter().partition(|p| !p.in_medium)
+    photons.into_iter().partition(|p| !p.in_medium())
 }
 
 /// The default first gather radius: a fraction of the scene's bounding-box diagonal.
@@ -676,7 +678,7 @@ mod tests {
                 power: Vec3::splat(i as f32),
                 bounces: 0,
                 caustic: false,
-                in_medium: false,
+                medium: MediumId::VACUUM,
             })
             .collect();
         let map = PhotonMap::build(photons.clone(), 0.13);

@@ -28,6 +28,21 @@ pub fn positive(x: f32) -> bool {
     x > 0.0
 }
 
+/// `v / sigma_s` per channel, 0 in a channel that does not scatter: what a point landed in
+/// a medium carries into a density estimate, so that the estimate blurs the in-scattered
+/// radiance and not the medium's scattering coefficient with it.
+#[inline]
+pub fn over_sigma_s(v: Rgb, sigma_s: Rgb) -> Rgb {
+    let per = |c: usize| {
+        if positive(sigma_s[c]) {
+            v[c] / sigma_s[c]
+        } else {
+            0.0
+        }
+    };
+    Rgb::new(per(0), per(1), per(2))
+}
+
 /// The hero channel of a path, from one uniform number.
 #[inline]
 pub fn hero_channel(u: f32) -> usize {

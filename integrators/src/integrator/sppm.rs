@@ -16,8 +16,8 @@
 //! they scatter in a medium; a camera path that scatters in a medium before reaching a
 //! surface gathers there: direct light by a light sample through the media, the rest from
 //! the photons in the medium within `r_i` (`sum phase Phi / (sigma_s 4/3 pi r_i^3)`, the
-//! volume photon map's estimate). With `r_i^2 ~ i^(alpha - 1)`, `r_i^3 N` still grows, so
-//! the volume estimate is consistent too. Media that emit are refused.
+//! volume photon map's estimate), whose ball shrinks as `r_i^3 ~ i^(alpha - 1)` (the same
+//! first radius), so that it is consistent at every `alpha`. Media that emit are refused.
 //!
 //! Caustics seen directly or through mirrors and glass (`L S+ D S* E`), which path tracing
 //! finds only by hitting a light with a BSDF sample, come from photons and converge quickly.
@@ -160,7 +160,10 @@ impl RayIntegrator for Sppm {
         if !stop.requested() {
             let (surface, volume) = split_by_place(photons);
             self.map = PhotonMap::build(surface, radius);
-            self.volume = PhotonMap::build(volume, radius);
+            // In media the ball's radius shrinks as `r_i^3 ~ i^(alpha - 1)`, the 3-D form of
+            // the schedule, so that the volume estimate converges at every `alpha`.
+            let volume_radius = r0 * radius_scale(pass, self.alpha).powf(2.0 / 3.0);
+            self.volume = PhotonMap::build(volume, volume_radius);
         }
         rays
     }

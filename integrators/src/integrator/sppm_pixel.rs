@@ -403,9 +403,10 @@ fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> 
     (flux, count)
 }
 
-/// The flux the photons that landed in a medium within `radius` of the visible point `(p,
-/// wo, medium)` scatter towards its viewer (`sum phase Phi / sigma_s`: the caller's
-/// throughput holds the visible point's own `sigma_s`), and their number.
+/// The flux the photons that landed in the visible point's medium within `radius` of it,
+/// `(p, wo, medium)`, scatter towards its viewer (`sum phase Phi`, the photons' powers being
+/// over `sigma_s` where they landed: the caller's throughput holds the visible point's own
+/// `sigma_s`), and their number.
 fn gather_in_medium(
     map: &PhotonMap,
     scene: &dyn Scene,
@@ -420,21 +421,16 @@ fn gather_in_medium(
     let (mut flux, mut count) = (Rgb::ZERO, 0u32);
     let r2 = radius * radius;
     map.for_each_near(p, |ph| {
-        if (ph.bounces as u32) > max_bounces || (Vec3A::from(ph.p) - p).length_squared() >= r2 {
+        if ph.medium != medium
+            || (ph.bounces as u32) > max_bounces
+            || (Vec3A::from(ph.p) - p).length_squared() >= r2
+        {
             return;
         }
         flux += phase.eval(wo, Vec3A::from(ph.wi)) * Vec3A::from(ph.power);
         count += 1;
     });
-    let sigma_s = m.at(p).sigma_s;
-    let per = |c: usize| {
-        if sigma_s[c] > 0.0 {
-            flux[c] / sigma_s[c]
-        } else {
-            0.0
-        }
-    };
-    (Rgb::new(per(0), per(1), per(2)), count)
+    (flux, count)
 }
 
 impl SppmPixel {

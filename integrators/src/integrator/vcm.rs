@@ -53,7 +53,8 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::media_walk::{
-    average, cross_null, fly, hero_channel, medium_at, ray_from_point, transmittance, Flight,
+    average, cross_null, fly, hero_channel, medium_at, over_sigma_s, ray_from_point, transmittance,
+    Flight,
 };
 use crate::integrator::volpath::LONG_PATH;
 use crate::integrator::{
@@ -407,14 +408,18 @@ struct LightVertex {
     mis: Partial,
 }
 
-/// A light-subpath vertex as merging needs it (56 bytes).
+/// A light-subpath vertex as merging needs it (64 bytes).
 #[derive(Clone, Copy, Debug)]
 struct MergeVertex {
     p: Vec3,
     /// Unit direction back along the subpath (away from the surface).
     wi: Vec3,
+    /// Its power; in a medium over `sigma_s` there (so that a merge blurs the in-scattered
+    /// radiance, not the medium's coefficient).
     beta: Vec3,
     length: u32,
+    /// The medium it lies in (`MediumId::VACUUM` on a surface).
+    medium: MediumId,
     vcm: f64,
     vm: f64,
 }
@@ -620,11 +625,21 @@ impl VertexMerging {
             // Keep it (for merges, and connections) and connect it to the lens, unless its
             // BSDF is all Dirac lobes.
             if !at.is_specular() {
+                let (merged, medium) = match &at {
+                    At::Surface(_) => (power, MediumId::VACUUM),
+                    At::Medium(m) => {
+                        let sigma_s = scene
+                            .medium(m.medium)
+                            .map_or(Rgb::ZERO, |md| md.at(p).sigma_s);
+                        (over_sigma_s(power, sigma_s), m.medium)
+                    }
+                };
                 let kept = MergeVertex {
                     p: Vec3::from(p),
                     wi: Vec3::from(-ray.dir),
-                    beta: Vec3::from(power),
+                    beta: Vec3::from(merged),
                     length,
+                    medium,
                     vcm: weights.vcm,
                     vm: weights.vm,
                 };
@@ -840,7 +855,7 @@ impl VertexMerging {
                     }
                 }
                 // Merges with every light vertex within the radius.
-                l += carried * merge(&at, &weights, length, max, &self.pass, scene);
+                l += carried * merge(&at, &weights, length, max, &self.pass);
             }
             // Scatter, and Russian roulette.
             let Some(specular) = scatter(
@@ -1249,11 +1264,12 @@ fn connect(
 }
 
 /// Camera vertex `at`, `length` segments from the lens, merged with every light vertex of
-/// the pass of its kind within its radius (the report's eqs. 37-39): the MIS-weighted
-/// density estimate, before the camera subpath's throughput. In a medium the estimate is of
-/// `sigma_s` times the in-scattered radiance (a light vertex there is a real scattering
-/// event), so it is divided by `sigma_s` (the camera's throughput holds the vertex's own).
-fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass, scene: &dyn Scene) -> Rgb {
+/// the pass of its kind (in a medium: of its medium) within its radius (the report's eqs.
+/// 37-39): the MIS-weighted density estimate, before the camera subpath's throughput. A
+/// light vertex in a medium is a real scattering event, and carries its power over `sigma_s`
+/// there: the estimate is of the in-scattered radiance (the camera's throughput holds the
+/// vertex's own `sigma_s`).
+fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass) -> Rgb {
     let w = &pass.weights;
     let kernel = at.kernel(w);
     let grid = match at {
@@ -1282,8 +1298,12 @@ fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass, scene: 
             }
         }
     };
+    let medium = match at {
+        At::Surface(_) => MediumId::VACUUM,
+        At::Medium(m) => m.medium,
+    };
     grid.for_each_near(at.p(), |v| {
-        if v.length.saturating_add(length) > max {
+        if v.length.saturating_add(length) > max || v.medium != medium {
             return;
         }
         let Some((f, to, from)) = eval(Vec3A::from(v.wi)) else {
@@ -1294,23 +1314,7 @@ fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass, scene: 
         let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
         sum += f * Vec3A::from(v.beta) * weight;
     });
-    let sum = sum * kernel.normalization;
-    match at {
-        At::Surface(_) => sum,
-        At::Medium(m) => {
-            let sigma_s = scene
-                .medium(m.medium)
-                .map_or(Rgb::ZERO, |md| md.at(m.p).sigma_s);
-            let per = |c: usize| {
-                if sigma_s[c] > 0.0 {
-                    sum[c] / sigma_s[c]
-                } else {
-                    0.0
-                }
-            };
-            Rgb::new(per(0), per(1), per(2))
-        }
-    }
+    sum * kernel.normalization
 }
 
 /// Light at infinity: the environment and directional lights.
