@@ -621,17 +621,33 @@ impl PhotonMap {
         wo: Vec3A,
         accept: impl Fn(&Photon) -> bool,
     ) -> Rgb {
+        let (sum, _) = self.scattered_within(scene, (p, wo, medium), self.radius, accept);
+        sum / (4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3))
+    }
+
+    /// The flux the photons that landed in `medium` within `radius` (at most the map's) of
+    /// `p` and that `accept` admits scatter towards `wo`, `sum phase(wo, wi) Phi` (their
+    /// powers over `sigma_s` where they landed), and their number.
+    pub fn scattered_within(
+        &self,
+        scene: &dyn Scene,
+        (p, wo, medium): (Vec3A, Vec3A, MediumId),
+        radius: f32,
+        accept: impl Fn(&Photon) -> bool,
+    ) -> (Rgb, u32) {
         let Some(m) = scene.medium(medium) else {
-            return Rgb::ZERO;
+            return (Rgb::ZERO, 0);
         };
         let phase = m.phase();
-        let mut sum = Rgb::ZERO;
+        let (mut sum, mut count) = (Rgb::ZERO, 0u32);
+        let r2 = radius * radius;
         self.for_each_near(p, |ph| {
-            if ph.medium == medium && accept(ph) {
+            if ph.medium == medium && accept(ph) && (Vec3A::from(ph.p) - p).length_squared() < r2 {
                 sum += phase.eval(wo, Vec3A::from(ph.wi)) * Vec3A::from(ph.power);
+                count += 1;
             }
         });
-        sum / (4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3))
+        (sum, count)
     }
 }
 

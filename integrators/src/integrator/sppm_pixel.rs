@@ -340,12 +340,11 @@ impl SppmPixel {
                         Spot::Medium(p) => {
                             let map = volume_maps.get(level_of(px.medium.radius, r0));
                             if let Some(map) = map.and_then(Option::as_ref) {
-                                let (flux, count) = gather_in_medium(
-                                    map,
+                                let (flux, count) = map.scattered_within(
                                     scene,
                                     (p, -v.ray.dir, v.ray.medium),
                                     px.medium.radius,
-                                    max_photon_bounces,
+                                    |ph| (ph.bounces as u32) <= max_photon_bounces,
                                 );
                                 if count > 0 && flux.is_finite() {
                                     px.medium.update(v.beta * flux, count, gamma, 3);
@@ -398,36 +397,6 @@ fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> 
             return;
         }
         flux += sp.material.eval(sp.wo, sp.frame.to_local(wi)) * Vec3A::from(ph.power);
-        count += 1;
-    });
-    (flux, count)
-}
-
-/// The flux the photons that landed in the visible point's medium within `radius` of it,
-/// `(p, wo, medium)`, scatter towards its viewer (`sum phase Phi`, the photons' powers being
-/// over `sigma_s` where they landed: the caller's throughput holds the visible point's own
-/// `sigma_s`), and their number.
-fn gather_in_medium(
-    map: &PhotonMap,
-    scene: &dyn Scene,
-    (p, wo, medium): (Vec3A, Vec3A, crate::MediumId),
-    radius: f32,
-    max_bounces: u32,
-) -> (Rgb, u32) {
-    let Some(m) = scene.medium(medium) else {
-        return (Rgb::ZERO, 0);
-    };
-    let phase = m.phase();
-    let (mut flux, mut count) = (Rgb::ZERO, 0u32);
-    let r2 = radius * radius;
-    map.for_each_near(p, |ph| {
-        if ph.medium != medium
-            || (ph.bounces as u32) > max_bounces
-            || (Vec3A::from(ph.p) - p).length_squared() >= r2
-        {
-            return;
-        }
-        flux += phase.eval(wo, Vec3A::from(ph.wi)) * Vec3A::from(ph.power);
         count += 1;
     });
     (flux, count)
