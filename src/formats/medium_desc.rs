@@ -11,6 +11,8 @@ type V3 = [f32; 3];
 /// A participating medium. Coefficients are per unit length of the scene.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
+// A scene has a few media: the fields matched by name read better than a box would.
+#[allow(clippy::large_enum_variant)]
 pub enum MediumDesc {
     /// The same everywhere: extinction `sigma_t` (times `scale`) and single-scattering
     /// albedo `albedo` in `[0, 1]` (scattering `albedo sigma_t`, absorption the rest).
@@ -28,17 +30,28 @@ pub enum MediumDesc {
         #[serde(default, skip_serializing_if = "is_zero")]
         emission: V3,
     },
-    /// Extinction and albedo that vary over space (Mitsuba 3's `heterogeneous`, pbrt-v4's
-    /// `uniformgrid`): inside the box `bounds` of the medium's own space, placed by
-    /// `transform`, and vacuum outside it. A grid volume fills that box.
+    /// Coefficients that vary over space (Mitsuba 3's `heterogeneous`, pbrt-v4's
+    /// `uniformgrid` and `rgbgrid`): inside the box `bounds` of the medium's own space, placed
+    /// by `transform`, and vacuum outside it. A grid volume fills that box. The coefficients
+    /// are given as `sigma_t` and `albedo`, or as `sigma_a` and `sigma_s`.
     Heterogeneous {
-        /// Extinction (times `scale` and `tint`).
-        sigma_t: VolumeDesc,
-        albedo: VolumeDesc,
+        /// Extinction (times `scale` and `tint`), with `albedo`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sigma_t: Option<VolumeDesc>,
+        /// Single-scattering albedo in `[0, 1]`, with `sigma_t`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        albedo: Option<VolumeDesc>,
+        /// Absorption (times `scale` and `tint`), with `sigma_s`, in place of `sigma_t` and
+        /// `albedo` (pbrt-v4's `rgbgrid`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sigma_a: Option<VolumeDesc>,
+        /// Scattering (times `scale` and `tint`), with `sigma_a`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sigma_s: Option<VolumeDesc>,
         /// Default: 1.
         #[serde(default = "one", skip_serializing_if = "is_one")]
         scale: f32,
-        /// A colour the extinction is multiplied by, channel by channel: pbrt-v4's
+        /// A colour the coefficients are multiplied by, channel by channel: pbrt-v4's
         /// `uniformgrid`, a grid of densities times an RGB `sigma_a + sigma_s`. Default:
         /// (1, 1, 1).
         #[serde(default = "white", skip_serializing_if = "is_white")]
@@ -49,6 +62,10 @@ pub enum MediumDesc {
         /// Radiance the medium emits (times the absorption there). Default: none.
         #[serde(default, skip_serializing_if = "is_zero")]
         emission: V3,
+        /// A volume the emission is multiplied by, point by point (pbrt-v4's `Lescale` grid
+        /// of a `uniformgrid`, the `Le` grid of an `rgbgrid`). Default: none (1 everywhere).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        emission_grid: Option<VolumeDesc>,
         /// The medium's space to the world. Default: identity.
         #[serde(default, skip_serializing_if = "is_identity")]
         transform: TransformDesc,
@@ -66,8 +83,8 @@ pub enum VolumeDesc {
     Constant(V3),
     /// A Mitsuba `.vol` grid (1 or 3 channels) filling the box, looked up trilinearly.
     Grid(String),
-    /// A grid given inline (pbrt-v4's `density`): `size` voxels along x, y, z, one value each,
-    /// `x` fastest.
+    /// A grid given inline (pbrt-v4's `density`): `size` voxels along x, y, z, one value each
+    /// or three (an RGB each, together), `x` fastest.
     Values {
         size: (u32, u32, u32),
         values: Vec<f32>,

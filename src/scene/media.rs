@@ -9,7 +9,9 @@ use crate::formats::schema::{
     V3,
 };
 use glam::{Affine3A, Vec3, Vec3A};
-use raylab_integrators::medium::{DensityGrid, GridEdge, Heterogeneous, Homogeneous, Volume};
+use raylab_integrators::medium::{
+    Coefficients, DensityGrid, GridEdge, Heterogeneous, Homogeneous, Volume,
+};
 use raylab_integrators::{Medium, MediumId, MediumInterface, Phase, Rgb};
 use std::sync::Arc;
 
@@ -133,10 +135,13 @@ pub fn medium_from_desc(desc: &MediumDesc, files: &SceneFiles) -> Result<Medium,
         MediumDesc::Heterogeneous {
             sigma_t,
             albedo,
+            sigma_a,
+            sigma_s,
             scale,
             tint,
             phase,
             emission,
+            emission_grid,
             transform,
             bounds,
         } => {
@@ -160,19 +165,41 @@ pub fn medium_from_desc(desc: &MediumDesc, files: &SceneFiles) -> Result<Medium,
             let to_unit = Affine3A::from_scale((hi - lo).recip())
                 * Affine3A::from_translation(-lo)
                 * placement.inverse();
-            let sigma_t =
-                volume_from_desc("sigma_t", sigma_t, to_unit, files)?.scaled(tint * scale);
-            let albedo = volume_from_desc("albedo", albedo, to_unit, files)?;
-            if albedo.max().max_element() > 1.0 + 1e-4 {
-                return Err(format!(
-                    "`albedo` must lie in [0, 1]; its largest value is {}",
-                    albedo.max().max_element()
-                ));
-            }
+            let volume =
+                |what: &str, desc: &VolumeDesc| volume_from_desc(what, desc, to_unit, files);
+            let coefficients = match (sigma_t, albedo, sigma_a, sigma_s) {
+                (Some(sigma_t), Some(albedo), None, None) => {
+                    let albedo = volume("albedo", albedo)?;
+                    if albedo.max().max_element() > 1.0 + 1e-4 {
+                        return Err(format!(
+                            "`albedo` must lie in [0, 1]; its largest value is {}",
+                            albedo.max().max_element()
+                        ));
+                    }
+                    Coefficients::Albedo {
+                        sigma_t: volume("sigma_t", sigma_t)?.scaled(tint * scale),
+                        albedo,
+                    }
+                }
+                (None, None, Some(sigma_a), Some(sigma_s)) => Coefficients::Separate {
+                    sigma_a: volume("sigma_a", sigma_a)?.scaled(tint * scale),
+                    sigma_s: volume("sigma_s", sigma_s)?.scaled(tint * scale),
+                },
+                _ => {
+                    return Err(
+                        "give `sigma_t` and `albedo`, or `sigma_a` and `sigma_s` (not a mix)"
+                            .into(),
+                    )
+                }
+            };
+            let emission = non_negative("emission", *emission)?;
+            let le = match emission_grid {
+                None => Volume::Constant(emission),
+                Some(grid) => volume("emission_grid", grid)?.scaled(emission),
+            };
             Ok(Medium::Heterogeneous(Box::new(Heterogeneous::new(
-                sigma_t,
-                albedo,
-                non_negative("emission", *emission)?,
+                coefficients,
+                le,
                 phase_from_desc(*phase)?,
                 Some(to_unit),
             ))))
@@ -212,16 +239,22 @@ fn volume_from_desc(
             DensityGrid::new(g.resolution, g.channels, g.values)
                 .map_err(|e| format!("`{what}` grid `{path}`: {e}"))?
         }
-        VolumeDesc::Values { size, values, edge } => DensityGrid::new(
-            [size.0 as usize, size.1 as usize, size.2 as usize],
-            1,
-            values.clone(),
-        )
-        .map_err(|e| format!("`{what}`: {e}"))?
-        .with_edge(match edge {
-            GridEdgeDesc::Clamp => GridEdge::Clamp,
-            GridEdgeDesc::Zero => GridEdge::Zero,
-        }),
+        VolumeDesc::Values { size, values, edge } => {
+            let size = [size.0 as usize, size.1 as usize, size.2 as usize];
+            let voxels = size.iter().fold(1usize, |n, s| n.saturating_mul(*s));
+            // One value a voxel, or an RGB.
+            let channels = if values.len() == voxels.saturating_mul(3) {
+                3
+            } else {
+                1
+            };
+            DensityGrid::new(size, channels, values.clone())
+                .map_err(|e| format!("`{what}`: {e}"))?
+                .with_edge(match edge {
+                    GridEdgeDesc::Clamp => GridEdge::Clamp,
+                    GridEdgeDesc::Zero => GridEdge::Zero,
+                })
+        }
     };
     Ok(Volume::Grid {
         grid: Arc::new(grid),
@@ -238,16 +271,19 @@ mod tests {
 
     fn grid_medium(edge: GridEdgeDesc, tint: V3) -> Medium {
         let desc = MediumDesc::Heterogeneous {
-            sigma_t: VolumeDesc::Values {
+            sigma_t: Some(VolumeDesc::Values {
                 size: (2, 1, 1),
                 values: vec![1.0, 3.0],
                 edge,
-            },
-            albedo: VolumeDesc::Constant([0.5; 3]),
+            }),
+            albedo: Some(VolumeDesc::Constant([0.5; 3])),
+            sigma_a: None,
+            sigma_s: None,
             scale: 2.0,
             tint,
             phase: PhaseDesc::Isotropic,
             emission: [0.0; 3],
+            emission_grid: None,
             transform: TransformDesc::default(),
             // The box [0, 2] x [0, 1] x [0, 1].
             bounds: ([0.0; 3], [2.0, 1.0, 1.0]),
@@ -279,17 +315,62 @@ mod tests {
     #[test]
     fn a_negative_tint_is_refused() {
         let desc = MediumDesc::Heterogeneous {
-            sigma_t: VolumeDesc::Constant([1.0; 3]),
-            albedo: VolumeDesc::Constant([0.5; 3]),
+            sigma_t: Some(VolumeDesc::Constant([1.0; 3])),
+            albedo: Some(VolumeDesc::Constant([0.5; 3])),
+            sigma_a: None,
+            sigma_s: None,
             scale: 1.0,
             tint: [1.0, -1.0, 1.0],
             phase: PhaseDesc::Isotropic,
             emission: [0.0; 3],
+            emission_grid: None,
             transform: TransformDesc::default(),
             bounds: ([0.0; 3], [1.0; 3]),
         };
         let files = SceneFiles::new(Path::new("scene.ron"), &[]);
         let err = medium_from_desc(&desc, &files).unwrap_err();
         assert!(err.contains("`tint`"), "{err}");
+    }
+
+    /// The coefficients come as `sigma_t` and `albedo` or as `sigma_a` and `sigma_s`; a mix,
+    /// or a pair left half given, is refused by name.
+    #[test]
+    fn coefficients_come_in_one_pair_or_the_other() {
+        let files = SceneFiles::new(Path::new("scene.ron"), &[]);
+        let constant = |v: f32| Some(VolumeDesc::Constant([v; 3]));
+        let medium = |sigma_t, albedo, sigma_a, sigma_s| MediumDesc::Heterogeneous {
+            sigma_t,
+            albedo,
+            sigma_a,
+            sigma_s,
+            scale: 2.0,
+            tint: [1.0; 3],
+            phase: PhaseDesc::Isotropic,
+            emission: [3.0; 3],
+            emission_grid: Some(VolumeDesc::Values {
+                size: (1, 1, 2),
+                values: vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+                edge: GridEdgeDesc::Clamp,
+            }),
+            transform: TransformDesc::default(),
+            bounds: ([0.0; 3], [1.0; 3]),
+        };
+        let separate =
+            medium_from_desc(&medium(None, None, constant(0.25), constant(0.5)), &files).unwrap();
+        let p = separate.at(Vec3A::new(0.5, 0.5, 0.25));
+        assert_eq!((p.sigma_a, p.sigma_s), (Rgb::splat(0.5), Rgb::splat(1.0)));
+        // An RGB grid of emission, times `emission`.
+        assert_eq!(p.le, Rgb::new(3.0, 6.0, 9.0));
+        for (t, a, sa, ss) in [
+            (constant(1.0), None, None, constant(1.0)),
+            (constant(1.0), constant(0.5), constant(1.0), None),
+            (None, None, constant(1.0), None),
+        ] {
+            let err = medium_from_desc(&medium(t, a, sa, ss), &files).unwrap_err();
+            assert!(
+                err.contains("give `sigma_t` and `albedo`, or `sigma_a` and `sigma_s`"),
+                "{err}"
+            );
+        }
     }
 }

@@ -672,6 +672,85 @@ Shape "trianglemesh"
     }
 }
 
+/// pbrt-v4's two grid media agree where they describe the same medium: a `uniformgrid` of
+/// densities times an RGB `sigma_a`, glowing `Le` times a `Lescale` grid, and the `rgbgrid`
+/// of the products voxel by voxel (its `Le` unnormalised, as pbrt-v4 reads it) render the
+/// same slab in front of a lamp, statistically; with the emission left out both are darker.
+#[test]
+fn an_rgb_grid_renders_as_the_uniform_grid_of_the_same_coefficients() {
+    let scene = |medium: &str| {
+        format!(
+            r#"Camera "perspective" "float fov" 10
+Film "rgb" "integer xresolution" 8 "integer yresolution" 8
+Integrator "volpath"
+MakeNamedMedium "slab" "string type" {medium} "integer nx" 2 "integer nz" 2 "point3 p0" [-1 -1 3] "point3 p1" [1 1 5]
+WorldBegin
+AttributeBegin
+Material "diffuse" "rgb reflectance" [0 0 0]
+AreaLightSource "diffuse" "rgb L" [1 1 1]
+Shape "bilinearmesh" "point3 P" [-20 -20 10  -20 20 10  20 -20 10  20 20 10]
+AttributeEnd
+MediumInterface "slab" ""
+Material "interface"
+Shape "trianglemesh"
+    "point3 P" [-5 -5 3  5 -5 3  -5 5 3  5 5 3  -5 -5 5  5 -5 5  -5 5 5  5 5 5]
+    "integer indices" [0 1 5  0 5 4  2 6 7  2 7 3  0 2 3  0 3 1  4 5 7  4 7 6  0 4 6  0 6 2  1 3 7  1 7 5]
+"#
+        )
+    };
+    let density = [1.0f64, 2.0, 0.5, 3.0];
+    let le_scale = [0.5f64, 1.0, 2.0, 0.25];
+    let sigma_a = [0.5f64, 0.25, 0.125];
+    let list = |v: Vec<f64>| {
+        v.iter()
+            .map(|x| format!("{x}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let uniform = |le: &str| {
+        format!(
+            r#""uniformgrid" "float density" [{}] "rgb sigma_a" [{}] "rgb sigma_s" [0 0 0] {le}"#,
+            list(density.to_vec()),
+            list(sigma_a.to_vec())
+        )
+    };
+    let per_voxel =
+        |f: &dyn Fn(usize, usize) -> f64| list((0..12).map(|i| f(i / 3, i % 3)).collect());
+    let rgb = |le: bool| {
+        let mut m = format!(
+            r#""rgbgrid" "rgb sigma_a" [{}] "rgb sigma_s" [{}]"#,
+            per_voxel(&|v, c| density[v] * sigma_a[c]),
+            per_voxel(&|_, _| 0.0)
+        );
+        if le {
+            m += &format!(
+                r#" "rgb Le" [{}]"#,
+                per_voxel(&|v, c| [4.0, 2.0, 1.0][c] * le_scale[v] / 106.856895)
+            );
+        }
+        m
+    };
+    let mean = |medium: &str| {
+        let film = render_with(&load(&scene(medium)), "volpath", 256, 7);
+        (film.mean(), film.mean_standard_error())
+    };
+    let glowing = uniform(&format!(
+        r#""rgb Le" [4 2 1] "float Lescale" [{}]"#,
+        list(le_scale.to_vec())
+    ));
+    let ((u, su), (r, sr)) = (mean(&glowing), mean(&rgb(true)));
+    let ((dark, _), (dark_rgb, _)) = (mean(&uniform("")), mean(&rgb(false)));
+    for c in 0..3 {
+        let tolerance = 4.0 * (su[c].hypot(sr[c])) + 1e-4;
+        assert!((u[c] - r[c]).abs() < tolerance, "channel {c}: {u} vs {r}");
+        assert!(
+            (dark[c] - dark_rgb[c]).abs() < tolerance,
+            "channel {c}: {dark} vs {dark_rgb}"
+        );
+        assert!(u[c] > dark[c] + 0.05, "channel {c}: {u} vs {dark}");
+    }
+}
+
 /// The shipped fog scene loads with its medium bounded by its `interface` box and renders
 /// with volpath: above the ball, where the view leaves the box into the dark, the fog is lit;
 /// with the medium emptied, the same pixels are black.

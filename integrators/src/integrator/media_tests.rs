@@ -151,6 +151,14 @@ fn a_glowing_ball_emits_what_it_does_not_absorb() {
 }
 
 #[test]
+fn a_ball_glowing_on_a_grid_emits_what_the_quadrature_sums() {
+    let (scene, exact) = glowing_grid_ball();
+    for (name, params, rays) in media_entries(true) {
+        check(name, &params, rays, &scene, exact, 40_000);
+    }
+}
+
+#[test]
 fn single_scattering_of_a_point_light_matches_the_quadrature() {
     let (sigma_t, albedo) = (Rgb::new(0.3, 0.6, 1.2), Rgb::new(0.8, 0.9, 0.5));
     for phase in [Phase::Isotropic, Phase::HenyeyGreenstein { g: 0.6 }] {

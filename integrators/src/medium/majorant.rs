@@ -4,7 +4,6 @@
 //! tentative collisions are drawn against the extinction near the ray instead of the
 //! largest anywhere. Sparse smoke in a large box then costs collisions where the smoke is.
 
-use super::volume::Volume;
 use super::Segment;
 use crate::{Ray, Rgb};
 use glam::{Affine3A, Vec3A};
@@ -19,9 +18,10 @@ pub struct MajorantGrid {
 }
 
 impl MajorantGrid {
-    /// The grid of `sigma_t` over the box that `to_unit` maps onto the unit cube (`None`
-    /// where the box is degenerate).
-    pub fn build(sigma_t: &Volume, to_unit: &Affine3A) -> Option<MajorantGrid> {
+    /// The grid over the box that `to_unit` maps onto the unit cube of `max_in`, a bound on
+    /// the extinction in the convex hull of a cell's corners (world); `None` where the box is
+    /// degenerate.
+    pub fn build(to_unit: &Affine3A, max_in: impl Fn(&[Vec3A; 8]) -> Rgb) -> Option<MajorantGrid> {
         let to_world = to_unit.inverse();
         if !to_world.is_finite() {
             return None;
@@ -41,7 +41,7 @@ impl MajorantGrid {
                         to_world.transform_point3a(unit)
                     };
                     let corners: [Vec3A; 8] = std::array::from_fn(corner);
-                    values.push(sigma_t.max_in(&corners));
+                    values.push(max_in(&corners));
                 }
             }
         }
@@ -165,7 +165,7 @@ impl Iterator for Segments<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::medium::volume::DensityGrid;
+    use crate::medium::volume::{DensityGrid, Volume};
     use std::sync::Arc;
 
     /// A 32^3 grid with one dense voxel, in the box [0, 2]^3.
@@ -186,7 +186,7 @@ mod tests {
     #[test]
     fn every_cell_bounds_the_extinction_inside_it_and_most_are_tight() {
         let (volume, to_unit) = one_dense_voxel();
-        let grid = MajorantGrid::build(&volume, &to_unit).unwrap();
+        let grid = MajorantGrid::build(&to_unit, |c| volume.max_in(c)).unwrap();
         let mut s = crate::Sampler::new(9, 0, 0);
         for _ in 0..20000 {
             let p = Vec3A::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.0;
@@ -206,7 +206,7 @@ mod tests {
     #[test]
     fn a_ray_crosses_the_cells_in_order_and_covers_its_stretch_in_the_box() {
         let (volume, to_unit) = one_dense_voxel();
-        let grid = MajorantGrid::build(&volume, &to_unit).unwrap();
+        let grid = MajorantGrid::build(&to_unit, |c| volume.max_in(c)).unwrap();
         let mut s = crate::Sampler::new(4, 0, 0);
         for _ in 0..2000 {
             let origin = Vec3A::new(s.next_1d(), s.next_1d(), s.next_1d()) * 6.0 - 2.0;

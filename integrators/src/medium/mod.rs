@@ -46,15 +46,14 @@ pub struct Homogeneous {
     pub phase: Phase,
 }
 
-/// A medium whose extinction and albedo vary over space (Mitsuba 3's `heterogeneous`, pbrt-v4's
-/// `uniformgrid`): `sigma_t(p)` and `albedo(p)`, `sigma_s = albedo sigma_t`, inside the box
-/// `region` maps onto the unit cube and vacuum outside it.
+/// A medium whose coefficients vary over space (Mitsuba 3's `heterogeneous`, pbrt-v4's
+/// `uniformgrid` and `rgbgrid`): inside the box `region` maps onto the unit cube, and vacuum
+/// outside it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Heterogeneous {
-    pub sigma_t: Volume,
-    pub albedo: Volume,
-    /// Emitted radiance (times `sigma_a` there).
-    pub le: Rgb,
+    pub coefficients: Coefficients,
+    /// Emitted radiance over space (the medium adds `sigma_a * le` per unit length).
+    pub le: Volume,
     pub phase: Phase,
     /// World to the unit cube of the box the medium fills; `None`: everywhere.
     pub region: Option<Affine3A>,
@@ -62,6 +61,50 @@ pub struct Heterogeneous {
     majorant: Rgb,
     /// The largest extinction in each cell of the box (with a box and a grid).
     majorants: Option<MajorantGrid>,
+}
+
+/// How a heterogeneous medium gives its coefficients over space.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Coefficients {
+    /// Extinction and single-scattering albedo (Mitsuba 3's `heterogeneous`, pbrt-v4's
+    /// `uniformgrid`): `sigma_s = albedo sigma_t`, the albedo clamped into `[0, 1]`.
+    Albedo { sigma_t: Volume, albedo: Volume },
+    /// Absorption and scattering each on its own (pbrt-v4's `rgbgrid`).
+    Separate { sigma_a: Volume, sigma_s: Volume },
+}
+
+impl Coefficients {
+    /// `(sigma_a, sigma_s)` at `p` (world).
+    #[inline]
+    fn at(&self, p: Vec3A) -> (Rgb, Rgb) {
+        match self {
+            Coefficients::Albedo { sigma_t, albedo } => {
+                let sigma_t = sigma_t.at(p);
+                let sigma_s = sigma_t * albedo.at(p).clamp(Rgb::ZERO, Rgb::ONE);
+                (sigma_t - sigma_s, sigma_s)
+            }
+            Coefficients::Separate { sigma_a, sigma_s } => (sigma_a.at(p), sigma_s.at(p)),
+        }
+    }
+
+    /// A bound on the extinction anywhere in the convex hull of `corners` (world), or
+    /// anywhere at all for `None`.
+    fn max_extinction(&self, corners: Option<&[Vec3A; 8]>) -> Rgb {
+        let max = |v: &Volume| corners.map_or_else(|| v.max(), |c| v.max_in(c));
+        match self {
+            Coefficients::Albedo { sigma_t, .. } => max(sigma_t),
+            Coefficients::Separate { sigma_a, sigma_s } => max(sigma_a) + max(sigma_s),
+        }
+    }
+
+    /// Whether a grid gives any of them.
+    fn has_grid(&self) -> bool {
+        let grid = |v: &Volume| matches!(v, Volume::Grid { .. });
+        match self {
+            Coefficients::Albedo { sigma_t, .. } => grid(sigma_t),
+            Coefficients::Separate { sigma_a, sigma_s } => grid(sigma_a) || grid(sigma_s),
+        }
+    }
 }
 
 /// The coefficients of a medium at a point.
@@ -95,24 +138,24 @@ impl Homogeneous {
 }
 
 impl Heterogeneous {
-    /// Extinction `sigma_t` and albedo `albedo` over space, within `region` (world to the unit
-    /// cube of the box; `None`: everywhere).
+    /// A medium of `coefficients` and emission `le` over space, within `region` (world to
+    /// the unit cube of the box; `None`: everywhere).
     pub fn new(
-        sigma_t: Volume,
-        albedo: Volume,
-        le: Rgb,
+        coefficients: Coefficients,
+        le: Volume,
         phase: Phase,
         region: Option<Affine3A>,
     ) -> Heterogeneous {
-        let majorants = match (&region, &sigma_t) {
-            (Some(to_unit), Volume::Grid { .. }) => MajorantGrid::build(&sigma_t, to_unit),
+        let majorants = match &region {
+            Some(to_unit) if coefficients.has_grid() => MajorantGrid::build(to_unit, |corners| {
+                coefficients.max_extinction(Some(corners))
+            }),
             _ => None,
         };
         Heterogeneous {
-            majorant: sigma_t.max(),
+            majorant: coefficients.max_extinction(None),
             majorants,
-            sigma_t,
-            albedo,
+            coefficients,
             le,
             phase,
             region,
@@ -134,7 +177,7 @@ impl Medium {
     pub fn is_emissive(&self) -> bool {
         match self {
             Medium::Homogeneous(m) => m.le != Rgb::ZERO && m.sigma_a != Rgb::ZERO,
-            Medium::Heterogeneous(m) => m.le != Rgb::ZERO,
+            Medium::Heterogeneous(m) => m.le.max() != Rgb::ZERO,
         }
     }
 
@@ -162,12 +205,11 @@ impl Medium {
                 le: m.le,
             },
             Medium::Heterogeneous(m) => {
-                let sigma_t = m.sigma_t.at(p);
-                let sigma_s = sigma_t * m.albedo.at(p).clamp(Rgb::ZERO, Rgb::ONE);
+                let (sigma_a, sigma_s) = m.coefficients.at(p);
                 MediumPoint {
-                    sigma_a: sigma_t - sigma_s,
+                    sigma_a,
                     sigma_s,
-                    le: m.le,
+                    le: m.le.at(p),
                 }
             }
         }

@@ -116,7 +116,7 @@ pub fn ratio_tracking(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::medium::{DensityGrid, Heterogeneous, Homogeneous, Phase, Volume};
+    use crate::medium::{Coefficients, DensityGrid, Heterogeneous, Homogeneous, Phase, Volume};
     use glam::Affine3A;
     use std::sync::Arc;
 
@@ -168,9 +168,11 @@ mod tests {
             scale: Rgb::splat(1.5),
         };
         let medium = Medium::Heterogeneous(Box::new(Heterogeneous::new(
-            sigma_t.clone(),
-            Volume::Constant(Rgb::splat(0.8)),
-            Rgb::ZERO,
+            Coefficients::Albedo {
+                sigma_t: sigma_t.clone(),
+                albedo: Volume::Constant(Rgb::splat(0.8)),
+            },
+            Volume::Constant(Rgb::ZERO),
             Phase::Isotropic,
             Some(to_unit),
         )));
@@ -187,5 +189,49 @@ mod tests {
         assert!((tr.x - exact).abs() < 4.0 * se.x, "{tr} ± {se}, {exact}");
         assert!(se.x < 0.05 * exact, "{se}");
         assert_eq!(tr.x, tr.y);
+    }
+
+    #[test]
+    fn ratio_tracking_estimates_the_optical_depth_of_an_rgb_grid_of_two_coefficients() {
+        // pbrt-v4's `rgbgrid`: absorption on a 2 x 1 x 1 RGB grid plus a constant scattering,
+        // over [0, 1]^3 with zero past the outermost voxel centres; a ray along x at
+        // y = z = 1/2 sees both, summed.
+        let grid = DensityGrid::new([2, 1, 1], 3, vec![0.2, 1.0, 3.0, 0.6, 2.0, 1.0])
+            .unwrap()
+            .with_edge(crate::medium::GridEdge::Zero);
+        let to_unit = Affine3A::IDENTITY;
+        let sigma_a = Volume::Grid {
+            grid: Arc::new(grid),
+            to_local: to_unit,
+            scale: Rgb::ONE,
+        };
+        let sigma_s = Volume::Constant(Rgb::new(0.5, 0.25, 0.0));
+        let medium = Medium::Heterogeneous(Box::new(Heterogeneous::new(
+            Coefficients::Separate {
+                sigma_a: sigma_a.clone(),
+                sigma_s: sigma_s.clone(),
+            },
+            Volume::Constant(Rgb::ZERO),
+            Phase::Isotropic,
+            Some(to_unit),
+        )));
+        assert!(medium.is_chromatic());
+        let ray = Ray::new(Vec3A::new(-1.0, 0.5, 0.5), Vec3A::X);
+        let n = 100_000;
+        let depth: Rgb = (0..n)
+            .map(|i| {
+                let p = Vec3A::new((i as f32 + 0.5) / n as f32, 0.5, 0.5);
+                (sigma_a.at(p) + sigma_s.at(p)) / n as f32
+            })
+            .sum();
+        let exact = (-depth).exp();
+        let (tr, se) = mean_transmittance(&medium, &ray, 10.0, 40_000);
+        for c in 0..3 {
+            assert!(
+                (tr[c] - exact[c]).abs() < 4.0 * se[c],
+                "{tr} ± {se}, {exact}"
+            );
+            assert!(se[c] < 0.05 * exact[c], "{se}");
+        }
     }
 }

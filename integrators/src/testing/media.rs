@@ -1,7 +1,7 @@
 //! Analytic scenes with participating media, and their exact answers: a ray through an
 //! absorbing ball (Beer's law), a furnace of white fog (every estimate 1), single scattering
-//! of a point light along one ray (a 1-D quadrature), and a glowing ball (emission and
-//! absorption).
+//! of a point light along one ray (a 1-D quadrature), and glowing balls (emission and
+//! absorption, constant or on a grid).
 
 use super::{Probe, Surface, TestScene};
 use crate::medium::{Homogeneous, Phase};
@@ -138,6 +138,57 @@ pub fn glowing_ball(sigma_a: Rgb, le: Rgb) -> (TestScene, Rgb) {
         false,
     );
     let exact = le * (Rgb::ONE - crate::medium::tracking::transmittance(sigma_a, 2.0));
+    (scene, exact)
+}
+
+/// [`glowing_ball`] with coefficients that vary along the probe ray (pbrt-v4's `rgbgrid`):
+/// absorption and emission each on an RGB grid of 1 x 1 x 4 voxels over the box
+/// `[-1, 1]^3`. The radiance through the centre is the integral over the ray of the
+/// transmittance from the ball's near side, `sigma_a` and `le`, which a fine midpoint rule
+/// sums.
+pub fn glowing_grid_ball() -> (TestScene, Rgb) {
+    use crate::medium::{Coefficients, DensityGrid, Heterogeneous, Volume};
+    use std::sync::Arc;
+    let to_unit = glam::Affine3A::from_scale(glam::Vec3::splat(0.5))
+        * glam::Affine3A::from_translation(glam::Vec3::ONE);
+    let grid = |values: Vec<f32>| Volume::Grid {
+        grid: Arc::new(DensityGrid::new([1, 1, 4], 3, values).unwrap_or_else(|e| panic!("{e}"))),
+        to_local: to_unit,
+        scale: Rgb::ONE,
+    };
+    let sigma_a = grid(vec![
+        0.2, 0.8, 1.6, 0.6, 0.4, 0.2, 1.2, 0.0, 0.8, 0.1, 1.0, 0.4,
+    ]);
+    let le = grid(vec![
+        2.0, 1.0, 0.5, 0.0, 3.0, 1.0, 1.0, 1.0, 4.0, 5.0, 0.5, 2.0,
+    ]);
+    let medium = Medium::Heterogeneous(Box::new(Heterogeneous::new(
+        Coefficients::Separate {
+            sigma_a: sigma_a.clone(),
+            sigma_s: Volume::Constant(Rgb::ZERO),
+        },
+        le.clone(),
+        Phase::Isotropic,
+        Some(to_unit),
+    )));
+    let scene = ball_behind(
+        SurfaceMaterial::null(),
+        medium,
+        1.0,
+        Vec::new(),
+        through_the_centre(),
+        false,
+    );
+    let n = 200_000;
+    let dz = 2.0 / n as f32;
+    let (mut depth, mut exact) = (Rgb::ZERO, Rgb::ZERO);
+    for i in 0..n {
+        let p = Vec3A::new(0.0, 0.0, -1.0 + (i as f32 + 0.5) * dz);
+        let a = sigma_a.at(p);
+        // The transmittance to the middle of the step, then the step's own depth.
+        exact += (-(depth + 0.5 * a * dz)).exp() * a * le.at(p) * dz;
+        depth += a * dz;
+    }
     (scene, exact)
 }
 

@@ -167,12 +167,15 @@ impl<'a, 'input> Converter<'a, 'input> {
             Coefficient::Grid { path, .. } => VolumeDesc::Grid(path),
         };
         Ok(MediumDesc::Heterogeneous {
-            sigma_t: volume(sigma_t),
-            albedo: volume(albedo),
+            sigma_t: Some(volume(sigma_t)),
+            albedo: Some(volume(albedo)),
+            sigma_a: None,
+            sigma_s: None,
             scale,
             tint: [1.0; 3],
             phase,
             emission: [0.0; 3],
+            emission_grid: None,
             transform: placed(&to_world),
             bounds: ([0.0; 3], [1.0; 3]),
         })

@@ -1,4 +1,4 @@
-//! pbrt-v4's participating media: `MakeNamedMedium` (`homogeneous`, `uniformgrid`) as
+//! pbrt-v4's participating media: `MakeNamedMedium` (`homogeneous`, `uniformgrid`, `rgbgrid`) as
 //! raylab's media, `MediumInterface` in the graphics state, the media shapes bound and the
 //! one around the camera.
 //!
@@ -108,6 +108,14 @@ struct Density {
     values: Vec<f32>,
 }
 
+/// A grid medium's placement and its box in its own space (min, max).
+type GridBox = (TransformDesc, ([f32; 3], [f32; 3]));
+
+/// What an `rgbgrid`'s `Le` is multiplied by: pbrt-v4 leaves its RGB illuminant spectra
+/// unnormalised (its other emitters divide by their luminance), so an `Le` of (1, 1, 1) has
+/// the luminance of its colour space's illuminant, whose Y integral this is.
+const CIE_Y_INTEGRAL: f64 = 106.856895;
+
 /// pbrt-v4 clamps a Henyey-Greenstein `g` into [-0.99, 0.99].
 const MAX_PBRT_G: f64 = 0.99;
 
@@ -131,10 +139,11 @@ impl<'a> Converter<'a> {
         let medium = match kind.as_str() {
             "homogeneous" => self.homogeneous(&mut p)?,
             "uniformgrid" => self.uniform_grid(&mut p)?,
-            "rgbgrid" | "cloud" | "nanovdb" => {
+            "rgbgrid" => self.rgb_grid(&mut p)?,
+            "cloud" | "nanovdb" => {
                 self.approximate(
                     d.pos,
-                    format!("MakeNamedMedium \"{name}\": a `{kind}` medium is not supported (homogeneous and uniformgrid are): rendered as vacuum"),
+                    format!("MakeNamedMedium \"{name}\": a `{kind}` medium is not supported (homogeneous, uniformgrid and rgbgrid are): rendered as vacuum"),
                 )?;
                 // Its parameters are pbrt-v4's to check.
                 self.media.vacuum.insert(name);
@@ -288,14 +297,123 @@ impl<'a> Converter<'a> {
 
     /// pbrt-v4's `uniformgrid`: `density` on an `nx` x `ny` x `nz` grid (x fastest) over the
     /// box `p0`..`p1` of the medium's space (placed by the transform at the directive), times
-    /// `scale (sigma_a + sigma_s)`, zero past the outermost voxel centres as pbrt-v4 reads it.
+    /// `scale (sigma_a + sigma_s)`, zero past the outermost voxel centres as pbrt-v4 reads it;
+    /// emission `Le` times a grid of `Lescale`.
     fn uniform_grid(&mut self, p: &mut ParamList) -> Result<MediumDesc, Located> {
-        let what = p.what.clone();
         let density = self.density_grid(p)?;
-        self.grid_emission(p, density.values.len())?;
+        let (emission, emission_grid) = self.grid_emission(p, density.size)?;
         let coefficients = self.coefficients(p)?;
         let scale = self.sigma_scale(p)?;
         let phase = self.phase(p)?;
+        let (transform, bounds) = self.grid_box(p)?;
+        // The extinction's colour: folded into `scale` when grey, else a tint.
+        let sigma_t = coefficients.sigma_t();
+        let (scale, tint) = if sigma_t[0] == sigma_t[1] && sigma_t[1] == sigma_t[2] {
+            (scale * sigma_t[0], [1.0; 3])
+        } else {
+            (scale, sigma_t)
+        };
+        Ok(MediumDesc::Heterogeneous {
+            sigma_t: Some(VolumeDesc::Values {
+                size: density.size,
+                values: density.values,
+                edge: GridEdgeDesc::Zero,
+            }),
+            albedo: Some(VolumeDesc::Constant(coefficients.albedo())),
+            sigma_a: None,
+            sigma_s: None,
+            scale: scale as f32,
+            tint: tint.map(|x| x as f32),
+            phase,
+            emission,
+            emission_grid,
+            transform,
+            bounds,
+        })
+    }
+
+    /// pbrt-v4's `rgbgrid`: `sigma_a` and `sigma_s` each an RGB grid (1 everywhere where one
+    /// is not given) times `scale`, over the box `p0`..`p1` as `uniformgrid`'s, and an RGB
+    /// emission grid `Le` times `Lescale`.
+    fn rgb_grid(&mut self, p: &mut ParamList) -> Result<MediumDesc, Located> {
+        let what = p.what.clone();
+        let sigma_a = p.numbers("sigma_a", &["rgb", "color"])?;
+        let sigma_s = p.numbers("sigma_s", &["rgb", "color"])?;
+        let le = p.numbers("Le", &["rgb", "color"])?;
+        if sigma_a.is_none() && sigma_s.is_none() {
+            return Err((
+                p.at,
+                format!("{what} needs `sigma_a` or `sigma_s` (or both)"),
+            ));
+        }
+        if let (Some((_, at)), None) = (&le, &sigma_a) {
+            return Err((*at, format!("{what}: `Le` needs `sigma_a`")));
+        }
+        let size = self.grid_size(p)?;
+        let voxels = u64::from(size.0) * u64::from(size.1) * u64::from(size.2);
+        for (name, given) in [("sigma_a", &sigma_a), ("sigma_s", &sigma_s), ("Le", &le)] {
+            if let Some((v, at)) = given {
+                if v.len() as u64 != 3 * voxels {
+                    return Err((
+                        *at,
+                        format!(
+                            "{what}: {} `{name}` RGB values for a grid of {} x {} x {} = {voxels}",
+                            v.len() as f64 / 3.0,
+                            size.0,
+                            size.1,
+                            size.2
+                        ),
+                    ));
+                }
+                if let Some(bad) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                    return Err((*at, format!("{what}: a negative `{name}` {bad}")));
+                }
+            }
+        }
+        let le_scale = p.float("Lescale")?.unwrap_or(1.0);
+        if le_scale.is_nan() || le_scale < 0.0 {
+            return Err((
+                p.present("Lescale").unwrap_or(p.at),
+                format!("{what}: `Lescale` {le_scale} is negative"),
+            ));
+        }
+        let scale = self.sigma_scale(p)?;
+        let phase = self.phase(p)?;
+        let (transform, bounds) = self.grid_box(p)?;
+        let grid = |given: Option<(Vec<f64>, Pos)>| {
+            given.map(|(v, _)| VolumeDesc::Values {
+                size,
+                values: v.iter().map(|x| *x as f32).collect(),
+                edge: GridEdgeDesc::Zero,
+            })
+        };
+        let emission = match le {
+            Some(_) if le_scale > 0.0 => {
+                self.report(format!("{what}: `Le` taken as pbrt-v4 takes it, unnormalised: {CIE_Y_INTEGRAL} times the radiance a homogeneous medium's `Le` of the same RGB gives"));
+                [(le_scale * CIE_Y_INTEGRAL) as f32; 3]
+            }
+            _ => [0.0; 3],
+        };
+        let one = || VolumeDesc::Constant([1.0; 3]);
+        Ok(MediumDesc::Heterogeneous {
+            sigma_t: None,
+            albedo: None,
+            sigma_a: Some(grid(sigma_a).unwrap_or_else(one)),
+            sigma_s: Some(grid(sigma_s).unwrap_or_else(one)),
+            scale: scale as f32,
+            tint: [1.0; 3],
+            phase,
+            emission,
+            emission_grid: grid(le).filter(|_| emission != [0.0; 3]),
+            transform,
+            bounds,
+        })
+    }
+
+    /// A grid medium's box `p0`..`p1` (default the unit cube) and the transform at the
+    /// directive that places it.
+    fn grid_box(&mut self, p: &mut ParamList) -> Result<GridBox, Located> {
+        let what = p.what.clone();
         let p0 = p.point("p0")?.unwrap_or([0.0; 3]);
         let p1 = p.point("p1")?.unwrap_or([1.0; 3]);
         let lo: [f64; 3] = std::array::from_fn(|i| p0[i].min(p1[i]));
@@ -310,35 +428,12 @@ impl<'a> Converter<'a> {
         } else {
             placed(&placed_by)
         };
-        // The extinction's colour: folded into `scale` when grey, else a tint.
-        let sigma_t = coefficients.sigma_t();
-        let (scale, tint) = if sigma_t[0] == sigma_t[1] && sigma_t[1] == sigma_t[2] {
-            (scale * sigma_t[0], [1.0; 3])
-        } else {
-            (scale, sigma_t)
-        };
-        Ok(MediumDesc::Heterogeneous {
-            sigma_t: VolumeDesc::Values {
-                size: density.size,
-                values: density.values,
-                edge: GridEdgeDesc::Zero,
-            },
-            albedo: VolumeDesc::Constant(coefficients.albedo()),
-            scale: scale as f32,
-            tint: tint.map(|x| x as f32),
-            phase,
-            emission: [0.0; 3],
-            transform,
-            bounds: (lo.map(|x| x as f32), hi.map(|x| x as f32)),
-        })
+        Ok((transform, (lo.map(|x| x as f32), hi.map(|x| x as f32))))
     }
 
-    /// A grid's `density` values and their `nx`, `ny`, `nz`.
-    fn density_grid(&mut self, p: &mut ParamList) -> Result<Density, Located> {
+    /// A grid's `nx`, `ny`, `nz` (1 each unless given).
+    fn grid_size(&mut self, p: &mut ParamList) -> Result<(u32, u32, u32), Located> {
         let what = p.what.clone();
-        let (values, at) = p
-            .numbers("density", &["float"])?
-            .ok_or_else(|| (p.at, format!("{what} needs \"float density\"")))?;
         let mut size = [1u32; 3];
         for (axis, name) in ["nx", "ny", "nz"].iter().enumerate() {
             let n = p.integer(name)?.unwrap_or(1);
@@ -349,16 +444,26 @@ impl<'a> Converter<'a> {
                 )
             })?;
         }
-        let voxels = size.iter().map(|n| u64::from(*n)).product::<u64>();
+        Ok((size[0], size[1], size[2]))
+    }
+
+    /// A grid's `density` values and their `nx`, `ny`, `nz`.
+    fn density_grid(&mut self, p: &mut ParamList) -> Result<Density, Located> {
+        let what = p.what.clone();
+        let (values, at) = p
+            .numbers("density", &["float"])?
+            .ok_or_else(|| (p.at, format!("{what} needs \"float density\"")))?;
+        let size = self.grid_size(p)?;
+        let voxels = u64::from(size.0) * u64::from(size.1) * u64::from(size.2);
         if voxels != values.len() as u64 {
             return Err((
                 at,
                 format!(
                     "{what}: {} density values for a grid of {} x {} x {} = {voxels}",
                     values.len(),
-                    size[0],
-                    size[1],
-                    size[2]
+                    size.0,
+                    size.1,
+                    size.2
                 ),
             ));
         }
@@ -366,16 +471,23 @@ impl<'a> Converter<'a> {
             return Err((at, format!("{what}: a negative density {bad}")));
         }
         Ok(Density {
-            size: (size[0], size[1], size[2]),
+            size,
             values: values.iter().map(|v| *v as f32).collect(),
         })
     }
 
-    /// A grid medium's emission (`Le`, `Lescale`, `temperature` and its offset and scale),
-    /// which raylab does not render: checked as pbrt-v4 checks it, and left out with
-    /// `--approximate` where it would emit.
-    fn grid_emission(&mut self, p: &mut ParamList, voxels: usize) -> Result<(), Located> {
+    /// A `uniformgrid`'s emission: `Le` times a grid of `Lescale` (over the density's
+    /// `size`), as pbrt-v4 renders it; without a `Lescale` grid pbrt-v4 multiplies by a grid
+    /// of one voxel of 1, which fades from the box's centre to half at its faces (an eighth at
+    /// its corners), and so does raylab. A `temperature` grid (blackbody emission) is left out
+    /// with `--approximate`.
+    fn grid_emission(
+        &mut self,
+        p: &mut ParamList,
+        size: (u32, u32, u32),
+    ) -> Result<([f32; 3], Option<VolumeDesc>), Located> {
         let what = p.what.clone();
+        let voxels = u64::from(size.0) * u64::from(size.1) * u64::from(size.2);
         let le = self.emitted_rgb(p, "Le")?;
         let temperature = p.numbers("temperature", &["float"])?;
         if let (Some(_), Some((_, at))) = (le, &temperature) {
@@ -387,7 +499,7 @@ impl<'a> Converter<'a> {
         let le_scale = p.numbers("Lescale", &["float"])?;
         for (name, given) in [("temperature", &temperature), ("Lescale", &le_scale)] {
             if let Some((v, at)) = given {
-                if v.len() != voxels {
+                if v.len() as u64 != voxels {
                     return Err((
                         *at,
                         format!("{what}: {} `{name}` values for {voxels} voxels", v.len()),
@@ -396,14 +508,36 @@ impl<'a> Converter<'a> {
             }
         }
         p.ignore(&["temperatureoffset", "temperaturecutoff", "temperaturescale"]);
-        let emits = le.is_some_and(|c| c.iter().any(|x| *x > 0.0)) || temperature.is_some();
-        if emits {
+        if temperature.is_some() {
             self.approximate(
                 p.at,
-                format!("{what}: the emission of a grid medium (`Le`, `temperature`) is not supported: left out"),
+                format!("{what}: the blackbody emission of a `temperature` grid is not supported: left out"),
             )?;
+            return Ok(([0.0; 3], None));
         }
-        Ok(())
+        let Some(le) = le.filter(|c| c.iter().any(|x| *x != 0.0)) else {
+            return Ok(([0.0; 3], None));
+        };
+        if le.iter().any(|x| *x < 0.0) {
+            return Err((p.at, format!("{what}: a negative `Le`")));
+        }
+        let (size, values) = match le_scale {
+            Some((v, at)) => {
+                if let Some(bad) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                    return Err((at, format!("{what}: a negative `Lescale` {bad}")));
+                }
+                (size, v.iter().map(|x| *x as f32).collect())
+            }
+            None => ((1, 1, 1), vec![1.0]),
+        };
+        Ok((
+            le.map(|x| x as f32),
+            Some(VolumeDesc::Values {
+                size,
+                values,
+                edge: GridEdgeDesc::Zero,
+            }),
+        ))
     }
 
     /// `Option "string rendercoordsys"`: pbrt-v4's render space, which places grid media

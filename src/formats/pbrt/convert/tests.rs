@@ -500,16 +500,19 @@ fn uniform_grids_become_value_grids_in_their_box() {
     assert_eq!(
         *grid,
         MediumDesc::Heterogeneous {
-            sigma_t: VolumeDesc::Values {
+            sigma_t: Some(VolumeDesc::Values {
                 size: (2, 1, 1),
                 values: vec![0.5, 1.0],
                 edge: GridEdgeDesc::Zero,
-            },
-            albedo: VolumeDesc::Constant([0.5, 2.0 / 3.0, 0.75]),
+            }),
+            albedo: Some(VolumeDesc::Constant([0.5, 2.0 / 3.0, 0.75])),
+            sigma_a: None,
+            sigma_s: None,
             scale: 0.5,
             tint: [2.0, 3.0, 4.0],
             phase: PhaseDesc::HenyeyGreenstein(0.25),
             emission: [0.0; 3],
+            emission_grid: None,
             transform: TransformDesc {
                 matrix: Some(vec![
                     2.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.0, 2.0, 0.0, 0.0, 2.0, 3.0
@@ -539,7 +542,7 @@ fn uniform_grids_become_value_grids_in_their_box() {
         (0..3).all(|i| (origin[i] - [0.0, 0.0, 10.0][i]).abs() < 1e-5),
         "{m:?}"
     );
-    // Counts checked as pbrt-v4 checks them; emission is not supported.
+    // Counts checked as pbrt-v4 checks them; blackbody emission is not supported.
     let bad = |params: &str| {
         let text = format!("WorldBegin\nMakeNamedMedium \"g\" \"string type\" \"uniformgrid\" {params}\n{SPHERE}\n");
         convert(&text, false).unwrap_err().3
@@ -547,8 +550,100 @@ fn uniform_grids_become_value_grids_in_their_box() {
     assert!(bad("\"integer nx\" 2 \"float density\" [1]")
         .contains("1 density values for a grid of 2 x 1 x 1"));
     assert!(bad("").contains("needs \"float density\""));
-    assert!(bad("\"float density\" [1] \"rgb Le\" [1 1 1]").contains("--approximate"));
+    assert!(bad("\"float density\" [1] \"float temperature\" [1000]").contains("--approximate"));
+    assert!(bad(
+        "\"integer nx\" 2 \"float density\" [1 1] \"rgb Le\" [1 1 1] \"float Lescale\" [1]"
+    )
+    .contains("1 `Lescale` values for 2 voxels"));
     assert!(bad("\"float density\" [1] \"point3 p1\" [0 1 1]").contains("bound no volume"));
+}
+
+/// A `uniformgrid`'s emission is `Le` times its `Lescale` grid; without one, times pbrt-v4's
+/// grid of one voxel of 1, which fades towards the box's faces.
+#[test]
+fn uniform_grid_emission_is_le_times_its_lescale_grid() {
+    let emission_of = |params: &str| {
+        let media = media_of(&format!("WorldBegin\nMakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"integer nx\" 2 \"float density\" [1 1] {params}\n{SPHERE}\n"));
+        let MediumDesc::Heterogeneous {
+            emission,
+            emission_grid,
+            ..
+        } = media[0].1.clone()
+        else {
+            panic!("{media:?}")
+        };
+        (emission, emission_grid)
+    };
+    assert_eq!(
+        emission_of("\"rgb Le\" [1 2 3] \"float Lescale\" [0.5 4]"),
+        (
+            [1.0, 2.0, 3.0],
+            Some(VolumeDesc::Values {
+                size: (2, 1, 1),
+                values: vec![0.5, 4.0],
+                edge: GridEdgeDesc::Zero,
+            })
+        )
+    );
+    assert_eq!(
+        emission_of("\"rgb Le\" [2 2 2]"),
+        (
+            [2.0; 3],
+            Some(VolumeDesc::Values {
+                size: (1, 1, 1),
+                values: vec![1.0],
+                edge: GridEdgeDesc::Zero,
+            })
+        )
+    );
+    assert_eq!(emission_of(""), ([0.0; 3], None));
+}
+
+/// pbrt-v4's `rgbgrid`: `sigma_a` and `sigma_s` as RGB grids (1 where one is left out) times
+/// `scale`, `Le` as an RGB grid times `Lescale` and pbrt-v4's unnormalised illuminant; the
+/// counts checked as pbrt-v4 checks them.
+#[test]
+fn rgb_grids_become_two_coefficient_grids_with_an_emission_grid() {
+    let text = |params: &str| {
+        format!("WorldBegin\nMakeNamedMedium \"g\" \"string type\" \"rgbgrid\" \"integer nz\" 2 \"point3 p1\" [2 1 1] {params}\n{SPHERE}\n")
+    };
+    let media = media_of(&text(
+        "\"rgb sigma_a\" [1 2 3 4 5 6] \"rgb Le\" [0 1 0 2 0 0] \"float Lescale\" 0.5 \"float scale\" 3 \"float g\" -0.5",
+    ));
+    let values = |v: &[f32]| {
+        Some(VolumeDesc::Values {
+            size: (1, 1, 2),
+            values: v.to_vec(),
+            edge: GridEdgeDesc::Zero,
+        })
+    };
+    assert_eq!(
+        media[0].1,
+        MediumDesc::Heterogeneous {
+            sigma_t: None,
+            albedo: None,
+            sigma_a: values(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]),
+            sigma_s: Some(VolumeDesc::Constant([1.0; 3])),
+            scale: 3.0,
+            tint: [1.0; 3],
+            phase: PhaseDesc::HenyeyGreenstein(-0.5),
+            emission: [(0.5 * 106.856895) as f32; 3],
+            emission_grid: values(&[0.0, 1.0, 0.0, 2.0, 0.0, 0.0]),
+            transform: TransformDesc::default(),
+            bounds: ([0.0; 3], [2.0, 1.0, 1.0]),
+        }
+    );
+    let imported = convert(&text("\"rgb sigma_s\" [1 1 1 1 1 1]"), false).unwrap();
+    crate::scene::parse_scene(&imported.ron().unwrap(), Path::new("grid.pbrt")).unwrap();
+    let bad = |params: &str| convert(&text(params), false).unwrap_err().3;
+    assert!(bad("").contains("needs `sigma_a` or `sigma_s`"));
+    assert!(
+        bad("\"rgb sigma_s\" [1 1 1 1 1 1] \"rgb Le\" [1 1 1 1 1 1]")
+            .contains("`Le` needs `sigma_a`")
+    );
+    assert!(bad("\"rgb sigma_a\" [1 1 1]")
+        .contains("1 `sigma_a` RGB values for a grid of 1 x 1 x 2 = 2"));
+    assert!(bad("\"rgb sigma_a\" [1 1 1 1 -1 1]").contains("a negative `sigma_a`"));
 }
 
 /// `MediumInterface` is part of the graphics state: AttributeEnd restores it, WorldBegin
