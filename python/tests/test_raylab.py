@@ -1,0 +1,206 @@
+"""The Python module against the command line: the same images, errors, edits and registry.
+
+Run after ``pip install .`` with ``pytest python/tests``; ``RAYLAB_BIN`` names the ``raylab``
+binary to compare with (default: the repository's target/debug/raylab, then target/release).
+"""
+
+import _thread
+import os
+import re
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raylab
+
+ROOT = Path(__file__).resolve().parents[2]
+CORNELL = ROOT / "scenes" / "cornell_box.ron"
+
+
+def raylab_bin() -> Path:
+    given = os.environ.get("RAYLAB_BIN")
+    if given:
+        return Path(given)
+    for profile in ("debug", "release"):
+        candidate = ROOT / "target" / profile / "raylab"
+        if candidate.exists():
+            return candidate
+    pytest.fail("no raylab binary: build it (cargo build) or set RAYLAB_BIN")
+
+
+def cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [str(raylab_bin()), *args], capture_output=True, text=True, timeout=600
+    )
+
+
+def cli_render(tmp_path: Path, scene: Path, *flags: str) -> np.ndarray:
+    out = tmp_path / "cli.exr"
+    done = cli("render", str(scene), "--quiet", "-o", str(out), *flags)
+    assert done.returncode == 0, done.stderr
+    return raylab.read(out)
+
+
+def test_the_registry_is_the_command_lines():
+    listing = cli("integrators").stdout
+    names = [e["name"] for e in raylab.integrators()]
+    listed = re.findall(r"^(\S+)\n    ", listing, flags=re.M)
+    assert names == listed
+    path = next(e for e in raylab.integrators() if e["name"] == "path")
+    depth = next(p for p in path["params"] if p["name"] == "max-depth")
+    assert depth["kind"] == "depth"
+    assert depth["default"] == float("inf")
+    assert "-p max-depth=<depth>  (default unlimited)" in listing
+    whitted = next(e for e in raylab.integrators() if e["name"] == "whitted")
+    depth = whitted["params"][0]
+    assert f"-p max-depth=<depth>  (default {depth['default']})" in listing
+
+
+# Integrators of camera paths, of light paths that splat onto the film, of both, and of
+# photons with state across passes.
+@pytest.mark.parametrize(
+    "integrator,params",
+    [
+        ("path", {}),
+        ("lighttracer", {}),
+        ("bdpt", {"max-depth": 4}),
+        ("sppm", {"photons": 2000}),
+    ],
+)
+def test_a_render_is_bit_identical_to_the_command_lines(tmp_path, integrator, params):
+    scene = raylab.load(CORNELL)
+    image = scene.render(integrator, spp=3, size=(40, 32), seed=7, params=params)
+    assert image.shape == (32, 40, 3) and image.dtype == np.float32
+    flags = ["--integrator", integrator, "--spp", "3", "--size", "40x32", "--seed", "7"]
+    for name, value in params.items():
+        flags += ["-p", f"{name}={value}"]
+    expected = cli_render(tmp_path, CORNELL, *flags)
+    assert np.array_equal(image, expected)
+    assert image.mean() > 0.01
+    # The thread count does not change the image.
+    assert np.array_equal(
+        scene.render(integrator, spp=3, size=(40, 32), seed=7, params=params, threads=1),
+        image,
+    )
+
+
+def test_the_variance_is_the_exrs_variance_layer(tmp_path):
+    scene = raylab.load(CORNELL)
+    image, variance = scene.render("path", spp=4, size=(24, 24), variance=True)
+    out = tmp_path / "cli.exr"
+    assert cli("render", str(CORNELL), "--quiet", "-o", str(out), "--spp", "4",
+               "--size", "24x24").returncode == 0
+    cli_image, cli_variance = raylab.read(out, variance=True)
+    assert np.array_equal(image, cli_image)
+    assert np.array_equal(variance, cli_variance)
+    assert (variance > 0).any()
+    _, none = scene.render("path", spp=1, size=(8, 8), variance=True)
+    assert none is None
+
+
+def test_defines_reach_a_mitsuba_scene(tmp_path):
+    xml = ROOT / "scenes" / "mitsuba" / "cornell_box.xml"
+    scene = raylab.load(xml, res=24, spp=2, max_depth=3)
+    assert scene.size == (24, 24)
+    assert scene.defaults["spp"] == 2
+    expected = cli_render(tmp_path, xml, "-D", "res=24", "-D", "spp=2", "-D", "max_depth=3")
+    assert np.array_equal(scene.render(), expected)
+
+
+def test_an_edit_renders_as_the_edited_file_loaded_fresh(tmp_path):
+    scene = raylab.load(CORNELL)
+    before = scene.render("path", spp=2, size=(32, 32))
+    scene.set_material("red", albedo=(0.1, 0.2, 0.9))
+    scene.move("small box", translate=(0.1, 0.0, 0.05))
+    light = next(e for e in scene.entities if "light" in e)
+    scene.set_emitter(light, radiance=(30.0, 25.0, 20.0))
+    edited = scene.render("path", spp=2, size=(32, 32))
+    assert not np.array_equal(before, edited)
+    copy = tmp_path / "edited.ron"
+    copy.write_text(scene.to_ron())
+    fresh = raylab.load(copy).render("path", spp=2, size=(32, 32))
+    assert np.array_equal(edited, fresh)
+    # An edit that cannot be made leaves the scene as it was.
+    with pytest.raises(ValueError, match="material `red`"):
+        scene.set_material("red", no_such_field=1)
+    with pytest.raises(KeyError, match="no material `nope`"):
+        scene.set_material("nope", albedo=(1, 1, 1))
+    assert np.array_equal(scene.render("path", spp=2, size=(32, 32)), edited)
+
+
+def test_a_bad_scene_raises_with_its_file_and_line(tmp_path):
+    bad = tmp_path / "bad.ron"
+    bad.write_text("(\n  camera: LookAt(eye: (0, 0, 1), look_at: (0, 0, 0), fov: 40),\n  entities: [oops],\n)\n")
+    with pytest.raises(raylab.RaylabError) as caught:
+        raylab.load(bad)
+    done = cli("render", str(bad), "--quiet", "-o", str(tmp_path / "x.png"))
+    assert done.returncode == 2
+    message = str(caught.value)
+    assert re.search(r"bad\.ron:3:\d+", message), message
+    assert message in done.stderr
+    with pytest.raises(raylab.RaylabError, match="no integrator|unknown integrator|not an integrator"):
+        raylab.load(CORNELL).render("no-such-integrator", spp=1)
+
+
+def test_a_callback_sees_each_pass_and_can_stop_the_render():
+    scene = raylab.load(CORNELL)
+    seen = []
+    scene.render("path", spp=4, size=(16, 16), callback=lambda info: seen.append(info["spp"]))
+    assert seen == [1, 2, 3, 4]
+
+    def fail(info):
+        if info["spp"] == 2:
+            raise RuntimeError("enough")
+
+    with pytest.raises(RuntimeError, match="enough"):
+        scene.render("path", spp=100, size=(16, 16), callback=fail)
+
+
+def test_ctrl_c_stops_a_render_and_leaves_the_module_usable():
+    scene = raylab.load(CORNELL)
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    timer.start()
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        scene.render("path", spp=100000, size=(64, 64))
+    assert time.monotonic() - start < 30
+    timer.join()
+    assert scene.render("path", spp=1, size=(8, 8)).shape == (8, 8, 3)
+
+
+def test_another_thread_runs_while_a_scene_renders():
+    scene = raylab.load(CORNELL)
+    ticks = []
+    done = threading.Event()
+
+    def tick():
+        while not done.is_set():
+            ticks.append(time.monotonic())
+            time.sleep(0.01)
+
+    worker = threading.Thread(target=tick)
+    worker.start()
+    start = time.monotonic()
+    scene.render("path", time=1.0, size=(64, 64))
+    end = time.monotonic()
+    done.set()
+    worker.join()
+    during = [t for t in ticks if start < t < end]
+    assert len(during) > 20, f"{len(during)} ticks in {end - start:.2f} s"
+
+
+def test_images_round_trip_through_exr_and_png(tmp_path):
+    image = np.random.default_rng(1).random((5, 7, 3), dtype=np.float32) * 4
+    raylab.write(tmp_path / "a.exr", image)
+    assert np.array_equal(raylab.read(tmp_path / "a.exr"), image)
+    raylab.write(tmp_path / "a.png", image.astype(np.float64), exposure=-2.0)
+    png = raylab.read(tmp_path / "a.png")
+    assert png.shape == (5, 7, 3)
+    with pytest.raises(ValueError, match="shape"):
+        raylab.write(tmp_path / "b.exr", np.zeros((4, 4)))
+    with pytest.raises(raylab.RaylabError, match="extension|\\.png or \\.exr"):
+        raylab.write(tmp_path / "b.txt", image)
