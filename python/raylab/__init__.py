@@ -31,8 +31,10 @@ from . import _native
 from ._native import RaylabError, __version__
 
 __all__ = [
+    "Comparison",
     "RaylabError",
     "Scene",
+    "compare",
     "integrators",
     "load",
     "read",
@@ -234,6 +236,158 @@ class Scene:
     def __repr__(self) -> str:
         w, h = self.size
         return f"<raylab.Scene {self.path} {w}x{h}>"
+
+
+def compare(
+    scene: Union["Scene", PathLike],
+    contestants: Union[Sequence[str], Mapping[str, Mapping[str, Any]]],
+    *,
+    reference: Union[None, PathLike, Mapping[str, Any]] = None,
+    runs: int = 1,
+    spp: Optional[int] = None,
+    time: Optional[float] = None,
+    seed: int = 0,
+    size: Optional[Tuple[int, int]] = None,
+    threads: Optional[int] = None,
+    sweep: Optional[Tuple[str, Sequence[Any]]] = None,
+    region: Optional[Tuple[int, int, int, int]] = None,
+    target_error: Optional[float] = None,
+    note: Optional[str] = None,
+    out: Optional[PathLike] = None,
+) -> "Comparison":
+    """Compares integrators on a scene, as ``raylab compare`` does; returns a :class:`Comparison`.
+
+    ``scene`` is a :class:`Scene` (as it stands, edits included) or a scene file.
+    ``contestants`` are integrator names (``["path", "bdpt"]``) or a dict of names to their
+    parameters (``{"path": {}, "bdpt": {"max-depth": 8}}``). Each renders ``runs`` times with
+    its own seed under the same budget: ``spp`` samples per pixel (default 16) or ``time``
+    seconds each.
+
+    ``reference`` is an EXR file, or a render described by a dict of ``integrator`` (default
+    ``"path"``), ``params``, and ``spp`` (default 1024) or ``time``; by default ``path`` at
+    1024 spp. A rendered reference is cached as the command line caches it. ``sweep`` is a
+    parameter and its values (``("max-depth", [1, 2, 4])``), ``region`` a rectangle ``(x, y,
+    w, h)`` measured on its own, ``target_error`` the MSE whose time to reach is reported.
+
+    Everything the command writes (the page, images, ``metrics.json``) goes into ``out``,
+    a temporary folder when not given.
+    """
+    if not isinstance(scene, Scene):
+        scene = load(scene)
+    if out is None:
+        import tempfile
+
+        out = tempfile.mkdtemp(prefix="raylab-compare-")
+    out = Path(out)
+    if isinstance(contestants, str):
+        raise TypeError("contestants: give a list of integrator names, not one string")
+    named = (
+        {name: dict(p or {}) for name, p in contestants.items()}
+        if isinstance(contestants, Mapping)
+        else {name: {} for name in contestants}
+    )
+    args = [str(scene.path)]
+    for name, params in named.items():
+        args += ["-i", name]
+        for key, value in params.items():
+            args += ["-p", f"{name}.{key}={_text(value)}"]
+    if isinstance(reference, Mapping):
+        unknown = set(reference) - {"integrator", "params", "spp", "time"}
+        if unknown:
+            raise ValueError(f"reference: unknown keys {sorted(unknown)}")
+        args += ["--reference-integrator", str(reference.get("integrator", "path"))]
+        for key, value in (reference.get("params") or {}).items():
+            args += ["-p", f"reference.{key}={_text(value)}"]
+        if reference.get("spp") is not None:
+            args += ["--reference-spp", str(reference["spp"])]
+        if reference.get("time") is not None:
+            args += ["--reference-time", repr(float(reference["time"]))]
+    elif reference is not None:
+        args += ["--reference", str(reference)]
+    flags = {
+        "--runs": runs,
+        "--spp": spp,
+        "--time": None if time is None else repr(float(time)),
+        "--seed": seed,
+        "--size": None if size is None else f"{size[0]}x{size[1]}",
+        "--threads": threads,
+        "--region": None if region is None else ",".join(str(v) for v in region),
+        "--target-error": None if target_error is None else repr(float(target_error)),
+        "--note": note,
+    }
+    for flag, value in flags.items():
+        if value is not None:
+            args += [flag, str(value)]
+    if sweep is not None:
+        key, values = sweep
+        args += ["--sweep", f"{key}=" + ",".join(_text(v) for v in values)]
+    args += ["-o", str(out), "--quiet"]
+    report = json.loads(scene._native._compare(args))
+    return Comparison(report, out)
+
+
+class Comparison:
+    """The result of :func:`compare`: the figures of ``metrics.json`` and the images.
+
+    ``rows`` holds one dict per contestant with the command's figures (``mse`` and its 95%
+    interval ``mse_ci95``, ``relmse``, ``variance``, ``bias2``, ``flip``, ``time``,
+    ``efficiency``, ``slope``, ...; see ``docs/comparisons.md``); :meth:`to_pandas` makes them
+    a DataFrame, :meth:`convergence` the convergence curves. ``images`` maps each contestant's
+    label to the image of its first run, ``reference`` is the
+    reference image, and ``out`` the folder with the page (``index.html``).
+    """
+
+    def __init__(self, report: dict, out: Path):
+        self.report = report
+        self.rows: list = report["rows"]
+        self.out = out
+        self._images: Optional[dict] = None
+
+    @property
+    def labels(self) -> list:
+        """The contestants' labels, in order."""
+        return [r["label"] for r in self.rows]
+
+    @property
+    def images(self) -> dict:
+        """Each contestant's image, by label, as float32 (H, W, 3)."""
+        if self._images is None:
+            self._images = {label: read(self.out / f"{label}.exr") for label in self.labels}
+        return self._images
+
+    @property
+    def reference(self) -> np.ndarray:
+        """The reference image."""
+        return read(self.out / "reference.exr")
+
+    def to_pandas(self):
+        """The rows as a pandas DataFrame, one row per contestant (region figures as
+        ``region_*`` columns; the curves are in :meth:`convergence`)."""
+        import pandas as pd
+
+        flat = []
+        for row in self.rows:
+            r = {k: v for k, v in row.items() if k not in ("convergence", "region", "mean")}
+            r["mean_r"], r["mean_g"], r["mean_b"] = row["mean"]
+            for k, v in (row.get("region") or {}).items():
+                r[f"region_{k}"] = v
+            flat.append(r)
+        return pd.DataFrame(flat).set_index("label")
+
+    def convergence(self):
+        """The mean convergence curves: a DataFrame of ``label``, ``spp``, ``time``, ``mse``
+        and ``relmse``."""
+        import pandas as pd
+
+        points = [
+            {"label": row["label"], **point}
+            for row in self.rows
+            for point in row["convergence"]
+        ]
+        return pd.DataFrame(points, columns=["label", "spp", "time", "mse", "relmse"])
+
+    def __repr__(self) -> str:
+        return f"<raylab.Comparison of {', '.join(self.labels)} in {self.out}>"
 
 
 def _text(value: Any) -> str:

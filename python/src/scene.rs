@@ -26,6 +26,8 @@ pub struct Scene {
     state: SceneState,
     /// The description the world was made from, edits included.
     file: SceneFile,
+    /// Whether it was edited since it was read (it is then no longer what its files say).
+    edited: bool,
 }
 
 /// Loads the scene at `path`, as `raylab render` does: Mitsuba `<default>`s set by
@@ -54,7 +56,11 @@ pub fn load(
         state.loaded.warnings.extend(approximated);
         state.loaded.warnings.extend(files.take_notes());
         state.loaded.inputs = SceneInputs::of(&files, &options);
-        Ok(Scene { state, file })
+        Ok(Scene {
+            state,
+            file,
+            edited: false,
+        })
     })
     .map_err(crate::error)
 }
@@ -227,6 +233,22 @@ impl Scene {
         Ok((arrays_of(py, &acc.film()), info))
     }
 
+    /// Runs the comparison `raylab compare ARGS...` runs (`args` without the command's
+    /// name; the scene among them names this one in messages) on this scene as it stands,
+    /// edits included; see `raylab.compare`. Returns its report as `metrics.json` holds it.
+    fn _compare(&mut self, py: Python<'_>, args: Vec<String>) -> PyResult<String> {
+        let opts = raylab::cli::compare_options_from_args(&args).map_err(crate::error)?;
+        if self.edited {
+            let text = self.to_ron()?;
+            self.state.loaded.inputs.edited = Some(text);
+        }
+        let loaded = &self.state.loaded;
+        let report = py
+            .detach(|| raylab::compare::run_loaded(&opts, loaded))
+            .map_err(crate::error)?;
+        serde_json::to_string(&report).map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
     /// Sets fields of material `name` (a JSON object of the RON fields, e.g.
     /// `{"albedo": [0.8, 0.2, 0.2]}`), keeping the others.
     fn _set_material(&mut self, py: Python<'_>, name: &str, fields: &str) -> PyResult<()> {
@@ -297,6 +319,7 @@ impl Scene {
         let next = file.clone();
         py.detach(|| state.apply(next)).map_err(crate::error)?;
         self.file = file;
+        self.edited = true;
         Ok(())
     }
 }

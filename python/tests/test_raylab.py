@@ -204,3 +204,70 @@ def test_images_round_trip_through_exr_and_png(tmp_path):
         raylab.write(tmp_path / "b.exr", np.zeros((4, 4)))
     with pytest.raises(raylab.RaylabError, match="extension|\\.png or \\.exr"):
         raylab.write(tmp_path / "b.txt", image)
+
+
+# The figures that do not depend on the machine's speed.
+DETERMINISTIC = ["spp", "mse", "mse_ci95", "relmse", "variance", "bias2", "flip", "hdrflip",
+                 "rmse", "psnr", "mean", "ztest_failed_pixels", "rays_camera",
+                 "rays_extension", "rays_shadow"]
+
+
+def test_compare_gives_the_command_lines_figures_and_images(tmp_path, monkeypatch):
+    import json
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    flags = ["-i", "path", "-i", "bdpt", "-p", "bdpt.max-depth=4", "--spp", "4", "--runs", "3",
+             "--reference-spp", "32", "--size", "24x20", "--seed", "5"]
+    done = cli("compare", str(CORNELL), *flags, "-o", str(tmp_path / "cli"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    expected = json.loads((tmp_path / "cli" / "metrics.json").read_text())
+    result = raylab.compare(
+        CORNELL,
+        {"path": {}, "bdpt": {"max-depth": 4}},
+        spp=4,
+        runs=3,
+        reference={"spp": 32},
+        size=(24, 20),
+        seed=5,
+        out=tmp_path / "py",
+    )
+    assert result.labels == ["path", "bdpt"]
+    for row, want in zip(result.rows, expected["rows"]):
+        for key in DETERMINISTIC:
+            assert row[key] == want[key], key
+        assert row["mse_ci95"] is not None and row["mse"] > 0
+    assert np.array_equal(result.images["bdpt"], raylab.read(tmp_path / "cli" / "bdpt.exr"))
+    assert result.reference.shape == (20, 24, 3)
+    frame = result.to_pandas()
+    assert list(frame.index) == ["path", "bdpt"]
+    assert frame.loc["path", "mse"] == result.rows[0]["mse"]
+    curves = result.convergence()
+    assert set(curves["label"]) == {"path", "bdpt"} and (curves["mse"] > 0).all()
+
+
+def test_compare_measures_an_edited_scene_as_it_stands(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    scene = raylab.load(CORNELL)
+    options = dict(spp=2, reference={"spp": 8}, size=(16, 16), out=tmp_path / "a")
+    before = raylab.compare(scene, ["path"], **options)
+    scene.set_material("white", albedo=(0.2, 0.2, 0.2))
+    options["out"] = tmp_path / "b"
+    after = raylab.compare(scene, ["path"], **options)
+    # The reference was rendered anew for the edited scene (a cached one of the file would
+    # leave the darker renders far from it).
+    assert after.reference.mean() < 0.8 * before.reference.mean()
+    assert after.rows[0]["mean"][0] < before.rows[0]["mean"][0]
+    assert after.rows[0]["mse"] < before.rows[0]["mse"] * 4
+    with pytest.raises(raylab.RaylabError, match="no-such"):
+        raylab.compare(scene, ["no-such"], spp=1, out=tmp_path / "c")
+
+
+def test_the_readmes_example_runs(tmp_path, monkeypatch):
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## From Python", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, flags=re.S).group(1)
+    (tmp_path / "scenes").symlink_to(ROOT / "scenes")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    exec(compile(code, "README.md", "exec"), {})
+    assert raylab.read(tmp_path / "cornell.exr").shape == (256, 256, 3)

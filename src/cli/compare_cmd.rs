@@ -24,6 +24,13 @@ fn parse_sweep(text: &str) -> Result<(String, Vec<String>)> {
 }
 
 pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
+    compare::run(&compare_options(args)?)?;
+    note!("wrote {}", args.output.join("index.html").display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The comparison `raylab compare` runs for `args`, checked.
+pub fn compare_options(args: &CompareArgs) -> Result<CompareOptions> {
     let params = args
         .params
         .iter()
@@ -97,7 +104,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         .map(super::render_cmd::parse_size)
         .transpose()?;
     let region = args.region.as_deref().map(parse_region).transpose()?;
-    let opts = CompareOptions {
+    Ok(CompareOptions {
         scene: args.scene.clone(),
         allowed: args.allow_path.clone(),
         import: args.import.options(),
@@ -116,10 +123,7 @@ pub fn compare(args: &CompareArgs) -> Result<ExitCode> {
         region,
         filter: args.trace.filter,
         accel: args.trace.accel,
-    };
-    compare::run(&opts)?;
-    note!("wrote {}", args.output.join("index.html").display());
-    Ok(ExitCode::SUCCESS)
+    })
 }
 
 /// `X,Y,W,H` in pixels.

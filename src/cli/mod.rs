@@ -356,6 +356,25 @@ pub struct MergeArgs {
 }
 
 /// Runs the command line and returns the process exit code.
+/// The comparison `raylab compare ARGS...` would run (`args` without the program's and the
+/// command's names), its flags checked as the command checks them: for scripts (the Python
+/// module) that compare exactly as the command line does.
+pub fn compare_options_from_args(
+    args: &[String],
+) -> anyhow::Result<crate::compare::CompareOptions> {
+    let argv = ["raylab", "compare"]
+        .into_iter()
+        .map(String::from)
+        .chain(args.iter().cloned());
+    match Cli::try_parse_from(argv) {
+        Ok(Cli {
+            command: Command::Compare(args),
+        }) => compare_cmd::compare_options(&args),
+        Ok(_) => anyhow::bail!("not a comparison"),
+        Err(e) => anyhow::bail!("{}", e.render().to_string().trim_end()),
+    }
+}
+
 pub fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,

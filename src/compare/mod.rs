@@ -647,13 +647,26 @@ pub fn check_output_folder(dir: &Path, files: &[(String, PathBuf)]) -> Result<()
 /// Runs the comparison and writes everything into `opts.out_dir` (created if missing, and
 /// removed again if the comparison fails before writing anything there).
 pub fn run(opts: &CompareOptions) -> Result<Report> {
+    check_out_dir(opts)?;
+    let loaded = crate::scene::load_scene_defined(&opts.scene, &opts.allowed, &opts.import)?;
+    run_loaded(opts, &loaded)
+}
+
+/// Refuses an output folder that is a file.
+fn check_out_dir(opts: &CompareOptions) -> Result<()> {
     if opts.out_dir.exists() && !opts.out_dir.is_dir() {
         bail!(
             "{}: the output folder is a file, not a folder",
             opts.out_dir.display()
         );
     }
-    let loaded = crate::scene::load_scene_defined(&opts.scene, &opts.allowed, &opts.import)?;
+    Ok(())
+}
+
+/// [`run`] on a scene already loaded (and perhaps edited in memory: its inputs' identity
+/// then covers the edits), `opts.scene` naming it in messages.
+pub fn run_loaded(opts: &CompareOptions, loaded: &LoadedScene) -> Result<Report> {
+    check_out_dir(opts)?;
     // No output may be an input (the scene, every file it read, the reference image).
     let mut plan = crate::render::scene_inputs(&loaded.inputs)?;
     if let ReferenceSpec::File(f) = &opts.reference {
@@ -679,7 +692,7 @@ pub fn run(opts: &CompareOptions) -> Result<Report> {
     result
 }
 
-fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
+fn run_into(opts: &CompareOptions, loaded: &LoadedScene) -> Result<Report> {
     output::check_writable_folder(&opts.out_dir.join("index.html"))?;
     for w in &loaded.warnings {
         note!("warning: {}: {w}", opts.scene.display());
@@ -696,7 +709,7 @@ fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
     // Every contestant's configuration, checked before anything renders: one that cannot
     // use the camera, or that would not fit in memory beside the film.
     for c in &opts.contestants {
-        contestant_job(&loaded, c, opts.budget, opts.seed, opts)?;
+        contestant_job(loaded, c, opts.budget, opts.seed, opts)?;
     }
     if let Some(r) = opts.region {
         if Film::new(camera.width, camera.height)
@@ -720,8 +733,8 @@ fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
         ReferenceSpec::File(_) => 0,
     };
     let cached = reference_entry(opts, scene_id, &camera)?;
-    let built = RenderScene::build_on_threads(&loaded, opts.accel, opts.threads)?;
-    let (reference, reference_what) = reference(opts, (&loaded, &built), &camera, cached.as_ref())?;
+    let built = RenderScene::build_on_threads(loaded, opts.accel, opts.threads)?;
+    let (reference, reference_what) = reference(opts, (loaded, &built), &camera, cached.as_ref())?;
     output::write_image(
         &opts.out_dir.join("reference.exr"),
         &reference,
@@ -736,7 +749,7 @@ fn run_into(opts: &CompareOptions, loaded: LoadedScene) -> Result<Report> {
     let mut rows = Vec::new();
     let mut threads = 0;
     for c in &opts.contestants {
-        let (row, used) = measure(opts, (&loaded, &built), &camera, c, &reference)?;
+        let (row, used) = measure(opts, (loaded, &built), &camera, c, &reference)?;
         threads = used;
         print_row(&row);
         rows.push(row);

@@ -21,6 +21,9 @@ pub struct SceneInputs {
     pub files: Vec<PathBuf>,
     /// `-D` values and `--approximate`.
     pub options: ImportOptions,
+    /// The scene's description as edited in memory (from Python), as RON, when it is no
+    /// longer what the files say.
+    pub edited: Option<String>,
 }
 
 impl SceneInputs {
@@ -30,6 +33,7 @@ impl SceneInputs {
             scene: files.scene().to_path_buf(),
             files: files.read(),
             options: options.clone(),
+            edited: None,
         }
     }
 
@@ -40,7 +44,8 @@ impl SceneInputs {
 
     /// A hash of everything that determines the scene: the scene file's bytes, the `-D`
     /// values and `--approximate`, and every other file it read (by its name relative to
-    /// the scene's folder, and its bytes, or that it is missing). Not the scene's own path:
+    /// the scene's folder, and its bytes, or that it is missing), and the edits made in memory.
+    /// Not the scene's own path:
     /// `scenes/x.ron` and `./scenes/x.ron`, or the same scene on two machines, hash alike.
     pub fn identity(&self) -> std::io::Result<u64> {
         let mut h = Fnv::new();
@@ -65,6 +70,10 @@ impl SceneInputs {
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => h.part(b"\0missing"),
                 Err(_) => h.part(b"\0unreadable"),
             }
+        }
+        if let Some(text) = &self.edited {
+            h.part(b"edited");
+            h.part(text.as_bytes());
         }
         Ok(h.0)
     }
