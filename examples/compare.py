@@ -1,16 +1,17 @@
 # %% [markdown]
 # # Three integrators on the Cornell box, at equal time
 #
-# A notebook as a plain script (Jupyter, VS Code and `jupytext` open its `# %%` cells as a
-# notebook; `python examples/compare.py` runs it whole, as CI does). It loads the Cornell box,
-# renders it with three integrators for the same time, plots each image beside its error
-# against a reference, then sweeps a parameter and plots how the error falls with time.
+# `compare.ipynb` and `compare.py` in `examples/` hold the same cells (a test keeps them
+# alike): open the notebook in Jupyter, or run the script whole, as CI does. It loads the
+# Cornell box, renders it with three integrators for the same time, plots each image beside
+# its error against a reference, then sweeps a parameter and plots how the error falls with
+# time.
 #
-# Run from the repository's root after `pip install .`; figures go to `out/python-example/`
-# (or the folder given as the first argument).
+# After `pip install .`; figures go to `out/python-example/` under the repository, or to the
+# folder `RAYLAB_EXAMPLE_OUT` names.
 
 # %%
-import sys
+import os
 from pathlib import Path
 
 import matplotlib
@@ -21,8 +22,11 @@ import numpy as np
 
 import raylab
 
-root = Path(__file__).resolve().parent.parent
-out = Path(sys.argv[1]) if len(sys.argv) > 1 else root / "out" / "python-example"
+try:
+    root = Path(__file__).resolve().parent.parent
+except NameError:  # in a notebook, run from examples/ or the repository's root
+    root = Path.cwd().parent if Path.cwd().name == "examples" else Path.cwd()
+out = Path(os.environ.get("RAYLAB_EXAMPLE_OUT", root / "out" / "python-example"))
 out.mkdir(parents=True, exist_ok=True)
 # Small and quick, so that CI runs it; raise both for a real study.
 size, seconds = (128, 128), 1.0
