@@ -38,7 +38,7 @@ print(scene, "materials:", scene.materials)
 # ## A reference, and three integrators at equal time
 
 # %%
-reference = scene.render("path", spp=256, size=size, seed=1000)
+reference = scene.render("path", spp=1024, size=size, seed=1000)
 contestants = ["path", "bdpt", "lighttracer"]
 images = {name: scene.render(name, time=seconds, size=size) for name in contestants}
 
@@ -71,7 +71,7 @@ result = raylab.compare(
     contestants,
     time=seconds / 2,
     runs=2,
-    reference={"spp": 256},
+    reference={"spp": 1024},
     size=size,
     out=out / "compare",
 )
@@ -87,7 +87,7 @@ sweep = raylab.compare(
     ["russian-roulette"],
     sweep=("rr-depth", [1, 3, 6]),
     spp=32,
-    reference={"spp": 256},
+    reference={"spp": 1024},
     size=size,
     out=out / "sweep",
 )
