@@ -625,18 +625,15 @@ fn render_with(loaded: &LoadedScene, integrator: &str, spp: u32, seed: u64) -> F
         .0
 }
 
-/// A pbrt-v4 medium renders as pbrt-v4 defines it: a black lamp of radiance 1 seen through a
-/// slab 2 units thick (an `interface` box, the medium inside) of absorption sigma_a is dimmed
-/// to `T = exp(-2 sigma_a)`; with emission `Le * Lescale` the slab adds `Le (1 - T)` of its
-/// own (the lamp black, so that it reflects none of it back).
-#[test]
-fn a_pbrt_medium_dims_and_lights_as_its_coefficients_say() {
-    let scene = |emission: &str| {
-        format!(
-            r#"Camera "perspective" "float fov" 10
+/// A pbrt scene: a black lamp of radiance 1 at z = 10 seen through a slab from z = 3 to 5
+/// (an `interface` box) filled with the medium `MakeNamedMedium "slab" "string type" {medium}`
+/// makes; 8x8 pixels, volpath.
+fn slab_before_a_lamp(medium: &str) -> String {
+    format!(
+        r#"Camera "perspective" "float fov" 10
 Film "rgb" "integer xresolution" 8 "integer yresolution" 8
 Integrator "volpath"
-MakeNamedMedium "slab" "string type" "homogeneous" "rgb sigma_a" [0.5 0.25 0.125] "rgb sigma_s" [0 0 0] {emission}
+MakeNamedMedium "slab" "string type" {medium}
 WorldBegin
 AttributeBegin
 Material "diffuse" "rgb reflectance" [0 0 0]
@@ -649,7 +646,19 @@ Shape "trianglemesh"
     "point3 P" [-5 -5 3  5 -5 3  -5 5 3  5 5 3  -5 -5 5  5 -5 5  -5 5 5  5 5 5]
     "integer indices" [0 1 5  0 5 4  2 6 7  2 7 3  0 2 3  0 3 1  4 5 7  4 7 6  0 4 6  0 6 2  1 3 7  1 7 5]
 "#
-        )
+    )
+}
+
+/// A pbrt-v4 medium renders as pbrt-v4 defines it: a black lamp of radiance 1 seen through a
+/// slab 2 units thick (an `interface` box, the medium inside) of absorption sigma_a is dimmed
+/// to `T = exp(-2 sigma_a)`; with emission `Le * Lescale` the slab adds `Le (1 - T)` of its
+/// own (the lamp black, so that it reflects none of it back).
+#[test]
+fn a_pbrt_medium_dims_and_lights_as_its_coefficients_say() {
+    let scene = |emission: &str| {
+        slab_before_a_lamp(&format!(
+            r#""homogeneous" "rgb sigma_a" [0.5 0.25 0.125] "rgb sigma_s" [0 0 0] {emission}"#
+        ))
     };
     for (emission, le) in [
         ("", 0.0f32),
@@ -679,24 +688,9 @@ Shape "trianglemesh"
 #[test]
 fn an_rgb_grid_renders_as_the_uniform_grid_of_the_same_coefficients() {
     let scene = |medium: &str| {
-        format!(
-            r#"Camera "perspective" "float fov" 10
-Film "rgb" "integer xresolution" 8 "integer yresolution" 8
-Integrator "volpath"
-MakeNamedMedium "slab" "string type" {medium} "integer nx" 2 "integer nz" 2 "point3 p0" [-1 -1 3] "point3 p1" [1 1 5]
-WorldBegin
-AttributeBegin
-Material "diffuse" "rgb reflectance" [0 0 0]
-AreaLightSource "diffuse" "rgb L" [1 1 1]
-Shape "bilinearmesh" "point3 P" [-20 -20 10  -20 20 10  20 -20 10  20 20 10]
-AttributeEnd
-MediumInterface "slab" ""
-Material "interface"
-Shape "trianglemesh"
-    "point3 P" [-5 -5 3  5 -5 3  -5 5 3  5 5 3  -5 -5 5  5 -5 5  -5 5 5  5 5 5]
-    "integer indices" [0 1 5  0 5 4  2 6 7  2 7 3  0 2 3  0 3 1  4 5 7  4 7 6  0 4 6  0 6 2  1 3 7  1 7 5]
-"#
-        )
+        slab_before_a_lamp(&format!(
+            r#"{medium} "integer nx" 2 "integer nz" 2 "point3 p0" [-1 -1 3] "point3 p1" [1 1 5]"#
+        ))
     };
     let density = [1.0f64, 2.0, 0.5, 3.0];
     let le_scale = [0.5f64, 1.0, 2.0, 0.25];

@@ -125,18 +125,23 @@ pub fn fog_ball_behind_a_pane(sigma_t: Rgb, phase: Phase) -> TestScene {
     )
 }
 
-/// A unit ball of a medium that absorbs (`sigma_a`) and emits `le`, probed through its
-/// centre: radiance `le (1 - exp(-2 sigma_a))`.
-pub fn glowing_ball(sigma_a: Rgb, le: Rgb) -> (TestScene, Rgb) {
-    let medium = Medium::Homogeneous(Homogeneous::new(sigma_a, Rgb::ZERO, le, Phase::Isotropic));
-    let scene = ball_behind(
+/// A unit ball of `medium` with no light but its own, probed through its centre.
+fn glowing(medium: Medium) -> TestScene {
+    ball_behind(
         SurfaceMaterial::null(),
         medium,
         1.0,
         Vec::new(),
         through_the_centre(),
         false,
-    );
+    )
+}
+
+/// A unit ball of a medium that absorbs (`sigma_a`) and emits `le`, probed through its
+/// centre: radiance `le (1 - exp(-2 sigma_a))`.
+pub fn glowing_ball(sigma_a: Rgb, le: Rgb) -> (TestScene, Rgb) {
+    let medium = Medium::Homogeneous(Homogeneous::new(sigma_a, Rgb::ZERO, le, Phase::Isotropic));
+    let scene = glowing(medium);
     let exact = le * (Rgb::ONE - crate::medium::tracking::transmittance(sigma_a, 2.0));
     (scene, exact)
 }
@@ -171,14 +176,7 @@ pub fn glowing_grid_ball() -> (TestScene, Rgb) {
         Phase::Isotropic,
         Some(to_unit),
     )));
-    let scene = ball_behind(
-        SurfaceMaterial::null(),
-        medium,
-        1.0,
-        Vec::new(),
-        through_the_centre(),
-        false,
-    );
+    let scene = glowing(medium);
     let n = 200_000;
     let dz = 2.0 / n as f32;
     let (mut depth, mut exact) = (Rgb::ZERO, Rgb::ZERO);
