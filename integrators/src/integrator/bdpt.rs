@@ -428,7 +428,6 @@ impl Integrator for Bdpt {
             camera,
             light: &light,
             cam: &cam,
-            hero,
         };
         // Every join of a camera prefix (t vertices) and a light prefix (s vertices).
         let mut l = Rgb::ZERO;
@@ -546,7 +545,6 @@ impl Bdpt {
             camera,
             light: &light,
             cam: &cam,
-            hero,
         };
         let (c, weight, raster) = paths.connect(s, t, tracer, sampler);
         if !c.is_finite() || weight.is_nan() || weight <= 0.0 {
@@ -815,8 +813,6 @@ struct Subpaths<'p, 'a> {
     camera: &'p Camera,
     light: &'p Subpath<'a>,
     cam: &'p Subpath<'a>,
-    /// The colour channel both subpaths sampled media by.
-    hero: usize,
 }
 
 impl Subpaths<'_, '_> {
@@ -991,7 +987,7 @@ impl Subpaths<'_, '_> {
         if c == Rgb::ZERO {
             return c;
         }
-        c * transmittance(tracer, &ray, self.hero, sampler)
+        c * transmittance(tracer, &ray, sampler)
     }
 
     /// The power-heuristic weight of strategy `(s, t)` against every other strategy that could

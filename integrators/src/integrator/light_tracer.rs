@@ -85,8 +85,7 @@ impl Integrator for LightTracer {
                     medium: tracer.scene.camera_medium(),
                     ..ray
                 };
-                let hero = hero_channel(sampler.next_1d());
-                seen = escaped(tracer.scene, &ray) * transmittance(tracer, &ray, hero, sampler);
+                seen = escaped(tracer.scene, &ray) * transmittance(tracer, &ray, sampler);
             } else if tracer.camera(&ray).is_none() {
                 seen = escaped(tracer.scene, &ray);
             }
@@ -143,8 +142,7 @@ impl LightTracer {
                 medium: tracer.scene.camera_medium(),
                 ..eye.spawn_ray_to(ls.point)
             };
-            let hero = hero_channel(sampler.next_1d());
-            splats.add(raster, l * transmittance(tracer, &ray, hero, sampler));
+            splats.add(raster, l * transmittance(tracer, &ray, sampler));
         } else if tracer.unoccluded(&eye, &ls) {
             splats.add(raster, l);
         }
@@ -322,7 +320,7 @@ fn connect_medium_to_lens(
         tmax: cs.dist * (1.0 - 1e-4),
         medium: ray.medium,
     };
-    let tr = transmittance(tracer, &to_eye, walk.hero, sampler);
+    let tr = transmittance(tracer, &to_eye, sampler);
     let l = beta * tr * (f * cs.we / cs.pdf) / average(walk.r_u);
     (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
 }
@@ -351,7 +349,7 @@ fn connect_to_lens(
             .then_some((cs.raster, l)),
         Some((walk, sampler)) => {
             let ray = sp.hit.spawn_ray_to(cs.point);
-            let tr = transmittance(tracer, &ray, walk.hero, sampler);
+            let tr = transmittance(tracer, &ray, sampler);
             let l = l * tr / average(walk.r_u);
             (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
         }

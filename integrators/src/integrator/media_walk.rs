@@ -142,12 +142,12 @@ pub fn fly(
 }
 
 /// The transmittance along `ray` (in its medium, up to its `tmax`): through media by ratio
-/// tracking at channel `hero`'s rate (unbiased in every channel), and through the surfaces
+/// tracking (unbiased in every channel), and through the surfaces
 /// that are no surface at all (a `Null` boundary; a mask of opacity 0); zero where any other
 /// surface lies on it. A thin dielectric or a partial mask blocks it: light subpaths make a
 /// vertex there (a Dirac lobe), so a join that went through one would count again, under
 /// other MIS weights, the paths with that vertex. Each ray cast counts as a connection.
-pub fn transmittance(tracer: &mut Tracer, ray: &Ray, hero: usize, sampler: &mut Sampler) -> Rgb {
+pub fn transmittance(tracer: &mut Tracer, ray: &Ray, sampler: &mut Sampler) -> Rgb {
     let scene: &dyn Scene = tracer.scene;
     let target = ray.at(ray.tmax);
     let mut ray = *ray;
@@ -157,8 +157,7 @@ pub fn transmittance(tracer: &mut Tracer, ray: &Ray, hero: usize, sampler: &mut 
         let hit = scene.intersect(&ray);
         let Some(h) = hit else {
             if let Some(medium) = scene.medium(ray.medium) {
-                tr *=
-                    crate::medium::tracking::ratio_tracking(medium, &ray, ray.tmax, hero, sampler);
+                tr *= crate::medium::tracking::ratio_tracking(medium, &ray, ray.tmax, sampler);
             }
             return tr;
         };
@@ -166,7 +165,7 @@ pub fn transmittance(tracer: &mut Tracer, ray: &Ray, hero: usize, sampler: &mut 
             return Rgb::ZERO;
         }
         if let Some(medium) = scene.medium(ray.medium) {
-            tr *= crate::medium::tracking::ratio_tracking(medium, &ray, h.t, hero, sampler);
+            tr *= crate::medium::tracking::ratio_tracking(medium, &ray, h.t, sampler);
         }
         if tr == Rgb::ZERO || !tr.is_finite() {
             return Rgb::ZERO;
@@ -241,7 +240,6 @@ pub enum Scatterer<'s, 'a> {
 pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
     let scene: &dyn Scene = tracer.scene;
     let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
-    let hero = hero_channel(sampler.next_1d());
     let Some((index, pmf)) = scene.lights().sample(u_light) else {
         return Rgb::ZERO;
     };
@@ -268,7 +266,7 @@ pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) 
     if !positive(ls.pdf) || ls.radiance == Rgb::ZERO || f == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let l = f * ls.radiance / (pmf * ls.pdf) * transmittance(tracer, &ray, hero, sampler);
+    let l = f * ls.radiance / (pmf * ls.pdf) * transmittance(tracer, &ray, sampler);
     if l.is_finite() {
         l
     } else {

@@ -1069,8 +1069,7 @@ fn finite_or_zero(x: f64) -> f32 {
 /// `Null` boundaries): what a connection along it carries.
 fn visible(ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
     if tracer.scene.has_media() {
-        let hero = hero_channel(sampler.next_1d());
-        transmittance(tracer, ray, hero, sampler)
+        transmittance(tracer, ray, sampler)
     } else {
         tracer.counters.connection += 1;
         if tracer.scene.occluded(ray) {
@@ -1204,8 +1203,7 @@ fn light_sample(
                 At::Medium(m) => ray_from_point(m.p, &ls, m.medium),
             };
             tracer.counters.shadow += 1;
-            let hero = hero_channel(sampler.next_1d());
-            c * transmittance(tracer, &ray, hero, sampler)
+            c * transmittance(tracer, &ray, sampler)
         }
     }
 }

@@ -451,12 +451,13 @@ pub fn expect_mean_of(integrator: &mut dyn Integrator, scene: &TestScene, expect
 }
 
 /// The t-test of [`expect_mean`] on a (mean, standard error) pair, failing at `|t| >= t_max`;
-/// a deterministic estimate (no spread) must equal `expected` to 1e-5.
+/// a deterministic estimate (no spread) must equal `expected` to 1e-4 (the rounding of the
+/// distances it is computed from: Beer's law through a ball is exact once sampled).
 fn check_mean(what: &str, (mean, se): (f64, f64), expected: f32, t_max: f64) {
     let expected = expected as f64;
     let t = if se > 1e-6 * expected {
         (mean - expected) / se
-    } else if (mean - expected).abs() < 1e-5 * expected {
+    } else if (mean - expected).abs() < 1e-4 * expected {
         0.0
     } else {
         f64::INFINITY
