@@ -122,6 +122,7 @@ pub fn compare_options(args: &CompareArgs) -> Result<CompareOptions> {
         note: args.note.clone(),
         region,
         filter: args.trace.filter,
+        sampler: args.trace.sampler,
         accel: args.trace.accel,
     })
 }

@@ -55,6 +55,7 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
             seed: c.seed,
             threads: c.threads,
             filter: c.trace.filter,
+            sampler: c.trace.sampler,
             accel: c.trace.accel,
             image_interval: interval,
         },

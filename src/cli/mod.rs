@@ -90,6 +90,10 @@ pub struct TraceArgs {
     /// radius 2); default: the scene's `render.filter`, else box.
     #[arg(long, value_name = "NAME", value_parser = parse_filter)]
     pub filter: Option<raylab_integrators::Filter>,
+    /// How camera samples draw their numbers: independent (the default) or sobol
+    /// (Owen-scrambled Sobol points, padded by pairs); default: the scene's `render.sampler`.
+    #[arg(long, value_name = "NAME", value_parser = raylab_integrators::sampler::SamplerKind::parse)]
+    pub sampler: Option<raylab_integrators::sampler::SamplerKind>,
 }
 
 /// What `render` (and its `--watch`) and `serve` share: the scene, what renders it, and how
@@ -355,7 +359,6 @@ pub struct MergeArgs {
     pub quiet: bool,
 }
 
-/// Runs the command line and returns the process exit code.
 /// The comparison `raylab compare ARGS...` would run (`args` without the program's and the
 /// command's names), its flags checked as the command checks them: for scripts (the Python
 /// module) that compare exactly as the command line does.
@@ -375,6 +378,7 @@ pub fn compare_options_from_args(
     }
 }
 
+/// Runs the command line and returns the process exit code.
 pub fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,

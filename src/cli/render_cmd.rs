@@ -144,6 +144,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             time: args.time.map(Duration::from_secs_f64),
             seed: args.session.seed,
             filter: args.session.trace.filter,
+            sampler: args.session.trace.sampler,
             threads: args.session.threads,
             accel: args.session.trace.accel,
             progress: !args.session.quiet,

@@ -114,6 +114,9 @@ pub struct CompareOptions {
     pub accel: crate::accel::AccelKind,
     /// Pixel reconstruction filter for every render and the reference; `None`: the scene's.
     pub filter: Option<raylab_integrators::Filter>,
+    /// How every contestant's camera samples draw their numbers; `None`: the scene's. The
+    /// reference always renders with independent samples.
+    pub sampler: Option<raylab_integrators::sampler::SamplerKind>,
 }
 
 /// A rectangle of pixels: top-left corner `(x, y)`, `w x h`.
@@ -411,6 +414,7 @@ fn contestant_job(
             time,
             seed: Some(seed),
             filter: Some(opts.filter.unwrap_or_default()),
+            sampler: opts.sampler,
             threads: opts.threads,
             accel: opts.accel,
             progress: opts.progress,
@@ -540,7 +544,11 @@ fn reference(
             };
             note!("rendering the reference: {what}");
             let seed = reference_seed(opts.seed);
-            let film = render_one(loaded, built, &c, *budget, seed, None, opts)?.film;
+            let independent = CompareOptions {
+                sampler: Some(raylab_integrators::sampler::SamplerKind::Independent),
+                ..opts.clone()
+            };
+            let film = render_one(loaded, built, &c, *budget, seed, None, &independent)?.film;
             // The reference is in hand (and copied into the output folder): a cache that
             // fails now costs the next run, not this one.
             if let Err(e) = cache.write(*hash, &film) {

@@ -320,6 +320,7 @@ fn entry_options(
             region,
             accel: Default::default(),
             filter: None,
+            sampler: None,
         },
     })
 }

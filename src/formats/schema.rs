@@ -10,6 +10,7 @@ pub use super::medium_desc::{
 pub use super::texture_desc::{ColorDesc, FloatDesc};
 pub use super::transform_desc::TransformDesc;
 use raylab_integrators::bsdf::{ior, ComplexIor, Distribution};
+use raylab_integrators::sampler::SamplerKind;
 use raylab_integrators::Filter;
 use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -136,6 +137,25 @@ pub struct RenderDesc {
     /// proportion to their power: Mitsuba 3's, which its importer sets).
     #[serde(default, skip_serializing_if = "LightSelection::is_power")]
     pub light_selection: LightSelection,
+    /// How camera samples draw their numbers: `"independent"` (the default) or `"sobol"`
+    /// (Owen-scrambled, padded Sobol points).
+    #[serde(
+        default,
+        deserialize_with = "sampler_name",
+        serialize_with = "display",
+        skip_serializing_if = "is_independent"
+    )]
+    pub sampler: SamplerKind,
+}
+
+/// A sampler by name; an unknown name is an error at its place in the file.
+fn sampler_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<SamplerKind, D::Error> {
+    let name = String::deserialize(d)?;
+    SamplerKind::parse(&name).map_err(serde::de::Error::custom)
+}
+
+fn is_independent(kind: &SamplerKind) -> bool {
+    *kind == SamplerKind::Independent
 }
 
 /// How light sampling picks an emitter.
@@ -168,6 +188,7 @@ impl Default for RenderDesc {
             params: BTreeMap::new(),
             filter: Filter::Box,
             light_selection: LightSelection::Power,
+            sampler: SamplerKind::Independent,
         }
     }
 }

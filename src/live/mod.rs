@@ -71,6 +71,8 @@ pub struct LiveSettings {
     pub accel: crate::accel::AccelKind,
     /// Pixel reconstruction filter overriding the scene's.
     pub filter: Option<raylab_integrators::Filter>,
+    /// Sampler overriding the scene's.
+    pub sampler: Option<raylab_integrators::sampler::SamplerKind>,
     /// Shortest time between two images handed to the observer (the first pass and the last
     /// are always handed over).
     pub image_interval: Duration,
@@ -293,6 +295,7 @@ fn prepare(
             time: None,
             seed: settings.seed,
             filter: settings.filter,
+            sampler: settings.sampler,
             threads: settings.threads,
             accel: settings.accel,
             progress: false,

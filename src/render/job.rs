@@ -15,6 +15,7 @@ use crate::accel::AccelKind;
 use crate::scene::{Camera, LoadedScene, RenderScene};
 use anyhow::{anyhow, bail, Context, Result};
 use raylab_integrators::registry::{self, IntegratorEntry, Params};
+use raylab_integrators::sampler::SamplerKind;
 use raylab_integrators::Integrator;
 use std::time::Duration;
 
@@ -38,6 +39,8 @@ pub struct Request {
     pub seed: Option<u64>,
     /// `None`: the scene's filter.
     pub filter: Option<Filter>,
+    /// `None`: the scene's sampler.
+    pub sampler: Option<SamplerKind>,
     /// Worker threads; `None`: every core.
     pub threads: Option<usize>,
     pub accel: AccelKind,
@@ -203,6 +206,7 @@ impl Job {
             progress: request.progress,
             time_budget: request.time,
             filter: request.filter.unwrap_or(loaded.render.filter),
+            sampler: request.sampler.unwrap_or(loaded.render.sampler),
             part: shard.as_ref().map(|(_, part)| part.clone()),
         };
         Ok(Job {
@@ -237,7 +241,7 @@ impl Job {
     /// `merge` compares) and hashed into checkpoints.
     pub fn settings_text(&self) -> String {
         format!(
-            "integrator={} {} spp={} seed={} size={}x{} filter={} accel={}",
+            "integrator={} {} spp={} seed={} size={}x{} filter={} accel={} sampler={}",
             self.entry.name,
             self.describe_params(),
             self.settings
@@ -248,6 +252,7 @@ impl Job {
             self.camera.height,
             self.settings.filter,
             self.accel,
+            self.settings.sampler,
         )
     }
 

@@ -31,6 +31,7 @@ pub use accumulator::{PixelAccumulator, PixelTotals, BLOCK};
 use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
 pub use job::{Job, Request, Target};
+use raylab_integrators::sampler::SamplerKind;
 use raylab_integrators::{
     ChainContext, Integrator, PassContext, PixelSample, RayCounters, SampleContext, Sampler, Scene,
     Splats, Stop, Tracer, Work,
@@ -58,6 +59,8 @@ pub struct RenderSettings {
     pub time_budget: Option<Duration>,
     /// The pixel reconstruction filter.
     pub filter: Filter,
+    /// How camera samples draw their numbers.
+    pub sampler: SamplerKind,
     /// The part of the render this run does, for a shard (`render --shard`); `None` for all
     /// of it. Samples are placed for the whole render's `spp` either way.
     pub part: Option<Part>,
@@ -73,6 +76,7 @@ impl RenderSettings {
             progress: false,
             time_budget: None,
             filter: Filter::Box,
+            sampler: SamplerKind::Independent,
             part: None,
         }
     }
@@ -220,6 +224,11 @@ fn sample_position(
     seed: u64,
     sampler: &mut Sampler,
 ) -> Vec2 {
+    // A low-discrepancy sampler's first two numbers are stratified over the pixel's samples
+    // already.
+    if sampler.stratifies_pixels() {
+        return Vec2::new(x as f32, y as f32) + sampler.next_2d();
+    }
     let n = spp.map_or(1, |spp| (spp as f64).sqrt().floor() as u32);
     let jitter = sampler.next_2d();
     let offset = if s < n * n {
@@ -561,7 +570,8 @@ fn render_tile_pass(
             // One camera sample: its own sampler, a stratified film position, the
             // integrator's estimate; a sample with a non-finite estimate or splat is dropped
             // (it counts as black) and counted.
-            let mut sampler = Sampler::new(settings.seed, pixel_index, pass as u64);
+            let mut sampler =
+                Sampler::camera(settings.sampler, settings.seed, pixel_index, pass as u64);
             let film = sample_position(x, y, pass, settings.spp, settings.seed, &mut sampler);
             let sample = PixelSample {
                 x,
