@@ -168,6 +168,7 @@ class Scene:
         size: Optional[Tuple[int, int]] = None,
         threads: Optional[int] = None,
         params: Optional[Mapping[str, Any]] = None,
+        sampler: Optional[str] = None,
         variance: bool = False,
         callback: Optional[Callable[[dict], Any]] = None,
     ):
@@ -177,12 +178,15 @@ class Scene:
         EXR at the same settings: ``integrator`` (default: the scene's), ``spp`` (default:
         the scene's, or open-ended with ``time``), ``time`` (a budget in seconds), ``seed``
         (default: the scene's), ``size`` ``(width, height)``, ``threads`` (default: every
-        core; the image does not depend on it), ``params`` (``{"max-depth": 8}``, as ``-p``).
+        core; the image does not depend on it), ``params`` (``{"max-depth": 8}``, as ``-p``),
+        ``sampler`` (``"independent"`` or ``"sobol"``; default: the scene's).
 
         With ``variance=True`` returns ``(image, variance)``: the per-pixel variance of the
         mean, or ``None`` for a 1-spp render. ``callback(info)`` is called after each pass
         with ``spp``, ``target``, ``elapsed`` and ``samples``; an exception it raises stops
-        the render and propagates. Statistics land in :attr:`last_stats`.
+        the render and propagates. The scene is busy while it renders: the callback, or
+        another thread, may not read or edit it meanwhile (that raises ``RuntimeError``).
+        Statistics land in :attr:`last_stats`.
         """
         pairs = [(name, _text(value)) for name, value in (params or {}).items()]
         (image, var), stats = self._native._render(
@@ -193,6 +197,7 @@ class Scene:
             size=tuple(size) if size is not None else None,
             threads=threads,
             params=pairs,
+            sampler=sampler,
             callback=callback,
         )
         self.last_stats = stats
@@ -217,8 +222,9 @@ class Scene:
         matrix: Optional[Sequence[float]] = None,
     ) -> None:
         """Sets parts of entity ``entity``'s transform: ``translate``, ``rotate`` (Euler
-        degrees about x, y, z), ``scale``, or a row-major 3x4 ``matrix``; the parts not given
-        keep their values."""
+        degrees about x, y, z) and ``scale``, the parts not given keeping their values; or a
+        row-major 3x4 ``matrix``, alone, which replaces them. An entity placed by a matrix
+        (as imported Mitsuba and pbrt scenes place theirs) moves by ``matrix`` only."""
         given = {"translate": translate, "rotate": rotate, "scale": scale, "matrix": matrix}
         self._native._set_transform(
             entity, _json({k: v for k, v in given.items() if v is not None})

@@ -2,6 +2,7 @@
 //! by the command line's render job, and edited without reading its file again.
 
 use crate::images::{arrays_of, Arrays};
+use anyhow::Context;
 use pyo3::exceptions::{PyKeyError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -9,10 +10,12 @@ use raylab::accel::AccelKind;
 use raylab::formats::access::SceneFiles;
 use raylab::formats::import::write_ron;
 use raylab::formats::schema::SceneFile;
+use raylab::integrators::sampler::SamplerKind;
 use raylab::render::job::{Job, Request, Target};
 use raylab::render::{Accumulation, RenderStats};
 use raylab::scene::edit::SceneState;
 use raylab::scene::load::read_scene_file_with_origins;
+use raylab::scene::references::stable_hash;
 use raylab::scene::{ImportOptions, SceneInputs};
 use serde_json::Value;
 use std::path::PathBuf;
@@ -26,8 +29,13 @@ pub struct Scene {
     state: SceneState,
     /// The description the world was made from, edits included.
     file: SceneFile,
-    /// Whether it was edited since it was read (it is then no longer what its files say).
-    edited: bool,
+    /// What the scene reads its files through, and how it was read.
+    files: SceneFiles,
+    options: ImportOptions,
+    /// What the load noted (approximations, the files' notes), which edits keep.
+    load_notes: Vec<String>,
+    /// The scene's identity as it was read (its files then, `-D`, `--approximate`).
+    identity: u64,
 }
 
 /// Loads the scene at `path`, as `raylab render` does: Mitsuba `<default>`s set by
@@ -53,13 +61,22 @@ pub fn load(
         let (file, approximated, origins) = read_scene_file_with_origins(&files, &options)?;
         let mut state =
             SceneState::new(file.clone(), &path, files.clone()).map_err(|e| origins.place(e))?;
-        state.loaded.warnings.extend(approximated);
-        state.loaded.warnings.extend(files.take_notes());
-        state.loaded.inputs = SceneInputs::of(&files, &options);
+        let mut load_notes = approximated;
+        load_notes.extend(files.take_notes());
+        state.loaded.warnings.extend(load_notes.iter().cloned());
+        let mut inputs = SceneInputs::of(&files, &options);
+        let identity = inputs
+            .identity()
+            .with_context(|| format!("{}: cannot read scene file", path.display()))?;
+        inputs.known = Some(identity);
+        state.loaded.inputs = inputs;
         Ok(Scene {
             state,
             file,
-            edited: false,
+            files,
+            options: options.clone(),
+            load_notes,
+            identity,
         })
     })
     .map_err(crate::error)
@@ -131,7 +148,7 @@ impl Scene {
 
     /// Renders the scene; see `raylab.Scene.render` for the arguments. Returns the image
     /// and its variance (or None), and the statistics.
-    #[pyo3(signature = (integrator=None, spp=None, time=None, seed=None, size=None, threads=None, params=Vec::new(), callback=None))]
+    #[pyo3(signature = (integrator=None, spp=None, time=None, seed=None, size=None, threads=None, params=Vec::new(), sampler=None, callback=None))]
     #[allow(clippy::too_many_arguments)]
     fn _render<'py>(
         &mut self,
@@ -143,6 +160,7 @@ impl Scene {
         size: Option<(u32, u32)>,
         threads: Option<usize>,
         params: Vec<(String, String)>,
+        sampler: Option<String>,
         callback: Option<Py<PyAny>>,
     ) -> PyResult<(Arrays<'py>, Bound<'py, PyDict>)> {
         if spp == Some(0) {
@@ -157,6 +175,10 @@ impl Scene {
                 )))
             }
         };
+        let sampler = sampler
+            .map(|name| SamplerKind::parse(&name))
+            .transpose()
+            .map_err(PyValueError::new_err)?;
         if threads == Some(0) {
             return Err(PyValueError::new_err("threads must be at least 1"));
         }
@@ -173,6 +195,7 @@ impl Scene {
             time,
             seed,
             filter: None,
+            sampler,
             threads,
             accel: AccelKind::default(),
             progress: false,
@@ -238,10 +261,6 @@ impl Scene {
     /// edits included; see `raylab.compare`. Returns its report as `metrics.json` holds it.
     fn _compare(&mut self, py: Python<'_>, args: Vec<String>) -> PyResult<String> {
         let opts = raylab::cli::compare_options_from_args(&args).map_err(crate::error)?;
-        if self.edited {
-            let text = self.to_ron()?;
-            self.state.loaded.inputs.edited = Some(text);
-        }
         let loaded = &self.state.loaded;
         let report = py
             .detach(|| raylab::compare::run_loaded(&opts, loaded))
@@ -265,14 +284,25 @@ impl Scene {
         self.apply(py, file)
     }
 
-    /// Sets fields of entity `name`'s transform (`translate`, `rotate`, `scale`, `matrix`),
-    /// keeping the others.
+    /// Sets fields of entity `name`'s transform (`translate`, `rotate`, `scale`), keeping
+    /// the others; or its `matrix`, which replaces them all.
     fn _set_transform(&mut self, py: Python<'_>, name: &str, fields: &str) -> PyResult<()> {
         let fields = parse_fields(fields)?;
         let mut file = self.file.clone();
         let entity = self.entity_mut(&mut file, name)?;
-        entity.transform = patched(&entity.transform, |v| merge(v, fields))
-            .map_err(|e| PyValueError::new_err(format!("entity `{name}`'s transform: {e}")))?;
+        let bad = |e: String| PyValueError::new_err(format!("entity `{name}`'s transform: {e}"));
+        entity.transform = if fields.contains_key("matrix") {
+            if let Some(part) = fields.keys().find(|k| *k != "matrix") {
+                return Err(bad(format!("give `matrix` alone (it replaces `{part}`)")));
+            }
+            serde_json::from_value(Value::Object(fields)).map_err(|e| bad(e.to_string()))?
+        } else if entity.transform.matrix.is_some() {
+            return Err(bad(
+                "the entity is placed by a matrix (as imported scenes place theirs): give `matrix`, a row-major 3x4 list".into(),
+            ));
+        } else {
+            patched(&entity.transform, |v| merge(v, fields)).map_err(bad)?
+        };
         self.apply(py, file)
     }
 
@@ -318,8 +348,20 @@ impl Scene {
         let state = &mut self.state;
         let next = file.clone();
         py.detach(|| state.apply(next)).map_err(crate::error)?;
+        // The scene as it stands: what it has read (an edit may read a new texture), the
+        // load's notes beside the edit's, and an identity the edit moved.
+        let text = write_ron(&file, "").map_err(PyValueError::new_err)?;
+        let loaded = &mut self.state.loaded;
+        loaded.warnings.extend(self.load_notes.iter().cloned());
+        loaded.inputs = SceneInputs {
+            known: Some(stable_hash(&[
+                &self.identity.to_le_bytes(),
+                b"edited",
+                text.as_bytes(),
+            ])),
+            ..SceneInputs::of(&self.files, &self.options)
+        };
         self.file = file;
-        self.edited = true;
         Ok(())
     }
 }

@@ -81,6 +81,9 @@ def test_a_render_is_bit_identical_to_the_command_lines(tmp_path, integrator, pa
     expected = cli_render(tmp_path, CORNELL, *flags)
     assert np.array_equal(image, expected)
     assert image.mean() > 0.01
+    sobol = scene.render(integrator, spp=3, size=(40, 32), seed=7, params=params, sampler="sobol")
+    assert np.array_equal(sobol, cli_render(tmp_path, CORNELL, *flags, "--sampler", "sobol"))
+    assert not np.array_equal(sobol, image)
     # The thread count does not change the image.
     assert np.array_equal(
         scene.render(integrator, spp=3, size=(40, 32), seed=7, params=params, threads=1),
@@ -124,12 +127,42 @@ def test_an_edit_renders_as_the_edited_file_loaded_fresh(tmp_path):
     copy.write_text(scene.to_ron())
     fresh = raylab.load(copy).render("path", spp=2, size=(32, 32))
     assert np.array_equal(edited, fresh)
-    # An edit that cannot be made leaves the scene as it was.
+    # An edit that cannot be made leaves the scene as it was: refused before the world sees
+    # it (an unknown field, name), or by the world (an albedo above 1).
+    text = scene.to_ron()
     with pytest.raises(ValueError, match="material `red`"):
         scene.set_material("red", no_such_field=1)
     with pytest.raises(KeyError, match="no material `nope`"):
         scene.set_material("nope", albedo=(1, 1, 1))
+    with pytest.raises(raylab.RaylabError, match="red"):
+        scene.set_material("red", albedo=(2.0, 0.0, 0.0))
+    assert scene.to_ron() == text
     assert np.array_equal(scene.render("path", spp=2, size=(32, 32)), edited)
+
+
+def test_an_imported_scene_moves_by_its_matrix_and_keeps_its_warnings(tmp_path):
+    scene = raylab.load(ROOT / "scenes" / "mitsuba" / "cornell_box.xml", res=16, spp=1)
+    entity = scene.entities[0]
+    with pytest.raises(ValueError, match="placed by a matrix"):
+        scene.move(entity, translate=(0, 0.1, 0))
+    with pytest.raises(ValueError, match="alone"):
+        scene.move(entity, matrix=[1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0], scale=(2, 2, 2))
+    before = scene.render()
+    scene.move(entity, matrix=[1, 0, 0, 0.3, 0, 1, 0, 0, 0, 0, 1, 0])
+    assert not np.array_equal(scene.render(), before)
+    # The load's warnings outlive an edit.
+    pbrt = tmp_path / "cloudy.pbrt"
+    pbrt.write_text(
+        'Camera "perspective"\nFilm "rgb" "integer xresolution" 8 "integer yresolution" 8\n'
+        'MakeNamedMedium "c" "string type" "cloud"\nWorldBegin\n'
+        'LightSource "infinite" "rgb L" [1 1 1]\nMaterial "diffuse"\nShape "sphere"\n'
+    )
+    with pytest.raises(raylab.RaylabError, match="--approximate"):
+        raylab.load(pbrt)
+    cloudy = raylab.load(pbrt, approximate=True)
+    assert any("cloud" in w for w in cloudy.warnings)
+    cloudy.set_material(cloudy.materials[0])
+    assert any("cloud" in w for w in cloudy.warnings)
 
 
 def test_a_bad_scene_raises_with_its_file_and_line(tmp_path):
@@ -257,7 +290,6 @@ def test_compare_measures_an_edited_scene_as_it_stands(tmp_path, monkeypatch):
     # leave the darker renders far from it).
     assert after.reference.mean() < 0.8 * before.reference.mean()
     assert after.rows[0]["mean"][0] < before.rows[0]["mean"][0]
-    assert after.rows[0]["mse"] < before.rows[0]["mse"] * 4
     with pytest.raises(raylab.RaylabError, match="no-such"):
         raylab.compare(scene, ["no-such"], spp=1, out=tmp_path / "c")
 

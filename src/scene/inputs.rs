@@ -21,9 +21,9 @@ pub struct SceneInputs {
     pub files: Vec<PathBuf>,
     /// `-D` values and `--approximate`.
     pub options: ImportOptions,
-    /// The scene's description as edited in memory (from Python), as RON, when it is no
-    /// longer what the files say.
-    pub edited: Option<String>,
+    /// The identity of a scene kept in memory (from Python): fixed when it was read, and
+    /// moved by each edit since, whatever its files say now.
+    pub known: Option<u64>,
 }
 
 impl SceneInputs {
@@ -33,7 +33,7 @@ impl SceneInputs {
             scene: files.scene().to_path_buf(),
             files: files.read(),
             options: options.clone(),
-            edited: None,
+            known: None,
         }
     }
 
@@ -44,10 +44,13 @@ impl SceneInputs {
 
     /// A hash of everything that determines the scene: the scene file's bytes, the `-D`
     /// values and `--approximate`, and every other file it read (by its name relative to
-    /// the scene's folder, and its bytes, or that it is missing), and the edits made in memory.
-    /// Not the scene's own path:
+    /// the scene's folder, and its bytes, or that it is missing); [`SceneInputs::known`] when
+    /// set. Not the scene's own path:
     /// `scenes/x.ron` and `./scenes/x.ron`, or the same scene on two machines, hash alike.
     pub fn identity(&self) -> std::io::Result<u64> {
+        if let Some(known) = self.known {
+            return Ok(known);
+        }
         let mut h = Fnv::new();
         h.part(b"raylab scene identity 2");
         hash_file(&self.scene, &mut h)?;
@@ -70,10 +73,6 @@ impl SceneInputs {
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => h.part(b"\0missing"),
                 Err(_) => h.part(b"\0unreadable"),
             }
-        }
-        if let Some(text) = &self.edited {
-            h.part(b"edited");
-            h.part(text.as_bytes());
         }
         Ok(h.0)
     }

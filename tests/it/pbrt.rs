@@ -717,6 +717,9 @@ fn an_rgb_grid_renders_as_the_uniform_grid_of_the_same_coefficients() {
             per_voxel(&|_, _| 0.0)
         );
         if le {
+            // The factor the importer multiplies by (pbrt-v4's unnormalised RGB illuminant,
+            // read from its source): this test checks the grids' layout and the emission
+            // path, not that factor, which the importer's unit test pins.
             m += &format!(
                 r#" "rgb Le" [{}]"#,
                 per_voxel(&|v, c| [4.0, 2.0, 1.0][c] * le_scale[v] / 106.856895)
