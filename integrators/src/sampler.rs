@@ -85,7 +85,10 @@ impl std::fmt::Display for SamplerKind {
 /// of one Sobol table are not.
 struct SobolPoint {
     index: u32,
+    /// The pixel's scramble.
     seed: u32,
+    /// The scramble of the pair in progress (set at its first coordinate).
+    pair_seed: u32,
     dimension: u32,
 }
 
@@ -97,13 +100,15 @@ impl SobolPoint {
     fn next(&mut self) -> f32 {
         let d = self.dimension;
         self.dimension = d.wrapping_add(1);
-        let (pair, block) = (d / 2, self.index >> 16);
-        let seed = if pair == 0 && block == 0 {
-            self.seed
-        } else {
-            self.seed ^ (mix64(u64::from(pair) << 32 | u64::from(block)) as u32)
-        };
-        sobol_burley::sample(self.index & 0xffff, d % 2, seed)
+        if d % 2 == 0 {
+            let (pair, block) = (d / 2, self.index >> 16);
+            self.pair_seed = if pair == 0 && block == 0 {
+                self.seed
+            } else {
+                self.seed ^ (mix64(u64::from(pair) << 32 | u64::from(block)) as u32)
+            };
+        }
+        sobol_burley::sample(self.index & 0xffff, d % 2, self.pair_seed)
     }
 
     /// Starts the next pair, so that a 2-D point's coordinates are one pair's.
@@ -131,6 +136,7 @@ impl Sampler {
                 source: Source::Sobol(SobolPoint {
                     index: u32::try_from(sample).unwrap_or(u32::MAX),
                     seed: mix64(seed ^ mix64(pixel.wrapping_add(0x632b_e59b_d9b4_e019))) as u32,
+                    pair_seed: 0,
                     dimension: 0,
                 }),
             },
