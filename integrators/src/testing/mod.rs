@@ -6,6 +6,7 @@ pub mod chi2;
 
 use crate::bsdf::Lambert;
 use crate::integrator::{Integrator, RayIntegrator, Tracer};
+use crate::sampler::SamplerKind;
 use crate::sampling::uniform_sphere;
 use crate::{
     find, Hit, Light, LightTable, Material, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene,
@@ -339,6 +340,7 @@ fn image_pass_mean(
     camera: &crate::Camera,
     scene: &TestScene,
     pass: u32,
+    kind: SamplerKind,
 ) -> f64 {
     let mut tracer = Tracer::new(scene);
     let mut splats = crate::Splats::default();
@@ -346,7 +348,7 @@ fn image_pass_mean(
     for y in 0..camera.height {
         for x in 0..camera.width {
             let index = (y * camera.width + x) as u64;
-            let mut sampler = Sampler::new(12345, index, pass as u64);
+            let mut sampler = Sampler::camera(kind, 12345, index, pass as u64);
             let film = glam::Vec2::new(x as f32, y as f32) + sampler.next_2d();
             let pixel = crate::PixelSample {
                 x,
@@ -483,6 +485,28 @@ pub fn estimate_passes(
     passes: u32,
     per_pass: u32,
 ) -> (f64, f64) {
+    estimate_passes_sampled(
+        name,
+        params,
+        scene,
+        passes,
+        per_pass,
+        SamplerKind::Independent,
+    )
+}
+
+/// [`estimate_passes`] with camera samples drawn by `sampler`: probe `i`'s sample in pass
+/// `k` is sample `k` of pixel `i`, so that over the passes each probe walks its sequence.
+/// (Under a low-discrepancy sampler the pass means are negatively correlated, which makes
+/// the standard error from their spread an overestimate: the test stays valid.)
+pub fn estimate_passes_sampled(
+    name: &str,
+    params: &[(&str, &str)],
+    scene: &TestScene,
+    passes: u32,
+    per_pass: u32,
+    sampler: SamplerKind,
+) -> (f64, f64) {
     let given: Vec<(String, String)> = params
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
@@ -508,6 +532,7 @@ pub fn estimate_passes(
                 &camera,
                 scene,
                 pass,
+                sampler,
             ));
             continue;
         }
@@ -524,7 +549,7 @@ pub fn estimate_passes(
         let mut tracer = Tracer::new(scene);
         let mut sum = 0.0f64;
         for i in 0..per_pass {
-            let mut sampler = Sampler::new(12345, i as u64, pass as u64);
+            let mut sampler = Sampler::camera(sampler, 12345, i as u64, pass as u64);
             let ray = camera_ray(&scene.camera, &mut sampler);
             let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler);
             assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
@@ -562,8 +587,30 @@ pub fn expect_mean_passes_within(
     per_pass: u32,
     bias: f64,
 ) {
-    let what = format!("{name} {params:?}");
-    let (mean, se) = estimate_passes(name, params, scene, passes, per_pass);
+    expect_mean_passes_sampled(
+        name,
+        params,
+        scene,
+        expected,
+        (passes, per_pass),
+        bias,
+        SamplerKind::Independent,
+    );
+}
+
+/// [`expect_mean_passes_within`] with camera samples drawn by `sampler`
+/// ([`estimate_passes_sampled`]).
+pub fn expect_mean_passes_sampled(
+    name: &str,
+    params: &[(&str, &str)],
+    scene: &TestScene,
+    expected: f32,
+    (passes, per_pass): (u32, u32),
+    bias: f64,
+    sampler: SamplerKind,
+) {
+    let what = format!("{name} {params:?} under {sampler}");
+    let (mean, se) = estimate_passes_sampled(name, params, scene, passes, per_pass, sampler);
     // The mean moved towards `expected` by the allowed bias, at most onto it.
     let e = expected as f64;
     let allowed = bias * e.abs();
