@@ -100,7 +100,7 @@ impl SobolPoint {
     fn next(&mut self) -> f32 {
         let d = self.dimension;
         self.dimension = d.wrapping_add(1);
-        if d % 2 == 0 {
+        if d.is_multiple_of(2) {
             let (pair, block) = (d / 2, self.index >> 16);
             self.pair_seed = if pair == 0 && block == 0 {
                 self.seed

@@ -96,7 +96,7 @@ pub fn ratio_tracking(medium: &Medium, ray: &Ray, tmax: f32, sampler: &mut Sampl
     let mut tr = Rgb::ONE;
     for segment in medium.majorant(ray, tmax) {
         let rate = segment.sigma_maj.max_element();
-        if !(rate > 0.0) {
+        if rate.is_nan() || rate <= 0.0 {
             continue;
         }
         let mut t = segment.t0;
@@ -126,7 +126,7 @@ mod tests {
     fn mean_transmittance(medium: &Medium, ray: &Ray, tmax: f32, n: u32) -> (Rgb, Rgb) {
         let mut s = Sampler::new(3, 0, 0);
         let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-        for i in 0..n {
+        for _ in 0..n {
             let tr = ratio_tracking(medium, ray, tmax, &mut s).as_dvec3();
             sum += tr;
             sum2 += tr * tr;
