@@ -406,10 +406,8 @@ fn merge_into_variant(
             let inner = outer.values_mut().next().expect("one entry");
             merge(inner, fields)
         }
-        Value::String(variant) if fields.is_empty() => {
-            let _ = variant;
-            Ok(())
-        }
+        // A unit variant (`Null`) takes no fields; setting none is a no-op.
+        Value::String(_) if fields.is_empty() => Ok(()),
         Value::String(variant) => Err(format!("a `{variant}` has no fields to set")),
         other => Err(format!("{other} has no fields")),
     }
