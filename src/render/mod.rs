@@ -31,7 +31,8 @@ pub use accumulator::{PixelAccumulator, PixelTotals, BLOCK};
 use glam::{DVec3, Vec2, Vec3A};
 use indicatif::{ProgressBar, ProgressStyle};
 pub use job::{Job, Request, Target};
-use raylab_integrators::sampler::SamplerKind;
+use raylab_integrators::random::permute;
+use raylab_integrators::sampler::{SampleSite, SamplerKind};
 use raylab_integrators::{
     ChainContext, Integrator, PassContext, PixelSample, RayCounters, SampleContext, Sampler, Scene,
     Splats, Stop, Tracer, Work,
@@ -241,43 +242,6 @@ fn sample_position(
         jitter
     };
     Vec2::new(x as f32, y as f32) + offset
-}
-
-/// A pseudo-random permutation of `[0, len)` selected by `key`: Kensler's hash-based
-/// permutation ("Correlated Multi-Jittered Sampling", 2013), by cycle walking.
-fn permute(mut i: u32, len: u32, key: u32) -> u32 {
-    if len <= 1 {
-        return 0;
-    }
-    let mut w = len - 1;
-    w |= w >> 1;
-    w |= w >> 2;
-    w |= w >> 4;
-    w |= w >> 8;
-    w |= w >> 16;
-    loop {
-        i ^= key;
-        i = i.wrapping_mul(0xe170_893d);
-        i ^= key >> 16;
-        i ^= (i & w) >> 4;
-        i ^= key >> 8;
-        i = i.wrapping_mul(0x0929_eb3f);
-        i ^= key >> 23;
-        i ^= (i & w) >> 1;
-        i = i.wrapping_mul(1 | key >> 27);
-        i = i.wrapping_mul(0x6935_fa69);
-        i ^= (i & w) >> 11;
-        i = i.wrapping_mul(0x74dc_b303);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0x9e50_1cc3);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0xc860_a3df);
-        i &= w;
-        i ^= i >> 5;
-        if i < len {
-            return (i.wrapping_add(key)) % len;
-        }
-    }
 }
 
 /// The running sums of one tile's pixels.
@@ -570,8 +534,16 @@ fn render_tile_pass(
             // One camera sample: its own sampler, a stratified film position, the
             // integrator's estimate; a sample with a non-finite estimate or splat is dropped
             // (it counts as black) and counted.
-            let mut sampler =
-                Sampler::camera(settings.sampler, settings.seed, pixel_index, pass as u64);
+            let site = SampleSite {
+                seed: settings.seed,
+                x,
+                y,
+                width: camera.width,
+                height: camera.height,
+                sample: pass as u64,
+                spp: settings.spp,
+            };
+            let mut sampler = Sampler::camera(settings.sampler, &site);
             let film = sample_position(x, y, pass, settings.spp, settings.seed, &mut sampler);
             let sample = PixelSample {
                 x,

@@ -5,6 +5,7 @@ use crate::common::{raylab_in, repo_file};
 use raylab::render::{render, Film, RenderSettings};
 use raylab::scene::{load_scene, load_scene_defined, ImportOptions, RenderScene};
 use raylab_integrators::registry;
+use raylab_integrators::sampler::SamplerKind;
 use std::path::Path;
 
 fn mean_of(scene: &Path, defines: &[(String, String)], spp: u32, seed: u64) -> Film {
@@ -55,6 +56,43 @@ fn the_xml_cornell_box_renders_as_the_ron_one() {
     .unwrap();
     assert_eq!(defined.render.spp, 8);
     assert_eq!(defined.render.params.get("max-depth"), Some(&2.0));
+}
+
+/// A `<sampler>` names raylab's sampler: Mitsuba's own where raylab has it, the nearest
+/// (reported) where not; an unknown one is refused at its place.
+#[test]
+fn the_sensor_sampler_chooses_the_sampler() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |sampler: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="45"/>
+            <sampler type="{sampler}"><integer name="sample_count" value="4"/></sampler></sensor>
+            <shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape></scene>"#
+        )
+    };
+    for (mitsuba, raylab, reported) in [
+        ("independent", SamplerKind::Independent, false),
+        ("stratified", SamplerKind::Stratified, false),
+        ("multijitter", SamplerKind::Stratified, true),
+        ("orthogonal", SamplerKind::Stratified, true),
+        ("ldsampler", SamplerKind::Sobol, true),
+        ("sobol", SamplerKind::Sobol, false),
+    ] {
+        let path = dir.path().join(format!("{mitsuba}.xml"));
+        std::fs::write(&path, scene(mitsuba)).unwrap();
+        let loaded = load_scene(&path).unwrap_or_else(|e| panic!("{mitsuba}: {e}"));
+        assert_eq!(loaded.render.sampler, raylab, "{mitsuba}");
+        let imported = raylab::formats::mitsuba::to_ron(&scene(mitsuba), &[]).unwrap();
+        let said = imported.report.iter().any(|w| w.contains("nearest it has"));
+        assert_eq!(said, reported, "{mitsuba}: {:?}", imported.report);
+    }
+    let path = dir.path().join("bad.xml");
+    std::fs::write(&path, scene("blue")).unwrap();
+    let err = format!("{:#}", load_scene(&path).err().unwrap());
+    assert!(
+        err.contains("bad.xml:2:") && err.contains("sampler `blue`"),
+        "{err}"
+    );
 }
 
 /// Every plugin the importer knows, in one scene: it loads, with the materials, lights and

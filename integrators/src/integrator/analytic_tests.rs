@@ -1,7 +1,7 @@
 //! Every registry entry that declares an [`Analytic`](super::registry::Analytic) is checked on
 //! the testing kit's three analytic scenes, against what it declares: no hand-kept list of
 //! integrators can miss one. One test per scene, so they run in parallel; and once more under
-//! the `sobol` sampler.
+//! every other sampler.
 
 use super::registry::{Analytic, Expect, REGISTRY};
 use crate::sampler::SamplerKind;
@@ -37,29 +37,68 @@ fn every_entry_gives_what_it_declares_for_a_convex_ball_under_a_sky() {
     check(&sphere_under_sky(0.6, 2.0), |a| a.sphere_under_sky);
 }
 
-/// Every entry gives what it declares for the ball under a sky (direct light and a bounce:
-/// a smooth integrand) with camera samples drawn from scrambled Sobol points. The Metropolis
-/// integrators draw from their chains whatever the sampler says, so they pass as they do.
+/// Every entry gives what it declares for the point light in a sphere (pbrt-v4's analytic
+/// scene: exactly 1) and for the ball under a sky (direct light and a bounce: a smooth
+/// integrand) with camera samples drawn by `kind`. The Metropolis integrators draw from their
+/// chains whatever the sampler says, so they pass as they do.
+fn check_sampled(kind: SamplerKind) {
+    let scenes: [(TestScene, fn(&Analytic) -> Option<Expect>); 2] = [
+        (point_in_sphere(0.5), |a| a.point_in_sphere),
+        (sphere_under_sky(0.6, 2.0), |a| a.sphere_under_sky),
+    ];
+    for (scene, expected) in &scenes {
+        let mut checked = 0;
+        for entry in REGISTRY {
+            let Some(a) = entry.analytic else { continue };
+            if let Some(e) = expected(&a) {
+                expect_mean_passes_sampled(
+                    entry.name,
+                    a.params,
+                    scene,
+                    e.value,
+                    // Twice the passes: some entries' declared standard errors sit close to
+                    // the power bound, which a different draw of the noise may cross.
+                    (2 * e.passes, e.per_pass),
+                    0.0,
+                    kind,
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked >= 4, "only {checked} entries declare this scene");
+    }
+}
+
+#[test]
+fn every_entry_gives_what_it_declares_under_the_stratified_sampler() {
+    check_sampled(SamplerKind::Stratified);
+}
+
 #[test]
 fn every_entry_gives_what_it_declares_under_the_sobol_sampler() {
-    let scene = sphere_under_sky(0.6, 2.0);
-    let mut checked = 0;
-    for entry in REGISTRY {
-        let Some(a) = entry.analytic else { continue };
-        if let Some(e) = a.sphere_under_sky {
-            expect_mean_passes_sampled(
-                entry.name,
-                a.params,
-                &scene,
-                e.value,
-                // Twice the passes: some entries' declared standard errors sit close to the
-                // power bound, which a different draw of the noise may cross.
-                (2 * e.passes, e.per_pass),
-                0.0,
-                SamplerKind::Sobol,
+    check_sampled(SamplerKind::Sobol);
+}
+
+#[test]
+fn every_entry_gives_what_it_declares_under_the_zsobol_sampler() {
+    check_sampled(SamplerKind::ZSobol);
+}
+
+#[test]
+fn every_entry_gives_what_it_declares_under_the_halton_sampler() {
+    check_sampled(SamplerKind::Halton);
+}
+
+/// Every sampler kind is checked above.
+#[test]
+fn every_sampler_kind_is_checked() {
+    let source = include_str!("analytic_tests.rs");
+    for (name, kind) in SamplerKind::ALL {
+        if kind != SamplerKind::Independent {
+            assert!(
+                source.contains(&format!("check_sampled(SamplerKind::{kind:?})")),
+                "{name} is not checked"
             );
-            checked += 1;
         }
     }
-    assert!(checked >= 4, "only {checked} entries declare this scene");
 }

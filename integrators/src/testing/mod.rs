@@ -6,7 +6,7 @@ pub mod chi2;
 
 use crate::bsdf::Lambert;
 use crate::integrator::{Integrator, RayIntegrator, Tracer};
-use crate::sampler::SamplerKind;
+use crate::sampler::{SampleSite, SamplerKind};
 use crate::sampling::uniform_sphere;
 use crate::{
     find, Hit, Light, LightTable, Material, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene,
@@ -339,7 +339,7 @@ fn image_pass_mean(
     integrator: &dyn Integrator,
     camera: &crate::Camera,
     scene: &TestScene,
-    pass: u32,
+    (pass, passes): (u32, u32),
     kind: SamplerKind,
 ) -> f64 {
     let mut tracer = Tracer::new(scene);
@@ -347,8 +347,16 @@ fn image_pass_mean(
     let mut sum = 0.0f64;
     for y in 0..camera.height {
         for x in 0..camera.width {
-            let index = (y * camera.width + x) as u64;
-            let mut sampler = Sampler::camera(kind, 12345, index, pass as u64);
+            let site = SampleSite {
+                seed: 12345,
+                x,
+                y,
+                width: camera.width,
+                height: camera.height,
+                sample: pass as u64,
+                spp: Some(passes),
+            };
+            let mut sampler = Sampler::camera(kind, &site);
             let film = glam::Vec2::new(x as f32, y as f32) + sampler.next_2d();
             let pixel = crate::PixelSample {
                 x,
@@ -531,7 +539,7 @@ pub fn estimate_passes_sampled(
                 integrator.as_ref(),
                 &camera,
                 scene,
-                pass,
+                (pass, passes),
                 sampler,
             ));
             continue;
@@ -549,7 +557,16 @@ pub fn estimate_passes_sampled(
         let mut tracer = Tracer::new(scene);
         let mut sum = 0.0f64;
         for i in 0..per_pass {
-            let mut sampler = Sampler::camera(sampler, 12345, i as u64, pass as u64);
+            let site = SampleSite {
+                seed: 12345,
+                x: i,
+                y: 0,
+                width: per_pass,
+                height: 1,
+                sample: pass as u64,
+                spp: Some(passes),
+            };
+            let mut sampler = Sampler::camera(sampler, &site);
             let ray = camera_ray(&scene.camera, &mut sampler);
             let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler);
             assert!(l.is_finite(), "{name}: non-finite sample {l:?}");

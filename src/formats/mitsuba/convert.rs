@@ -9,6 +9,7 @@ use crate::formats::schema::{
 };
 use crate::formats::spectra::{self, Use};
 use glam::Affine3A;
+use raylab_integrators::sampler::SamplerKind;
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
 

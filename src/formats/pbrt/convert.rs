@@ -13,6 +13,7 @@ use crate::formats::schema::{
     RenderDesc, SceneFile, ShapeDesc, TransformDesc,
 };
 use glam::{Affine3A, DMat4, DVec3, DVec4};
+use raylab_integrators::sampler::SamplerKind;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -112,6 +113,8 @@ struct Converter<'a> {
     film: (i64, i64, Option<[f64; 4]>),
     filter: String,
     spp: i64,
+    /// The `Sampler`'s kind (pbrt-v4's default, `zsobol`, without one).
+    sampler: SamplerKind,
     /// The `Integrator` directive as raylab's integrator.
     integrator: Option<options::IntegratorChoice>,
     materials: Vec<(String, MaterialDesc)>,
@@ -455,7 +458,7 @@ impl<'a> Converter<'a> {
                 }
                 p.ignore(&["seed", "jitter", "randomization", "dimensions"]);
                 p.finish()?;
-                self.report(format!("Sampler \"{}\": raylab's independent sampler with the same sample count", d.strings[0]));
+                self.sampler = self.sampler_kind(&d)?;
             }
             "Integrator" => {
                 before_world(self, &d)?;
@@ -594,6 +597,7 @@ pub fn to_ron(
         film: (1280, 720, None),
         filter: "gaussian(stddev: 0.5, radius: 1.5)".into(),
         spp: 16,
+        sampler: SamplerKind::ZSobol,
         integrator: None,
         materials: Vec::new(),
         material_descs: HashMap::new(),
@@ -667,6 +671,7 @@ pub fn to_ron(
             spp,
             params,
             filter,
+            sampler: c.sampler,
             ..RenderDesc::default()
         },
         materials: NamedTable(c.materials),

@@ -1,5 +1,6 @@
 //! pbrt-v4's scene-wide options: the camera, the film, the pixel filter and the integrator
-//! (and the sampler's count, which the film's directive carries no more than pbrt's does).
+//! and the sampler (its kind, and its count, which the film's directive carries no more than
+//! pbrt's does).
 
 use super::*;
 
@@ -16,6 +17,32 @@ pub(super) struct IntegratorChoice {
 const VOLUMETRIC: [&str; 2] = ["volpath", "simplevolpath"];
 
 impl<'a> Converter<'a> {
+    /// The raylab sampler for a `Sampler` directive: pbrt-v4's own where raylab has it
+    /// (`sobol`, pbrt's one sequence over the image, and `pmj02bn` are the nearest ones, said
+    /// in the report); an unknown name is an error.
+    pub(super) fn sampler_kind(&mut self, d: &Directive) -> Result<SamplerKind, Located> {
+        let name = d.strings[0].as_str();
+        let (kind, note) = match name {
+            "independent" => (SamplerKind::Independent, None),
+            "stratified" => (SamplerKind::Stratified, None),
+            "halton" => (SamplerKind::Halton, None),
+            "zsobol" => (SamplerKind::ZSobol, None),
+            "paddedsobol" => (SamplerKind::Sobol, None),
+            "sobol" => (SamplerKind::Sobol, Some("raylab's padded, per-pixel Owen-scrambled Sobol points")),
+            "pmj02bn" => (SamplerKind::ZSobol, Some("raylab's zsobol (it has no pmj02bn tables)")),
+            _ => {
+                return Err((
+                    d.pos,
+                    format!("Sampler \"{name}\": pbrt-v4 has no such sampler (independent, stratified, halton, sobol, paddedsobol, zsobol, pmj02bn)"),
+                ))
+            }
+        };
+        if let Some(note) = note {
+            self.report(format!("Sampler \"{name}\": {note}"));
+        }
+        Ok(kind)
+    }
+
     pub(super) fn camera(&mut self, d: &mut Directive) -> Result<(), Located> {
         let kind = d.strings[0].clone();
         if kind != "perspective" {

@@ -208,11 +208,36 @@ fn states_lights_samplers_and_uvs_follow_pbrt_v4() {
     assert!(ron.contains("alpha: 0.3"), "{ron}");
     // The stratified sampler takes xsamples x ysamples.
     let text = format!("Sampler \"stratified\" \"integer xsamples\" 8 \"integer ysamples\" 8\nWorldBegin\n{quad}\n");
-    assert!(convert(&text, false)
+    let ron = convert(&text, false).unwrap().ron().unwrap();
+    assert!(
+        ron.contains("spp: 64") && ron.contains("sampler: \"stratified\""),
+        "{ron}"
+    );
+    // Without a Sampler, pbrt-v4's default, zsobol; pbrt's samplers by their raylab names,
+    // and an unknown one refused at its place.
+    let ron = convert(&format!("WorldBegin\n{quad}\n"), false)
         .unwrap()
         .ron()
-        .unwrap()
-        .contains("spp: 64"));
+        .unwrap();
+    assert!(ron.contains("sampler: \"zsobol\""), "{ron}");
+    for (pbrt, raylab) in [
+        ("halton", "halton"),
+        ("paddedsobol", "sobol"),
+        ("sobol", "sobol"),
+    ] {
+        let text = format!("Sampler \"{pbrt}\"\nWorldBegin\n{quad}\n");
+        let ron = convert(&text, false).unwrap().ron().unwrap();
+        assert!(
+            ron.contains(&format!("sampler: \"{raylab}\"")),
+            "{pbrt}: {ron}"
+        );
+    }
+    let text = format!("Sampler \"lowdiscrepancy\"\nWorldBegin\n{quad}\n");
+    let err = convert(&text, false).unwrap_err();
+    assert!(
+        (err.1, err.2) == (1, 1) && err.3.contains("no such sampler"),
+        "{err:?}"
+    );
     // A textured patch without uv gets pbrt's (u, v) at its corners.
     let text = format!("WorldBegin\nTexture \"c\" \"spectrum\" \"checkerboard\"\nMaterial \"diffuse\" \"texture reflectance\" \"c\"\n{quad}\n");
     let ron = convert(&text, false).unwrap().ron().unwrap();
