@@ -40,7 +40,10 @@ pub fn compare_options(args: &CompareArgs) -> Result<CompareOptions> {
     let (reference_params, params): (Vec<_>, Vec<_>) =
         params.into_iter().partition(|(i, _, _)| i == "reference");
     for (i, _, _) in &params {
-        if !args.integrators.contains(i) {
+        let compared = |spec: &String| {
+            spec == i || compare::parse_contestant(spec).is_ok_and(|(name, _)| name == i)
+        };
+        if !args.integrators.iter().any(compared) {
             bail!("-p names integrator `{i}`, which is not compared (add -i {i}, or -p reference.NAME=VALUE for the reference)");
         }
     }

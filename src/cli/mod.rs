@@ -195,8 +195,14 @@ pub struct ServeArgs {
 pub struct CompareArgs {
     /// Scene file (RON).
     pub scene: PathBuf,
-    /// An integrator to compare; repeat for several.
-    #[arg(short = 'i', long = "integrator", required = true)]
+    /// An integrator to compare, NAME or NAME@SAMPLER (under a sampler of its own, e.g.
+    /// path@sobol); repeat for several.
+    #[arg(
+        short = 'i',
+        long = "integrator",
+        required = true,
+        value_name = "NAME[@SAMPLER]"
+    )]
     pub integrators: Vec<String>,
     /// Integrator parameter as INTEGRATOR.NAME=VALUE; repeat for several.
     #[arg(short = 'p', long = "param", value_name = "INTEGRATOR.NAME=VALUE")]
@@ -227,7 +233,8 @@ pub struct CompareArgs {
     /// Report the time each integrator needs to reach this MSE (default: the best final MSE).
     #[arg(long, value_name = "MSE")]
     pub target_error: Option<f64>,
-    /// Render one image per value of a parameter: NAME=V1,V2,...
+    /// Render one image per value of a parameter: NAME=V1,V2,... (sampler=independent,sobol
+    /// sweeps the sampler)
     #[arg(long, value_name = "NAME=V1,V2,...")]
     pub sweep: Option<String>,
     /// Image size WIDTHxHEIGHT, overriding the scene's resolution.

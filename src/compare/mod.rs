@@ -22,17 +22,21 @@ use anyhow::{anyhow, bail, Context, Result};
 pub use cache::cache_dir;
 use cache::Cache;
 use raylab_integrators::registry;
+use raylab_integrators::sampler::SamplerKind;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// One render to compare: an integrator with its parameters, under a label.
+/// One render to compare: an integrator with its parameters and its sampler, under a label.
 #[derive(Clone, Debug)]
 pub struct Contestant {
     /// File name stem and display name.
     pub label: String,
     pub integrator: String,
     pub params: Vec<(String, String)>,
+    /// How its camera samples draw their numbers (`-i NAME@SAMPLER`, `--sweep sampler=...`);
+    /// `None`: the comparison's `--sampler`, else the scene's.
+    pub sampler: Option<SamplerKind>,
     /// The swept parameter and its value, for sweeps.
     pub swept: Option<(String, String)>,
 }
@@ -142,6 +146,8 @@ pub struct Row {
     pub label: String,
     pub integrator: String,
     pub params: String,
+    /// The sampler its camera samples drew from.
+    pub sampler: String,
     pub swept_param: Option<String>,
     pub swept_value: Option<String>,
     pub runs: u32,
@@ -262,8 +268,25 @@ pub fn parse_scoped_param(text: &str) -> Result<(String, String, String)> {
     ))
 }
 
-/// Builds the contestants of a comparison: each integrator with the shared parameters that
-/// apply to it (`NAME.key=value`), and with a sweep one per value.
+/// A contestant as named on the command line or in a suite, `NAME` or `NAME@SAMPLER`: the
+/// integrator's name and the sampler, if one is given.
+pub fn parse_contestant(spec: &str) -> Result<(&str, Option<SamplerKind>)> {
+    match spec.split_once('@') {
+        None => Ok((spec, None)),
+        Some((name, sampler)) => {
+            let kind = SamplerKind::parse(sampler).map_err(|e| anyhow!("-i {spec}: {e}"))?;
+            Ok((name, Some(kind)))
+        }
+    }
+}
+
+/// The parameter key `--sweep` takes for the sampler.
+pub const SAMPLER_SWEEP: &str = "sampler";
+
+/// Builds the contestants of a comparison: each integrator (`NAME`, or `NAME@SAMPLER` under a
+/// sampler of its own) with the shared parameters that apply to it (`NAME.key=value` applies
+/// to every contestant of integrator `NAME`, `NAME@SAMPLER.key=value` to that one), and with
+/// a sweep one per value (`sampler` sweeps the sampler).
 pub fn contestants(
     integrators: &[String],
     params: &[(String, String, String)],
@@ -273,21 +296,40 @@ pub fn contestants(
         bail!("name at least one integrator with -i");
     }
     let mut out = Vec::new();
-    for name in integrators {
+    for spec in integrators {
+        let (name, sampler) = parse_contestant(spec)?;
         let entry = registry::find(name)?;
         let own: Vec<(String, String)> = params
             .iter()
-            .filter(|(i, _, _)| i == name)
+            .filter(|(i, _, _)| i == name || i == spec)
             .map(|(_, k, v)| (k.clone(), v.clone()))
             .collect();
         entry.resolve(&own)?;
+        let one = |label: String, params, sampler, swept| Contestant {
+            label,
+            integrator: name.to_string(),
+            params,
+            sampler,
+            swept,
+        };
         match sweep {
-            None => out.push(Contestant {
-                label: name.clone(),
-                integrator: name.clone(),
-                params: own,
-                swept: None,
-            }),
+            None => out.push(one(spec.clone(), own, sampler, None)),
+            Some((key, values)) if key == SAMPLER_SWEEP => {
+                if sampler.is_some() {
+                    bail!("--sweep sampler: -i {spec} names its sampler already");
+                }
+                for v in values {
+                    let kind =
+                        SamplerKind::parse(v).map_err(|e| anyhow!("--sweep sampler: {e}"))?;
+                    let swept = Some((key.to_string(), v.clone()));
+                    out.push(one(
+                        format!("{spec}-{key}-{v}"),
+                        own.clone(),
+                        Some(kind),
+                        swept,
+                    ));
+                }
+            }
             Some((key, values)) => {
                 if !entry.params.iter().any(|p| p.name == key) {
                     bail!("--sweep: integrator `{name}` has no parameter `{key}`");
@@ -296,12 +338,8 @@ pub fn contestants(
                     let mut p = own.clone();
                     p.push((key.to_string(), v.clone()));
                     entry.resolve(&p)?;
-                    out.push(Contestant {
-                        label: format!("{name}-{key}-{v}"),
-                        integrator: name.clone(),
-                        params: p,
-                        swept: Some((key.to_string(), v.clone())),
-                    });
+                    let swept = Some((key.to_string(), v.clone()));
+                    out.push(one(format!("{spec}-{key}-{v}"), p, sampler, swept));
                 }
             }
         }
@@ -313,8 +351,8 @@ pub fn contestants(
                     bail!("--sweep {key}: the value `{value}` is given twice")
                 }
                 None => bail!(
-                    "-i {}: each integrator may be named once (use --sweep for several values of a parameter)",
-                    c.integrator
+                    "-i {}: each contestant may be named once (use --sweep for several values of a parameter, NAME@SAMPLER for another sampler)",
+                    c.label
                 ),
             }
         }
@@ -335,6 +373,8 @@ struct Rendered {
     /// Seconds spent rendering, the convergence measurements excluded.
     time: f64,
     params: String,
+    /// The sampler its camera samples drew from.
+    sampler: SamplerKind,
     curve: Vec<stats::CurvePoint>,
 }
 
@@ -386,6 +426,7 @@ fn render_one(
         stats,
         time,
         params: job.describe_params(),
+        sampler: job.settings.sampler,
         curve,
     })
 }
@@ -414,7 +455,7 @@ fn contestant_job(
             time,
             seed: Some(seed),
             filter: Some(opts.filter.unwrap_or_default()),
-            sampler: opts.sampler,
+            sampler: c.sampler.or(opts.sampler),
             threads: opts.threads,
             accel: opts.accel,
             progress: opts.progress,
@@ -540,15 +581,12 @@ fn reference(
                 label: "reference".into(),
                 integrator: integrator.clone(),
                 params: params.clone(),
+                sampler: Some(SamplerKind::Independent),
                 swept: None,
             };
             note!("rendering the reference: {what}");
             let seed = reference_seed(opts.seed);
-            let independent = CompareOptions {
-                sampler: Some(raylab_integrators::sampler::SamplerKind::Independent),
-                ..opts.clone()
-            };
-            let film = render_one(loaded, built, &c, *budget, seed, None, &independent)?.film;
+            let film = render_one(loaded, built, &c, *budget, seed, None, opts)?.film;
             // The reference is in hand (and copied into the output folder): a cache that
             // fails now costs the next run, not this one.
             if let Err(e) = cache.write(*hash, &film) {
@@ -588,7 +626,12 @@ fn output_files(opts: &CompareOptions) -> Vec<(String, PathBuf)> {
         "convergence.svg",
         "convergence.png",
     ];
-    if opts.contestants.iter().any(|c| c.swept.is_some()) {
+    // A sampler sweep has no axis of values: its rows sit side by side in the table.
+    if opts.contestants.iter().any(|c| {
+        c.swept
+            .as_ref()
+            .is_some_and(|(key, _)| key != SAMPLER_SWEEP)
+    }) {
         pages.extend(["sweep.svg", "sweep.png"]);
     }
     for name in pages {
@@ -831,7 +874,11 @@ fn run_into(opts: &CompareOptions, loaded: &LoadedScene) -> Result<Report> {
     write_tables(&opts.out_dir, &report)?;
     write_convergence_csv(&opts.out_dir, &report)?;
     let convergence = plot::write_convergence_plots(&opts.out_dir, &report)?;
-    let plots = if report.rows.iter().any(|r| r.swept_param.is_some()) {
+    let plots = if report
+        .rows
+        .iter()
+        .any(|r| r.swept_param.as_deref().is_some_and(|k| k != SAMPLER_SWEEP))
+    {
         plot::write_sweep_plots(&opts.out_dir, &report)?
     } else {
         None
@@ -948,6 +995,7 @@ fn measure(
         label: c.label.clone(),
         integrator: c.integrator.clone(),
         params: first.params.clone(),
+        sampler: first.sampler.to_string(),
         swept_param: c.swept.as_ref().map(|s| s.0.clone()),
         swept_value: c.swept.as_ref().map(|s| s.1.clone()),
         runs: opts.runs,

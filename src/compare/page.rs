@@ -121,7 +121,7 @@ fn table(report: &Report) -> String {
              <td>{:.4}, {:.4}, {:.4}</td>",
             escape(&r.label),
             escape(&r.label),
-            escape(&r.params),
+            escape(&format!("{} sampler={}", r.params, r.sampler)),
             r.runs,
             r.spp,
             pm_fixed(r.time, r.time_ci95),

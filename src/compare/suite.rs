@@ -254,7 +254,9 @@ fn entry_options(
         .unwrap_or_else(|| desc.integrators.clone());
     for p in &desc.params {
         // A typo in a suite-wide parameter's integrator would otherwise apply nowhere.
-        raylab_integrators::registry::find(&super::parse_scoped_param(p)?.0)?;
+        raylab_integrators::registry::find(
+            super::parse_contestant(&super::parse_scoped_param(p)?.0)?.0,
+        )?;
     }
     let parse = |list: &[String]| {
         list.iter()
@@ -263,12 +265,17 @@ fn entry_options(
     };
     // The suite's parameters apply where their integrator is compared; an entry's own must
     // name one it compares.
+    let compared = |i: &str| {
+        integrators
+            .iter()
+            .any(|spec| spec == i || super::parse_contestant(spec).is_ok_and(|(name, _)| name == i))
+    };
     let mut params: Vec<_> = parse(&desc.params)?
         .into_iter()
-        .filter(|(i, _, _)| integrators.contains(i))
+        .filter(|(i, _, _)| compared(i))
         .collect();
     for p in parse(&e.params)? {
-        if !integrators.contains(&p.0) {
+        if !compared(&p.0) {
             bail!(
                 "parameter `{}.{}` names an integrator this entry does not compare",
                 p.0,

@@ -79,15 +79,16 @@ pub(super) fn write_tables(dir: &Path, report: &Report) -> Result<()> {
     write_text(&dir.join("metrics.json"), &json)?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = String::from(
-        "label,integrator,params,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,slope_relmse,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip\n",
+        "label,integrator,params,sampler,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,slope_relmse,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip\n",
     );
     for r in &report.rows {
         let _ = writeln!(
             csv,
-            "{},{},\"{}\",{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{}",
+            "{},{},\"{}\",{},{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{}",
             r.label,
             r.integrator,
             r.params,
+            r.sampler,
             r.swept_param.as_deref().unwrap_or(""),
             r.swept_value.as_deref().unwrap_or(""),
             r.runs,

@@ -258,6 +258,110 @@ fn sweeps_write_one_image_per_value_and_plots() {
         .contains("<h2>Sweep</h2>"));
 }
 
+/// A contestant is an integrator and its sampler: `NAME@SAMPLER` puts one integrator under
+/// two samplers on one page (`NAME@SAMPLER.key` scoping a parameter to one of them), and
+/// `--sweep sampler=...` renders one per sampler, without a sweep plot. Each row says which
+/// sampler drew its samples. A sampler's images differ; the reference is the same.
+#[test]
+fn contestants_carry_their_own_sampler() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("samplers");
+    let args = |extra: &[&str], out: &Path| {
+        let mut a = vec![
+            "compare",
+            CORNELL,
+            "--size",
+            "24x24",
+            "--spp",
+            "4",
+            "--reference-spp",
+            "16",
+            "-o",
+            s(out),
+            "-q",
+        ];
+        a.extend_from_slice(extra);
+        a.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let raylab_owned = |a: &[String], cache: &Path| {
+        raylab(&a.iter().map(String::as_str).collect::<Vec<_>>(), cache)
+    };
+    let o = raylab_owned(
+        &args(
+            &[
+                "-i",
+                "direct",
+                "-i",
+                "direct@zsobol",
+                "-p",
+                "direct@zsobol.bsdf-samples=2",
+            ],
+            &out,
+        ),
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let rows = json["rows"].as_array().unwrap();
+    let row = |label: &str| {
+        rows.iter()
+            .find(|r| r["label"] == label)
+            .unwrap_or_else(|| panic!("{label}: {json}"))
+    };
+    assert_eq!(row("direct")["sampler"], "independent");
+    assert_eq!(row("direct@zsobol")["sampler"], "zsobol");
+    assert!(row("direct@zsobol")["params"]
+        .as_str()
+        .unwrap()
+        .contains("bsdf-samples=2"));
+    assert!(row("direct")["params"]
+        .as_str()
+        .unwrap()
+        .contains("bsdf-samples=1"));
+    assert_ne!(
+        std::fs::read(out.join("direct.exr")).unwrap(),
+        std::fs::read(out.join("direct@zsobol.exr")).unwrap()
+    );
+
+    let swept = dir.path().join("swept");
+    let o = raylab_owned(
+        &args(
+            &["-i", "direct", "--sweep", "sampler=stratified,halton"],
+            &swept,
+        ),
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(swept.join("direct-sampler-halton.exr").exists());
+    assert!(!swept.join("sweep.svg").exists());
+    let csv = std::fs::read_to_string(swept.join("metrics.csv")).unwrap();
+    assert!(
+        csv.starts_with("label,integrator,params,sampler,") && csv.contains(",stratified,"),
+        "{csv}"
+    );
+
+    for (extra, expected) in [
+        (vec!["-i", "direct@pmj"], "no sampler `pmj`"),
+        (
+            vec!["-i", "direct@sobol", "-i", "direct@sobol"],
+            "each contestant may be named once",
+        ),
+        (
+            vec!["-i", "direct@sobol", "--sweep", "sampler=halton"],
+            "names its sampler already",
+        ),
+        (
+            vec!["-i", "direct", "--sweep", "sampler=halton,nope"],
+            "no sampler `nope`",
+        ),
+    ] {
+        let o = raylab_owned(&args(&extra, &dir.path().join("bad")), dir.path());
+        assert_eq!(o.status.code(), Some(2), "{extra:?}");
+        assert!(stderr(&o).contains(expected), "{extra:?}: {}", stderr(&o));
+    }
+}
+
 #[test]
 fn equal_time_gives_every_integrator_at_least_one_pass() {
     let dir = tempfile::tempdir().unwrap();
