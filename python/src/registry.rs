@@ -24,11 +24,7 @@ pub fn integrators(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
         for p in e.params {
             let param = PyDict::new(py);
             param.set_item("name", p.name)?;
-            let kind = match p.kind {
-                ParamKind::Int => "int",
-                ParamKind::Float => "float",
-                ParamKind::Depth => "depth",
-            };
+            let kind = p.kind.name();
             param.set_item("kind", kind)?;
             // Whole numbers as ints, so that they print as the command line prints them.
             let number = |v: f64| -> PyResult<Py<PyAny>> {
@@ -40,9 +36,15 @@ pub fn integrators(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
                     },
                 )
             };
-            param.set_item("default", number(p.default)?)?;
-            param.set_item("min", number(p.min)?)?;
-            param.set_item("max", number(p.max)?)?;
+            if let ParamKind::Choice(names) = p.kind {
+                // A choice by its names: its default and what it takes.
+                param.set_item("default", p.default_text())?;
+                param.set_item("choices", names.to_vec())?;
+            } else {
+                param.set_item("default", number(p.default)?)?;
+                param.set_item("min", number(p.min)?)?;
+                param.set_item("max", number(p.max)?)?;
+            }
             param.set_item("doc", p.doc)?;
             params.append(param)?;
         }

@@ -43,6 +43,7 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
             .iter()
             .map(|p| parse_param(p))
             .collect::<Result<Vec<_>>>()?,
+        sampler: None,
     };
     selection.check()?;
     Ok((

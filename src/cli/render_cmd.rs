@@ -531,9 +531,8 @@ pub fn integrators_listing() -> String {
         }
         for p in e.params {
             let kind = match p.kind {
-                ParamKind::Int => "int",
-                ParamKind::Float => "float",
-                ParamKind::Depth => "depth",
+                ParamKind::Choice(names) => names.join("|"),
+                kind => kind.name().to_string(),
             };
             let _ = writeln!(
                 out,

@@ -133,8 +133,10 @@ pub struct RenderDesc {
     #[serde(default, deserialize_with = "filter_name", serialize_with = "display")]
     pub filter: Filter,
     /// How a light sample picks an emitter: `"power"` (each light in proportion to its
-    /// power, the default) or `"uniform"` (each emitting entity alike, then its parts in
-    /// proportion to their power: Mitsuba 3's, which its importer sets).
+    /// power, the default), `"uniform"` (each emitting entity alike, then its parts in
+    /// proportion to their power: Mitsuba 3's, which its importer sets) or `"bvh"` (a light
+    /// BVH weighing each light by what it could send to the shading point: pbrt-v4's
+    /// default). Integrators with a `light-selection` parameter may choose another.
     #[serde(default, skip_serializing_if = "LightSelection::is_power")]
     pub light_selection: LightSelection,
     /// How camera samples draw their numbers: `"independent"` (the default) or `"sobol"`
@@ -165,6 +167,7 @@ pub enum LightSelection {
     #[default]
     Power,
     Uniform,
+    Bvh,
 }
 
 impl LightSelection {

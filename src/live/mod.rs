@@ -37,6 +37,9 @@ pub struct Selection {
     pub integrator: Option<String>,
     /// (name, value text), checked against the registry.
     pub params: Vec<(String, String)>,
+    /// How camera samples draw their numbers; `None`: the session's `--sampler`, else the
+    /// scene's.
+    pub sampler: Option<raylab_integrators::sampler::SamplerKind>,
 }
 
 impl Selection {
@@ -88,6 +91,8 @@ pub struct RenderInfo {
     pub height: u32,
     /// Samples per pixel to stop at, if any.
     pub target_spp: Option<u32>,
+    /// The sampler its camera samples draw from.
+    pub sampler: raylab_integrators::sampler::SamplerKind,
 }
 
 impl RenderInfo {
@@ -226,10 +231,10 @@ fn param_values(entry: &IntegratorEntry, params: &Params) -> Vec<(&'static str, 
         .iter()
         .map(|p| {
             let v = params.get(p.name);
-            let text = if p.kind == ParamKind::Depth && v.is_infinite() {
-                "unlimited".to_string()
-            } else {
-                format!("{v}")
+            let text = match p.kind {
+                ParamKind::Depth if v.is_infinite() => "unlimited".to_string(),
+                ParamKind::Choice(_) => params.text(p),
+                _ => format!("{v}"),
             };
             (p.name, text)
         })
@@ -295,7 +300,7 @@ fn prepare(
             time: None,
             seed: settings.seed,
             filter: settings.filter,
-            sampler: settings.sampler,
+            sampler: selection.sampler.or(settings.sampler),
             threads: settings.threads,
             accel: settings.accel,
             progress: false,
@@ -308,6 +313,7 @@ fn prepare(
         width: job.camera.width,
         height: job.camera.height,
         target_spp: settings.spp,
+        sampler: job.settings.sampler,
     };
     Ok((job, info))
 }
@@ -489,6 +495,7 @@ mod tests {
         c.select(Selection {
             integrator: Some("whitted".into()),
             params: vec![],
+            sampler: None,
         });
         assert!(c.interrupted());
         c.wait(); // returns at once: something is pending
@@ -509,6 +516,7 @@ mod tests {
                 .iter()
                 .map(|(a, b)| (a.to_string(), b.to_string()))
                 .collect(),
+            sampler: None,
         };
         assert!(sel(Some("path"), &[("max-depth", "3")]).check().is_ok());
         assert!(sel(None, &[("anything", "3")]).check().is_ok());

@@ -22,6 +22,7 @@ use crate::formats::schema::LightSelection;
 use glam::Vec3A;
 use hecs::Entity;
 use obvhs::triangle::Triangle;
+use raylab_integrators::light::LightSelection as Selection;
 use raylab_integrators::{
     Hit, Light, LightTable, Medium, MediumId, MediumInterface, Ray, Scene, SurfaceMaterial,
 };
@@ -519,28 +520,40 @@ fn table(
     if let Some(env) = scene.environment {
         lights.push(Light::environment(env));
     }
-    let mut weights = LightTable::powers(&lights, radius);
-    if scene.render.light_selection == LightSelection::Uniform {
-        // Each emitting entity (and the constant environment) alike, then its lights by
-        // power: an entity's share is 1, spread over its parts.
-        let mut groups: Vec<(usize, usize)> =
-            light_of.values().map(|&(s, n)| (s as usize, n)).collect();
-        if scene.environment.is_some() {
-            groups.push((lights.len() - 1, 1));
+    let powers = LightTable::powers(&lights, radius);
+    // Uniform selection: each emitting entity (and the constant environment) alike, then
+    // its lights by power: an entity's share is 1, spread over its parts.
+    let mut uniform = powers.clone();
+    let mut groups: Vec<(usize, usize)> =
+        light_of.values().map(|&(s, n)| (s as usize, n)).collect();
+    if scene.environment.is_some() {
+        groups.push((lights.len() - 1, 1));
+    }
+    let mut grouped = vec![false; lights.len()];
+    for (start, n) in groups {
+        let part = &mut uniform[start..start + n];
+        let total: f64 = part.iter().sum();
+        for w in part.iter_mut() {
+            *w = if total > 0.0 {
+                *w / total
+            } else {
+                1.0 / n as f64
+            };
         }
-        for (start, n) in groups {
-            let part = &mut weights[start..start + n];
-            let total: f64 = part.iter().sum();
-            for w in part.iter_mut() {
-                *w = if total > 0.0 {
-                    *w / total
-                } else {
-                    1.0 / n as f64
-                };
-            }
+        grouped[start..start + n].fill(true);
+    }
+    // Lights no entity groups (none today) count one each.
+    for (w, g) in uniform.iter_mut().zip(&grouped) {
+        if !g {
+            *w = 1.0;
         }
     }
-    LightTable::with_weights(lights, weights)
+    let selection = match scene.render.light_selection {
+        LightSelection::Power => Selection::Power,
+        LightSelection::Uniform => Selection::Uniform,
+        LightSelection::Bvh => Selection::Bvh,
+    };
+    LightTable::build(lights, powers, uniform, selection)
 }
 
 impl RenderScene {

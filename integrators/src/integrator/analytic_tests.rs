@@ -9,6 +9,7 @@ use crate::testing::{
     expect_mean_passes, expect_mean_passes_sampled, furnace_sphere, point_in_sphere,
     sphere_under_sky, TestScene,
 };
+use glam::Vec3A;
 
 fn check(scene: &TestScene, expected: impl Fn(&Analytic) -> Option<Expect>) {
     let mut checked = 0;
@@ -101,4 +102,73 @@ fn every_sampler_kind_is_checked() {
             );
         }
     }
+}
+
+/// Every integrator that chooses how its light samples pick a light renders the floor under
+/// 48 polygon lights (Lambert's formula, summed) under each choice: uniform, by power and by
+/// the light BVH (which must leave out the lights facing away, and no other).
+#[test]
+fn every_light_selection_gives_lamberts_irradiance_under_many_lights() {
+    let (scene, expected) = crate::testing::floor_under_many_lights(0.7);
+    let mut checked = 0;
+    for entry in REGISTRY {
+        if !entry
+            .params
+            .iter()
+            .any(|p| p.name == crate::registry::LIGHT_SELECTION.name)
+        {
+            continue;
+        }
+        for selection in ["uniform", "power", "bvh"] {
+            crate::testing::expect_mean_passes(
+                entry.name,
+                &[("light-selection", selection)],
+                &scene,
+                expected as f32,
+                40,
+                // Uniform selection spends most samples on dim lights: the noisiest.
+                if selection == "uniform" { 1500 } else { 400 },
+            );
+        }
+        checked += 1;
+    }
+    assert!(
+        checked >= 5,
+        "only {checked} integrators choose their lights"
+    );
+}
+
+/// Lambert's formula against the irradiance integral `∫ cos cos' / d^2 dA` over a square
+/// facing the point, summed by a fine midpoint rule; either winding gives the same.
+#[test]
+fn lamberts_formula_matches_a_numerical_integral() {
+    let (s, h) = (0.4f32, 0.7f32);
+    let square = [
+        Vec3A::new(-s, -s, h),
+        Vec3A::new(s, -s, h),
+        Vec3A::new(s, s, h),
+        Vec3A::new(-s, s, h),
+    ];
+    let formula = crate::testing::polygon_irradiance(Vec3A::ZERO, Vec3A::Z, &square);
+    // E = integral over the square of cos_x cos_l / d^2 dA = h^2 / d^4 dA.
+    let n = 2000;
+    let cell = 2.0 * f64::from(s) / n as f64;
+    let mut numeric = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let x = -f64::from(s) + (i as f64 + 0.5) * cell;
+            let y = -f64::from(s) + (j as f64 + 0.5) * cell;
+            let d2 = x * x + y * y + f64::from(h * h);
+            numeric += f64::from(h * h) / (d2 * d2) * cell * cell;
+        }
+    }
+    assert!(
+        (formula - numeric).abs() < 1e-6 * numeric,
+        "{formula} vs {numeric}"
+    );
+    // Either winding.
+    let mut reversed = square;
+    reversed.reverse();
+    let again = crate::testing::polygon_irradiance(Vec3A::ZERO, Vec3A::Z, &reversed);
+    assert!((formula - again).abs() < 1e-12);
 }

@@ -5,7 +5,7 @@
 //! **Estimates** the emitted radiance seen along the camera ray plus the radiance reflected
 //! once towards it at the first surface: `Le + integral of f Le cos`, light reaching the
 //! surface straight from an emitter (through no other surface). At the first hit it takes
-//! `emitter-samples` light samples (a light chosen in proportion to power, a point on it) and
+//! `emitter-samples` light samples (a light chosen as `light-selection` says, a point on it) and
 //! `bsdf-samples` BSDF samples whose rays look for an emitter; each sample of a strategy is
 //! weighted by the power heuristic over the two strategies' densities, each scaled by its
 //! share of the samples (Veach's multi-sample model), so 0 samples of one strategy gives the
@@ -13,12 +13,13 @@
 //! lights are reached by light samples only, mirror and glass lobes by BSDF samples only
 //! (each with full weight): with one strategy turned off they go dark, as in Mitsuba.
 //!
-//! **Parameters**: `emitter-samples` (default 1), `bsdf-samples` (default 1).
+//! **Parameters**: `emitter-samples` (default 1), `bsdf-samples` (default 1),
+//! `light-selection` (`scene`, the default, `uniform`, `power` or `bvh`).
 //! **Bias**: none for direct illumination; it leaves out all indirect light by design.
 
 use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, LIGHT_SELECTION,
 };
 use crate::sampling::power_heuristic;
 use crate::Spectrum;
@@ -41,11 +42,13 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         SAMPLES
             .with_name("bsdf-samples")
             .with_doc("BSDF samples at the first hit"),
+        LIGHT_SELECTION,
     ],
     build: |p: &Params| {
         Box::new(Direct {
             emitter_samples: p.get_u32("emitter-samples"),
             bsdf_samples: p.get_u32("bsdf-samples"),
+            lights: p.get_light_selection(),
         })
     },
     analytic: Some(Analytic {
@@ -61,6 +64,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct Direct {
     emitter_samples: u32,
     bsdf_samples: u32,
+    /// How light samples pick a light (`None`: the scene's choice).
+    lights: Option<crate::light::LightSelection>,
 }
 
 impl Direct {
@@ -85,12 +90,14 @@ impl RayIntegrator for Direct {
         let sp = ShadingPoint::new(&hit, camera_ray.dir, tracer.scene);
         let (share_light, share_bsdf) = self.shares();
         let lights = tracer.scene.lights();
-        // Light samples: a light in proportion to power, a point on it, one shadow ray each.
+        let ctx = sp.light_context();
+        // Light samples: a light as `light-selection` says, a point on it, one shadow ray
+        // each.
         if !sp.material.is_specular() {
             for _ in 0..self.emitter_samples {
                 let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
-                let Some((index, pmf)) = lights.sample(u_light) else {
-                    break;
+                let Some((index, pmf)) = lights.sample_for(self.lights, &ctx, u_light) else {
+                    continue;
                 };
                 let Some((ls, f, cos)) = sp.connect_light(index, u, tracer) else {
                     continue;
@@ -128,7 +135,8 @@ impl RayIntegrator for Direct {
                 1.0
             } else {
                 let q = next.as_ref().map_or(sp.hit.p, |h| h.p);
-                let light_pdf = lights.pmf(index) * lights.get(index).pdf_li(sp.hit.p, ray.dir, q);
+                let light_pdf = lights.pmf_for(self.lights, &ctx, index)
+                    * lights.get(index).pdf_li(sp.hit.p, ray.dir, q);
                 power_heuristic(s.bsdf.pdf * share_bsdf, light_pdf * share_light)
             };
             l += s.weight * le * (weight / self.bsdf_samples as f32);

@@ -31,7 +31,7 @@
 //!
 //! **Parameters**: `max-depth` (unlimited), `rr-depth` (3), `training-passes` (4),
 //! `bsdf-fraction` (0.5; 1 is plain BSDF sampling, the baseline), `spatial-threshold`
-//! (12000, the paper's c).
+//! (12000, the paper's c), `light-selection` (`scene`, `uniform`, `power` or `bvh`).
 //! **Bias**: none (any mixture with the BSDF's share above 0 covers its support);
 //! truncation with a finite `max-depth`.
 
@@ -40,8 +40,8 @@ use crate::integrator::{
     RayCounters, RayIntegrator, ShadingPoint, Stop, Tracer,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
-    RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, LIGHT_SELECTION,
+    MAX_DEPTH, RR_DEPTH,
 };
 use crate::sd_tree::{Guide, Record, SdTree};
 use crate::{luminance, Camera, Ray, Rgb, Sampler, Scene};
@@ -56,6 +56,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     params: &[
         MAX_DEPTH,
         RR_DEPTH,
+        LIGHT_SELECTION,
         ParamSpec {
             name: "training-passes",
             kind: ParamKind::Int,
@@ -88,6 +89,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             training_passes: p.get_u32("training-passes"),
             bsdf_fraction: p.get("bsdf-fraction") as f32,
             spatial_threshold: p.get("spatial-threshold") as f32,
+            lights: p.get_light_selection(),
             tree: None,
         })
     },
@@ -130,6 +132,8 @@ struct Guided {
     training_passes: u32,
     bsdf_fraction: f32,
     spatial_threshold: f32,
+    /// How light samples pick a light (`None`: the scene's choice).
+    lights: Option<crate::light::LightSelection>,
     /// The trained tree, frozen (`None` before training).
     tree: Option<SdTree>,
 }
@@ -158,7 +162,7 @@ impl Guided {
         mut visits: Option<&mut Visits>,
     ) -> Rgb {
         let mut l = Rgb::ZERO;
-        let mut path = PathState::from_camera(*camera_ray);
+        let mut path = PathState::from_camera(*camera_ray).selecting_lights(self.lights);
         // Whether the segment being traced left a guided vertex.
         let mut guided_last = false;
         loop {
@@ -192,7 +196,7 @@ impl Guided {
             let Some(guide) = guide else {
                 // Dirac lobes (or no tree): `path`'s step.
                 if !sp.material.is_specular() {
-                    l += path.beta * sample_one_light(&sp, true, tracer, sampler);
+                    l += path.beta * sample_one_light(&sp, true, self.lights, tracer, sampler);
                 }
                 if !path.scatter(&sp, self.rr_depth, sampler) {
                     break;
@@ -201,7 +205,8 @@ impl Guided {
             };
             // Next-event estimation, MIS-weighted against the mixture.
             let mixture = |wi: Vec3A| self.mixture_pdf(guide, &sp, wi);
-            l += path.beta * sample_one_light_against(&sp, Some(mixture), tracer, sampler);
+            l += path.beta
+                * sample_one_light_against(&sp, Some(mixture), self.lights, tracer, sampler);
             // The next direction from the mixture: the BSDF's sample or the tree's.
             let (u_pick, u) = (sampler.next_1d(), sampler.next_2d());
             let wi = if u_pick < self.bsdf_fraction {

@@ -232,15 +232,22 @@ pub enum Scatterer<'s, 'a> {
     },
 }
 
-/// Direct light at `at` from one light sample (a light chosen in proportion to power), with
-/// no MIS: `f Tr Le / pdf`, `f` the BSDF and cosine or the phase function, `Tr` the
+/// Direct light at `at` from one light sample (a light chosen as the scene says), with no
+/// MIS: `f Tr Le / pdf`, `f` the BSDF and cosine or the phase function, `Tr` the
 /// transmittance to the light ([`transmittance`]: through media and `Null` boundaries only,
 /// so that it never counts light a path through a Dirac lobe counts). The photon gathers'
 /// next-event estimation in media.
 pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
     let scene: &dyn Scene = tracer.scene;
     let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
-    let Some((index, pmf)) = scene.lights().sample(u_light) else {
+    let ctx = match at {
+        Scatterer::Surface(sp) => sp.light_context(),
+        Scatterer::Medium { p, .. } => crate::light::LightContext {
+            p: *p,
+            n: Vec3A::ZERO,
+        },
+    };
+    let Some((index, pmf)) = scene.lights().sample_for(None, &ctx, u_light) else {
         return Rgb::ZERO;
     };
     let light = scene.lights().get(index);

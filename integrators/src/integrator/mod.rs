@@ -31,7 +31,7 @@ mod whitted;
 pub use path_state::PathState;
 pub use shading::{Scatter, ShadingPoint};
 
-use crate::light::LightSample;
+use crate::light::{LightContext, LightSample, LightSelection};
 use crate::{Camera, Hit, Ray, Rgb, Sampler, Scene, Spectrum};
 use glam::Vec2;
 
@@ -532,6 +532,7 @@ pub fn stays_on_viewer_side(
 pub fn sample_one_light(
     sp: &ShadingPoint,
     mis: bool,
+    lights: Option<LightSelection>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Rgb {
@@ -539,7 +540,7 @@ pub fn sample_one_light(
         true => Against::<fn(glam::Vec3A) -> f32>::Bsdf,
         false => Against::Nothing,
     };
-    one_light(sp, against, tracer, sampler)
+    one_light(sp, against, lights, tracer, sampler)
 }
 
 /// [`sample_one_light`] weighted by the power heuristic against a strategy of the caller's
@@ -547,6 +548,7 @@ pub fn sample_one_light(
 pub fn sample_one_light_against(
     sp: &ShadingPoint,
     pdf: Option<impl Fn(glam::Vec3A) -> f32>,
+    lights: Option<LightSelection>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Rgb {
@@ -554,7 +556,7 @@ pub fn sample_one_light_against(
         Some(pdf) => Against::Strategy(pdf),
         None => Against::Nothing,
     };
-    one_light(sp, against, tracer, sampler)
+    one_light(sp, against, lights, tracer, sampler)
 }
 
 /// What a light sample is weighted against.
@@ -573,12 +575,17 @@ enum Against<F> {
 fn one_light<F: Fn(glam::Vec3A) -> f32>(
     sp: &ShadingPoint,
     against: Against<F>,
+    lights: Option<LightSelection>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Rgb {
     let u_light = sampler.next_1d();
     let u = sampler.next_2d();
-    let Some((index, pmf)) = tracer.scene.lights().sample(u_light) else {
+    let Some((index, pmf)) = tracer
+        .scene
+        .lights()
+        .sample_for(lights, &sp.light_context(), u_light)
+    else {
         return Rgb::ZERO;
     };
     let with_pdf = matches!(against, Against::Bsdf);
@@ -596,22 +603,24 @@ fn one_light<F: Fn(glam::Vec3A) -> f32>(
 }
 
 /// MIS weight of emission found by a BSDF-sampled ray (density `bsdf_pdf`) leaving `from`
-/// and arriving at `hit` (or escaping, when `hit` is `None`), against [`sample_one_light`].
+/// and arriving at `hit` (or escaping, when `hit` is `None`), against [`sample_one_light`]
+/// picking lights by `choice` for `from`.
 pub fn mis_weight_for_hit(
     scene: &dyn Scene,
-    from: glam::Vec3A,
+    (from, choice): (&LightContext, Option<LightSelection>),
     ray: &Ray,
     hit: Option<&Hit>,
     bsdf_pdf: f32,
 ) -> f32 {
     let lights = scene.lights();
+    let p = from.p;
     let light_pdf = match hit {
         Some(h) => match h.light {
-            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, h.p),
+            Some(i) => lights.pmf_for(choice, from, i) * lights.get(i).pdf_li(p, ray.dir, h.p),
             None => return 1.0,
         },
         None => match lights.environment() {
-            Some(i) => lights.pmf(i) * lights.get(i).pdf_li(from, ray.dir, from),
+            Some(i) => lights.pmf_for(choice, from, i) * lights.get(i).pdf_li(p, ray.dir, p),
             None => return 1.0,
         },
     };

@@ -2,20 +2,23 @@
 //! sampling (Veach 1997), the modern baseline (pbrt-v4's and Mitsuba 3's `path`).
 //!
 //! **Estimates** the full rendering equation. At every non-specular hit, one light sample
-//! (light chosen in proportion to power) and one BSDF sample both look for emitters; each is
+//! (light chosen as `light-selection` says) and one BSDF sample both look for emitters; each is
 //! weighted by the power heuristic against the other strategy's density, so neither small
 //! bright lights nor glossy reflections of large ones are noisy. Specular bounces take the
 //! emitter they reach with full weight. From `rr-depth` scattering events on, Russian roulette
 //! ends paths with probability `1 - min(0.95, max(throughput))`.
 //!
-//! **Parameters**: `max-depth` (default unlimited), `rr-depth` (default 3).
+//! **Parameters**: `max-depth` (default unlimited), `rr-depth` (default 3),
+//! `light-selection` (how the light sample picks its light: `scene`, the default, `uniform`,
+//! `power` or `bvh`; emitters hit by BSDF samples are weighted with the same choice).
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::integrator::{
     emitted_at, escaped, sample_one_light, PathState, RayIntegrator, ShadingPoint, Tracer,
 };
+use crate::light::LightSelection;
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
@@ -26,8 +29,9 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     params: &[
         MAX_DEPTH,
         RR_DEPTH,
+        LIGHT_SELECTION,
     ],
-    build: |p: &Params| Box::new(PathTracer { max_depth: p.get_depth("max-depth"), rr_depth: p.get_u32("rr-depth") }),
+    build: |p: &Params| Box::new(PathTracer { max_depth: p.get_depth("max-depth"), rr_depth: p.get_u32("rr-depth"), lights: p.get_light_selection() }),
     analytic: Some(Analytic {
         params: &[],
         furnace: expect(2.0, 40, 500),
@@ -40,12 +44,14 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 pub(crate) struct PathTracer {
     pub(crate) max_depth: u32,
     pub(crate) rr_depth: u32,
+    /// How light samples pick a light (`None`: the scene's choice).
+    pub(crate) lights: Option<LightSelection>,
 }
 
 impl RayIntegrator for PathTracer {
     fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
         let mut l = Rgb::ZERO;
-        let mut path = PathState::from_camera(*camera_ray);
+        let mut path = PathState::from_camera(*camera_ray).selecting_lights(self.lights);
         loop {
             // Trace the next segment.
             let Some(hit) = path.trace(tracer) else {
@@ -69,7 +75,7 @@ impl RayIntegrator for PathTracer {
             let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
             // Next-event estimation, MIS-weighted.
             if !sp.material.is_specular() {
-                l += path.beta * sample_one_light(&sp, true, tracer, sampler);
+                l += path.beta * sample_one_light(&sp, true, self.lights, tracer, sampler);
             }
             // BSDF sampling for the next segment, then Russian roulette.
             if !path.scatter(&sp, self.rr_depth, sampler) {

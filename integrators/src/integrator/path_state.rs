@@ -5,6 +5,7 @@
 use crate::integrator::{
     continue_path_with_lobe, mis_weight_for_hit, russian_roulette, ShadingPoint, Tracer,
 };
+use crate::light::{LightContext, LightSelection};
 use crate::{Hit, Ray, Rgb, Sampler};
 use glam::Vec3A;
 
@@ -23,6 +24,11 @@ pub struct PathState {
     pub pdf: f32,
     /// The scattering point `ray` leaves (before the offset that keeps it off the surface).
     pub from: Vec3A,
+    /// Its geometric normal (zero before the first scattering event).
+    pub from_n: Vec3A,
+    /// How its light samples pick a light (`None`: the scene's choice): emitters the walk
+    /// meets are weighted against next-event estimation with that choice's probabilities.
+    pub lights: Option<LightSelection>,
     /// Product of eta^2 over the path's refractions: roulette plays on `beta * eta_scale`, the
     /// throughput without refraction's compression of radiance (pbrt-v4's and Mitsuba 3's
     /// `rrBeta`).
@@ -49,10 +55,17 @@ impl PathState {
             specular: true,
             pdf: 0.0,
             from: ray.origin,
+            from_n: Vec3A::ZERO,
+            lights: None,
             eta_scale: 1.0,
             sampling_gain: 1.0,
             from_camera: true,
         }
+    }
+
+    /// The walk with its light samples picking lights by `lights`.
+    pub fn selecting_lights(self, lights: Option<LightSelection>) -> PathState {
+        PathState { lights, ..self }
     }
 
     /// A walk that starts with `ray`, leaving a surface (a final-gather ray).
@@ -81,7 +94,11 @@ impl PathState {
         if self.specular {
             1.0
         } else {
-            mis_weight_for_hit(tracer.scene, self.from, &self.ray, hit, self.pdf)
+            let from = LightContext {
+                p: self.from,
+                n: self.from_n,
+            };
+            mis_weight_for_hit(tracer.scene, (&from, self.lights), &self.ray, hit, self.pdf)
         }
     }
 
@@ -133,6 +150,7 @@ impl PathState {
         self.specular = false;
         self.pdf = pdf;
         self.from = sp.hit.p;
+        self.from_n = sp.hit.ng;
         self.ray = sp.hit.spawn_ray(wi);
         self.bounces += 1;
         true
@@ -159,6 +177,7 @@ impl PathState {
         sampler: &mut Sampler,
     ) -> bool {
         self.from = sp.hit.p;
+        self.from_n = sp.hit.ng;
         self.ray = next;
         self.bounces += 1;
         self.roulette(rr_depth, sampler)

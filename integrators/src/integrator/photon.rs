@@ -263,7 +263,7 @@ pub(super) fn direct(sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampl
     if tracer.scene.has_media() {
         direct_light(&Scatterer::Surface(sp), tracer, sampler)
     } else {
-        sample_one_light(sp, false, tracer, sampler)
+        sample_one_light(sp, false, None, tracer, sampler)
     }
 }
 

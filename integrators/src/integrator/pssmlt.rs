@@ -38,13 +38,16 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         let (max_depth, rr_depth) = (p.get_depth("max-depth"), p.get_u32("rr-depth"));
         Box::new(Metropolis::new(
             UnidirectionalPaths {
+                // The chains pick lights as the scene says (their numbers are a chain's).
                 path: PathTracer {
                     max_depth,
                     rr_depth,
+                    lights: None,
                 },
                 volpath: VolPath {
                     max_depth,
                     rr_depth,
+                    lights: None,
                 },
             },
             p,

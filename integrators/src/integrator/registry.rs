@@ -13,6 +13,20 @@ pub enum ParamKind {
     Float,
     /// A path depth: a whole number, or `unlimited` (also `inf`).
     Depth,
+    /// One of a list of names; the value is its place in the list.
+    Choice(&'static [&'static str]),
+}
+
+impl ParamKind {
+    /// The kind's name, as listings and the page show it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ParamKind::Int => "int",
+            ParamKind::Float => "float",
+            ParamKind::Depth => "depth",
+            ParamKind::Choice(_) => "choice",
+        }
+    }
 }
 
 /// One parameter of an integrator.
@@ -36,6 +50,20 @@ pub const MAX_DEPTH: ParamSpec = ParamSpec {
     min: 0.0,
     max: f64::INFINITY,
     doc: "scattering events per path (unlimited = unbiased)",
+};
+
+/// The names [`LIGHT_SELECTION`] takes: the scene's choice, then the light table's.
+pub const LIGHT_SELECTIONS: &[&str] = &["scene", "uniform", "power", "bvh"];
+
+/// `light-selection` as every integrator that samples lights for a shading point declares
+/// it: the scene's choice (`render.light_selection`, power unless it says) by default.
+pub const LIGHT_SELECTION: ParamSpec = ParamSpec {
+    name: "light-selection",
+    kind: ParamKind::Choice(LIGHT_SELECTIONS),
+    default: 0.0,
+    min: 0.0,
+    max: (LIGHT_SELECTIONS.len() - 1) as f64,
+    doc: "how a light sample picks its light: scene (the scene's choice), uniform, power, or bvh (a light BVH)",
 };
 
 /// `rr-depth` as every integrator that plays Russian roulette declares it.
@@ -102,6 +130,13 @@ impl ParamSpec {
 
     fn parse(&self, text: &str) -> Result<f64, String> {
         let t = text.trim();
+        if let ParamKind::Choice(names) = self.kind {
+            return names
+                .iter()
+                .position(|n| *n == t)
+                .map(|i| i as f64)
+                .ok_or_else(|| format!("`{t}` is not one of {}", names.join(", ")));
+        }
         let value = if self.kind == ParamKind::Depth
             && matches!(
                 t.to_ascii_lowercase().as_str(),
@@ -131,6 +166,9 @@ impl ParamSpec {
 }
 
 fn format_value(kind: ParamKind, v: f64) -> String {
+    if let ParamKind::Choice(names) = kind {
+        return names.get(v as usize).copied().unwrap_or("?").to_string();
+    }
     if v.is_infinite() && kind == ParamKind::Depth {
         "unlimited".to_string()
     } else if kind == ParamKind::Float && v != 0.0 && (v * 1e6).fract() != 0.0 {
@@ -163,6 +201,22 @@ impl Params {
     /// A whole-number parameter.
     pub fn get_u32(&self, name: &str) -> u32 {
         self.get(name) as u32
+    }
+
+    /// A choice parameter: the place of its name in the list.
+    pub fn get_choice(&self, name: &str) -> usize {
+        self.get(name) as usize
+    }
+
+    /// [`LIGHT_SELECTION`]'s value: `None` for the scene's choice.
+    pub fn get_light_selection(&self) -> Option<crate::light::LightSelection> {
+        let name = LIGHT_SELECTIONS[self.get_choice(LIGHT_SELECTION.name)];
+        crate::light::LightSelection::parse(name).ok()
+    }
+
+    /// A parameter's value as a user would type it.
+    pub fn text(&self, spec: &ParamSpec) -> String {
+        format_value(spec.kind, self.get(spec.name))
     }
 
     /// A depth parameter; `u32::MAX` stands for unlimited.

@@ -2,13 +2,14 @@
 //! hit instead of a branching tree, ended at random instead of at a fixed depth.
 //!
 //! **Estimates** the full rendering equation. At every non-specular hit: direct light from one
-//! light chosen in proportion to power (one shadow ray), then one BSDF-sampled continuation
+//! light chosen as `light-selection` says (one shadow ray), then one BSDF-sampled continuation
 //! ray. Emitters reached by continuation rays count only after specular bounces (direct light
 //! already covers them), so there is no multiple importance sampling: compare with `path`.
 //! From `rr-depth` scattering events on, the path survives with probability
 //! `min(0.95, max(throughput))` and its throughput is divided by that probability.
 //!
-//! **Parameters**: `rr-depth` (default 3), `max-depth` (default unlimited).
+//! **Parameters**: `rr-depth` (default 3), `max-depth` (default unlimited),
+//! `light-selection` (`scene`, the default, `uniform`, `power` or `bvh`).
 //! **Bias**: none with unlimited `max-depth` (Russian roulette is unbiased); truncation
 //! otherwise.
 
@@ -16,7 +17,7 @@ use crate::integrator::{
     emitted_at, escaped, sample_one_light, PathState, RayIntegrator, ShadingPoint, Tracer,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
@@ -25,11 +26,12 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "russian-roulette",
     summary:
         "one continuation ray per hit, direct light by one shadow ray, Russian roulette (no MIS)",
-    params: &[RR_DEPTH, MAX_DEPTH],
+    params: &[RR_DEPTH, MAX_DEPTH, LIGHT_SELECTION],
     build: |p: &Params| {
         Box::new(RussianRouletteTracer {
             rr_depth: p.get_u32("rr-depth"),
             max_depth: p.get_depth("max-depth"),
+            lights: p.get_light_selection(),
         })
     },
     analytic: Some(Analytic {
@@ -44,6 +46,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct RussianRouletteTracer {
     rr_depth: u32,
     max_depth: u32,
+    /// How light samples pick a light (`None`: the scene's choice).
+    lights: Option<crate::light::LightSelection>,
 }
 
 impl RayIntegrator for RussianRouletteTracer {
@@ -69,7 +73,7 @@ impl RayIntegrator for RussianRouletteTracer {
             let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
             // Direct light: one light, one shadow ray.
             if !sp.material.is_specular() {
-                l += path.beta * sample_one_light(&sp, false, tracer, sampler);
+                l += path.beta * sample_one_light(&sp, false, self.lights, tracer, sampler);
             }
             // Continuation: one BSDF-sampled ray, then Russian roulette.
             if !path.scatter(&sp, self.rr_depth, sampler) {

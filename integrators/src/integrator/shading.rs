@@ -119,6 +119,15 @@ impl<'a> ShadingPoint<'a> {
         }
     }
 
+    /// Where a light is chosen for: the point and its geometric normal.
+    #[inline]
+    pub fn light_context(&self) -> crate::light::LightContext {
+        crate::light::LightContext {
+            p: self.hit.p,
+            n: self.hit.ng,
+        }
+    }
+
     /// False when light `index` cannot light this point: it is the emitter the point lies on,
     /// and flat or convex (only a concave emitter, a sphere emitting inwards, lights itself).
     /// Skipped exactly rather than left to rounding, which would produce grazing samples of

@@ -22,7 +22,8 @@
 //!
 //! **Parameters**: `max-depth` (scattering events, surface or medium; default unlimited),
 //! `rr-depth` (default 3): from there Russian roulette on the throughput where it is below 1
-//! (after 1024 events on every path).
+//! (after 1024 events on every path); `light-selection` (`scene`, the default, `uniform`,
+//! `power` or `bvh`: how the light sample picks its light).
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::bsdf::TransportMode;
@@ -30,10 +31,11 @@ use crate::integrator::media_walk::{
     average, hero_channel, light_at_surface, positive, ray_from_point,
 };
 use crate::integrator::{emitted_at, escaped, RayIntegrator, ShadingPoint};
+use crate::light::{LightContext, LightSelection};
 use crate::medium::tracking::sample_t_maj;
 use crate::medium::Phase;
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
 use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene, Spectrum, Tracer};
 use glam::Vec3A;
@@ -41,11 +43,12 @@ use glam::Vec3A;
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "volpath",
     summary: "volumetric path tracing: delta tracking, light samples through media by ratio tracking, MIS over strategies and colour channels",
-    params: &[MAX_DEPTH, RR_DEPTH],
+    params: &[MAX_DEPTH, RR_DEPTH, LIGHT_SELECTION],
     build: |p: &Params| {
         Box::new(VolPath {
             max_depth: p.get_depth("max-depth"),
             rr_depth: p.get_u32("rr-depth"),
+            lights: p.get_light_selection(),
         })
     },
     analytic: Some(Analytic {
@@ -63,6 +66,8 @@ pub(crate) const LONG_PATH: u32 = 1024;
 pub(crate) struct VolPath {
     pub(crate) max_depth: u32,
     pub(crate) rr_depth: u32,
+    /// How light samples pick a light (`None`: the scene's choice).
+    pub(crate) lights: Option<LightSelection>,
 }
 
 /// The path's state between segments.
@@ -80,8 +85,9 @@ struct Walk {
     specular: bool,
     /// Product of eta^2 over the refractions (roulette plays without their compression).
     eta_scale: f32,
-    /// The last scattering point (for the light density of emitters the path finds).
-    from: Vec3A,
+    /// The last scattering point and its geometric normal (zero in a medium), for the light
+    /// density of emitters the path finds.
+    from: LightContext,
 }
 
 /// Where a light sample is taken.
@@ -105,7 +111,10 @@ impl RayIntegrator for VolPath {
             depth: 0,
             specular: true,
             eta_scale: 1.0,
-            from: ray.origin,
+            from: LightContext {
+                p: ray.origin,
+                n: Vec3A::ZERO,
+            },
         };
         let mut l = Rgb::ZERO;
         let mut first = true;
@@ -163,7 +172,10 @@ impl RayIntegrator for VolPath {
                         w.beta *= ps.p / ps.pdf;
                         w.r_l = w.r_u / ps.pdf;
                         w.specular = false;
-                        w.from = c.p;
+                        w.from = LightContext {
+                            p: c.p,
+                            n: Vec3A::ZERO,
+                        };
                         scattered = Some(Ray {
                             origin: c.p,
                             dir: ps.wi,
@@ -245,7 +257,10 @@ impl RayIntegrator for VolPath {
                 w.r_l = w.r_u / s.bsdf.pdf;
             }
             w.eta_scale *= s.bsdf.eta * s.bsdf.eta;
-            w.from = hit.p;
+            w.from = LightContext {
+                p: hit.p,
+                n: hit.ng,
+            };
             ray = hit.spawn_ray(s.wi);
             if !self.roulette(&mut w, sampler) {
                 break;
@@ -299,10 +314,12 @@ impl VolPath {
         let lights = scene.lights();
         let light_pdf = match hit {
             Some(h) => h.light.map_or(0.0, |i| {
-                lights.pmf(i) * lights.get(i).pdf_li(w.from, ray.dir, h.p)
+                lights.pmf_for(self.lights, &w.from, i)
+                    * lights.get(i).pdf_li(w.from.p, ray.dir, h.p)
             }),
             None => lights.environment().map_or(0.0, |i| {
-                lights.pmf(i) * lights.get(i).pdf_li(w.from, ray.dir, w.from)
+                lights.pmf_for(self.lights, &w.from, i)
+                    * lights.get(i).pdf_li(w.from.p, ray.dir, w.from.p)
             }),
         };
         let r_l = w.r_l * light_pdf;
@@ -323,7 +340,14 @@ impl VolPath {
         let scene: &dyn Scene = tracer.scene;
         let u_light = sampler.next_1d();
         let u = sampler.next_2d();
-        let Some((index, pmf)) = scene.lights().sample(u_light) else {
+        let ctx = match vertex {
+            Vertex::Surface(sp) => sp.light_context(),
+            Vertex::Medium { p, .. } => LightContext {
+                p: *p,
+                n: Vec3A::ZERO,
+            },
+        };
+        let Some((index, pmf)) = scene.lights().sample_for(self.lights, &ctx, u_light) else {
             return Rgb::ZERO;
         };
         let light = scene.lights().get(index);

@@ -231,7 +231,7 @@ impl RayIntegrator for Vpl {
                 continue;
             }
             // Direct light by one light sample, indirect light from every VPL.
-            let gathered = sample_one_light(&sp, false, tracer, sampler)
+            let gathered = sample_one_light(&sp, false, None, tracer, sampler)
                 + self.gather(&sp, path.bounces, tracer);
             l += path.beta * gathered / (1.0 - p_delta);
             break;

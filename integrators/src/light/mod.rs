@@ -28,6 +28,7 @@
 //! uniform direction, and the environment from a uniform point of the disk of the scene's
 //! radius facing a uniform direction, outside the scene's bounding sphere.
 
+pub mod bvh;
 pub mod cylinder;
 pub mod directional;
 pub mod env_map;
@@ -39,6 +40,7 @@ pub mod sphere;
 pub mod spot;
 pub mod table;
 
+pub use bvh::LightContext;
 pub use cylinder::CylinderLight;
 pub use directional::DirectionalLight;
 pub use env_map::{EnvMap, EnvMapLight};
@@ -48,7 +50,7 @@ pub use point::PointLight;
 pub use projector::ProjectorLight;
 pub use sphere::SphereLight;
 pub use spot::{Falloff, SpotLight};
-pub use table::LightTable;
+pub use table::{LightSelection, LightTable};
 
 use crate::{Frame, Rgb};
 use glam::{Vec2, Vec3A};

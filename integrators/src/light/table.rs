@@ -1,24 +1,135 @@
-//! The light sampler: picks an emitter in proportion to its power, or to weights the scene
-//! gives (uniform over emitting entities, as Mitsuba 3).
+//! The light sampler: picks an emitter for a shading point. Three ways, as a scene or an
+//! integrator chooses ([`LightSelection`]): in proportion to power, uniformly (over emitting
+//! entities, then their parts by power, as Mitsuba 3; over lights when nothing groups them),
+//! or by a light BVH that weighs each light by what it could send to the point
+//! ([`super::bvh`]). Paths that start on a light (photons, light subpaths) have no point to
+//! choose for: they pick by power, or uniformly when that is the scene's choice.
 
+use super::bvh::{LightBvh, LightContext};
 use super::Light;
 
-/// All emitters of a scene with a power-proportional selection distribution.
+/// How a light sample picks an emitter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum LightSelection {
+    /// Uniformly: each emitting entity alike, then its parts in proportion to their power.
+    Uniform,
+    /// In proportion to power.
+    #[default]
+    Power,
+    /// By the light BVH, for the shading point (power where there is none).
+    Bvh,
+}
+
+impl LightSelection {
+    /// Every selection, by its name.
+    pub const ALL: [(&'static str, LightSelection); 3] = [
+        ("uniform", LightSelection::Uniform),
+        ("power", LightSelection::Power),
+        ("bvh", LightSelection::Bvh),
+    ];
+
+    pub fn name(self) -> &'static str {
+        Self::ALL
+            .iter()
+            .find(|(_, k)| *k == self)
+            .map_or("power", |(n, _)| n)
+    }
+
+    /// The selection named `name`.
+    pub fn parse(name: &str) -> Result<LightSelection, String> {
+        Self::ALL
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, k)| *k)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|(n, _)| *n).collect();
+                format!(
+                    "no light selection `{name}`; light selections: {}",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
+impl std::fmt::Display for LightSelection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A discrete distribution over the lights: probabilities and their running sums.
+#[derive(Clone, Debug, Default)]
+struct Pick {
+    pmf: Vec<f32>,
+    cdf: Vec<f32>,
+}
+
+impl Pick {
+    /// Proportional to `weights` (finite, not negative; uniform if they are all zero).
+    fn new(weights: &[f64]) -> Pick {
+        let total: f64 = weights.iter().sum();
+        let pmf: Vec<f32> = if total > 0.0 && total.is_finite() {
+            weights.iter().map(|&p| (p / total) as f32).collect()
+        } else {
+            vec![1.0 / weights.len().max(1) as f32; weights.len()]
+        };
+        // Running sum in f64; a light with zero probability gets the same cdf value as its
+        // predecessor, so the search below can never land on it. Everything from the last
+        // light with a non-zero probability on is pinned to exactly 1.
+        let mut cdf = Vec::with_capacity(pmf.len());
+        let norm = sum_or_one(&pmf);
+        let mut sum = 0.0f64;
+        for &p in &pmf {
+            sum += p as f64;
+            cdf.push((sum / norm) as f32);
+        }
+        if let Some(last) = pmf.iter().rposition(|&p| p > 0.0) {
+            for c in &mut cdf[last..] {
+                *c = 1.0;
+            }
+        }
+        Pick { pmf, cdf }
+    }
+
+    fn sample(&self, u: f32) -> Option<(u32, f32)> {
+        if self.pmf.is_empty() {
+            return None;
+        }
+        // Clamp into [0, 1) (NaN -> 0): the cdf reaches exactly 1 at the last light with a
+        // non-zero probability, so the search stops there at the latest.
+        let u = if u > 0.0 {
+            u.min(1.0 - f32::EPSILON / 2.0)
+        } else {
+            0.0
+        };
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .min(self.pmf.len() - 1);
+        Some((i as u32, self.pmf[i]))
+    }
+}
+
+/// All emitters of a scene with the distributions that pick them.
 #[derive(Clone, Debug, Default)]
 pub struct LightTable {
     lights: Vec<Light>,
-    pmf: Vec<f32>,
-    cdf: Vec<f32>,
+    power: Pick,
+    uniform: Pick,
+    bvh: LightBvh,
+    /// The scene's selection, which integrators use unless they choose another.
+    selection: LightSelection,
     environment: Option<u32>,
 }
 
 impl LightTable {
     /// Builds the table; selection is proportional to [`Light::power`] (uniform if every
-    /// power is zero). At most one environment light: if there are several, the first one is
-    /// the one [`LightTable::environment`] reports.
+    /// power is zero), and `uniform` is over the lights. At most one environment light: if
+    /// there are several, the first one is the one [`LightTable::environment`] reports.
     pub fn new(lights: Vec<Light>, scene_radius: f32) -> LightTable {
         let powers = Self::powers(&lights, scene_radius);
-        Self::with_weights(lights, powers)
+        let uniform = vec![1.0; lights.len()];
+        Self::build(lights, powers, uniform, LightSelection::Power)
     }
 
     /// Each light's [`Light::power`], 0 where it is not a finite positive number.
@@ -36,39 +147,27 @@ impl LightTable {
             .collect()
     }
 
-    /// Builds the table with selection proportional to `weights` (one per light, finite and
-    /// not negative; uniform if they are all zero).
-    pub fn with_weights(lights: Vec<Light>, powers: Vec<f64>) -> LightTable {
+    /// Builds the table from each light's power and its weight under uniform selection (one
+    /// per light, finite and not negative), choosing by `selection` unless an integrator
+    /// says otherwise. A light without power is never chosen by power or the BVH.
+    pub fn build(
+        lights: Vec<Light>,
+        powers: Vec<f64>,
+        uniform: Vec<f64>,
+        selection: LightSelection,
+    ) -> LightTable {
         debug_assert_eq!(lights.len(), powers.len());
-        let total: f64 = powers.iter().sum();
-        let pmf: Vec<f32> = if total > 0.0 && total.is_finite() {
-            powers.iter().map(|&p| (p / total) as f32).collect()
-        } else {
-            vec![1.0 / lights.len().max(1) as f32; lights.len()]
-        };
-        // Running sum in f64; a light with zero probability gets the same cdf value as its
-        // predecessor, so the search below can never land on it. Everything from the last
-        // light with a non-zero probability on is pinned to exactly 1.
-        let mut cdf = Vec::with_capacity(pmf.len());
-        let norm = sum_or_one(&pmf);
-        let mut sum = 0.0f64;
-        for &p in &pmf {
-            sum += p as f64;
-            cdf.push((sum / norm) as f32);
-        }
-        if let Some(last) = pmf.iter().rposition(|&p| p > 0.0) {
-            for c in &mut cdf[last..] {
-                *c = 1.0;
-            }
-        }
+        debug_assert_eq!(lights.len(), uniform.len());
         let environment = lights
             .iter()
             .position(Light::is_environment)
             .and_then(|i| u32::try_from(i).ok());
         LightTable {
+            bvh: LightBvh::new(&lights, &powers),
+            power: Pick::new(&powers),
+            uniform: Pick::new(&uniform),
             lights,
-            pmf,
-            cdf,
+            selection,
             environment,
         }
     }
@@ -93,29 +192,56 @@ impl LightTable {
         &self.lights[index as usize]
     }
 
-    /// Picks a light with `u` in `[0, 1)`: its index and selection probability. `None` if the
-    /// table is empty; never returns a light whose probability is zero.
-    pub fn sample(&self, u: f32) -> Option<(u32, f32)> {
-        if self.lights.is_empty() {
-            return None;
+    /// The scene's selection.
+    pub fn selection(&self) -> LightSelection {
+        self.selection
+    }
+
+    /// The distribution a choice without a point draws from.
+    fn pointless(&self) -> &Pick {
+        match self.selection {
+            LightSelection::Uniform => &self.uniform,
+            LightSelection::Power | LightSelection::Bvh => &self.power,
         }
-        // Clamp into [0, 1) (NaN -> 0): the cdf reaches exactly 1 at the last light with a
-        // non-zero probability, so the search stops there at the latest.
-        let u = if u > 0.0 {
-            u.min(1.0 - f32::EPSILON / 2.0)
-        } else {
-            0.0
-        };
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.lights.len() - 1);
-        Some((i as u32, self.pmf[i]))
+    }
+
+    /// Picks a light with `u` in `[0, 1)` without a point to light (a path starting on a
+    /// light): by the scene's selection, power for the BVH. Its index and selection
+    /// probability; `None` if the table is empty; never a light whose probability is zero.
+    pub fn sample(&self, u: f32) -> Option<(u32, f32)> {
+        self.pointless().sample(u)
     }
 
     /// Probability that [`LightTable::sample`] picks light `index`.
     pub fn pmf(&self, index: u32) -> f32 {
-        self.pmf[index as usize]
+        self.pointless().pmf[index as usize]
+    }
+
+    /// Picks a light to light `ctx` with `u` in `[0, 1)` by `choice` (the scene's when
+    /// `None`): its index and probability. `None` when there is none to pick (no lights, or
+    /// under the BVH none that can reach the point).
+    #[inline]
+    pub fn sample_for(
+        &self,
+        choice: Option<LightSelection>,
+        ctx: &LightContext,
+        u: f32,
+    ) -> Option<(u32, f32)> {
+        match choice.unwrap_or(self.selection) {
+            LightSelection::Uniform => self.uniform.sample(u),
+            LightSelection::Power => self.power.sample(u),
+            LightSelection::Bvh => self.bvh.sample(ctx, u),
+        }
+    }
+
+    /// Probability that [`LightTable::sample_for`] picks light `index` for `ctx`.
+    #[inline]
+    pub fn pmf_for(&self, choice: Option<LightSelection>, ctx: &LightContext, index: u32) -> f32 {
+        match choice.unwrap_or(self.selection) {
+            LightSelection::Uniform => self.uniform.pmf[index as usize],
+            LightSelection::Power => self.power.pmf[index as usize],
+            LightSelection::Bvh => self.bvh.pmf(ctx, index),
+        }
     }
 
     /// Index of the environment light, if the scene has one.

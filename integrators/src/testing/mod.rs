@@ -19,10 +19,10 @@ use glam::Vec3A;
 
 /// One surface: a triangle or a sphere, with a material and maybe a light.
 enum Surface {
-    Triangle {
-        v: [Vec3A; 3],
-        light: Option<u32>,
-    },
+    /// A triangle of material 0.
+    Triangle { v: [Vec3A; 3], light: Option<u32> },
+    /// An emitting triangle of material 1.
+    LightTriangle { v: [Vec3A; 3], light: u32 },
     Sphere {
         center: Vec3A,
         radius: f32,
@@ -121,6 +121,13 @@ impl Scene for TestScene {
                     Hit {
                         media: around,
                         ..Hit::new(t, ray.at(t), n, 0, light)
+                    }
+                }),
+                Surface::LightTriangle { v, light } => intersect_triangle(&v, &r).map(|t| {
+                    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+                    Hit {
+                        media: around,
+                        ..Hit::new(t, ray.at(t), n, 1, Some(light))
                     }
                 }),
                 Surface::Sphere {
@@ -760,4 +767,84 @@ pub fn floor_under_light_facing_away() -> TestScene {
         media: Vec::new(),
         camera_medium: MediumId::VACUUM,
     }
+}
+
+/// A diffuse floor (albedo `a`, z = 0) under 48 black triangles in the plane z = 1.5, side by
+/// side, that emit radiances from 0.05 to 12 (powers over two and a half orders of
+/// magnitude): most face the floor, every fifth faces up (away from it), every seventh emits
+/// on both sides. The probe looks at the point `X` of the floor. Lights in one plane cannot
+/// shadow each other, and light the floor sends back falls on their black undersides: the
+/// probe sees `a / pi` times the sum of each light's radiance times its irradiance at `X`,
+/// which Lambert's formula gives ([`polygon_irradiance`]). The value is returned beside the
+/// scene.
+pub fn floor_under_many_lights(a: f32) -> (TestScene, f64) {
+    const X: Vec3A = Vec3A::new(0.1, 0.05, 0.0);
+    let s = 100.0;
+    let c = |x: f32, y: f32, z: f32| Vec3A::new(x, y, z);
+    let mut surfaces = vec![
+        Surface::Triangle {
+            v: [c(-s, -s, 0.0), c(s, -s, 0.0), c(s, s, 0.0)],
+            light: None,
+        },
+        Surface::Triangle {
+            v: [c(-s, -s, 0.0), c(s, s, 0.0), c(-s, s, 0.0)],
+            light: None,
+        },
+    ];
+    let mut lights = Vec::new();
+    let mut expected = 0.0f64;
+    for k in 0..48u32 {
+        let (i, j) = ((k % 8) as f32, (k / 8) as f32);
+        let centre = c(-1.75 + 0.5 * i, -1.25 + 0.5 * j, 1.5);
+        let radiance = 0.05 * 240f32.powf(((k * 29) % 48) as f32 / 47.0);
+        let up = k % 5 == 0;
+        let two_sided = k % 7 == 0;
+        let (p0, p1, p2) = (
+            centre + c(-0.2, -0.2, 0.0),
+            centre + c(0.2, -0.2, 0.0),
+            centre + c(-0.15, 0.2, 0.0),
+        );
+        // Counter-clockwise from above faces up; swapped, it faces the floor.
+        let v = if up { [p0, p1, p2] } else { [p0, p2, p1] };
+        surfaces.push(Surface::LightTriangle { v, light: k });
+        lights.push(Light::triangle(
+            v[0],
+            v[1],
+            v[2],
+            Rgb::splat(radiance),
+            two_sided,
+        ));
+        if !up || two_sided {
+            expected += f64::from(radiance) * polygon_irradiance(X, Vec3A::Z, &v);
+        }
+    }
+    let scene = TestScene {
+        surfaces,
+        materials: vec![lambert(a), lambert(0.0)],
+        lights: LightTable::new(lights, s),
+        camera: Probe::Fixed(Ray::new(
+            c(3.0, 0.05, 0.5),
+            (X - c(3.0, 0.05, 0.5)).normalize(),
+        )),
+        media: Vec::new(),
+        camera_medium: MediumId::VACUUM,
+    };
+    (scene, f64::from(a) / std::f64::consts::PI * expected)
+}
+
+/// Lambert's formula: the irradiance at `x` (normal `n`) from a polygon of unit radiance
+/// wholly above `x`'s horizon, `1/2 sum_k theta_k (n . g_k)`, over its edges `k`, `theta_k`
+/// the angle the edge subtends at `x` and `g_k` the unit normal of the plane through `x` and
+/// the edge (the sign taken so that the polygon's two windings agree).
+pub fn polygon_irradiance(x: Vec3A, n: Vec3A, polygon: &[Vec3A]) -> f64 {
+    let d = |v: Vec3A| glam::DVec3::new(f64::from(v.x), f64::from(v.y), f64::from(v.z));
+    let (x, n) = (d(x), d(n));
+    let r: Vec<glam::DVec3> = polygon.iter().map(|v| (d(*v) - x).normalize()).collect();
+    let mut sum = 0.0;
+    for k in 0..r.len() {
+        let (a, b) = (r[k], r[(k + 1) % r.len()]);
+        let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+        sum += theta * n.dot(a.cross(b).normalize());
+    }
+    0.5 * sum.abs()
 }

@@ -12,7 +12,8 @@
 //! - `GET /integrators`: JSON: every integrator with its parameters (name, kind, default,
 //!   min, max, doc), from the registry.
 //! - `GET /settings`: the current selection; `POST /settings` (JSON
-//!   `{"integrator": NAME, "params": {NAME: VALUE}}`) switches integrator and parameters,
+//!   `{"integrator": NAME, "params": {NAME: VALUE}, "sampler": NAME}`) switches integrator,
+//!   parameters and sampler,
 //!   checked by the registry: a bad one is a 400 with the registry's message.
 //!
 //! Every request is answered on its own thread (at most [`MAX_ACTIVE`] at once, then 503, and
@@ -30,6 +31,7 @@ use crate::output::{self, DisplaySettings};
 use crate::render::{Film, RenderStats};
 use anyhow::{anyhow, Result};
 use http::Request;
+use raylab_integrators::sampler::SamplerKind;
 use raylab_integrators::{registry, ParamKind};
 use serde_json::{json, Value};
 use std::net::{SocketAddr, TcpListener, TcpStream};
@@ -112,6 +114,7 @@ impl Shared {
     fn state_json(&self, s: &State) -> Value {
         let selection = json!({
             "integrator": s.selection.integrator,
+            "sampler": s.selection.sampler.map(SamplerKind::name),
             "params": s
                 .selection
                 .params
@@ -131,6 +134,7 @@ impl Shared {
                 "state": st.state,
                 "integrator": st.info.integrator,
                 "params": params,
+                "sampler": st.info.sampler.name(),
                 "describe": st.info.describe_params(),
                 "width": st.info.width,
                 "height": st.info.height,
@@ -155,6 +159,7 @@ impl Shared {
         json!({
             "version": s.version,
             "scene": self.scene,
+            "samplers": SamplerKind::ALL.iter().map(|(n, _)| *n).collect::<Vec<_>>(),
             "selection": selection,
             "error": s.error,
             "render": render,
@@ -264,10 +269,10 @@ fn integrators_json() -> Value {
                     .map(|p| {
                         json!({
                             "name": p.name,
-                            "kind": match p.kind {
-                                ParamKind::Int => "int",
-                                ParamKind::Float => "float",
-                                ParamKind::Depth => "depth",
+                            "kind": p.kind.name(),
+                            "choices": match p.kind {
+                                ParamKind::Choice(names) => json!(names),
+                                _ => Value::Null,
                             },
                             "default": p.default_text(),
                             "min": number(p.min),
@@ -288,11 +293,19 @@ fn parse_selection(body: &[u8]) -> Result<Selection> {
     let obj = v.as_object().ok_or_else(|| {
         anyhow!("expected a JSON object {{\"integrator\": ..., \"params\": {{...}}}}")
     })?;
-    if let Some(k) = obj.keys().find(|k| *k != "integrator" && *k != "params") {
+    if let Some(k) = obj
+        .keys()
+        .find(|k| !["integrator", "params", "sampler"].contains(&k.as_str()))
+    {
         return Err(anyhow!(
-            "unknown field `{k}`; expected `integrator` and `params`"
+            "unknown field `{k}`; expected `integrator`, `params` and `sampler`"
         ));
     }
+    let sampler = match obj.get("sampler") {
+        None | Some(Value::Null) => None,
+        Some(Value::String(s)) => Some(SamplerKind::parse(s).map_err(|e| anyhow!("{e}"))?),
+        Some(_) => return Err(anyhow!("`sampler` must be a string")),
+    };
     let integrator = match obj.get("integrator") {
         None | Some(Value::Null) => None,
         Some(Value::String(s)) => Some(s.clone()),
@@ -313,7 +326,11 @@ fn parse_selection(body: &[u8]) -> Result<Selection> {
         }
         Some(_) => return Err(anyhow!("`params` must be an object")),
     }
-    let selection = Selection { integrator, params };
+    let selection = Selection {
+        integrator,
+        params,
+        sampler,
+    };
     selection.check()?;
     Ok(selection)
 }

@@ -15,13 +15,24 @@ function buildParams(name, values) {
   for (const p of entry.params) {
     const label = document.createElement("label");
     label.append(p.name + " ");
-    const input = document.createElement("input");
+    const value = values && values[p.name] !== undefined ? values[p.name] : p.default;
+    let input;
+    if (p.choices) {
+      input = document.createElement("select");
+      for (const c of p.choices) input.append(new Option(c, c, false, c === String(value)));
+    } else {
+      input = document.createElement("input");
+      input.size = 9;
+      input.value = value;
+    }
     input.name = p.name;
-    input.size = 9;
-    input.value = values && values[p.name] !== undefined ? values[p.name] : p.default;
     label.append(input);
     const hint = document.createElement("small");
-    const range = p.max === null ? `${p.min} or more` : `${p.min} to ${p.max}`;
+    const range = p.choices
+      ? p.choices.join(", ")
+      : p.max === null
+        ? `${p.min} or more`
+        : `${p.min} to ${p.max}`;
     hint.textContent = ` ${p.kind}, ${range}: ${p.doc}`;
     label.append(hint);
     box.append(label);
@@ -42,17 +53,27 @@ async function post(body) {
   }
 }
 
+const chosenSampler = () => $("sampler").value || null;
+
+function formParams() {
+  const params = {};
+  for (const input of $("params").querySelectorAll("input, select")) params[input.name] = input.value;
+  return params;
+}
+
 $("integrator").addEventListener("change", () => {
   const name = $("integrator").value;
   buildParams(name, null);
-  post({ integrator: name, params: {} });
+  post({ integrator: name, params: {}, sampler: chosenSampler() });
+});
+
+$("sampler").addEventListener("change", () => {
+  post({ integrator: $("integrator").value, params: formParams(), sampler: chosenSampler() });
 });
 
 $("settings").addEventListener("submit", (ev) => {
   ev.preventDefault();
-  const params = {};
-  for (const input of $("params").querySelectorAll("input")) params[input.name] = input.value;
-  post({ integrator: $("integrator").value, params });
+  post({ integrator: $("integrator").value, params: formParams(), sampler: chosenSampler() });
 });
 
 function fmt(v, digits) {
@@ -95,6 +116,12 @@ function show(s) {
   const r = s.render;
   const chosen = s.selection.integrator || (r && r.integrator);
   if (chosen && document.activeElement !== $("integrator")) $("integrator").value = chosen;
+  const samplers = $("sampler");
+  if (samplers.options.length === 0 && s.samplers) {
+    for (const name of s.samplers) samplers.append(new Option(name, name));
+  }
+  const sampler = s.selection.sampler || (r && r.sampler);
+  if (sampler && document.activeElement !== samplers) samplers.value = sampler;
   if (r) {
     showStats(r);
     if (r.id !== formRender && r.integrator === $("integrator").value) {
@@ -140,7 +167,7 @@ async function selftestStep(s) {
       return finish(false, "the new image does not load");
     }
     const want = integrators.find((e) => e.name === selftest).params.length;
-    const have = $("params").querySelectorAll("input").length;
+    const have = $("params").querySelectorAll("input, select").length;
     if (have !== want) return finish(false, `the form shows ${have} parameters, ${selftest} has ${want}`);
     if (!$("caption").textContent.startsWith(selftest)) return finish(false, "the caption does not name " + selftest);
     return finish(true, `switched to ${selftest}; its image arrived (${s.image.spp} spp)`);
