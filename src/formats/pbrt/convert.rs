@@ -9,8 +9,8 @@ use super::tokens::{Pos, Tokens};
 use crate::formats::access::SceneFiles;
 use crate::formats::import::{placed, ImportOptions, Imported};
 use crate::formats::schema::{
-    CameraDesc, ColorDesc, EmitterDesc, EntityDesc, FloatDesc, MaterialDesc, NamedTable,
-    RenderDesc, SceneFile, ShapeDesc, TransformDesc,
+    CameraDesc, ColorDesc, EmitterDesc, EntityDesc, FloatDesc, LightSelection, MaterialDesc,
+    NamedTable, RenderDesc, SceneFile, ShapeDesc, TransformDesc,
 };
 use glam::{Affine3A, DMat4, DVec3, DVec4};
 use raylab_integrators::sampler::SamplerKind;
@@ -115,6 +115,8 @@ struct Converter<'a> {
     spp: i64,
     /// The `Sampler`'s kind (pbrt-v4's default, `zsobol`, without one).
     sampler: SamplerKind,
+    /// The integrator's `lightsampler` (pbrt-v4's default, `bvh`, without one).
+    light_selection: LightSelection,
     /// The `Integrator` directive as raylab's integrator.
     integrator: Option<options::IntegratorChoice>,
     materials: Vec<(String, MaterialDesc)>,
@@ -598,6 +600,7 @@ pub fn to_ron(
         filter: "gaussian(stddev: 0.5, radius: 1.5)".into(),
         spp: 16,
         sampler: SamplerKind::ZSobol,
+        light_selection: LightSelection::Bvh,
         integrator: None,
         materials: Vec::new(),
         material_descs: HashMap::new(),
@@ -672,6 +675,7 @@ pub fn to_ron(
             params,
             filter,
             sampler: c.sampler,
+            light_selection: c.light_selection,
             ..RenderDesc::default()
         },
         materials: NamedTable(c.materials),

@@ -262,8 +262,27 @@ impl<'a> Converter<'a> {
         if p.boolean("regularize")? == Some(true) {
             self.approximate(d.pos, "Integrator: regularize (a bias) ignored".into())?;
         }
+        if let Some((name, pos)) = p.string_at("lightsampler")? {
+            self.light_selection = match name.as_str() {
+                "bvh" => LightSelection::Bvh,
+                "power" => LightSelection::Power,
+                "uniform" => {
+                    self.report("Integrator: lightsampler \"uniform\": raylab's uniform picks each emitting shape alike, then its triangles by power (pbrt-v4 picks each triangle alike)".into());
+                    LightSelection::Uniform
+                }
+                "exhaustive" => {
+                    self.report("Integrator: lightsampler \"exhaustive\": raylab's light BVH, the nearest it has".into());
+                    LightSelection::Bvh
+                }
+                other => {
+                    return Err((
+                        pos,
+                        format!("Integrator: lightsampler \"{other}\" is not one of bvh, power, uniform, exhaustive"),
+                    ))
+                }
+            };
+        }
         p.ignore(&[
-            "lightsampler",
             "sampleLights",
             "sampleBSDF",
             "samplelights",
