@@ -338,7 +338,8 @@ class Comparison:
     ``rows`` holds one dict per contestant with the command's figures (``mse`` and its 95%
     interval ``mse_ci95``, ``relmse``, ``variance``, ``bias2``, ``flip``, ``time``,
     ``efficiency``, ``slope``, ...; see ``docs/comparisons.md``); :meth:`to_pandas` makes them
-    a DataFrame, :meth:`convergence` the convergence curves. ``images`` maps each contestant's
+    a DataFrame, :meth:`convergence` the convergence curves, :meth:`error_spectrum` the error
+    spectra. ``images`` maps each contestant's
     label to the image of its first run, ``reference`` is the
     reference image, and ``out`` the folder with the page (``index.html``).
     """
@@ -373,12 +374,26 @@ class Comparison:
 
         flat = []
         for row in self.rows:
-            r = {k: v for k, v in row.items() if k not in ("convergence", "region", "mean")}
+            skip = ("convergence", "region", "mean", "error_spectrum")
+            r = {k: v for k, v in row.items() if k not in skip}
             r["mean_r"], r["mean_g"], r["mean_b"] = row["mean"]
             for k, v in (row.get("region") or {}).items():
                 r[f"region_{k}"] = v
             flat.append(r)
         return pd.DataFrame(flat).set_index("label")
+
+    def error_spectrum(self):
+        """The error spectra (Celarek et al. 2019): a DataFrame of ``label``, ``frequency``
+        (cycles per pixel) and ``power`` (of the error image, radially averaged, mean over
+        the runs)."""
+        import pandas as pd
+
+        points = [
+            {"label": row["label"], "frequency": f, "power": p}
+            for row in self.rows
+            for f, p in zip(self.report["spectrum_frequencies"], row["error_spectrum"])
+        ]
+        return pd.DataFrame(points, columns=["label", "frequency", "power"])
 
     def convergence(self):
         """The mean convergence curves: a DataFrame of ``label``, ``spp``, ``time``, ``mse``

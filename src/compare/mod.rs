@@ -7,6 +7,7 @@ pub mod metrics;
 mod mosaic;
 mod page;
 mod plot;
+pub mod spectrum;
 pub mod stats;
 pub mod suite;
 mod tables;
@@ -164,6 +165,16 @@ pub struct Row {
     pub bias2: Option<f64>,
     pub relmse: f64,
     pub relmse_ci95: Option<f64>,
+    /// relMSE with the largest 0.1% of per-pixel errors left out (SeeSharp's robust relMSE):
+    /// a few fireflies do not rank a method by it.
+    pub relmse_robust: f64,
+    pub relmse_robust_ci95: Option<f64>,
+    /// The per-pixel variance of one run times its time: the seconds it would take to bring
+    /// the variance down to 1 (variance falling as 1/time); smaller is better. From two runs.
+    pub time_to_unit_variance: Option<f64>,
+    /// The error spectrum (Celarek et al. 2019): the radially averaged power spectrum of the
+    /// error image, mean over the runs, at [`Report::spectrum_frequencies`].
+    pub error_spectrum: Vec<f64>,
     /// LDR-FLIP on the displayed images.
     pub flip: f64,
     pub flip_ci95: Option<f64>,
@@ -253,6 +264,8 @@ pub struct Report {
     pub note: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub region: Option<Region>,
+    /// The frequencies (cycles per pixel) of the rows' `error_spectrum`.
+    pub spectrum_frequencies: Vec<f64>,
     pub rows: Vec<Row>,
 }
 
@@ -625,6 +638,8 @@ fn output_files(opts: &CompareOptions) -> Vec<(String, PathBuf)> {
         "convergence.csv",
         "convergence.svg",
         "convergence.png",
+        "spectrum.svg",
+        "spectrum.png",
     ];
     // A sampler sweep has no axis of values: its rows sit side by side in the table.
     if opts.contestants.iter().any(|c| {
@@ -869,11 +884,13 @@ fn run_into(opts: &CompareOptions, loaded: &LoadedScene) -> Result<Report> {
         seed: opts.seed,
         note: opts.note.clone(),
         region: opts.region,
+        spectrum_frequencies: spectrum::frequencies(),
         rows,
     };
     write_tables(&opts.out_dir, &report)?;
     write_convergence_csv(&opts.out_dir, &report)?;
     let convergence = plot::write_convergence_plots(&opts.out_dir, &report)?;
+    let spectrum = plot::write_spectrum_plots(&opts.out_dir, &report)?;
     let plots = if report
         .rows
         .iter()
@@ -884,7 +901,12 @@ fn run_into(opts: &CompareOptions, loaded: &LoadedScene) -> Result<Report> {
         None
     };
     mosaic::write(&opts.out_dir, &report)?;
-    page::write(&opts.out_dir, &report, &convergence, plots.as_deref())?;
+    page::write(
+        &opts.out_dir,
+        &report,
+        (&convergence, &spectrum),
+        plots.as_deref(),
+    )?;
     Ok(report)
 }
 
@@ -894,6 +916,7 @@ const ZTEST_MIN_PASSES: u32 = 100;
 /// What one run of a contestant measured.
 struct RunFigures {
     error: stats::LinearError,
+    relmse_robust: f64,
     flip: f64,
     hdrflip: f64,
     psnr: f64,
@@ -913,6 +936,7 @@ fn measure(
 ) -> Result<(Row, usize)> {
     let dir = &opts.out_dir;
     let mut images = stats::RunImages::new(camera.width, camera.height);
+    let mut spectra = spectrum::Spectra::new(camera.width, camera.height);
     let mut figures = Vec::new();
     let mut curves = Vec::new();
     let mut first: Option<(Rendered, Option<usize>)> = None;
@@ -934,8 +958,10 @@ fn measure(
             }
             None => None,
         };
+        spectra.add(&r.film, reference);
         figures.push(RunFigures {
             error: stats::linear_error(&r.film, reference),
+            relmse_robust: stats::robust_relmse(&r.film, reference),
             flip: m.flip,
             hdrflip: metrics::hdr_flip(&r.film, reference).0,
             psnr: m.psnr,
@@ -976,6 +1002,8 @@ fn measure(
         stats::Estimate::of(&figures.iter().map(f).collect::<Vec<f64>>())
     };
     let (mse, relmse) = (of(&|f| f.error.mse), of(&|f| f.error.relmse));
+    let relmse_robust = of(&|f| f.relmse_robust);
+    let variance = images.variance();
     let (flip, hdrflip, time) = (of(&|f| f.flip), of(&|f| f.hdrflip), of(&|f| f.time));
     let mse_raw = of(&|f| f.error.mse_raw).mean;
     let region = opts.region.map(|_| {
@@ -1004,10 +1032,14 @@ fn measure(
         time_ci95: time.ci95,
         mse: mse.mean,
         mse_ci95: mse.ci95,
-        variance: images.variance(),
+        variance,
         bias2: images.bias2(reference),
         relmse: relmse.mean,
         relmse_ci95: relmse.ci95,
+        relmse_robust: relmse_robust.mean,
+        relmse_robust_ci95: relmse_robust.ci95,
+        time_to_unit_variance: variance.map(|v| v * time.mean),
+        error_spectrum: spectra.mean(),
         flip: flip.mean,
         flip_ci95: flip.ci95,
         hdrflip: hdrflip.mean,

@@ -88,8 +88,8 @@ fn table(report: &Report) -> String {
         .max_by(f64::total_cmp);
     let mut t = String::from(
         "<table id=\"metrics\"><thead><tr><th>render</th><th>parameters</th><th>runs</th><th>spp</th><th>time (s)</th>\
-         <th>MSE</th><th>variance</th><th>bias²</th><th>relMSE</th><th>FLIP</th><th>HDR-FLIP</th>\
-         <th>efficiency (× best)</th><th>time to target (s)</th><th>slope</th><th>z-test: failing pixels</th>\
+         <th>MSE</th><th>variance</th><th>bias²</th><th>relMSE</th><th>relMSE, 0.1% outliers out</th><th>FLIP</th><th>HDR-FLIP</th>\
+         <th>efficiency (× best)</th><th>time to unit variance (s)</th><th>time to target (s)</th><th>slope</th><th>z-test: failing pixels</th>\
          <th>M rays/s</th><th>mean radiance</th>",
     );
     if let Some(region) = report.region {
@@ -117,7 +117,7 @@ fn table(report: &Report) -> String {
         let _ = write!(
             t,
             "<tr data-label=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
-             <td>{}</td><td>{}</td><td>{}</td><td>{efficiency}</td><td>{reach}</td><td>{}</td><td>{}</td><td>{:.2}</td>\
+             <td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{efficiency}</td><td>{}</td><td>{reach}</td><td>{}</td><td>{}</td><td>{:.2}</td>\
              <td>{:.4}, {:.4}, {:.4}</td>",
             escape(&r.label),
             escape(&r.label),
@@ -129,8 +129,10 @@ fn table(report: &Report) -> String {
             opt(r.variance),
             opt(r.bias2),
             pm(r.relmse, r.relmse_ci95),
+            pm(r.relmse_robust, r.relmse_robust_ci95),
             pm_fixed(r.flip, r.flip_ci95),
             pm_fixed(r.hdrflip, r.hdrflip_ci95),
+            opt(r.time_to_unit_variance),
             r.slope.map_or("–".into(), |s| format!("{s:.2}")),
             r.ztest_failed_pixels
                 .map_or("–".into(), |n| format!("{n} of {}", report.width * report.height)),
@@ -194,7 +196,7 @@ fn fill(template: &str, values: &[(&str, String)]) -> String {
 pub fn write(
     dir: &Path,
     report: &Report,
-    convergence_svg: &str,
+    (convergence_svg, spectrum_svg): (&str, &str),
     sweep_svg: Option<&str>,
 ) -> Result<()> {
     // Every image as radiance, with its error maps.
@@ -234,6 +236,7 @@ pub fn write(
     // Inline SVG needs no namespace; the page names no address at all.
     let inline = |svg: &str| svg.replace(" xmlns=\"http://www.w3.org/2000/svg\"", "");
     let convergence_svg = inline(convergence_svg);
+    let spectrum_svg = inline(spectrum_svg);
     let sweep_svg = sweep_svg.map(inline);
     let sweep = sweep_svg
         .map(|svg| format!("<h2>Sweep</h2><div class=\"plot\">{svg}</div><p>Also as <a href=\"sweep.svg\">sweep.svg</a> and <a href=\"sweep.png\">sweep.png</a>.</p>"))
@@ -280,6 +283,7 @@ pub fn write(
             ("warning", warning),
             ("table", table(report)),
             ("convergence_svg", convergence_svg),
+            ("spectrum_svg", spectrum_svg),
             ("sweep", sweep),
             ("data", data),
         ],

@@ -326,3 +326,88 @@ pub fn write_convergence_plots(dir: &Path, report: &Report) -> Result<String> {
     crate::output::write_png(&dir.join("convergence.png"), &img)?;
     Ok(svg)
 }
+
+const SPECTRUM_SIZE: (u32, u32) = (700, 420);
+
+/// The error spectrum plot: each contestant's radially averaged power spectrum of its error
+/// (mean over runs) against frequency, power on a log axis. Rings with no positive power are
+/// left out.
+fn draw_spectrum<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, report: &Report) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("plot: {e}");
+    root.fill(&WHITE).map_err(err)?;
+    let points = |r: &Row| -> Vec<(f64, f64)> {
+        report
+            .spectrum_frequencies
+            .iter()
+            .zip(&r.error_spectrum)
+            .filter(|(_, p)| **p > 0.0 && p.is_finite())
+            .map(|(f, p)| (*f, *p))
+            .collect()
+    };
+    let (lo, hi) = report
+        .rows
+        .iter()
+        .flat_map(points)
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), (_, p)| {
+            (lo.min(p), hi.max(p))
+        });
+    let (lo, hi) = if lo.is_finite() {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        (1e-6, 1.0)
+    };
+    let mut chart = ChartBuilder::on(&root)
+        .caption("error spectrum (mean over runs)", ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..0.5f64, (lo..hi).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("frequency (cycles per pixel)")
+        .y_desc("power of the error")
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    for (i, r) in report.rows.iter().enumerate() {
+        let c = COLOURS[i % COLOURS.len()];
+        chart
+            .draw_series(LineSeries::new(points(r), c.stroke_width(2)))
+            .map_err(err)?
+            .label(r.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .border_style(BLACK)
+        .background_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Writes `spectrum.svg` and `spectrum.png`; returns the SVG text for the page.
+pub fn write_spectrum_plots(dir: &Path, report: &Report) -> Result<String> {
+    let mut svg = String::new();
+    draw_spectrum(
+        SVGBackend::with_string(&mut svg, SPECTRUM_SIZE).into_drawing_area(),
+        report,
+    )?;
+    super::write_text(&dir.join("spectrum.svg"), &svg)?;
+    let (w, h) = SPECTRUM_SIZE;
+    let mut buffer = vec![0u8; (w * h * 3) as usize];
+    draw_spectrum(
+        BitMapBackend::with_buffer(&mut buffer, SPECTRUM_SIZE).into_drawing_area(),
+        report,
+    )?;
+    let img = image::RgbImage::from_raw(w, h, buffer).expect("buffer matches the plot size");
+    crate::output::write_png(&dir.join("spectrum.png"), &img)?;
+    Ok(svg)
+}

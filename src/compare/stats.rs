@@ -91,6 +91,46 @@ pub fn linear_error(test: &Film, reference: &Film) -> LinearError {
     }
 }
 
+/// The share of pixels whose errors [`robust_relmse`] leaves out: the largest 0.1%.
+pub const OUTLIER_SHARE: f64 = 0.001;
+
+/// relMSE with the largest [`OUTLIER_SHARE`] of the per-pixel errors left out (SeeSharp's
+/// outlier-rejecting relMSE), so that a few fireflies do not rank a method: each pixel's
+/// relative squared error (mean over channels, the reference's noise subtracted), the
+/// largest dropped, the rest averaged.
+pub fn robust_relmse(test: &Film, reference: &Film) -> f64 {
+    let mut errors: Vec<f64> = test
+        .pixels
+        .iter()
+        .zip(&reference.pixels)
+        .enumerate()
+        .map(|(i, (t, r))| {
+            let v = reference.variance[i];
+            (0..3)
+                .map(|c| {
+                    let (t, r) = (t[c] as f64, r[c] as f64);
+                    let noise = if reference.has_variance {
+                        v[c] as f64
+                    } else {
+                        0.0
+                    };
+                    ((t - r) * (t - r) - noise) / (r * r + 0.01)
+                })
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect();
+    if errors.is_empty() {
+        return 0.0;
+    }
+    let dropped = (errors.len() as f64 * OUTLIER_SHARE).ceil() as usize;
+    let kept = errors.len().saturating_sub(dropped).max(1);
+    if kept < errors.len() {
+        errors.select_nth_unstable_by(kept, |a, b| a.total_cmp(b));
+    }
+    errors[..kept].iter().sum::<f64>() / kept as f64
+}
+
 /// The mean over pixels and channels of the reference's variance (0 when it has none).
 pub fn mean_variance(film: &Film) -> f64 {
     if !film.has_variance {
@@ -297,6 +337,21 @@ pub fn time_to_reach(curve: &[CurvePoint], target: f64) -> Option<(f64, bool)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One firefly in a thousand pixels: the robust relMSE leaves it out and sees the rest
+    /// exactly; without outliers it equals the plain relMSE.
+    #[test]
+    fn robust_relmse_leaves_out_the_worst_thousandth() {
+        let mut reference = Film::new(100, 10);
+        reference.pixels.fill(glam::Vec3::splat(1.0));
+        let mut test = reference.clone();
+        test.pixels.fill(glam::Vec3::splat(1.1));
+        let plain = linear_error(&test, &reference).relmse;
+        assert!((robust_relmse(&test, &reference) - plain).abs() < 1e-12);
+        test.pixels[17] = glam::Vec3::splat(1e4);
+        assert!(linear_error(&test, &reference).relmse > 1e3 * plain);
+        assert!((robust_relmse(&test, &reference) - plain).abs() < 1e-9);
+    }
     use glam::Vec3;
 
     #[test]

@@ -28,12 +28,13 @@ pub(super) fn print_row(r: &Row) {
         _ => String::new(),
     };
     note!(
-        "{:<28} {:>7.1} spp {:>8.2} s  MSE {}  relMSE {:.4}  FLIP {:.4}  HDR-FLIP {:.4}{bias}{}{in_region}",
+        "{:<28} {:>7.1} spp {:>8.2} s  MSE {}  relMSE {:.4} (robust {:.4})  FLIP {:.4}  HDR-FLIP {:.4}{bias}{}{in_region}",
         r.label,
         r.spp,
         r.time,
         with_interval(r.mse, r.mse_ci95, 3),
         r.relmse,
+        r.relmse_robust,
         r.flip,
         r.hdrflip,
         r.slope.map_or(String::new(), |s| format!(
@@ -79,12 +80,12 @@ pub(super) fn write_tables(dir: &Path, report: &Report) -> Result<()> {
     write_text(&dir.join("metrics.json"), &json)?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = String::from(
-        "label,integrator,params,sampler,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,slope_relmse,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip\n",
+        "label,integrator,params,sampler,swept_param,swept_value,runs,spp,time,time_ci95,mse,mse_ci95,variance,bias2,relmse,relmse_ci95,flip,flip_ci95,hdrflip,hdrflip_ci95,efficiency,time_to_target,time_to_target_extrapolated,slope,slope_relmse,rmse,psnr,reference_share,ztest_failed_pixels,rays_camera,rays_extension,rays_shadow,rays_light,rays_connection,rays_per_s,samples_per_s,mean_r,mean_g,mean_b,region_mse,region_mse_ci95,region_relmse,region_flip,relmse_robust,relmse_robust_ci95,time_to_unit_variance\n",
     );
     for r in &report.rows {
         let _ = writeln!(
             csv,
-            "{},{},\"{}\",{},{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{}",
+            "{},{},\"{}\",{},{},{},{},{:.2},{:.4},{},{:.6e},{},{},{},{:.6e},{},{:.6},{},{:.6},{},{},{},{},{},{},{:.6e},{:.3},{},{},{},{:.0},{:.0},{:.6},{:.6},{:.6},{},{:.6e},{},{}",
             r.label,
             r.integrator,
             r.params,
@@ -126,7 +127,10 @@ pub(super) fn write_tables(dir: &Path, report: &Report) -> Result<()> {
                 opt(m.mse_ci95),
                 m.relmse,
                 m.flip
-            ))
+            )),
+            r.relmse_robust,
+            opt(r.relmse_robust_ci95),
+            opt(r.time_to_unit_variance),
         );
     }
     write_text(&dir.join("metrics.csv"), &csv)

@@ -144,7 +144,10 @@ fn compare_writes_images_metrics_mosaic_and_a_working_page() {
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     let rows = json["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 2);
-    assert_eq!(rows[1]["params"], "max-depth=4 rr-depth=3");
+    assert_eq!(
+        rows[1]["params"],
+        "max-depth=4 rr-depth=3 light-selection=scene"
+    );
     // Path tracing is closer to the reference than Whitted's direct light on every metric.
     let m = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
     for k in ["mse", "rmse", "relmse", "flip", "hdrflip"] {
@@ -295,6 +298,8 @@ fn contestants_carry_their_own_sampler() {
                 "direct@zsobol",
                 "-p",
                 "direct@zsobol.bsdf-samples=2",
+                "--runs",
+                "2",
             ],
             &out,
         ),
@@ -310,6 +315,24 @@ fn contestants_carry_their_own_sampler() {
             .unwrap_or_else(|| panic!("{label}: {json}"))
     };
     assert_eq!(row("direct")["sampler"], "independent");
+    // The sampling literature's figures beside the others: relMSE without the 0.1% worst
+    // pixels (no larger than with them), time to unit variance (two runs), the error
+    // spectrum at its frequencies, and its plot.
+    let frequencies = json["spectrum_frequencies"].as_array().unwrap().len();
+    for r in rows {
+        assert!(
+            r["relmse_robust"].as_f64().unwrap() <= r["relmse"].as_f64().unwrap() + 1e-12,
+            "{r}"
+        );
+        assert!(r["time_to_unit_variance"].as_f64().unwrap() > 0.0, "{r}");
+        let spectrum = r["error_spectrum"].as_array().unwrap();
+        assert_eq!(spectrum.len(), frequencies);
+        assert!(spectrum.iter().all(|p| p.as_f64().unwrap() >= 0.0));
+    }
+    assert!(out.join("spectrum.svg").exists() && out.join("spectrum.png").exists());
+    assert!(std::fs::read_to_string(out.join("index.html"))
+        .unwrap()
+        .contains("<h2>Error spectrum</h2>"));
     assert_eq!(row("direct@zsobol")["sampler"], "zsobol");
     assert!(row("direct@zsobol")["params"]
         .as_str()

@@ -44,7 +44,7 @@ impl RayIntegrator for Direct {
         // One light sample, if the surface can reflect it (perfect mirrors and glass cannot).
         let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
         if !sp.material.is_specular() {
-            l += sample_one_light(&sp, false, tracer, sampler);
+            l += sample_one_light(&sp, false, None, tracer, sampler);
         }
         l
     }

@@ -222,12 +222,17 @@ fn states_lights_samplers_and_uvs_follow_pbrt_v4() {
     assert!(ron.contains("sampler: \"zsobol\""), "{ron}");
     // So is its light sampler, the BVH; an Integrator's lightsampler chooses another.
     assert!(ron.contains("light_selection: bvh"), "{ron}");
-    let text = format!("Integrator \"path\" \"string lightsampler\" \"power\"\nWorldBegin\n{quad}\n");
+    let text =
+        format!("Integrator \"path\" \"string lightsampler\" \"power\"\nWorldBegin\n{quad}\n");
     let ron = convert(&text, false).unwrap().ron().unwrap();
     assert!(!ron.contains("light_selection"), "{ron}");
-    let text = format!("Integrator \"path\" \"string lightsampler\" \"random\"\nWorldBegin\n{quad}\n");
+    let text =
+        format!("Integrator \"path\" \"string lightsampler\" \"random\"\nWorldBegin\n{quad}\n");
     let err = convert(&text, false).unwrap_err();
-    assert!(err.1 == 1 && err.3.contains("lightsampler \"random\""), "{err:?}");
+    assert!(
+        err.1 == 1 && err.3.contains("lightsampler \"random\""),
+        "{err:?}"
+    );
     for (pbrt, raylab) in [
         ("halton", "halton"),
         ("paddedsobol", "sobol"),
