@@ -370,3 +370,99 @@ fn light_path_integrators_agree_with_path_under_every_kind_of_light() {
         }
     }
 }
+
+/// The image mean of `scene` (24x24) by `integrator` with `params`, its standard error per
+/// channel beside it.
+fn mean_with(
+    built: &raylab::scene::RenderScene,
+    loaded: &raylab::scene::LoadedScene,
+    integrator: &str,
+    params: &[(&str, &str)],
+    seed: u64,
+) -> ([f64; 3], [f64; 3]) {
+    let camera = loaded.camera.with_resolution(24, 24);
+    let given: Vec<(String, String)> = params
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    let mut it = raylab_integrators::registry::find(integrator)
+        .unwrap()
+        .instantiate(&given)
+        .unwrap();
+    let settings = raylab::render::RenderSettings::fixed(64, seed, None);
+    let film = raylab::render::render(built, &camera, it.as_mut(), &settings)
+        .unwrap()
+        .0;
+    let (m, s) = (film.mean(), film.mean_standard_error());
+    (
+        [m[0] as f64, m[1] as f64, m[2] as f64],
+        [s[0] as f64, s[1] as f64, s[2] as f64],
+    )
+}
+
+/// Every light selection agrees with `power` by a z-test on the image mean of every shipped
+/// scene (`path`, or `volpath` where there are media), and ReSTIR (with and without reuse)
+/// with `direct`'s light samples on the hall of lamps.
+#[test]
+fn every_light_selection_agrees_with_power_on_every_shipped_scene() {
+    let z_ok = |a: ([f64; 3], [f64; 3]), b: ([f64; 3], [f64; 3]), what: &str| {
+        for c in 0..3 {
+            let se = (a.1[c] * a.1[c] + b.1[c] * b.1[c]).sqrt();
+            let z = (a.0[c] - b.0[c]) / se.max(1e-12);
+            assert!(
+                z.abs() < 4.5,
+                "{what}, channel {c}: {} vs {} (z {z:.2})",
+                a.0[c],
+                b.0[c]
+            );
+        }
+    };
+    let mut scenes: Vec<_> = std::fs::read_dir(crate::common::repo_file("scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron") && !p.ends_with("suite.ron"))
+        .collect();
+    scenes.sort();
+    assert!(scenes.len() >= 15, "{scenes:?}");
+    for path in &scenes {
+        let loaded =
+            raylab::scene::load_scene(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let built = raylab::scene::RenderScene::build(&loaded);
+        let integrator = if built.has_media() { "volpath" } else { "path" };
+        let power = mean_with(
+            &built,
+            &loaded,
+            integrator,
+            &[("max-depth", "5"), ("light-selection", "power")],
+            1,
+        );
+        for selection in ["uniform", "bvh"] {
+            let other = mean_with(
+                &built,
+                &loaded,
+                integrator,
+                &[("max-depth", "5"), ("light-selection", selection)],
+                2,
+            );
+            z_ok(
+                power,
+                other,
+                &format!("{} {integrator} {selection}", path.display()),
+            );
+        }
+    }
+    let hall =
+        raylab::scene::load_scene(&crate::common::repo_file("scenes/hall_of_lamps.ron")).unwrap();
+    let built = raylab::scene::RenderScene::build(&hall);
+    let direct = mean_with(
+        &built,
+        &hall,
+        "direct",
+        &[("bsdf-samples", "0"), ("light-selection", "bvh")],
+        3,
+    );
+    for neighbours in ["0", "4"] {
+        let restir = mean_with(&built, &hall, "restir", &[("neighbours", neighbours)], 4);
+        z_ok(direct, restir, &format!("restir, {neighbours} neighbours"));
+    }
+}

@@ -136,6 +136,17 @@ fn every_light_selection_gives_lamberts_irradiance_under_many_lights() {
         checked >= 5,
         "only {checked} integrators choose their lights"
     );
+    // ReSTIR's reuse over the same light set, with and without neighbours.
+    for neighbours in ["0", "4"] {
+        crate::testing::expect_mean_passes(
+            "restir",
+            &[("neighbours", neighbours), ("candidates", "8")],
+            &scene,
+            expected as f32,
+            40,
+            400,
+        );
+    }
 }
 
 /// Lambert's formula against the irradiance integral `∫ cos cos' / d^2 dA` over a square

@@ -20,6 +20,7 @@ mod path;
 mod path_state;
 mod photon;
 mod pssmlt;
+mod restir;
 mod russian_roulette;
 mod sppm;
 mod sppm_pixel;

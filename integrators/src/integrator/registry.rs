@@ -443,6 +443,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::russian_roulette::ENTRY,
     super::path::ENTRY,
     super::direct::ENTRY,
+    super::restir::ENTRY,
     super::light_tracer::ENTRY,
     super::bdpt::ENTRY,
     super::bpm::ENTRY,
