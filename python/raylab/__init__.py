@@ -179,7 +179,8 @@ class Scene:
         the scene's, or open-ended with ``time``), ``time`` (a budget in seconds), ``seed``
         (default: the scene's), ``size`` ``(width, height)``, ``threads`` (default: every
         core; the image does not depend on it), ``params`` (``{"max-depth": 8}``, as ``-p``),
-        ``sampler`` (``"independent"`` or ``"sobol"``; default: the scene's).
+        ``sampler`` (``"independent"``, ``"stratified"``, ``"sobol"``, ``"zsobol"`` or
+        ``"halton"``; default: the scene's).
 
         With ``variance=True`` returns ``(image, variance)``: the per-pixel variance of the
         mean, or ``None`` for a 1-spp render. ``callback(info)`` is called after each pass
@@ -265,14 +266,17 @@ def compare(
 
     ``scene`` is a :class:`Scene` (as it stands, edits included) or a scene file.
     ``contestants`` are integrator names (``["path", "bdpt"]``) or a dict of names to their
-    parameters (``{"path": {}, "bdpt": {"max-depth": 8}}``). Each renders ``runs`` times with
+    parameters (``{"path": {}, "bdpt": {"max-depth": 8}}``); a name may carry its own sampler
+    (``"path@sobol"``), and parameters may be names (``{"path": {"light-selection": "bvh"}}``).
+    Each renders ``runs`` times with
     its own seed under the same budget: ``spp`` samples per pixel (default 16) or ``time``
     seconds each.
 
     ``reference`` is an EXR file, or a render described by a dict of ``integrator`` (default
     ``"path"``), ``params``, and ``spp`` (default 1024) or ``time``; by default ``path`` at
     1024 spp. A rendered reference is cached as the command line caches it. ``sweep`` is a
-    parameter and its values (``("max-depth", [1, 2, 4])``), ``region`` a rectangle ``(x, y,
+    parameter and its values (``("max-depth", [1, 2, 4])``; ``("sampler", ["independent",
+    "sobol"])`` sweeps the sampler), ``region`` a rectangle ``(x, y,
     w, h)`` measured on its own, ``target_error`` the MSE whose time to reach is reported.
 
     Everything the command writes (the page, images, ``metrics.json``) goes into ``out``,
@@ -389,7 +393,7 @@ class Comparison:
         import pandas as pd
 
         points = [
-            {"label": row["label"], "frequency": f, "power": p}
+            {"label": row["label"], "frequency": f, "power": float("nan") if p is None else p}
             for row in self.rows
             for f, p in zip(self.report["spectrum_frequencies"], row["error_spectrum"])
         ]

@@ -139,8 +139,9 @@ pub struct RenderDesc {
     /// default). Integrators with a `light-selection` parameter may choose another.
     #[serde(default, skip_serializing_if = "LightSelection::is_power")]
     pub light_selection: LightSelection,
-    /// How camera samples draw their numbers: `"independent"` (the default) or `"sobol"`
-    /// (Owen-scrambled, padded Sobol points).
+    /// How camera samples draw their numbers: `"independent"` (the default), `"stratified"`,
+    /// `"sobol"` (Owen-scrambled, padded Sobol points), `"zsobol"` (pbrt-v4's default) or
+    /// `"halton"` (see `--sampler`).
     #[serde(
         default,
         deserialize_with = "sampler_name",

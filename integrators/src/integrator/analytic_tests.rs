@@ -136,6 +136,9 @@ fn every_light_selection_gives_lamberts_irradiance_under_many_lights() {
         checked >= 5,
         "only {checked} integrators choose their lights"
     );
+    // An inward-emitting sphere light (pbrt-v4's furnace): emission and one bounce of it.
+    let furnace = crate::testing::furnace_emitting_sphere(0.5, 1.0);
+    crate::testing::expect_mean_passes("restir", &[("candidates", "4")], &furnace, 1.5, 40, 400);
     // ReSTIR's reuse over the same light set, with and without neighbours.
     for neighbours in ["0", "4"] {
         crate::testing::expect_mean_passes(

@@ -90,7 +90,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 /// A point on a light, kept where it lies so that it can be seen from other points.
 #[derive(Clone, Copy, Debug)]
 enum LightPoint {
-    /// A point `q` of an area light, with the light's normal there: area measure.
+    /// A point `q` of an area light, with the normal its emission is evaluated with there
+    /// ([`surface_normal`]): area measure.
     Area { light: u32, q: Vec3A, n: Vec3A },
     /// A point light, spot, projector or sun: nothing to choose on it (counting measure).
     Delta { light: u32 },
@@ -241,7 +242,7 @@ fn candidate(
         }
         _ if ls.delta => (LightPoint::Delta { light }, pmf),
         _ => {
-            let n = l.emitting_normal_at(ls.point);
+            let n = surface_normal(l, ls.point);
             let cos = n.dot(ls.wi).abs();
             if !(cos > 0.0) {
                 return None;
@@ -258,6 +259,16 @@ fn candidate(
             )
         }
     })
+}
+
+/// The normal a light's `emitted_at` takes at its point `q`: a hit's geometric normal, which
+/// for a sphere is the outward one whatever side it emits from (the light flips it itself),
+/// and the emitting normal for the others.
+fn surface_normal(light: &Light, q: Vec3A) -> Vec3A {
+    match light {
+        Light::Sphere(s) => (q - s.center).normalize_or_zero(),
+        _ => light.emitting_normal_at(q),
+    }
 }
 
 /// Resampled importance sampling at `sp`: one of `m` candidates, drawn with `next`.
@@ -367,7 +378,8 @@ impl Integrator for Restir {
         }
         let own = build_reservoir(&sp, scene, self.candidates, || sampler.next_1d());
         // The reservoirs to combine: the pixel's own, then its neighbours' (drawn in a disk
-        // of `radius` pixels, each at most once, never the pixel itself).
+        // of `radius` pixels, never the pixel itself; one may be drawn twice, which wastes a
+        // slot and keeps the estimate unbiased).
         let mut pool: arrayvec::ArrayVec<(Option<ShadingPoint>, Reservoir), 65> =
             arrayvec::ArrayVec::new();
         pool.push((None, own));

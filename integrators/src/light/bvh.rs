@@ -204,7 +204,7 @@ impl LightBounds {
         LightBounds {
             lo: a.lo.min(b.lo),
             hi: a.hi.max(b.hi),
-            phi: a.phi + b.phi,
+            phi: (a.phi + b.phi).min(f32::MAX),
             w: cone.w,
             cos_theta_o: cone.cos_theta,
             cos_theta_e: a.cos_theta_e.min(b.cos_theta_e),
@@ -412,7 +412,7 @@ impl LightBvh {
             if ia <= 0.0 && ib <= 0.0 {
                 return None;
             }
-            let pa = ia / (ia + ib);
+            let pa = share(ia, ib);
             if u < pa {
                 u = (u / pa).min(1.0 - f32::EPSILON / 2.0);
                 pmf *= pa;
@@ -455,9 +455,9 @@ impl LightBvh {
                 return 0.0;
             }
             let p = if at == a {
-                ia / (ia + ib)
+                share(ia, ib)
             } else {
-                1.0 - ia / (ia + ib)
+                1.0 - share(ia, ib)
             };
             if n < ratios.len() {
                 ratios[n] = p;
@@ -476,6 +476,13 @@ impl LightBvh {
         }
         pmf
     }
+}
+
+/// The first child's share of a walk, `a / (a + b)`, in f64 so that two importances at the
+/// top of f32's range do not overflow their sum.
+#[inline]
+fn share(a: f32, b: f32) -> f32 {
+    (f64::from(a) / (f64::from(a) + f64::from(b))) as f32
 }
 
 /// Orders `items` for a split of the node `bounds` bounds and returns where it falls: the

@@ -116,7 +116,11 @@ pub struct LightTable {
     lights: Vec<Light>,
     power: Pick,
     uniform: Pick,
-    bvh: LightBvh,
+    /// Each light's power, which the BVH is built from.
+    powers: Vec<f64>,
+    /// Built the first time a light is chosen by it: a scene whose integrators never ask
+    /// pays nothing for it.
+    bvh: std::sync::OnceLock<LightBvh>,
     /// The scene's selection, which integrators use unless they choose another.
     selection: LightSelection,
     environment: Option<u32>,
@@ -163,8 +167,9 @@ impl LightTable {
             .position(Light::is_environment)
             .and_then(|i| u32::try_from(i).ok());
         LightTable {
-            bvh: LightBvh::new(&lights, &powers),
+            bvh: std::sync::OnceLock::new(),
             power: Pick::new(&powers),
+            powers,
             uniform: Pick::new(&uniform),
             lights,
             selection,
@@ -230,7 +235,7 @@ impl LightTable {
         match choice.unwrap_or(self.selection) {
             LightSelection::Uniform => self.uniform.sample(u),
             LightSelection::Power => self.power.sample(u),
-            LightSelection::Bvh => self.bvh.sample(ctx, u),
+            LightSelection::Bvh => self.bvh().sample(ctx, u),
         }
     }
 
@@ -240,8 +245,14 @@ impl LightTable {
         match choice.unwrap_or(self.selection) {
             LightSelection::Uniform => self.uniform.pmf[index as usize],
             LightSelection::Power => self.power.pmf[index as usize],
-            LightSelection::Bvh => self.bvh.pmf(ctx, index),
+            LightSelection::Bvh => self.bvh().pmf(ctx, index),
         }
+    }
+
+    /// The light BVH, built on first use.
+    fn bvh(&self) -> &LightBvh {
+        self.bvh
+            .get_or_init(|| LightBvh::new(&self.lights, &self.powers))
     }
 
     /// Index of the environment light, if the scene has one.

@@ -47,7 +47,7 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
 /// Every pair is then a (0, 2)-sequence over the pixel's samples, which the higher dimensions
 /// of one Sobol table are not.
 pub(super) struct PaddedSobol {
-    index: u32,
+    index: u64,
     /// The pixel's scramble.
     seed: u32,
     /// The scramble of the pair in progress (set at its first coordinate).
@@ -58,7 +58,7 @@ pub(super) struct PaddedSobol {
 impl PaddedSobol {
     pub(super) fn new(seed: u64, pixel: u64, sample: u64) -> Self {
         PaddedSobol {
-            index: u32::try_from(sample).unwrap_or(u32::MAX),
+            index: sample,
             seed: mix64(seed ^ mix64(pixel.wrapping_add(0x632b_e59b_d9b4_e019))) as u32,
             pair_seed: 0,
             dimension: 0,
@@ -77,10 +77,10 @@ impl PaddedSobol {
             self.pair_seed = if pair == 0 && block == 0 {
                 self.seed
             } else {
-                self.seed ^ (mix64(u64::from(pair) << 32 | u64::from(block)) as u32)
+                self.seed ^ (mix64((u64::from(pair) << 32) | block) as u32)
             };
         }
-        sobol_burley::sample(self.index & 0xffff, d % 2, self.pair_seed)
+        sobol_burley::sample((self.index & 0xffff) as u32, d % 2, self.pair_seed)
     }
 
     /// Starts the next pair, so that a 2-D point's coordinates are one pair's.
@@ -156,10 +156,18 @@ impl ZSobol {
         spp: Option<u32>,
     ) -> Self {
         let per_pixel = spp.unwrap_or(1024).max(1);
-        let log2_spp = per_pixel.next_power_of_two().trailing_zeros();
-        let resolution = width.max(height).max(1).next_power_of_two();
+        let log2_spp = per_pixel
+            .checked_next_power_of_two()
+            .map_or(32, u32::trailing_zeros);
+        // The Morton code holds 16 bits of each coordinate (images up to 65536 on a side).
+        let resolution_bits = width
+            .max(height)
+            .max(1)
+            .checked_next_power_of_two()
+            .map_or(32, u32::trailing_zeros)
+            .min(16);
         let log4_spp = log2_spp.div_ceil(2);
-        let base4_digits = resolution.trailing_zeros() + log4_spp;
+        let base4_digits = resolution_bits + log4_spp;
         let block = sample >> log2_spp;
         let within = sample & ((1u64 << log2_spp) - 1);
         let morton = spread_bits(x) | (spread_bits(y) << 1);

@@ -163,7 +163,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                             format!("sample_count {n}: it must be 1 to {}", u32::MAX),
                         ));
                     }
-                    s.finish(&["seed", "jitter", "scramble_seed"])?;
+                    s.finish(&["seed", "jitter", "scramble_seed", "strength", "scramble"])?;
                 }
                 tag => {
                     return Err(at(
@@ -287,7 +287,6 @@ impl<'a, 'input> Converter<'a, 'input> {
         }
     }
 
-    /// The sensor's film filter and sample count, as render settings.
     /// The raylab sampler for a `<sampler>`: Mitsuba's own where raylab has it (Mitsuba 3's,
     /// and 0.6's `sobol` and `halton`, which older scenes name), the nearest stratified or
     /// low-discrepancy one where not, said in the report: a sampler changes the noise, not
@@ -318,6 +317,7 @@ impl<'a, 'input> Converter<'a, 'input> {
         Ok(kind)
     }
 
+    /// The sensor's film filter and sample count, as render settings.
     pub(super) fn sensor_settings(
         &mut self,
         node: Node<'a, 'input>,
