@@ -39,7 +39,8 @@ for integrator in direct path; do
 done
 
 # The light axis on direct light (what ReSTIR estimates): light samples only, picked
-# uniformly, by power, by the light BVH, and ReSTIR (8 candidates, 4 neighbours), against
+# uniformly, by power, by the light BVH, and ReSTIR (its defaults: 8 candidates, 4
+# neighbours), against
 # one reference.
 for budget in "--spp 64" "--time 4"; do
   out=$O/hall-${budget// /}
@@ -50,7 +51,7 @@ for budget in "--spp 64" "--time 4"; do
     -o "$out" -q
   table "$out/metrics.json"
   # shellcheck disable=SC2086
-  $R compare scenes/hall_of_lamps.ron -i restir -p restir.candidates=8 $budget --runs 4 \
+  $R compare scenes/hall_of_lamps.ron -i restir $budget --runs 4 \
     --size 160x100 --reference "$out/reference.exr" -o "$out-restir" -q
   table "$out-restir/metrics.json"
 done

@@ -38,12 +38,15 @@ fn every_entry_gives_what_it_declares_for_a_convex_ball_under_a_sky() {
     check(&sphere_under_sky(0.6, 2.0), |a| a.sphere_under_sky);
 }
 
+/// What an entry declares for one of the testing kit's scenes.
+type Declared = fn(&Analytic) -> Option<Expect>;
+
 /// Every entry gives what it declares for the point light in a sphere (pbrt-v4's analytic
 /// scene: exactly 1) and for the ball under a sky (direct light and a bounce: a smooth
 /// integrand) with camera samples drawn by `kind`. The Metropolis integrators draw from their
 /// chains whatever the sampler says, so they pass as they do.
 fn check_sampled(kind: SamplerKind) {
-    let scenes: [(TestScene, fn(&Analytic) -> Option<Expect>); 2] = [
+    let scenes: [(TestScene, Declared); 2] = [
         (point_in_sphere(0.5), |a| a.point_in_sphere),
         (sphere_under_sky(0.6, 2.0), |a| a.sphere_under_sky),
     ];

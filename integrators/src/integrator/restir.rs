@@ -16,7 +16,7 @@
 //! shadow ray tests the chosen sample. Reused light points keep their place on the light
 //! (area measure), so no Jacobian enters.
 //!
-//! **Parameters**: `candidates` (light samples per reservoir, default 32), `neighbours`
+//! **Parameters**: `candidates` (light samples per reservoir, default 8), `neighbours`
 //! (reservoirs reused, default 4; 0 is plain resampled importance sampling), `radius`
 //! (pixels, default 16).
 //! **Bias**: none. The targets leave out visibility, which only the final shadow ray tests;
@@ -44,7 +44,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         ParamSpec {
             name: "candidates",
             kind: ParamKind::Int,
-            default: 32.0,
+            default: 8.0,
             min: 1.0,
             max: 4096.0,
             doc: "light samples a reservoir chooses from",
@@ -108,7 +108,7 @@ impl LightPoint {
             LightPoint::Area { light, q, n } => {
                 let d = q - x;
                 let d2 = d.length_squared();
-                if !(d2 > 0.0) {
+                if d2.is_nan() || d2 <= 0.0 {
                     return None;
                 }
                 let dist = d2.sqrt();
@@ -233,7 +233,7 @@ fn candidate(
     let (light, pmf) = lights.sample(u_light)?;
     let l = lights.get(light);
     let ls = l.sample_li(sp.hit.p, u)?;
-    if !(ls.pdf > 0.0) {
+    if ls.pdf.is_nan() || ls.pdf <= 0.0 {
         return None;
     }
     Some(match l {
@@ -244,7 +244,7 @@ fn candidate(
         _ => {
             let n = surface_normal(l, ls.point);
             let cos = n.dot(ls.wi).abs();
-            if !(cos > 0.0) {
+            if cos.is_nan() || cos <= 0.0 {
                 return None;
             }
             // Solid angle at the point into area on the light.
@@ -410,7 +410,7 @@ impl Integrator for Restir {
         for i in 0..pool.len() {
             let Some(y) = pool[i].1.y else { continue };
             let here = target(&sp, &y, scene);
-            if !(here > 0.0) {
+            if here.is_nan() || here <= 0.0 {
                 continue;
             }
             let (mut mine, mut all) = (0.0f32, 0.0f32);
@@ -426,7 +426,7 @@ impl Integrator for Restir {
                     mine = weighted;
                 }
             }
-            if !(all > 0.0) {
+            if all.is_nan() || all <= 0.0 {
                 continue;
             }
             let w = mine / all * here * pool[i].1.contribution_weight();

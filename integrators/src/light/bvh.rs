@@ -114,7 +114,10 @@ impl LightBounds {
     /// The bounds of `light` with power `phi`; `None` for lights at infinity (and lights
     /// without power, which are never chosen).
     pub fn of(light: &Light, phi: f64) -> Option<LightBounds> {
-        if !(phi > 0.0) || light.is_environment() || matches!(light, Light::Directional(_)) {
+        if (phi.is_nan() || phi <= 0.0)
+            || light.is_environment()
+            || matches!(light, Light::Directional(_))
+        {
             return None;
         }
         let phi = (phi as f32).min(f32::MAX);
