@@ -294,6 +294,35 @@ def test_compare_measures_an_edited_scene_as_it_stands(tmp_path, monkeypatch):
         raylab.compare(scene, ["no-such"], spp=1, out=tmp_path / "c")
 
 
+def test_compare_takes_samplers_and_light_selections_and_gives_the_spectrum(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    result = raylab.compare(
+        CORNELL,
+        {"direct": {"light-selection": "bvh"}, "direct@zsobol": {}},
+        spp=4,
+        runs=2,
+        reference={"spp": 16},
+        size=(24, 20),
+        out=tmp_path / "cmp",
+    )
+    assert result.labels == ["direct", "direct@zsobol"]
+    assert [r["sampler"] for r in result.rows] == ["independent", "zsobol"]
+    assert "light-selection=bvh" in result.rows[0]["params"]
+    assert all(r["time_to_unit_variance"] > 0 for r in result.rows)
+    spectrum = result.error_spectrum()
+    assert set(spectrum["label"]) == {"direct", "direct@zsobol"}
+    assert (spectrum["power"].dropna() >= 0).all() and spectrum["power"].notna().sum() > 32
+    frame = result.to_pandas()
+    assert (frame["relmse_robust"] <= frame["relmse"] + 1e-12).all()
+    # A choice parameter lists what it takes.
+    path = next(e for e in raylab.integrators() if e["name"] == "path")
+    choice = next(p for p in path["params"] if p["name"] == "light-selection")
+    assert choice["kind"] == "choice" and choice["default"] == "scene"
+    assert choice["choices"] == ["scene", "uniform", "power", "bvh"]
+    image = raylab.load(CORNELL).render(spp=2, size=(8, 8), sampler="halton")
+    assert image.shape == (8, 8, 3) and np.isfinite(image).all()
+
+
 def test_the_readmes_example_runs(tmp_path, monkeypatch):
     readme = (ROOT / "README.md").read_text()
     section = readme.split("## From Python", 1)[1]
