@@ -27,6 +27,7 @@ pub mod integrator;
 pub mod light;
 pub mod medium;
 pub mod mlt;
+pub mod named;
 pub mod photon_map;
 pub mod random;
 pub mod sampler;

@@ -7,6 +7,28 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
+/// Draws a plot of `size` with `draw` (generic over the backend) twice, into `NAME.svg` and
+/// `NAME.png` in `dir`; the SVG text.
+macro_rules! write_plots {
+    ($dir:expr, $name:literal, $size:expr, $draw:ident, $report:expr) => {{
+        let mut svg = String::new();
+        $draw(
+            SVGBackend::with_string(&mut svg, $size).into_drawing_area(),
+            $report,
+        )?;
+        super::write_text(&$dir.join(concat!($name, ".svg")), &svg)?;
+        let (w, h) = $size;
+        let mut buffer = vec![0u8; (w * h * 3) as usize];
+        $draw(
+            BitMapBackend::with_buffer(&mut buffer, $size).into_drawing_area(),
+            $report,
+        )?;
+        let img = image::RgbImage::from_raw(w, h, buffer).expect("buffer matches the plot size");
+        crate::output::write_png(&$dir.join(concat!($name, ".png")), &img)?;
+        Ok(svg)
+    }};
+}
+
 const SIZE: (u32, u32) = (1000, 420);
 
 fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, report: &Report) -> Result<()>
@@ -181,21 +203,8 @@ fn axis_positions(rows: &[&Row]) -> (Vec<Option<f64>>, Option<f64>) {
 
 /// Writes `sweep.svg` and `sweep.png`; returns the SVG text for the page.
 pub fn write_sweep_plots(dir: &Path, report: &Report) -> Result<Option<String>> {
-    let mut svg = String::new();
-    draw(
-        SVGBackend::with_string(&mut svg, SIZE).into_drawing_area(),
-        report,
-    )?;
-    super::write_text(&dir.join("sweep.svg"), &svg)?;
-    let mut buffer = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
-    draw(
-        BitMapBackend::with_buffer(&mut buffer, SIZE).into_drawing_area(),
-        report,
-    )?;
-    let img =
-        image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer).expect("buffer matches the plot size");
-    crate::output::write_png(&dir.join("sweep.png"), &img)?;
-    Ok(Some(svg))
+    let svg: Result<String> = (|| write_plots!(dir, "sweep", SIZE, draw, report))();
+    svg.map(Some)
 }
 
 /// The convergence plot: error against time on log-log axes, MSE on the left and relMSE on
@@ -310,21 +319,13 @@ const CONVERGENCE_SIZE: (u32, u32) = (1200, 480);
 
 /// Writes `convergence.svg` and `convergence.png`; returns the SVG text for the page.
 pub fn write_convergence_plots(dir: &Path, report: &Report) -> Result<String> {
-    let mut svg = String::new();
-    draw_convergence(
-        SVGBackend::with_string(&mut svg, CONVERGENCE_SIZE).into_drawing_area(),
-        report,
-    )?;
-    super::write_text(&dir.join("convergence.svg"), &svg)?;
-    let (w, h) = CONVERGENCE_SIZE;
-    let mut buffer = vec![0u8; (w * h * 3) as usize];
-    draw_convergence(
-        BitMapBackend::with_buffer(&mut buffer, CONVERGENCE_SIZE).into_drawing_area(),
-        report,
-    )?;
-    let img = image::RgbImage::from_raw(w, h, buffer).expect("buffer matches the plot size");
-    crate::output::write_png(&dir.join("convergence.png"), &img)?;
-    Ok(svg)
+    write_plots!(
+        dir,
+        "convergence",
+        CONVERGENCE_SIZE,
+        draw_convergence,
+        report
+    )
 }
 
 const SPECTRUM_SIZE: (u32, u32) = (700, 420);
@@ -395,19 +396,5 @@ where
 
 /// Writes `spectrum.svg` and `spectrum.png`; returns the SVG text for the page.
 pub fn write_spectrum_plots(dir: &Path, report: &Report) -> Result<String> {
-    let mut svg = String::new();
-    draw_spectrum(
-        SVGBackend::with_string(&mut svg, SPECTRUM_SIZE).into_drawing_area(),
-        report,
-    )?;
-    super::write_text(&dir.join("spectrum.svg"), &svg)?;
-    let (w, h) = SPECTRUM_SIZE;
-    let mut buffer = vec![0u8; (w * h * 3) as usize];
-    draw_spectrum(
-        BitMapBackend::with_buffer(&mut buffer, SPECTRUM_SIZE).into_drawing_area(),
-        report,
-    )?;
-    let img = image::RgbImage::from_raw(w, h, buffer).expect("buffer matches the plot size");
-    crate::output::write_png(&dir.join("spectrum.png"), &img)?;
-    Ok(svg)
+    write_plots!(dir, "spectrum", SPECTRUM_SIZE, draw_spectrum, report)
 }

@@ -28,26 +28,14 @@ impl LightSelection {
         ("bvh", LightSelection::Bvh),
     ];
 
+    /// The selection's name, as `light-selection` takes it.
     pub fn name(self) -> &'static str {
-        Self::ALL
-            .iter()
-            .find(|(_, k)| *k == self)
-            .map_or("power", |(n, _)| n)
+        crate::named::name_of(&Self::ALL, self)
     }
 
     /// The selection named `name`.
     pub fn parse(name: &str) -> Result<LightSelection, String> {
-        Self::ALL
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(_, k)| *k)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Self::ALL.iter().map(|(n, _)| *n).collect();
-                format!(
-                    "no light selection `{name}`; light selections: {}",
-                    names.join(", ")
-                )
-            })
+        crate::named::parse_named(&Self::ALL, name, ("light selection", "light selections"))
     }
 }
 

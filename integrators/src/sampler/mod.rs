@@ -86,22 +86,12 @@ impl SamplerKind {
 
     /// The kind's name, as `--sampler` takes it.
     pub fn name(self) -> &'static str {
-        Self::ALL
-            .iter()
-            .find(|(_, k)| *k == self)
-            .map_or("independent", |(n, _)| n)
+        crate::named::name_of(&Self::ALL, self)
     }
 
     /// The kind named `name`.
     pub fn parse(name: &str) -> Result<SamplerKind, String> {
-        Self::ALL
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(_, k)| *k)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Self::ALL.iter().map(|(n, _)| *n).collect();
-                format!("no sampler `{name}`; samplers: {}", names.join(", "))
-            })
+        crate::named::parse_named(&Self::ALL, name, ("sampler", "samplers"))
     }
 }
 
