@@ -655,7 +655,30 @@ mod tests {
             parse_selection(br#"{"integrator": "whitted", "params": {"max-depth": 3}}"#).unwrap();
         assert_eq!(ok.integrator.as_deref(), Some("whitted"));
         assert_eq!(ok.params, vec![("max-depth".to_string(), "3".to_string())]);
+        assert_eq!(ok.sampler, None);
+        // The page's sampler menu and a choice parameter's menu.
+        let ok = parse_selection(
+            br#"{"integrator": "path", "params": {"light-selection": "bvh"}, "sampler": "zsobol"}"#,
+        )
+        .unwrap();
+        assert_eq!(ok.sampler, Some(SamplerKind::ZSobol));
+        assert_eq!(
+            ok.params,
+            vec![("light-selection".to_string(), "bvh".to_string())]
+        );
         for (body, expected) in [
+            (
+                &br#"{"integrator": "path", "sampler": "pmj"}"#[..],
+                "no sampler `pmj`",
+            ),
+            (
+                br#"{"integrator": "path", "sampler": 2}"#,
+                "`sampler` must be a string",
+            ),
+            (
+                br#"{"integrator": "path", "params": {"light-selection": "best"}}"#,
+                "`best` is not one of scene, uniform, power, bvh",
+            ),
             (
                 &br#"{"integrator": "nope"}"#[..],
                 "unknown integrator `nope`",
