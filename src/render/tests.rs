@@ -132,6 +132,31 @@ fn image_does_not_depend_on_thread_count() {
     assert_eq!(a, c);
 }
 
+/// Every sampler, and `restir` (whose pass builds reservoirs for the whole image in
+/// parallel), renders the same image at any thread count.
+#[test]
+fn every_sampler_and_restir_are_independent_of_the_thread_count() {
+    let (s, cam) = scene();
+    for (name, kind) in raylab_integrators::sampler::SamplerKind::ALL {
+        let with = |threads| RenderSettings {
+            sampler: kind,
+            ..settings(4, threads)
+        };
+        let mut path = path_tracer();
+        let (a, _) = render(&s, &cam, path.as_mut(), &with(1)).unwrap();
+        let (b, _) = render(&s, &cam, path.as_mut(), &with(3)).unwrap();
+        assert_eq!(a, b, "{name}");
+    }
+    let mut restir = raylab_integrators::find("restir")
+        .unwrap()
+        .instantiate(&[])
+        .unwrap();
+    let (a, _) = render(&s, &cam, restir.as_mut(), &settings(3, 1)).unwrap();
+    let (b, _) = render(&s, &cam, restir.as_mut(), &settings(3, 3)).unwrap();
+    assert!(a.pixels.iter().any(|p| p.x > 0.0));
+    assert_eq!(a, b);
+}
+
 /// A light-path stand-in: returns nothing for its own sample and splats radiance at
 /// film positions of its own choosing (a random one, and always the image's centre).
 struct Splatter;
