@@ -203,18 +203,8 @@ fn contribution(
         return None;
     }
     let (ls, measure) = y.seen_from(scene.lights(), sp.hit.p)?;
-    if ls.radiance == Rgb::ZERO
-        || !crate::integrator::stays_on_viewer_side(
-            &sp.material,
-            sp.hit.ng,
-            sp.frame.to_world(sp.wo),
-            ls.wi,
-        )
-    {
-        return None;
-    }
-    let wi = sp.frame.to_local(ls.wi);
-    let c = sp.material.eval(sp.wo, wi) * ls.radiance * (wi.z.abs() * measure);
+    let (f, cos, _) = sp.reflect(&ls, false)?;
+    let c = f * ls.radiance * (cos * measure);
     (c.is_finite() && c != Rgb::ZERO).then_some((c, ls))
 }
 

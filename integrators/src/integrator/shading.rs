@@ -167,15 +167,31 @@ impl<'a> ShadingPoint<'a> {
             return None;
         }
         let ls = tracer.scene.lights().get(index).sample_li(self.hit.p, u)?;
-        if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+        if ls.pdf <= 0.0 {
             return None;
         }
-        if !stays_on_viewer_side(
-            &self.material,
-            self.hit.ng,
-            self.frame.to_world(self.wo),
-            ls.wi,
-        ) {
+        let (f, cos, pdf) = self.reflect(&ls, bsdf_pdf)?;
+        if !tracer.unoccluded(&self.hit, &ls) {
+            return None;
+        }
+        Some((ls, f, cos, pdf))
+    }
+
+    /// What the point reflects towards the viewer of light arriving as `ls` says (before
+    /// any shadow ray): the BSDF value, `|cos|` and, with `bsdf_pdf`, the BSDF's density
+    /// towards it (0 without). `None` when nothing arrives or is reflected: black light, a
+    /// direction across an opaque surface, a zero BSDF. The caller checks that the light can
+    /// reach the point ([`ShadingPoint::can_receive`]).
+    #[inline]
+    pub fn reflect(&self, ls: &LightSample, bsdf_pdf: bool) -> Option<(Rgb, f32, f32)> {
+        if ls.radiance == Rgb::ZERO
+            || !stays_on_viewer_side(
+                &self.material,
+                self.hit.ng,
+                self.frame.to_world(self.wo),
+                ls.wi,
+            )
+        {
             return None;
         }
         let wi = self.frame.to_local(ls.wi);
@@ -184,10 +200,7 @@ impl<'a> ShadingPoint<'a> {
         } else {
             (self.material.eval(self.wo, wi), 0.0)
         };
-        if f == Rgb::ZERO || !tracer.unoccluded(&self.hit, &ls) {
-            return None;
-        }
-        Some((ls, f, wi.z.abs(), pdf))
+        (f != Rgb::ZERO).then_some((f, wi.z.abs(), pdf))
     }
 }
 

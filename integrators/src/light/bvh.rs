@@ -282,14 +282,15 @@ impl LightBounds {
     }
 }
 
-/// A node: its bounds and either two children or one light.
+/// A node: its bounds and either two children or one light. Nodes are stored depth first:
+/// an interior node's first child is the next node, its second child's subtree follows the
+/// first's.
 #[derive(Clone, Copy, Debug)]
 struct Node {
     bounds: LightBounds,
-    /// A leaf's light, or an interior node's second child (its first is the next node).
+    /// A leaf's light, or an interior node's second child.
     index: u32,
     leaf: bool,
-    parent: u32,
 }
 
 /// The tree over a scene's bounded lights, and its lights at infinity.
@@ -329,13 +330,13 @@ impl LightBvh {
             infinite,
         };
         if !bounded.is_empty() {
-            bvh.build(&mut bounded, u32::MAX, 0);
+            bvh.build(&mut bounded, 0);
         }
         bvh
     }
 
-    /// Builds the subtree of `items` under `parent`, `depth` levels down; returns its node.
-    fn build(&mut self, items: &mut [(u32, LightBounds)], parent: u32, depth: u32) -> u32 {
+    /// Builds the subtree of `items`, `depth` levels down; returns its node.
+    fn build(&mut self, items: &mut [(u32, LightBounds)], depth: u32) -> u32 {
         let at = self.nodes.len() as u32;
         let bounds = items
             .iter()
@@ -346,7 +347,6 @@ impl LightBvh {
                 bounds,
                 index: items[0].0,
                 leaf: true,
-                parent,
             });
             self.leaf_of[items[0].0 as usize] = Some(at);
             return at;
@@ -362,11 +362,10 @@ impl LightBvh {
             bounds,
             index: 0,
             leaf: false,
-            parent,
         });
         let (left, right) = items.split_at_mut(mid);
-        self.build(left, at, depth + 1);
-        let second = self.build(right, at, depth + 1);
+        self.build(left, depth + 1);
+        let second = self.build(right, depth + 1);
         self.nodes[at as usize].index = second;
         at
     }
@@ -441,41 +440,25 @@ impl LightBvh {
         if self.nodes[0].bounds.importance(ctx) <= 0.0 {
             return 0.0;
         }
-        // Up from the leaf, the same ratios the walk down took, multiplied from the root
-        // down (as the walk multiplies them) so that both give the same number.
-        let mut ratios = [0.0f32; 64];
-        let (mut n, mut at) = (0usize, leaf);
-        let mut deep: Vec<f32> = Vec::new();
-        while self.nodes[at as usize].parent != u32::MAX {
-            let parent = self.nodes[at as usize].parent;
-            let (a, b) = (parent + 1, self.nodes[parent as usize].index);
+        // The walk down to the leaf, with the ratios `sample` multiplies, in its order: the
+        // leaf lies in the first child's subtree when it precedes the second child.
+        let (mut pmf, mut at) = (tree, 0usize);
+        while !self.nodes[at].leaf {
+            let (a, b) = (at + 1, self.nodes[at].index as usize);
             let (ia, ib) = (
-                self.nodes[a as usize].bounds.importance(ctx),
-                self.nodes[b as usize].bounds.importance(ctx),
+                self.nodes[a].bounds.importance(ctx),
+                self.nodes[b].bounds.importance(ctx),
             );
-            let here = if at == a { ia } else { ib };
-            if here <= 0.0 {
+            let first = (leaf as usize) < b;
+            if (if first { ia } else { ib }) <= 0.0 {
                 return 0.0;
             }
-            let p = if at == a {
+            pmf *= if first {
                 share(ia, ib)
             } else {
                 1.0 - share(ia, ib)
             };
-            if n < ratios.len() {
-                ratios[n] = p;
-            } else {
-                deep.push(p);
-            }
-            n += 1;
-            at = parent;
-        }
-        let mut pmf = tree;
-        for p in deep.iter().rev() {
-            pmf *= p;
-        }
-        for p in ratios[..n.min(64)].iter().rev() {
-            pmf *= p;
+            at = if first { a } else { b };
         }
         pmf
     }
@@ -745,12 +728,18 @@ mod tests {
             .collect();
         let powers: Vec<f64> = (0..n).map(|i| 1.0001f64.powi(i)).collect();
         let bvh = LightBvh::new(&lights, &powers);
-        let depth = |mut at: u32| {
-            let mut d = 0;
-            while bvh.nodes[at as usize].parent != u32::MAX {
-                at = bvh.nodes[at as usize].parent;
+        let depth = |leaf: u32| {
+            let (mut d, mut at) = (0, 0usize);
+            while !bvh.nodes[at].leaf {
+                let second = bvh.nodes[at].index as usize;
+                at = if (leaf as usize) < second {
+                    at + 1
+                } else {
+                    second
+                };
                 d += 1;
             }
+            assert_eq!(at, leaf as usize);
             d
         };
         let deepest = bvh
