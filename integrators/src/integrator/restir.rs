@@ -91,8 +91,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 /// A point on a light, kept where it lies so that it can be seen from other points.
 #[derive(Clone, Copy, Debug)]
 enum LightPoint {
-    /// A point `q` of an area light, with the normal its emission is evaluated with there
-    /// ([`surface_normal`]): area measure.
+    /// A point `q` of an area light, with the light's normal there: area measure.
     Area { light: u32, q: Vec3A, n: Vec3A },
     /// A point light, spot, projector or sun: nothing to choose on it (counting measure).
     Delta { light: u32 },
@@ -114,7 +113,7 @@ impl LightPoint {
                 }
                 let dist = d2.sqrt();
                 let wi = d / dist;
-                let radiance = lights.get(light).emitted_at(q, n, -wi);
+                let radiance = lights.get(light).emitted_from(q, -wi);
                 let sample = LightSample {
                     wi,
                     point: q,
@@ -233,7 +232,7 @@ fn candidate(
         }
         _ if ls.delta => (LightPoint::Delta { light }, pmf),
         _ => {
-            let n = surface_normal(l, ls.point);
+            let n = l.emitting_normal_at(ls.point);
             let cos = n.dot(ls.wi).abs();
             if cos.is_nan() || cos <= 0.0 {
                 return None;
@@ -250,16 +249,6 @@ fn candidate(
             )
         }
     })
-}
-
-/// The normal a light's `emitted_at` takes at its point `q`: a hit's geometric normal, which
-/// for a sphere is the outward one whatever side it emits from (the light flips it itself),
-/// and the emitting normal for the others.
-fn surface_normal(light: &Light, q: Vec3A) -> Vec3A {
-    match light {
-        Light::Sphere(s) => (q - s.center).normalize_or_zero(),
-        _ => light.emitting_normal_at(q),
-    }
 }
 
 /// Resampled importance sampling at `sp`: one of `m` candidates, drawn with `next`.

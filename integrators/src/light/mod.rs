@@ -393,6 +393,17 @@ impl Light {
         }
     }
 
+    /// Radiance leaving point `q` of the light's surface towards `w`: [`Light::emitted_at`]
+    /// with the normal a ray's hit at `q` reports (a sphere's outward one, whichever side it
+    /// emits from; the emitting normal of the others), for a point found by sampling.
+    pub fn emitted_from(&self, q: Vec3A, w: Vec3A) -> Rgb {
+        let n = match self {
+            Light::Sphere(l) => (q - l.center).normalize_or_zero(),
+            _ => self.emitting_normal_at(q),
+        };
+        self.emitted_at(q, n, w)
+    }
+
     /// The emitting normal at the point `q` of the light's surface (what [`Light::pdf_le`]
     /// takes): a flat light's normal, a sphere's or cylinder's normal there on its emitting
     /// side; zero for point, spot and lights at infinity.
