@@ -35,6 +35,7 @@ pub mod sampling;
 pub mod scene;
 pub mod sd_tree;
 pub mod special;
+pub mod spectrum;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod texture;

@@ -19,7 +19,6 @@ pub mod ply;
 pub mod schema;
 pub mod serialized;
 pub mod spectra;
-mod spectra_tables;
 pub mod texture_desc;
 pub mod transform_desc;
 pub mod volume_grid;

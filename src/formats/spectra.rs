@@ -6,7 +6,9 @@
 //! not weighted (so a flat spectrum comes out as the sRGB of equal-energy white, slightly
 //! red).
 
-use super::spectra_tables::{D65, FIRST, STEP, X, Y, Z};
+use raylab_integrators::spectrum::cie::{
+    D65, FIRST, STEP, X, XYZ_TO_SRGB, Y, Y_INTEGRAL as CIE_Y_INTEGRAL, Z,
+};
 
 /// What a spectrum describes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -16,16 +18,6 @@ pub enum Use {
     /// Emitted radiance, intensity or irradiance.
     Emission,
 }
-
-/// The integral of y-bar over the tables' range as Mitsuba 3 computes it.
-const CIE_Y_INTEGRAL: f64 = 106.750_259;
-
-/// XYZ to linear sRGB (D65 white).
-const XYZ_TO_SRGB: [[f64; 3]; 3] = [
-    [3.240479, -1.537150, -0.498535],
-    [-0.969256, 1.875991, 0.041556],
-    [0.055648, -0.204043, 1.057311],
-];
 
 /// A table's value at `nm`, linear between its entries.
 fn table(t: &[f32; 95], nm: f64) -> f64 {

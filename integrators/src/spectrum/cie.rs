@@ -1,7 +1,8 @@
 //! The CIE 1931 2-degree colour matching functions and the CIE standard illuminant D65 at
 //! 5 nm from 360 to 830 nm (the CIE's published tables; D65 divided by 98.9974 so that
 //! its value at 560 nm is 1.0101, as Mitsuba 3 scales it), read between samples by linear
-//! interpolation, for turning spectra into RGB as Mitsuba 3's RGB variants do.
+//! interpolation: what spectra are measured against, in spectral rendering and when the
+//! importers turn spectra into RGB.
 
 /// The wavelength of the first entry, nm.
 pub const FIRST: f64 = 360.0;
@@ -75,3 +76,33 @@ pub const D65: [f32; 95] = [
     0.46888295, 0.5718513, 0.6748196, 0.65753335, 0.64024705, 0.64489967, 0.6495523, 0.6250456,
     0.6005399, 0.5626955, 0.5248521, 0.5525376, 0.58022326, 0.59472764, 0.6092331,
 ];
+
+/// The integral of y-bar over the tables' range as Mitsuba 3 computes it (nm): the `Y` of a
+/// spectrum is its inner product with y-bar divided by this, so a constant spectrum of 1 has
+/// `Y = 1`.
+pub const Y_INTEGRAL: f64 = 106.750_259;
+
+/// CIE XYZ to linear sRGB (Rec. 709 primaries, D65 white), as Mitsuba 3 has it.
+pub const XYZ_TO_SRGB: [[f64; 3]; 3] = [
+    [3.240479, -1.537150, -0.498535],
+    [-0.969256, 1.875991, 0.041556],
+    [0.055648, -0.204043, 1.057311],
+];
+
+/// A table's value at `nm`, linear between its entries and held at its ends.
+#[inline]
+pub fn at(table: &[f32; 95], nm: f32) -> f32 {
+    let x = ((nm - FIRST as f32) / STEP as f32).clamp(0.0, 94.0);
+    let i = (x as usize).min(93);
+    let f = x - i as f32;
+    table[i] * (1.0 - f) + table[i + 1] * f
+}
+
+/// The colour matching functions (x-bar, y-bar, z-bar) at `nm`; zero outside 360-830 nm.
+#[inline]
+pub fn xyz_bar(nm: f32) -> [f32; 3] {
+    if !(FIRST as f32..=(FIRST + 94.0 * STEP) as f32).contains(&nm) {
+        return [0.0; 3];
+    }
+    [at(&X, nm), at(&Y, nm), at(&Z, nm)]
+}

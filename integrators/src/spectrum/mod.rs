@@ -1,0 +1,197 @@
+//! Spectral rendering: the wavelengths a camera sample carries, and colours as spectra at
+//! them (pbrt-v4's `SampledWavelengths`, Mitsuba 3's spectral variants).
+//!
+//! A [`Spectrum`] has three lanes. In RGB mode ([`Wavelengths::Rgb`], the default) they are
+//! linear sRGB's channels and every conversion here is the identity, so RGB renders are
+//! untouched by construction. In spectral mode ([`Wavelengths::sample`]) they are the values
+//! at [`N`] wavelengths: the first (the hero, Wilkie et al. 2014) drawn in proportion to the
+//! visible-light density pbrt-v4 and Mitsuba 3 use, the others at the same primary sample
+//! shifted by `1/N`, so the three are stratified over the visible range. Every BSDF, light and
+//! medium then evaluates its colours at those wavelengths ([`Wavelengths::reflectance`],
+//! [`Wavelengths::illuminant`], [`Wavelengths::unbounded`], or a spectrum given by
+//! wavelength through [`Wavelengths::map`]), and the film turns the sample's spectrum into
+//! XYZ and linear sRGB ([`Wavelengths::to_rgb`]).
+//!
+//! pbrt-v4 and Mitsuba 3 carry four wavelengths; raylab carries three, the lanes its RGB
+//! mode already has, so both modes share one code path through every BSDF, light, medium
+//! and integrator. The estimator is the same with any count; fewer wavelengths show a little
+//! more colour noise per sample.
+//!
+//! A surface whose index of refraction varies with wavelength bends each wavelength its own
+//! way: there only the hero can go on ([`Wavelengths::terminate_secondary`]), as in pbrt-v4.
+
+pub mod cie;
+pub mod upsample;
+
+use crate::{Rgb, Spectrum};
+use glam::Vec3A;
+pub use upsample::RgbSpectrum;
+
+/// The wavelengths a spectral sample carries.
+pub const N: usize = 3;
+
+/// The visible range sampled, nm (the CIE tables' range).
+pub const LAMBDA_MIN: f32 = 360.0;
+pub const LAMBDA_MAX: f32 = 830.0;
+
+/// What the lanes of a sample's [`Spectrum`] mean.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Wavelengths {
+    /// Linear sRGB's three channels.
+    #[default]
+    Rgb,
+    /// Three wavelengths (nm) and the density each was drawn with (per nm, already divided
+    /// by nothing: the film averages over the lanes). A lane whose density is 0 was
+    /// terminated and carries nothing.
+    Sampled { nm: Vec3A, pdf: Vec3A },
+}
+
+/// pbrt-v4's density over visible wavelengths, `0.0039398042 / cosh^2(0.0072 (l - 538))` on
+/// 360-830 nm (Radziszewski et al. 2009's importance of the CIE observer).
+#[inline]
+pub fn visible_pdf(nm: f32) -> f32 {
+    if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&nm) {
+        return 0.0;
+    }
+    let c = libm::coshf(0.0072 * (nm - 538.0));
+    0.003_939_804_2 / (c * c)
+}
+
+/// The inverse of [`visible_pdf`]'s distribution at `u` in `[0, 1)`.
+#[inline]
+pub fn sample_visible(u: f32) -> f32 {
+    (538.0 - 138.888_89 * libm::atanhf(0.856_910_6 - 1.827_502 * u)).clamp(LAMBDA_MIN, LAMBDA_MAX)
+}
+
+impl Wavelengths {
+    /// Wavelengths for the primary sample `u`: the hero at `u`, the others at `u + i/N`
+    /// (mod 1), each drawn from [`visible_pdf`].
+    pub fn sample(u: f32) -> Wavelengths {
+        let mut nm = [0.0; N];
+        let mut pdf = [0.0; N];
+        for i in 0..N {
+            let ui = (u + i as f32 / N as f32).fract();
+            nm[i] = sample_visible(ui);
+            pdf[i] = visible_pdf(nm[i]);
+        }
+        Wavelengths::Sampled {
+            nm: Vec3A::from(nm),
+            pdf: Vec3A::from(pdf),
+        }
+    }
+
+    /// True in spectral mode.
+    #[inline]
+    pub fn is_spectral(&self) -> bool {
+        matches!(self, Wavelengths::Sampled { .. })
+    }
+
+    /// The hero wavelength (nm); `None` in RGB mode.
+    #[inline]
+    pub fn hero(&self) -> Option<f32> {
+        match self {
+            Wavelengths::Rgb => None,
+            Wavelengths::Sampled { nm, .. } => Some(nm.x),
+        }
+    }
+
+    /// True when only the hero goes on.
+    #[inline]
+    pub fn secondary_terminated(&self) -> bool {
+        matches!(self, Wavelengths::Sampled { pdf, .. } if pdf.y == 0.0)
+    }
+
+    /// Lets only the hero go on (a dispersive refraction): the other lanes carry nothing from
+    /// now on and the hero counts for all [`N`] (pbrt-v4's `TerminateSecondary`). Once only.
+    pub fn terminate_secondary(&mut self) {
+        if let Wavelengths::Sampled { pdf, .. } = self {
+            if pdf.y != 0.0 {
+                *pdf = Vec3A::new(pdf.x / N as f32, 0.0, 0.0);
+            }
+        }
+    }
+
+    /// A reflectance or transmittance given as a colour.
+    #[inline]
+    pub fn reflectance(&self, rgb: Rgb) -> Spectrum {
+        match self {
+            Wavelengths::Rgb => rgb,
+            Wavelengths::Sampled { nm, .. } => RgbSpectrum::albedo(rgb).eval(*nm),
+        }
+    }
+
+    /// An unbounded non-negative value given as a colour (an IOR, a medium's coefficient).
+    #[inline]
+    pub fn unbounded(&self, rgb: Rgb) -> Spectrum {
+        match self {
+            Wavelengths::Rgb => rgb,
+            Wavelengths::Sampled { nm, .. } => RgbSpectrum::unbounded(rgb).eval(*nm),
+        }
+    }
+
+    /// Emitted radiance (or intensity, irradiance) given as a colour.
+    #[inline]
+    pub fn illuminant(&self, rgb: Rgb) -> Spectrum {
+        match self {
+            Wavelengths::Rgb => rgb,
+            Wavelengths::Sampled { nm, .. } => RgbSpectrum::illuminant(rgb).eval(*nm),
+        }
+    }
+
+    /// A spectrum known by wavelength, `f(nm)`, at these wavelengths; `rgb` in RGB mode (the
+    /// colour it was made into).
+    #[inline]
+    pub fn map(&self, rgb: Rgb, f: impl Fn(f32) -> f32) -> Spectrum {
+        match self {
+            Wavelengths::Rgb => rgb,
+            Wavelengths::Sampled { nm, .. } => Vec3A::new(f(nm.x), f(nm.y), f(nm.z)),
+        }
+    }
+
+    /// The sample's spectrum `s` as CIE XYZ: `(1/N) sum_i s_i xyz_bar(l_i) / pdf_i`, over the
+    /// integral of y-bar. In RGB mode, `s` taken as linear sRGB.
+    pub fn to_xyz(&self, s: Spectrum) -> Vec3A {
+        match self {
+            Wavelengths::Rgb => srgb_to_xyz(s),
+            Wavelengths::Sampled { nm, pdf } => {
+                let mut xyz = Vec3A::ZERO;
+                for i in 0..N {
+                    if pdf[i] > 0.0 && s[i] != 0.0 {
+                        let bar = Vec3A::from(cie::xyz_bar(nm[i]));
+                        xyz += bar * (s[i] / pdf[i]);
+                    }
+                }
+                xyz / (N as f32 * cie::Y_INTEGRAL as f32)
+            }
+        }
+    }
+
+    /// The sample's spectrum `s` as linear sRGB (what the film adds up); `s` itself in RGB
+    /// mode.
+    #[inline]
+    pub fn to_rgb(&self, s: Spectrum) -> Rgb {
+        match self {
+            Wavelengths::Rgb => s,
+            Wavelengths::Sampled { .. } => xyz_to_srgb(self.to_xyz(s)),
+        }
+    }
+}
+
+/// Linear sRGB of CIE XYZ.
+#[inline]
+pub fn xyz_to_srgb(xyz: Vec3A) -> Rgb {
+    let m = cie::XYZ_TO_SRGB.map(|row| Vec3A::from(row.map(|c| c as f32)));
+    Vec3A::new(m[0].dot(xyz), m[1].dot(xyz), m[2].dot(xyz))
+}
+
+/// CIE XYZ of linear sRGB (the inverse of [`xyz_to_srgb`]'s matrix).
+#[inline]
+pub fn srgb_to_xyz(rgb: Rgb) -> Vec3A {
+    let m = glam::DMat3::from_cols_array_2d(&cie::XYZ_TO_SRGB).transpose();
+    let inv = m.inverse();
+    let rgb = rgb.as_dvec3();
+    (inv * rgb).as_vec3a()
+}
+
+#[cfg(test)]
+mod tests;
