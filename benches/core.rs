@@ -127,6 +127,7 @@ fn integrators(c: &mut Criterion) {
                         tracer: &mut tracer,
                         sampler: &mut sampler,
                         splats: &mut splats,
+                        lambda: &mut raylab_integrators::spectrum::Wavelengths::Rgb,
                     });
                 }
                 black_box(sum)

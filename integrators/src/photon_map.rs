@@ -36,6 +36,7 @@ use crate::integrator::volpath::LONG_PATH;
 use crate::integrator::{
     emitted_at, escaped, stays_on_viewer_side, PathState, ShadingPoint, Stop, MAX_SURVIVAL,
 };
+use crate::spectrum::Wavelengths;
 use crate::{luminance, Hit, MediumId, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
@@ -101,6 +102,9 @@ pub struct PhotonPass {
     /// The camera's position: in scenes with media, the medium a photon starts in is found
     /// by walking to its light from the camera's medium.
     pub eye: Vec3A,
+    /// The wavelengths every photon of the pass carries (the camera paths that gather them
+    /// carry the same).
+    pub lambda: Wavelengths,
 }
 
 /// Traces a pass's photons from the scene's lights and returns the landings it keeps, with
@@ -157,9 +161,12 @@ impl InMedia {
 /// Emits one photon of the pass and follows it, appending its stored landings to `out`.
 fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out: &mut Vec<Photon>) {
     let scene = tracer.scene;
+    let mut lambda = pass.lambda;
+    let lambda = &mut lambda;
     let (keep, max_bounces) = (pass.keep, pass.max_bounces);
     // Emission: a light in proportion to power, a ray leaving it.
-    let Some((_, pmf, emission)) = crate::integrator::emit_from_a_light(scene, sampler) else {
+    let Some((_, pmf, emission)) = crate::integrator::emit_from_a_light(scene, sampler, lambda)
+    else {
         return;
     };
     let mut beta = emission.weight / (pmf * pass.count as f32);
@@ -181,7 +188,9 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
         if let Some(m) = media.as_mut() {
             let carried = luminance(m.power(beta));
             let tmax = hit.map_or(f32::INFINITY, |h| h.t);
-            match fly(scene, &ray, tmax, m.hero, sampler, &mut beta, &mut m.r_u) {
+            match fly(
+                scene, &ray, tmax, m.hero, lambda, sampler, &mut beta, &mut m.r_u,
+            ) {
                 Flight::Ended => return,
                 Flight::Through => {}
                 Flight::Scattered(p) => {
@@ -194,7 +203,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
                         return;
                     };
                     if keep == Keep::All || bounces > 0 {
-                        let sigma_s = medium.at(p).sigma_s;
+                        let sigma_s = medium.at(p, lambda).sigma_s;
                         out.push(Photon {
                             p: p.into(),
                             wi: (-ray.dir).into(),
@@ -248,7 +257,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
         let material = scene.material(hit.material).bsdf();
         if media.is_some() {
             // A medium's boundary (or a mask's hole): crossed, no scattering event.
-            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            let sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
             match cross_null(&sp, &ray, TransportMode::Importance, &mut beta, sampler) {
                 Some(Some(next)) => {
                     ray = next;
@@ -289,7 +298,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
             return;
         }
         // Scatter: BSDF sample, importance weight, shading-normal correction.
-        let sp = ShadingPoint::new(&hit, ray.dir, scene);
+        let sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
         let Some(s) = sp.sample(
             sampler.next_1d(),
             sampler.next_2d(),
@@ -349,6 +358,7 @@ pub fn land(
     emission: Option<&mut Rgb>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
+    lambda: &mut Wavelengths,
 ) -> Option<Landing> {
     let scene = tracer.scene;
     let mut l = emission;
@@ -375,6 +385,7 @@ pub fn land(
                 &ray,
                 tmax,
                 m.hero,
+                lambda,
                 sampler,
                 &mut path.beta,
                 &mut m.r_u,
@@ -394,12 +405,12 @@ pub fn land(
         let carried = media.as_ref().map_or(path.beta, |m| m.power(path.beta));
         let Some(hit) = hit else {
             if let Some(l) = l.as_deref_mut() {
-                *l += carried * escaped(scene, &path.ray);
+                *l += carried * escaped(scene, &path.ray, lambda);
             }
             return None;
         };
         if let Some(l) = l.as_deref_mut() {
-            *l += carried * emitted_at(scene, &hit, &path.ray);
+            *l += carried * emitted_at(scene, &hit, &path.ray, lambda);
         }
         // A surface with Dirac lobes (all of them, or a plastic's coating over its base) sends
         // the path on through one of them with their probability `p`; otherwise the path
@@ -413,7 +424,7 @@ pub fn land(
         if !scene.material(hit.material).may_have_delta_lobe() {
             return Some(landing(carried));
         }
-        let sp = ShadingPoint::new(&hit, path.ray.dir, scene);
+        let sp = ShadingPoint::new(&hit, path.ray.dir, scene, lambda);
         if media.is_some() {
             // A medium's boundary (or a mask's hole): crossed, no scattering event.
             let (mut beta, ray) = (path.beta, path.ray);
@@ -681,6 +692,7 @@ mod tests {
             seed,
             stream,
             eye: Vec3A::ZERO,
+            lambda: Wavelengths::Rgb,
         }
     }
 
@@ -745,7 +757,7 @@ mod tests {
         // by 1% from the centre to the disk's edge.
         let map = PhotonMap::build(photons, 0.15);
         let hit = Hit::new(1.0, Vec3A::ZERO, Vec3A::Z, 0, None);
-        let sp = ShadingPoint::new(&hit, -Vec3A::Z, &scene);
+        let sp = ShadingPoint::new(&hit, -Vec3A::Z, &scene, &mut Wavelengths::Rgb);
         let l = map.radiance(&sp, |_| true);
         assert!((l.y - 0.125).abs() < 0.125 * 0.05, "{l:?}");
     }

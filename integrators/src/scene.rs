@@ -35,6 +35,12 @@ pub trait Scene: Sync {
     fn medium(&self, id: MediumId) -> Option<&Medium> {
         self.media().get(id.0 as usize)
     }
+    /// Whether some material's index of refraction varies with wavelength (dispersion): in
+    /// spectral mode, the integrators that carry one set of wavelengths through a whole pass
+    /// then carry only its hero.
+    fn disperses(&self) -> bool {
+        false
+    }
     /// Computes `hit`'s texture coordinates and tangents if they are pending (see
     /// [`crate::geometry::Pending`]). Scenes of spheres alone need not override it.
     fn parametrise(&self, hit: &mut Hit) {

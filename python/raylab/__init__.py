@@ -169,6 +169,7 @@ class Scene:
         threads: Optional[int] = None,
         params: Optional[Mapping[str, Any]] = None,
         sampler: Optional[str] = None,
+        spectral: Optional[bool] = None,
         variance: bool = False,
         callback: Optional[Callable[[dict], Any]] = None,
     ):
@@ -180,7 +181,8 @@ class Scene:
         (default: the scene's), ``size`` ``(width, height)``, ``threads`` (default: every
         core; the image does not depend on it), ``params`` (``{"max-depth": 8}``, as ``-p``),
         ``sampler`` (``"independent"``, ``"stratified"``, ``"sobol"``, ``"zsobol"`` or
-        ``"halton"``; default: the scene's).
+        ``"halton"``; default: the scene's), ``spectral`` (``True``: sampled wavelengths, as
+        ``--spectral``; ``False``: RGB; default: the scene's ``render.spectral``).
 
         With ``variance=True`` returns ``(image, variance)``: the per-pixel variance of the
         mean, or ``None`` for a 1-spp render. ``callback(info)`` is called after each pass
@@ -199,6 +201,7 @@ class Scene:
             threads=threads,
             params=pairs,
             sampler=sampler,
+            spectral=spectral,
             callback=callback,
         )
         self.last_stats = stats
@@ -260,6 +263,7 @@ def compare(
     region: Optional[Tuple[int, int, int, int]] = None,
     target_error: Optional[float] = None,
     note: Optional[str] = None,
+    spectral: bool = False,
     out: Optional[PathLike] = None,
 ) -> "Comparison":
     """Compares integrators on a scene, as ``raylab compare`` does; returns a :class:`Comparison`.
@@ -277,7 +281,8 @@ def compare(
     1024 spp. A rendered reference is cached as the command line caches it. ``sweep`` is a
     parameter and its values (``("max-depth", [1, 2, 4])``; ``("sampler", ["independent",
     "sobol"])`` sweeps the sampler), ``region`` a rectangle ``(x, y,
-    w, h)`` measured on its own, ``target_error`` the MSE whose time to reach is reported.
+    w, h)`` measured on its own, ``target_error`` the MSE whose time to reach is reported,
+    ``spectral`` renders every image (the reference too) with sampled wavelengths.
 
     Everything the command writes (the page, images, ``metrics.json``) goes into ``out``,
     a temporary folder when not given.
@@ -328,6 +333,8 @@ def compare(
     for flag, value in flags.items():
         if value is not None:
             args += [flag, str(value)]
+    if spectral:
+        args.append("--spectral")
     if sweep is not None:
         key, values = sweep
         args += ["--sweep", f"{key}=" + ",".join(_text(v) for v in values)]

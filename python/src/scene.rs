@@ -148,7 +148,7 @@ impl Scene {
 
     /// Renders the scene; see `raylab.Scene.render` for the arguments. Returns the image
     /// and its variance (or None), and the statistics.
-    #[pyo3(signature = (integrator=None, spp=None, time=None, seed=None, size=None, threads=None, params=Vec::new(), sampler=None, callback=None))]
+    #[pyo3(signature = (integrator=None, spp=None, time=None, seed=None, size=None, threads=None, params=Vec::new(), sampler=None, spectral=None, callback=None))]
     #[allow(clippy::too_many_arguments)]
     fn _render<'py>(
         &mut self,
@@ -161,6 +161,7 @@ impl Scene {
         threads: Option<usize>,
         params: Vec<(String, String)>,
         sampler: Option<String>,
+        spectral: Option<bool>,
         callback: Option<Py<PyAny>>,
     ) -> PyResult<(Arrays<'py>, Bound<'py, PyDict>)> {
         if spp == Some(0) {
@@ -196,6 +197,7 @@ impl Scene {
             seed,
             filter: None,
             sampler,
+            spectral,
             threads,
             accel: AccelKind::default(),
             progress: false,

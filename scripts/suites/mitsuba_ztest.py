@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Mitsuba 3's render tests, run on raylab: every scene of mitsuba-data's `tests/scenes/*/`
-that has a reference (`refs/<name>_ref_rgb.exr`) and a variance image (`..._var.exr`) is
+that has a reference (`refs/<name>_ref_rgb.exr`, or with `--spectral` the spectral variant's
+`refs/<name>_ref_spectral.exr`) and a variance image (`..._var.exr`) is
 rendered by raylab from its own XML, and judged by the test Mitsuba applies to itself
 (`src/render/tests/test_renders.py`):
 
@@ -18,7 +19,7 @@ A scene raylab refuses is listed with the first line it said. Prints a Markdown 
 
     python3 -m venv venv && venv/bin/pip install mitsuba numpy   # reads the EXRs
     venv/bin/python scripts/suites/mitsuba_ztest.py MITSUBA_DATA [--raylab BIN]
-        [--only SUBSTRING] [--out DIR] [-- EXTRA RAYLAB OPTIONS]
+        [--only SUBSTRING] [--out DIR] [--spectral] [-- EXTRA RAYLAB OPTIONS]
 
 MITSUBA_DATA is a checkout of github.com/mitsuba-renderer/mitsuba-data (its `common/` is the
 search folder, `-a`, as Mitsuba's resolver has it; the scenes may read files anywhere in it:
@@ -73,9 +74,9 @@ def scenes(data):
     return sorted((data / "tests" / "scenes").glob("*/*.xml"))
 
 
-def refs_of(scene):
+def refs_of(scene, variant="rgb"):
     stem = scene.stem.rsplit("_", 1)[0]
-    ref = scene.parent / "refs" / f"{stem}_ref_rgb.exr"
+    ref = scene.parent / "refs" / f"{stem}_ref_{variant}.exr"
     return ref, ref.with_name(ref.stem + "_var.exr")
 
 
@@ -85,6 +86,8 @@ def main():
     ap.add_argument("--raylab", default=str(ROOT / "target" / "release" / "raylab"))
     ap.add_argument("--only", default="", help="only scenes whose path contains this")
     ap.add_argument("--out", type=pathlib.Path, help="keep raylab's images here")
+    ap.add_argument("--spectral", action="store_true",
+                    help="render with --spectral, against the spectral references")
     ap.add_argument("extra", nargs="*", help="more raylab options (after --)")
     args = ap.parse_args()
     import mitsuba as mi
@@ -99,7 +102,7 @@ def main():
         name = scene.relative_to(args.data / "tests" / "scenes")
         if args.only not in str(name):
             continue
-        ref_path, var_path = refs_of(scene)
+        ref_path, var_path = refs_of(scene, "spectral" if args.spectral else "rgb")
         if not (ref_path.exists() and var_path.exists()):
             counts["no reference"] += 1
             print(f"| {name} | no reference | | | |")
@@ -114,7 +117,7 @@ def main():
         cmd = [args.raylab, "render", str(scene), "-a", str(args.data / "common"),
                "--allow-path", str(args.data),
                "-D", f"spp={spp}", "-D", f"integrator={integrator}", "--spp", str(spp),
-               "-o", str(image), *args.extra]
+               "-o", str(image), *(["--spectral"] if args.spectral else []), *args.extra]
         run = subprocess.run(cmd, capture_output=True, text=True)
         if run.returncode != 0:
             counts["does not load"] += 1

@@ -126,6 +126,7 @@ pub fn compare_options(args: &CompareArgs) -> Result<CompareOptions> {
         region,
         filter: args.trace.filter,
         sampler: args.trace.sampler,
+        spectral: args.trace.spectral(),
         accel: args.trace.accel,
     })
 }
@@ -274,6 +275,7 @@ pub fn suite(args: &SuiteArgs) -> Result<ExitCode> {
         threads: args.threads,
         progress: !args.quiet,
         allowed: args.allow_path.clone(),
+        spectral: args.spectral.then_some(true),
     };
     let standings = compare::suite::run(&opts)?;
     for s in standings.iter().filter(|s| s.rank == 1) {

@@ -57,6 +57,7 @@ fn settings(c: &SessionArgs, interval: Duration) -> Result<(LiveSettings, live::
             threads: c.threads,
             filter: c.trace.filter,
             sampler: c.trace.sampler,
+            spectral: c.trace.spectral(),
             accel: c.trace.accel,
             image_interval: interval,
         },

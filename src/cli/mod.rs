@@ -90,10 +90,30 @@ pub struct TraceArgs {
     /// radius 2); default: the scene's `render.filter`, else box.
     #[arg(long, value_name = "NAME", value_parser = parse_filter)]
     pub filter: Option<raylab_integrators::Filter>,
-    /// How camera samples draw their numbers: independent (the default) or sobol
-    /// (Owen-scrambled Sobol points, padded by pairs); default: the scene's `render.sampler`.
+    /// How camera samples draw their numbers: independent (the default), stratified, sobol
+    /// (Owen-scrambled Sobol points, padded by pairs), zsobol (pbrt-v4's default) or halton;
+    /// default: the scene's `render.sampler`.
     #[arg(long, value_name = "NAME", value_parser = raylab_integrators::sampler::SamplerKind::parse)]
     pub sampler: Option<raylab_integrators::sampler::SamplerKind>,
+    /// Render spectrally: each camera sample carries three wavelengths (hero-wavelength
+    /// sampling), every colour is a spectrum at them, and the film turns them into XYZ and
+    /// sRGB; default: the scene's `render.spectral`, else RGB.
+    #[arg(long, conflicts_with = "rgb")]
+    pub spectral: bool,
+    /// Render in RGB even where the scene asks for spectral rendering.
+    #[arg(long)]
+    pub rgb: bool,
+}
+
+impl TraceArgs {
+    /// The mode the flags ask for; `None`: the scene's.
+    pub fn spectral(&self) -> Option<bool> {
+        match (self.spectral, self.rgb) {
+            (true, _) => Some(true),
+            (_, true) => Some(false),
+            _ => None,
+        }
+    }
 }
 
 /// What `render` (and its `--watch`) and `serve` share: the scene, what renders it, and how
@@ -282,6 +302,10 @@ pub struct SuiteArgs {
     /// Let the scenes read files under DIR too (repeatable).
     #[arg(long = "allow-path", value_name = "DIR")]
     pub allow_path: Vec<PathBuf>,
+    /// Render every entry spectrally (see `render --spectral`); default: each scene's
+    /// `render.spectral`.
+    #[arg(long)]
+    pub spectral: bool,
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,

@@ -145,6 +145,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
             seed: args.session.seed,
             filter: args.session.trace.filter,
             sampler: args.session.trace.sampler,
+            spectral: args.session.trace.spectral(),
             threads: args.session.threads,
             accel: args.session.trace.accel,
             progress: !args.session.quiet,

@@ -122,6 +122,8 @@ pub struct CompareOptions {
     /// How every contestant's camera samples draw their numbers; `None`: the scene's. The
     /// reference always renders with independent samples.
     pub sampler: Option<raylab_integrators::sampler::SamplerKind>,
+    /// Spectral rendering for every render and the reference; `None`: the scene's.
+    pub spectral: Option<bool>,
 }
 
 /// A rectangle of pixels: top-left corner `(x, y)`, `w x h`.
@@ -469,6 +471,7 @@ fn contestant_job(
             seed: Some(seed),
             filter: Some(opts.filter.unwrap_or_default()),
             sampler: c.sampler.or(opts.sampler),
+            spectral: opts.spectral,
             threads: opts.threads,
             accel: opts.accel,
             progress: opts.progress,

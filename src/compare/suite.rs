@@ -120,6 +120,8 @@ pub struct SuiteOptions {
     pub threads: Option<usize>,
     pub progress: bool,
     pub allowed: Vec<PathBuf>,
+    /// Spectral rendering for every entry; `None`: each scene's.
+    pub spectral: Option<bool>,
 }
 
 /// Reads and checks a suite file: every entry as the comparison it runs, with its name.
@@ -328,6 +330,7 @@ fn entry_options(
             accel: Default::default(),
             filter: None,
             sampler: None,
+            spectral: opts.spectral,
         },
     })
 }

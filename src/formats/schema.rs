@@ -149,6 +149,9 @@ pub struct RenderDesc {
         skip_serializing_if = "is_independent"
     )]
     pub sampler: SamplerKind,
+    /// Render with sampled wavelengths rather than RGB (see `--spectral`). Default: false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub spectral: bool,
 }
 
 /// A sampler by name; an unknown name is an error at its place in the file.
@@ -193,6 +196,7 @@ impl Default for RenderDesc {
             filter: Filter::Box,
             light_selection: LightSelection::Power,
             sampler: SamplerKind::Independent,
+            spectral: false,
         }
     }
 }

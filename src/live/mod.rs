@@ -76,6 +76,8 @@ pub struct LiveSettings {
     pub filter: Option<raylab_integrators::Filter>,
     /// Sampler overriding the scene's.
     pub sampler: Option<raylab_integrators::sampler::SamplerKind>,
+    /// Spectral rendering overriding the scene's choice.
+    pub spectral: Option<bool>,
     /// Shortest time between two images handed to the observer (the first pass and the last
     /// are always handed over).
     pub image_interval: Duration,
@@ -301,6 +303,7 @@ fn prepare(
             seed: settings.seed,
             filter: settings.filter,
             sampler: selection.sampler.or(settings.sampler),
+            spectral: settings.spectral,
             threads: settings.threads,
             accel: settings.accel,
             progress: false,

@@ -41,6 +41,8 @@ pub struct Request {
     pub filter: Option<Filter>,
     /// `None`: the scene's sampler.
     pub sampler: Option<SamplerKind>,
+    /// Spectral rendering (`--spectral`); `None`: the scene's `render.spectral`.
+    pub spectral: Option<bool>,
     /// Worker threads; `None`: every core.
     pub threads: Option<usize>,
     pub accel: AccelKind,
@@ -207,6 +209,7 @@ impl Job {
             time_budget: request.time,
             filter: request.filter.unwrap_or(loaded.render.filter),
             sampler: request.sampler.unwrap_or(loaded.render.sampler),
+            spectral: request.spectral.unwrap_or(loaded.render.spectral),
             part: shard.as_ref().map(|(_, part)| part.clone()),
         };
         Ok(Job {
@@ -240,8 +243,13 @@ impl Job {
     /// Everything about the render but the scene, as text: written into shards (which
     /// `merge` compares) and hashed into checkpoints.
     pub fn settings_text(&self) -> String {
+        let mode = if self.settings.spectral {
+            " spectral"
+        } else {
+            ""
+        };
         format!(
-            "integrator={} {} spp={} seed={} size={}x{} filter={} accel={} sampler={}",
+            "integrator={} {} spp={} seed={} size={}x{} filter={} accel={} sampler={}{mode}",
             self.entry.name,
             self.describe_params(),
             self.settings

@@ -33,6 +33,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 pub use job::{Job, Request, Target};
 use raylab_integrators::random::permute;
 use raylab_integrators::sampler::{SampleSite, SamplerKind};
+use raylab_integrators::spectrum::Wavelengths;
 use raylab_integrators::{
     ChainContext, Integrator, PassContext, PixelSample, RayCounters, SampleContext, Sampler, Scene,
     Splats, Stop, Tracer, Work,
@@ -62,6 +63,9 @@ pub struct RenderSettings {
     pub filter: Filter,
     /// How camera samples draw their numbers.
     pub sampler: SamplerKind,
+    /// Spectral rendering: every camera sample carries sampled wavelengths, and the film
+    /// turns its spectrum into XYZ and linear sRGB (`--spectral`).
+    pub spectral: bool,
     /// The part of the render this run does, for a shard (`render --shard`); `None` for all
     /// of it. Samples are placed for the whole render's `spp` either way.
     pub part: Option<Part>,
@@ -78,6 +82,7 @@ impl RenderSettings {
             time_budget: None,
             filter: Filter::Box,
             sampler: SamplerKind::Independent,
+            spectral: false,
             part: None,
         }
     }
@@ -500,6 +505,19 @@ struct TilePass {
     dropped: Dropped,
 }
 
+/// The wavelengths of pass `pass` (see [`PassContext::lambda`]): only the hero where a
+/// material disperses, as the pass's photons and camera paths must agree on them.
+fn pass_wavelengths(scene: &dyn Scene, settings: &RenderSettings, pass: u32) -> Wavelengths {
+    if !settings.spectral {
+        return Wavelengths::Rgb;
+    }
+    let mut lambda = Wavelengths::for_pass(settings.seed, pass);
+    if scene.disperses() {
+        lambda.terminate_secondary();
+    }
+    lambda
+}
+
 /// Takes sample number `pass` of every pixel of `tile`, into the tile's scratch.
 #[allow(clippy::too_many_arguments)]
 fn render_tile_pass(
@@ -545,6 +563,11 @@ fn render_tile_pass(
             };
             let mut sampler = Sampler::camera(settings.sampler, &site);
             let film = sample_position(x, y, pass, settings.spp, settings.seed, &mut sampler);
+            // The wavelengths it carries (Mitsuba 3 draws them after the film position too).
+            let mut lambda = match settings.spectral {
+                true => Wavelengths::sample(sampler.next_1d()),
+                false => Wavelengths::Rgb,
+            };
             let sample = PixelSample {
                 x,
                 y,
@@ -554,13 +577,14 @@ fn render_tile_pass(
             let splats_before = scratch.splats.mark();
             // A chain integrator's pixels estimate nothing themselves; the chain whose work
             // unit this pixel is runs here.
-            let mut l = match chains {
+            let l = match chains {
                 None => integrator.sample(SampleContext {
                     pixel: &sample,
                     camera,
                     tracer: &mut tracer,
                     sampler: &mut sampler,
                     splats: &mut scratch.splats,
+                    lambda: &mut lambda,
                 }),
                 Some(count) => {
                     if let Some(chain) = Work::chain_at(count, pixel_index, pixels) {
@@ -574,6 +598,8 @@ fn render_tile_pass(
                     Vec3A::ZERO
                 }
             };
+            // The estimate as linear sRGB, at the wavelengths it ends with.
+            let mut l = lambda.to_rgb(l);
             let splats_finite = scratch.splats.all_finite_since(splats_before);
             if !(l.is_finite() && splats_finite) {
                 scratch.splats.rollback(splats_before);
@@ -725,6 +751,7 @@ pub fn render_passes(
                 pass,
                 rows: rows.clone().unwrap_or(0..acc.height),
                 stop: abandon_pass,
+                lambda: pass_wavelengths(scene, settings, pass),
             })
         }));
         if abandon() {

@@ -3,13 +3,20 @@
 use super::*;
 use crate::scene::parse_scene;
 use crate::scene::RenderScene;
+use raylab_integrators::spectrum::Wavelengths;
 use raylab_integrators::{Ray, RayIntegrator, Rgb, Spectrum};
 
 /// Returns 1 everywhere.
 struct One;
 
 impl RayIntegrator for One {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        _lambda: &mut Wavelengths,
+    ) -> Spectrum {
         let _ = (tracer.camera(ray), sampler.next_1d());
         Rgb::ONE
     }
@@ -19,7 +26,13 @@ impl RayIntegrator for One {
 struct Poisoned;
 
 impl RayIntegrator for Poisoned {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        _sampler: &mut Sampler,
+        _lambda: &mut Wavelengths,
+    ) -> Spectrum {
         tracer.camera(ray);
         if ray.dir.x > 0.2 {
             Rgb::splat(f32::NAN)
@@ -34,7 +47,13 @@ impl RayIntegrator for Poisoned {
 struct Blinding;
 
 impl RayIntegrator for Blinding {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        _sampler: &mut Sampler,
+        _lambda: &mut Wavelengths,
+    ) -> Spectrum {
         tracer.camera(ray);
         if ray.dir.x > 0.2 {
             Rgb::splat(1e17)
@@ -169,12 +188,13 @@ impl Integrator for Splatter {
             tracer,
             sampler,
             splats,
+            ..
         } = cx;
         tracer.camera(&camera.ray(pixel.film.x, pixel.film.y));
         let anywhere = sampler.next_2d() * Vec2::new(camera.width as f32, camera.height as f32);
-        splats.add(anywhere, Rgb::splat(sampler.next_1d()));
+        splats.add(anywhere, Rgb::splat(sampler.next_1d()), &Wavelengths::Rgb);
         let centre = Vec2::new(camera.width as f32, camera.height as f32) * 0.5;
-        splats.add(centre, Rgb::splat(0.001));
+        splats.add(centre, Rgb::splat(0.001), &Wavelengths::Rgb);
         Rgb::ZERO
     }
 }

@@ -632,6 +632,10 @@ impl Scene for RenderScene {
         &self.materials[id as usize]
     }
 
+    fn disperses(&self) -> bool {
+        self.materials.iter().any(SurfaceMaterial::disperses)
+    }
+
     fn lights(&self) -> &LightTable {
         &self.lights
     }

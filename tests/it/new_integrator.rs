@@ -9,6 +9,7 @@ use raylab_integrators::integrator::{
     emitted_at, escaped, sample_one_light, RayIntegrator, ShadingPoint, Tracer,
 };
 use raylab_integrators::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params};
+use raylab_integrators::spectrum::Wavelengths;
 use raylab_integrators::{Ray, Rgb, Sampler};
 
 /// The registry entry: name, summary, parameters, constructor. In the crate, one line in
@@ -34,15 +35,22 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct Direct;
 
 impl RayIntegrator for Direct {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
-        // The first hit; a ray that escapes sees the environment.
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Rgb {
+        // The first hit; a ray that escapes sees the environment. Light is carried at the
+        // sample's wavelengths `lambda` (RGB's channels unless rendering spectrally).
         let Some(hit) = tracer.camera(ray) else {
-            return escaped(tracer.scene, ray);
+            return escaped(tracer.scene, ray, lambda);
         };
         // Emission seen directly.
-        let mut l = emitted_at(tracer.scene, &hit, ray);
+        let mut l = emitted_at(tracer.scene, &hit, ray, lambda);
         // One light sample, if the surface can reflect it (perfect mirrors and glass cannot).
-        let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene);
+        let sp = ShadingPoint::new(&hit, ray.dir, tracer.scene, lambda);
         if !sp.material.is_specular() {
             l += sample_one_light(&sp, false, None, tracer, sampler);
         }

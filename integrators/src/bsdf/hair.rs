@@ -269,6 +269,11 @@ impl Hair {
         self
     }
 
+    /// The fibre with its absorption coefficient mapped by `f` (to a spectrum).
+    pub(crate) fn map_sigma_a(&mut self, f: impl FnOnce(Rgb) -> Rgb) {
+        self.sigma_a = f(self.sigma_a);
+    }
+
     /// Offset across the fibre, in `[-1, 1]`.
     #[inline]
     pub fn h(&self) -> f32 {

@@ -23,6 +23,7 @@ pub mod principled;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
+pub mod spectral;
 mod textured;
 mod thin_dielectric;
 #[cfg(test)]

@@ -18,7 +18,9 @@
 //! orthogonal to the new normal.
 
 use super::mapped::{MapTerms, MappedBsdf};
+use super::spectral::MaterialSpectra;
 use super::Material;
+use crate::spectrum::Wavelengths;
 use crate::texture::{Texture, TextureLookup};
 use crate::{Frame, Hit, Rgb, Scene};
 use glam::Vec3A;
@@ -334,6 +336,8 @@ pub struct SurfaceMaterial {
     /// the rays (every ray, shadow rays too), which pass as if it were not there
     /// ([`crate::cutout`]).
     cutout: Option<Texture>,
+    /// The parameters the scene gave by wavelength, for spectral mode.
+    spectra: Option<Box<MaterialSpectra>>,
 }
 
 impl From<Material> for SurfaceMaterial {
@@ -358,7 +362,22 @@ impl SurfaceMaterial {
             opacity: None,
             one_sided: false,
             cutout: None,
+            spectra: None,
         }
+    }
+
+    /// The same material with the parameters `spectra` gives by wavelength (spectral mode
+    /// evaluates them; RGB mode keeps the colours they were made into).
+    pub fn with_spectra(self, spectra: MaterialSpectra) -> SurfaceMaterial {
+        SurfaceMaterial {
+            spectra: (!spectra.is_empty()).then(|| Box::new(spectra)),
+            ..self
+        }
+    }
+
+    /// Whether the material's index of refraction varies with wavelength.
+    pub fn disperses(&self) -> bool {
+        self.spectra.as_ref().is_some_and(|s| s.ior.is_some())
     }
 
     /// The BSDF with every parameter constant (textured ones at their textures' means): what
@@ -377,6 +396,7 @@ impl SurfaceMaterial {
     pub fn with_perturbation(self, map: Perturbation, options: MapOptions) -> SurfaceMaterial {
         SurfaceMaterial {
             opacity: self.opacity.clone(),
+            spectra: self.spectra.clone(),
             ..SurfaceMaterial::new(self.bsdf, self.textures, Some((map, options)))
         }
     }
@@ -482,7 +502,21 @@ impl SurfaceMaterial {
     /// from `towards_viewer` (world), whose shading normal the normal or bump map (if any)
     /// replaces, with the map's terms.
     #[inline(always)]
-    pub(crate) fn at(&self, hit: &mut Hit, towards_viewer: Vec3A) -> MappedBsdf<'_> {
+    pub(crate) fn at(
+        &self,
+        hit: &mut Hit,
+        towards_viewer: Vec3A,
+        lambda: &mut Wavelengths,
+    ) -> MappedBsdf<'_> {
+        if lambda.is_spectral() {
+            return self.at_wavelengths(hit, towards_viewer, lambda);
+        }
+        self.at_rgb(hit, towards_viewer)
+    }
+
+    /// [`SurfaceMaterial::at`] in RGB mode.
+    #[inline(always)]
+    fn at_rgb(&self, hit: &mut Hit, towards_viewer: Vec3A) -> MappedBsdf<'_> {
         if !self.varies {
             return MappedBsdf {
                 one_sided: self.one_sided,
@@ -490,6 +524,22 @@ impl SurfaceMaterial {
             };
         }
         self.at_varying(hit, towards_viewer)
+    }
+
+    /// [`SurfaceMaterial::at`] in spectral mode: the material (its textures looked up) with
+    /// its colours made spectra at `lambda`.
+    #[inline(never)]
+    fn at_wavelengths(
+        &self,
+        hit: &mut Hit,
+        towards_viewer: Vec3A,
+        lambda: &mut Wavelengths,
+    ) -> MappedBsdf<'_> {
+        let mut at = self.at_rgb(hit, towards_viewer);
+        at.material
+            .to_mut()
+            .at_wavelengths(lambda, self.spectra.as_deref());
+        at
     }
 
     /// [`SurfaceMaterial::at`] for a material that varies over the surface.
@@ -540,12 +590,13 @@ pub fn material_at<'s>(
     scene: &'s dyn Scene,
     hit: &mut Hit,
     towards_viewer: Vec3A,
+    lambda: &mut Wavelengths,
 ) -> MappedBsdf<'s> {
     let surface = scene.material(hit.material);
     if surface.needs_parametrisation() {
         scene.parametrise(hit);
     }
-    surface.at(hit, towards_viewer)
+    surface.at(hit, towards_viewer, lambda)
 }
 
 #[cfg(test)]
@@ -578,7 +629,9 @@ mod tests {
     fn untextured_materials_are_borrowed_and_textured_ones_looked_up() {
         let plain = SurfaceMaterial::from(Material::Lambert(Lambert::new(Rgb::ONE).unwrap()));
         assert!(matches!(
-            plain.at(&mut hit_at(Vec2::ZERO), Vec3A::Z).material,
+            plain
+                .at(&mut hit_at(Vec2::ZERO), Vec3A::Z, &mut Wavelengths::Rgb)
+                .material,
             Cow::Borrowed(_)
         ));
         let textured = SurfaceMaterial::new(
@@ -591,7 +644,9 @@ mod tests {
         );
         for (uv, expected) in [(Vec2::splat(0.25), 0.8), (Vec2::new(0.75, 0.25), 0.1)] {
             assert_eq!(
-                textured.at(&mut hit_at(uv), Vec3A::Z).albedo(),
+                textured
+                    .at(&mut hit_at(uv), Vec3A::Z, &mut Wavelengths::Rgb)
+                    .albedo(),
                 Rgb::splat(expected)
             );
         }
@@ -614,8 +669,11 @@ mod tests {
             },
             None,
         );
-        let Material::RoughConductor(c) = &*rough.at(&mut hit_at(Vec2::splat(0.25)), Vec3A::Z)
-        else {
+        let Material::RoughConductor(c) = &*rough.at(
+            &mut hit_at(Vec2::splat(0.25)),
+            Vec3A::Z,
+            &mut Wavelengths::Rgb,
+        ) else {
             panic!("a rough conductor")
         };
         assert_eq!(c.microfacet.alpha_u, crate::bsdf::microfacet::MIN_ALPHA);
@@ -629,7 +687,11 @@ mod tests {
         let hair = SurfaceMaterial::from(Material::Hair(crate::bsdf::Hair::default()));
         assert!(hair.needs_parametrisation());
         for (v, h) in [(0.5, 0.0), (0.9, 0.8), (0.0, -1.0), (1.0, 1.0)] {
-            let at = hair.at(&mut hit_at(Vec2::new(0.3, v)), Vec3A::Z);
+            let at = hair.at(
+                &mut hit_at(Vec2::new(0.3, v)),
+                Vec3A::Z,
+                &mut Wavelengths::Rgb,
+            );
             let Material::Hair(fibre) = &*at.material else {
                 panic!("hair")
             };

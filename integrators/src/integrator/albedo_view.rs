@@ -3,6 +3,7 @@
 
 use crate::integrator::{emitted_at, RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, MediaSupport, Params};
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -18,13 +19,21 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct AlbedoView;
 
 impl RayIntegrator for AlbedoView {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        _sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
+        // A view of the scene, not light: RGB in either mode.
+        *lambda = Wavelengths::Rgb;
         let Some(mut hit) = tracer.camera(ray) else {
             return Rgb::ZERO;
         };
         if hit.light.is_some() {
-            return emitted_at(tracer.scene, &hit, ray);
+            return emitted_at(tracer.scene, &hit, ray, lambda);
         }
-        crate::bsdf::material_at(tracer.scene, &mut hit, -ray.dir).albedo()
+        crate::bsdf::material_at(tracer.scene, &mut hit, -ray.dir, lambda).albedo()
     }
 }

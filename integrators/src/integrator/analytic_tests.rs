@@ -6,8 +6,8 @@
 use super::registry::{Analytic, Expect, REGISTRY};
 use crate::sampler::SamplerKind;
 use crate::testing::{
-    expect_mean_passes, expect_mean_passes_sampled, furnace_sphere, point_in_sphere,
-    sphere_under_sky, TestScene,
+    expect_mean_passes, expect_mean_passes_in, expect_mean_passes_sampled, furnace_sphere,
+    point_in_sphere, sphere_under_sky, TestScene,
 };
 use glam::Vec3A;
 
@@ -36,6 +36,46 @@ fn every_entry_gives_what_it_declares_for_a_point_light_in_a_sphere() {
 #[test]
 fn every_entry_gives_what_it_declares_for_a_convex_ball_under_a_sky() {
     check(&sphere_under_sky(0.6, 2.0), |a| a.sphere_under_sky);
+}
+
+/// In spectral mode every entry gives what it declares, which is what it gives in RGB: the
+/// scenes' grey reflectances are flat spectra, their white lights D65 of luminance 1, which
+/// the film turns back into white (within the CIE tables' 1e-4). A spectral white furnace
+/// returns the RGB one's radiance.
+fn check_spectral(scene: &TestScene, expected: Declared) {
+    let mut checked = 0;
+    for entry in REGISTRY {
+        let Some(a) = entry.analytic else { continue };
+        if let Some(e) = expected(&a) {
+            expect_mean_passes_in(
+                entry.name,
+                a.params,
+                scene,
+                e.value,
+                // Twice the passes: the wavelengths add colour noise to every sample.
+                (2 * e.passes, e.per_pass),
+                0.0,
+                (SamplerKind::Independent, true),
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 4, "only {checked} entries declare this scene");
+}
+
+#[test]
+fn every_entry_gives_what_it_declares_in_the_furnace_in_spectral_mode() {
+    check_spectral(&furnace_sphere(0.5, 1.0), |a| a.furnace);
+}
+
+#[test]
+fn every_entry_gives_what_it_declares_for_a_point_light_in_spectral_mode() {
+    check_spectral(&point_in_sphere(0.5), |a| a.point_in_sphere);
+}
+
+#[test]
+fn every_entry_gives_what_it_declares_under_a_sky_in_spectral_mode() {
+    check_spectral(&sphere_under_sky(0.6, 2.0), |a| a.sphere_under_sky);
 }
 
 /// What an entry declares for one of the testing kit's scenes.

@@ -59,6 +59,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
     RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Camera, Hit, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene};
 use crate::{SampleContext, Spectrum};
 use arrayvec::ArrayVec;
@@ -353,16 +354,19 @@ impl<'a> Vertex<'a> {
     }
 
     /// Radiance this emitting vertex sends towards `v`.
-    fn le(&self, scene: &dyn Scene, v: &Vertex) -> Rgb {
+    fn le(&self, scene: &dyn Scene, v: &Vertex, lambda: &Wavelengths) -> Rgb {
         let Some(index) = self.light else {
             return Rgb::ZERO;
         };
         if self.infinite {
             let ray = crate::Ray::new(v.p, -self.ng);
-            return escaped(scene, &ray);
+            return escaped(scene, &ray, lambda);
         }
         let w = (v.p - self.p).normalize_or_zero();
-        scene.lights().get(index).emitted_at(self.p, self.ng, w)
+        scene
+            .lights()
+            .get(index)
+            .emitted_at(self.p, self.ng, w, lambda)
     }
 }
 
@@ -398,6 +402,7 @@ impl Integrator for Bdpt {
             tracer,
             sampler,
             splats,
+            lambda,
         } = cx;
         if !camera.is_pinhole() {
             return Rgb::ZERO;
@@ -420,14 +425,19 @@ impl Integrator for Bdpt {
             hero,
             tracer,
             sampler,
+            lambda,
             &mut cam,
         );
-        self.light_subpath(depth, camera, hero, tracer, sampler, &mut light);
+        self.light_subpath(depth, camera, hero, tracer, sampler, lambda, &mut light);
+        // Every join is made at the wavelengths both walks leave (pbrt-v4's): if either met a
+        // dispersive surface, only the hero.
+        let lambda = *lambda;
         let paths = Subpaths {
             scene,
             camera,
             light: &light,
             cam: &cam,
+            lambda,
         };
         // Every join of a camera prefix (t vertices) and a light prefix (s vertices).
         let mut l = Rgb::ZERO;
@@ -445,7 +455,7 @@ impl Integrator for Bdpt {
                 }
                 if self.write_strategies {
                     let film = raster.unwrap_or(pixel.film);
-                    splats.add_to_layer(strategy_layer(s, t), film, c * weight);
+                    splats.add_to_layer(strategy_layer(s, t), film, c * weight, &lambda);
                 }
                 let kept = self.only_s.is_none_or(|k| k == s) && self.only_t.is_none_or(|k| k == t);
                 let c = match (kept, self.mis || (self.only_s, self.only_t) == (None, None)) {
@@ -454,7 +464,7 @@ impl Integrator for Bdpt {
                     (true, false) => c,
                 };
                 match raster {
-                    Some(film) => splats.add(film, c),
+                    Some(film) => splats.add(film, c, &lambda),
                     None => l += c,
                 }
             }
@@ -515,6 +525,7 @@ impl Bdpt {
         camera: &Camera,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
     ) -> (Rgb, glam::Vec2) {
         const NONE: Rgb = Rgb::ZERO;
         if t == 0 || s + t < 2 || (s == 1 && t == 1) || s + t > MAX_VERTICES {
@@ -526,7 +537,16 @@ impl Bdpt {
         } else {
             0
         };
-        self.camera_subpath(film, camera, t as u32 - 1, hero, tracer, sampler, &mut cam);
+        self.camera_subpath(
+            film,
+            camera,
+            t as u32 - 1,
+            hero,
+            tracer,
+            sampler,
+            lambda,
+            &mut cam,
+        );
         if cam.len() != t {
             return (NONE, film);
         }
@@ -534,7 +554,15 @@ impl Bdpt {
         sampler.start_stream(1);
         // s = 1 samples its light vertex anew in the join.
         if s >= 2 {
-            self.light_subpath(s as u32 - 1, camera, hero, tracer, sampler, &mut light);
+            self.light_subpath(
+                s as u32 - 1,
+                camera,
+                hero,
+                tracer,
+                sampler,
+                lambda,
+                &mut light,
+            );
             if light.len() != s {
                 return (NONE, film);
             }
@@ -545,6 +573,7 @@ impl Bdpt {
             camera,
             light: &light,
             cam: &cam,
+            lambda: *lambda,
         };
         let (c, weight, raster) = paths.connect(s, t, tracer, sampler);
         if !c.is_finite() || weight.is_nan() || weight <= 0.0 {
@@ -564,6 +593,7 @@ impl Bdpt {
         hero: usize,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
         path: &mut Subpath<'a>,
     ) {
         let medium = tracer.scene.camera_medium();
@@ -582,7 +612,7 @@ impl Bdpt {
             max_vertices,
             pdf_dir,
         };
-        self.random_walk(ray, Rgb::ONE, &walk, tracer, sampler, path);
+        self.random_walk(ray, Rgb::ONE, &walk, tracer, sampler, lambda, path);
     }
 
     /// The light subpath: a point on a light chosen in proportion to power, then up to
@@ -594,14 +624,15 @@ impl Bdpt {
         hero: usize,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
         path: &mut Subpath<'a>,
     ) {
         let scene = tracer.scene;
-        let Some((index, pmf, mut le)) = emit_from_a_light(scene, sampler) else {
+        let Some((index, pmf, mut le)) = emit_from_a_light(scene, sampler, lambda) else {
             return;
         };
         let light = scene.lights().get(index);
-        let infinite = light.is_environment() || matches!(light, crate::Light::Directional(_));
+        let infinite = light.is_environment() || matches!(*light, crate::Light::Directional(_));
         let mut start = Vertex::new(Kind::Light, le.ray.origin, le.normal, le.radiance);
         start.light = Some(index);
         start.infinite = infinite;
@@ -619,7 +650,15 @@ impl Bdpt {
             max_vertices,
             pdf_dir: le.pdf_dir,
         };
-        self.random_walk(le.ray, le.weight / pmf, &walk, tracer, sampler, path);
+        self.random_walk(
+            le.ray,
+            le.weight / pmf,
+            &walk,
+            tracer,
+            sampler,
+            lambda,
+            path,
+        );
         if infinite {
             // A ray from infinity: its first vertex's density is that of the disk it starts
             // from, and the light's "position" density that of its direction.
@@ -651,6 +690,7 @@ impl Bdpt {
         walk: &Walk,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
         path: &mut Subpath<'a>,
     ) {
         let (mode, max_vertices) = (walk.mode, walk.max_vertices);
@@ -669,7 +709,9 @@ impl Bdpt {
             };
             if media {
                 let tmax = found.map_or(f32::INFINITY, |h| h.t);
-                match fly(scene, &ray, tmax, walk.hero, sampler, &mut beta, &mut r_u) {
+                match fly(
+                    scene, &ray, tmax, walk.hero, lambda, sampler, &mut beta, &mut r_u,
+                ) {
                     Flight::Ended => return,
                     Flight::Through => {}
                     Flight::Scattered(p) => {
@@ -722,7 +764,7 @@ impl Bdpt {
                 }
                 return;
             };
-            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            let sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
             if media {
                 // A medium's boundary (or a mask's hole): crossed, no vertex.
                 match cross_null(&sp, &ray, mode, &mut beta, sampler) {
@@ -813,6 +855,8 @@ struct Subpaths<'p, 'a> {
     camera: &'p Camera,
     light: &'p Subpath<'a>,
     cam: &'p Subpath<'a>,
+    /// The wavelengths every join is made at.
+    lambda: Wavelengths,
 }
 
 impl Subpaths<'_, '_> {
@@ -839,7 +883,7 @@ impl Subpaths<'_, '_> {
             if pt.light.is_none() || t < 2 {
                 return NONE;
             }
-            let c = pt.beta * pt.le(scene, &cam[t - 2]);
+            let c = pt.beta * pt.le(scene, &cam[t - 2], &self.lambda);
             if c == Rgb::ZERO {
                 return NONE;
             }
@@ -888,7 +932,7 @@ impl Subpaths<'_, '_> {
             {
                 return NONE;
             }
-            let Some(ls) = light_ref.sample_li(pt.p, u) else {
+            let Some(ls) = light_ref.sample_li(pt.p, u, &self.lambda) else {
                 return NONE;
             };
             if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
@@ -987,7 +1031,7 @@ impl Subpaths<'_, '_> {
         if c == Rgb::ZERO {
             return c;
         }
-        c * transmittance(tracer, &ray, sampler)
+        c * transmittance(tracer, &ray, &self.lambda, sampler)
     }
 
     /// The power-heuristic weight of strategy `(s, t)` against every other strategy that could

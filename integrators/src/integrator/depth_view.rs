@@ -3,6 +3,7 @@
 
 use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, MediaSupport, Params};
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -18,7 +19,15 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct DepthView;
 
 impl RayIntegrator for DepthView {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        _sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
+        // A view of the scene, not light: RGB in either mode.
+        *lambda = Wavelengths::Rgb;
         let Some(hit) = tracer.camera(ray) else {
             return Rgb::ZERO;
         };

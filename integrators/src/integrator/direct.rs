@@ -22,6 +22,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, LIGHT_SELECTION,
 };
 use crate::sampling::power_heuristic;
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -81,13 +82,19 @@ impl Direct {
 }
 
 impl RayIntegrator for Direct {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
         // Emission seen by the camera.
         let Some(hit) = tracer.camera(camera_ray) else {
-            return escaped(tracer.scene, camera_ray);
+            return escaped(tracer.scene, camera_ray, lambda);
         };
-        let mut l = emitted_at(tracer.scene, &hit, camera_ray);
-        let sp = ShadingPoint::new(&hit, camera_ray.dir, tracer.scene);
+        let mut l = emitted_at(tracer.scene, &hit, camera_ray, lambda);
+        let sp = ShadingPoint::new(&hit, camera_ray.dir, tracer.scene, lambda);
         let (share_light, share_bsdf) = self.shares();
         let lights = tracer.scene.lights();
         let ctx = sp.light_context();
@@ -125,8 +132,8 @@ impl RayIntegrator for Direct {
             let ray = sp.hit.spawn_ray(s.wi);
             let next = tracer.extend(&ray);
             let (le, light) = match &next {
-                Some(h) => (emitted_at(tracer.scene, h, &ray), h.light),
-                None => (escaped(tracer.scene, &ray), lights.environment()),
+                Some(h) => (emitted_at(tracer.scene, h, &ray, lambda), h.light),
+                None => (escaped(tracer.scene, &ray, lambda), lights.environment()),
             };
             let Some(index) = light.filter(|_| le != Rgb::ZERO) else {
                 continue;

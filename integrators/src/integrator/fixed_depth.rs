@@ -19,6 +19,7 @@ use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params,
 };
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Hit, Ray, Rgb, Sampler};
 use glam::Vec2;
@@ -116,10 +117,11 @@ impl FixedDepth {
         count_emission: bool,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
     ) -> Rgb {
         // Emission seen directly or through specular surfaces.
         let mut l = if count_emission {
-            emitted_at(tracer.scene, hit, ray)
+            emitted_at(tracer.scene, hit, ray, lambda)
         } else {
             Rgb::ZERO
         };
@@ -127,7 +129,7 @@ impl FixedDepth {
         if bounces >= self.depth || tracer.stop.requested() {
             return l;
         }
-        let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
+        let sp = ShadingPoint::new(hit, ray.dir, tracer.scene, lambda);
         let material = &sp.material;
 
         // Specular surfaces: one continuation ray, emission at its end counts.
@@ -136,8 +138,10 @@ impl FixedDepth {
                 let next = hit.spawn_ray(s.wi);
                 l += s.weight
                     * match tracer.extend(&next) {
-                        Some(h) => self.shade(&next, &h, bounces + 1, true, tracer, sampler),
-                        None => escaped(tracer.scene, &next),
+                        Some(h) => {
+                            self.shade(&next, &h, bounces + 1, true, tracer, sampler, lambda)
+                        }
+                        None => escaped(tracer.scene, &next, lambda),
                     };
             }
             return l;
@@ -158,7 +162,15 @@ impl FixedDepth {
                 // Misses carry no light here: the environment was sampled as direct light.
                 if let Some(h) = tracer.extend(&next) {
                     sum += s.weight
-                        * self.shade(&next, &h, bounces + 1, s.bsdf.specular, tracer, sampler);
+                        * self.shade(
+                            &next,
+                            &h,
+                            bounces + 1,
+                            s.bsdf.specular,
+                            tracer,
+                            sampler,
+                            lambda,
+                        );
                 }
             }
             l += sum / self.branching as f32;
@@ -180,10 +192,16 @@ impl RayIntegrator for FixedDepth {
         }
     }
 
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
         match tracer.camera(ray) {
-            Some(hit) => self.shade(ray, &hit, 0, true, tracer, sampler),
-            None => escaped(tracer.scene, ray),
+            Some(hit) => self.shade(ray, &hit, 0, true, tracer, sampler, lambda),
+            None => escaped(tracer.scene, ray, lambda),
         }
     }
 }

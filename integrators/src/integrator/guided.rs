@@ -44,6 +44,7 @@ use crate::registry::{
     MAX_DEPTH, RR_DEPTH,
 };
 use crate::sd_tree::{Guide, Record, SdTree};
+use crate::spectrum::Wavelengths;
 use crate::{luminance, Camera, Ray, Rgb, Sampler, Scene};
 use crate::{PassContext, Spectrum};
 use arrayvec::ArrayVec;
@@ -159,6 +160,7 @@ impl Guided {
         camera_ray: &Ray,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
         mut visits: Option<&mut Visits>,
     ) -> Rgb {
         let mut l = Rgb::ZERO;
@@ -169,7 +171,7 @@ impl Guided {
             // Trace the next segment.
             let Some(hit) = path.trace(tracer) else {
                 // Escaped: environment light, MIS-weighted against the density that chose it.
-                let le = escaped(tracer.scene, &path.ray);
+                let le = escaped(tracer.scene, &path.ray, lambda);
                 if le != Rgb::ZERO {
                     let c = path.beta * le * path.emission_weight(tracer, None);
                     l += c;
@@ -179,7 +181,7 @@ impl Guided {
             };
             // Emission found by the sampled direction (or the camera).
             if hit.light.is_some() {
-                let le = emitted_at(tracer.scene, &hit, &path.ray);
+                let le = emitted_at(tracer.scene, &hit, &path.ray, lambda);
                 if le != Rgb::ZERO {
                     let c = path.beta * le * path.emission_weight(tracer, Some(&hit));
                     l += c;
@@ -190,7 +192,7 @@ impl Guided {
             if path.bounces >= self.max_depth {
                 break;
             }
-            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene, lambda);
             let guided_here = !sp.material.has_delta_lobe() && self.bsdf_fraction < 1.0;
             let guide = tree.filter(|_| guided_here).and_then(|t| t.at(sp.hit.p));
             let Some(guide) = guide else {
@@ -336,6 +338,8 @@ impl Guided {
                     &ray,
                     &mut tracer,
                     &mut sampler,
+                    // The guide learns from RGB radiance in either mode.
+                    &mut Wavelengths::Rgb,
                     Some(&mut visits),
                 );
                 // The radiance that arrived through each guided direction: what the path
@@ -359,8 +363,21 @@ impl Guided {
 }
 
 impl RayIntegrator for Guided {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
-        self.trace(self.tree.as_ref(), camera_ray, tracer, sampler, None)
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
+        self.trace(
+            self.tree.as_ref(),
+            camera_ray,
+            tracer,
+            sampler,
+            lambda,
+            None,
+        )
     }
 
     /// Trains the tree before the first pass (and the first after a resume).

@@ -37,6 +37,7 @@ use crate::integrator::{
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Camera, Hit, Ray, Rgb, Sampler};
 use crate::{SampleContext, Spectrum};
 
@@ -74,6 +75,7 @@ impl Integrator for LightTracer {
             tracer,
             sampler,
             splats,
+            lambda,
         } = cx;
         // The environment seen straight through the pixel: the one path no light path reaches.
         let mut seen = Rgb::ZERO;
@@ -85,14 +87,15 @@ impl Integrator for LightTracer {
                     medium: tracer.scene.camera_medium(),
                     ..ray
                 };
-                seen = escaped(tracer.scene, &ray) * transmittance(tracer, &ray, sampler);
+                seen = escaped(tracer.scene, &ray, lambda)
+                    * transmittance(tracer, &ray, lambda, sampler);
             } else if tracer.camera(&ray).is_none() {
-                seen = escaped(tracer.scene, &ray);
+                seen = escaped(tracer.scene, &ray, lambda);
             }
         }
         if camera.is_pinhole() {
-            self.emitters_seen_directly(camera, tracer, sampler, splats);
-            self.light_path(camera, tracer, sampler, splats);
+            self.emitters_seen_directly(camera, tracer, sampler, splats, lambda);
+            self.light_path(camera, tracer, sampler, splats, lambda);
         }
         seen
     }
@@ -114,6 +117,7 @@ impl LightTracer {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         splats: &mut Splats,
+        lambda: &Wavelengths,
     ) {
         let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
         let lights = tracer.scene.lights();
@@ -124,7 +128,7 @@ impl LightTracer {
         if light.is_delta() {
             return;
         }
-        let Some(ls) = light.sample_li(camera.eye, u) else {
+        let Some(ls) = light.sample_li(camera.eye, u, lambda) else {
             return;
         };
         // Lights at infinity are seen by camera rays (see `sample`).
@@ -142,9 +146,13 @@ impl LightTracer {
                 medium: tracer.scene.camera_medium(),
                 ..eye.spawn_ray_to(ls.point)
             };
-            splats.add(raster, l * transmittance(tracer, &ray, sampler));
+            splats.add(
+                raster,
+                l * transmittance(tracer, &ray, lambda, sampler),
+                lambda,
+            );
         } else if tracer.unoccluded(&eye, &ls) {
-            splats.add(raster, l);
+            splats.add(raster, l, lambda);
         }
     }
 
@@ -155,10 +163,11 @@ impl LightTracer {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         splats: &mut Splats,
+        lambda: &mut Wavelengths,
     ) {
         let scene = tracer.scene;
         // Emission: a light in proportion to power, a ray leaving it.
-        let Some((_, pmf, emission)) = emit_from_a_light(scene, sampler) else {
+        let Some((_, pmf, emission)) = emit_from_a_light(scene, sampler, lambda) else {
             return;
         };
         // Power the path carries: Le cos / (pdf_pos pdf_dir pmf).
@@ -187,6 +196,7 @@ impl LightTracer {
                     &ray,
                     tmax,
                     walk.hero,
+                    lambda,
                     sampler,
                     &mut beta,
                     &mut walk.r_u,
@@ -201,9 +211,9 @@ impl LightTracer {
                         };
                         let (phase, wo) = (medium.phase(), -ray.dir);
                         if let Some(l) = connect_medium_to_lens(
-                            p, wo, &ray, beta, &walk, camera, tracer, sampler,
+                            p, wo, &ray, beta, &walk, camera, tracer, lambda, sampler,
                         ) {
-                            splats.add(l.0, l.1);
+                            splats.add(l.0, l.1, lambda);
                         }
                         if bounces >= self.max_depth {
                             return;
@@ -226,7 +236,7 @@ impl LightTracer {
             let Some(hit) = hit else {
                 return;
             };
-            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            let sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
             if media {
                 // A medium's boundary (or a mask's hole): crossed, no scattering event.
                 match cross_null(&sp, &ray, TransportMode::Importance, &mut beta, sampler) {
@@ -243,7 +253,7 @@ impl LightTracer {
             if !sp.material.is_specular() {
                 let medium = media.then_some((&walk, &mut *sampler));
                 if let Some(l) = connect_to_lens(&sp, beta, camera, tracer, medium) {
-                    splats.add(l.0, l.1);
+                    splats.add(l.0, l.1, lambda);
                 }
             }
             if bounces >= self.max_depth {
@@ -309,6 +319,7 @@ fn connect_medium_to_lens(
     walk: &Walk,
     camera: &Camera,
     tracer: &mut Tracer,
+    lambda: &Wavelengths,
     sampler: &mut Sampler,
 ) -> Option<(glam::Vec2, Rgb)> {
     let cs = camera.sample_wi(p)?;
@@ -320,7 +331,7 @@ fn connect_medium_to_lens(
         tmax: cs.dist * (1.0 - 1e-4),
         medium: ray.medium,
     };
-    let tr = transmittance(tracer, &to_eye, sampler);
+    let tr = transmittance(tracer, &to_eye, lambda, sampler);
     let l = beta * tr * (f * cs.we / cs.pdf) / average(walk.r_u);
     (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
 }
@@ -349,7 +360,7 @@ fn connect_to_lens(
             .then_some((cs.raster, l)),
         Some((walk, sampler)) => {
             let ray = sp.hit.spawn_ray_to(cs.point);
-            let tr = transmittance(tracer, &ray, sampler);
+            let tr = transmittance(tracer, &ray, &sp.lambda, sampler);
             let l = l * tr / average(walk.r_u);
             (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
         }

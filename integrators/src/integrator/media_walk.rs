@@ -10,7 +10,8 @@
 
 use crate::integrator::{stays_on_viewer_side, ShadingPoint, Tracer};
 use crate::medium::tracking::sample_t_maj;
-use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene};
+use crate::spectrum::Wavelengths;
+use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene, Spectrum};
 use glam::Vec3A;
 
 /// How many surfaces a walk crosses before it gives up (a bound on one ray's work).
@@ -91,6 +92,7 @@ pub fn fly(
     ray: &Ray,
     tmax: f32,
     hero: usize,
+    lambda: &Wavelengths,
     sampler: &mut Sampler,
     beta: &mut Rgb,
     r_u: &mut Rgb,
@@ -100,7 +102,7 @@ pub fn fly(
     };
     let mut scattered = None;
     let mut ended = false;
-    let t_maj = sample_t_maj(medium, ray, tmax, hero, sampler, |c, sampler| {
+    let t_maj = sample_t_maj(medium, ray, tmax, hero, lambda, sampler, |c, sampler| {
         let pt = &c.point;
         let sigma_t = pt.sigma_a + pt.sigma_s;
         if sampler.next_1d() < sigma_t[hero] / c.sigma_maj[hero] {
@@ -147,7 +149,12 @@ pub fn fly(
 /// surface lies on it. A thin dielectric or a partial mask blocks it: light subpaths make a
 /// vertex there (a Dirac lobe), so a join that went through one would count again, under
 /// other MIS weights, the paths with that vertex. Each ray cast counts as a connection.
-pub fn transmittance(tracer: &mut Tracer, ray: &Ray, sampler: &mut Sampler) -> Rgb {
+pub fn transmittance(
+    tracer: &mut Tracer,
+    ray: &Ray,
+    lambda: &Wavelengths,
+    sampler: &mut Sampler,
+) -> Spectrum {
     let scene: &dyn Scene = tracer.scene;
     let target = ray.at(ray.tmax);
     let mut ray = *ray;
@@ -157,7 +164,9 @@ pub fn transmittance(tracer: &mut Tracer, ray: &Ray, sampler: &mut Sampler) -> R
         let hit = scene.intersect(&ray);
         let Some(h) = hit else {
             if let Some(medium) = scene.medium(ray.medium) {
-                tr *= crate::medium::tracking::ratio_tracking(medium, &ray, ray.tmax, sampler);
+                tr *= crate::medium::tracking::ratio_tracking(
+                    medium, &ray, ray.tmax, lambda, sampler,
+                );
             }
             return tr;
         };
@@ -165,7 +174,7 @@ pub fn transmittance(tracer: &mut Tracer, ray: &Ray, sampler: &mut Sampler) -> R
             return Rgb::ZERO;
         }
         if let Some(medium) = scene.medium(ray.medium) {
-            tr *= crate::medium::tracking::ratio_tracking(medium, &ray, h.t, sampler);
+            tr *= crate::medium::tracking::ratio_tracking(medium, &ray, h.t, lambda, sampler);
         }
         if tr == Rgb::ZERO || !tr.is_finite() {
             return Rgb::ZERO;
@@ -182,7 +191,9 @@ pub fn crosses(scene: &dyn Scene, h: &Hit, ray: &Ray) -> bool {
     if scene.material(h.material).opacity().is_none() {
         return false;
     }
-    let sp = ShadingPoint::new(h, ray.dir, scene);
+    // What is asked is the material's kind and a straight-on transmittance of exactly one,
+    // the same in either mode: looked at in RGB.
+    let sp = ShadingPoint::new(h, ray.dir, scene, &mut Wavelengths::Rgb);
     sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION
         && sp.material.null_transmission(sp.wo) == Rgb::ONE
 }
@@ -237,7 +248,12 @@ pub enum Scatterer<'s, 'a> {
 /// transmittance to the light ([`transmittance`]: through media and `Null` boundaries only,
 /// so that it never counts light a path through a Dirac lobe counts). The photon gathers'
 /// next-event estimation in media.
-pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+pub fn direct_light(
+    at: &Scatterer,
+    tracer: &mut Tracer,
+    lambda: &Wavelengths,
+    sampler: &mut Sampler,
+) -> Spectrum {
     let scene: &dyn Scene = tracer.scene;
     let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
     let ctx = match at {
@@ -263,7 +279,7 @@ pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) 
             let Some(m) = scene.medium(*medium) else {
                 return Rgb::ZERO;
             };
-            let Some(ls) = light.sample_li(*p, u) else {
+            let Some(ls) = light.sample_li(*p, u, lambda) else {
                 return Rgb::ZERO;
             };
             let f = Rgb::splat(m.phase().eval(*wo, ls.wi));
@@ -273,7 +289,7 @@ pub fn direct_light(at: &Scatterer, tracer: &mut Tracer, sampler: &mut Sampler) 
     if !positive(ls.pdf) || ls.radiance == Rgb::ZERO || f == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let l = f * ls.radiance / (pmf * ls.pdf) * transmittance(tracer, &ray, sampler);
+    let l = f * ls.radiance / (pmf * ls.pdf) * transmittance(tracer, &ray, lambda, sampler);
     if l.is_finite() {
         l
     } else {
@@ -293,7 +309,10 @@ pub fn light_at_surface(
     if !sp.can_receive(index, scene.lights()) {
         return None;
     }
-    let ls = scene.lights().get(index).sample_li(sp.hit.p, u)?;
+    let ls = scene
+        .lights()
+        .get(index)
+        .sample_li(sp.hit.p, u, &sp.lambda)?;
     if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, ls.wi) {
         return None;
     }

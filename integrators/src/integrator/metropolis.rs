@@ -22,6 +22,7 @@ use crate::integrator::{Demand, Integrator, RayCounters, Splats, Stop, Tracer};
 use crate::mlt::PrimarySamples;
 use crate::random::{keyed_rng, unit_f32};
 use crate::registry::{ParamKind, ParamSpec, Params};
+use crate::spectrum::Wavelengths;
 use crate::{luminance, Camera, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
 use glam::Vec2;
@@ -42,14 +43,16 @@ pub trait PathSpace: Send + Sync {
         false
     }
 
-    /// The radiance of the path that the sampler's numbers make in `class`, and the film
-    /// position (pixels) it lands at.
+    /// The radiance of the path that the sampler's numbers make in `class`, as linear sRGB,
+    /// and the film position (pixels) it lands at. With `spectral`, the path carries
+    /// wavelengths drawn from the same numbers.
     fn evaluate(
         &self,
         class: u32,
         camera: &Camera,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        spectral: bool,
     ) -> (Rgb, Vec2);
 }
 
@@ -119,6 +122,8 @@ pub struct Metropolis<S> {
     /// every class, sample `i` of class `i % classes`), and the key its samples came from.
     cdf: Vec<f64>,
     key: u64,
+    /// Whether paths carry sampled wavelengths (the render's mode, learnt before each pass).
+    spectral: bool,
 }
 
 impl<S: PathSpace> Metropolis<S> {
@@ -132,6 +137,7 @@ impl<S: PathSpace> Metropolis<S> {
             sigma: p.get("sigma") as f32,
             cdf: Vec::new(),
             key: 0,
+            spectral: false,
         }
     }
 
@@ -174,9 +180,13 @@ impl<S: PathSpace> Metropolis<S> {
                         p.restart(keyed_rng(key, i as u64));
                     }
                     let class = i as u32 % classes;
-                    let (l, _) = self
-                        .space
-                        .evaluate(class, camera, &mut tracer, &mut sampler);
+                    let (l, _) = self.space.evaluate(
+                        class,
+                        camera,
+                        &mut tracer,
+                        &mut sampler,
+                        self.spectral,
+                    );
                     let y = luminance(l) as f64;
                     *w = if y.is_finite() && y > 0.0 { y } else { 0.0 };
                 }
@@ -260,7 +270,9 @@ impl<S: PathSpace> Metropolis<S> {
             .min(self.cdf.len().saturating_sub(1));
         let class = (start % classes) as u32;
         let mut sampler = self.fresh_state(keyed_rng(self.key ^ BOOTSTRAP_SALT, start as u64));
-        let (mut current, mut film) = self.space.evaluate(class, camera, tracer, &mut sampler);
+        let (mut current, mut film) =
+            self.space
+                .evaluate(class, camera, tracer, &mut sampler, self.spectral);
         let mut y = luminance(current);
         if !(y > 0.0 && y.is_finite()) {
             return;
@@ -278,7 +290,8 @@ impl<S: PathSpace> Metropolis<S> {
                 state.start_iteration();
             }
             let (proposed, proposed_film) =
-                self.space.evaluate(class, camera, tracer, &mut sampler);
+                self.space
+                    .evaluate(class, camera, tracer, &mut sampler, self.spectral);
             let py = luminance(proposed);
             let py = if py.is_finite() && proposed.is_finite() {
                 py.max(0.0)
@@ -288,10 +301,18 @@ impl<S: PathSpace> Metropolis<S> {
             // Splat both, by the probability of each being the next state.
             let accept = (py / y).min(1.0);
             if accept > 0.0 {
-                splats.add(proposed_film, proposed * (accept * scale / py));
+                splats.add(
+                    proposed_film,
+                    proposed * (accept * scale / py),
+                    &Wavelengths::Rgb,
+                );
             }
             if accept < 1.0 {
-                splats.add(film, current * ((1.0 - accept) * scale / y));
+                splats.add(
+                    film,
+                    current * ((1.0 - accept) * scale / y),
+                    &Wavelengths::Rgb,
+                );
             }
             // Accept or reject.
             let Some(state) = sampler.primary_samples() else {
@@ -330,8 +351,10 @@ impl<S: PathSpace> Integrator for Metropolis<S> {
             seed,
             pass,
             stop,
+            lambda,
             ..
         } = *cx;
+        self.spectral = lambda.is_spectral();
         self.bootstrap_pass(scene, camera, seed, pass, stop)
     }
 
@@ -374,6 +397,7 @@ mod tests {
             camera: &Camera,
             _tracer: &mut Tracer,
             sampler: &mut Sampler,
+            _spectral: bool,
         ) -> (Rgb, Vec2) {
             sampler.start_stream(0);
             let u = sampler.next_2d();
@@ -399,6 +423,7 @@ mod tests {
             pass,
             rows: 0..camera.height,
             stop: Stop::NEVER,
+            lambda: Wavelengths::Rgb,
         });
         let mut tracer = Tracer::new(&scene);
         let mut splats = Splats::default();

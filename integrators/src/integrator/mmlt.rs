@@ -23,6 +23,7 @@ use crate::integrator::bdpt::Bdpt;
 use crate::integrator::metropolis::{Metropolis, PathSpace, PARAMS};
 use crate::integrator::Tracer;
 use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH};
+use crate::spectrum::Wavelengths;
 use crate::{Camera, Rgb, Sampler};
 use glam::Vec2;
 
@@ -86,6 +87,7 @@ impl PathSpace for Strategies {
         camera: &Camera,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        spectral: bool,
     ) -> (Rgb, Vec2) {
         sampler.start_stream(0);
         // The strategy: depth 0 has one ((0, 2): an emitter seen directly), depth d has d + 2.
@@ -103,7 +105,14 @@ impl PathSpace for Strategies {
         if !camera.is_pinhole() {
             return (Rgb::ZERO, film);
         }
-        let (l, at) = self.bdpt.one_strategy(s, t, film, camera, tracer, sampler);
-        (l * strategies as f32, at)
+        // The wavelengths both subpaths carry, from the camera's stream.
+        let mut lambda = match spectral {
+            true => Wavelengths::sample(sampler.next_1d()),
+            false => Wavelengths::Rgb,
+        };
+        let (l, at) = self
+            .bdpt
+            .one_strategy(s, t, film, camera, tracer, sampler, &mut lambda);
+        (lambda.to_rgb(l * strategies as f32), at)
     }
 }

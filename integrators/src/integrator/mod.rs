@@ -33,6 +33,7 @@ pub use path_state::PathState;
 pub use shading::{Scatter, ShadingPoint};
 
 use crate::light::{LightContext, LightSample, LightSelection};
+use crate::spectrum::Wavelengths;
 use crate::{Camera, Hit, Ray, Rgb, Sampler, Scene, Spectrum};
 use glam::Vec2;
 
@@ -171,19 +172,25 @@ pub struct PixelSample {
 }
 
 /// What one camera sample works with: where it lands, the camera, the tracer it casts rays
-/// through (which counts them), its own random numbers and the splats of its work unit. The
-/// render loop makes one per sample; an integrator takes what it needs.
+/// through (which counts them), its own random numbers, the splats of its work unit and the
+/// wavelengths it carries (the estimate it returns is a [`Spectrum`] at them, which the
+/// render loop turns into RGB with what they are at the end: a dispersive surface may leave
+/// only the hero). The render loop makes one per sample; an integrator takes what it needs.
 pub struct SampleContext<'s, 'a> {
     pub pixel: &'s PixelSample,
     pub camera: &'s Camera,
     pub tracer: &'s mut Tracer<'a>,
     pub sampler: &'s mut Sampler,
     pub splats: &'s mut Splats,
+    pub lambda: &'s mut Wavelengths,
 }
 
 /// What the work before a pass sees ([`Integrator::prepare_pass`]): the scene and camera,
 /// the render's seed, the number of the pass, the image rows this run renders (all of them,
-/// or a shard's band with the rows its filter reaches), and the request to abandon it.
+/// or a shard's band with the rows its filter reaches), the request to abandon it, and the
+/// wavelengths of the pass: in spectral mode, the integrators that share light paths between
+/// pixels (photon maps, VCM's merging) trace every path of a pass at these (pbrt-v4's SPPM
+/// does the same), so that photons and the camera paths that gather them agree.
 #[derive(Clone)]
 pub struct PassContext<'a> {
     pub scene: &'a dyn Scene,
@@ -192,10 +199,12 @@ pub struct PassContext<'a> {
     pub pass: u32,
     pub rows: std::ops::Range<u32>,
     pub stop: Stop<'a>,
+    pub lambda: Wavelengths,
 }
 
 /// What one Markov chain's run works with ([`Integrator::run_chain`]): the camera, the
-/// tracer, and the splats of the work unit it runs in.
+/// tracer, and the splats of the work unit it runs in. (In spectral mode each proposal draws
+/// its wavelengths from its primary samples; the chains learn the mode before the pass.)
 pub struct ChainContext<'s, 'a> {
     pub camera: &'s Camera,
     pub tracer: &'s mut Tracer<'a>,
@@ -248,8 +257,8 @@ impl Work {
 /// accumulation per declared layer and the command line writes each to a file.
 #[derive(Clone, Debug, Default)]
 pub struct Splats {
-    entries: Vec<(Vec2, Spectrum)>,
-    layered: Vec<(u32, Vec2, Spectrum)>,
+    entries: Vec<(Vec2, Rgb)>,
+    layered: Vec<(u32, Vec2, Rgb)>,
 }
 
 /// How many splats a [`Splats`] held at some moment, to drop those added since.
@@ -257,25 +266,32 @@ pub struct Splats {
 pub struct SplatMark(usize, usize);
 
 impl Splats {
-    /// Adds `radiance` at film position `film` (pixels).
+    /// Adds `radiance`, carried at `lambda`, at film position `film` (pixels).
     #[inline]
-    pub fn add(&mut self, film: Vec2, radiance: Spectrum) {
-        self.entries.push((film, radiance));
+    pub fn add(&mut self, film: Vec2, radiance: Spectrum, lambda: &Wavelengths) {
+        self.entries.push((film, lambda.to_rgb(radiance)));
     }
 
-    /// Adds `radiance` at film position `film` of layer `layer` (one the integrator declared).
+    /// Adds `radiance`, carried at `lambda`, at film position `film` of layer `layer` (one
+    /// the integrator declared).
     #[inline]
-    pub fn add_to_layer(&mut self, layer: u32, film: Vec2, radiance: Spectrum) {
-        self.layered.push((layer, film, radiance));
+    pub fn add_to_layer(
+        &mut self,
+        layer: u32,
+        film: Vec2,
+        radiance: Spectrum,
+        lambda: &Wavelengths,
+    ) {
+        self.layered.push((layer, film, lambda.to_rgb(radiance)));
     }
 
-    /// The splats of the main image in the order they were added.
-    pub fn entries(&self) -> &[(Vec2, Spectrum)] {
+    /// The splats of the main image in the order they were added, as linear sRGB.
+    pub fn entries(&self) -> &[(Vec2, Rgb)] {
         &self.entries
     }
 
-    /// The splats of the layers in the order they were added.
-    pub fn layered_entries(&self) -> &[(u32, Vec2, Spectrum)] {
+    /// The splats of the layers in the order they were added, as linear sRGB.
+    pub fn layered_entries(&self) -> &[(u32, Vec2, Rgb)] {
         &self.layered
     }
 
@@ -406,8 +422,15 @@ impl Demand {
 /// pbrt-v4's `RayIntegrator`): the camera ray through the sample's film position, one
 /// estimate, no splats.
 pub trait RayIntegrator: Send + Sync {
-    /// One sample of the radiance arriving along `ray` (a camera ray).
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum;
+    /// One sample of the radiance arriving along `ray` (a camera ray), at the wavelengths
+    /// `lambda`.
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum;
 
     /// As [`Integrator::demand`].
     fn demand(&self) -> Demand {
@@ -428,10 +451,11 @@ impl<T: RayIntegrator> Integrator for T {
             camera,
             tracer,
             sampler,
+            lambda,
             ..
         } = cx;
         let ray = camera.ray(pixel.film.x, pixel.film.y);
-        self.radiance(&ray, tracer, sampler)
+        self.radiance(&ray, tracer, sampler, lambda)
     }
 
     fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
@@ -460,6 +484,7 @@ pub fn scene_radius(scene: &dyn Scene) -> f32 {
 pub fn emit_from_a_light(
     scene: &dyn Scene,
     sampler: &mut Sampler,
+    lambda: &Wavelengths,
 ) -> Option<(u32, f32, crate::LeSample)> {
     let (index, pmf) = scene.lights().sample(sampler.next_1d())?;
     let (u_pos, u_dir, u_side) = (sampler.next_2d(), sampler.next_2d(), sampler.next_1d());
@@ -470,25 +495,32 @@ pub fn emit_from_a_light(
         u_side,
         (lo + hi) * 0.5,
         scene_radius(scene),
+        lambda,
     )?;
     Some((index, pmf, le))
 }
 
-/// Radiance emitted by the surface at `hit` towards the ray's origin.
+/// Radiance emitted by the surface at `hit` towards the ray's origin, at `lambda`.
 #[inline]
-pub fn emitted_at(scene: &dyn Scene, hit: &Hit, ray: &Ray) -> Rgb {
+pub fn emitted_at(scene: &dyn Scene, hit: &Hit, ray: &Ray, lambda: &Wavelengths) -> Spectrum {
     match hit.light {
-        Some(i) => scene.lights().get(i).emitted_at(hit.p, hit.ng, -ray.dir),
-        None => Rgb::ZERO,
+        Some(i) => scene
+            .lights()
+            .get(i)
+            .emitted_at(hit.p, hit.ng, -ray.dir, lambda),
+        None => Spectrum::ZERO,
     }
 }
 
-/// Radiance arriving along a ray that escaped the scene.
+/// Radiance arriving along a ray that escaped the scene, at `lambda`.
 #[inline]
-pub fn escaped(scene: &dyn Scene, ray: &Ray) -> Rgb {
+pub fn escaped(scene: &dyn Scene, ray: &Ray, lambda: &Wavelengths) -> Spectrum {
     match scene.lights().environment() {
-        Some(i) => scene.lights().get(i).emitted(glam::Vec3A::ZERO, -ray.dir),
-        None => Rgb::ZERO,
+        Some(i) => scene
+            .lights()
+            .get(i)
+            .emitted(glam::Vec3A::ZERO, -ray.dir, lambda),
+        None => Spectrum::ZERO,
     }
 }
 

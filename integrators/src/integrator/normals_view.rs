@@ -3,6 +3,7 @@
 
 use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, MediaSupport, Params};
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -18,7 +19,15 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
 struct NormalsView;
 
 impl RayIntegrator for NormalsView {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, _sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        _sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
+        // A view of the scene, not light: RGB in either mode.
+        *lambda = Wavelengths::Rgb;
         match tracer.camera(ray) {
             Some(hit) => hit.ns * 0.5 + 0.5,
             None => Rgb::ZERO,

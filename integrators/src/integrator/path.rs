@@ -20,6 +20,7 @@ use crate::light::LightSelection;
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -49,14 +50,20 @@ pub(crate) struct PathTracer {
 }
 
 impl RayIntegrator for PathTracer {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
         let mut l = Rgb::ZERO;
         let mut path = PathState::from_camera(*camera_ray).selecting_lights(self.lights);
         loop {
             // Trace the next segment.
             let Some(hit) = path.trace(tracer) else {
                 // Escaped: environment light, MIS-weighted unless seen through specular.
-                let le = escaped(tracer.scene, &path.ray);
+                let le = escaped(tracer.scene, &path.ray, lambda);
                 if le != Rgb::ZERO {
                     l += path.beta * le * path.emission_weight(tracer, None);
                 }
@@ -64,7 +71,7 @@ impl RayIntegrator for PathTracer {
             };
             // Emission found by the BSDF sample (or the camera).
             if hit.light.is_some() {
-                let le = emitted_at(tracer.scene, &hit, &path.ray);
+                let le = emitted_at(tracer.scene, &hit, &path.ray, lambda);
                 if le != Rgb::ZERO {
                     l += path.beta * le * path.emission_weight(tracer, Some(&hit));
                 }
@@ -72,7 +79,7 @@ impl RayIntegrator for PathTracer {
             if path.bounces >= self.max_depth {
                 break;
             }
-            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene, lambda);
             // Next-event estimation, MIS-weighted.
             if !sp.material.is_specular() {
                 l += path.beta * sample_one_light(&sp, true, self.lights, tracer, sampler);

@@ -45,6 +45,7 @@ use crate::photon_map::{
 use crate::registry::{
     IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
 };
+use crate::spectrum::Wavelengths;
 use crate::{PassContext, Spectrum};
 use crate::{Ray, RayCounters, Rgb, Sampler};
 
@@ -109,6 +110,8 @@ struct Maps {
     global: PhotonMap,
     /// The global map's landings in media.
     volume: PhotonMap,
+    /// The wavelengths its photons carry, which the camera paths that gather them take.
+    lambda: Wavelengths,
 }
 
 impl RayIntegrator for PhotonMapping {
@@ -126,12 +129,22 @@ impl RayIntegrator for PhotonMapping {
             camera,
             seed,
             stop,
+            pass,
+            lambda,
             ..
         } = *cx;
-        if self.maps.is_some() {
+        // Both maps, once, from the seed alone (streams 0 and 1); in spectral mode anew each
+        // pass at the pass's wavelengths (streams 2p and 2p + 1), as maps made at three
+        // wavelengths would never see the others.
+        let spectral = lambda.is_spectral();
+        if self
+            .maps
+            .as_ref()
+            .is_some_and(|m| !spectral && !m.lambda.is_spectral())
+        {
             return RayCounters::default();
         }
-        // Both maps, once, from the seed alone (streams 0 and 1).
+        let first_stream = if spectral { 2 * pass as u64 } else { 0 };
         let pick = |r: f32, fraction: f32| {
             if r > 0.0 {
                 r
@@ -145,8 +158,9 @@ impl RayIntegrator for PhotonMapping {
             keep,
             max_bounces,
             seed,
-            stream,
+            stream: first_stream + stream,
             eye: camera.eye,
+            lambda,
         };
         let (caustic, mut rays) =
             trace_photons(scene, &pass(self.caustic_photons, Keep::Caustic, 0), stop);
@@ -162,14 +176,22 @@ impl RayIntegrator for PhotonMapping {
             caustic: PhotonMap::build(caustic, pick(self.radius, 0.005)),
             global: PhotonMap::build(global, global_radius),
             volume: PhotonMap::build(volume, global_radius),
+            lambda,
         });
         rays
     }
 
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
         let Some(maps) = &self.maps else {
             return Rgb::ZERO;
         };
+        *lambda = maps.lambda;
         let mut l = Rgb::ZERO;
         // Follow the camera path through specular bounces, collecting emission.
         let Some(x) = land(
@@ -180,6 +202,7 @@ impl RayIntegrator for PhotonMapping {
             Some(&mut l),
             tracer,
             sampler,
+            lambda,
         ) else {
             return l;
         };
@@ -196,7 +219,13 @@ impl RayIntegrator for PhotonMapping {
                 // In a medium: direct light by next-event estimation, the rest (caustics
                 // included) from the volume map, read directly.
                 let (wo, medium) = (-x.ray.dir, x.ray.medium);
-                l += x.beta * direct_light(&Scatterer::Medium { p, wo, medium }, tracer, sampler);
+                l += x.beta
+                    * direct_light(
+                        &Scatterer::Medium { p, wo, medium },
+                        tracer,
+                        lambda,
+                        sampler,
+                    );
                 l += x.beta
                     * maps.volume.in_scattered(scene, medium, p, wo, |ph| {
                         ph.bounces >= 1 && (ph.bounces as u32) <= photon_budget
@@ -204,7 +233,7 @@ impl RayIntegrator for PhotonMapping {
                 return l;
             }
         };
-        let sp = ShadingPoint::new(&hit, x.ray.dir, scene);
+        let sp = ShadingPoint::new(&hit, x.ray.dir, scene, lambda);
         // Direct light by next-event estimation.
         l += x.beta * direct(&sp, tracer, sampler);
         // Caustics from the caustic map: photons that landed after b >= 1 specular bounces.
@@ -232,7 +261,7 @@ impl RayIntegrator for PhotonMapping {
                 continue;
             };
             let budget = self.max_depth.saturating_sub(depth + 2);
-            let Some(y) = land(ray, false, budget, RR_DEPTH, None, tracer, sampler) else {
+            let Some(y) = land(ray, false, budget, RR_DEPTH, None, tracer, sampler, lambda) else {
                 continue;
             };
             // Reaching y took `y.bounces` specular bounces: y's photons may have scattered
@@ -245,7 +274,7 @@ impl RayIntegrator for PhotonMapping {
                 * y.beta
                 * match y.at {
                     Spot::Surface(hit) => {
-                        let y_sp = ShadingPoint::new(&hit, y.ray.dir, scene);
+                        let y_sp = ShadingPoint::new(&hit, y.ray.dir, scene, lambda);
                         maps.global.radiance(&y_sp, accept)
                     }
                     Spot::Medium(p) => {
@@ -261,7 +290,7 @@ impl RayIntegrator for PhotonMapping {
 /// Direct light at a surface by one light sample (through media where the scene has them).
 pub(super) fn direct(sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
     if tracer.scene.has_media() {
-        direct_light(&Scatterer::Surface(sp), tracer, sampler)
+        direct_light(&Scatterer::Surface(sp), tracer, &sp.lambda, sampler)
     } else {
         sample_one_light(sp, false, None, tracer, sampler)
     }

@@ -24,6 +24,7 @@ use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Camera, Rgb, Sampler};
 use glam::Vec2;
 
@@ -84,17 +85,22 @@ impl PathSpace for UnidirectionalPaths {
         camera: &Camera,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        spectral: bool,
     ) -> (Rgb, Vec2) {
         sampler.start_stream(0);
-        // The film position, anywhere on the image; then the path from it.
+        // The film position, anywhere on the image, the wavelengths; then the path.
         let u = sampler.next_2d();
         let film = Vec2::new(u.x * camera.width as f32, u.y * camera.height as f32);
+        let mut lambda = match spectral {
+            true => Wavelengths::sample(sampler.next_1d()),
+            false => Wavelengths::Rgb,
+        };
         let ray = camera.ray(film.x, film.y);
         let l = if tracer.scene.has_media() {
-            self.volpath.radiance(&ray, tracer, sampler)
+            self.volpath.radiance(&ray, tracer, sampler, &mut lambda)
         } else {
-            self.path.radiance(&ray, tracer, sampler)
+            self.path.radiance(&ray, tracer, sampler, &mut lambda)
         };
-        (l, film)
+        (lambda.to_rgb(l), film)
     }
 }

@@ -34,6 +34,7 @@ use crate::random::{keyed_rng, mix64, unit_f32};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Hit, LightSample, Rgb, Scene, Spectrum};
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
@@ -103,7 +104,12 @@ impl LightPoint {
     /// The light as seen from `x`: the direction, distance and radiance arriving (the
     /// sample's density is not set), and the factor that converts the light's measure into
     /// solid angle at `x` (`|cos| / d^2` for area lights, else 1).
-    fn seen_from(&self, lights: &crate::LightTable, x: Vec3A) -> Option<(LightSample, f32)> {
+    fn seen_from(
+        &self,
+        lights: &crate::LightTable,
+        x: Vec3A,
+        lambda: &Wavelengths,
+    ) -> Option<(LightSample, f32)> {
         match *self {
             LightPoint::Area { light, q, n } => {
                 let d = q - x;
@@ -113,7 +119,7 @@ impl LightPoint {
                 }
                 let dist = d2.sqrt();
                 let wi = d / dist;
-                let radiance = lights.get(light).emitted_from(q, -wi);
+                let radiance = lights.get(light).emitted_from(q, -wi, lambda);
                 let sample = LightSample {
                     wi,
                     point: q,
@@ -124,11 +130,12 @@ impl LightPoint {
                 };
                 Some((sample, n.dot(wi).abs() / d2))
             }
-            LightPoint::Delta { light } => {
-                lights.get(light).sample_li(x, Vec2::ZERO).map(|s| (s, 1.0))
-            }
+            LightPoint::Delta { light } => lights
+                .get(light)
+                .sample_li(x, Vec2::ZERO, lambda)
+                .map(|s| (s, 1.0)),
             LightPoint::Direction { light, w } => {
-                let radiance = lights.get(light).emitted(Vec3A::ZERO, -w);
+                let radiance = lights.get(light).emitted(Vec3A::ZERO, -w, lambda);
                 let sample = LightSample {
                     wi: w,
                     point: x + w,
@@ -201,7 +208,7 @@ fn contribution(
     if !sp.can_receive(light, scene.lights()) {
         return None;
     }
-    let (ls, measure) = y.seen_from(scene.lights(), sp.hit.p)?;
+    let (ls, measure) = y.seen_from(scene.lights(), sp.hit.p, &sp.lambda)?;
     let (f, cos, _) = sp.reflect(&ls, false)?;
     let c = f * ls.radiance * (cos * measure);
     (c.is_finite() && c != Rgb::ZERO).then_some((c, ls))
@@ -222,11 +229,11 @@ fn candidate(
     let lights = scene.lights();
     let (light, pmf) = lights.sample(u_light)?;
     let l = lights.get(light);
-    let ls = l.sample_li(sp.hit.p, u)?;
+    let ls = l.sample_li(sp.hit.p, u, &sp.lambda)?;
     if ls.pdf.is_nan() || ls.pdf <= 0.0 {
         return None;
     }
-    Some(match l {
+    Some(match *l {
         Light::Environment(_) | Light::EnvMap(_) => {
             (LightPoint::Direction { light, w: ls.wi }, pmf * ls.pdf)
         }
@@ -318,7 +325,8 @@ impl Integrator for Restir {
                         let mut next = move || unit_f32(&mut rng);
                         let ray = cx.camera.ray(x as f32 + next(), y as f32 + next());
                         let hit = tracer.camera(&ray)?;
-                        let sp = ShadingPoint::new(&hit, ray.dir, cx.scene);
+                        // Targets are RGB luminance in either mode (see `sample`).
+                        let sp = ShadingPoint::new(&hit, ray.dir, cx.scene, &mut Wavelengths::Rgb);
                         if sp.material.is_specular() {
                             return None;
                         }
@@ -344,18 +352,27 @@ impl Integrator for Restir {
             camera,
             tracer,
             sampler,
+            lambda,
             ..
         } = cx;
         let ray = camera.ray(pixel.film.x, pixel.film.y);
         let scene = tracer.scene;
         let Some(hit) = tracer.camera(&ray) else {
-            return escaped(scene, &ray);
+            return escaped(scene, &ray, lambda);
         };
-        let mut l = emitted_at(scene, &hit, &ray);
-        let sp = ShadingPoint::new(&hit, ray.dir, scene);
-        if sp.material.is_specular() {
+        let mut l = emitted_at(scene, &hit, &ray, lambda);
+        // The resampling targets are the RGB luminance of what a light point sends, at every
+        // pixel and pass alike (a target must be the same function wherever a reservoir is
+        // reused); in spectral mode only the chosen point's contribution is taken at the
+        // sample's wavelengths (`shade`).
+        let shade = ShadingPoint::new(&hit, ray.dir, scene, lambda);
+        if shade.material.is_specular() {
             return l;
         }
+        let sp = match lambda.is_spectral() {
+            false => shade.clone(),
+            true => ShadingPoint::new(&hit, ray.dir, scene, &mut Wavelengths::Rgb),
+        };
         let own = build_reservoir(&sp, scene, self.candidates, || sampler.next_1d());
         // The reservoirs to combine: the pixel's own, then its neighbours' (drawn in a disk
         // of `radius` pixels, never the pixel itself; one may be drawn twice, which wastes a
@@ -374,7 +391,8 @@ impl Integrator for Restir {
                 continue;
             }
             if let Some((receiver, reservoir)) = self.stored(nx, ny) {
-                let their = ShadingPoint::new(&receiver.hit, receiver.dir, scene);
+                let their =
+                    ShadingPoint::new(&receiver.hit, receiver.dir, scene, &mut Wavelengths::Rgb);
                 pool.push((Some(their), *reservoir));
             }
         }
@@ -421,7 +439,7 @@ impl Integrator for Restir {
         let Some((y, here)) = chosen else {
             return l;
         };
-        let Some((c, ls)) = contribution(&sp, &y, scene) else {
+        let Some((c, ls)) = contribution(&shade, &y, scene) else {
             return l;
         };
         if tracer.unoccluded(&sp.hit, &ls) {

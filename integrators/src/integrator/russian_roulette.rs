@@ -19,6 +19,7 @@ use crate::integrator::{
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
 
@@ -51,7 +52,13 @@ struct RussianRouletteTracer {
 }
 
 impl RayIntegrator for RussianRouletteTracer {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
         let mut l = Rgb::ZERO;
         let mut path = PathState::from_camera(*camera_ray);
         loop {
@@ -60,17 +67,17 @@ impl RayIntegrator for RussianRouletteTracer {
             // specular bounces.
             let Some(hit) = path.trace(tracer) else {
                 if path.specular {
-                    l += path.beta * escaped(tracer.scene, &path.ray);
+                    l += path.beta * escaped(tracer.scene, &path.ray, lambda);
                 }
                 break;
             };
             if path.specular {
-                l += path.beta * emitted_at(tracer.scene, &hit, &path.ray);
+                l += path.beta * emitted_at(tracer.scene, &hit, &path.ray, lambda);
             }
             if path.bounces >= self.max_depth {
                 break;
             }
-            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene, lambda);
             // Direct light: one light, one shadow ray.
             if !sp.material.is_specular() {
                 l += path.beta * sample_one_light(&sp, false, self.lights, tracer, sampler);

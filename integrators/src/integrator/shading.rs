@@ -6,6 +6,7 @@
 use super::{stays_on_viewer_side, Tracer};
 use crate::bsdf::{BsdfSample, MappedBsdf, TransportMode};
 use crate::light::LightSample;
+use crate::spectrum::Wavelengths;
 use crate::{Frame, Hit, Rgb, Scene};
 use glam::{Vec2, Vec3A};
 
@@ -22,6 +23,8 @@ pub struct ShadingPoint<'a> {
     pub wo_world: Vec3A,
     /// The BSDF at the hit (its textures looked up there), with a normal or bump map's terms.
     pub material: MappedBsdf<'a>,
+    /// The wavelengths the path carries here (what lights connected to it emit at).
+    pub lambda: Wavelengths,
 }
 
 /// One BSDF sample at a shading point, in world space, with the factors a path's throughput
@@ -48,11 +51,17 @@ impl Scatter {
 }
 
 impl<'a> ShadingPoint<'a> {
-    /// The shading point of `hit`, reached by a ray of direction `dir`.
+    /// The shading point of `hit`, reached by a ray of direction `dir`, for a path carrying
+    /// the wavelengths `lambda` (which a dispersive material leaves with only the hero).
     #[inline]
-    pub fn new(hit: &Hit, dir: Vec3A, scene: &'a dyn Scene) -> ShadingPoint<'a> {
+    pub fn new(
+        hit: &Hit,
+        dir: Vec3A,
+        scene: &'a dyn Scene,
+        lambda: &mut Wavelengths,
+    ) -> ShadingPoint<'a> {
         let mut hit = *hit;
-        let material = crate::bsdf::material_at(scene, &mut hit, -dir);
+        let material = crate::bsdf::material_at(scene, &mut hit, -dir, lambda);
         let frame = hit.frame();
         ShadingPoint {
             hit,
@@ -60,6 +69,7 @@ impl<'a> ShadingPoint<'a> {
             wo: frame.to_local(-dir),
             wo_world: -dir,
             material,
+            lambda: *lambda,
         }
     }
 
@@ -166,7 +176,11 @@ impl<'a> ShadingPoint<'a> {
         if !self.can_receive(index, tracer.scene.lights()) {
             return None;
         }
-        let ls = tracer.scene.lights().get(index).sample_li(self.hit.p, u)?;
+        let ls = tracer
+            .scene
+            .lights()
+            .get(index)
+            .sample_li(self.hit.p, u, &self.lambda)?;
         if ls.pdf <= 0.0 {
             return None;
         }
@@ -224,7 +238,7 @@ mod tests {
         let scene = furnace_sphere(0.5, 1.0);
         let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
         let dir = Vec3A::new(0.3, 0.0, -1.0).normalize();
-        let mut sp = ShadingPoint::new(&hit(Vec3A::Z), dir, &scene);
+        let mut sp = ShadingPoint::new(&hit(Vec3A::Z), dir, &scene, &mut Wavelengths::Rgb);
         sp.material = MappedBsdf::plain(Cow::Borrowed(&glass));
         // u_lobe near 1 picks refraction (Fresnel reflectance is a few percent here).
         let r = sp
@@ -242,7 +256,7 @@ mod tests {
             .unwrap();
         assert!(r.bsdf.eta == 1.0 && r.weight == i.weight);
         // From inside, the relative IOR is the inverse.
-        let mut inside = ShadingPoint::new(&hit(Vec3A::Z), -dir, &scene);
+        let mut inside = ShadingPoint::new(&hit(Vec3A::Z), -dir, &scene, &mut Wavelengths::Rgb);
         inside.material = MappedBsdf::plain(Cow::Borrowed(&glass));
         let t = inside
             .sample(0.999, Vec2::ZERO, TransportMode::Radiance)
@@ -258,7 +272,7 @@ mod tests {
         });
         let ns = Vec3A::new(0.3, 0.0, 1.0).normalize();
         let dir = Vec3A::new(-0.5, 0.2, -1.0).normalize();
-        let mut sp = ShadingPoint::new(&hit(ns), dir, &scene);
+        let mut sp = ShadingPoint::new(&hit(ns), dir, &scene, &mut Wavelengths::Rgb);
         sp.material = MappedBsdf::plain(Cow::Borrowed(&lambert));
         let u = Vec2::new(0.3, 0.7);
         let r = sp.sample(0.5, u, TransportMode::Radiance).unwrap();

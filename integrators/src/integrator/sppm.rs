@@ -43,6 +43,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
     MAX_DEPTH, PHOTONS, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{PassContext, Spectrum};
 use crate::{Ray, RayCounters, Rgb, Sampler};
 
@@ -82,6 +83,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             rr_depth: p.get_u32("rr-depth"),
             map: PhotonMap::default(),
             volume: PhotonMap::default(),
+            lambda: Wavelengths::Rgb,
         })
     },
     analytic: Some(Analytic {
@@ -106,6 +108,8 @@ struct Sppm {
     map: PhotonMap,
     /// This pass's photons in media, likewise.
     volume: PhotonMap,
+    /// The pass's wavelengths, which its photons and camera paths carry.
+    lambda: Wavelengths,
 }
 
 /// `r_pass / r_0` for pass `pass` (0-based): `prod_{i=1}^{pass} (i + alpha) / (i + 1)`, square
@@ -134,8 +138,10 @@ impl RayIntegrator for Sppm {
             seed,
             pass,
             stop,
+            lambda,
             ..
         } = *cx;
+        self.lambda = lambda;
         // This pass's radius and photons (landings after one bounce or more).
         let r0 = if self.radius > 0.0 {
             self.radius
@@ -155,6 +161,7 @@ impl RayIntegrator for Sppm {
             seed,
             stream: pass as u64,
             eye: camera.eye,
+            lambda,
         };
         let (photons, rays) = trace_photons(scene, &photon_pass, stop);
         if !stop.requested() {
@@ -168,7 +175,14 @@ impl RayIntegrator for Sppm {
         rays
     }
 
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
+        *lambda = self.lambda;
         let mut l = Rgb::ZERO;
         // Follow the camera path through specular bounces to its visible point, adding the
         // emission seen on the way (nothing else finds it).
@@ -180,6 +194,7 @@ impl RayIntegrator for Sppm {
             Some(&mut l),
             tracer,
             sampler,
+            lambda,
         ) else {
             return l;
         };
@@ -197,13 +212,19 @@ impl RayIntegrator for Sppm {
                 // In a medium: direct light by next-event estimation, the rest from the
                 // photons that landed in the medium within the radius.
                 let (wo, medium) = (-x.ray.dir, x.ray.medium);
-                l += x.beta * direct_light(&Scatterer::Medium { p, wo, medium }, tracer, sampler);
+                l += x.beta
+                    * direct_light(
+                        &Scatterer::Medium { p, wo, medium },
+                        tracer,
+                        lambda,
+                        sampler,
+                    );
                 let scene = tracer.scene;
                 l += x.beta * self.volume.in_scattered(scene, medium, p, wo, accept);
                 return l;
             }
         };
-        let sp = ShadingPoint::new(&hit, x.ray.dir, tracer.scene);
+        let sp = ShadingPoint::new(&hit, x.ray.dir, tracer.scene, lambda);
         // Direct light by next-event estimation (no BSDF sample looks for emitters here, so
         // no MIS) ...
         l += x.beta * direct(&sp, tracer, sampler);

@@ -55,6 +55,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
     MAX_DEPTH, PHOTONS, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
 use glam::{Vec2, Vec3A};
@@ -89,6 +90,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             pixels: Vec::new(),
             rows: None,
             passes: 0,
+            spectral: false,
             seed: 0,
             camera: None,
         })
@@ -121,6 +123,8 @@ struct SppmPixel {
     rows: Option<std::ops::Range<u32>>,
     /// Passes folded into `pixels` (0: none, or the state must be rebuilt).
     passes: u32,
+    /// Whether passes carry sampled wavelengths (the render's mode).
+    spectral: bool,
     /// The seed and camera they were rendered with.
     seed: u64,
     camera: Option<Camera>,
@@ -194,6 +198,12 @@ impl SppmPixel {
         pass: u32,
         stop: Stop,
     ) -> RayCounters {
+        // The pass's wavelengths, which its visible points and photons carry; the pixels keep
+        // what each pass adds as RGB (pbrt-v4's SPPM does the same).
+        let lambda = match self.spectral {
+            true => Wavelengths::for_pass(seed, pass),
+            false => Wavelengths::Rgb,
+        };
         let (width, max_depth, rr_depth) = (camera.width as usize, self.max_depth, self.rr_depth);
         let first = self.first_row(camera) as usize * width;
         // Every pixel's visible point, with the emission and direct light on the way.
@@ -217,6 +227,8 @@ impl SppmPixel {
                     let ray = camera.ray(film.x, film.y);
                     let mut l = Rgb::ZERO;
                     px.visible = None;
+                    let mut lambda = lambda;
+                    let lambda = &mut lambda;
                     if let Some(x) = land(
                         ray,
                         true,
@@ -225,6 +237,7 @@ impl SppmPixel {
                         Some(&mut l),
                         &mut tracer,
                         &mut sampler,
+                        lambda,
                     ) {
                         if x.bounces < max_depth {
                             // Direct light by a light sample (through media, if any).
@@ -232,13 +245,18 @@ impl SppmPixel {
                             l += x.beta
                                 * match x.at {
                                     Spot::Surface(hit) => photon::direct(
-                                        &ShadingPoint::new(&hit, x.ray.dir, scene),
+                                        &ShadingPoint::new(&hit, x.ray.dir, scene, lambda),
                                         t,
                                         s,
                                     ),
                                     Spot::Medium(p) => {
                                         let (wo, medium) = (-x.ray.dir, x.ray.medium);
-                                        direct_light(&Scatterer::Medium { p, wo, medium }, t, s)
+                                        direct_light(
+                                            &Scatterer::Medium { p, wo, medium },
+                                            t,
+                                            lambda,
+                                            s,
+                                        )
                                     }
                                 };
                             px.visible = Some(Visible {
@@ -249,7 +267,7 @@ impl SppmPixel {
                             });
                         }
                     }
-                    direct.push(l);
+                    direct.push(lambda.to_rgb(l));
                 }
                 (direct, tracer.counters)
             })
@@ -284,6 +302,7 @@ impl SppmPixel {
             seed,
             stream: pass as u64,
             eye: camera.eye,
+            lambda,
         };
         let (photons, photon_rays) = trace_photons(scene, &photon_pass, stop);
         rays.add(&photon_rays);
@@ -329,11 +348,13 @@ impl SppmPixel {
                         Spot::Surface(hit) => {
                             let map = maps.get(level_of(px.surface.radius, r0));
                             if let Some(map) = map.and_then(Option::as_ref) {
-                                let sp = ShadingPoint::new(&hit, v.ray.dir, scene);
+                                let mut at = lambda;
+                                let sp = ShadingPoint::new(&hit, v.ray.dir, scene, &mut at);
                                 let (flux, count) =
                                     gather(map, &sp, px.surface.radius, max_photon_bounces);
+                                let flux = at.to_rgb(v.beta * flux);
                                 if count > 0 && flux.is_finite() {
-                                    px.surface.update(v.beta * flux, count, gamma, 2);
+                                    px.surface.update(flux, count, gamma, 2);
                                 }
                             }
                         }
@@ -346,8 +367,9 @@ impl SppmPixel {
                                     px.medium.radius,
                                     |ph| (ph.bounces as u32) <= max_photon_bounces,
                                 );
+                                let flux = lambda.to_rgb(v.beta * flux);
                                 if count > 0 && flux.is_finite() {
-                                    px.medium.update(v.beta * flux, count, gamma, 3);
+                                    px.medium.update(flux, count, gamma, 3);
                                 }
                             }
                         }
@@ -428,7 +450,9 @@ impl SppmPixel {
 
 impl Integrator for SppmPixel {
     fn sample(&self, cx: SampleContext) -> Spectrum {
-        let SampleContext { pixel, .. } = cx;
+        let SampleContext { pixel, lambda, .. } = cx;
+        // The pixels hold RGB (each pass's spectra made RGB at its wavelengths).
+        *lambda = Wavelengths::Rgb;
         // The increment that makes the render loop's average the estimate after this pass.
         let Some(camera) = self.camera.as_ref() else {
             return Rgb::ZERO;
@@ -451,8 +475,13 @@ impl Integrator for SppmPixel {
             seed,
             pass,
             stop,
+            lambda,
             ..
         } = *cx;
+        if self.spectral != lambda.is_spectral() {
+            self.spectral = lambda.is_spectral();
+            self.passes = 0;
+        }
         // Only the rows rendered keep state (a shard's band); what they compute does not
         // depend on the other rows.
         if self.rows.as_ref() != Some(&cx.rows) {
@@ -536,6 +565,7 @@ mod tests {
             pixels: Vec::new(),
             rows: None,
             passes: 0,
+            spectral: false,
             seed: 0,
             camera: None,
         };
@@ -547,6 +577,7 @@ mod tests {
                 pass,
                 rows: 0..camera.height,
                 stop: Stop::NEVER,
+                lambda: Wavelengths::Rgb,
             });
         }
         assert!(sppm.pixels.iter().all(|p| p.estimate.is_finite()));

@@ -67,6 +67,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
     MAX_DEPTH, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Camera, Hit, Light, MediumId, MediumInterface, Ray, RayCounters, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
 use glam::{Vec2, Vec3, Vec3A};
@@ -166,6 +167,9 @@ struct Pass {
     grid: PointGrid<MergeVertex>,
     /// Every stored light vertex in a medium, for merging there.
     volume: PointGrid<MergeVertex>,
+    /// The wavelengths every subpath of the pass carries, light and camera alike (merging
+    /// joins a camera subpath to any light subpath).
+    lambda: Wavelengths,
 }
 
 /// The constants of a pass's MIS weights, for merges of one kind (the report's eq. 20, with
@@ -379,9 +383,11 @@ impl Stored {
     }
 
     /// The surface's shading point, for [`At::Surface`] to borrow (`None` in a medium).
-    fn shading<'a>(&self, scene: &'a dyn Scene) -> Option<ShadingPoint<'a>> {
+    fn shading<'a>(&self, scene: &'a dyn Scene, lambda: &Wavelengths) -> Option<ShadingPoint<'a>> {
         match *self {
-            Stored::Surface { hit, dir } => Some(ShadingPoint::new(&hit, dir, scene)),
+            Stored::Surface { hit, dir } => {
+                Some(ShadingPoint::new(&hit, dir, scene, &mut { *lambda }))
+            }
             Stored::Medium(_) => None,
         }
     }
@@ -519,13 +525,15 @@ impl VertexMerging {
     ) {
         let scene = tracer.scene;
         let max = self.max_segments();
+        let mut lambda = self.pass.lambda;
+        let lambda = &mut lambda;
         // Emission: a light in proportion to power, a ray leaving it; the weights' start
         // (the report's eqs. 31-33, with delta lights as eqs. 48-50).
-        let Some((index, pmf, le)) = emit_from_a_light(scene, sampler) else {
+        let Some((index, pmf, le)) = emit_from_a_light(scene, sampler, lambda) else {
             return;
         };
         let light = scene.lights().get(index);
-        let infinite = at_infinity(light);
+        let infinite = at_infinity(&light);
         let emission = pmf * le.pdf_pos * le.pdf_dir;
         let direct = pmf * if infinite { le.pdf_dir } else { le.pdf_pos };
         if emission <= 0.0 || direct <= 0.0 {
@@ -571,6 +579,7 @@ impl VertexMerging {
                     &ray,
                     tmax,
                     walk.hero,
+                    lambda,
                     sampler,
                     &mut beta,
                     &mut walk.r_u,
@@ -601,7 +610,7 @@ impl VertexMerging {
                     let Some(hit) = found else {
                         return;
                     };
-                    sp = ShadingPoint::new(&hit, ray.dir, scene);
+                    sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
                     if walk.is_some() {
                         // A medium's boundary (or a mask's hole): crossed, no vertex.
                         match cross_null(&sp, &ray, TransportMode::Importance, &mut beta, sampler) {
@@ -630,7 +639,7 @@ impl VertexMerging {
                     At::Medium(m) => {
                         let sigma_s = scene
                             .medium(m.medium)
-                            .map_or(Rgb::ZERO, |md| md.at(p).sigma_s);
+                            .map_or(Rgb::ZERO, |md| md.at(p, lambda).sigma_s);
                         (over_sigma_s(power, sigma_s), m.medium)
                     }
                 };
@@ -662,7 +671,16 @@ impl VertexMerging {
                         mis: weights,
                     });
                     if length < max {
-                        let seen = to_lens(&at, power, &weights, w, camera, tracer, &mut *sampler);
+                        let seen = to_lens(
+                            &at,
+                            power,
+                            &weights,
+                            w,
+                            camera,
+                            tracer,
+                            &mut *sampler,
+                            lambda,
+                        );
                         if let Some(s) = seen {
                             out.splats.push(s);
                         }
@@ -718,6 +736,7 @@ impl VertexMerging {
         light: &[LightVertex],
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
     ) -> Rgb {
         let scene = tracer.scene;
         let w = &self.pass.weights;
@@ -761,6 +780,7 @@ impl VertexMerging {
                     &ray,
                     tmax,
                     walk.hero,
+                    lambda,
                     sampler,
                     &mut beta,
                     &mut walk.r_u,
@@ -789,7 +809,7 @@ impl VertexMerging {
                     let Some(hit) = found else {
                         // Escaped: the environment, weighed before any distance is applied.
                         if let Some(env) = scene.lights().environment() {
-                            let e = escaped(scene, &ray);
+                            let e = escaped(scene, &ray, lambda);
                             l += carried
                                 * e
                                 * self.emission_weight(
@@ -805,7 +825,7 @@ impl VertexMerging {
                         }
                         return l;
                     };
-                    sp = ShadingPoint::new(&hit, ray.dir, scene);
+                    sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
                     if walk.is_some() {
                         // A medium's boundary (or a mask's hole): crossed, no vertex.
                         match cross_null(&sp, &ray, TransportMode::Radiance, &mut beta, sampler) {
@@ -825,7 +845,7 @@ impl VertexMerging {
             // Emission found (s = 0).
             if let At::Surface(sp) = &at {
                 if let Some(i) = sp.hit.light {
-                    let e = emitted_at(scene, &sp.hit, &ray);
+                    let e = emitted_at(scene, &sp.hit, &ray, lambda);
                     l += carried
                         * e
                         * self.emission_weight(
@@ -846,12 +866,14 @@ impl VertexMerging {
             if !at.is_specular() {
                 if self.connect {
                     // A light sample (s = 1), then this pixel's light vertices (s > 1).
-                    l += carried * light_sample(&at, &weights, w, tracer, sampler);
+                    l += carried * light_sample(&at, &weights, w, tracer, sampler, lambda);
                     for v in light {
                         if v.length.saturating_add(length) >= max {
                             break;
                         }
-                        l += carried * v.beta * connect(&at, &weights, v, w, tracer, sampler);
+                        l += carried
+                            * v.beta
+                            * connect(&at, &weights, v, w, tracer, sampler, lambda);
                     }
                 }
                 // Merges with every light vertex within the radius.
@@ -945,12 +967,15 @@ impl Integrator for VertexMerging {
             tracer,
             sampler,
             splats,
+            lambda,
         } = cx;
         if !camera.is_pinhole() {
             return Rgb::ZERO;
         }
-        // This pixel's light subpath: its connections to the lens, its vertices.
+        // This pixel's light subpath: its connections to the lens, its vertices; the
+        // camera subpath carries the pass's wavelengths.
         let pass = &self.pass;
+        *lambda = pass.lambda;
         let index = (pixel.y as usize) * (pass.width as usize) + pixel.x as usize;
         let range = |ends: &[u32]| match index {
             0 => 0..ends.first().copied().unwrap_or(0) as usize,
@@ -958,10 +983,10 @@ impl Integrator for VertexMerging {
             _ => 0..0,
         };
         for &(film, l) in &pass.splats[range(&pass.splat_ends)] {
-            splats.add(film, l);
+            splats.add(film, l, &pass.lambda);
         }
         let light = &pass.vertices[range(&pass.vertex_ends)];
-        self.camera_subpath(pixel, camera, light, tracer, sampler)
+        self.camera_subpath(pixel, camera, light, tracer, sampler, lambda)
     }
 
     fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {
@@ -971,6 +996,7 @@ impl Integrator for VertexMerging {
             seed,
             pass,
             stop,
+            lambda,
             ..
         } = *cx;
         // The pass's radius and weights: one light subpath per pixel.
@@ -986,6 +1012,7 @@ impl Integrator for VertexMerging {
         self.pass = Pass {
             width: camera.width,
             weights,
+            lambda,
             ..Pass::default()
         };
         if !camera.is_pinhole() || scene.lights().is_empty() {
@@ -1067,9 +1094,9 @@ fn finite_or_zero(x: f64) -> f32 {
 
 /// Whether the segment `ray` is clear, and in media its transmittance (through media and
 /// `Null` boundaries): what a connection along it carries.
-fn visible(ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+fn visible(ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler, lambda: &Wavelengths) -> Rgb {
     if tracer.scene.has_media() {
-        transmittance(tracer, ray, sampler)
+        transmittance(tracer, ray, lambda, sampler)
     } else {
         tracer.counters.connection += 1;
         if tracer.scene.occluded(ray) {
@@ -1091,6 +1118,7 @@ fn to_lens(
     camera: &Camera,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
+    lambda: &Wavelengths,
 ) -> Option<(Vec2, Rgb)> {
     let cs = camera.sample_wi(at.p())?;
     let f = at.f(cs.wi, TransportMode::Importance);
@@ -1116,7 +1144,7 @@ fn to_lens(
             medium: m.medium,
         },
     };
-    let l = l * visible(&ray, tracer, sampler);
+    let l = l * visible(&ray, tracer, sampler, lambda);
     (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
 }
 
@@ -1128,6 +1156,7 @@ fn light_sample(
     w: &Weights,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
+    lambda: &Wavelengths,
 ) -> Rgb {
     let scene = tracer.scene;
     let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
@@ -1141,7 +1170,7 @@ fn light_sample(
             return Rgb::ZERO;
         }
     }
-    let Some(ls) = light.sample_li(at.p(), u) else {
+    let Some(ls) = light.sample_li(at.p(), u, lambda) else {
         return Rgb::ZERO;
     };
     if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
@@ -1203,7 +1232,7 @@ fn light_sample(
                 At::Medium(m) => ray_from_point(m.p, &ls, m.medium),
             };
             tracer.counters.shadow += 1;
-            c * transmittance(tracer, &ray, sampler)
+            c * transmittance(tracer, &ray, lambda, sampler)
         }
     }
 }
@@ -1217,6 +1246,7 @@ fn connect(
     w: &Weights,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
+    lambda: &Wavelengths,
 ) -> Rgb {
     let to = v.at.p() - at.p();
     let d2 = to.length_squared();
@@ -1228,7 +1258,7 @@ fn connect(
     if f_camera == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let shading = v.at.shading(tracer.scene);
+    let shading = v.at.shading(tracer.scene, lambda);
     let Some(lv) = v.at.at(&shading) else {
         return Rgb::ZERO;
     };
@@ -1257,7 +1287,14 @@ fn connect(
                 Rgb::ZERO
             }
         }
-        _ => c * visible(&lv.hit().spawn_ray_between(&at.hit()), tracer, sampler),
+        _ => {
+            c * visible(
+                &lv.hit().spawn_ray_between(&at.hit()),
+                tracer,
+                sampler,
+                lambda,
+            )
+        }
     }
 }
 

@@ -37,6 +37,7 @@ use crate::medium::Phase;
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene, Spectrum, Tracer};
 use glam::Vec3A;
 
@@ -97,7 +98,13 @@ enum Vertex<'s, 'a> {
 }
 
 impl RayIntegrator for VolPath {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
         let scene: &dyn Scene = tracer.scene;
         let hero = hero_channel(sampler.next_1d());
         let mut ray = Ray {
@@ -132,70 +139,73 @@ impl RayIntegrator for VolPath {
                 let phase = medium.phase();
                 let (mut scattered, mut terminated) = (None, false);
                 let emissive = medium.is_emissive();
-                let t_maj = sample_t_maj(medium, &ray, tmax, hero, sampler, |c, sampler| {
-                    let pt = &c.point;
-                    if emissive && w.depth <= self.max_depth {
-                        // Emission, by the collision estimator.
-                        let pdf = c.sigma_maj[hero] * c.t_maj[hero];
-                        let r_e = w.r_u * c.sigma_maj * c.t_maj / pdf;
-                        if r_e != Rgb::ZERO {
-                            let beta = w.beta * c.t_maj / pdf;
-                            l += beta * pt.sigma_a * pt.le / average(r_e);
+                let t_maj =
+                    sample_t_maj(medium, &ray, tmax, hero, lambda, sampler, |c, sampler| {
+                        let pt = &c.point;
+                        if emissive && w.depth <= self.max_depth {
+                            // Emission, by the collision estimator.
+                            let pdf = c.sigma_maj[hero] * c.t_maj[hero];
+                            let r_e = w.r_u * c.sigma_maj * c.t_maj / pdf;
+                            if r_e != Rgb::ZERO {
+                                let beta = w.beta * c.t_maj / pdf;
+                                l += beta * pt.sigma_a * pt.le / average(r_e);
+                            }
                         }
-                    }
-                    // Real (absorption or scattering) or null, by the hero's share of the
-                    // majorant; a real collision scatters with weight albedo (absorption is
-                    // left to the roulette, which is kinder to a dark channel than ending
-                    // every absorbed path).
-                    let sigma_t = pt.sigma_a + pt.sigma_s;
-                    if sampler.next_1d() < sigma_t[hero] / c.sigma_maj[hero] {
-                        if w.depth >= self.max_depth {
-                            terminated = true;
+                        // Real (absorption or scattering) or null, by the hero's share of the
+                        // majorant; a real collision scatters with weight albedo (absorption is
+                        // left to the roulette, which is kinder to a dark channel than ending
+                        // every absorbed path).
+                        let sigma_t = pt.sigma_a + pt.sigma_s;
+                        if sampler.next_1d() < sigma_t[hero] / c.sigma_maj[hero] {
+                            if w.depth >= self.max_depth {
+                                terminated = true;
+                                return false;
+                            }
+                            w.depth += 1;
+                            let pdf = c.t_maj[hero] * sigma_t[hero];
+                            w.beta *= c.t_maj * pt.sigma_s / pdf;
+                            w.r_u *= c.t_maj * sigma_t / pdf;
+                            if !(w.beta.is_finite() && w.beta != Rgb::ZERO && w.r_u != Rgb::ZERO) {
+                                terminated = true;
+                                return false;
+                            }
+                            let wo = -ray.dir;
+                            let vertex = Vertex::Medium { p: c.p, wo, phase };
+                            l += self.light_sample(
+                                &vertex, ray.medium, &w, hero, tracer, sampler, lambda,
+                            );
+                            let ps = phase.sample(wo, sampler.next_2d());
+                            if !positive(ps.pdf) {
+                                terminated = true;
+                                return false;
+                            }
+                            w.beta *= ps.p / ps.pdf;
+                            w.r_l = w.r_u / ps.pdf;
+                            w.specular = false;
+                            w.from = LightContext {
+                                p: c.p,
+                                n: Vec3A::ZERO,
+                            };
+                            scattered = Some(Ray {
+                                origin: c.p,
+                                dir: ps.wi,
+                                tmax: f32::INFINITY,
+                                medium: ray.medium,
+                            });
                             return false;
                         }
-                        w.depth += 1;
-                        let pdf = c.t_maj[hero] * sigma_t[hero];
-                        w.beta *= c.t_maj * pt.sigma_s / pdf;
-                        w.r_u *= c.t_maj * sigma_t / pdf;
-                        if !(w.beta.is_finite() && w.beta != Rgb::ZERO && w.r_u != Rgb::ZERO) {
-                            terminated = true;
+                        // A null collision: on along the ray.
+                        let sigma_n = (c.sigma_maj - pt.sigma_a - pt.sigma_s).max(Rgb::ZERO);
+                        let pdf = c.t_maj[hero] * sigma_n[hero];
+                        if !positive(pdf) {
+                            w.beta = Rgb::ZERO;
                             return false;
                         }
-                        let wo = -ray.dir;
-                        let vertex = Vertex::Medium { p: c.p, wo, phase };
-                        l += self.light_sample(&vertex, ray.medium, &w, hero, tracer, sampler);
-                        let ps = phase.sample(wo, sampler.next_2d());
-                        if !positive(ps.pdf) {
-                            terminated = true;
-                            return false;
-                        }
-                        w.beta *= ps.p / ps.pdf;
-                        w.r_l = w.r_u / ps.pdf;
-                        w.specular = false;
-                        w.from = LightContext {
-                            p: c.p,
-                            n: Vec3A::ZERO,
-                        };
-                        scattered = Some(Ray {
-                            origin: c.p,
-                            dir: ps.wi,
-                            tmax: f32::INFINITY,
-                            medium: ray.medium,
-                        });
-                        return false;
-                    }
-                    // A null collision: on along the ray.
-                    let sigma_n = (c.sigma_maj - pt.sigma_a - pt.sigma_s).max(Rgb::ZERO);
-                    let pdf = c.t_maj[hero] * sigma_n[hero];
-                    if !positive(pdf) {
-                        w.beta = Rgb::ZERO;
-                        return false;
-                    }
-                    w.beta *= c.t_maj * sigma_n / pdf;
-                    w.r_u *= c.t_maj * sigma_n / pdf;
-                    w.r_l *= c.t_maj * c.sigma_maj / pdf;
-                    w.beta.is_finite() && w.beta != Rgb::ZERO && w.r_u != Rgb::ZERO
-                });
+                        w.beta *= c.t_maj * sigma_n / pdf;
+                        w.r_u *= c.t_maj * sigma_n / pdf;
+                        w.r_l *= c.t_maj * c.sigma_maj / pdf;
+                        w.beta.is_finite() && w.beta != Rgb::ZERO && w.r_u != Rgb::ZERO
+                    });
                 if terminated || !w.beta.is_finite() || w.beta == Rgb::ZERO || w.r_u == Rgb::ZERO {
                     break;
                 }
@@ -217,22 +227,29 @@ impl RayIntegrator for VolPath {
 
             // The surface the ray reaches, or the environment.
             let Some(hit) = hit else {
-                let le = escaped(scene, &ray);
+                let le = escaped(scene, &ray, lambda);
                 if le != Rgb::ZERO {
                     l += self.found_emission(&w, scene, &ray, None, le);
                 }
                 break;
             };
             if hit.light.is_some() {
-                let le = emitted_at(scene, &hit, &ray);
+                let le = emitted_at(scene, &hit, &ray, lambda);
                 if le != Rgb::ZERO {
                     l += self.found_emission(&w, scene, &ray, Some(&hit), le);
                 }
             }
-            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            let sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
             if w.depth < self.max_depth && !sp.material.is_specular() {
-                l +=
-                    self.light_sample(&Vertex::Surface(&sp), ray.medium, &w, hero, tracer, sampler);
+                l += self.light_sample(
+                    &Vertex::Surface(&sp),
+                    ray.medium,
+                    &w,
+                    hero,
+                    tracer,
+                    sampler,
+                    lambda,
+                );
             }
             let u_lobe = sampler.next_1d();
             let Some(s) = sp.sample(u_lobe, sampler.next_2d(), TransportMode::Radiance) else {
@@ -336,6 +353,7 @@ impl VolPath {
         hero: usize,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        lambda: &Wavelengths,
     ) -> Rgb {
         let scene: &dyn Scene = tracer.scene;
         let u_light = sampler.next_1d();
@@ -361,7 +379,7 @@ impl VolPath {
                 (ls, f * wi.z.abs(), pdf, ray)
             }
             Vertex::Medium { p, wo, phase } => {
-                let Some(ls) = light.sample_li(*p, u) else {
+                let Some(ls) = light.sample_li(*p, u, lambda) else {
                     return Rgb::ZERO;
                 };
                 let value = phase.eval(*wo, ls.wi);
@@ -376,7 +394,8 @@ impl VolPath {
         if !positive(ls.pdf) || ls.radiance == Rgb::ZERO || f == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let Some((t_ray, r_u, r_l)) = shadow_transmittance(&mut ray, &ls, hero, tracer, sampler)
+        let Some((t_ray, r_u, r_l)) =
+            shadow_transmittance(&mut ray, &ls, hero, tracer, sampler, lambda)
         else {
             return Rgb::ZERO;
         };
@@ -405,6 +424,7 @@ fn shadow_transmittance(
     hero: usize,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
+    lambda: &Wavelengths,
 ) -> Option<(Rgb, Rgb, Rgb)> {
     let scene: &dyn Scene = tracer.scene;
     let (mut t_ray, mut r_u, mut r_l) = (Rgb::ONE, Rgb::ONE, Rgb::ONE);
@@ -417,7 +437,8 @@ fn shadow_transmittance(
                 if !scene.material(h.material).may_pass_straight() {
                     return None;
                 }
-                let sp = ShadingPoint::new(h, ray.dir, scene);
+                // (A shadow ray changes nothing of the path's wavelengths.)
+                let sp = ShadingPoint::new(h, ray.dir, scene, &mut { *lambda });
                 let pass = sp.material.null_transmission(sp.wo);
                 if pass == Rgb::ZERO {
                     return None;
@@ -428,7 +449,7 @@ fn shadow_transmittance(
         };
         if let Some(medium) = scene.medium(ray.medium) {
             let tmax = hit.map_or(ray.tmax, |h| h.t);
-            let t_maj = sample_t_maj(medium, ray, tmax, hero, sampler, |c, sampler| {
+            let t_maj = sample_t_maj(medium, ray, tmax, hero, lambda, sampler, |c, sampler| {
                 let pt = &c.point;
                 let sigma_n = (c.sigma_maj - pt.sigma_a - pt.sigma_s).max(Rgb::ZERO);
                 let pdf = c.t_maj[hero] * c.sigma_maj[hero];

@@ -30,6 +30,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
     RR_DEPTH,
 };
+use crate::spectrum::Wavelengths;
 use crate::{Frame, Hit, Ray, Rgb, Sampler, Scene};
 use crate::{PassContext, Spectrum};
 use glam::Vec3A;
@@ -66,6 +67,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
             clamp: p.get("clamp") as f32,
             min_dist2: 0.0,
             lights: Vec::new(),
+            lambda: Wavelengths::Rgb,
         })
     },
     analytic: Some(Analytic {
@@ -87,6 +89,8 @@ struct Vpl {
     min_dist2: f32,
     /// This pass's VPLs, in the order of their paths.
     lights: Vec<VirtualLight>,
+    /// The wavelengths of the pass, which its VPLs and every camera path carry.
+    lambda: Wavelengths,
 }
 
 /// A light-path vertex kept as a light: the surface, how light arrived, and the power.
@@ -115,7 +119,9 @@ impl Vpl {
         out: &mut Vec<VirtualLight>,
     ) -> RayCounters {
         let mut tracer = Tracer::new(scene);
-        let Some((_, pmf, emission)) = emit_from_a_light(scene, sampler) else {
+        let mut lambda = self.lambda;
+        let lambda = &mut lambda;
+        let Some((_, pmf, emission)) = emit_from_a_light(scene, sampler, lambda) else {
             return tracer.counters;
         };
         let emitted = emission.weight / pmf;
@@ -129,7 +135,7 @@ impl Vpl {
                 break;
             };
             depth += 1;
-            let sp = ShadingPoint::new(&hit, ray.dir, scene);
+            let sp = ShadingPoint::new(&hit, ray.dir, scene, lambda);
             // Keep the vertex as a light.
             if !sp.material.is_specular() {
                 out.push(VirtualLight {
@@ -191,6 +197,7 @@ impl Vpl {
                 wo: v.wo,
                 wo_world: v.wo_world,
                 material: v.material.borrowed(),
+                lambda: sp.lambda,
             }
             .connection_factor(-w, TransportMode::Importance);
             if there == Rgb::ZERO {
@@ -206,20 +213,28 @@ impl Vpl {
 }
 
 impl RayIntegrator for Vpl {
-    fn radiance(&self, camera_ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        camera_ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
+        // The pass's wavelengths, which the VPLs carry.
+        *lambda = self.lambda;
         let mut l = Rgb::ZERO;
         let mut path = PathState::from_camera(*camera_ray);
         loop {
             // Trace the next segment; what it sees is found only through specular bounces.
             let Some(hit) = path.trace(tracer) else {
-                l += path.beta * escaped(tracer.scene, &path.ray);
+                l += path.beta * escaped(tracer.scene, &path.ray, lambda);
                 break;
             };
-            l += path.beta * emitted_at(tracer.scene, &hit, &path.ray);
+            l += path.beta * emitted_at(tracer.scene, &hit, &path.ray, lambda);
             if path.bounces >= self.max_depth {
                 break;
             }
-            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene);
+            let sp = ShadingPoint::new(&hit, path.ray.dir, tracer.scene, lambda);
             // A Dirac lobe (a mirror, glass, a smooth coating) is followed, chosen with the
             // probability the material's sampling gives it; the rest of the BSDF gathers.
             let p_delta = sp.material.delta_probability(sp.wo);
@@ -246,8 +261,10 @@ impl RayIntegrator for Vpl {
             seed,
             pass,
             stop,
+            lambda,
             ..
         } = *cx;
+        self.lambda = lambda;
         let radius = scene_radius(scene) * self.clamp;
         self.min_dist2 = radius * radius;
         let traced: Vec<(Vec<VirtualLight>, RayCounters)> = (0..self.paths)

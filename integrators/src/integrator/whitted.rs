@@ -18,6 +18,7 @@
 
 use crate::integrator::{emitted_at, escaped, specular_lobes, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH};
+use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Hit, Ray, Rgb, Sampler};
 
@@ -54,13 +55,14 @@ impl Whitted {
         bounces: u32,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
     ) -> Rgb {
         // Emission: always counted, since light is never reached by sampling a BSDF here.
-        let mut l = emitted_at(tracer.scene, hit, ray);
+        let mut l = emitted_at(tracer.scene, hit, ray, lambda);
         if bounces >= self.max_depth {
             return l;
         }
-        let sp = ShadingPoint::new(hit, ray.dir, tracer.scene);
+        let sp = ShadingPoint::new(hit, ray.dir, tracer.scene, lambda);
         let material = &sp.material;
 
         if material.has_delta_lobe() {
@@ -70,8 +72,8 @@ impl Whitted {
                 let next = hit.spawn_ray(sp.frame.to_world(wi));
                 l += weight
                     * match tracer.extend(&next) {
-                        Some(h) => self.shade(&next, &h, bounces + 1, tracer, sampler),
-                        None => escaped(tracer.scene, &next),
+                        Some(h) => self.shade(&next, &h, bounces + 1, tracer, sampler, lambda),
+                        None => escaped(tracer.scene, &next, lambda),
                     };
             }
             if material.is_specular() {
@@ -94,10 +96,16 @@ impl Whitted {
 }
 
 impl RayIntegrator for Whitted {
-    fn radiance(&self, ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
         match tracer.camera(ray) {
-            Some(hit) => self.shade(ray, &hit, 0, tracer, sampler),
-            None => escaped(tracer.scene, ray),
+            Some(hit) => self.shade(ray, &hit, 0, tracer, sampler, lambda),
+            None => escaped(tracer.scene, ray, lambda),
         }
     }
 }

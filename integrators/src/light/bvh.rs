@@ -701,10 +701,12 @@ mod tests {
             for (i, light) in lights.iter().enumerate() {
                 let reaches = (0..64).any(|_| {
                     let u = glam::Vec2::new(unit_f32(&mut rng), unit_f32(&mut rng));
-                    light.sample_li(ctx.p, u).is_some_and(|ls| {
-                        ls.radiance != Rgb::ZERO
-                            && (ctx.n == Vec3A::ZERO || ls.wi.dot(ctx.n) != 0.0)
-                    })
+                    light
+                        .sample_li(ctx.p, u, &crate::spectrum::Wavelengths::Rgb)
+                        .is_some_and(|ls| {
+                            ls.radiance != Rgb::ZERO
+                                && (ctx.n == Vec3A::ZERO || ls.wi.dot(ctx.n) != 0.0)
+                        })
                 });
                 if reaches {
                     checked += 1;

@@ -52,7 +52,8 @@ pub use sphere::SphereLight;
 pub use spot::{Falloff, SpotLight};
 pub use table::{LightSelection, LightTable};
 
-use crate::{Frame, Rgb};
+use crate::spectrum::Wavelengths;
+use crate::{Frame, Rgb, Spectrum};
 use glam::{Vec2, Vec3A};
 
 /// One emitter. Area lights are one primitive each (a mesh emitter is one light per triangle;
@@ -315,8 +316,10 @@ impl Light {
     /// sphere light, ...). A light with black radiance still returns samples (with zero
     /// radiance).
     #[inline]
-    pub fn sample_li(&self, p: Vec3A, u: Vec2) -> Option<LightSample> {
-        dispatch!(self, l => l.sample_li(p, u))
+    pub fn sample_li(&self, p: Vec3A, u: Vec2, lambda: &Wavelengths) -> Option<LightSample> {
+        let mut s = dispatch!(self, l => l.sample_li(p, u))?;
+        s.radiance = lambda.illuminant(s.radiance);
+        Some(s)
     }
 
     /// The solid-angle density with which [`Light::sample_li`] from `p` would produce the
@@ -334,18 +337,24 @@ impl Light {
     /// (unit, pointing away from the surface). For the environment, the radiance arriving
     /// from `-w`.
     #[inline]
-    pub fn emitted(&self, n: Vec3A, w: Vec3A) -> Rgb {
+    pub fn emitted(&self, n: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
+        lambda.illuminant(self.emitted_rgb(n, w))
+    }
+
+    /// [`Light::emitted`] as the colour the scene gives.
+    #[inline]
+    fn emitted_rgb(&self, n: Vec3A, w: Vec3A) -> Rgb {
         dispatch!(self, l => l.emitted(n, w))
     }
 
     /// [`Light::emitted`] from the point `q` of the emitter's surface: what a textured
     /// emitter gives there.
     #[inline]
-    pub fn emitted_at(&self, q: Vec3A, n: Vec3A, w: Vec3A) -> Rgb {
-        match self {
+    pub fn emitted_at(&self, q: Vec3A, n: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
+        lambda.illuminant(match self {
             Light::Planar(l) => l.emitted_at(q, n, w),
-            _ => self.emitted(n, w),
-        }
+            _ => self.emitted_rgb(n, w),
+        })
     }
 
     /// Samples a ray leaving the light (see the module docs): `u_pos` places its origin,
@@ -359,8 +368,9 @@ impl Light {
         u_side: f32,
         scene_center: Vec3A,
         scene_radius: f32,
+        lambda: &Wavelengths,
     ) -> Option<LeSample> {
-        let s = match self {
+        let mut s = match self {
             Light::Planar(l) => l.sample_le(u_pos, u_dir, u_side),
             Light::Cylinder(l) => l.sample_le(u_pos, u_dir),
             Light::Sphere(l) => l.sample_le(u_pos, u_dir),
@@ -371,7 +381,13 @@ impl Light {
             Light::Spot(l) => l.sample_le(u_dir),
             Light::Projector(l) => l.sample_le(u_dir),
         };
-        (s.weight.is_finite() && s.weight != Rgb::ZERO).then_some(s)
+        if !(s.weight.is_finite() && s.weight != Rgb::ZERO) {
+            return None;
+        }
+        // The colours scale by the positive factors between them, and so do their spectra.
+        s.radiance = lambda.illuminant(s.radiance);
+        s.weight = lambda.illuminant(s.weight);
+        Some(s)
     }
 
     /// Position and direction densities with which [`Light::sample_le`] produces a ray leaving
@@ -396,12 +412,12 @@ impl Light {
     /// Radiance leaving point `q` of the light's surface towards `w`: [`Light::emitted_at`]
     /// with the normal a ray's hit at `q` reports (a sphere's outward one, whichever side it
     /// emits from; the emitting normal of the others), for a point found by sampling.
-    pub fn emitted_from(&self, q: Vec3A, w: Vec3A) -> Rgb {
+    pub fn emitted_from(&self, q: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
         let n = match self {
             Light::Sphere(l) => (q - l.center).normalize_or_zero(),
             _ => self.emitting_normal_at(q),
         };
-        self.emitted_at(q, n, w)
+        self.emitted_at(q, n, w, lambda)
     }
 
     /// The emitting normal at the point `q` of the light's surface (what [`Light::pdf_le`]

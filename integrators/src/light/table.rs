@@ -6,7 +6,11 @@
 //! choose for: they pick by power, or uniformly when that is the scene's choice.
 
 use super::bvh::{LightBvh, LightContext};
-use super::Light;
+use super::{LeSample, Light, LightSample};
+use crate::spectrum::curve::Curve;
+use crate::spectrum::Wavelengths;
+use crate::{Rgb, Spectrum};
+use glam::{Vec2, Vec3A};
 
 /// How a light sample picks an emitter.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -112,6 +116,17 @@ pub struct LightTable {
     /// The scene's selection, which integrators use unless they choose another.
     selection: LightSelection,
     environment: Option<u32>,
+    /// What a light emits where the scene gave it by wavelength (a measured emitter, a
+    /// blackbody), beside the colour that stands for it in RGB mode; one entry per light.
+    spectra: Vec<Option<Emission>>,
+}
+
+/// An emitter's spectrum, and the colour it is in RGB mode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Emission {
+    pub curve: Curve,
+    /// The light's colour as given (its RGB mode's value at the scale the curve has).
+    pub rgb: Rgb,
 }
 
 impl LightTable {
@@ -159,10 +174,18 @@ impl LightTable {
             power: Pick::new(&powers),
             powers,
             uniform: Pick::new(&uniform),
+            spectra: vec![None; lights.len()],
             lights,
             selection,
             environment,
         }
+    }
+
+    /// The table with light `i` emitting `spectra[i]` where given (see [`LightRef`]).
+    pub fn with_spectra(mut self, spectra: Vec<Option<Emission>>) -> LightTable {
+        debug_assert_eq!(spectra.len(), self.lights.len());
+        self.spectra = spectra;
+        self
     }
 
     /// The emitters, in the order their indices refer to.
@@ -181,8 +204,11 @@ impl LightTable {
     }
 
     /// Light `index`. Panics if `index` is out of range (indices come from the table itself).
-    pub fn get(&self, index: u32) -> &Light {
-        &self.lights[index as usize]
+    pub fn get(&self, index: u32) -> LightRef<'_> {
+        LightRef {
+            light: &self.lights[index as usize],
+            spectrum: self.spectra.get(index as usize).and_then(Option::as_ref),
+        }
     }
 
     /// The scene's selection.
@@ -256,5 +282,104 @@ fn sum_or_one(pmf: &[f32]) -> f64 {
         s
     } else {
         1.0
+    }
+}
+
+/// A light of the table, with its spectrum where the scene gave one: what it emits at a
+/// sample's wavelengths is the curve's there, times the factor by which the light's colour
+/// at that point and direction differs from its nominal colour (its falloff, its profile;
+/// for an emitter given by wavelength this factor is the same in every channel). Everything
+/// else is the light's ([`Light`], through `Deref`).
+#[derive(Clone, Copy, Debug)]
+pub struct LightRef<'t> {
+    pub light: &'t Light,
+    pub spectrum: Option<&'t Emission>,
+}
+
+impl std::ops::Deref for LightRef<'_> {
+    type Target = Light;
+    fn deref(&self) -> &Light {
+        self.light
+    }
+}
+
+impl LightRef<'_> {
+    /// `rgb`, the light's colour somewhere, at `lambda`: the spectrum's values scaled as
+    /// `rgb` is from the nominal colour, or `None` to convert the colour itself.
+    #[inline]
+    fn spectral(&self, rgb: Rgb, lambda: &Wavelengths) -> Option<Spectrum> {
+        let e = self.spectrum?;
+        if !lambda.is_spectral() {
+            return None;
+        }
+        let nominal = crate::luminance(e.rgb);
+        let factor = if nominal > 0.0 {
+            crate::luminance(rgb) / nominal
+        } else {
+            0.0
+        };
+        Some(lambda.map(rgb, |nm| e.curve.at(nm)) * factor)
+    }
+
+    /// [`Light::sample_li`], with the light's spectrum.
+    #[inline]
+    pub fn sample_li(&self, p: Vec3A, u: Vec2, lambda: &Wavelengths) -> Option<LightSample> {
+        if self.spectrum.is_none() || !lambda.is_spectral() {
+            return self.light.sample_li(p, u, lambda);
+        }
+        let mut s = self.light.sample_li(p, u, &Wavelengths::Rgb)?;
+        s.radiance = self.spectral(s.radiance, lambda)?;
+        Some(s)
+    }
+
+    /// [`Light::emitted`], with the light's spectrum.
+    #[inline]
+    pub fn emitted(&self, n: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
+        match self.spectral(self.light.emitted(n, w, &Wavelengths::Rgb), lambda) {
+            Some(s) => s,
+            None => self.light.emitted(n, w, lambda),
+        }
+    }
+
+    /// [`Light::emitted_at`], with the light's spectrum.
+    #[inline]
+    pub fn emitted_at(&self, q: Vec3A, n: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
+        if self.spectrum.is_none() || !lambda.is_spectral() {
+            return self.light.emitted_at(q, n, w, lambda);
+        }
+        let rgb = self.light.emitted_at(q, n, w, &Wavelengths::Rgb);
+        self.spectral(rgb, lambda).unwrap_or(rgb)
+    }
+
+    /// [`Light::emitted_from`], with the light's spectrum.
+    #[inline]
+    pub fn emitted_from(&self, q: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
+        if self.spectrum.is_none() || !lambda.is_spectral() {
+            return self.light.emitted_from(q, w, lambda);
+        }
+        let rgb = self.light.emitted_from(q, w, &Wavelengths::Rgb);
+        self.spectral(rgb, lambda).unwrap_or(rgb)
+    }
+
+    /// [`Light::sample_le`], with the light's spectrum.
+    #[inline]
+    pub fn sample_le(
+        &self,
+        u_pos: Vec2,
+        u_dir: Vec2,
+        u_side: f32,
+        scene_center: Vec3A,
+        scene_radius: f32,
+        lambda: &Wavelengths,
+    ) -> Option<LeSample> {
+        let light = self.light;
+        if self.spectrum.is_none() || !lambda.is_spectral() {
+            return light.sample_le(u_pos, u_dir, u_side, scene_center, scene_radius, lambda);
+        }
+        let rgb = &Wavelengths::Rgb;
+        let mut s = light.sample_le(u_pos, u_dir, u_side, scene_center, scene_radius, rgb)?;
+        s.radiance = self.spectral(s.radiance, lambda)?;
+        s.weight = self.spectral(s.weight, lambda)?;
+        Some(s)
     }
 }

@@ -177,7 +177,7 @@ fn check_samples(light: &Light, p: Vec3A, n: usize, seed: u64) -> usize {
     let mut s = Sampler::new(seed, 0, 0);
     let mut accepted = 0;
     for _ in 0..n {
-        let Some(ls) = light.sample_li(p, s.next_2d()) else {
+        let Some(ls) = light.sample_li(p, s.next_2d(), &Wavelengths::Rgb) else {
             continue;
         };
         accepted += 1;
@@ -193,7 +193,7 @@ fn check_samples(light: &Light, p: Vec3A, n: usize, seed: u64) -> usize {
             "pdf_li {pdf} vs sampled {}",
             ls.pdf
         );
-        assert_eq!(light.emitted(nq, -ls.wi), ls.radiance);
+        assert_eq!(light.emitted(nq, -ls.wi, &Wavelengths::Rgb), ls.radiance);
         if ls.dist.is_finite() {
             let hit_dist = (q - p).length();
             assert!(
@@ -214,7 +214,11 @@ fn chi2_light(name: &str, light: &Light, p: Vec3A, grid: &Grid, seed: u64) {
         grid,
         SAMPLES,
         seed,
-        |s| light.sample_li(p, s.next_2d()).map(|ls| ls.wi),
+        |s| {
+            light
+                .sample_li(p, s.next_2d(), &Wavelengths::Rgb)
+                .map(|ls| ls.wi)
+        },
         pdf_by_ray(light, p),
     );
 }
@@ -347,23 +351,27 @@ fn chi2_sphere_inside_area_sampling() {
     let mut s = Sampler::new(709, 0, 0);
     for _ in 0..1000 {
         let ls = inward
-            .sample_li(p, s.next_2d())
+            .sample_li(p, s.next_2d(), &Wavelengths::Rgb)
             .expect("inside an inward sphere");
         let (q, n) = hit_light(&inward, p, ls.wi).expect("inside");
         let pdf = inward.pdf_li(p, ls.wi, q);
         assert!((pdf - ls.pdf).abs() <= 1e-3 * pdf, "{pdf} vs {}", ls.pdf);
-        assert_eq!(inward.emitted(n, -ls.wi), L);
+        assert_eq!(inward.emitted(n, -ls.wi, &Wavelengths::Rgb), L);
         assert!(inward
-            .sample_li(center + Vec3A::new(0.0, 3.0, 0.0), s.next_2d())
+            .sample_li(
+                center + Vec3A::new(0.0, 3.0, 0.0),
+                s.next_2d(),
+                &Wavelengths::Rgb
+            )
             .is_none());
     }
     let mut s = Sampler::new(707, 0, 0);
     for _ in 0..1000 {
-        assert!(light.sample_li(p, s.next_2d()).is_none());
+        assert!(light.sample_li(p, s.next_2d(), &Wavelengths::Rgb).is_none());
         let w = crate::sampling::uniform_sphere(s.next_2d());
         let (q, n) = hit_light(&light, p, w).expect("inside");
         assert_eq!(light.pdf_li(p, w, q), 0.0);
-        assert_eq!(light.emitted(n, -w), Rgb::ZERO);
+        assert_eq!(light.emitted(n, -w, &Wavelengths::Rgb), Rgb::ZERO);
     }
     let pdf = |w: Vec3A| {
         let (q, n) = hit_light(&light, p, w).expect("inside");
@@ -474,9 +482,11 @@ fn chi2_cylinder_inward_from_inside() {
     // one (but through its open ends: a point on the axis beyond them sees its inside).
     let mut s = Sampler::new(725, 0, 0);
     for _ in 0..1000 {
-        assert!(cylinder(false).sample_li(p, s.next_2d()).is_none());
+        assert!(cylinder(false)
+            .sample_li(p, s.next_2d(), &Wavelengths::Rgb)
+            .is_none());
         let beside = c.base + c.axis * 0.5 + c.u * 2.0;
-        if let Some(ls) = light.sample_li(beside, s.next_2d()) {
+        if let Some(ls) = light.sample_li(beside, s.next_2d(), &Wavelengths::Rgb) {
             // Only points of the far wall, whose inside faces `beside`: occluded by the near
             // wall, which the integrators' shadow rays find.
             let (q, _) = hit_light(&cylinder(false), beside, ls.wi).expect("hits the wall");
@@ -500,17 +510,19 @@ fn one_sided_emitters_are_dark_from_behind() {
         (quad(false), Vec3A::new(2.5, 0.3, 2.0)),
     ] {
         for _ in 0..1000 {
-            assert!(light.sample_li(p, s.next_2d()).is_none());
+            assert!(light.sample_li(p, s.next_2d(), &Wavelengths::Rgb).is_none());
         }
         let verts = vertices(&light);
         let q = verts.iter().copied().sum::<Vec3A>() / verts.len() as f32;
         let (wi, n) = ((q - p).normalize(), light_normal(&light));
         assert_eq!(light.pdf_li(p, wi, q), 0.0);
-        assert_eq!(light.emitted(n, -wi), Rgb::ZERO);
-        assert_eq!(light.emitted(n, wi), L, "front side");
+        assert_eq!(light.emitted(n, -wi, &Wavelengths::Rgb), Rgb::ZERO);
+        assert_eq!(light.emitted(n, wi, &Wavelengths::Rgb), L, "front side");
         // On the light's plane: no sample, no density.
         let on_plane = verts[0] + (verts[1] - verts[0]) * 2.0;
-        assert!(light.sample_li(on_plane, Vec2::splat(0.3)).is_none());
+        assert!(light
+            .sample_li(on_plane, Vec2::splat(0.3), &Wavelengths::Rgb)
+            .is_none());
     }
 }
 
@@ -532,7 +544,9 @@ fn sphere_samples_are_on_the_visible_cap_and_far_densities_are_accurate() {
         });
         let p = Vec3A::ZERO;
         check_samples(&light, p, 2000, 711);
-        let ls = light.sample_li(p, Vec2::new(0.999, 0.3)).expect("visible");
+        let ls = light
+            .sample_li(p, Vec2::new(0.999, 0.3), &Wavelengths::Rgb)
+            .expect("visible");
         // Density against the f64 formula 1 / (2 pi (1 - cos_max)).
         let sin2 = 1.0 / (dist as f64 * dist as f64);
         let expected = 1.0 / (2.0 * std::f64::consts::PI * (sin2 / (1.0 + (1.0 - sin2).sqrt())));
@@ -556,15 +570,20 @@ fn point_light_is_a_delta_with_inverse_square_falloff() {
         position: Vec3A::new(0.0, 0.0, 2.0),
         intensity: Rgb::splat(8.0),
     });
-    let ls = light.sample_li(Vec3A::ZERO, Vec2::ZERO).expect("sample");
+    let ls = light
+        .sample_li(Vec3A::ZERO, Vec2::ZERO, &Wavelengths::Rgb)
+        .expect("sample");
     assert!(ls.delta && light.is_delta() && ls.pdf == 1.0 && ls.dist == 2.0);
     assert_eq!(ls.wi, Vec3A::Z);
     assert_eq!(ls.radiance, Rgb::splat(2.0));
     assert_eq!(light.pdf_li(Vec3A::ZERO, Vec3A::Z, ls.point), 0.0);
-    assert_eq!(light.emitted(Vec3A::Z, Vec3A::Z), Rgb::ZERO);
+    assert_eq!(
+        light.emitted(Vec3A::Z, Vec3A::Z, &Wavelengths::Rgb),
+        Rgb::ZERO
+    );
     assert!(
         light
-            .sample_li(Vec3A::new(0.0, 0.0, 2.0), Vec2::ZERO)
+            .sample_li(Vec3A::new(0.0, 0.0, 2.0), Vec2::ZERO, &Wavelengths::Rgb)
             .is_none(),
         "at the light"
     );
@@ -573,13 +592,22 @@ fn point_light_is_a_delta_with_inverse_square_falloff() {
 #[test]
 fn emitted_radiance_by_side() {
     let sphere = Light::sphere(Vec3A::ZERO, 1.0, L);
-    assert_eq!(sphere.emitted(Vec3A::Z, Vec3A::new(0.0, 0.6, 0.8)), L);
-    assert_eq!(sphere.emitted(Vec3A::Z, -Vec3A::Z), Rgb::ZERO);
-    assert_eq!(triangle(true).emitted(Vec3A::Z, -Vec3A::Z), L);
+    assert_eq!(
+        sphere.emitted(Vec3A::Z, Vec3A::new(0.0, 0.6, 0.8), &Wavelengths::Rgb),
+        L
+    );
+    assert_eq!(
+        sphere.emitted(Vec3A::Z, -Vec3A::Z, &Wavelengths::Rgb),
+        Rgb::ZERO
+    );
+    assert_eq!(
+        triangle(true).emitted(Vec3A::Z, -Vec3A::Z, &Wavelengths::Rgb),
+        L
+    );
     let env = Light::environment(L);
-    assert_eq!(env.emitted(Vec3A::ZERO, Vec3A::X), L);
+    assert_eq!(env.emitted(Vec3A::ZERO, Vec3A::X, &Wavelengths::Rgb), L);
     let ls = env
-        .sample_li(Vec3A::ONE, Vec2::new(0.3, 0.7))
+        .sample_li(Vec3A::ONE, Vec2::new(0.3, 0.7), &Wavelengths::Rgb)
         .expect("sample");
     assert!(
         ls.dist.is_infinite() && !ls.delta && (ls.pdf - 0.25 / PI).abs() < 1e-9 && ls.radiance == L
@@ -694,7 +722,7 @@ fn light_table_edge_cases() {
     let t = LightTable::new(vec![point(1.0), env.clone(), triangle(false), env], 10.0);
     assert_eq!(t.environment(), Some(1));
     assert_eq!(t.len(), 4);
-    assert_eq!(t.get(1), &Light::environment(L));
+    assert_eq!(t.get(1).light, &Light::environment(L));
 }
 
 #[test]
@@ -731,7 +759,14 @@ fn emitted_rays_report_the_densities_pdf_le_gives_and_a_consistent_weight() {
         let mut back = 0;
         for _ in 0..2000 {
             let le = light
-                .sample_le(s.next_2d(), s.next_2d(), s.next_1d(), center, radius)
+                .sample_le(
+                    s.next_2d(),
+                    s.next_2d(),
+                    s.next_1d(),
+                    center,
+                    radius,
+                    &Wavelengths::Rgb,
+                )
                 .expect("a ray");
             let (pos, dir) = light.pdf_le(le.normal, le.ray.dir, radius);
             let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * b.abs().max(1e-6);
@@ -803,18 +838,31 @@ fn a_textured_planar_light_reads_its_texture_where_it_emits() {
     let light = Light::Planar(p.with_texture(texture, uvs));
     for (x, want) in [(0.2f32, 1.0f32), (0.8, 3.0)] {
         let q = Vec3A::new(x, 0.5, 0.0);
-        assert_eq!(light.emitted_at(q, Vec3A::Z, Vec3A::Z), L * want);
-        assert_eq!(light.emitted_at(q, Vec3A::Z, -Vec3A::Z), Rgb::ZERO);
+        assert_eq!(
+            light.emitted_at(q, Vec3A::Z, Vec3A::Z, &Wavelengths::Rgb),
+            L * want
+        );
+        assert_eq!(
+            light.emitted_at(q, Vec3A::Z, -Vec3A::Z, &Wavelengths::Rgb),
+            Rgb::ZERO
+        );
     }
     let mut s = Sampler::new(3, 0, 0);
     for _ in 0..200 {
         let ls = light
-            .sample_li(Vec3A::new(0.5, 0.5, 2.0), s.next_2d())
+            .sample_li(Vec3A::new(0.5, 0.5, 2.0), s.next_2d(), &Wavelengths::Rgb)
             .unwrap();
         let want = if ls.point.x < 0.5 { 1.0 } else { 3.0 };
         assert_eq!(ls.radiance, L * want, "at {}", ls.point);
         let le = light
-            .sample_le(s.next_2d(), s.next_2d(), 0.0, Vec3A::ZERO, 10.0)
+            .sample_le(
+                s.next_2d(),
+                s.next_2d(),
+                0.0,
+                Vec3A::ZERO,
+                10.0,
+                &Wavelengths::Rgb,
+            )
             .unwrap();
         let want = if le.ray.origin.x < 0.5 { 1.0 } else { 3.0 };
         assert!((le.radiance - L * want).abs().max_element() < 1e-6);

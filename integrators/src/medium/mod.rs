@@ -23,7 +23,8 @@ use majorant::MajorantGrid;
 pub use phase::{Phase, PhaseSample};
 pub use volume::{DensityGrid, GridEdge, Volume};
 
-use crate::{Ray, Rgb};
+use crate::spectrum::Wavelengths;
+use crate::{Ray, Rgb, Spectrum};
 use glam::{Affine3A, Vec3A};
 
 /// A participating medium.
@@ -61,6 +62,9 @@ pub struct Heterogeneous {
     majorant: Rgb,
     /// The largest extinction in each cell of the box (with a box and a grid).
     majorants: Option<MajorantGrid>,
+    /// The same in spectral mode (one value for every wavelength).
+    majorant_spectral: f32,
+    majorants_spectral: Option<MajorantGrid>,
 }
 
 /// How a heterogeneous medium gives its coefficients over space.
@@ -98,6 +102,37 @@ impl Coefficients {
     }
 
     /// Whether a grid gives any of them.
+    /// A bound on the extinction at any wavelength in spectral mode: an unbounded value
+    /// upsampled never exceeds twice its largest channel ([`crate::spectrum::RgbSpectrum`]).
+    fn max_extinction_spectral(&self, corners: Option<&[Vec3A; 8]>) -> f32 {
+        let max = |v: &Volume| {
+            corners
+                .map_or_else(|| v.max(), |c| v.max_in(c))
+                .max_element()
+        };
+        match self {
+            Coefficients::Albedo { sigma_t, .. } => 2.0 * max(sigma_t),
+            Coefficients::Separate { sigma_a, sigma_s } => 2.0 * (max(sigma_a) + max(sigma_s)),
+        }
+    }
+
+    /// [`Coefficients::at`] at the wavelengths `lambda`: extinction and the coefficients as
+    /// unbounded spectra, albedo as a reflectance.
+    #[inline]
+    fn at_spectral(&self, p: Vec3A, lambda: &Wavelengths) -> (Spectrum, Spectrum) {
+        match self {
+            Coefficients::Albedo { sigma_t, albedo } => {
+                let sigma_t = lambda.unbounded(sigma_t.at(p));
+                let sigma_s = sigma_t * lambda.reflectance(albedo.at(p));
+                (sigma_t - sigma_s, sigma_s)
+            }
+            Coefficients::Separate { sigma_a, sigma_s } => (
+                lambda.unbounded(sigma_a.at(p)),
+                lambda.unbounded(sigma_s.at(p)),
+            ),
+        }
+    }
+
     fn has_grid(&self) -> bool {
         let grid = |v: &Volume| matches!(v, Volume::Grid { .. });
         match self {
@@ -137,6 +172,22 @@ impl Homogeneous {
     }
 }
 
+impl Homogeneous {
+    /// The absorption and scattering coefficients at `lambda`: the extinction as an unbounded
+    /// spectrum, the albedo as a reflectance (Mitsuba 3's `sigma_t` and `albedo`).
+    fn spectral(&self, lambda: &Wavelengths) -> (Spectrum, Spectrum) {
+        let sigma_t = self.sigma_a + self.sigma_s;
+        let albedo = Vec3A::select(
+            sigma_t.cmpgt(Vec3A::ZERO),
+            self.sigma_s / sigma_t,
+            Vec3A::ZERO,
+        );
+        let sigma_t = lambda.unbounded(sigma_t);
+        let sigma_s = sigma_t * lambda.reflectance(albedo);
+        (sigma_t - sigma_s, sigma_s)
+    }
+}
+
 impl Heterogeneous {
     /// A medium of `coefficients` and emission `le` over space, within `region` (world to
     /// the unit cube of the box; `None`: everywhere).
@@ -146,15 +197,18 @@ impl Heterogeneous {
         phase: Phase,
         region: Option<Affine3A>,
     ) -> Heterogeneous {
-        let majorants = match &region {
-            Some(to_unit) if coefficients.has_grid() => MajorantGrid::build(to_unit, |corners| {
-                coefficients.max_extinction(Some(corners))
-            }),
+        let grid = |bound: &dyn Fn(&[Vec3A; 8]) -> Rgb| match &region {
+            Some(to_unit) if coefficients.has_grid() => MajorantGrid::build(to_unit, bound),
             _ => None,
         };
+        let majorants = grid(&|corners| coefficients.max_extinction(Some(corners)));
+        let majorants_spectral =
+            grid(&|corners| Rgb::splat(coefficients.max_extinction_spectral(Some(corners))));
         Heterogeneous {
             majorant: coefficients.max_extinction(None),
             majorants,
+            majorant_spectral: coefficients.max_extinction_spectral(None),
+            majorants_spectral,
             coefficients,
             le,
             phase,
@@ -195,9 +249,12 @@ impl Medium {
         }
     }
 
-    /// The coefficients at `p` (world).
+    /// The coefficients at `p` (world), at the wavelengths `lambda`.
     #[inline]
-    pub fn at(&self, p: Vec3A) -> MediumPoint {
+    pub fn at(&self, p: Vec3A, lambda: &Wavelengths) -> MediumPoint {
+        if lambda.is_spectral() {
+            return self.at_spectral(p, lambda);
+        }
         match self {
             Medium::Homogeneous(m) => MediumPoint {
                 sigma_a: m.sigma_a,
@@ -215,19 +272,56 @@ impl Medium {
         }
     }
 
+    /// [`Medium::at`] in spectral mode.
+    #[inline(never)]
+    fn at_spectral(&self, p: Vec3A, lambda: &Wavelengths) -> MediumPoint {
+        match self {
+            Medium::Homogeneous(m) => {
+                let (sigma_a, sigma_s) = m.spectral(lambda);
+                MediumPoint {
+                    sigma_a,
+                    sigma_s,
+                    le: lambda.illuminant(m.le),
+                }
+            }
+            Medium::Heterogeneous(m) => {
+                let (sigma_a, sigma_s) = m.coefficients.at_spectral(p, lambda);
+                MediumPoint {
+                    sigma_a,
+                    sigma_s,
+                    le: lambda.illuminant(m.le.at(p)),
+                }
+            }
+        }
+    }
+
     /// The stretches of `ray` before `tmax` over which the medium may be dense, in order,
     /// each with its majorant; none where the ray misses it. A medium in a box with a grid
     /// gives one stretch per cell of its majorant grid the ray crosses; the others one
     /// stretch, with the largest extinction anywhere.
     #[inline]
-    pub fn majorant(&self, ray: &Ray, tmax: f32) -> Majorants<'_> {
+    pub fn majorant(&self, ray: &Ray, tmax: f32, lambda: &Wavelengths) -> Majorants<'_> {
+        let spectral = lambda.is_spectral();
         match self {
             Medium::Homogeneous(m) => Majorants::One(Some(Segment {
                 t0: 0.0,
                 t1: tmax,
-                sigma_maj: m.sigma_a + m.sigma_s,
+                sigma_maj: match spectral {
+                    false => m.sigma_a + m.sigma_s,
+                    true => {
+                        let (a, s) = m.spectral(lambda);
+                        a + s
+                    }
+                },
             })),
-            Medium::Heterogeneous(m) => match (&m.region, &m.majorants) {
+            Medium::Heterogeneous(m) => match (
+                &m.region,
+                if spectral {
+                    &m.majorants_spectral
+                } else {
+                    &m.majorants
+                },
+            ) {
                 (Some(to_unit), Some(grid)) => Majorants::Grid(grid.segments(to_unit, ray, tmax)),
                 (region, _) => {
                     let stretch = match region {
@@ -237,7 +331,10 @@ impl Medium {
                     Majorants::One(stretch.map(|(t0, t1)| Segment {
                         t0,
                         t1,
-                        sigma_maj: m.majorant,
+                        sigma_maj: match spectral {
+                            false => m.majorant,
+                            true => Rgb::splat(m.majorant_spectral),
+                        },
                     }))
                 }
             },

@@ -8,7 +8,8 @@
 //! weights, so that a coloured medium is sampled by one channel and weighted by all.
 
 use super::{Medium, MediumPoint};
-use crate::{Ray, Rgb, Sampler};
+use crate::spectrum::Wavelengths;
+use crate::{Ray, Rgb, Sampler, Spectrum};
 use glam::Vec3A;
 
 /// What the caller of [`sample_t_maj`] sees at a tentative collision.
@@ -34,13 +35,14 @@ pub fn sample_t_maj(
     ray: &Ray,
     tmax: f32,
     hero: usize,
+    lambda: &Wavelengths,
     sampler: &mut Sampler,
     mut collision: impl FnMut(&Collision, &mut Sampler) -> bool,
 ) -> Rgb {
     // Collisions are drawn afresh in each stretch (the exponential has no memory); `t_maj`
     // is the majorant transmittance since the last collision, across stretches.
     let mut t_maj = Rgb::ONE;
-    for segment in medium.majorant(ray, tmax) {
+    for segment in medium.majorant(ray, tmax, lambda) {
         let sigma_maj = segment.sigma_maj;
         let rate = sigma_maj[hero];
         if rate <= 0.0 {
@@ -61,7 +63,7 @@ pub fn sample_t_maj(
             let c = Collision {
                 p,
                 t: next,
-                point: medium.at(p),
+                point: medium.at(p, lambda),
                 sigma_maj,
                 t_maj: t_maj * transmittance(sigma_maj, next - t),
             };
@@ -89,12 +91,19 @@ pub fn transmittance(sigma: Rgb, d: f32) -> Rgb {
 /// estimate by `1 - sigma_t / rate` per channel. (At one channel's rate, a stretch where that
 /// channel sees no medium would leave the others its majorant transmittance instead of their
 /// own.)
-pub fn ratio_tracking(medium: &Medium, ray: &Ray, tmax: f32, sampler: &mut Sampler) -> Rgb {
-    if let Medium::Homogeneous(m) = medium {
-        return transmittance(m.sigma_a + m.sigma_s, tmax);
+pub fn ratio_tracking(
+    medium: &Medium,
+    ray: &Ray,
+    tmax: f32,
+    lambda: &Wavelengths,
+    sampler: &mut Sampler,
+) -> Spectrum {
+    if let Medium::Homogeneous(_) = medium {
+        let point = medium.at(ray.origin, lambda);
+        return transmittance(point.sigma_a + point.sigma_s, tmax);
     }
     let mut tr = Rgb::ONE;
-    for segment in medium.majorant(ray, tmax) {
+    for segment in medium.majorant(ray, tmax, lambda) {
         let rate = segment.sigma_maj.max_element();
         if rate.is_nan() || rate <= 0.0 {
             continue;
@@ -105,7 +114,7 @@ pub fn ratio_tracking(medium: &Medium, ray: &Ray, tmax: f32, sampler: &mut Sampl
             if t >= segment.t1 || t.is_nan() {
                 break;
             }
-            let point = medium.at(ray.at(t));
+            let point = medium.at(ray.at(t), lambda);
             tr *= (Rgb::ONE - (point.sigma_a + point.sigma_s) / rate).max(Rgb::ZERO);
             if tr == Rgb::ZERO || !tr.is_finite() {
                 return Rgb::ZERO;
@@ -127,7 +136,7 @@ mod tests {
         let mut s = Sampler::new(3, 0, 0);
         let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
         for _ in 0..n {
-            let tr = ratio_tracking(medium, ray, tmax, &mut s).as_dvec3();
+            let tr = ratio_tracking(medium, ray, tmax, &Wavelengths::Rgb, &mut s).as_dvec3();
             sum += tr;
             sum2 += tr * tr;
         }

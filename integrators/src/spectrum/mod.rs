@@ -21,6 +21,7 @@
 //! way: there only the hero can go on ([`Wavelengths::terminate_secondary`]), as in pbrt-v4.
 
 pub mod cie;
+pub mod curve;
 pub mod upsample;
 
 use crate::{Rgb, Spectrum};
@@ -78,6 +79,14 @@ impl Wavelengths {
             nm: Vec3A::from(nm),
             pdf: Vec3A::from(pdf),
         }
+    }
+
+    /// The wavelengths of pass `pass` of a render of seed `seed`: what the integrators that
+    /// share light paths between pixels carry through a whole pass.
+    pub fn for_pass(seed: u64, pass: u32) -> Wavelengths {
+        let key =
+            crate::random::mix64(seed ^ 0x5350_4543_5452_414c ^ crate::random::mix64(pass as u64));
+        Wavelengths::sample((key >> 40) as f32 / (1u64 << 24) as f32)
     }
 
     /// True in spectral mode.

@@ -5,6 +5,7 @@
 
 use super::{Probe, Surface, TestScene};
 use crate::medium::{Homogeneous, Phase};
+use crate::spectrum::Wavelengths;
 use crate::{Light, LightTable, Medium, MediumId, MediumInterface, Ray, Rgb, SurfaceMaterial};
 use glam::Vec3A;
 
@@ -276,6 +277,7 @@ pub fn expect_rgb_within(
             pass: 0,
             rows: 0..camera.height,
             stop: crate::Stop::NEVER,
+            lambda: Wavelengths::Rgb,
         });
         let rays = super::as_ray_integrator(name, integrator.as_ref());
         let mut tracer = crate::Tracer::new(scene);
@@ -283,7 +285,9 @@ pub fn expect_rgb_within(
         for i in batch * per_batch..(batch + 1) * per_batch {
             let mut sampler = crate::Sampler::new(777, i as u64, 0);
             let ray = super::camera_ray(&scene.camera, &mut sampler);
-            let l = rays.radiance(&ray, &mut tracer, &mut sampler).as_dvec3();
+            let l = rays
+                .radiance(&ray, &mut tracer, &mut sampler, &mut Wavelengths::Rgb)
+                .as_dvec3();
             assert!(l.is_finite(), "{name}: non-finite sample {l}");
             batch_sum += l;
             sum_sq += l * l;

@@ -8,6 +8,7 @@ use crate::bsdf::Lambert;
 use crate::integrator::{Integrator, RayIntegrator, Tracer};
 use crate::sampler::{SampleSite, SamplerKind};
 use crate::sampling::uniform_sphere;
+use crate::spectrum::Wavelengths;
 use crate::{
     find, Hit, Light, LightTable, Material, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene,
     SurfaceMaterial,
@@ -348,6 +349,7 @@ fn image_pass_mean(
     scene: &TestScene,
     (pass, passes): (u32, u32),
     kind: SamplerKind,
+    spectral: bool,
 ) -> f64 {
     let mut tracer = Tracer::new(scene);
     let mut splats = crate::Splats::default();
@@ -365,6 +367,7 @@ fn image_pass_mean(
             };
             let mut sampler = Sampler::camera(kind, &site);
             let film = glam::Vec2::new(x as f32, y as f32) + sampler.next_2d();
+            let mut lambda = wavelengths(spectral, &mut sampler);
             let pixel = crate::PixelSample {
                 x,
                 y,
@@ -377,7 +380,9 @@ fn image_pass_mean(
                 tracer: &mut tracer,
                 sampler: &mut sampler,
                 splats: &mut splats,
+                lambda: &mut lambda,
             });
+            let l = lambda.to_rgb(l);
             assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
             sum += l.y as f64;
         }
@@ -400,6 +405,23 @@ fn image_pass_mean(
         sum += l.y as f64;
     }
     sum / (camera.width * camera.height) as f64
+}
+
+/// A camera sample's wavelengths, drawn as the render loop draws them (after the film
+/// position).
+fn wavelengths(spectral: bool, sampler: &mut Sampler) -> Wavelengths {
+    match spectral {
+        true => Wavelengths::sample(sampler.next_1d()),
+        false => Wavelengths::Rgb,
+    }
+}
+
+/// A pass's wavelengths, as the render loop gives them.
+fn pass_wavelengths(spectral: bool, seed: u64, pass: u32) -> Wavelengths {
+    match spectral {
+        true => Wavelengths::for_pass(seed, pass),
+        false => Wavelengths::Rgb,
+    }
 }
 
 /// The integrator `name` as an estimator of radiance along probe rays.
@@ -433,6 +455,7 @@ pub fn estimate_integrator(
         pass: 0,
         rows: 0..camera.height,
         stop: crate::Stop::NEVER,
+        lambda: Wavelengths::Rgb,
     });
     let ray_integrator = integrator
         .as_ray_integrator()
@@ -442,7 +465,7 @@ pub fn estimate_integrator(
     for i in 0..n {
         let mut sampler = Sampler::new(12345, i as u64, 0);
         let ray = camera_ray(&scene.camera, &mut sampler);
-        let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler);
+        let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler, &mut Wavelengths::Rgb);
         assert!(l.is_finite(), "non-finite sample {l:?}");
         let v = l.y as f64;
         sum += v;
@@ -522,6 +545,20 @@ pub fn estimate_passes_sampled(
     per_pass: u32,
     sampler: SamplerKind,
 ) -> (f64, f64) {
+    estimate_passes_in(name, params, scene, (passes, per_pass), sampler, false)
+}
+
+/// [`estimate_passes_sampled`], in spectral mode with `spectral`: every camera sample carries
+/// wavelengths drawn as the render loop draws them, every pass its own, and the mean is that
+/// of the green channel of the linear sRGB the film makes of them.
+pub fn estimate_passes_in(
+    name: &str,
+    params: &[(&str, &str)],
+    scene: &TestScene,
+    (passes, per_pass): (u32, u32),
+    sampler: SamplerKind,
+    spectral: bool,
+) -> (f64, f64) {
     let given: Vec<(String, String)> = params
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
@@ -540,6 +577,7 @@ pub fn estimate_passes_sampled(
                 pass,
                 rows: 0..camera.height,
                 stop: crate::Stop::NEVER,
+                lambda: pass_wavelengths(spectral, 12345, pass),
             });
             means.push(image_pass_mean(
                 name,
@@ -548,6 +586,7 @@ pub fn estimate_passes_sampled(
                 scene,
                 (pass, passes),
                 sampler,
+                spectral,
             ));
             continue;
         }
@@ -559,6 +598,7 @@ pub fn estimate_passes_sampled(
             pass,
             rows: 0..camera.height,
             stop: crate::Stop::NEVER,
+            lambda: pass_wavelengths(spectral, 12345, pass),
         });
         let ray_integrator = as_ray_integrator(name, integrator.as_ref());
         let mut tracer = Tracer::new(scene);
@@ -575,7 +615,9 @@ pub fn estimate_passes_sampled(
             };
             let mut sampler = Sampler::camera(sampler, &site);
             let ray = camera_ray(&scene.camera, &mut sampler);
-            let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler);
+            let mut lambda = wavelengths(spectral, &mut sampler);
+            let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler, &mut lambda);
+            let l = lambda.to_rgb(l);
             assert!(l.is_finite(), "{name}: non-finite sample {l:?}");
             sum += l.y as f64;
         }
@@ -633,8 +675,31 @@ pub fn expect_mean_passes_sampled(
     bias: f64,
     sampler: SamplerKind,
 ) {
-    let what = format!("{name} {params:?} under {sampler}");
-    let (mean, se) = estimate_passes_sampled(name, params, scene, passes, per_pass, sampler);
+    expect_mean_passes_in(
+        name,
+        params,
+        scene,
+        expected,
+        (passes, per_pass),
+        bias,
+        (sampler, false),
+    );
+}
+
+/// [`expect_mean_passes_sampled`], in spectral mode with `spectral`
+/// ([`estimate_passes_in`]).
+pub fn expect_mean_passes_in(
+    name: &str,
+    params: &[(&str, &str)],
+    scene: &TestScene,
+    expected: f32,
+    (passes, per_pass): (u32, u32),
+    bias: f64,
+    (sampler, spectral): (SamplerKind, bool),
+) {
+    let mode = if spectral { ", spectral" } else { "" };
+    let what = format!("{name} {params:?} under {sampler}{mode}");
+    let (mean, se) = estimate_passes_in(name, params, scene, (passes, per_pass), sampler, spectral);
     // The mean moved towards `expected` by the allowed bias, at most onto it.
     let e = expected as f64;
     let allowed = bias * e.abs();
