@@ -88,6 +88,9 @@ def main():
     ap.add_argument("--out", type=pathlib.Path, help="keep raylab's images here")
     ap.add_argument("--spectral", action="store_true",
                     help="render with --spectral, against the spectral references")
+    ap.add_argument("--spp-factor", type=float, default=1.0,
+                    help="render this many times the test's samples (the z-test keeps the "
+                         "test's count): a diagnostic that tells variance from bias")
     ap.add_argument("extra", nargs="*", help="more raylab options (after --)")
     args = ap.parse_args()
     import mitsuba as mi
@@ -116,7 +119,8 @@ def main():
         # The scenes read files across the repository (tests/obj, docs/scenes/sdfgrid).
         cmd = [args.raylab, "render", str(scene), "-a", str(args.data / "common"),
                "--allow-path", str(args.data),
-               "-D", f"spp={spp}", "-D", f"integrator={integrator}", "--spp", str(spp),
+               "-D", f"spp={spp}", "-D", f"integrator={integrator}",
+               "--spp", str(max(1, round(spp * args.spp_factor))),
                "-o", str(image), *(["--spectral"] if args.spectral else []), *args.extra]
         run = subprocess.run(cmd, capture_output=True, text=True)
         if run.returncode != 0:

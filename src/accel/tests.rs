@@ -250,7 +250,7 @@ fn every_primitive_keeps_its_material_and_light_after_reordering() {
             Some(shape) => {
                 let light = d.light(lane).expect("every analytic shape emits");
                 analytic_lights.push(light);
-                match (scene.lights.get(light), shape) {
+                match (scene.lights.get(light).light, shape) {
                     (
                         Light::Sphere(SphereLight { center, radius, .. }),
                         AnalyticIndex::Sphere(i),
@@ -343,7 +343,7 @@ fn every_triangle_lane_keeps_its_material_light_and_normals() {
             Some(l) => {
                 assert_eq!(mesh, 1);
                 lit += 1;
-                match scene.lights.get(l) {
+                match scene.lights.get(l).light {
                     Light::Planar(Planar { p0, .. }) => assert_eq!(*p0, v0),
                     other => panic!("{other:?}"),
                 }

@@ -1309,6 +1309,11 @@ pub enum EmitterDesc {
         two_sided: bool,
         #[serde(skip_serializing_if = "Option::is_none", default)]
         texture: Option<ColorDesc>,
+        /// The emission by wavelength, `[(nm, value), ...]` in W sr^-1 m^-2 nm^-1 (linear
+        /// between the pairs, zero outside them), times `radiance`, which must then be grey
+        /// (a scale). Spectral rendering emits the spectrum; RGB rendering its colour.
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        spectrum: Option<Vec<(f64, f64)>>,
     },
     /// Isotropic point light of `intensity` (W/sr per channel) at the entity's translation.
     Point { intensity: V3 },

@@ -62,10 +62,7 @@ impl TextureDesc {
                 ..a
             }),
             TextureDesc::Mix(m) => {
-                let scaled = |c: ColorDesc| match c {
-                    ColorDesc::Constant(v) => ColorDesc::Constant(v.map(|x| x * s)),
-                    ColorDesc::Texture(t) => ColorDesc::Texture(t.scaled(s)),
-                };
+                let scaled = |c: ColorDesc| c.scaled(s);
                 TextureDesc::Mix(Box::new(MixDesc {
                     tex0: scaled(m.tex0),
                     tex1: scaled(m.tex1),
@@ -184,11 +181,15 @@ fn grey20() -> V3 {
     [0.2; 3]
 }
 
-/// A colour parameter: a constant or a texture.
+/// A colour parameter: a constant, a texture, or a spectrum given by wavelength:
+/// `Spectrum([(400, 0.1), (700, 0.8)])`, (nm, value) pairs linear between them and zero
+/// outside them (Mitsuba 3's `<spectrum>`). A spectrum is its colour in RGB mode (under D65,
+/// clamped to [0, 1]) and itself in spectral mode.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ColorDesc {
     Constant(V3),
     Texture(TextureDesc),
+    Spectrum(Vec<(f64, f64)>),
 }
 
 /// A scalar parameter (a roughness): a constant or a texture.
@@ -196,6 +197,39 @@ pub enum ColorDesc {
 pub enum FloatDesc {
     Constant(f32),
     Texture(TextureDesc),
+}
+
+/// Spectrum pairs as the renderer keeps them.
+pub fn narrow(pairs: &[(f64, f64)]) -> Vec<(f32, f32)> {
+    pairs.iter().map(|&(n, v)| (n as f32, v as f32)).collect()
+}
+
+impl ColorDesc {
+    /// A spectrum's colour as a reflectance (under D65, clamped to [0, 1]): what it is in RGB
+    /// mode, and wherever a parameter cannot be spectral (a map, a mix).
+    pub fn spectrum_colour(pairs: &[(f64, f64)]) -> V3 {
+        super::spectra::to_srgb(pairs, super::spectra::Use::Reflectance)
+            .map_or([0.0; 3], |c| c.map(|x| x as f32))
+    }
+
+    /// The parameter times `s` (not negative).
+    pub fn scaled(self, s: f32) -> ColorDesc {
+        match self {
+            ColorDesc::Constant(v) => ColorDesc::Constant(v.map(|x| x * s)),
+            ColorDesc::Texture(t) => ColorDesc::Texture(t.scaled(s)),
+            ColorDesc::Spectrum(p) => {
+                ColorDesc::Spectrum(p.into_iter().map(|(n, v)| (n, v * s as f64)).collect())
+            }
+        }
+    }
+
+    /// The parameter with a spectrum replaced by its colour.
+    pub fn without_spectrum(self) -> ColorDesc {
+        match self {
+            ColorDesc::Spectrum(p) => ColorDesc::Constant(ColorDesc::spectrum_colour(&p)),
+            other => other,
+        }
+    }
 }
 
 impl From<V3> for ColorDesc {
@@ -217,7 +251,7 @@ enum Raw {
 }
 
 const EXPECTED_COLOUR: &str =
-    "a colour: (r, g, b), a grey number, Image(path: ...) or Checkerboard(...)";
+    "a colour: (r, g, b), a grey number, Image(path: ...), Checkerboard(...) or Spectrum([(nm, value), ...])";
 const EXPECTED_FLOAT: &str = "a number or a texture: Image(path: ...) or Checkerboard(...)";
 
 fn texture_from_named<E: de::Error>(named: BTreeMap<String, ron::Value>) -> Result<TextureDesc, E> {
@@ -255,7 +289,18 @@ impl<'de> Deserialize<'de> for ColorDesc {
                 .map_err(|_| {
                     de::Error::custom(format!("a colour has 3 components, got {}", v.len()))
                 }),
-            Raw::Named(named) => texture_from_named(named).map(ColorDesc::Texture),
+            Raw::Named(named) => match named.get("Spectrum") {
+                Some(pairs) if named.len() == 1 => pairs
+                    .clone()
+                    .into_rust::<Vec<(f64, f64)>>()
+                    .map_err(|e| de::Error::custom(format!("in Spectrum(...): {e}")))
+                    .and_then(|p| {
+                        raylab_integrators::spectrum::curve::Curve::table(&narrow(&p))
+                            .map(|_| ColorDesc::Spectrum(p))
+                            .map_err(|e| de::Error::custom(format!("in Spectrum(...): {e}")))
+                    }),
+                _ => texture_from_named(named).map(ColorDesc::Texture),
+            },
         }
     }
 }
@@ -327,6 +372,7 @@ impl serde::Serialize for ColorDesc {
         match self {
             ColorDesc::Constant(c) => c.serialize(s),
             ColorDesc::Texture(t) => t.serialize(s),
+            ColorDesc::Spectrum(p) => s.serialize_newtype_variant("Colour", 2, "Spectrum", p),
         }
     }
 }

@@ -265,6 +265,8 @@ pub enum Emitter {
         two_sided: bool,
         /// A texture over the radiance, looked up at the shape's texture coordinates.
         texture: Option<raylab_integrators::texture::Texture>,
+        /// The emission by wavelength, of which `radiance` is the colour.
+        spectrum: Option<raylab_integrators::spectrum::curve::Curve>,
     },
     /// Isotropic point light at the entity's translation.
     Point { intensity: Rgb },

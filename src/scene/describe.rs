@@ -11,10 +11,12 @@ use crate::formats::mesh_files;
 use crate::formats::schema::{
     CameraDesc, CurveDesc, CurveType, EmitterDesc, RenderDesc, ShapeDesc,
 };
-use crate::formats::texture_desc::ColorDesc;
+use crate::formats::spectra::Use;
+use crate::formats::texture_desc::{narrow, ColorDesc};
 use glam::{Vec3, Vec3A};
 use raylab_integrators::light::EnvMap;
 use raylab_integrators::registry;
+use raylab_integrators::spectrum::curve::Curve;
 use raylab_integrators::Camera;
 
 pub use crate::formats::schema::{MAX_PIXELS, MAX_SIDE};
@@ -35,19 +37,41 @@ pub(super) fn emitter_from_desc(
             radiance,
             two_sided,
             texture,
+            spectrum,
         } => {
             let (radiance, texture) = match texture {
                 None => (v3(radiance), None),
                 Some(ColorDesc::Constant(c)) => (v3(radiance) * v3(c), None),
+                Some(ColorDesc::Spectrum(p)) => {
+                    (v3(radiance) * v3(ColorDesc::spectrum_colour(&p)), None)
+                }
                 Some(ColorDesc::Texture(t)) => (
                     v3(radiance),
                     Some(emitter_texture(&t, "emitter's texture", files)?),
                 ),
             };
+            // A spectrum: its colour (as an emission: not weighted by D65) times the scale.
+            let (radiance, spectrum) = match spectrum {
+                None => (radiance, None),
+                Some(pairs) => {
+                    if radiance.x != radiance.y || radiance.y != radiance.z {
+                        return Err(format!(
+                            "an emitter with a spectrum takes a grey radiance (a scale), not {radiance}"
+                        ));
+                    }
+                    let curve = Curve::table(&narrow(&pairs))
+                        .map_err(|e| format!("the emitter's spectrum: {e}"))?
+                        .scaled(radiance.x);
+                    let rgb = crate::formats::spectra::to_srgb(&pairs, Use::Emission)
+                        .map_err(|e| format!("the emitter's spectrum: {e}"))?;
+                    (v3(rgb.map(|c| c as f32)) * radiance.x, Some(curve))
+                }
+            };
             Emitter::Area {
                 radiance,
                 two_sided,
                 texture,
+                spectrum,
             }
         }
         EmitterDesc::Point { intensity } => Emitter::Point {
@@ -65,6 +89,11 @@ pub(super) fn emitter_from_desc(
                 None => None,
                 Some(ColorDesc::Constant(c)) => {
                     Some(raylab_integrators::texture::Texture::Constant(v3(c)))
+                }
+                Some(ColorDesc::Spectrum(p)) => {
+                    Some(raylab_integrators::texture::Texture::Constant(v3(
+                        ColorDesc::spectrum_colour(&p),
+                    )))
                 }
                 Some(ColorDesc::Texture(t)) => Some(emitter_texture(&t, "spot's texture", files)?),
             },
@@ -96,6 +125,12 @@ pub(super) fn emitter_from_desc(
             scale,
         } => {
             let (irradiance, aspect) = match irradiance {
+                ColorDesc::Spectrum(p) => (
+                    raylab_integrators::texture::Texture::Constant(v3(ColorDesc::spectrum_colour(
+                        &p,
+                    ))),
+                    1.0,
+                ),
                 ColorDesc::Constant(c) => {
                     (raylab_integrators::texture::Texture::Constant(v3(c)), 1.0)
                 }

@@ -68,6 +68,7 @@ pub fn file_parts(desc: &ShapeDesc, files: &SceneFiles) -> Result<Vec<Part>, Str
                 radiance: Vec3A::from_array(radiance),
                 two_sided: m.two_sided,
                 texture: None,
+                spectrum: None,
             });
             Ok(Part {
                 name: m.name,

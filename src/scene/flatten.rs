@@ -12,7 +12,8 @@
 //! same way, so an edited scene and the same scene loaded fresh are the same bits.
 
 use super::components::{
-    FileOrder, GeometryId, Instanced, MaterialRef, MediumBoundary, Name, Transform, WorldShape,
+    Emitter, FileOrder, GeometryId, Instanced, MaterialRef, MediumBoundary, Name, Transform,
+    WorldShape,
 };
 use super::{systems, LoadedScene};
 use crate::accel::{
@@ -22,6 +23,7 @@ use crate::formats::schema::LightSelection;
 use glam::Vec3A;
 use hecs::Entity;
 use obvhs::triangle::Triangle;
+use raylab_integrators::light::table::Emission;
 use raylab_integrators::light::LightSelection as Selection;
 use raylab_integrators::{
     Hit, Light, LightTable, Medium, MediumId, MediumInterface, Ray, Scene, SurfaceMaterial,
@@ -553,7 +555,26 @@ fn table(
         LightSelection::Uniform => Selection::Uniform,
         LightSelection::Bvh => Selection::Bvh,
     };
-    LightTable::build(lights, powers, uniform, selection)
+    // What each light emits by wavelength, where its entity gave a spectrum.
+    let mut spectra = vec![None; lights.len()];
+    for (&entity, &(start, n)) in light_of {
+        if let Ok(emitter) = scene.world.get::<&Emitter>(entity) {
+            if let Emitter::Area {
+                radiance,
+                spectrum: Some(curve),
+                ..
+            } = &*emitter
+            {
+                for s in &mut spectra[start as usize..start as usize + n] {
+                    *s = Some(Emission {
+                        curve: curve.clone(),
+                        rgb: *radiance,
+                    });
+                }
+            }
+        }
+    }
+    LightTable::build(lights, powers, uniform, selection).with_spectra(spectra)
 }
 
 impl RenderScene {

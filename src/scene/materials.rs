@@ -6,6 +6,7 @@ use super::textures::{Role, TextureLoader};
 use crate::formats::schema::{MaterialDesc, Metal};
 use crate::formats::texture_desc::{ColorDesc, FloatDesc};
 use glam::Vec3A;
+use raylab_integrators::bsdf::spectral::MaterialSpectra;
 use raylab_integrators::bsdf::{
     checks, relative_ior, Burley, ComplexIor, Conductor, Dielectric, DiffuseTransmission,
     Distribution, Hair, Lambert, MapOptions, MaterialTextures, Microfacet, OrenNayar, Perturbation,
@@ -13,6 +14,7 @@ use raylab_integrators::bsdf::{
     RoughConductor, RoughDielectric, RoughPlastic, RoughnessTextures, SurfaceMaterial,
     ThinDielectric, ThinRates,
 };
+use raylab_integrators::spectrum::curve::Curve;
 use raylab_integrators::texture::Texture;
 use raylab_integrators::Material;
 
@@ -27,25 +29,40 @@ pub fn material_from_desc(
     textures: &mut TextureLoader,
 ) -> Result<SurfaceMaterial, String> {
     let mut t = MaterialTextures::default();
-    // A colour parameter: its constant (a texture's mean), its texture kept in `slot`.
-    let mut colour = |desc: &ColorDesc, role: Role, slot: &mut Option<Texture>| {
-        let (c, texture) = textures.colour(desc, role)?;
-        *slot = texture;
-        Ok::<_, String>(c)
-    };
+    let mut s = MaterialSpectra::default();
+    // A colour parameter: its constant (a texture's mean, a spectrum's colour), its texture
+    // kept in `slot`, a spectrum given by wavelength in `spectrum`.
+    let mut colour =
+        |desc: &ColorDesc, role: Role, slot: &mut Option<Texture>, spectrum: &mut Option<Curve>| {
+            let (c, texture, curve) = textures.colour_or_spectrum(desc, role)?;
+            *slot = texture;
+            *spectrum = curve;
+            Ok::<_, String>(c)
+        };
     let bsdf = match desc {
         MaterialDesc::Null => return Ok(SurfaceMaterial::null()),
         MaterialDesc::Lambert { albedo } => Material::Lambert(Lambert::new(colour(
             albedo,
             Role::Reflectance,
             &mut t.diffuse,
+            &mut s.diffuse,
         )?)?),
         MaterialDesc::DiffuseTransmission {
             reflectance,
             transmittance,
         } => {
-            let r = colour(reflectance, Role::Reflectance, &mut t.diffuse)?;
-            let tr = colour(transmittance, Role::Reflectance, &mut t.transmittance)?;
+            let r = colour(
+                reflectance,
+                Role::Reflectance,
+                &mut t.diffuse,
+                &mut s.diffuse,
+            )?;
+            let tr = colour(
+                transmittance,
+                Role::Reflectance,
+                &mut t.transmittance,
+                &mut s.transmittance,
+            )?;
             // Energy holds at every point: the largest reflectance + transmittance.
             let max = |tex: &Option<Texture>, c: Vec3A| tex.as_ref().map_or(c, |x| x.max());
             if (max(&t.diffuse, r) + max(&t.transmittance, tr)).max_element() > 1.0 + 1e-6 {
@@ -54,12 +71,12 @@ pub fn material_from_desc(
             Material::DiffuseTransmission(DiffuseTransmission::new(r, tr)?)
         }
         MaterialDesc::OrenNayar { albedo, sigma } => Material::OrenNayar(OrenNayar::checked(
-            colour(albedo, Role::Reflectance, &mut t.diffuse)?,
+            colour(albedo, Role::Reflectance, &mut t.diffuse, &mut s.diffuse)?,
             *sigma,
         )?),
         MaterialDesc::Phong { kd, ks, exponent } => {
-            let kd = colour(kd, Role::Reflectance, &mut t.diffuse)?;
-            let ks = colour(ks, Role::Reflectance, &mut t.specular)?;
+            let kd = colour(kd, Role::Reflectance, &mut t.diffuse, &mut s.diffuse)?;
+            let ks = colour(ks, Role::Reflectance, &mut t.specular, &mut s.specular)?;
             // Energy holds at every point: the largest kd + ks, not the means'.
             let max = |tex: &Option<Texture>, c: Vec3A| tex.as_ref().map_or(c, |x| x.max());
             if (t.diffuse.is_some() || t.specular.is_some())
@@ -85,8 +102,13 @@ pub fn material_from_desc(
             specular_transmittance: tr,
         } => Material::Dielectric(Dielectric::new(
             relative_ior(int_ior.0, ext_ior.0)?,
-            colour(r, Role::Reflectance, &mut t.specular)?,
-            colour(tr, Role::Reflectance, &mut t.transmittance)?,
+            colour(r, Role::Reflectance, &mut t.specular, &mut s.specular)?,
+            colour(
+                tr,
+                Role::Reflectance,
+                &mut t.transmittance,
+                &mut s.transmittance,
+            )?,
         )?),
         MaterialDesc::RoughDielectric {
             int_ior,
@@ -98,8 +120,13 @@ pub fn material_from_desc(
             alpha_u,
             alpha_v,
         } => {
-            let r = colour(r, Role::Reflectance, &mut t.specular)?;
-            let tr = colour(tr, Role::Reflectance, &mut t.transmittance)?;
+            let r = colour(r, Role::Reflectance, &mut t.specular, &mut s.specular)?;
+            let tr = colour(
+                tr,
+                Role::Reflectance,
+                &mut t.transmittance,
+                &mut s.transmittance,
+            )?;
             Material::RoughDielectric(RoughDielectric::new(
                 relative_ior(int_ior.0, ext_ior.0)?,
                 r,
@@ -114,8 +141,13 @@ pub fn material_from_desc(
             specular_transmittance: tr,
         } => Material::ThinDielectric(ThinDielectric::new(
             relative_ior(int_ior.0, ext_ior.0)?,
-            colour(r, Role::Reflectance, &mut t.specular)?,
-            colour(tr, Role::Reflectance, &mut t.transmittance)?,
+            colour(r, Role::Reflectance, &mut t.specular, &mut s.specular)?,
+            colour(
+                tr,
+                Role::Reflectance,
+                &mut t.transmittance,
+                &mut s.transmittance,
+            )?,
         )?),
         MaterialDesc::Conductor {
             metal,
@@ -124,7 +156,12 @@ pub fn material_from_desc(
             specular_reflectance,
         } => Material::Conductor(Conductor::new(
             complex_ior(*metal, *eta, *k)?,
-            colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
+            colour(
+                specular_reflectance,
+                Role::Reflectance,
+                &mut t.specular,
+                &mut s.specular,
+            )?,
         )?),
         MaterialDesc::RoughConductor {
             metal,
@@ -136,7 +173,12 @@ pub fn material_from_desc(
             alpha_u,
             alpha_v,
         } => {
-            let r = colour(specular_reflectance, Role::Reflectance, &mut t.specular)?;
+            let r = colour(
+                specular_reflectance,
+                Role::Reflectance,
+                &mut t.specular,
+                &mut s.specular,
+            )?;
             Material::RoughConductor(RoughConductor::new(
                 complex_ior(*metal, *eta, *k)?,
                 r,
@@ -150,8 +192,18 @@ pub fn material_from_desc(
             ext_ior,
             nonlinear,
         } => Material::Plastic(Plastic::new(
-            colour(diffuse_reflectance, Role::Reflectance, &mut t.diffuse)?,
-            colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
+            colour(
+                diffuse_reflectance,
+                Role::Reflectance,
+                &mut t.diffuse,
+                &mut s.diffuse,
+            )?,
+            colour(
+                specular_reflectance,
+                Role::Reflectance,
+                &mut t.specular,
+                &mut s.specular,
+            )?,
             relative_ior(int_ior.0, ext_ior.0)?,
             *nonlinear,
         )?),
@@ -172,8 +224,18 @@ pub fn material_from_desc(
                 );
             };
             Material::RoughPlastic(RoughPlastic::new(
-                colour(diffuse_reflectance, Role::Reflectance, &mut t.diffuse)?,
-                colour(specular_reflectance, Role::Reflectance, &mut t.specular)?,
+                colour(
+                    diffuse_reflectance,
+                    Role::Reflectance,
+                    &mut t.diffuse,
+                    &mut s.diffuse,
+                )?,
+                colour(
+                    specular_reflectance,
+                    Role::Reflectance,
+                    &mut t.specular,
+                    &mut s.specular,
+                )?,
                 relative_ior(int_ior.0, ext_ior.0)?,
                 *nonlinear,
                 alphas(*distribution, (alpha, alpha))?,
@@ -316,6 +378,7 @@ pub fn material_from_desc(
         } => {
             let map = match texture {
                 ColorDesc::Constant(c) => Texture::Constant(v3(*c)),
+                ColorDesc::Spectrum(p) => Texture::Constant(v3(ColorDesc::spectrum_colour(p))),
                 ColorDesc::Texture(t) => textures.texture(t, Role::Data)?,
             };
             let options = MapOptions {
@@ -379,7 +442,7 @@ pub fn material_from_desc(
             return perturbed(material, map, options, textures);
         }
     };
-    Ok(SurfaceMaterial::new(bsdf, t, None))
+    Ok(SurfaceMaterial::new(bsdf, t, None).with_spectra(s))
 }
 
 /// A hair fibre's absorption from the one way the description gives it: `sigma_a` itself, a

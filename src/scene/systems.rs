@@ -63,6 +63,7 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                     radiance,
                     two_sided,
                     texture,
+                    ..
                 }),
                 s,
             ) => {
@@ -1038,6 +1039,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                         radiance,
                         two_sided,
                         texture: Some(texture),
+                        ..
                     },
                     Some(WorldShape::Triangles { triangles, uvs, .. }),
                 ) => {

@@ -144,8 +144,8 @@ fn a_transform_matrix_places_entities_as_the_equivalent_trs() {
     assert!(qa.to_world.abs_diff_eq(qb.to_world, 1e-5));
     // The sun turns by the rotation alone: the matrix's, made orthonormal, is the TRS's.
     let (ra, rb) = (
-        RenderScene::build(&a).lights.get(1).clone(),
-        RenderScene::build(&b).lights.get(1).clone(),
+        RenderScene::build(&a).lights.get(1).light.clone(),
+        RenderScene::build(&b).lights.get(1).light.clone(),
     );
     match (ra, rb) {
         (Light::Directional(x), Light::Directional(y)) => {

@@ -14,6 +14,7 @@ use crate::formats::access::SceneFiles;
 use crate::formats::images::read_texels;
 use crate::formats::texture_desc::{ColorDesc, FloatDesc, ImageDesc, TextureDesc};
 use glam::{Affine2, Vec2, Vec3A};
+use raylab_integrators::spectrum::curve::Curve;
 use raylab_integrators::texture::{self, ImageTexture, Texture, TextureFilter, Wrap};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -115,6 +116,9 @@ impl<'a> TextureLoader<'a> {
             TextureDesc::Mix(m) => {
                 let mut colour = |c: &ColorDesc| match c {
                     ColorDesc::Constant(v) => Ok(Texture::Constant(Vec3A::from_array(*v))),
+                    ColorDesc::Spectrum(p) => Ok(Texture::Constant(Vec3A::from_array(
+                        ColorDesc::spectrum_colour(p),
+                    ))),
                     ColorDesc::Texture(t) => self.texture(t, role),
                 };
                 let (tex0, tex1) = (colour(&m.tex0)?, colour(&m.tex1)?);
@@ -201,12 +205,28 @@ impl<'a> TextureLoader<'a> {
         desc: &ColorDesc,
         role: Role,
     ) -> Result<(Vec3A, Option<Texture>), String> {
+        self.colour_or_spectrum(desc, role)
+            .map(|(c, texture, _)| (c, texture))
+    }
+
+    /// [`TextureLoader::colour`], and the spectrum a parameter given by wavelength is (its
+    /// colour stands for it in RGB mode).
+    pub fn colour_or_spectrum(
+        &mut self,
+        desc: &ColorDesc,
+        role: Role,
+    ) -> Result<(Vec3A, Option<Texture>, Option<Curve>), String> {
         match desc {
-            ColorDesc::Constant(c) => Ok((Vec3A::from_array(*c), None)),
+            ColorDesc::Constant(c) => Ok((Vec3A::from_array(*c), None, None)),
             ColorDesc::Texture(t) => {
                 let texture = self.texture(t, role)?;
-                Ok((texture.mean(), Some(texture)))
+                Ok((texture.mean(), Some(texture), None))
             }
+            ColorDesc::Spectrum(p) => Ok((
+                Vec3A::from_array(ColorDesc::spectrum_colour(p)),
+                None,
+                Some(Curve::table(&crate::formats::texture_desc::narrow(p))?),
+            )),
         }
     }
 

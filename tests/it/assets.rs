@@ -126,6 +126,7 @@ fn obj_materials_come_from_the_mtl_file() {
         radiance,
         two_sided: false,
         texture: None,
+        spectrum: None,
     }) = glow_emits
     else {
         panic!("the glowing top emits from its front: {glow_emits:?}")
@@ -156,6 +157,7 @@ fn gltf_base_colour_and_emission_become_material_and_emitter() {
         radiance,
         two_sided: false,
         texture: None,
+        spectrum: None,
     }) = shade_emits
     else {
         panic!("{shade_emits:?}")

@@ -24,5 +24,6 @@ mod photons;
 mod proptest_loader;
 mod serve;
 mod shards;
+mod spectral;
 mod textures;
 mod watch;

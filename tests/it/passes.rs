@@ -43,6 +43,42 @@ fn every_integrator_is_bit_identical_at_1_2_and_8_threads() {
     }
 }
 
+#[test]
+fn every_integrator_is_bit_identical_at_1_and_3_threads_in_spectral_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    for integrator in raylab_integrators::REGISTRY.iter().map(|e| e.name) {
+        let mut images: Vec<Vec<u8>> = Vec::new();
+        for threads in ["1", "3"] {
+            let out = dir.path().join(format!("{integrator}-{threads}.exr"));
+            let mut args = vec![
+                "render",
+                "scenes/report_room.ron",
+                "-i",
+                integrator,
+                "--size",
+                "24x20",
+                "--spp",
+                "3",
+                "--spectral",
+            ];
+            match integrator {
+                "fixed-depth" => args.extend(["-p", "branching=3", "-p", "shadow-grid=2"]),
+                "photon" => args.extend(["-p", "photons=20000", "-p", "caustic-photons=20000"]),
+                "sppm" => args.extend(["-p", "photons=20000"]),
+                _ => {}
+            }
+            args.extend(["--threads", threads, "-o", s(&out), "-q"]);
+            let o = raylab(&args);
+            assert!(o.status.success(), "{integrator}: {}", stderr(&o));
+            images.push(std::fs::read(&out).unwrap());
+        }
+        assert!(
+            images[0] == images[1],
+            "{integrator}: the thread count changed the spectral image"
+        );
+    }
+}
+
 /// Renders `common` directly, then stopped after its first pass with a checkpoint, then
 /// resumed: the resumed image must be bit-identical to the direct one. Returns the checkpoint.
 fn checkpoint_then_resume(d: &Path, common: &[&str]) -> std::path::PathBuf {

@@ -98,6 +98,35 @@ fn every_integrator_merges_into_the_single_run_byte_for_byte() {
     }
 }
 
+/// In spectral mode too: each sample's wavelengths, and each pass's, are the render's.
+#[test]
+fn every_integrator_merges_byte_for_byte_in_spectral_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    for entry in raylab_integrators::REGISTRY {
+        let name = entry.name;
+        let args = render_args(name, &["--spectral"]);
+        let single = dir.path().join(format!("{name}.exr"));
+        let o = raylab(&[&args[..], &["--threads", "2", "-o", s(&single)]].concat());
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let parts = render_shards(dir.path(), &args, 3);
+        let merged = dir.path().join(format!("{name}-merged.exr"));
+        let o = merge(&merged, &parts);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert!(
+            std::fs::read(&merged).unwrap() == std::fs::read(&single).unwrap(),
+            "{name}: spectral shards merged differ from the single run"
+        );
+    }
+    // A spectral shard is not a part of an RGB render.
+    let rgb = render_shards(dir.path(), &render_args("path", &[]), 2);
+    let spectral = dir.path().join("spectral-part.exr");
+    let args = render_args("path", &["--spectral"]);
+    let o = raylab(&[&args[..], &["--shard", "1/2", "-o", s(&spectral)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = merge(&dir.path().join("mixed.exr"), &[rgb[0].clone(), spectral]);
+    assert!(!o.status.success(), "an RGB and a spectral shard merged");
+}
+
 #[test]
 fn shards_merge_exactly_with_wider_filters_and_into_png() {
     let dir = tempfile::tempdir().unwrap();

@@ -156,6 +156,47 @@ impl EnvMap {
         (top * (1.0 - fy) + bottom * fy) * self.scale
     }
 
+    /// [`EnvMap::radiance`] at the wavelengths `lambda` (spectral mode), as Mitsuba 3's
+    /// spectral `envmap` has it: each of the four texels is a sigmoid spectrum of its colour
+    /// over twice its largest channel, and that scale; the sigmoids and the scales are
+    /// interpolated apart and multiplied, times D65 (at edges between colours this differs
+    /// from the spectrum of the interpolated colour, and Mitsuba's references show it).
+    pub fn radiance_at(&self, d: Vec3A, lambda: &crate::spectrum::Wavelengths) -> Rgb {
+        let crate::spectrum::Wavelengths::Sampled { nm, .. } = lambda else {
+            return self.radiance(d);
+        };
+        let (u, v) = EnvMap::uv(self.to_local * d);
+        let (x, y) = self.texel_coords(u, v);
+        let x = x.min(self.width as f32 - 1e-3);
+        let (x0, y0) = (
+            x.floor() as usize % self.width,
+            (y.floor() as usize).min(self.height - 2),
+        );
+        let (fx, fy) = (x - x.floor(), y - y0 as f32);
+        let x1 = (x0 + 1) % self.width;
+        let corners = [
+            (x0, y0, (1.0 - fx) * (1.0 - fy)),
+            (x1, y0, fx * (1.0 - fy)),
+            (x0, y0 + 1, (1.0 - fx) * fy),
+            (x1, y0 + 1, fx * fy),
+        ];
+        let (mut sigmoid, mut scale) = (Vec3A::ZERO, 0.0f32);
+        for (x, y, w) in corners {
+            let (s, k) = crate::spectrum::RgbSpectrum::sigmoid_and_scale(
+                self.texels[y * self.width + x],
+                *nm,
+            );
+            sigmoid += s * w;
+            scale += k * w;
+        }
+        let d65 = Vec3A::new(
+            crate::spectrum::upsample::d65(nm.x),
+            crate::spectrum::upsample::d65(nm.y),
+            crate::spectrum::upsample::d65(nm.z),
+        );
+        sigmoid * d65 * (scale * self.scale)
+    }
+
     /// Radiance arriving from the world direction `d` (towards the sky).
     #[inline]
     pub fn radiance(&self, d: Vec3A) -> Rgb {

@@ -318,7 +318,10 @@ impl Light {
     #[inline]
     pub fn sample_li(&self, p: Vec3A, u: Vec2, lambda: &Wavelengths) -> Option<LightSample> {
         let mut s = dispatch!(self, l => l.sample_li(p, u))?;
-        s.radiance = lambda.illuminant(s.radiance);
+        s.radiance = match self {
+            Light::EnvMap(l) if lambda.is_spectral() => l.map.radiance_at(s.wi, lambda),
+            _ => lambda.illuminant(s.radiance),
+        };
         Some(s)
     }
 
@@ -338,7 +341,10 @@ impl Light {
     /// from `-w`.
     #[inline]
     pub fn emitted(&self, n: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
-        lambda.illuminant(self.emitted_rgb(n, w))
+        match self {
+            Light::EnvMap(l) if lambda.is_spectral() => l.map.radiance_at(-w, lambda),
+            _ => lambda.illuminant(self.emitted_rgb(n, w)),
+        }
     }
 
     /// [`Light::emitted`] as the colour the scene gives.
@@ -385,6 +391,11 @@ impl Light {
             return None;
         }
         // The colours scale by the positive factors between them, and so do their spectra.
+        if let (Light::EnvMap(l), true) = (self, lambda.is_spectral()) {
+            s.radiance = l.map.radiance_at(-s.ray.dir, lambda);
+            s.weight = s.radiance / (s.pdf_pos * s.pdf_dir);
+            return Some(s);
+        }
         s.radiance = lambda.illuminant(s.radiance);
         s.weight = lambda.illuminant(s.weight);
         Some(s)

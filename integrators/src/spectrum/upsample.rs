@@ -120,6 +120,17 @@ impl RgbSpectrum {
         }
     }
 
+    /// A colour's sigmoid at `nm`, over twice its largest channel, and that factor (Mitsuba
+    /// 3's split of an emitter's texel; zero for black).
+    pub fn sigmoid_and_scale(rgb: Rgb, nm: Vec3A) -> (Vec3A, f32) {
+        let rgb = rgb.max(Vec3A::ZERO);
+        let m = rgb.max_element();
+        if m.is_nan() || m <= 0.0 {
+            return (Vec3A::ZERO, 0.0);
+        }
+        (RgbSpectrum::albedo(rgb / (2.0 * m)).eval(nm), 2.0 * m)
+    }
+
     /// The spectrum at one wavelength.
     pub fn at(&self, nm: f32) -> f32 {
         self.eval(Vec3A::splat(nm)).x

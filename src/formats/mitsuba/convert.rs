@@ -173,6 +173,14 @@ impl<'a, 'input> Props<'a, 'input> {
         Ok(Some(rgb))
     }
 
+    /// Property `name` if it is a spectrum given by wavelength (left in place), as pairs.
+    fn spectrum(&self, name: &str) -> Option<Vec<(f64, f64)>> {
+        match self.values.get(name) {
+            Some((Value::Spectrum(pairs), _)) => Some(pairs.clone()),
+            _ => None,
+        }
+    }
+
     fn transform(&mut self, name: &str) -> Result<Option<Affine3A>, Located> {
         self.typed(name, "a <transform>", |v| match v {
             Value::Transform(m) => Some(m),

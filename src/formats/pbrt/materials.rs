@@ -404,9 +404,10 @@ pub fn material(
                     Some((Colour::Rgb(v), _)) => {
                         ColorDesc::Constant(v.map(|x| (x * scale).clamp(0.0, 1.0) as f32))
                     }
-                    Some((c, pos)) => match colour(&c, pos, &format!("{what}: `{name}`"), textures, notes)? {
+                    Some((c, pos)) => match colour(&c, pos, &format!("{what}: `{name}`"), textures, notes)?.without_spectrum() {
                         ColorDesc::Texture(t) => ColorDesc::Texture(t.scaled(scale as f32)),
                         ColorDesc::Constant(v) => ColorDesc::Constant(v.map(|x| (x * scale as f32).clamp(0.0, 1.0))),
+                        c @ ColorDesc::Spectrum(_) => c.scaled(scale as f32),
                     },
                 })
             };

@@ -115,6 +115,11 @@ impl<'a, 'input> Converter<'a, 'input> {
         name: &str,
         default: Option<[f32; 3]>,
     ) -> Result<Option<ColorDesc>, Located> {
+        // A spectrum given by wavelength stays one.
+        if let Some(pairs) = props.spectrum(name) {
+            props.vector(name)?;
+            return Ok(Some(ColorDesc::Spectrum(pairs)));
+        }
         if let Some(v) = props.vector(name)? {
             return Ok(Some(ColorDesc::Constant(v)));
         }

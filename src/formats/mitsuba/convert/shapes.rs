@@ -257,12 +257,17 @@ impl<'a, 'input> Converter<'a, 'input> {
                         ));
                     }
                     let mut e = self.props(child)?;
-                    // A constant (a spectrum too) or a texture; Mitsuba's default is 1.
+                    // A spectrum given by wavelength stays one (its colour is made where the
+                    // scene is loaded).
+                    let spectrum = e.spectrum("radiance");
+                    // A constant or a texture; Mitsuba's default is 1.
                     let (radiance, texture) = match e.emission("radiance")? {
+                        Some(_) if spectrum.is_some() => ([1.0; 3], None),
                         Some(r) => (r, None),
                         None => match self.colour(&mut e, "radiance", None)? {
                             Some(ColorDesc::Texture(t)) => ([1.0; 3], Some(ColorDesc::Texture(t))),
                             Some(ColorDesc::Constant(c)) => (c, None),
+                            Some(ColorDesc::Spectrum(p)) => (ColorDesc::spectrum_colour(&p), None),
                             None => ([1.0; 3], None),
                         },
                     };
@@ -271,6 +276,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                         radiance,
                         two_sided: false,
                         texture,
+                        spectrum,
                     });
                 }
                 tag => {

@@ -198,6 +198,7 @@ impl<'a> Converter<'a> {
                 radiance: l.map(|x| x as f32),
                 two_sided: two,
                 texture: None,
+                spectrum: None,
             });
         }
         let transform = if a != Affine3A::IDENTITY {

@@ -214,6 +214,7 @@ impl<'a> Converter<'a> {
                         match r? {
                             ColorDesc::Constant(c) => Made::constant(&ty, c),
                             ColorDesc::Texture(t) => Made::texture(&ty, t),
+                            ColorDesc::Spectrum(p) => Made::constant(&ty, ColorDesc::spectrum_colour(&p)),
                         }
                     }
                 }
@@ -243,6 +244,7 @@ impl<'a> Converter<'a> {
                             Made::Spectrum(ColorDesc::Texture(t)) => Made::Spectrum(ColorDesc::Texture(t.scaled(s[0] as f32))),
                             Made::Float(FloatDesc::Texture(t)) => Made::Float(FloatDesc::Texture(t.scaled(s[0] as f32))),
                             Made::Spectrum(ColorDesc::Constant(c)) => Made::constant(&ty, c.map(|x| x * s[0] as f32)),
+                            Made::Spectrum(c @ ColorDesc::Spectrum(_)) => Made::Spectrum(c.scaled(s[0] as f32)),
                             Made::Float(FloatDesc::Constant(c)) => Made::constant(&ty, [c * s[0] as f32; 3]),
                         }
                     }
