@@ -261,6 +261,14 @@ pub enum MaterialDesc {
         specular_reflectance: ColorDesc,
         #[serde(default = "white_colour")]
         specular_transmittance: ColorDesc,
+        /// The index inside by wavelength, for spectral rendering (RGB rendering keeps
+        /// `int_ior`, best the glass's index at 587.6 nm): a glass of the table (`Glass("BK7")`,
+        /// `"BAF10"`, `"SF11"`, `"F2"`, `"fused silica"`, `"diamond"`), Sellmeier's
+        /// coefficients (`Sellmeier(b: (..), c: (..))`, `c` in square micrometres) or Cauchy's
+        /// (`Cauchy(a: .., b: ..)`, `b` in square micrometres). A path through it carries only
+        /// its hero wavelength on. Default: none.
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        dispersion: Option<DispersionDesc>,
     },
     /// Frosted glass (Mitsuba's `roughdielectric`): as `Dielectric` plus the microfacet
     /// distribution. Defaults: `distribution: "beckmann"`, `alpha: 0.1`.
@@ -842,6 +850,38 @@ impl<'de> Deserialize<'de> for Ior {
 impl Serialize for Ior {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_f32(self.0)
+    }
+}
+
+/// How a dielectric's index of refraction varies with wavelength.
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum DispersionDesc {
+    Glass(String),
+    Sellmeier { b: V3, c: V3 },
+    Cauchy { a: f32, b: f32 },
+}
+
+impl DispersionDesc {
+    /// The index by wavelength.
+    pub fn curve(&self) -> Result<raylab_integrators::spectrum::curve::Curve, String> {
+        use raylab_integrators::spectrum::curve::Curve;
+        let curve = match self {
+            DispersionDesc::Glass(name) => raylab_integrators::bsdf::ior::glass(name)?,
+            DispersionDesc::Sellmeier { b, c } => Curve::Sellmeier { b: *b, c: *c },
+            DispersionDesc::Cauchy { a, b } => Curve::Cauchy { a: *a, b: *b },
+        };
+        // Finite and at least 1 over the visible range.
+        for i in 0..=94 {
+            let n = curve.at(360.0 + 5.0 * i as f32);
+            if !(n.is_finite() && n >= 1.0) {
+                return Err(format!(
+                    "the dispersion gives an index of {n} at {} nm",
+                    360 + 5 * i
+                ));
+            }
+        }
+        Ok(curve)
     }
 }
 

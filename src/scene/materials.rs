@@ -100,16 +100,22 @@ pub fn material_from_desc(
             ext_ior,
             specular_reflectance: r,
             specular_transmittance: tr,
-        } => Material::Dielectric(Dielectric::new(
-            relative_ior(int_ior.0, ext_ior.0)?,
-            colour(r, Role::Reflectance, &mut t.specular, &mut s.specular)?,
-            colour(
-                tr,
-                Role::Reflectance,
-                &mut t.transmittance,
-                &mut s.transmittance,
-            )?,
-        )?),
+            dispersion,
+        } => {
+            if let Some(d) = dispersion {
+                s.ior = Some((d.curve()?, ext_ior.0));
+            }
+            Material::Dielectric(Dielectric::new(
+                relative_ior(int_ior.0, ext_ior.0)?,
+                colour(r, Role::Reflectance, &mut t.specular, &mut s.specular)?,
+                colour(
+                    tr,
+                    Role::Reflectance,
+                    &mut t.transmittance,
+                    &mut s.transmittance,
+                )?,
+            )?)
+        }
         MaterialDesc::RoughDielectric {
             int_ior,
             ext_ior,

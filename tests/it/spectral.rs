@@ -146,3 +146,70 @@ fn mitsuba_spectra_are_imported_as_spectra() {
         assert!(o.status.success(), "{mode}: {}", stderr(&o));
     }
 }
+
+/// The prism of `scenes/prism.ron` (SF11, apex 60 degrees) bends the beam at each
+/// wavelength as Snell's law with Schott's Sellmeier formula says: the beam's central ray,
+/// traced through the scene at one wavelength, leaves the prism deviated by
+/// `D = i + asin(n sin(A - asin(sin i / n))) - A`; and a path through the glass goes on with
+/// its hero wavelength alone.
+#[test]
+fn the_prism_deviates_each_wavelength_by_snells_law() {
+    use glam::{Vec2, Vec3A};
+    use raylab_integrators::bsdf::TransportMode;
+    use raylab_integrators::integrator::ShadingPoint;
+    use raylab_integrators::spectrum::curve::Curve;
+    use raylab_integrators::spectrum::Wavelengths;
+    use raylab_integrators::{Ray, Scene};
+    let loaded = raylab::scene::load_scene(std::path::Path::new("scenes/prism.ron")).unwrap();
+    let built = raylab::scene::RenderScene::build(&loaded);
+    let scene: &dyn Scene = &built;
+    let sf11 = raylab_integrators::bsdf::ior::glass("SF11").unwrap();
+    let Curve::Sellmeier { .. } = sf11 else {
+        panic!("SF11 by Sellmeier's formula")
+    };
+    // The beam: from the lamp, along +x, at the prism's entry face (see the script).
+    let lights = scene.lights();
+    let lamp = (0..lights.len() as u32)
+        .find_map(|i| match *lights.get(i) {
+            raylab_integrators::Light::Spot(ref s) => Some(s.position),
+            _ => None,
+        })
+        .expect("a spot");
+    let incidence = (sf11.at(550.0) * 0.5f32).asin();
+    let apex = 60f32.to_radians();
+    let mut deviations = Vec::new();
+    for nm in [420.0f32, 480.0, 550.0, 620.0, 680.0] {
+        let mut lambda = Wavelengths::Sampled {
+            nm: Vec3A::splat(nm),
+            pdf: Vec3A::splat(1.0),
+        };
+        let mut ray = Ray::new(lamp, Vec3A::X);
+        // Into the glass and out: two refractions (the transmitted lobe: u_lobe near 1).
+        for _ in 0..2 {
+            let hit = scene.intersect(&ray).expect("the beam meets the prism");
+            let sp = ShadingPoint::new(&hit, ray.dir, scene, &mut lambda);
+            let s = sp
+                .sample(0.999_999, Vec2::ZERO, TransportMode::Radiance)
+                .expect("a refraction");
+            ray = sp.hit.spawn_ray(s.wi);
+        }
+        assert!(
+            lambda.secondary_terminated(),
+            "{nm} nm: the secondaries go on"
+        );
+        // The deviation in the horizontal plane, from +x.
+        let measured = (-ray.dir.z).atan2(ray.dir.x);
+        let n = sf11.at(nm);
+        let inner = apex - (incidence.sin() / n).asin();
+        let expected = incidence + (n * inner.sin()).asin() - apex;
+        assert!(
+            (measured - expected).abs() < 2e-4,
+            "{nm} nm: deviation {} degrees, Snell's law {}",
+            measured.to_degrees(),
+            expected.to_degrees()
+        );
+        deviations.push(measured);
+    }
+    // Violet bends most.
+    assert!(deviations.windows(2).all(|w| w[0] > w[1]), "{deviations:?}");
+}

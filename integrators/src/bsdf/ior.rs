@@ -113,6 +113,54 @@ pub const METALS: &[(&str, [f32; 3], [f32; 3])] = &[
     ("d-C_palik", [2.70872, 2.31883, 2.2289], [0.0, 0.0, 0.0]),
 ];
 
+/// Optical glasses by Sellmeier's formula (`B1..B3`, `C1..C3` in square micrometres), as
+/// their makers publish them (Schott's catalogue; Malitson 1965 for fused silica; Peter 1923
+/// for diamond): what a dispersive dielectric's index is at each wavelength.
+pub const GLASSES: &[(&str, [f32; 3], [f32; 3])] = &[
+    (
+        "BK7",
+        [1.039_612_1, 0.231_792_34, 1.010_469_5],
+        [0.006_000_699, 0.020_017_914, 103.560_65],
+    ),
+    (
+        "BAF10",
+        [1.585_149_5, 0.143_559_39, 1.085_212_7],
+        [0.009_266_813, 0.042_448_98, 105.613_57],
+    ),
+    (
+        "SF11",
+        [1.737_597, 0.313_747_35, 1.898_781],
+        [0.013_188_707, 0.062_306_814, 155.236_29],
+    ),
+    (
+        "F2",
+        [1.345_333_6, 0.209_073_18, 0.937_357_16],
+        [0.009_977_439, 0.047_045_077, 111.886_764],
+    ),
+    (
+        "fused silica",
+        [0.696_166_3, 0.407_942_6, 0.897_479_4],
+        [0.004_679_148, 0.013_512_063, 97.934_003],
+    ),
+    (
+        "diamond",
+        [4.3356, 0.3306, 0.0],
+        [0.011_236, 0.030_625, 0.0],
+    ),
+];
+
+/// The dispersion of glass `name` of [`GLASSES`], or an error listing the names.
+pub fn glass(name: &str) -> Result<crate::spectrum::curve::Curve, String> {
+    GLASSES
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .map(|&(_, b, c)| crate::spectrum::curve::Curve::Sellmeier { b, c })
+        .ok_or_else(|| {
+            let names: Vec<&str> = GLASSES.iter().map(|(n, _, _)| *n).collect();
+            format!("unknown glass {name:?}; known: {}", names.join(", "))
+        })
+}
+
 /// The IOR of dielectric `name`, or an error listing the names.
 pub fn dielectric(name: &str) -> Result<f32, String> {
     DIELECTRICS
@@ -152,6 +200,27 @@ pub fn metal(name: &str) -> Result<Option<ComplexIor>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The glasses' indices at the helium d line (587.56 nm) and the dispersion between the
+    /// F and C lines (486.13 and 656.27 nm), against their catalogues' n_d and Abbe numbers.
+    #[test]
+    fn glasses_have_their_catalogue_indices_and_abbe_numbers() {
+        for (name, nd, abbe) in [
+            ("BK7", 1.5168, 64.17),
+            ("BAF10", 1.6700, 47.11),
+            ("SF11", 1.7847, 25.68),
+            ("F2", 1.6200, 36.37),
+            ("fused silica", 1.4585, 67.8),
+            ("diamond", 2.4175, 55.3),
+        ] {
+            let c = glass(name).unwrap();
+            let (d, f, cc) = (c.at(587.56), c.at(486.13), c.at(656.27));
+            assert!((d - nd).abs() < 2e-3, "{name}: n_d {d} vs {nd}");
+            let v = (d - 1.0) / (f - cc);
+            assert!((v - abbe).abs() < 0.03 * abbe, "{name}: Abbe {v} vs {abbe}");
+        }
+        assert!(glass("crown").unwrap_err().contains("BK7"));
+    }
 
     #[test]
     fn names_resolve_and_unknown_ones_list_the_known() {

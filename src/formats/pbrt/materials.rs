@@ -3,7 +3,9 @@
 
 use super::params::{Colour, Located, ParamList};
 use super::tokens::Pos;
-use crate::formats::schema::{self, ColorDesc, FloatDesc, Ior, MaterialDesc, Metal};
+use crate::formats::schema::{
+    self, ColorDesc, DispersionDesc, FloatDesc, Ior, MaterialDesc, Metal,
+};
 use raylab_integrators::bsdf::Distribution;
 use std::collections::HashMap;
 
@@ -153,13 +155,39 @@ fn roughness(p: &mut ParamList, textures: &Textures) -> Result<Option<Roughness>
     }))
 }
 
-/// A dielectric's `eta`.
-fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<Ior, Located> {
-    match p.colour("eta")? {
+/// pbrt-v4's named glasses that raylab's table of Sellmeier coefficients has (pbrt's F11 is
+/// Schott's SF11: the same n_d and Abbe number).
+const DISPERSIVE: [(&str, &str); 3] = [
+    ("glass-BK7", "BK7"),
+    ("glass-BAF10", "BAF10"),
+    ("glass-F11", "SF11"),
+];
+
+/// A dielectric's `eta`, and its dispersion where it is a named glass raylab has.
+fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<(Ior, Option<DispersionDesc>), Located> {
+    let given = p.colour("eta")?;
+    if let Some((Colour::Named(name), _)) = &given {
+        let glass = DISPERSIVE.iter().find(|g| g.0 == name.as_str());
+        let nd = GLASSES.iter().find(|g| g.0 == name.as_str());
+        if let (Some((_, glass)), Some((_, nd))) = (glass, nd) {
+            notes.report(format!("{}: \"{name}\" is {glass} glass: its index {nd} at 587.6 nm in RGB, its Sellmeier dispersion in spectral mode", p.what));
+            return Ok((Ior(*nd), Some(DispersionDesc::Glass(glass.to_string()))));
+        }
+    }
+    Ok((eta_constant(given, &p.what, notes)?, None))
+}
+
+/// A dielectric's `eta` as one index.
+fn eta_constant(
+    given: Option<(Colour, Pos)>,
+    what: &str,
+    notes: &mut dyn Notes,
+) -> Result<Ior, Located> {
+    match given {
         None => Ok(Ior(1.5)),
         Some((Colour::Rgb(v), pos)) => {
             if v[0] != v[1] || v[1] != v[2] {
-                return Err((pos, format!("{}: `eta` must be one number", p.what)));
+                return Err((pos, format!("{}: `eta` must be one number", what)));
             }
             Ok(Ior(v[0] as f32))
         }
@@ -169,12 +197,12 @@ fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<Ior, Located> {
                     pos,
                     format!(
                         "{}: unknown glass \"{name}\" (pbrt-v4 has {})",
-                        p.what,
+                        what,
                         GLASSES.map(|g| g.0).join(", ")
                     ),
                 )
             })?;
-            notes.approximate(pos, format!("{}: \"{name}\" disperses light in pbrt-v4; raylab uses its index {ior} at 587.6 nm for every colour", p.what))?;
+            notes.approximate(pos, format!("{}: \"{name}\" disperses light in pbrt-v4; raylab uses its index {ior} at 587.6 nm for every colour", what))?;
             Ok(Ior(*ior))
         }
         Some((Colour::Sampled(pairs), pos)) => {
@@ -186,14 +214,14 @@ fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<Ior, Located> {
                 pos,
                 format!(
                     "{}: a dispersive `eta`, replaced by its value {i} nearest 587.6 nm",
-                    p.what
+                    what
                 ),
             )?;
             Ok(Ior(i as f32))
         }
         Some((_, pos)) => Err((
             pos,
-            format!("{}: `eta` must be a number or a named glass", p.what),
+            format!("{}: `eta` must be a number or a named glass", what),
         )),
     }
 }
@@ -265,7 +293,8 @@ pub fn material(
         },
         "coateddiffuse" => {
             let diffuse = col(p, "reflectance", notes)?.unwrap_or_else(|| grey(0.5));
-            let ior = eta(p, notes)?;
+            let given = p.colour("eta")?;
+            let ior = eta_constant(given, &p.what.clone(), notes)?;
             let rough = roughness(p, textures)?;
             if let Some((c, pos)) = p.colour("albedo")? {
                 if c != Colour::Rgb([0.0; 3]) {
@@ -361,7 +390,7 @@ pub fn material(
             }
         }
         "dielectric" | "thindielectric" => {
-            let ior = eta(p, notes)?;
+            let (ior, dispersion) = eta(p, notes)?;
             let rough = if kind == "dielectric" { roughness(p, textures)? } else { None };
             let (int_ior, ext_ior) = (ior, Ior(1.0));
             let (specular_reflectance, specular_transmittance) =
@@ -378,6 +407,7 @@ pub fn material(
                     ext_ior,
                     specular_reflectance,
                     specular_transmittance,
+                    dispersion,
                 },
                 (_, Some(r)) => MaterialDesc::RoughDielectric {
                     int_ior,

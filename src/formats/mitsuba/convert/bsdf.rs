@@ -442,6 +442,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                 ext_ior: i.ext_ior,
                 specular_reflectance: i.specular_reflectance,
                 specular_transmittance: i.specular_transmittance,
+                dispersion: None,
             },
             "roughdielectric" => {
                 let r = self.rough(p)?;
