@@ -350,6 +350,7 @@ pub struct Landing {
 /// `rr_depth` on) to a non-specular surface, or in media to a real scattering event: where
 /// photon integrators gather. With `emission`, adds the emission met on the way (and
 /// escaping radiance) to it. A camera ray (`first_is_camera`) starts in the camera's medium.
+#[allow(clippy::too_many_arguments)]
 pub fn land(
     ray: Ray,
     first_is_camera: bool,

@@ -530,6 +530,7 @@ pub fn integrators_listing() -> String {
                 let _ = writeln!(out, "    renders participating media");
             }
         }
+        let _ = writeln!(out, "    {}", e.spectral.describe());
         for p in e.params {
             let kind = match p.kind {
                 ParamKind::Choice(names) => names.join("|"),

@@ -8,7 +8,9 @@
 use raylab_integrators::integrator::{
     emitted_at, escaped, sample_one_light, RayIntegrator, ShadingPoint, Tracer,
 };
-use raylab_integrators::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params};
+use raylab_integrators::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport,
+};
 use raylab_integrators::spectrum::Wavelengths;
 use raylab_integrators::{Ray, Rgb, Sampler};
 
@@ -30,6 +32,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     }),
     // Surfaces only: a scene with participating media is refused before rendering.
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
 };
 
 struct Direct;

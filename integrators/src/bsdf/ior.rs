@@ -115,7 +115,9 @@ pub const METALS: &[(&str, [f32; 3], [f32; 3])] = &[
 
 /// Optical glasses by Sellmeier's formula (`B1..B3`, `C1..C3` in square micrometres), as
 /// their makers publish them (Schott's catalogue; Malitson 1965 for fused silica; Peter 1923
-/// for diamond): what a dispersive dielectric's index is at each wavelength.
+/// for diamond): what a dispersive dielectric's index is at each wavelength. (The digits are
+/// the catalogues', as published.)
+#[allow(clippy::excessive_precision)]
 pub const GLASSES: &[(&str, [f32; 3], [f32; 3])] = &[
     (
         "BK7",

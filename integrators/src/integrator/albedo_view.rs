@@ -2,7 +2,7 @@
 //! radiance). Not radiance: for checking materials and the build step.
 
 use crate::integrator::{emitted_at, RayIntegrator, Tracer};
-use crate::registry::{IntegratorEntry, MediaSupport, Params};
+use crate::registry::{IntegratorEntry, MediaSupport, Params, SpectralSupport};
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
@@ -14,6 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     build: |_: &Params| Box::new(AlbedoView),
     analytic: None,
     media: MediaSupport::None,
+    spectral: SpectralSupport::Rgb,
 };
 
 struct AlbedoView;

@@ -56,8 +56,8 @@ use crate::integrator::{
 };
 use crate::medium::Phase;
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
-    RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
+    MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Camera, Hit, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene};
@@ -120,6 +120,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 1600),
     }),
     media: MediaSupport::Scattering,
+    spectral: SpectralSupport::PerSample,
 };
 
 const STRATEGY: ParamSpec = ParamSpec {
@@ -517,6 +518,7 @@ impl Bdpt {
     /// vertices through `film` (numbers of stream 0, continued), a light subpath of exactly
     /// `s` (stream 1) and their join (stream 2). Returns the MIS-weighted contribution (zero
     /// when a subpath ends early) and the film position it lands at.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn one_strategy(
         &self,
         s: usize,
@@ -617,6 +619,7 @@ impl Bdpt {
 
     /// The light subpath: a point on a light chosen in proportion to power, then up to
     /// `max_vertices` vertices along the ray it emits.
+    #[allow(clippy::too_many_arguments)]
     fn light_subpath<'a>(
         &self,
         max_vertices: u32,
@@ -683,6 +686,7 @@ impl Bdpt {
     /// vertices (delta tracking at the hero channel's rate); boundaries that do not scatter
     /// (`Null`) are crossed without a vertex. A camera subpath that escapes ends at the
     /// environment when the scene has one.
+    #[allow(clippy::too_many_arguments)]
     fn random_walk<'a>(
         &self,
         mut ray: crate::Ray,

@@ -27,7 +27,7 @@
 //! unbiased). Truncation with a finite `max-depth`.
 
 use super::vcm::{VertexMerging, PARAMS};
-use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params};
+use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "bpm",
@@ -43,4 +43,5 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 3600),
     }),
     media: MediaSupport::Scattering,
+    spectral: SpectralSupport::PerPass,
 };

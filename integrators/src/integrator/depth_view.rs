@@ -2,7 +2,7 @@
 //! bounds (so 1 is the scene's size), grey. Misses are black. Not radiance.
 
 use crate::integrator::{RayIntegrator, Tracer};
-use crate::registry::{IntegratorEntry, MediaSupport, Params};
+use crate::registry::{IntegratorEntry, MediaSupport, Params, SpectralSupport};
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
@@ -14,6 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     build: |_: &Params| Box::new(DepthView),
     analytic: None,
     media: MediaSupport::None,
+    spectral: SpectralSupport::Rgb,
 };
 
 struct DepthView;

@@ -17,7 +17,7 @@
 use crate::bsdf::TransportMode::Radiance;
 use crate::integrator::{emitted_at, escaped, Demand, RayIntegrator, ShadingPoint, Tracer};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
 };
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
@@ -69,6 +69,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 400),
     }),
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
 };
 
 struct FixedDepth {
@@ -109,6 +110,7 @@ impl FixedDepth {
 
     /// Radiance along `ray` arriving from `hit`, after `bounces` scattering events.
     /// `count_emission` is false when direct-light sampling already counted this emitter.
+    #[allow(clippy::too_many_arguments)]
     fn shade(
         &self,
         ray: &Ray,

@@ -40,8 +40,8 @@ use crate::integrator::{
     RayCounters, RayIntegrator, ShadingPoint, Stop, Tracer,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, LIGHT_SELECTION,
-    MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
+    LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
 use crate::sd_tree::{Guide, Record, SdTree};
 use crate::spectrum::Wavelengths;
@@ -101,6 +101,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 500),
     }),
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
 };
 
 /// A quadtree cell is split past this share of its leaf's energy (the paper's 1%).

@@ -35,7 +35,7 @@ use crate::integrator::{
     emit_from_a_light, escaped, Demand, Integrator, ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Camera, Hit, Ray, Rgb, Sampler};
@@ -60,6 +60,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 10000),
     }),
     media: MediaSupport::Scattering,
+    spectral: SpectralSupport::PerSample,
 };
 
 struct LightTracer {

@@ -87,6 +87,7 @@ pub enum Flight {
 
 /// The free flight of `ray` (in its medium) up to `tmax`: delta tracking at channel `hero`'s
 /// rate; a real collision scatters with the albedo as weight. Updates `beta` and `r_u`.
+#[allow(clippy::too_many_arguments)]
 pub fn fly(
     scene: &dyn Scene,
     ray: &Ray,

@@ -22,7 +22,9 @@
 use crate::integrator::bdpt::Bdpt;
 use crate::integrator::metropolis::{Metropolis, PathSpace, PARAMS};
 use crate::integrator::Tracer;
-use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, MAX_DEPTH,
+};
 use crate::spectrum::Wavelengths;
 use crate::{Camera, Rgb, Sampler};
 use glam::Vec2;
@@ -60,6 +62,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: None,
     }),
     media: MediaSupport::Scattering,
+    spectral: SpectralSupport::PerProposal,
 };
 
 /// `bdpt`'s strategies, one depth per class, as points of primary sample space.

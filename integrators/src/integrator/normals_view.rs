@@ -2,7 +2,7 @@
 //! [0, 1] per axis. Not radiance: for checking geometry and the build step.
 
 use crate::integrator::{RayIntegrator, Tracer};
-use crate::registry::{IntegratorEntry, MediaSupport, Params};
+use crate::registry::{IntegratorEntry, MediaSupport, Params, SpectralSupport};
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Ray, Rgb, Sampler};
@@ -14,6 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     build: |_: &Params| Box::new(NormalsView),
     analytic: None,
     media: MediaSupport::None,
+    spectral: SpectralSupport::Rgb,
 };
 
 struct NormalsView;

@@ -18,7 +18,8 @@ use crate::integrator::{
 };
 use crate::light::LightSelection;
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION,
+    MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
@@ -40,6 +41,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 500),
     }),
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
 };
 
 pub(crate) struct PathTracer {

@@ -43,7 +43,8 @@ use crate::photon_map::{
     PhotonPass, Spot,
 };
 use crate::registry::{
-    IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS, MAX_DEPTH, PHOTONS,
+    IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport, GATHER_RADIUS,
+    MAX_DEPTH, PHOTONS,
 };
 use crate::spectrum::Wavelengths;
 use crate::{PassContext, Spectrum};
@@ -90,6 +91,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     },
     analytic: None,
     media: MediaSupport::Scattering,
+    spectral: SpectralSupport::PerPass,
 };
 
 /// Specular bounces a camera or gather path follows before Russian roulette may end it.

@@ -22,7 +22,7 @@ use crate::integrator::path::PathTracer;
 use crate::integrator::volpath::VolPath;
 use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Camera, Rgb, Sampler};
@@ -61,6 +61,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 400),
     }),
     media: MediaSupport::Full,
+    spectral: SpectralSupport::PerProposal,
 };
 
 /// `path`'s camera samples as points of primary sample space; in a scene with media,

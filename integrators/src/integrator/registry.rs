@@ -251,6 +251,36 @@ pub struct IntegratorEntry {
     /// Which participating media it renders; it refuses a scene with others rather than
     /// render them as vacuum (or dark).
     pub media: MediaSupport,
+    /// How it carries wavelengths in spectral mode (`--spectral`).
+    pub spectral: SpectralSupport,
+}
+
+/// How an integrator carries wavelengths in spectral mode. Every integrator renders
+/// spectrally; they differ in which paths share a set of wavelengths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpectralSupport {
+    /// Each camera sample its own, drawn by the render loop (light subpaths of the sample
+    /// carry the same).
+    PerSample,
+    /// One set per pass, shared by every path of the pass (photons and the camera paths that
+    /// gather them; only the hero where a material disperses).
+    PerPass,
+    /// Each Markov-chain proposal its own, drawn from its primary samples.
+    PerProposal,
+    /// A view of the scene, not light: RGB in either mode.
+    Rgb,
+}
+
+impl SpectralSupport {
+    /// What `raylab integrators` says of it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SpectralSupport::PerSample => "spectral (--spectral): wavelengths per camera sample",
+            SpectralSupport::PerPass => "spectral (--spectral): wavelengths per pass, shared by its photons and camera paths",
+            SpectralSupport::PerProposal => "spectral (--spectral): wavelengths per proposal, from its primary samples",
+            SpectralSupport::Rgb => "RGB in either mode (a view, not light)",
+        }
+    }
 }
 
 /// Which participating media an integrator renders.

@@ -32,7 +32,7 @@ use crate::integrator::{SampleContext, ShadingPoint, Tracer};
 use crate::light::Light;
 use crate::random::{keyed_rng, mix64, unit_f32};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Hit, LightSample, Rgb, Scene, Spectrum};
@@ -87,6 +87,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 500),
     }),
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
 };
 
 /// A point on a light, kept where it lies so that it can be seen from other points.

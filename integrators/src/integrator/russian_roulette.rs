@@ -17,7 +17,8 @@ use crate::integrator::{
     emitted_at, escaped, sample_one_light, PathState, RayIntegrator, ShadingPoint, Tracer,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION,
+    MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
@@ -42,6 +43,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 500),
     }),
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
 };
 
 struct RussianRouletteTracer {

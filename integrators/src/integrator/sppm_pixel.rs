@@ -52,8 +52,8 @@ use crate::photon_map::{
     PhotonPass, Spot,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
-    MAX_DEPTH, PHOTONS, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
+    GATHER_RADIUS, MAX_DEPTH, PHOTONS, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
@@ -102,6 +102,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: None,
     }),
     media: MediaSupport::Scattering,
+    spectral: SpectralSupport::PerPass,
 };
 
 /// Pixels whose visible points are traced per parallel work item.

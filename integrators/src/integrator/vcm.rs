@@ -64,8 +64,8 @@ use crate::integrator::{
 use crate::medium::Phase;
 use crate::photon_map::{Located, PointGrid};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, GATHER_RADIUS,
-    MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
+    GATHER_RADIUS, MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Camera, Hit, Light, MediumId, MediumInterface, Ray, RayCounters, Rgb, Sampler, Scene};
@@ -87,6 +87,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 1600),
     }),
     media: MediaSupport::Scattering,
+    spectral: SpectralSupport::PerPass,
 };
 
 /// The parameters of `vcm` and `bpm`.
@@ -1110,6 +1111,7 @@ fn visible(ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler, lambda: &Wavel
 /// The light vertex `at` (power `beta`, weights `weights`) connected to the lens (`t = 1`,
 /// the report's eqs. 46-47): the film position and the MIS-weighted radiance it sends there,
 /// as `lighttracer`'s connections.
+#[allow(clippy::too_many_arguments)]
 fn to_lens(
     at: &At,
     beta: Rgb,

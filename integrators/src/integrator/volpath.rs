@@ -35,7 +35,8 @@ use crate::light::{LightContext, LightSelection};
 use crate::medium::tracking::sample_t_maj;
 use crate::medium::Phase;
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION,
+    MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene, Spectrum, Tracer};
@@ -59,6 +60,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 500),
     }),
     media: MediaSupport::Full,
+    spectral: SpectralSupport::PerSample,
 };
 
 /// Scattering events after which Russian roulette plays even on a path that loses nothing.
@@ -345,6 +347,7 @@ impl VolPath {
 
     /// One light sample at `vertex` (in `medium` for a medium vertex), its shadow ray through
     /// media and crossable surfaces, weighted against the path's own sampling.
+    #[allow(clippy::too_many_arguments)]
     fn light_sample(
         &self,
         vertex: &Vertex,

@@ -27,8 +27,8 @@ use crate::integrator::{
     RayCounters, RayIntegrator, ShadingPoint, Tracer, MAX_SURVIVAL,
 };
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, MAX_DEPTH,
-    RR_DEPTH,
+    expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
+    MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Frame, Hit, Ray, Rgb, Sampler, Scene};
@@ -78,6 +78,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 400),
     }),
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerPass,
 };
 
 struct Vpl {

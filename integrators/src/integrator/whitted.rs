@@ -17,7 +17,9 @@
 //! the truncated series `Le + direct`. Unbiased for that truncated quantity.
 
 use crate::integrator::{emitted_at, escaped, specular_lobes, RayIntegrator, ShadingPoint, Tracer};
-use crate::registry::{expect, Analytic, IntegratorEntry, MediaSupport, Params, MAX_DEPTH};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, MAX_DEPTH,
+};
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
 use crate::{Hit, Ray, Rgb, Sampler};
@@ -40,6 +42,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
         sphere_under_sky: expect(1.2, 40, 400),
     }),
     media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
 };
 
 struct Whitted {

@@ -55,7 +55,7 @@ pub fn visible_pdf(nm: f32) -> f32 {
         return 0.0;
     }
     let c = libm::coshf(0.0072 * (nm - 538.0));
-    0.003_939_804_2 / (c * c)
+    0.003_939_804 / (c * c)
 }
 
 /// The inverse of [`visible_pdf`]'s distribution at `u` in `[0, 1)`.
