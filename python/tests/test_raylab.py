@@ -84,6 +84,9 @@ def test_a_render_is_bit_identical_to_the_command_lines(tmp_path, integrator, pa
     sobol = scene.render(integrator, spp=3, size=(40, 32), seed=7, params=params, sampler="sobol")
     assert np.array_equal(sobol, cli_render(tmp_path, CORNELL, *flags, "--sampler", "sobol"))
     assert not np.array_equal(sobol, image)
+    spectral = scene.render(integrator, spp=3, size=(40, 32), seed=7, params=params, spectral=True)
+    assert np.array_equal(spectral, cli_render(tmp_path, CORNELL, *flags, "--spectral"))
+    assert not np.array_equal(spectral, image)
     # The thread count does not change the image.
     assert np.array_equal(
         scene.render(integrator, spp=3, size=(40, 32), seed=7, params=params, threads=1),
