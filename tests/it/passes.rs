@@ -7,13 +7,13 @@ use std::time::{Duration, Instant};
 
 const CORNELL: &str = "scenes/cornell_box.ron";
 
-#[test]
-fn every_integrator_is_bit_identical_at_1_2_and_8_threads() {
+/// Every integrator of the registry (none can be forgotten) renders `extra`'s image
+/// bit-identically at each of `threads`.
+fn every_integrator_is_bit_identical_at(threads: &[&str], extra: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
-    // Every integrator of the registry: none can be forgotten.
     for integrator in raylab_integrators::REGISTRY.iter().map(|e| e.name) {
         let mut images: Vec<Vec<u8>> = Vec::new();
-        for threads in ["1", "2", "8"] {
+        for &threads in threads {
             let out = dir.path().join(format!("{integrator}-{threads}.exr"));
             let mut args = vec![
                 "render",
@@ -25,6 +25,7 @@ fn every_integrator_is_bit_identical_at_1_2_and_8_threads() {
                 "--spp",
                 "3",
             ];
+            args.extend_from_slice(extra);
             match integrator {
                 "fixed-depth" => args.extend(["-p", "branching=3", "-p", "shadow-grid=2"]),
                 "photon" => args.extend(["-p", "photons=20000", "-p", "caustic-photons=20000"]),
@@ -37,46 +38,20 @@ fn every_integrator_is_bit_identical_at_1_2_and_8_threads() {
             images.push(std::fs::read(&out).unwrap());
         }
         assert!(
-            images[0] == images[1] && images[0] == images[2],
-            "{integrator}: the thread count changed the image"
+            images.windows(2).all(|w| w[0] == w[1]),
+            "{integrator} {extra:?}: the thread count changed the image"
         );
     }
 }
 
 #[test]
+fn every_integrator_is_bit_identical_at_1_2_and_8_threads() {
+    every_integrator_is_bit_identical_at(&["1", "2", "8"], &[]);
+}
+
+#[test]
 fn every_integrator_is_bit_identical_at_1_and_3_threads_in_spectral_mode() {
-    let dir = tempfile::tempdir().unwrap();
-    for integrator in raylab_integrators::REGISTRY.iter().map(|e| e.name) {
-        let mut images: Vec<Vec<u8>> = Vec::new();
-        for threads in ["1", "3"] {
-            let out = dir.path().join(format!("{integrator}-{threads}.exr"));
-            let mut args = vec![
-                "render",
-                "scenes/report_room.ron",
-                "-i",
-                integrator,
-                "--size",
-                "24x20",
-                "--spp",
-                "3",
-                "--spectral",
-            ];
-            match integrator {
-                "fixed-depth" => args.extend(["-p", "branching=3", "-p", "shadow-grid=2"]),
-                "photon" => args.extend(["-p", "photons=20000", "-p", "caustic-photons=20000"]),
-                "sppm" => args.extend(["-p", "photons=20000"]),
-                _ => {}
-            }
-            args.extend(["--threads", threads, "-o", s(&out), "-q"]);
-            let o = raylab(&args);
-            assert!(o.status.success(), "{integrator}: {}", stderr(&o));
-            images.push(std::fs::read(&out).unwrap());
-        }
-        assert!(
-            images[0] == images[1],
-            "{integrator}: the thread count changed the spectral image"
-        );
-    }
+    every_integrator_is_bit_identical_at(&["1", "3"], &["--spectral"]);
 }
 
 /// Renders `common` directly, then stopped after its first pass with a checkpoint, then
