@@ -508,14 +508,7 @@ struct TilePass {
 /// The wavelengths of pass `pass` (see [`PassContext::lambda`]): only the hero where a
 /// material disperses, as the pass's photons and camera paths must agree on them.
 fn pass_wavelengths(scene: &dyn Scene, settings: &RenderSettings, pass: u32) -> Wavelengths {
-    if !settings.spectral {
-        return Wavelengths::Rgb;
-    }
-    let mut lambda = Wavelengths::for_pass(settings.seed, pass);
-    if scene.disperses() {
-        lambda.terminate_secondary();
-    }
-    lambda
+    Wavelengths::of_pass(settings.spectral, settings.seed, pass, scene.disperses())
 }
 
 /// Takes sample number `pass` of every pixel of `tile`, into the tile's scratch.

@@ -54,6 +54,14 @@ pub(super) fn emitter_from_desc(
             let (radiance, spectrum) = match spectrum {
                 None => (radiance, None),
                 Some(pairs) => {
+                    if texture.is_some() {
+                        return Err("an emitter with a spectrum takes no texture".into());
+                    }
+                    if let Some(&(nm, v)) = pairs.iter().find(|p| p.1 < 0.0) {
+                        return Err(format!(
+                            "the emitter's spectrum is negative ({v} at {nm} nm)"
+                        ));
+                    }
                     if radiance.x != radiance.y || radiance.y != radiance.z {
                         return Err(format!(
                             "an emitter with a spectrum takes a grey radiance (a scale), not {radiance}"
@@ -64,7 +72,10 @@ pub(super) fn emitter_from_desc(
                         .scaled(radiance.x);
                     let rgb = crate::formats::spectra::to_srgb(&pairs, Use::Emission)
                         .map_err(|e| format!("the emitter's spectrum: {e}"))?;
-                    (v3(rgb.map(|c| c as f32)) * radiance.x, Some(curve))
+                    // A narrow band's colour may lie outside sRGB: its negative channels are
+                    // cut (RGB mode's light), the spectrum itself is kept.
+                    let rgb = v3(rgb.map(|c| c.max(0.0) as f32)) * radiance.x;
+                    (rgb, Some(curve))
                 }
             };
             Emitter::Area {

@@ -222,6 +222,11 @@ impl<'a> TextureLoader<'a> {
                 let texture = self.texture(t, role)?;
                 Ok((texture.mean(), Some(texture), None))
             }
+            ColorDesc::Spectrum(p)
+                if role == Role::Reflectance && p.iter().any(|v| !(0.0..=1.0).contains(&v.1)) =>
+            {
+                Err("a reflectance's spectrum must lie in [0, 1]".into())
+            }
             ColorDesc::Spectrum(p) => Ok((
                 Vec3A::from_array(ColorDesc::spectrum_colour(p)),
                 None,

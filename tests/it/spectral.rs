@@ -108,6 +108,52 @@ fn spectra_are_their_colours_in_rgb_mode_and_themselves_in_spectral_mode() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("at least two"), "{}", stderr(&o));
+    // A reflectance's spectrum lies in [0, 1], an emitter's is not negative and takes no
+    // texture; a narrow band (a sodium line, outside sRGB) is light all the same.
+    for (albedo, emitter, error) in [
+        (
+            "Spectrum([(400, 0.5), (700, 1.5)])",
+            "Area(radiance: (1, 1, 1))",
+            "[0, 1]",
+        ),
+        (
+            "0.5",
+            "Area(radiance: (1, 1, 1), spectrum: [(400, 1), (700, -1)])",
+            "negative",
+        ),
+        (
+            "0.5",
+            "Area(radiance: (1, 1, 1), texture: Checkerboard(color0: (1, 0, 0), color1: (0, 1, 0)), spectrum: [(400, 1), (700, 1)])",
+            "no texture",
+        ),
+    ] {
+        save(&spectral, &scene(albedo, emitter));
+        let o = raylab(&[
+            "render",
+            s(&spectral),
+            "-q",
+            "-o",
+            s(&dir.path().join("x.exr")),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{emitter}");
+        assert!(stderr(&o).contains(error), "{}", stderr(&o));
+    }
+    save(
+        &spectral,
+        &scene(
+            "0.5",
+            "Area(radiance: (1, 1, 1), spectrum: [(585, 0), (589, 100), (593, 0)])",
+        ),
+    );
+    for mode in ["--rgb", "--spectral"] {
+        let out = dir.path().join("sodium.exr");
+        let o = raylab(&["render", s(&spectral), mode, "-q", "-o", s(&out)]);
+        assert!(o.status.success(), "{mode}: {}", stderr(&o));
+        assert!(
+            mean(&out)[0] > 0.0,
+            "{mode}: the sodium lamp lights nothing"
+        );
+    }
     // --spectral and --rgb contradict each other.
     let o = raylab(&["render", s(&rgb), "--spectral", "--rgb", "-o", "x.exr"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));

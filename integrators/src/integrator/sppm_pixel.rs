@@ -201,10 +201,7 @@ impl SppmPixel {
     ) -> RayCounters {
         // The pass's wavelengths, which its visible points and photons carry; the pixels keep
         // what each pass adds as RGB (pbrt-v4's SPPM does the same).
-        let lambda = match self.spectral {
-            true => Wavelengths::for_pass(seed, pass),
-            false => Wavelengths::Rgb,
-        };
+        let lambda = Wavelengths::of_pass(self.spectral, seed, pass, scene.disperses());
         let (width, max_depth, rr_depth) = (camera.width as usize, self.max_depth, self.rr_depth);
         let first = self.first_row(camera) as usize * width;
         // Every pixel's visible point, with the emission and direct light on the way.

@@ -357,10 +357,10 @@ impl Light {
     /// emitter gives there.
     #[inline]
     pub fn emitted_at(&self, q: Vec3A, n: Vec3A, w: Vec3A, lambda: &Wavelengths) -> Spectrum {
-        lambda.illuminant(match self {
-            Light::Planar(l) => l.emitted_at(q, n, w),
-            _ => self.emitted_rgb(n, w),
-        })
+        match self {
+            Light::Planar(l) => lambda.illuminant(l.emitted_at(q, n, w)),
+            _ => self.emitted(n, w, lambda),
+        }
     }
 
     /// Samples a ray leaving the light (see the module docs): `u_pos` places its origin,

@@ -89,6 +89,20 @@ impl Wavelengths {
         Wavelengths::sample((key >> 40) as f32 / (1u64 << 24) as f32)
     }
 
+    /// The wavelengths a pass carries (see [`crate::PassContext::lambda`]): RGB's channels,
+    /// or in spectral mode [`Wavelengths::for_pass`], only the hero in a scene that disperses
+    /// (its photons and the camera paths that gather them must agree).
+    pub fn of_pass(spectral: bool, seed: u64, pass: u32, disperses: bool) -> Wavelengths {
+        if !spectral {
+            return Wavelengths::Rgb;
+        }
+        let mut lambda = Wavelengths::for_pass(seed, pass);
+        if disperses {
+            lambda.terminate_secondary();
+        }
+        lambda
+    }
+
     /// True in spectral mode.
     #[inline]
     pub fn is_spectral(&self) -> bool {

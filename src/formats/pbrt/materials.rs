@@ -392,6 +392,9 @@ pub fn material(
         "dielectric" | "thindielectric" => {
             let (ior, dispersion) = eta(p, notes)?;
             let rough = if kind == "dielectric" { roughness(p, textures)? } else { None };
+            if dispersion.is_some() && (kind == "thindielectric" || rough.is_some()) {
+                notes.approximate(at, format!("{what}: a rough or thin dielectric does not disperse in raylab: its index at 587.6 nm for every wavelength"))?;
+            }
             let (int_ior, ext_ior) = (ior, Ior(1.0));
             let (specular_reflectance, specular_transmittance) =
                 (schema::white_colour(), schema::white_colour());

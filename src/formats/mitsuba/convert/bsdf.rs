@@ -63,6 +63,9 @@ fn lambert_albedo(m: &MaterialDesc) -> Option<V3> {
         MaterialDesc::Lambert {
             albedo: ColorDesc::Constant(c),
         } => Some(*c),
+        MaterialDesc::Lambert {
+            albedo: ColorDesc::Spectrum(p),
+        } => Some(ColorDesc::spectrum_colour(p)),
         _ => None,
     }
 }
