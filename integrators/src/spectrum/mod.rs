@@ -200,20 +200,26 @@ impl Wavelengths {
     }
 }
 
+/// [`cie::XYZ_TO_SRGB`] as the film applies it (columns).
+const XYZ_TO_SRGB: glam::Mat3A = glam::Mat3A::from_cols_array(&[
+    3.240479, -0.969256, 0.055648, -1.537150, 1.875991, -0.204043, -0.498535, 0.041556, 1.057311,
+]);
+
+/// Its inverse (Mitsuba 3's sRGB to XYZ).
+const SRGB_TO_XYZ: glam::Mat3A = glam::Mat3A::from_cols_array(&[
+    0.412453, 0.212671, 0.019334, 0.357580, 0.715160, 0.119193, 0.180423, 0.072169, 0.950227,
+]);
+
 /// Linear sRGB of CIE XYZ.
 #[inline]
 pub fn xyz_to_srgb(xyz: Vec3A) -> Rgb {
-    let m = cie::XYZ_TO_SRGB.map(|row| Vec3A::from(row.map(|c| c as f32)));
-    Vec3A::new(m[0].dot(xyz), m[1].dot(xyz), m[2].dot(xyz))
+    XYZ_TO_SRGB * xyz
 }
 
 /// CIE XYZ of linear sRGB (the inverse of [`xyz_to_srgb`]'s matrix).
 #[inline]
 pub fn srgb_to_xyz(rgb: Rgb) -> Vec3A {
-    let m = glam::DMat3::from_cols_array_2d(&cie::XYZ_TO_SRGB).transpose();
-    let inv = m.inverse();
-    let rgb = rgb.as_dvec3();
-    (inv * rgb).as_vec3a()
+    SRGB_TO_XYZ * rgb
 }
 
 #[cfg(test)]

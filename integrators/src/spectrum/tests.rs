@@ -175,4 +175,19 @@ fn rgb_mode_is_the_identity() {
     assert_eq!(w.to_rgb(c), c);
     assert_eq!(w.map(c, |_| 7.0), c);
     assert!((xyz_to_srgb(srgb_to_xyz(c)) - c).abs().max_element() < 1e-5);
+    // The constant matrix is the table's, the inverse its inverse.
+    let table = glam::DMat3::from_cols_array_2d(&cie::XYZ_TO_SRGB).transpose();
+    let x = Vec3A::new(0.3, 0.5, 0.2);
+    assert!(
+        (xyz_to_srgb(x) - (table * x.as_dvec3()).as_vec3a())
+            .abs()
+            .max_element()
+            < 1e-6
+    );
+    assert!(
+        (srgb_to_xyz(x) - (table.inverse() * x.as_dvec3()).as_vec3a())
+            .abs()
+            .max_element()
+            < 1e-5
+    );
 }
