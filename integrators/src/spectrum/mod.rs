@@ -202,12 +202,12 @@ impl Wavelengths {
 
 /// [`cie::XYZ_TO_SRGB`] as the film applies it (columns).
 const XYZ_TO_SRGB: glam::Mat3A = glam::Mat3A::from_cols_array(&[
-    3.240479, -0.969256, 0.055648, -1.537150, 1.875991, -0.204043, -0.498535, 0.041556, 1.057311,
+    3.240479, -0.969256, 0.055648, -1.53715, 1.875991, -0.204043, -0.498535, 0.041556, 1.057311,
 ]);
 
 /// Its inverse (Mitsuba 3's sRGB to XYZ).
 const SRGB_TO_XYZ: glam::Mat3A = glam::Mat3A::from_cols_array(&[
-    0.412453, 0.212671, 0.019334, 0.357580, 0.715160, 0.119193, 0.180423, 0.072169, 0.950227,
+    0.412453, 0.212671, 0.019334, 0.35758, 0.71516, 0.119193, 0.180423, 0.072169, 0.950227,
 ]);
 
 /// Linear sRGB of CIE XYZ.
