@@ -15,6 +15,7 @@ use raylab_integrators::bsdf::{
     ThinDielectric, ThinRates,
 };
 use raylab_integrators::spectrum::curve::Curve;
+use raylab_integrators::spectrum::named;
 use raylab_integrators::texture::Texture;
 use raylab_integrators::Material;
 
@@ -161,7 +162,7 @@ pub fn material_from_desc(
             k,
             specular_reflectance,
         } => Material::Conductor(Conductor::new(
-            complex_ior(*metal, *eta, *k)?,
+            complex_ior(*metal, *eta, *k, &mut s)?,
             colour(
                 specular_reflectance,
                 Role::Reflectance,
@@ -186,7 +187,7 @@ pub fn material_from_desc(
                 &mut s.specular,
             )?;
             Material::RoughConductor(RoughConductor::new(
-                complex_ior(*metal, *eta, *k)?,
+                complex_ior(*metal, *eta, *k, &mut s)?,
                 r,
                 microfacet(*distribution, [alpha, alpha_u, alpha_v], textures, &mut t)?,
             )?)
@@ -627,15 +628,22 @@ fn microfacet(
     alphas(distribution, (floor(u, tu), floor(v, tv)))
 }
 
-/// A conductor's complex IOR: a named `metal`, or `eta` and `k`, or (neither) a perfect
-/// mirror.
+/// A conductor's complex IOR: a named `metal` (with its measured spectra in `spectra`
+/// where there are some), or `eta` and `k`, or (neither) a perfect mirror.
 fn complex_ior(
     metal: Option<Metal>,
     eta: Option<[f32; 3]>,
     k: Option<[f32; 3]>,
+    spectra: &mut MaterialSpectra,
 ) -> Result<Option<ComplexIor>, String> {
     match (metal, eta, k) {
-        (Some(m), None, None) => Ok(m.ior),
+        (Some(m), None, None) => {
+            if let Some((eta, k)) = named::metal(m.name) {
+                spectra.eta = Some(eta);
+                spectra.k = Some(k);
+            }
+            Ok(m.ior)
+        }
         (None, Some(eta), Some(k)) => Ok(Some(ComplexIor::new(v3(eta), v3(k))?)),
         (None, None, None) => Ok(None),
         (Some(_), _, _) => Err("give a metal by name, or eta and k, not both".into()),

@@ -259,3 +259,54 @@ fn the_prism_deviates_each_wavelength_by_snells_law() {
     // Violet bends most.
     assert!(deviations.windows(2).all(|w| w[0] > w[1]), "{deviations:?}");
 }
+
+/// A smooth gold floor seen straight down under a white ceiling of radiance 1: each
+/// wavelength is reflected by the Fresnel factor of gold's measured `eta` and `k` there
+/// (pbrt-v4's and Mitsuba 3's data), so the image is `integral F(l) D65(l) xyz-bar(l)` of
+/// the measured spectra in spectral mode, and the Fresnel factor of the RGB constants in RGB
+/// mode.
+#[test]
+fn a_named_metal_reflects_by_its_measured_spectra() {
+    use glam::Vec3A;
+    use raylab_integrators::bsdf::fresnel::fresnel_conductor;
+    use raylab_integrators::spectrum::{cie, named, xyz_to_srgb};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("gold.ron");
+    save(
+        &scene,
+        r#"(
+    camera: LookAt(eye: (0, 1, 0), look_at: (0, 0, 0), up: (0, 0, 1), fov: 8, resolution: (16, 16)),
+    render: (integrator: "path", spp: 64),
+    materials: { "gold": Conductor(metal: "Au"), "ceiling": Lambert(albedo: 0) },
+    entities: [
+        (shape: Quad(vertices: [(-5, 0, -5), (-5, 0, 5), (5, 0, 5), (5, 0, -5)]), material: "gold"),
+        (shape: Quad(vertices: [(-5, 2, -5), (5, 2, -5), (5, 2, 5), (-5, 2, 5)]),
+         material: "ceiling", emitter: Area(radiance: (1, 1, 1))),
+    ],
+)"#,
+    );
+    // The closed forms, at normal incidence.
+    let (eta, k) = named::metal("Au").unwrap();
+    let d65 = named::pbrt("stdillum-D65").unwrap();
+    let mut xyz = Vec3A::ZERO;
+    for nm in 360..=830 {
+        let nm = nm as f32;
+        let f = fresnel_conductor(1.0, Vec3A::splat(eta.at(nm)), Vec3A::splat(k.at(nm))).x;
+        xyz += Vec3A::from(cie::xyz_bar(nm)) * (f * d65.at(nm));
+    }
+    let spectral = xyz_to_srgb(xyz / cie::Y_INTEGRAL as f32);
+    let gold = raylab_integrators::bsdf::ior::metal("Au").unwrap().unwrap();
+    let rgb = fresnel_conductor(1.0, gold.eta, gold.k);
+    for (mode, expected, spp) in [("--rgb", rgb, "4"), ("--spectral", spectral, "64")] {
+        let out = dir.path().join("gold.exr");
+        let o = raylab(&["render", s(&scene), mode, "--spp", spp, "-q", "-o", s(&out)]);
+        assert!(o.status.success(), "{mode}: {}", stderr(&o));
+        let m = mean(&out);
+        for c in 0..3 {
+            let e = expected[c] as f64;
+            assert!((m[c] - e).abs() < 0.015 * e, "{mode}: {m:?} vs {expected}");
+        }
+    }
+    // The measured spectra are not the RGB constants: the colours differ by 5% in red.
+    assert!((spectral.x - rgb.x).abs() > 0.03, "{spectral} vs {rgb}");
+}

@@ -22,6 +22,7 @@
 
 pub mod cie;
 pub mod curve;
+pub mod named;
 pub mod upsample;
 
 use crate::{Rgb, Spectrum};
