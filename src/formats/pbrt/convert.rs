@@ -39,6 +39,17 @@ const BYTES_PER_TEXT_BYTE: u64 = 32;
 /// The most files a scene may include, counting each include of a file.
 const MAX_INCLUDES: usize = 10_000;
 
+/// `AreaLightSource diffuse`: its radiance, and the spectrum behind it with the factor it was
+/// scaled by (given as a spectrum), whether it is two-sided, its `power`, its place.
+#[derive(Clone, Debug)]
+struct AreaLight {
+    radiance: [f64; 3],
+    spectrum: Option<(Vec<(f64, f64)>, f64)>,
+    two_sided: bool,
+    power: Option<f64>,
+    pos: Pos,
+}
+
 /// What `AttributeBegin` saves.
 #[derive(Clone)]
 struct State {
@@ -47,8 +58,8 @@ struct State {
     /// The current material: a description (`Material`) or the name of a material of the
     /// table (`NamedMaterial`); `None` is `interface` (no surface).
     material: Current,
-    /// `AreaLightSource diffuse`: (radiance, two-sided, its place).
-    area: Option<([f64; 3], bool, Option<f64>, Pos)>,
+    /// `AreaLightSource diffuse`.
+    area: Option<AreaLight>,
     /// After `ActiveTransform EndTime`: transforms set the shutter's end only.
     end_time_only: bool,
     /// `MediumInterface`: the media either side of the shapes to come.

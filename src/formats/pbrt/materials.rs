@@ -37,8 +37,9 @@ fn grey(x: f32) -> ColorDesc {
     ColorDesc::Constant([x; 3])
 }
 
-/// pbrt-v4's named glasses by their refractive index at the sodium d-line (587.6 nm), which
-/// raylab uses for all wavelengths: pbrt-v4 disperses light through them, raylab does not.
+/// pbrt-v4's named glasses by their refractive index at the sodium d-line (587.6 nm): what
+/// RGB mode uses for all wavelengths. Spectral mode disperses light through a smooth
+/// dielectric of these by pbrt-v4's measured tables, as pbrt-v4 does.
 const GLASSES: [(&str, f32); 7] = [
     ("glass-BK7", 1.5168),
     ("glass-BAF10", 1.6700),
@@ -49,8 +50,9 @@ const GLASSES: [(&str, f32); 7] = [
     ("glass-F11", 1.7847),
 ];
 
-/// pbrt-v4's named metals (`metal-Cu-eta` / `metal-Cu-k`) that raylab's metal table has.
-const METALS: [&str; 5] = ["Ag", "Al", "Au", "Cu", "MgO"];
+/// pbrt-v4's named metals (`metal-Cu-eta` / `metal-Cu-k`): all seven are in raylab's metal
+/// table, with pbrt-v4's measured spectra for spectral mode.
+const METALS: [&str; 7] = raylab_integrators::spectrum::named::METALS;
 
 /// A colour: a constant or a texture of `textures`.
 pub fn colour(
@@ -68,12 +70,17 @@ pub fn colour(
         Colour::Sampled(pairs) if pairs.iter().all(|p| p.1 == pairs[0].1) => {
             grey(pairs[0].1 as f32)
         }
+        Colour::Sampled(pairs) if pairs.iter().all(|p| (0.0..=1.0).contains(&p.1)) => {
+            raylab_integrators::spectrum::curve::Curve::table(&crate::formats::texture_desc::narrow(pairs))
+                .map_err(|e| (pos, format!("{what}: {e}")))?;
+            ColorDesc::Spectrum(pairs.clone())
+        }
         Colour::Sampled(pairs) => {
             let rgb = crate::formats::spectra::to_srgb(pairs, crate::formats::spectra::Use::Reflectance)
                 .map_err(|e| (pos, format!("{what}: {e}")))?;
             notes.approximate(
                 pos,
-                format!("{what}: a spectrum by wavelength, rendered as its RGB under D65 ({:.4}, {:.4}, {:.4}; pbrt-v4 renders it spectrally)", rgb[0], rgb[1], rgb[2]),
+                format!("{what}: a spectrum by wavelength above 1, rendered as its RGB under D65, clamped ({:.4}, {:.4}, {:.4})", rgb[0], rgb[1], rgb[2]),
             )?;
             ColorDesc::Constant(rgb.map(|x| x as f32))
         }
@@ -155,23 +162,13 @@ fn roughness(p: &mut ParamList, textures: &Textures) -> Result<Option<Roughness>
     }))
 }
 
-/// pbrt-v4's named glasses that raylab's table of Sellmeier coefficients has (pbrt's F11 is
-/// Schott's SF11: the same n_d and Abbe number).
-const DISPERSIVE: [(&str, &str); 3] = [
-    ("glass-BK7", "BK7"),
-    ("glass-BAF10", "BAF10"),
-    ("glass-F11", "SF11"),
-];
-
-/// A dielectric's `eta`, and its dispersion where it is a named glass raylab has.
+/// A dielectric's `eta`, and its dispersion where it is one of pbrt-v4's named glasses.
 fn eta(p: &mut ParamList, notes: &mut dyn Notes) -> Result<(Ior, Option<DispersionDesc>), Located> {
     let given = p.colour("eta")?;
     if let Some((Colour::Named(name), _)) = &given {
-        let glass = DISPERSIVE.iter().find(|g| g.0 == name.as_str());
-        let nd = GLASSES.iter().find(|g| g.0 == name.as_str());
-        if let (Some((_, glass)), Some((_, nd))) = (glass, nd) {
-            notes.report(format!("{}: \"{name}\" is {glass} glass: its index {nd} at 587.6 nm in RGB, its Sellmeier dispersion in spectral mode", p.what));
-            return Ok((Ior(*nd), Some(DispersionDesc::Glass(glass.to_string()))));
+        if let Some((_, nd)) = GLASSES.iter().find(|g| g.0 == name.as_str()) {
+            notes.report(format!("{}: \"{name}\": its index {nd} at 587.6 nm in RGB, pbrt-v4's measured dispersion in spectral mode", p.what));
+            return Ok((Ior(*nd), Some(DispersionDesc::Glass(name.clone()))));
         }
     }
     Ok((eta_constant(given, &p.what, notes)?, None))
@@ -352,7 +349,7 @@ pub fn material(
                     };
                     match (named(&eta, "eta")?, named(&k, "k")?) {
                         (Some(a), Some(b)) if a == b => {
-                            notes.report(format!("{what}: metal-{a}: raylab's RGB constants of {a} (from Mitsuba's spectral data), not pbrt-v4's spectral ones"));
+                            notes.report(format!("{what}: metal-{a}: pbrt-v4's measured spectra with --spectral, their RGB constants (as Mitsuba 3's RGB variants make them) in RGB mode"));
                             let metal = Metal::named(&a).map_err(|e| (at, format!("{what}: {e}")))?;
                             (Some(metal), None, None)
                         }

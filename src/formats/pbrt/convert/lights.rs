@@ -1,42 +1,69 @@
 //! `LightSource` and `AreaLightSource`: pbrt-v4's lights as raylab's emitters.
 
 use super::*;
+use crate::formats::texture_desc::narrow;
+use raylab_integrators::spectrum::cie::XYZ_TO_SRGB;
+use raylab_integrators::spectrum::curve::Curve;
+use raylab_integrators::spectrum::named;
 
 impl<'a> Converter<'a> {
     /// An emitter's colour: `rgb` as it is (pbrt-v4 normalises the illuminant, so rgb
-    /// (1, 1, 1) renders as 1), any other spectrum as white of luminance 1 (pbrt-v4
-    /// normalises it so; raylab does not reproduce its colour), times `scale` and the
-    /// camera's exposure time.
+    /// (1, 1, 1) renders as 1), any other spectrum normalised to luminance 1 as pbrt-v4
+    /// normalises it, times `scale` and the camera's exposure time.
     pub(super) fn light_colour(
         &mut self,
         p: &mut ParamList,
         name: &str,
     ) -> Result<[f64; 3], Located> {
+        Ok(self.light_emission(p, name)?.0)
+    }
+
+    /// [`Self::light_colour`], and where the colour was given as a spectrum (by wavelength,
+    /// by name or by temperature) that spectrum of luminance 1 as (nm, value) pairs with the
+    /// factor the colour was scaled by.
+    #[allow(clippy::type_complexity)]
+    pub(super) fn light_emission(
+        &mut self,
+        p: &mut ParamList,
+        name: &str,
+    ) -> Result<([f64; 3], Option<(Vec<(f64, f64)>, f64)>), Located> {
         let scale = p.float("scale")?.unwrap_or(1.0);
-        let c = self.emitted_rgb(p, name)?.unwrap_or([1.0; 3]);
+        let (c, spectrum) = self.emitted(p, name)?.unwrap_or(([1.0; 3], None));
         if c.iter().any(|x| *x < 0.0) || scale < 0.0 {
             return Err((p.at, format!("{}: negative emission", p.what)));
         }
-        Ok(c.map(|x| x * scale * self.exposure))
+        let s = scale * self.exposure;
+        Ok((c.map(|x| x * s), spectrum.map(|pairs| (pairs, s))))
     }
 
     /// The emitted colour `name` as written (`None` if absent), read as pbrt-v4 reads an
     /// illuminant spectrum: `rgb` as it is, `stdillum-D65` as white, any other spectrum as
-    /// white of luminance 1 (with `--approximate`).
+    /// its colour at luminance 1.
     pub(super) fn emitted_rgb(
         &mut self,
         p: &mut ParamList,
         name: &str,
     ) -> Result<Option<[f64; 3]>, Located> {
-        Ok(Some(match p.colour(name)? {
+        Ok(self.emitted(p, name)?.map(|(c, _)| c))
+    }
+
+    /// [`Self::emitted_rgb`], with the spectrum of luminance 1 behind a colour given as one.
+    #[allow(clippy::type_complexity)]
+    fn emitted(
+        &mut self,
+        p: &mut ParamList,
+        name: &str,
+    ) -> Result<Option<([f64; 3], Option<Vec<(f64, f64)>>)>, Located> {
+        let (curve, what, pos) = match p.colour(name)? {
             None => return Ok(None),
-            Some((Colour::Rgb(v), _)) => v,
+            Some((Colour::Rgb(v), _)) => return Ok(Some((v, None))),
             Some((Colour::Named(n), _)) if n == "stdillum-D65" => {
+                // sRGB's white is D65 of luminance 1: raylab's white, in both modes.
                 self.report(format!(
                     "{}: stdillum-D65 as white of luminance 1, as pbrt-v4 renders it",
                     p.what
                 ));
-                [1.0; 3]
+                return Ok(Some(([1.0; 3], None)));
             }
             Some((Colour::Texture(t), pos)) => {
                 return Err((
@@ -44,19 +71,52 @@ impl<'a> Converter<'a> {
                     format!("{}: `{name}` cannot be a texture (\"{t}\")", p.what),
                 ))
             }
-            Some((c, pos)) => {
-                let what = match c {
-                    Colour::Named(n) => format!("the spectrum \"{n}\""),
-                    Colour::Blackbody(t) => format!("a blackbody of {t} K"),
-                    _ => "a spectrum by wavelength".to_string(),
-                };
-                self.approximate(
-                    pos,
-                    format!("{}: `{name}` is {what}, which pbrt-v4 normalises to luminance 1: rendered white (its colour is not reproduced)", p.what),
-                )?;
-                [1.0; 3]
+            Some((Colour::Named(n), pos)) => {
+                let curve = named::pbrt(&n).ok_or_else(|| {
+                    (
+                        pos,
+                        format!(
+                            "{}: `{name}`: pbrt-v4 has no spectrum named \"{n}\"",
+                            p.what
+                        ),
+                    )
+                })?;
+                (curve, format!("the spectrum \"{n}\""), pos)
             }
-        }))
+            Some((Colour::Blackbody(t), pos)) => {
+                if !(t.is_finite() && t > 0.0) {
+                    return Err((pos, format!("{}: a blackbody of {t} K", p.what)));
+                }
+                let curve = Curve::Blackbody {
+                    kelvin: t as f32,
+                    scale: 1.0,
+                };
+                (curve, format!("a blackbody of {t} K"), pos)
+            }
+            Some((Colour::Sampled(pairs), pos)) => {
+                let curve = Curve::table(&narrow(&pairs))
+                    .map_err(|e| (pos, format!("{}: `{name}`: {e}", p.what)))?;
+                (curve, "a spectrum by wavelength".to_string(), pos)
+            }
+        };
+        let y = named::luminance(&curve);
+        if !(y.is_finite() && y > 0.0) {
+            return Err((
+                pos,
+                format!("{}: `{name}` ({what}) emits no visible light", p.what),
+            ));
+        }
+        let curve = curve.scaled(1.0 / y);
+        let xyz = named::xyz(&curve);
+        let rgb = XYZ_TO_SRGB.map(|row| {
+            let c: f64 = (0..3).map(|i| row[i] * xyz[i] as f64).sum();
+            c.max(0.0)
+        });
+        self.report(format!(
+            "{}: `{name}` is {what}, normalised to luminance 1 as pbrt-v4 does: colour ({:.4}, {:.4}, {:.4}) in RGB mode",
+            p.what, rgb[0], rgb[1], rgb[2]
+        ));
+        Ok(Some((rgb, Some(curve.pairs()))))
     }
 
     pub(super) fn light(&mut self, d: &mut Directive) -> Result<(), Located> {
@@ -207,11 +267,17 @@ impl<'a> Converter<'a> {
                 "AreaLightSource: an emission image is not supported".into(),
             ));
         }
-        let l = self.light_colour(&mut p, "L")?;
+        let (l, spectrum) = self.light_emission(&mut p, "L")?;
         let two = p.boolean("twosided")?.unwrap_or(false);
         let power = p.float("power")?;
         p.finish()?;
-        self.state.area = Some((l, two, power, d.pos));
+        self.state.area = Some(AreaLight {
+            radiance: l,
+            spectrum,
+            two_sided: two,
+            power,
+            pos: d.pos,
+        });
         Ok(())
     }
 }

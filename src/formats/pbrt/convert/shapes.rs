@@ -139,7 +139,7 @@ impl<'a> Converter<'a> {
         // A shape with the `interface` material: a `Null` surface where it bounds a medium,
         // without its area light or alpha.
         let (material, area_light, alpha) = match self.current_material() {
-            Some(material) => (material, self.state.area, alpha),
+            Some(material) => (material, self.state.area.clone(), alpha),
             None => {
                 let bounds_medium = medium.is_some();
                 let null = self.interface_material(d.pos, &what, bounds_medium, alpha.is_some())?;
@@ -182,23 +182,27 @@ impl<'a> Converter<'a> {
         let a =
             affine(&placed).ok_or_else(|| (d.pos, format!("{what}: a projective transform")))?;
         let mut emitter = None;
-        if let Some((l, two, power, pos)) = area_light {
-            let mut l = l;
-            if let Some(power) = power {
+        if let Some(light) = area_light {
+            let (two, mut k) = (light.two_sided, 1.0);
+            if let Some(power) = light.power {
                 let area = area.single().map_err(|why| {
                     (
-                        pos,
+                        light.pos,
                         format!("AreaLightSource: `power` on this {kind} is not supported: {why}"),
                     )
                 })?;
-                let k = power / ((if two { 2.0 } else { 1.0 }) * area * std::f64::consts::PI);
-                l = l.map(|x| x * k);
+                k = power / ((if two { 2.0 } else { 1.0 }) * area * std::f64::consts::PI);
             }
+            // A spectrum is emitted as given, its scale a grey radiance.
+            let (radiance, spectrum) = match light.spectrum {
+                Some((pairs, s)) => ([s * k; 3], Some(pairs)),
+                None => (light.radiance.map(|x| x * k), None),
+            };
             emitter = Some(EmitterDesc::Area {
-                radiance: l.map(|x| x as f32),
+                radiance: radiance.map(|x| x as f32),
                 two_sided: two,
                 texture: None,
-                spectrum: None,
+                spectrum,
             });
         }
         let transform = if a != Affine3A::IDENTITY {

@@ -183,18 +183,45 @@ fn states_lights_samplers_and_uvs_follow_pbrt_v4() {
         .ron()
         .unwrap()
         .contains("Area(radiance: (2.0, 2.0, 2.0)"));
-    // A spectrum on a light is normalised to luminance 1 by pbrt-v4: white, approximately.
+    // A spectrum on a light is normalised to luminance 1 by pbrt-v4, and kept as one: a
+    // flat spectrum's values become about 1 (its luminance was 8), the radiance its scale.
     let text =
         format!("WorldBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 8 800 8]\n{quad}\n");
-    assert!(convert(&text, false)
+    let ron = convert(&text, false).unwrap().ron().unwrap();
+    assert!(ron.contains("Area(radiance: (1.0, 1.0, 1.0)"), "{ron}");
+    let at_300 = ron
+        .split("spectrum: [(300.0, ")
+        .nth(1)
+        .unwrap()
+        .split(')')
+        .next()
+        .unwrap();
+    assert!((at_300.parse::<f64>().unwrap() - 1.0).abs() < 0.01, "{ron}");
+    // A blackbody by its colour at luminance 1: 2700 K is warm (red over green over blue),
+    // named illuminants by pbrt-v4's tables, unknown names refused.
+    let point = |l: &str| convert(&format!("WorldBegin\nLightSource \"point\" {l}\n"), false);
+    let ron = point("\"blackbody I\" 2700").unwrap().ron().unwrap();
+    let rgb: Vec<f64> = ron
+        .split("Point(intensity: (")
+        .nth(1)
+        .unwrap()
+        .split(')')
+        .next()
+        .unwrap()
+        .split(", ")
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!(
+        rgb[0] > rgb[1] && rgb[1] > rgb[2] && rgb[2] > 0.0,
+        "{rgb:?}"
+    );
+    let y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    assert!((y - 1.0).abs() < 0.01, "{rgb:?}");
+    assert!(point("\"spectrum I\" \"stdillum-F4\"").is_ok());
+    assert!(point("\"spectrum I\" \"stdillum-X\"")
         .unwrap_err()
         .3
-        .contains("--approximate"));
-    assert!(convert(&text, true)
-        .unwrap()
-        .ron()
-        .unwrap()
-        .contains("Area(radiance: (1.0, 1.0, 1.0)"));
+        .contains("stdillum-X"));
     // A spot light falls off as pbrt-v4's: a smoothstep in the cosine.
     let text = "WorldBegin\nLightSource \"spot\" \"float coneangle\" 40 \"float conedeltaangle\" 10\nShape \"sphere\"\n";
     let ron = convert(text, false).unwrap().ron().unwrap();
