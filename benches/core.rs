@@ -9,7 +9,7 @@ use raylab::scene::parse_scene;
 use raylab::scene::RenderScene;
 use raylab_integrators::bsdf::{Conductor, Dielectric, Lambert, OrenNayar, Phong};
 use raylab_integrators::{
-    Material, PixelSample, Rgb, SampleContext, Sampler, Scene, Splats, Tracer,
+    Material, PixelSample, SampleContext, Sampler, Scene, Spectrum, Splats, Tracer,
 };
 use std::path::Path;
 
@@ -54,28 +54,28 @@ fn bsdfs(c: &mut Criterion) {
         (
             "lambert",
             Material::Lambert(Lambert {
-                albedo: Rgb::splat(0.5),
+                albedo: Spectrum::splat(0.5),
             }),
         ),
         (
             "oren-nayar",
-            Material::OrenNayar(OrenNayar::new(Rgb::splat(0.5), 20.0)),
+            Material::OrenNayar(OrenNayar::new(Spectrum::splat(0.5), 20.0)),
         ),
         (
             "phong",
             Material::Phong(Phong {
-                kd: Rgb::splat(0.4),
-                ks: Rgb::splat(0.4),
+                kd: Spectrum::splat(0.4),
+                ks: Spectrum::splat(0.4),
                 exponent: 50.0,
             }),
         ),
         (
             "mirror",
-            Material::Conductor(Conductor::perfect_mirror(Rgb::ONE)),
+            Material::Conductor(Conductor::perfect_mirror(Spectrum::ONE)),
         ),
         (
             "glass",
-            Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE)),
+            Material::Dielectric(Dielectric::unchecked(1.5, Spectrum::ONE)),
         ),
     ];
     let wo = Vec3A::new(0.3, 0.2, 0.93).normalize();
@@ -118,7 +118,7 @@ fn integrators(c: &mut Criterion) {
             b.iter(|| {
                 let mut tracer = Tracer::new(&scene);
                 let mut splats = Splats::default();
-                let mut sum = Rgb::ZERO;
+                let mut sum = Spectrum::ZERO;
                 for s in 0..spp {
                     let mut sampler = Sampler::new(0, 0, s);
                     sum += integrator.sample(SampleContext {

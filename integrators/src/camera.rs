@@ -26,7 +26,7 @@
 //! path's contribution, splatted without further weights, is averaged by dividing the splats by
 //! the number of passes, as pbrt-v4's film does.
 
-use crate::{Ray, Rgb};
+use crate::{Ray, Spectrum};
 use glam::{Vec2, Vec3A};
 
 /// A pinhole camera and its image size. Plain data, like a material: cheap to copy and share.
@@ -140,7 +140,7 @@ pub struct CameraWiSample {
     /// Film position (pixels, `(0, 0)` the top-left corner) the connection lands at.
     pub raster: Vec2,
     /// Importance `We` of the ray from the eye towards the reference point.
-    pub we: Rgb,
+    pub we: Spectrum,
     /// Solid-angle density of the connection at the reference point (the lens is a point:
     /// `dist^2 / |cos|` at the lens, with pbrt-v4's unit lens area).
     pub pdf: f32,
@@ -309,12 +309,12 @@ impl Camera {
 
     /// Importance `We` of the ray leaving the eye in unit direction `w`, and the film position
     /// it passes through; `None` (zero importance) outside the film.
-    pub fn importance(&self, w: Vec3A) -> Option<(Rgb, Vec2)> {
+    pub fn importance(&self, w: Vec3A) -> Option<(Spectrum, Vec2)> {
         let (raster, cos) = self.raster(w)?;
         let cos2 = cos * cos;
         let h = self.film.distance;
         let we = h * h / (self.film.area * cos2 * cos2);
-        we.is_finite().then(|| (Rgb::splat(we), raster))
+        we.is_finite().then(|| (Spectrum::splat(we), raster))
     }
 
     /// Positional and directional densities of the camera ray leaving the eye in direction

@@ -59,10 +59,14 @@ pub use scene::Scene;
 /// A linear RGB colour: a reflectance, a texture's value, an emitter's given colour.
 pub type Rgb = glam::Vec3A;
 
-/// Radiance, importance and path throughput as integrators carry them: linear RGB today. A
-/// spectral mode makes it a few sampled wavelengths (pbrt-v4's `SampledSpectrum`), so code
-/// that carries light says `Spectrum` and code that holds a colour says [`Rgb`].
-pub type Spectrum = glam::Vec3A;
+/// Radiance, importance and path throughput as integrators carry them: four lanes, the
+/// values at a sample's four wavelengths in spectral mode (pbrt-v4's `SampledSpectrum`), or
+/// in RGB mode linear RGB's three channels with the red one repeated in the fourth lane
+/// ([`spectrum::of_rgb`]). Every operation lane by lane keeps that repetition, so the
+/// largest and smallest lanes are the channels' and RGB renders see only their channels;
+/// sums and averages over lanes ask the sample's [`spectrum::Wavelengths`] how many there
+/// are. Code that carries light says `Spectrum`; code that holds a colour says [`Rgb`].
+pub type Spectrum = glam::Vec4;
 
 /// Relative luminance of a linear sRGB/Rec.709 colour.
 #[inline]

@@ -30,26 +30,26 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::media_walk::{
-    average, cross_null, fly, hero_channel, medium_at, over_sigma_s, positive, Flight,
+    cross_null, fly, hero_channel, medium_at, over_sigma_s, positive, Flight,
 };
 use crate::integrator::volpath::LONG_PATH;
 use crate::integrator::{
     emitted_at, escaped, stays_on_viewer_side, PathState, ShadingPoint, Stop, MAX_SURVIVAL,
 };
-use crate::spectrum::Wavelengths;
-use crate::{luminance, Hit, MediumId, Ray, RayCounters, Rgb, Sampler, Scene, Tracer};
+use crate::spectrum::{average, Wavelengths};
+use crate::{Hit, MediumId, Ray, RayCounters, Sampler, Scene, Spectrum, Tracer};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-/// One stored photon (44 bytes): a landing on a surface, or in a medium.
+/// One stored photon (48 bytes): a landing on a surface, or in a medium.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Photon {
     /// Where it landed.
     pub p: Vec3,
     /// Unit direction back towards where it came from (away from the surface).
     pub wi: Vec3,
-    /// Power, watts per channel.
-    pub power: Vec3,
+    /// Power, watts per lane of a [`Spectrum`].
+    pub power: [f32; 4],
     /// Scattering events between the light and this landing (0: straight from the light).
     pub bounces: u16,
     /// Every scattering before this landing was specular (and there was at least one): the
@@ -147,14 +147,16 @@ pub fn trace_photons(
 /// channel's density over the hero's (see [`crate::integrator::media_walk`]).
 struct InMedia {
     hero: usize,
-    r_u: Rgb,
+    r_u: Spectrum,
+    /// The lanes of its spectra that hold values (`Wavelengths::lanes`).
+    lanes: usize,
 }
 
 impl InMedia {
     /// The power the photon carries: one-sample MIS over the channels.
     #[inline]
-    fn power(&self, beta: Rgb) -> Rgb {
-        beta / average(self.r_u)
+    fn power(&self, beta: Spectrum) -> Spectrum {
+        beta / average(self.r_u, self.lanes)
     }
 }
 
@@ -177,8 +179,9 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
     let mut media = None;
     if scene.has_media() {
         media = Some(InMedia {
-            hero: hero_channel(sampler.next_1d()),
-            r_u: Rgb::ONE,
+            hero: hero_channel(sampler.next_1d(), lambda),
+            r_u: Spectrum::ONE,
+            lanes: lambda.lanes(),
         });
         ray.medium = medium_at(scene, pass.eye, scene.camera_medium(), ray.origin);
     }
@@ -186,7 +189,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
         // Find the next landing.
         let hit = tracer.light(&ray);
         if let Some(m) = media.as_mut() {
-            let carried = luminance(m.power(beta));
+            let carried = lambda.brightness(m.power(beta));
             let tmax = hit.map_or(f32::INFINITY, |h| h.t);
             match fly(
                 scene, &ray, tmax, m.hero, lambda, sampler, &mut beta, &mut m.r_u,
@@ -207,7 +210,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
                         out.push(Photon {
                             p: p.into(),
                             wi: (-ray.dir).into(),
-                            power: over_sigma_s(m.power(beta), sigma_s).into(),
+                            power: over_sigma_s(m.power(beta), sigma_s).to_array(),
                             bounces: bounces.min(u16::MAX as u32) as u16,
                             caustic: specular_so_far && bounces > 0,
                             medium: ray.medium,
@@ -228,7 +231,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
                     // capped as on surfaces, so that every photon ends. (A cap from the first
                     // event would multiply a long walk's power at each of its landings: a
                     // cluster of strong photons, the heavy tail of a fog's estimate.)
-                    let ratio = luminance(m.power(beta)) / carried;
+                    let ratio = lambda.brightness(m.power(beta)) / carried;
                     if ratio.is_nan() {
                         return;
                     }
@@ -281,7 +284,7 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
                 out.push(Photon {
                     p: hit.p.into(),
                     wi: (-ray.dir).into(),
-                    power: power.into(),
+                    power: power.to_array(),
                     bounces: bounces.min(u16::MAX as u32) as u16,
                     caustic,
                     medium: MediumId::VACUUM,
@@ -311,11 +314,11 @@ fn trace_one(tracer: &mut Tracer, sampler: &mut Sampler, pass: &PhotonPass, out:
             return;
         }
         let next = s.throughput(beta);
-        if !(next.is_finite() && next != Rgb::ZERO) {
+        if !(next.is_finite() && next != Spectrum::ZERO) {
             return;
         }
         // Russian roulette, keeping the photon's power about constant.
-        let survive = (luminance(next) / luminance(beta)).min(MAX_SURVIVAL);
+        let survive = (lambda.brightness(next) / lambda.brightness(beta)).min(MAX_SURVIVAL);
         if survive.is_nan() || sampler.next_1d() >= survive {
             return;
         }
@@ -341,7 +344,7 @@ pub struct Landing {
     pub ray: Ray,
     /// Throughput from the path's start to there (in media, divided by the average of the
     /// channels' densities: an estimate in every channel).
-    pub beta: Rgb,
+    pub beta: Spectrum,
     /// Specular bounces before it.
     pub bounces: u32,
 }
@@ -356,7 +359,7 @@ pub fn land(
     first_is_camera: bool,
     max_bounces: u32,
     rr_depth: u32,
-    emission: Option<&mut Rgb>,
+    emission: Option<&mut Spectrum>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
     lambda: &mut Wavelengths,
@@ -373,8 +376,9 @@ pub fn land(
     };
     // In media: the hero channel of the free flights and each channel's density over it.
     let mut media = scene.has_media().then(|| InMedia {
-        hero: hero_channel(sampler.next_1d()),
-        r_u: Rgb::ONE,
+        hero: hero_channel(sampler.next_1d(), lambda),
+        r_u: Spectrum::ONE,
+        lanes: lambda.lanes(),
     });
     loop {
         let hit = path.trace(tracer);
@@ -603,14 +607,14 @@ impl PhotonMap {
     /// Radiance reflected at `hit` towards `wo` (local frame of `frame`) by the photons near it
     /// that `accept` admits: `sum f(wo, wi) Phi / (pi r^2)`.
     #[inline]
-    pub fn radiance(&self, sp: &ShadingPoint, accept: impl Fn(&Photon) -> bool) -> Rgb {
+    pub fn radiance(&self, sp: &ShadingPoint, accept: impl Fn(&Photon) -> bool) -> Spectrum {
         let (frame, wo, material, hit) = (&sp.frame, sp.wo, &sp.material, &sp.hit);
         let wo_world = frame.to_world(wo);
-        let mut sum = Rgb::ZERO;
+        let mut sum = Spectrum::ZERO;
         self.for_each_near(hit.p, |ph| {
             let wi = Vec3A::from(ph.wi);
             if accept(ph) && stays_on_viewer_side(material, hit.ng, wo_world, wi) {
-                sum += material.eval(wo, frame.to_local(wi)) * Vec3A::from(ph.power);
+                sum += material.eval(wo, frame.to_local(wi)) * Spectrum::from_array(ph.power);
             }
         });
         sum / (std::f32::consts::PI * self.radius * self.radius)
@@ -632,7 +636,7 @@ impl PhotonMap {
         p: Vec3A,
         wo: Vec3A,
         accept: impl Fn(&Photon) -> bool,
-    ) -> Rgb {
+    ) -> Spectrum {
         let (sum, _) = self.scattered_within(scene, (p, wo, medium), self.radius, accept);
         sum / (4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3))
     }
@@ -646,16 +650,16 @@ impl PhotonMap {
         (p, wo, medium): (Vec3A, Vec3A, MediumId),
         radius: f32,
         accept: impl Fn(&Photon) -> bool,
-    ) -> (Rgb, u32) {
+    ) -> (Spectrum, u32) {
         let Some(m) = scene.medium(medium) else {
-            return (Rgb::ZERO, 0);
+            return (Spectrum::ZERO, 0);
         };
         let phase = m.phase();
-        let (mut sum, mut count) = (Rgb::ZERO, 0u32);
+        let (mut sum, mut count) = (Spectrum::ZERO, 0u32);
         let r2 = radius * radius;
         self.for_each_near(p, |ph| {
             if ph.medium == medium && accept(ph) && (Vec3A::from(ph.p) - p).length_squared() < r2 {
-                sum += phase.eval(wo, Vec3A::from(ph.wi)) * Vec3A::from(ph.power);
+                sum += phase.eval(wo, Vec3A::from(ph.wi)) * Spectrum::from_array(ph.power);
                 count += 1;
             }
         });
@@ -704,7 +708,7 @@ mod tests {
             .map(|i| Photon {
                 p: Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.0 - 1.0,
                 wi: Vec3::Z,
-                power: Vec3::splat(i as f32),
+                power: [i as f32; 4],
                 bounces: 0,
                 caustic: false,
                 medium: MediumId::VACUUM,
@@ -714,12 +718,12 @@ mod tests {
         for _ in 0..200 {
             let q = Vec3A::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.4 - 1.2;
             let mut found: Vec<u32> = Vec::new();
-            map.for_each_near(q, |p| found.push(p.power.x as u32));
+            map.for_each_near(q, |p| found.push(p.power[0] as u32));
             found.sort_unstable();
             let expected: Vec<u32> = photons
                 .iter()
                 .filter(|p| (Vec3A::from(p.p) - q).length_squared() < 0.13 * 0.13)
-                .map(|p| p.power.x as u32)
+                .map(|p| p.power[0] as u32)
                 .collect();
             assert_eq!(found, expected, "around {q:?}");
         }
@@ -731,7 +735,7 @@ mod tests {
         // power, 2 pi Le A (both sides emit, the outward half escapes: pi Le A lands).
         let scene = furnace_sphere(0.5, 1.0);
         let (photons, _) = trace_photons(&scene, &pass(200_000, Keep::All, 0, 7, 0), Stop::NEVER);
-        let first: f64 = photons.iter().map(|p| p.power.y as f64).sum();
+        let first: f64 = photons.iter().map(|p| p.power[1] as f64).sum();
         let area: f64 = scene
             .lights()
             .lights()

@@ -588,7 +588,7 @@ fn render_tile_pass(
                         };
                         integrator.run_chain(chain, cx);
                     }
-                    Vec3A::ZERO
+                    raylab_integrators::Spectrum::ZERO
                 }
             };
             // The estimate as linear sRGB, at the wavelengths it ends with.

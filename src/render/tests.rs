@@ -4,7 +4,7 @@ use super::*;
 use crate::scene::parse_scene;
 use crate::scene::RenderScene;
 use raylab_integrators::spectrum::Wavelengths;
-use raylab_integrators::{Ray, RayIntegrator, Rgb, Spectrum};
+use raylab_integrators::{Ray, RayIntegrator, Spectrum};
 
 /// Returns 1 everywhere.
 struct One;
@@ -18,7 +18,7 @@ impl RayIntegrator for One {
         _lambda: &mut Wavelengths,
     ) -> Spectrum {
         let _ = (tracer.camera(ray), sampler.next_1d());
-        Rgb::ONE
+        Spectrum::ONE
     }
 }
 
@@ -35,9 +35,9 @@ impl RayIntegrator for Poisoned {
     ) -> Spectrum {
         tracer.camera(ray);
         if ray.dir.x > 0.2 {
-            Rgb::splat(f32::NAN)
+            Spectrum::splat(f32::NAN)
         } else {
-            Rgb::ONE
+            Spectrum::ONE
         }
     }
 }
@@ -56,9 +56,9 @@ impl RayIntegrator for Blinding {
     ) -> Spectrum {
         tracer.camera(ray);
         if ray.dir.x > 0.2 {
-            Rgb::splat(1e17)
+            Spectrum::splat(1e17)
         } else {
-            Rgb::ONE
+            Spectrum::ONE
         }
     }
 }
@@ -192,10 +192,14 @@ impl Integrator for Splatter {
         } = cx;
         tracer.camera(&camera.ray(pixel.film.x, pixel.film.y));
         let anywhere = sampler.next_2d() * Vec2::new(camera.width as f32, camera.height as f32);
-        splats.add(anywhere, Rgb::splat(sampler.next_1d()), &Wavelengths::Rgb);
+        splats.add(
+            anywhere,
+            Spectrum::splat(sampler.next_1d()),
+            &Wavelengths::Rgb,
+        );
         let centre = Vec2::new(camera.width as f32, camera.height as f32) * 0.5;
-        splats.add(centre, Rgb::splat(0.001), &Wavelengths::Rgb);
-        Rgb::ZERO
+        splats.add(centre, Spectrum::splat(0.001), &Wavelengths::Rgb);
+        Spectrum::ZERO
     }
 }
 

@@ -38,7 +38,8 @@ use crate::formats::access::SceneFiles;
 use crate::formats::schema::{EmitterDesc, EntityDesc, MaterialDesc, SceneFile, ShapeDesc};
 use hecs::{CommandBuffer, Entity, World};
 use raylab_integrators::bsdf::{checks, Lambert};
-use raylab_integrators::{Material, Rgb, SurfaceMaterial};
+use raylab_integrators::spectrum::{of_rgb, rgb_of};
+use raylab_integrators::{Material, Spectrum, SurfaceMaterial};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -212,7 +213,12 @@ impl Table {
                 // A pure emitter reflects nothing.
                 let materials = &mut self.materials;
                 let id = *self.black.get_or_insert_with(|| {
-                    materials.push(Material::Lambert(Lambert { albedo: Rgb::ZERO }).into());
+                    materials.push(
+                        Material::Lambert(Lambert {
+                            albedo: Spectrum::ZERO,
+                        })
+                        .into(),
+                    );
                     (materials.len() - 1) as u32
                 });
                 Some(MaterialRef(id))
@@ -388,7 +394,11 @@ impl SceneState {
             message,
         })?;
         let environment = match file.environment {
-            Some(e) => Some(checks::colour("environment", v3(e)).map_err(|m| self.error(m))?),
+            Some(e) => Some(
+                checks::colour("environment", of_rgb(v3(e)))
+                    .map(rgb_of)
+                    .map_err(|m| self.error(m))?,
+            ),
             None => None,
         };
         self.check_one_sky(&file, environment.is_some())?;

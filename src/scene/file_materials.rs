@@ -55,15 +55,17 @@ pub fn file_parts(desc: &ShapeDesc, files: &SceneFiles) -> Result<Vec<Part>, Str
         .into_iter()
         .map(|(m, mesh)| {
             let shape = Shape::from(mesh);
-            let material = Lambert::new(Vec3A::from_array(m.albedo))
-                .map(|l| SurfaceMaterial::from(Material::Lambert(l)))
-                .map_err(|e| {
-                    format!(
-                        "material `{}` of `{}`: diffuse colour: {e}",
-                        m.name,
-                        file.display()
-                    )
-                })?;
+            let material = Lambert::new(raylab_integrators::spectrum::of_rgb(Vec3A::from_array(
+                m.albedo,
+            )))
+            .map(|l| SurfaceMaterial::from(Material::Lambert(l)))
+            .map_err(|e| {
+                format!(
+                    "material `{}` of `{}`: diffuse colour: {e}",
+                    m.name,
+                    file.display()
+                )
+            })?;
             let emitter = m.emission.map(|radiance| Emitter::Area {
                 radiance: Vec3A::from_array(radiance),
                 two_sided: m.two_sided,

@@ -15,12 +15,18 @@ use raylab_integrators::bsdf::{
     ThinDielectric, ThinRates,
 };
 use raylab_integrators::spectrum::curve::Curve;
-use raylab_integrators::spectrum::named;
+use raylab_integrators::spectrum::{named, of_rgb, rgb_of};
 use raylab_integrators::texture::Texture;
 use raylab_integrators::Material;
+use raylab_integrators::Spectrum;
 
 fn v3(a: [f32; 3]) -> Vec3A {
     Vec3A::from_array(a)
+}
+
+/// A colour as the materials hold it (RGB mode's [`Spectrum`]).
+fn s3(a: [f32; 3]) -> Spectrum {
+    of_rgb(v3(a))
 }
 
 /// Turns a material description into the scene's material, reading its textures with
@@ -38,7 +44,7 @@ pub fn material_from_desc(
             let (c, texture, curve) = textures.colour_or_spectrum(desc, role)?;
             *slot = texture;
             *spectrum = curve;
-            Ok::<_, String>(c)
+            Ok::<_, String>(of_rgb(c))
         };
     let bsdf = match desc {
         MaterialDesc::Null => return Ok(SurfaceMaterial::null()),
@@ -65,7 +71,8 @@ pub fn material_from_desc(
                 &mut s.transmittance,
             )?;
             // Energy holds at every point: the largest reflectance + transmittance.
-            let max = |tex: &Option<Texture>, c: Vec3A| tex.as_ref().map_or(c, |x| x.max());
+            let max =
+                |tex: &Option<Texture>, c: Spectrum| tex.as_ref().map_or(rgb_of(c), |x| x.max());
             if (max(&t.diffuse, r) + max(&t.transmittance, tr)).max_element() > 1.0 + 1e-6 {
                 return Err("reflectance + transmittance exceed 1 (somewhere): diffuse transmission would create energy".into());
             }
@@ -79,7 +86,8 @@ pub fn material_from_desc(
             let kd = colour(kd, Role::Reflectance, &mut t.diffuse, &mut s.diffuse)?;
             let ks = colour(ks, Role::Reflectance, &mut t.specular, &mut s.specular)?;
             // Energy holds at every point: the largest kd + ks, not the means'.
-            let max = |tex: &Option<Texture>, c: Vec3A| tex.as_ref().map_or(c, |x| x.max());
+            let max =
+                |tex: &Option<Texture>, c: Spectrum| tex.as_ref().map_or(rgb_of(c), |x| x.max());
             if (t.diffuse.is_some() || t.specular.is_some())
                 && (max(&t.diffuse, kd) + max(&t.specular, ks)).max_element() > 1.0 + 1e-6
             {
@@ -91,10 +99,10 @@ pub fn material_from_desc(
         }
         MaterialDesc::Mirror { tint } => Material::Conductor(Conductor::new(
             None,
-            checks::reflectance("tint", v3(*tint))?,
+            checks::reflectance("tint", s3(*tint))?,
         )?),
         MaterialDesc::Glass { ior, tint } => {
-            Material::Dielectric(Dielectric::new(*ior, v3(*tint), v3(*tint))?)
+            Material::Dielectric(Dielectric::new(*ior, s3(*tint), s3(*tint))?)
         }
         MaterialDesc::Dielectric {
             int_ior,
@@ -461,7 +469,7 @@ fn hair_absorption(
     eumelanin: Option<f32>,
     pheomelanin: Option<f32>,
     beta_n: f32,
-) -> Result<Vec3A, String> {
+) -> Result<Spectrum, String> {
     let melanin = eumelanin.is_some() || pheomelanin.is_some();
     let given = [sigma_a.is_some(), reflectance.is_some(), melanin];
     if given.iter().filter(|g| **g).count() > 1 {
@@ -472,10 +480,10 @@ fn hair_absorption(
         );
     }
     if let Some(s) = sigma_a {
-        return checks::colour("hair's sigma_a", v3(s));
+        return checks::colour("hair's sigma_a", s3(s));
     }
     if let Some(r) = reflectance {
-        let r = checks::reflectance("hair's reflectance", v3(r))?;
+        let r = checks::reflectance("hair's reflectance", s3(r))?;
         checks::finite("hair's beta_n", &[beta_n])?;
         return Ok(Hair::sigma_a_from_reflectance(r, beta_n.clamp(0.0, 1.0)));
     }
@@ -529,7 +537,7 @@ fn burley(
         Some(FloatDesc::Texture(_)) => true,
     };
     let burley = Burley {
-        base_color,
+        base_color: of_rgb(base_color),
         roughness,
         anisotropic: weight(d.anisotropic, textures, &mut p.anisotropic, 1.0)?,
         spec_trans: weight(d.spec_trans, textures, &mut p.spec_trans, 1.0)?,
@@ -644,7 +652,7 @@ fn complex_ior(
             }
             Ok(m.ior)
         }
-        (None, Some(eta), Some(k)) => Ok(Some(ComplexIor::new(v3(eta), v3(k))?)),
+        (None, Some(eta), Some(k)) => Ok(Some(ComplexIor::new(s3(eta), s3(k))?)),
         (None, None, None) => Ok(None),
         (Some(_), _, _) => Err("give a metal by name, or eta and k, not both".into()),
         _ => Err("a conductor's IOR needs both eta and k".into()),

@@ -298,7 +298,7 @@ mod tests {
     fn grid_extinction_takes_the_tint_and_the_edge() {
         let sigma_t = |m: &Medium, x: f32| {
             let p = m.at(Vec3A::new(x, 0.5, 0.5), &Default::default());
-            p.sigma_a + p.sigma_s
+            raylab_integrators::spectrum::rgb_of(p.sigma_a + p.sigma_s)
         };
         let clamp = grid_medium(GridEdgeDesc::Clamp, [1.0, 0.5, 0.25]);
         let zero = grid_medium(GridEdgeDesc::Zero, [1.0, 0.5, 0.25]);
@@ -358,9 +358,13 @@ mod tests {
         let separate =
             medium_from_desc(&medium(None, None, constant(0.25), constant(0.5)), &files).unwrap();
         let p = separate.at(Vec3A::new(0.5, 0.5, 0.25), &Default::default());
-        assert_eq!((p.sigma_a, p.sigma_s), (Rgb::splat(0.5), Rgb::splat(1.0)));
+        let rgb = raylab_integrators::spectrum::rgb_of;
+        assert_eq!(
+            (rgb(p.sigma_a), rgb(p.sigma_s)),
+            (Rgb::splat(0.5), Rgb::splat(1.0))
+        );
         // An RGB grid of emission, times `emission`.
-        assert_eq!(p.le, Rgb::new(3.0, 6.0, 9.0));
+        assert_eq!(rgb(p.le), Rgb::new(3.0, 6.0, 9.0));
         for (t, a, sa, ss) in [
             (constant(1.0), None, None, constant(1.0)),
             (constant(1.0), constant(0.5), constant(1.0), None),

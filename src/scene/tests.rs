@@ -76,7 +76,10 @@ fn spawn_creates_one_entity_per_object_with_its_components() {
     by_name(w, "entity #3");
     // The black material was appended for the lamp.
     assert_eq!(s.materials.len(), 2);
-    assert_eq!(s.materials[1].bsdf().albedo(), Rgb::ZERO);
+    assert_eq!(
+        s.materials[1].bsdf().albedo(),
+        raylab_integrators::Spectrum::ZERO
+    );
 }
 
 /// The same entity placed by translate, rotate and scale and by the equivalent matrix: the

@@ -104,7 +104,7 @@ fn part(
 
 fn albedo(m: &raylab_integrators::Material) -> Vec3A {
     match m {
-        raylab_integrators::Material::Lambert(l) => l.albedo,
+        raylab_integrators::Material::Lambert(l) => raylab_integrators::spectrum::rgb_of(l.albedo),
         other => panic!("a Lambert material, got {other:?}"),
     }
 }

@@ -12,7 +12,7 @@ use raylab_integrators::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport,
 };
 use raylab_integrators::spectrum::Wavelengths;
-use raylab_integrators::{Ray, Rgb, Sampler};
+use raylab_integrators::{Ray, Sampler, Spectrum};
 
 /// The registry entry: name, summary, parameters, constructor. In the crate, one line in
 /// `REGISTRY` (integrators/src/integrator/registry.rs) makes it a `-i direct`.
@@ -44,7 +44,7 @@ impl RayIntegrator for Direct {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
-    ) -> Rgb {
+    ) -> Spectrum {
         // The first hit; a ray that escapes sees the environment. Light is carried at the
         // sample's wavelengths `lambda` (RGB's channels unless rendering spectrally).
         let Some(hit) = tracer.camera(ray) else {

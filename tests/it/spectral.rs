@@ -226,8 +226,8 @@ fn the_prism_deviates_each_wavelength_by_snells_law() {
     let mut deviations = Vec::new();
     for nm in [420.0f32, 480.0, 550.0, 620.0, 680.0] {
         let mut lambda = Wavelengths::Sampled {
-            nm: Vec3A::splat(nm),
-            pdf: Vec3A::splat(1.0),
+            nm: glam::Vec4::splat(nm),
+            pdf: glam::Vec4::splat(1.0),
         };
         let mut ray = Ray::new(lamp, Vec3A::X);
         // Into the glass and out: two refractions (the transmitted lobe: u_lobe near 1).
@@ -269,7 +269,8 @@ fn the_prism_deviates_each_wavelength_by_snells_law() {
 fn a_named_metal_reflects_by_its_measured_spectra() {
     use glam::Vec3A;
     use raylab_integrators::bsdf::fresnel::fresnel_conductor;
-    use raylab_integrators::spectrum::{cie, named, xyz_to_srgb};
+    use raylab_integrators::spectrum::{cie, named, rgb_of, xyz_to_srgb};
+    use raylab_integrators::Spectrum;
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("gold.ron");
     save(
@@ -291,12 +292,12 @@ fn a_named_metal_reflects_by_its_measured_spectra() {
     let mut xyz = Vec3A::ZERO;
     for nm in 360..=830 {
         let nm = nm as f32;
-        let f = fresnel_conductor(1.0, Vec3A::splat(eta.at(nm)), Vec3A::splat(k.at(nm))).x;
+        let f = fresnel_conductor(1.0, Spectrum::splat(eta.at(nm)), Spectrum::splat(k.at(nm))).x;
         xyz += Vec3A::from(cie::xyz_bar(nm)) * (f * d65.at(nm));
     }
     let spectral = xyz_to_srgb(xyz / cie::Y_INTEGRAL as f32);
     let gold = raylab_integrators::bsdf::ior::metal("Au").unwrap().unwrap();
-    let rgb = fresnel_conductor(1.0, gold.eta, gold.k);
+    let rgb = rgb_of(fresnel_conductor(1.0, gold.eta, gold.k));
     for (mode, expected, spp) in [("--rgb", rgb, "4"), ("--spectral", spectral, "64")] {
         let out = dir.path().join("gold.exr");
         let o = raylab(&["render", s(&scene), mode, "--spp", spp, "-q", "-o", s(&out)]);

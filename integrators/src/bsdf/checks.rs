@@ -1,7 +1,7 @@
 //! Parameter checks that every material's constructor shares: a material is valid by
 //! construction, whichever loader (RON, a mesh file's materials) asks for it.
 
-use crate::Rgb;
+use crate::Spectrum;
 
 /// `values` all finite, or an error naming `what`.
 pub fn finite(what: &str, values: &[f32]) -> Result<(), String> {
@@ -13,7 +13,7 @@ pub fn finite(what: &str, values: &[f32]) -> Result<(), String> {
 }
 
 /// A finite, non-negative colour.
-pub fn colour(what: &str, c: Rgb) -> Result<Rgb, String> {
+pub fn colour(what: &str, c: Spectrum) -> Result<Spectrum, String> {
     let a = c.to_array();
     finite(what, &a)?;
     if a.iter().any(|c| *c < 0.0) {
@@ -23,7 +23,7 @@ pub fn colour(what: &str, c: Rgb) -> Result<Rgb, String> {
 }
 
 /// A reflectance: a colour in `[0, 1]` per channel.
-pub fn reflectance(what: &str, c: Rgb) -> Result<Rgb, String> {
+pub fn reflectance(what: &str, c: Spectrum) -> Result<Spectrum, String> {
     let c = colour(what, c)?;
     if c.max_element() > 1.0 {
         return Err(format!(
@@ -37,31 +37,31 @@ pub fn reflectance(what: &str, c: Rgb) -> Result<Rgb, String> {
 #[cfg(test)]
 mod tests {
     use crate::bsdf::{Conductor, Dielectric, Lambert, OrenNayar, Phong};
-    use crate::Rgb;
+    use crate::Spectrum;
 
     #[test]
     fn constructors_refuse_what_no_material_can_be() {
-        let half = Rgb::splat(0.5);
-        assert!(Lambert::new(half).is_ok() && Lambert::new(Rgb::splat(1.2)).is_err());
-        assert!(Lambert::new(Rgb::new(f32::NAN, 0.1, 0.1))
+        let half = Spectrum::splat(0.5);
+        assert!(Lambert::new(half).is_ok() && Lambert::new(Spectrum::splat(1.2)).is_err());
+        assert!(Lambert::new(crate::spectrum::rgb(f32::NAN, 0.1, 0.1))
             .unwrap_err()
             .contains("finite"));
         assert!(OrenNayar::checked(half, 20.0).is_ok());
         assert!(OrenNayar::checked(half, 91.0)
             .unwrap_err()
             .contains("[0, 90]"));
-        assert!(Phong::new(half, Rgb::splat(0.4), 10.0).is_ok());
-        assert!(Phong::new(half, Rgb::splat(0.6), 10.0)
+        assert!(Phong::new(half, Spectrum::splat(0.4), 10.0).is_ok());
+        assert!(Phong::new(half, Spectrum::splat(0.6), 10.0)
             .unwrap_err()
             .contains("conserve energy"));
-        assert!(Phong::new(half, Rgb::splat(0.4), 1e6).is_err());
-        assert!(Conductor::new(None, Rgb::splat(-0.1))
+        assert!(Phong::new(half, Spectrum::splat(0.4), 1e6).is_err());
+        assert!(Conductor::new(None, Spectrum::splat(-0.1))
             .unwrap_err()
             .contains("negative"));
         assert!(
-            Dielectric::new(1.5, Rgb::ONE, Rgb::ONE).is_ok()
-                && Dielectric::new(0.1, Rgb::ONE, Rgb::ONE).is_err()
+            Dielectric::new(1.5, Spectrum::ONE, Spectrum::ONE).is_ok()
+                && Dielectric::new(0.1, Spectrum::ONE, Spectrum::ONE).is_err()
         );
-        assert!(Dielectric::new(f32::INFINITY, Rgb::ONE, Rgb::ONE).is_err());
+        assert!(Dielectric::new(f32::INFINITY, Spectrum::ONE, Spectrum::ONE).is_err());
     }
 }

@@ -14,19 +14,19 @@
 
 use super::fresnel::fresnel_conductor;
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 
 /// A conductor's complex index of refraction `eta + i k`, per channel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ComplexIor {
-    pub eta: Rgb,
-    pub k: Rgb,
+    pub eta: Spectrum,
+    pub k: Spectrum,
 }
 
 impl ComplexIor {
     /// A complex IOR whose parts are finite and non-negative.
-    pub fn new(eta: Rgb, k: Rgb) -> Result<ComplexIor, String> {
+    pub fn new(eta: Spectrum, k: Spectrum) -> Result<ComplexIor, String> {
         Ok(ComplexIor {
             eta: super::checks::colour("eta", eta)?,
             k: super::checks::colour("k", k)?,
@@ -36,10 +36,10 @@ impl ComplexIor {
 
 /// The Fresnel reflectance of an optional complex IOR (none: a perfect mirror).
 #[inline]
-pub fn conductor_fresnel(ior: Option<ComplexIor>, cos: f32) -> Rgb {
+pub fn conductor_fresnel(ior: Option<ComplexIor>, cos: f32) -> Spectrum {
     match ior {
         Some(c) => fresnel_conductor(cos, c.eta, c.k),
-        None => Rgb::ONE,
+        None => Spectrum::ONE,
     }
 }
 
@@ -49,13 +49,13 @@ pub struct Conductor {
     /// The complex IOR, or none for a perfect mirror.
     pub ior: Option<ComplexIor>,
     /// Per-channel multiplier of the reflection, unitless.
-    pub reflectance: Rgb,
+    pub reflectance: Spectrum,
 }
 
 impl Conductor {
     /// A perfect mirror tinted by `tint`, unchecked: for tests and built-in scenes (RON's
     /// `Mirror(tint)` is this, checked).
-    pub const fn perfect_mirror(tint: Rgb) -> Conductor {
+    pub const fn perfect_mirror(tint: Spectrum) -> Conductor {
         Conductor {
             ior: None,
             reflectance: tint,
@@ -63,7 +63,7 @@ impl Conductor {
     }
 
     /// A smooth metal of complex IOR `ior` (none: a perfect mirror) tinted by `reflectance`.
-    pub fn new(ior: Option<ComplexIor>, reflectance: Rgb) -> Result<Conductor, String> {
+    pub fn new(ior: Option<ComplexIor>, reflectance: Spectrum) -> Result<Conductor, String> {
         Ok(Conductor {
             ior,
             reflectance: super::checks::reflectance("specular_reflectance", reflectance)?,
@@ -77,8 +77,8 @@ impl Bxdf for Conductor {
         Lobes::DELTA_REFLECTION
     }
 
-    fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
-        Rgb::ZERO
+    fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Spectrum {
+        Spectrum::ZERO
     }
 
     fn pdf(&self, _wo: Vec3A, _wi: Vec3A) -> f32 {
@@ -100,7 +100,7 @@ impl Bxdf for Conductor {
         })
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.reflectance * conductor_fresnel(self.ior, 1.0)
     }
 }
@@ -113,7 +113,7 @@ mod tests {
     #[test]
     fn reflects_the_fresnel_weighted_mirror_direction() {
         let gold = super::super::ior::metal("Au").unwrap();
-        let c = Conductor::new(gold, Rgb::ONE).unwrap();
+        let c = Conductor::new(gold, Spectrum::ONE).unwrap();
         let wo = dir(60.0, 30.0);
         let s = c.sample(wo, 0.5, Vec2::splat(0.5)).unwrap();
         assert!(s.specular && (s.wi - Vec3A::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
@@ -122,9 +122,9 @@ mod tests {
         // Gold reflects red more than blue.
         assert!(expected.x > expected.z + 0.2, "{expected}");
         // No IOR: a perfect mirror, weighted by its tint alone.
-        let mirror = Conductor::new(None, Rgb::splat(0.7)).unwrap();
+        let mirror = Conductor::new(None, Spectrum::splat(0.7)).unwrap();
         let s = mirror.sample(wo, 0.5, Vec2::splat(0.5)).unwrap();
-        assert!((s.weight() - Rgb::splat(0.7)).abs().max_element() < 1e-6);
-        assert!(ComplexIor::new(Rgb::ONE, Rgb::splat(-1.0)).is_err());
+        assert!((s.weight() - Spectrum::splat(0.7)).abs().max_element() < 1e-6);
+        assert!(ComplexIor::new(Spectrum::ONE, Spectrum::splat(-1.0)).is_err());
     }
 }

@@ -21,7 +21,7 @@
 
 use super::fresnel::fresnel_dielectric;
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 
 /// A smooth dielectric interface (see the module docs).
@@ -30,9 +30,9 @@ pub struct Dielectric {
     /// Index of refraction inside relative to outside (outside = the side the normal faces).
     pub ior: f32,
     /// Per-channel multiplier of reflection, unitless.
-    pub reflectance: Rgb,
+    pub reflectance: Spectrum,
     /// Per-channel multiplier of transmission, unitless.
-    pub transmittance: Rgb,
+    pub transmittance: Spectrum,
 }
 
 /// Range of relative IORs a dielectric may have: every material of the field's tables lies
@@ -60,7 +60,11 @@ pub fn relative_ior(int_ior: f32, ext_ior: f32) -> Result<f32, String> {
 impl Dielectric {
     /// A dielectric of relative index of refraction `ior` (in [`IOR_RANGE`]) whose lobes are
     /// scaled by `reflectance` and `transmittance` (each channel in `[0, 1]`).
-    pub fn new(ior: f32, reflectance: Rgb, transmittance: Rgb) -> Result<Dielectric, String> {
+    pub fn new(
+        ior: f32,
+        reflectance: Spectrum,
+        transmittance: Spectrum,
+    ) -> Result<Dielectric, String> {
         super::checks::finite("ior", &[ior])?;
         if !IOR_RANGE.contains(&ior) {
             return Err(format!("ior must be in [0.25, 4], got {ior}"));
@@ -74,7 +78,7 @@ impl Dielectric {
 
     /// Glass of relative IOR `ior` with both lobes tinted by `tint`, unchecked: for tests and
     /// the built-in scenes.
-    pub const fn unchecked(ior: f32, tint: Rgb) -> Dielectric {
+    pub const fn unchecked(ior: f32, tint: Spectrum) -> Dielectric {
         Dielectric {
             ior,
             reflectance: tint,
@@ -89,8 +93,8 @@ impl Bxdf for Dielectric {
         Lobes::DELTA_REFLECTION.with(Lobes::DELTA_TRANSMISSION)
     }
 
-    fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
-        Rgb::ZERO
+    fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Spectrum {
+        Spectrum::ZERO
     }
 
     fn pdf(&self, _wo: Vec3A, _wi: Vec3A) -> f32 {
@@ -142,7 +146,7 @@ impl Bxdf for Dielectric {
         })
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.reflectance
     }
 }
@@ -153,7 +157,7 @@ mod tests {
     use crate::testing::chi2::dir;
     use crate::Sampler;
 
-    const GLASS: Dielectric = Dielectric::unchecked(1.5, Rgb::new(1.0, 0.9, 0.8));
+    const GLASS: Dielectric = Dielectric::unchecked(1.5, crate::spectrum::rgb(1.0, 0.9, 0.8));
 
     #[test]
     fn normal_incidence_reflectance_is_four_percent() {
@@ -264,7 +268,7 @@ mod tests {
             GLASS.sample(Vec3A::X, 0.5, Vec2::ZERO).is_none(),
             "wo.z == 0"
         );
-        assert_eq!(GLASS.eval(Vec3A::Z, -Vec3A::Z), Rgb::ZERO);
+        assert_eq!(GLASS.eval(Vec3A::Z, -Vec3A::Z), Spectrum::ZERO);
         assert_eq!(GLASS.pdf(Vec3A::Z, -Vec3A::Z), 0.0);
     }
 

@@ -5,20 +5,23 @@
 
 use super::{BsdfSample, Bxdf, Lobes};
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct DiffuseTransmission {
-    pub reflectance: Rgb,
-    pub transmittance: Rgb,
+    pub reflectance: Spectrum,
+    pub transmittance: Spectrum,
 }
 
 impl DiffuseTransmission {
     /// Each channel of each in `[0, 1]`, and their sum at most 1 (no more power leaves than
     /// arrives).
-    pub fn new(reflectance: Rgb, transmittance: Rgb) -> Result<DiffuseTransmission, String> {
+    pub fn new(
+        reflectance: Spectrum,
+        transmittance: Spectrum,
+    ) -> Result<DiffuseTransmission, String> {
         let r = super::checks::reflectance("reflectance", reflectance)?;
         let t = super::checks::reflectance("transmittance", transmittance)?;
         if (r + t).max_element() > 1.0 + 1e-6 {
@@ -55,13 +58,13 @@ impl Bxdf for DiffuseTransmission {
         Lobes::DIFFUSE_REFLECTION.with(Lobes::DIFFUSE_TRANSMISSION)
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         if wo.z * wi.z > 0.0 {
             self.reflectance * FRAC_1_PI
         } else if wo.z * wi.z < 0.0 {
             self.transmittance * FRAC_1_PI
         } else {
-            Rgb::ZERO
+            Spectrum::ZERO
         }
     }
 
@@ -106,7 +109,7 @@ impl Bxdf for DiffuseTransmission {
         })
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.reflectance + self.transmittance
     }
 }
@@ -117,7 +120,11 @@ mod tests {
     use crate::testing::chi2::{assert_chi2, dir, Grid, SAMPLES};
 
     fn leaf() -> DiffuseTransmission {
-        DiffuseTransmission::new(Rgb::new(0.5, 0.3, 0.1), Rgb::new(0.2, 0.4, 0.1)).unwrap()
+        DiffuseTransmission::new(
+            crate::spectrum::rgb(0.5, 0.3, 0.1),
+            crate::spectrum::rgb(0.2, 0.4, 0.1),
+        )
+        .unwrap()
     }
 
     #[test]
@@ -143,7 +150,7 @@ mod tests {
         let mut s = crate::Sampler::new(223, 0, 0);
         for wo in [dir(20.0, 0.0), -dir(60.0, 30.0)] {
             let n = 100_000;
-            let mut sum = Rgb::ZERO;
+            let mut sum = Spectrum::ZERO;
             let mut through = 0;
             for _ in 0..n {
                 let b = m.sample(wo, s.next_1d(), s.next_2d()).expect("a sample");
@@ -158,6 +165,6 @@ mod tests {
             let share = through as f64 / n as f64;
             assert!((share - 0.4 / 0.9).abs() < 0.01, "{share}");
         }
-        assert!(DiffuseTransmission::new(Rgb::splat(0.6), Rgb::splat(0.5)).is_err());
+        assert!(DiffuseTransmission::new(Spectrum::splat(0.6), Spectrum::splat(0.5)).is_err());
     }
 }

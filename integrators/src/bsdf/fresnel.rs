@@ -2,7 +2,7 @@
 //! IOR), and averaged over a hemisphere of directions (what a diffuse layer under a coating
 //! loses back into itself).
 
-use crate::Rgb;
+use crate::Spectrum;
 
 /// Unpolarised Fresnel reflectance of a dielectric interface. `cos_i` is the cosine of the
 /// incident angle measured against the normal on the incident side's convention (positive:
@@ -32,30 +32,26 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
 /// Unpolarised Fresnel reflectance of a conductor of complex relative IOR `eta + i k`, per
 /// channel, at incidence `cos_i` (clamped to `[0, 1]`): the exact expression for an absorbing
 /// medium (pbrt-v3's `FrConductor`, Mitsuba 3's `fresnel_conductor`).
-pub fn fresnel_conductor(cos_i: f32, eta: Rgb, k: Rgb) -> Rgb {
+pub fn fresnel_conductor(cos_i: f32, eta: Spectrum, k: Spectrum) -> Spectrum {
     let cos_i = cos_i.clamp(0.0, 1.0);
     let cos2 = cos_i * cos_i;
     let sin2 = 1.0 - cos2;
     let sin4 = sin2 * sin2;
-    let temp = eta * eta - k * k - Rgb::splat(sin2);
-    let a2b2 = (temp * temp + 4.0 * k * k * eta * eta).max(Rgb::ZERO);
-    let a2b2 = Rgb::new(a2b2.x.sqrt(), a2b2.y.sqrt(), a2b2.z.sqrt());
-    let a = ((a2b2 + temp) * 0.5).max(Rgb::ZERO);
-    let a = Rgb::new(a.x.sqrt(), a.y.sqrt(), a.z.sqrt());
-    let term1 = a2b2 + Rgb::splat(cos2);
+    let temp = eta * eta - k * k - Spectrum::splat(sin2);
+    let a2b2 = (temp * temp + 4.0 * k * k * eta * eta).max(Spectrum::ZERO);
+    let a2b2 = a2b2.map(f32::sqrt);
+    let a = ((a2b2 + temp) * 0.5).max(Spectrum::ZERO);
+    let a = a.map(f32::sqrt);
+    let term1 = a2b2 + Spectrum::splat(cos2);
     let term2 = 2.0 * cos_i * a;
     let r_s = (term1 - term2) / (term1 + term2);
-    let term3 = a2b2 * cos2 + Rgb::splat(sin4);
+    let term3 = a2b2 * cos2 + Spectrum::splat(sin4);
     let term4 = term2 * sin2;
     let r_p = r_s * (term3 - term4) / (term3 + term4);
     let r = 0.5 * (r_s + r_p);
     // Rounding at cos_i = 0 with k = 0 gives 0/0: reflectance is 1 at grazing incidence.
-    Rgb::new(
-        if r.x.is_finite() { r.x } else { 1.0 },
-        if r.y.is_finite() { r.y } else { 1.0 },
-        if r.z.is_finite() { r.z } else { 1.0 },
-    )
-    .clamp(Rgb::ZERO, Rgb::ONE)
+    r.map(|r| if r.is_finite() { r } else { 1.0 })
+        .clamp(Spectrum::ZERO, Spectrum::ONE)
 }
 
 /// Hemispherical average of the dielectric Fresnel reflectance, `2 integral_0^1 F(mu, eta)
@@ -83,21 +79,24 @@ mod tests {
     #[test]
     fn conductor_reduces_to_dielectric_without_absorption_and_to_a_mirror_at_grazing() {
         for cos in [1.0f32, 0.8, 0.5, 0.2, 0.05] {
-            let c = fresnel_conductor(cos, Rgb::splat(1.5), Rgb::ZERO).x;
+            let c = fresnel_conductor(cos, Spectrum::splat(1.5), Spectrum::ZERO).x;
             let d = fresnel_dielectric(cos, 1.5);
             assert!((c - d).abs() < 1e-5, "{cos}: {c} vs {d}");
         }
         // Gold at normal incidence: ((n-1)^2 + k^2) / ((n+1)^2 + k^2).
-        let (n, k) = (Rgb::new(0.143, 0.374, 1.442), Rgb::new(3.983, 2.385, 1.603));
+        let (n, k) = (
+            crate::spectrum::rgb(0.143, 0.374, 1.442),
+            crate::spectrum::rgb(3.983, 2.385, 1.603),
+        );
         let r = fresnel_conductor(1.0, n, k);
-        let expected =
-            ((n - Rgb::ONE) * (n - Rgb::ONE) + k * k) / ((n + Rgb::ONE) * (n + Rgb::ONE) + k * k);
+        let expected = ((n - Spectrum::ONE) * (n - Spectrum::ONE) + k * k)
+            / ((n + Spectrum::ONE) * (n + Spectrum::ONE) + k * k);
         assert!(
             (r - expected).abs().max_element() < 1e-5,
             "{r} vs {expected}"
         );
         assert!(
-            (fresnel_conductor(0.0, n, k) - Rgb::ONE)
+            (fresnel_conductor(0.0, n, k) - Spectrum::ONE)
                 .abs()
                 .max_element()
                 < 1e-5

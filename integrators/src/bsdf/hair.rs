@@ -65,7 +65,7 @@
 
 use super::fresnel::fresnel_dielectric;
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, PI, TAU};
 
@@ -81,7 +81,7 @@ pub struct Hair {
     /// Offset across the fibre, `[-1, 1]`.
     h: f32,
     eta: f32,
-    sigma_a: Rgb,
+    sigma_a: Spectrum,
     beta_m: f32,
     beta_n: f32,
     /// Scale tilt, degrees.
@@ -93,6 +93,8 @@ pub struct Hair {
     /// `(sin, cos)` of the tilt that shifts `theta_o` for lobes R, TT and TRT: `-2 alpha`,
     /// `alpha`, `4 alpha` (the last lobe is not shifted).
     tilt: [(f32, f32); P_MAX],
+    /// `sigma_a` holds a spectral sample's four wavelengths (not RGB's three channels).
+    spectral: bool,
 }
 
 /// What depends on `wo` (and `h`) alone, shared by `eval`, `pdf` and `sample`.
@@ -104,7 +106,7 @@ struct Outgoing {
     /// the last lobe's is `theta_o` itself).
     tilted: [(f32, f32); P_MAX + 1],
     /// Attenuation of each lobe.
-    ap: [Rgb; P_MAX + 1],
+    ap: [Spectrum; P_MAX + 1],
     /// Probability of sampling each lobe (all zero if no light leaves).
     p_lobe: [f32; P_MAX + 1],
 }
@@ -203,7 +205,7 @@ impl Hair {
     pub fn new(
         h: f32,
         eta: f32,
-        sigma_a: Rgb,
+        sigma_a: Spectrum,
         beta_m: f32,
         beta_n: f32,
         alpha_deg: f32,
@@ -230,7 +232,7 @@ impl Hair {
     }
 
     /// The fibre with its derived terms, from valid parameters.
-    fn build(h: f32, eta: f32, sigma_a: Rgb, beta_m: f32, beta_n: f32, alpha: f32) -> Hair {
+    fn build(h: f32, eta: f32, sigma_a: Spectrum, beta_m: f32, beta_n: f32, alpha: f32) -> Hair {
         let (beta_m, beta_n) = (beta_m.max(0.01), beta_n.max(0.01));
         // Chiang et al.'s fits of the lobes' widths to the roughness parameters.
         let root_v = 0.726 * beta_m + 0.812 * beta_m * beta_m + 3.7 * beta_m.powi(20);
@@ -258,6 +260,7 @@ impl Hair {
             v,
             s,
             tilt,
+            spectral: false,
         }
     }
 
@@ -269,9 +272,10 @@ impl Hair {
         self
     }
 
-    /// The fibre with its absorption coefficient mapped by `f` (to a spectrum).
-    pub(crate) fn map_sigma_a(&mut self, f: impl FnOnce(Rgb) -> Rgb) {
+    /// The fibre with its absorption coefficient mapped by `f` (to a spectral sample's).
+    pub(crate) fn map_sigma_a(&mut self, f: impl FnOnce(Spectrum) -> Spectrum) {
         self.sigma_a = f(self.sigma_a);
+        self.spectral = true;
     }
 
     /// Offset across the fibre, in `[-1, 1]`.
@@ -288,7 +292,7 @@ impl Hair {
 
     /// Absorption coefficient of the interior, per unit radius.
     #[inline]
-    pub fn sigma_a(&self) -> Rgb {
+    pub fn sigma_a(&self) -> Spectrum {
         self.sigma_a
     }
 
@@ -314,9 +318,9 @@ impl Hair {
     /// and pheomelanin (red–yellow), each clamped to be non-negative: Chiang et al.'s (and
     /// pbrt-v4's) absorption coefficients per unit concentration, as RGB. Concentrations
     /// around 0.3 make blond hair, 1.3 brown, 8 black.
-    pub fn sigma_a_from_concentration(eumelanin: f32, pheomelanin: f32) -> Rgb {
-        const EUMELANIN: Rgb = Rgb::new(0.419, 0.697, 1.37);
-        const PHEOMELANIN: Rgb = Rgb::new(0.187, 0.4, 1.05);
+    pub fn sigma_a_from_concentration(eumelanin: f32, pheomelanin: f32) -> Spectrum {
+        const EUMELANIN: Spectrum = crate::spectrum::rgb(0.419, 0.697, 1.37);
+        const PHEOMELANIN: Spectrum = crate::spectrum::rgb(0.187, 0.4, 1.05);
         let finite = |c: f32| if c.is_finite() { c.max(0.0) } else { 0.0 };
         EUMELANIN * finite(eumelanin) + PHEOMELANIN * finite(pheomelanin)
     }
@@ -326,7 +330,7 @@ impl Hair {
     /// pbrt-v4): `(ln c / P(beta_n))^2` per channel with a quintic `P`. Each channel is
     /// clamped into `[0, 1]`, and kept above the smallest normal float so that black stays
     /// finite.
-    pub fn sigma_a_from_reflectance(reflectance: Rgb, beta_n: f32) -> Rgb {
+    pub fn sigma_a_from_reflectance(reflectance: Spectrum, beta_n: f32) -> Spectrum {
         let b = beta_n;
         let b2 = b * b;
         let denominator =
@@ -344,7 +348,7 @@ impl Hair {
 
     /// The fraction of the light arriving from `wo` that the fibre scatters (into any
     /// direction): exactly `sum_p A_p`, since each lobe's `M_p N_p` integrates to one.
-    pub fn directional_albedo(&self, wo: Vec3A) -> Rgb {
+    pub fn directional_albedo(&self, wo: Vec3A) -> Spectrum {
         self.outgoing(wo).ap.iter().copied().sum()
     }
 
@@ -376,15 +380,18 @@ impl Hair {
         let t = (-self.sigma_a * chord).exp();
         // Attenuation of each lobe.
         let f = fresnel_dielectric(cos_o * safe_sqrt(1.0 - h * h), self.eta);
-        let ap0 = Rgb::splat(f);
+        let ap0 = Spectrum::splat(f);
         let ap1 = t * ((1.0 - f) * (1.0 - f));
         let ap2 = ap1 * t * f;
         let tf = t * f;
-        let rest = Rgb::ONE - tf;
-        let ap3 = Rgb::select(rest.cmpgt(Rgb::ZERO), ap2 * tf / rest, Rgb::ZERO);
+        let rest = Spectrum::ONE - tf;
+        let ap3 = Spectrum::select(rest.cmpgt(Spectrum::ZERO), ap2 * tf / rest, Spectrum::ZERO);
         let ap = [ap0, ap1, ap2, ap3];
-        // Lobe probabilities from the channel means.
-        let mean = ap.map(|a| a.element_sum() / 3.0);
+        // Lobe probabilities from the means over the lanes.
+        let mean = ap.map(|a| match self.spectral {
+            false => crate::spectrum::rgb_of(a).element_sum() / 3.0,
+            true => a.element_sum() / crate::spectrum::N as f32,
+        });
         let total: f32 = mean.iter().sum();
         let p_lobe = if total > 0.0 && total.is_finite() {
             mean.map(|m| m / total)
@@ -410,11 +417,11 @@ impl Hair {
     }
 
     /// `(f, pdf)` of `wi` for the outgoing terms `o`.
-    fn eval_pdf_with(&self, o: &Outgoing, wi: Vec3A) -> (Rgb, f32) {
+    fn eval_pdf_with(&self, o: &Outgoing, wi: Vec3A) -> (Spectrum, f32) {
         let sin_i = wi.x.clamp(-1.0, 1.0);
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
         let phi = wi.z.atan2(wi.y) - o.phi_o;
-        let (mut f, mut pdf) = (Rgb::ZERO, 0.0);
+        let (mut f, mut pdf) = (Spectrum::ZERO, 0.0);
         for p in 0..P_MAX {
             let (sin_o, cos_o) = o.tilted[p];
             let m = longitudinal(cos_i, sin_i, cos_o, sin_o, self.v[p]);
@@ -437,7 +444,7 @@ impl Bxdf for Hair {
         Lobes::GLOSSY_REFLECTION.with(Lobes::GLOSSY_TRANSMISSION)
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         self.eval_pdf_with(&self.outgoing(wo), wi).0
     }
 
@@ -445,7 +452,7 @@ impl Bxdf for Hair {
         self.eval_pdf_with(&self.outgoing(wo), wi).1
     }
 
-    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Spectrum, f32) {
         self.eval_pdf_with(&self.outgoing(wo), wi)
     }
 
@@ -491,8 +498,8 @@ impl Bxdf for Hair {
 
     /// A proxy: the fraction of light a fibre lit perpendicularly (`theta_o = 0`) scatters,
     /// averaged across its width (midpoint rule over `h`), whatever this fibre's own `h`.
-    fn albedo(&self) -> Rgb {
-        let mut sum = Rgb::ZERO;
+    fn albedo(&self) -> Spectrum {
+        let mut sum = Spectrum::ZERO;
         for i in 0..ALBEDO_NODES {
             let h = -1.0 + (2 * i + 1) as f32 / ALBEDO_NODES as f32;
             sum += self.clone().with_h(h).directional_albedo(Vec3A::Z);
@@ -510,11 +517,11 @@ mod tests {
     use crate::Sampler;
     use glam::DVec3;
 
-    fn fibre(h: f32, sigma_a: Rgb, beta_m: f32, beta_n: f32, alpha: f32) -> Hair {
+    fn fibre(h: f32, sigma_a: Spectrum, beta_m: f32, beta_n: f32, alpha: f32) -> Hair {
         Hair::new(h, 1.55, sigma_a, beta_m, beta_n, alpha).expect("valid hair")
     }
 
-    fn to_d(c: Rgb) -> DVec3 {
+    fn to_d(c: Spectrum) -> DVec3 {
         DVec3::new(c.x as f64, c.y as f64, c.z as f64)
     }
 
@@ -566,7 +573,7 @@ mod tests {
         for &beta_m in &betas {
             for &beta_n in &betas {
                 for &h in &offsets {
-                    let hair = fibre(h, Rgb::ZERO, beta_m, beta_n, 2.0);
+                    let hair = fibre(h, Spectrum::ZERO, beta_m, beta_n, 2.0);
                     k += 1;
                     let (theta, phi) = DIRECTIONS[k % DIRECTIONS.len()];
                     let wo = dir(theta, phi);
@@ -609,7 +616,7 @@ mod tests {
                 } else {
                     20_000
                 };
-                let base = fibre(0.0, Rgb::ZERO, beta_m, beta_n, 0.0);
+                let base = fibre(0.0, Spectrum::ZERO, beta_m, beta_n, 0.0);
                 let mut sum = 0.0f64;
                 for i in 0..n {
                     let h = (-1.0 + 2.0 * radical_inverse(3, i)).clamp(-0.999_999, 0.999_999);
@@ -637,9 +644,9 @@ mod tests {
         let mut worst = 0.0f32;
         for beta_m in [0.1f32, 0.3, 0.5, 0.7, 0.9] {
             for beta_n in [0.1f32, 0.3, 0.5, 0.7, 0.9] {
-                let base = fibre(0.0, Rgb::ZERO, beta_m, beta_n, 2.0);
+                let base = fibre(0.0, Spectrum::ZERO, beta_m, beta_n, 2.0);
                 let n = 10_000;
-                let mut sum = Rgb::ZERO;
+                let mut sum = Spectrum::ZERO;
                 for _ in 0..n {
                     let h = -1.0 + 2.0 * s.next_1d();
                     let hair = base.clone().with_h(h);
@@ -648,9 +655,9 @@ mod tests {
                         panic!("no sample at wo {wo} h {h}");
                     };
                     let w = b.weight();
-                    worst = worst.max((w - Rgb::ONE).abs().max_element());
+                    worst = worst.max((w - Spectrum::ONE).abs().max_element());
                     assert!(
-                        (w - Rgb::ONE).abs().max_element() < 1e-3,
+                        (w - Spectrum::ONE).abs().max_element() < 1e-3,
                         "weight {w} at wo {wo} wi {} h {h}",
                         b.wi
                     );
@@ -658,7 +665,7 @@ mod tests {
                 }
                 let mean = sum / n as f32;
                 assert!(
-                    (mean - Rgb::ONE).abs().max_element() < 1e-3,
+                    (mean - Spectrum::ONE).abs().max_element() < 1e-3,
                     "beta_m {beta_m} beta_n {beta_n}: mean weight {mean}"
                 );
             }
@@ -673,8 +680,8 @@ mod tests {
         let absorptions = [
             Hair::sigma_a_from_concentration(1.3, 0.0),
             Hair::sigma_a_from_concentration(0.3, 0.2),
-            Hair::sigma_a_from_reflectance(Rgb::new(0.8, 0.3, 0.1), 0.5),
-            Rgb::new(0.25, 0.25, 0.25),
+            Hair::sigma_a_from_reflectance(crate::spectrum::rgb(0.8, 0.3, 0.1), 0.5),
+            crate::spectrum::rgb(0.25, 0.25, 0.25),
         ];
         let mut worst = (0.0f64, 0.0f64);
         for (k, &sigma_a) in absorptions.iter().enumerate() {
@@ -719,7 +726,13 @@ mod tests {
         let mut s = Sampler::new(4103, 0, 0);
         for (k, beta_m) in [0.2f32, 0.4, 0.6, 0.8].into_iter().enumerate() {
             for (i, beta_n) in [0.4f32, 0.6, 0.8].into_iter().enumerate() {
-                let hair = fibre(-0.3 + 0.4 * i as f32, Rgb::splat(0.25), beta_m, beta_n, 2.0);
+                let hair = fibre(
+                    -0.3 + 0.4 * i as f32,
+                    Spectrum::splat(0.25),
+                    beta_m,
+                    beta_n,
+                    2.0,
+                );
                 let (theta, phi) = DIRECTIONS[(k + i) % DIRECTIONS.len()];
                 let wo = dir(theta, phi);
                 let (reference, _) = sphere_integrals(&hair, wo, light);
@@ -753,10 +766,10 @@ mod tests {
             (brown.clone().with_h(-1.0), dir(120.0, 250.0)),
             (brown.with_h(1.0), Vec3A::new(0.999, 0.03, 0.0).normalize()),
             (
-                fibre(0.6, Rgb::new(0.1, 0.9, 3.0), 0.1, 0.1, 4.0),
+                fibre(0.6, crate::spectrum::rgb(0.1, 0.9, 3.0), 0.1, 0.1, 4.0),
                 dir(95.0, 170.0),
             ),
-            (fibre(-0.2, Rgb::ZERO, 1.0, 1.0, -3.0), -Vec3A::Z),
+            (fibre(-0.2, Spectrum::ZERO, 1.0, 1.0, -3.0), -Vec3A::Z),
             (
                 fibre(
                     0.0,
@@ -799,7 +812,7 @@ mod tests {
     #[test]
     fn chi2_hair_narrow_tilted() {
         // Narrow lobes: the grid's pole along the fibre, so that rows follow M_p.
-        let hair = fibre(-0.8, Rgb::new(0.3, 0.5, 0.9), 0.1, 0.15, 4.0);
+        let hair = fibre(-0.8, crate::spectrum::rgb(0.3, 0.5, 0.9), 0.1, 0.15, 4.0);
         let grid = Grid::new(Vec3A::X, 2.0, 60, 120);
         chi2_hair(
             "hair, narrow and tilted",
@@ -851,28 +864,42 @@ mod tests {
                 5.009_06e-1,
             ),
             (
-                Hair::new(-0.7, 1.55, Rgb::new(0.2, 0.5, 1.0), 0.2, 0.5, 3.0),
+                Hair::new(
+                    -0.7,
+                    1.55,
+                    crate::spectrum::rgb(0.2, 0.5, 1.0),
+                    0.2,
+                    0.5,
+                    3.0,
+                ),
                 unit(-0.5, 0.7, 0.3),
                 unit(0.45, -0.3, -0.8),
                 [2.883_615_4, 1.603_197_2, 6.027_511e-1],
                 3.282_055_8,
             ),
             (
-                Hair::new(0.95, 1.4, Rgb::ZERO, 0.6, 0.15, -2.0),
+                Hair::new(0.95, 1.4, Spectrum::ZERO, 0.6, 0.15, -2.0),
                 unit(0.1, -0.9, 0.2),
                 unit(-0.1, -0.2, 0.95),
                 [2.144_552_7e-3; 3],
                 2.087_506_5e-3,
             ),
             (
-                Hair::new(0.0, 1.55, Rgb::new(1.0, 2.0, 3.0), 0.12, 0.8, 5.0),
+                Hair::new(
+                    0.0,
+                    1.55,
+                    crate::spectrum::rgb(1.0, 2.0, 3.0),
+                    0.12,
+                    0.8,
+                    5.0,
+                ),
                 unit(0.8, 0.1, 0.5),
                 unit(-0.7, 0.3, 0.6),
                 [3.067_743e-1, 3.067_225_2e-1, 3.067_221e-1],
                 1.655_827_9,
             ),
             (
-                Hair::new(-0.2, 1.55, Rgb::splat(0.1), 0.05, 0.3, 2.0),
+                Hair::new(-0.2, 1.55, Spectrum::splat(0.1), 0.05, 0.3, 2.0),
                 unit(0.2, 0.3, 0.9),
                 unit(-0.21, 0.5, 0.8),
                 [7.710_32e-2; 3],
@@ -926,9 +953,9 @@ mod tests {
         let wo = Vec3A::new(0.549_869_66, 0.033_590_17, 0.834_574_76);
         let wi = Vec3A::new(-0.373_833_57, -0.919_200_84, 0.123_766_96);
         for hair in [
-            fibre(-1.0, Rgb::ZERO, 0.1, 0.1, 0.0),
-            fibre(1.0, Rgb::splat(5.0), 0.0, 0.0, 2.0),
-            Hair::new(0.5, 1.0, Rgb::splat(1e3), 1.0, 1.0, 90.0).expect("valid"),
+            fibre(-1.0, Spectrum::ZERO, 0.1, 0.1, 0.0),
+            fibre(1.0, Spectrum::splat(5.0), 0.0, 0.0, 2.0),
+            Hair::new(0.5, 1.0, Spectrum::splat(1e3), 1.0, 1.0, 90.0).expect("valid"),
         ] {
             for (a, b) in [
                 (wo, wi),
@@ -968,8 +995,8 @@ mod tests {
     #[test]
     fn absorption_from_reflectance_and_concentration() {
         // Chiang et al.'s fit at c = 0.5, 0.2 and 0.9 (the quintic by hand, in f64).
-        let a = Hair::sigma_a_from_reflectance(Rgb::new(0.5, 0.2, 0.9), 0.3);
-        let b = Hair::sigma_a_from_reflectance(Rgb::splat(0.9), 0.7);
+        let a = Hair::sigma_a_from_reflectance(crate::spectrum::rgb(0.5, 0.2, 0.9), 0.3);
+        let b = Hair::sigma_a_from_reflectance(Spectrum::splat(0.9), 0.7);
         for (got, want) in [
             (a.x, 0.013_856_519),
             (a.y, 0.074_705_34),
@@ -979,11 +1006,14 @@ mod tests {
         }
         // White hair does not absorb; darker asks for more absorption, finite even for black.
         for beta_n in [0.1f32, 0.3, 0.6, 1.0] {
-            assert_eq!(Hair::sigma_a_from_reflectance(Rgb::ONE, beta_n), Rgb::ZERO);
+            assert_eq!(
+                Hair::sigma_a_from_reflectance(Spectrum::ONE, beta_n),
+                Spectrum::ZERO
+            );
             let mut last = 0.0f32;
             for i in (0..=20).rev() {
                 let c = i as f32 / 20.0;
-                let sigma = Hair::sigma_a_from_reflectance(Rgb::splat(c), beta_n);
+                let sigma = Hair::sigma_a_from_reflectance(Spectrum::splat(c), beta_n);
                 assert!(sigma.is_finite() && sigma.min_element() >= 0.0);
                 assert!(sigma.x >= last, "beta_n {beta_n}, c {c}");
                 if i < 20 {
@@ -995,11 +1025,14 @@ mod tests {
         // Concentrations: linear in each pigment, eumelanin bluer-absorbing than pheomelanin.
         let e = Hair::sigma_a_from_concentration(1.0, 0.0);
         let p = Hair::sigma_a_from_concentration(0.0, 1.0);
-        assert_eq!(e, Rgb::new(0.419, 0.697, 1.37));
-        assert_eq!(p, Rgb::new(0.187, 0.4, 1.05));
+        assert_eq!(e, crate::spectrum::rgb(0.419, 0.697, 1.37));
+        assert_eq!(p, crate::spectrum::rgb(0.187, 0.4, 1.05));
         let mix = Hair::sigma_a_from_concentration(2.0, 0.5);
         assert!((mix - (e * 2.0 + p * 0.5)).abs().max_element() < 1e-6);
-        assert_eq!(Hair::sigma_a_from_concentration(-1.0, f32::NAN), Rgb::ZERO);
+        assert_eq!(
+            Hair::sigma_a_from_concentration(-1.0, f32::NAN),
+            Spectrum::ZERO
+        );
         // The colours they make: brown hair is red > green > blue, more pigment is darker,
         // and a fibre given the absorption for a reflectance is lighter where it is lighter.
         let brown = Hair::default().albedo();
@@ -1007,14 +1040,14 @@ mod tests {
             brown.x > brown.y && brown.y > brown.z && brown.x < 1.0,
             "{brown}"
         );
-        let mut last = Rgb::ONE;
+        let mut last = Spectrum::ONE;
         for c in [0.0f32, 0.3, 1.3, 3.0, 8.0] {
             let hair = fibre(0.0, Hair::sigma_a_from_concentration(c, 0.0), 0.3, 0.3, 2.0);
             let albedo = hair.albedo();
             assert!(albedo.cmple(last).all() && albedo.min_element() > 0.0);
             last = albedo;
         }
-        let wanted = Rgb::new(0.7, 0.4, 0.1);
+        let wanted = crate::spectrum::rgb(0.7, 0.4, 0.1);
         let tinted = fibre(
             0.0,
             Hair::sigma_a_from_reflectance(wanted, 0.3),
@@ -1025,7 +1058,7 @@ mod tests {
         let albedo = tinted.albedo();
         assert!(albedo.x > albedo.y && albedo.y > albedo.z, "{albedo}");
         assert!(
-            (fibre(0.0, Rgb::ZERO, 0.3, 0.3, 2.0).albedo() - Rgb::ONE)
+            (fibre(0.0, Spectrum::ZERO, 0.3, 0.3, 2.0).albedo() - Spectrum::ONE)
                 .abs()
                 .max_element()
                 < 1e-5
@@ -1034,7 +1067,8 @@ mod tests {
 
     #[test]
     fn constructor_checks_and_offsets() {
-        let ok = |h, eta, beta_m, beta_n, alpha| Hair::new(h, eta, Rgb::ONE, beta_m, beta_n, alpha);
+        let ok =
+            |h, eta, beta_m, beta_n, alpha| Hair::new(h, eta, Spectrum::ONE, beta_m, beta_n, alpha);
         assert!(ok(0.0, 1.55, 0.3, 0.3, 2.0).is_ok());
         assert!(ok(1.5, 1.55, 0.3, 0.3, 2.0)
             .unwrap_err()
@@ -1050,7 +1084,7 @@ mod tests {
         assert!(ok(f32::NAN, 1.55, 0.3, 0.3, 2.0)
             .unwrap_err()
             .contains("finite"));
-        assert!(Hair::new(0.0, 1.55, Rgb::splat(-1.0), 0.3, 0.3, 2.0).is_err());
+        assert!(Hair::new(0.0, 1.55, Spectrum::splat(-1.0), 0.3, 0.3, 2.0).is_err());
         // Roughness is raised to 0.01, as pbrt's material does.
         let smooth = ok(0.0, 1.55, 0.0, 0.001, 2.0).expect("valid");
         assert_eq!((smooth.beta_m(), smooth.beta_n()), (0.01, 0.01));

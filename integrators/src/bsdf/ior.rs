@@ -8,7 +8,6 @@
 //! negative channels are clamped to 0 as Mitsuba clamps them.
 
 use super::ComplexIor;
-use crate::Rgb;
 
 /// Dielectrics by name, with their IOR.
 pub const DIELECTRICS: &[(&str, f32)] = &[
@@ -201,8 +200,8 @@ pub fn metal(name: &str) -> Result<Option<ComplexIor>, String> {
         .find(|(n, _, _)| *n == name)
         .map(|(_, eta, k)| {
             Some(ComplexIor {
-                eta: Rgb::from_array(*eta),
-                k: Rgb::from_array(*k),
+                eta: crate::spectrum::of_rgb(glam::Vec3A::from_array(*eta)),
+                k: crate::spectrum::of_rgb(glam::Vec3A::from_array(*k)),
             })
         })
         .ok_or_else(|| {
@@ -255,7 +254,11 @@ mod tests {
         // Every table entry is a valid complex IOR.
         for (name, eta, k) in METALS {
             assert!(
-                ComplexIor::new(Rgb::from_array(*eta), Rgb::from_array(*k)).is_ok(),
+                ComplexIor::new(
+                    crate::spectrum::of_rgb(glam::Vec3A::from_array(*eta)),
+                    crate::spectrum::of_rgb(glam::Vec3A::from_array(*k))
+                )
+                .is_ok(),
                 "{name}"
             );
         }

@@ -2,18 +2,18 @@
 
 use super::{BsdfSample, Bxdf, Lobes};
 use crate::sampling::cosine_hemisphere_pdf;
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lambert {
-    pub albedo: Rgb,
+    pub albedo: Spectrum,
 }
 
 impl Lambert {
     /// A Lambertian reflector of reflectance `albedo` (each channel in `[0, 1]`).
-    pub fn new(albedo: Rgb) -> Result<Lambert, String> {
+    pub fn new(albedo: Spectrum) -> Result<Lambert, String> {
         Ok(Lambert {
             albedo: super::checks::reflectance("albedo", albedo)?,
         })
@@ -26,9 +26,9 @@ impl Bxdf for Lambert {
         Lobes::DIFFUSE_REFLECTION
     }
 
-    fn eval(&self, _wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, _wo: Vec3A, wi: Vec3A) -> Spectrum {
         if wi.z <= 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         self.albedo * FRAC_1_PI
     }
@@ -41,7 +41,7 @@ impl Bxdf for Lambert {
         BsdfSample::cosine_weighted(u, |_| self.albedo * FRAC_1_PI)
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.albedo
     }
 }
@@ -56,7 +56,7 @@ mod tests {
     #[test]
     fn chi2_cosine_hemisphere() {
         let l = Lambert {
-            albedo: Rgb::new(0.8, 0.5, 0.2),
+            albedo: crate::spectrum::rgb(0.8, 0.5, 0.2),
         };
         let wo = dir(30.0, 10.0);
         assert_chi2(
@@ -71,7 +71,7 @@ mod tests {
 
     #[test]
     fn sample_matches_eval_and_albedo_is_exact() {
-        let albedo = Rgb::new(0.8, 0.5, 0.2);
+        let albedo = crate::spectrum::rgb(0.8, 0.5, 0.2);
         let l = Lambert { albedo };
         for wo in [dir(0.0, 0.0), dir(60.0, 30.0), dir(89.0, 200.0)] {
             check_sample_matches_eval(&l, wo, 10_000, 202);
@@ -85,7 +85,7 @@ mod tests {
         }
         assert_eq!(
             l.eval(dir(10.0, 0.0), Vec3A::new(0.6, 0.0, -0.8)),
-            Rgb::ZERO
+            Spectrum::ZERO
         );
     }
 }

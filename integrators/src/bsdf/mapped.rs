@@ -27,7 +27,7 @@
 //! other direction whichever it is.
 
 use super::{BsdfSample, Lobes, Material, TransportMode};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::borrow::Cow;
 use std::ops::Deref;
@@ -193,16 +193,16 @@ impl<'a> MappedBsdf<'a> {
 
     /// [`Material::eval`] with the map's terms and the mask's opacity.
     #[inline]
-    pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         if self.behind(wo, wi) {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let g = match &self.map {
             None => 1.0,
             Some(m) => m.factor(wo, wi),
         } * self.opacity;
         if g == 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let f = self.material.eval(wo, wi);
         if g == 1.0 {
@@ -227,16 +227,16 @@ impl<'a> MappedBsdf<'a> {
 
     /// [`Material::eval_pdf`] with the map's terms and the mask's opacity.
     #[inline]
-    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Spectrum, f32) {
         if self.behind(wo, wi) {
-            return (Rgb::ZERO, 0.0);
+            return (Spectrum::ZERO, 0.0);
         }
         let g = match &self.map {
             None => 1.0,
             Some(m) => m.factor(wo, wi),
         };
         if g == 0.0 || self.opacity == 0.0 {
-            return (Rgb::ZERO, 0.0);
+            return (Spectrum::ZERO, 0.0);
         }
         let (f, pdf) = self.material.eval_pdf(wo, wi);
         if g == 1.0 && !self.see_through() {
@@ -259,7 +259,7 @@ impl<'a> MappedBsdf<'a> {
                 let cos = wi.z.abs();
                 return (cos > 0.0).then_some(BsdfSample {
                     wi,
-                    f: Rgb::splat(null / cos),
+                    f: Spectrum::splat(null / cos),
                     pdf: null,
                     specular: true,
                     eta: 1.0,
@@ -291,13 +291,13 @@ impl<'a> MappedBsdf<'a> {
     /// Volumetric tracers count such a crossing as no scattering event, and let shadow rays
     /// through with this weight.
     #[inline]
-    pub fn null_transmission(&self, wo: Vec3A) -> Rgb {
+    pub fn null_transmission(&self, wo: Vec3A) -> Spectrum {
         let own = if self.opacity > 0.0 {
             self.material.null_transmission(wo) * self.opacity
         } else {
-            Rgb::ZERO
+            Spectrum::ZERO
         };
-        Rgb::splat(1.0 - self.opacity) + own
+        Spectrum::splat(1.0 - self.opacity) + own
     }
 
     /// Whether a one-sided material sees `wo` or `wi` from behind.
@@ -308,7 +308,7 @@ impl<'a> MappedBsdf<'a> {
 
     /// [`Material::sample_weight`] times the shadowing of the sampled direction.
     #[inline]
-    pub fn sample_weight(&self, wo: Vec3A, s: &BsdfSample, mode: TransportMode) -> Rgb {
+    pub fn sample_weight(&self, wo: Vec3A, s: &BsdfSample, mode: TransportMode) -> Spectrum {
         let w = self.material.sample_weight(wo, s, mode);
         match &self.map {
             None => w,
@@ -323,7 +323,7 @@ mod tests {
     use crate::bsdf::Lambert;
 
     fn lambert() -> Material {
-        Material::Lambert(Lambert::new(Rgb::ONE).unwrap())
+        Material::Lambert(Lambert::new(Spectrum::ONE).unwrap())
     }
 
     /// Without a tilt the terms change nothing; with one, the value of the direction that is
@@ -363,7 +363,7 @@ mod tests {
         // Above the tilted normal, below the unperturbed one: refused.
         let across = Vec3A::new(0.9, 0.0, 0.2).normalize();
         assert!(across.z > 0.0 && across.dot(n0) < 0.0);
-        assert_eq!(mapped.eval(wo, across), Rgb::ZERO);
+        assert_eq!(mapped.eval(wo, across), Spectrum::ZERO);
         assert_eq!(mapped.pdf(wo, across), 0.0);
     }
 
@@ -396,7 +396,7 @@ mod tests {
             if b.specular {
                 through += 1;
                 assert_eq!(b.wi, -wo);
-                assert!((b.weight() - Rgb::ONE).abs().max_element() < 1e-5);
+                assert!((b.weight() - Spectrum::ONE).abs().max_element() < 1e-5);
             } else {
                 assert!((m.pdf(wo, b.wi) - b.pdf).abs() < 1e-5 * b.pdf);
                 assert!((m.eval(wo, b.wi) - b.f).abs().max_element() < 1e-6);

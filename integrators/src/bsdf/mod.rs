@@ -50,7 +50,7 @@ pub use textured::{
 };
 pub use thin_dielectric::ThinDielectric;
 
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 
 /// The result of sampling a BSDF.
@@ -60,7 +60,7 @@ pub struct BsdfSample {
     pub wi: Vec3A,
     /// BSDF value for `(wo, wi)`. For specular lobes this holds the delta's weight, so that
     /// `f * |cos(wi)| / pdf` is always the sample's throughput weight.
-    pub f: Rgb,
+    pub f: Spectrum,
     /// Density per unit solid angle; for specular lobes, the discrete probability of the lobe.
     pub pdf: f32,
     /// True when the sampled lobe is a Dirac delta (mirror reflection or refraction).
@@ -83,7 +83,7 @@ pub enum TransportMode {
 impl BsdfSample {
     /// A sample of a lobe that is not a delta, in reflection (`eta` 1).
     #[inline]
-    pub fn reflection(wi: Vec3A, f: Rgb, pdf: f32) -> BsdfSample {
+    pub fn reflection(wi: Vec3A, f: Spectrum, pdf: f32) -> BsdfSample {
         BsdfSample {
             wi,
             f,
@@ -96,7 +96,7 @@ impl BsdfSample {
     /// A cosine-weighted direction of the upper hemisphere with BSDF value `f(wi)`: how
     /// diffuse lobes sample. `None` where the density vanishes (the horizon).
     #[inline]
-    pub fn cosine_weighted(u: Vec2, f: impl FnOnce(Vec3A) -> Rgb) -> Option<BsdfSample> {
+    pub fn cosine_weighted(u: Vec2, f: impl FnOnce(Vec3A) -> Spectrum) -> Option<BsdfSample> {
         let wi = crate::sampling::cosine_hemisphere(u);
         let pdf = crate::sampling::cosine_hemisphere_pdf(wi.z);
         (pdf > 0.0).then(|| BsdfSample::reflection(wi, f(wi), pdf))
@@ -120,7 +120,7 @@ impl BsdfSample {
 
     /// Throughput weight `f * |cos(wi)| / pdf`.
     #[inline]
-    pub fn weight(&self) -> Rgb {
+    pub fn weight(&self) -> Spectrum {
         self.f * (self.wi.z.abs() / self.pdf)
     }
 }
@@ -165,7 +165,7 @@ pub trait Bxdf {
     /// The kinds of lobe the model has (required: a new model says what it is).
     fn lobes(&self) -> Lobes;
     /// `f(wo, wi)`, without the cosine factor. Zero for specular models.
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb;
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum;
     /// Density with which [`Bxdf::sample`] returns `wi`, per unit solid angle. Zero for
     /// specular models.
     fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32;
@@ -173,14 +173,14 @@ pub trait Bxdf {
     /// share work (the half vector, the microfacet density) compute it once (Mitsuba's
     /// `eval_pdf`).
     #[inline]
-    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Spectrum, f32) {
         (self.eval(wo, wi), self.pdf(wo, wi))
     }
     /// Samples `wi` given `wo`; `u_lobe` picks between lobes, `u` places the direction.
     fn sample(&self, wo: Vec3A, u_lobe: f32, u: Vec2) -> Option<BsdfSample>;
     /// Directional-hemispherical reflectance at normal incidence, or the base colour: what the
     /// `albedo` debug view shows.
-    fn albedo(&self) -> Rgb;
+    fn albedo(&self) -> Spectrum;
 }
 
 /// A surface material. The closed set of models raylab supports.
@@ -244,10 +244,10 @@ impl Material {
     /// What passes straight through from `wo`'s side, undeviated: a thin dielectric's
     /// transmission; nothing for every other model.
     #[inline]
-    pub fn null_transmission(&self, wo: Vec3A) -> Rgb {
+    pub fn null_transmission(&self, wo: Vec3A) -> Spectrum {
         match self {
             Material::ThinDielectric(m) => m.transmittance * (1.0 - m.pane_reflectance(wo.z)),
-            _ => Rgb::ZERO,
+            _ => Spectrum::ZERO,
         }
     }
 
@@ -293,18 +293,18 @@ impl Material {
 
     /// `f(wo, wi)` in the local frame, without the cosine.
     #[inline]
-    pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         let Some((wo, wi)) = self.oriented(wo, wi) else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         dispatch!(self, m => m.eval(wo, wi))
     }
 
     /// `(eval, pdf)` at once, the same bits as [`Material::eval`] and [`Material::pdf`].
     #[inline]
-    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Spectrum, f32) {
         let Some((wo, wi)) = self.oriented(wo, wi) else {
-            return (Rgb::ZERO, 0.0);
+            return (Spectrum::ZERO, 0.0);
         };
         dispatch!(self, m => m.eval_pdf(wo, wi))
     }
@@ -351,7 +351,7 @@ impl Material {
     /// by `1/eta^2` but conserves power, so for importance the weight of a refraction is
     /// `eta^2` times the radiance weight.
     #[inline]
-    pub fn sample_weight(&self, wo: Vec3A, s: &BsdfSample, mode: TransportMode) -> Rgb {
+    pub fn sample_weight(&self, wo: Vec3A, s: &BsdfSample, mode: TransportMode) -> Spectrum {
         match mode {
             TransportMode::Importance if wo.z * s.wi.z < 0.0 => s.weight() * (s.eta * s.eta),
             _ => s.weight(),
@@ -381,7 +381,7 @@ impl Material {
 
     /// Base colour, for the `albedo` debug view.
     #[inline]
-    pub fn albedo(&self) -> Rgb {
+    pub fn albedo(&self) -> Spectrum {
         dispatch!(self, m => m.albedo())
     }
 }
@@ -396,12 +396,12 @@ mod tests {
     fn opaque_materials_are_two_sided_and_consistent_below_the_surface() {
         let materials = [
             Material::Lambert(Lambert {
-                albedo: Rgb::splat(0.5),
+                albedo: Spectrum::splat(0.5),
             }),
-            Material::OrenNayar(OrenNayar::new(Rgb::splat(0.5), 30.0)),
+            Material::OrenNayar(OrenNayar::new(Spectrum::splat(0.5), 30.0)),
             Material::Phong(Phong {
-                kd: Rgb::splat(0.3),
-                ks: Rgb::splat(0.6),
+                kd: Spectrum::splat(0.3),
+                ks: Spectrum::splat(0.6),
                 exponent: 20.0,
             }),
         ];
@@ -431,7 +431,10 @@ mod tests {
                     let flip = |v: Vec3A| Vec3A::new(v.x, v.y, -v.z);
                     assert!((m.eval(flip(wo), flip(b.wi)) - f).abs().max_element() <= 1e-6);
                 }
-                assert_eq!(m.eval(wo, Vec3A::new(0.0, 0.0, -wo.z.signum())), Rgb::ZERO);
+                assert_eq!(
+                    m.eval(wo, Vec3A::new(0.0, 0.0, -wo.z.signum())),
+                    Spectrum::ZERO
+                );
                 assert_eq!(m.pdf(wo, Vec3A::new(0.0, 0.0, -wo.z.signum())), 0.0);
             }
         }
@@ -439,7 +442,7 @@ mod tests {
 
     #[test]
     fn glass_sees_the_true_side() {
-        let m = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
+        let m = Material::Dielectric(Dielectric::unchecked(1.5, Spectrum::ONE));
         assert!(m.is_specular());
         // From inside past the critical angle: total internal reflection, staying inside.
         let b = m
@@ -455,7 +458,7 @@ mod tests {
     fn photons_through_glass_keep_their_power() {
         // Lossless glass conserves power: the mean importance weight over both lobes is 1 from
         // either side, while radiance weights carry 1/eta^2 on refraction.
-        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
+        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Spectrum::ONE));
         let mut s = Sampler::new(77, 0, 0);
         for wo in [dir(30.0, 20.0), dir(150.0, 20.0)] {
             let n = 200_000;

@@ -47,7 +47,7 @@
 
 use super::{BsdfSample, Bxdf, Lobes};
 use crate::sampling::cosine_hemisphere_pdf;
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
@@ -55,7 +55,7 @@ use std::f32::consts::FRAC_1_PI;
 #[derive(Clone, Debug, PartialEq)]
 pub struct OrenNayar {
     /// Diffuse reflectance per channel, unitless, in `[0, 1]`.
-    pub albedo: Rgb,
+    pub albedo: Spectrum,
     /// Roughness: standard deviation of the facet slope angle, in radians.
     pub sigma: f32,
     a: f32,
@@ -67,7 +67,7 @@ impl OrenNayar {
     /// it is stored in radians in [`OrenNayar::sigma`].
     /// Oren–Nayar of reflectance `albedo` (in `[0, 1]`) and roughness `sigma_degrees` (the
     /// standard deviation of the facet angle, in `[0, 90]` degrees).
-    pub fn checked(albedo: Rgb, sigma_degrees: f32) -> Result<Self, String> {
+    pub fn checked(albedo: Spectrum, sigma_degrees: f32) -> Result<Self, String> {
         super::checks::finite("sigma", &[sigma_degrees])?;
         if !(0.0..=90.0).contains(&sigma_degrees) {
             return Err(format!(
@@ -79,7 +79,7 @@ impl OrenNayar {
     }
 
     /// [`OrenNayar::checked`] without the checks, for parameters known to be valid.
-    pub fn new(albedo: Rgb, sigma_degrees: f32) -> Self {
+    pub fn new(albedo: Spectrum, sigma_degrees: f32) -> Self {
         let sigma = sigma_degrees.to_radians();
         let s2 = sigma * sigma;
         OrenNayar {
@@ -97,9 +97,9 @@ impl Bxdf for OrenNayar {
         Lobes::DIFFUSE_REFLECTION
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         if wi.z <= 0.0 || wo.z < 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         // max(0, cos(dphi)) sin(alpha) tan(beta); the denominator is >= wi.z > 0.
         let azimuth = (wi.x * wo.x + wi.y * wo.y).max(0.0) / wi.z.max(wo.z);
@@ -114,7 +114,7 @@ impl Bxdf for OrenNayar {
         BsdfSample::cosine_weighted(u, |wi| self.eval(wo, wi))
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.albedo
     }
 }
@@ -128,7 +128,7 @@ mod tests {
     use crate::Sampler;
 
     /// The textbook formula with explicit angles, independent of the trig-free rewrite.
-    fn reference(albedo: Rgb, sigma_deg: f64, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn reference(albedo: Spectrum, sigma_deg: f64, wo: Vec3A, wi: Vec3A) -> Spectrum {
         let s2 = sigma_deg.to_radians().powi(2);
         let a = 1.0 - 0.5 * s2 / (s2 + 0.33);
         let b = 0.45 * s2 / (s2 + 0.09);
@@ -161,7 +161,7 @@ mod tests {
 
     #[test]
     fn matches_the_formula_with_tan_beta() {
-        let albedo = Rgb::new(0.9, 0.6, 0.3);
+        let albedo = crate::spectrum::rgb(0.9, 0.6, 0.3);
         let mut s = Sampler::new(301, 0, 0);
         for sigma in [0.0f32, 10.0, 30.0, 60.0] {
             let on = OrenNayar::new(albedo, sigma);
@@ -191,14 +191,14 @@ mod tests {
         assert!(f.is_finite() && (f - albedo * (on.a * FRAC_1_PI)).length() < 1e-6);
         assert_eq!(
             on.eval(dir(30.0, 0.0), Vec3A::new(0.6, 0.0, -0.8)),
-            Rgb::ZERO
+            Spectrum::ZERO
         );
     }
 
     #[test]
     fn directional_albedo_is_a_at_normal_and_a_plus_half_b_at_grazing_incidence() {
         for sigma in [15.0f32, 30.0, 60.0] {
-            let on = OrenNayar::new(Rgb::ONE, sigma);
+            let on = OrenNayar::new(Spectrum::ONE, sigma);
             let normal = albedo_quadrature(&on, Vec3A::Z);
             assert!(
                 (normal - on.a as f64).abs() < 1e-4,
@@ -216,7 +216,7 @@ mod tests {
 
     #[test]
     fn conserves_energy_for_sigma_of_20_degrees_and_more() {
-        let albedo = Rgb::new(1.0, 0.7, 0.2);
+        let albedo = crate::spectrum::rgb(1.0, 0.7, 0.2);
         for sigma in [20.0f32, 30.0, 60.0, 90.0] {
             let on = OrenNayar::new(albedo, sigma);
             for theta in [0.0f32, 30.0, 60.0, 80.0, 89.0] {
@@ -226,7 +226,7 @@ mod tests {
         // The documented limitation: below ~20 degrees the qualitative fit reflects up to 1.5%
         // too much at grazing incidence, never more.
         let worst = (1..=900)
-            .map(|i| OrenNayar::new(Rgb::ONE, i as f32 * 0.1))
+            .map(|i| OrenNayar::new(Spectrum::ONE, i as f32 * 0.1))
             .map(|on| on.a + 0.5 * on.b)
             .fold(0.0f32, f32::max);
         assert!(worst > 1.01 && worst < 1.016, "{worst}");
@@ -236,7 +236,7 @@ mod tests {
     fn sample_matches_eval() {
         for (sigma, theta) in [(20.0, 0.0), (20.0, 75.0), (60.0, 45.0), (60.0, 89.5)] {
             check_sample_matches_eval(
-                &OrenNayar::new(Rgb::new(0.8, 0.5, 0.3), sigma),
+                &OrenNayar::new(crate::spectrum::rgb(0.8, 0.5, 0.3), sigma),
                 dir(theta, 33.0),
                 20_000,
                 303,
@@ -245,7 +245,7 @@ mod tests {
     }
 
     fn chi2(name: &str, sigma: f32, theta: f32, seed: u64) {
-        let on = OrenNayar::new(Rgb::new(0.8, 0.5, 0.3), sigma);
+        let on = OrenNayar::new(crate::spectrum::rgb(0.8, 0.5, 0.3), sigma);
         let wo = dir(theta, 20.0);
         assert_chi2(
             name,

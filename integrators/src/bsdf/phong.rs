@@ -55,7 +55,8 @@
 
 use super::{BsdfSample, Bxdf, Lobes};
 use crate::sampling::cosine_hemisphere;
-use crate::{luminance, Frame, Rgb};
+use crate::spectrum::rgb_of;
+use crate::{luminance, Frame, Spectrum};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -63,9 +64,9 @@ use std::f32::consts::{FRAC_1_PI, PI};
 #[derive(Clone, Debug, PartialEq)]
 pub struct Phong {
     /// Diffuse reflectance per channel, unitless.
-    pub kd: Rgb,
+    pub kd: Spectrum,
     /// Specular reflectance per channel (at normal incidence), unitless.
-    pub ks: Rgb,
+    pub ks: Spectrum,
     /// Phong exponent `n >= 0`, unitless.
     pub exponent: f32,
 }
@@ -86,8 +87,8 @@ impl Phong {
     /// Probability of sampling the specular lobe.
     #[inline]
     fn specular_probability(&self) -> f32 {
-        let d = luminance(self.kd).max(0.0);
-        let s = luminance(self.ks).max(0.0);
+        let d = luminance(rgb_of(self.kd)).max(0.0);
+        let s = luminance(rgb_of(self.ks)).max(0.0);
         let total = d + s;
         if total > 0.0 && total.is_finite() {
             s / total
@@ -112,7 +113,7 @@ impl Phong {
     /// Energy-conserving Phong: diffuse `kd` and specular `ks` reflectances with
     /// `kd + ks <= 1` per channel, and a lobe `exponent` in `[0, 1e5]` (beyond that `cos^n`
     /// underflows in f32 and sampling no longer matches the density: use a mirror).
-    pub fn new(kd: Rgb, ks: Rgb, exponent: f32) -> Result<Phong, String> {
+    pub fn new(kd: Spectrum, ks: Spectrum, exponent: f32) -> Result<Phong, String> {
         use super::checks::{finite, reflectance};
         let (kd, ks) = (reflectance("kd", kd)?, reflectance("ks", ks)?);
         if (kd + ks).max_element() > 1.0 + 1e-6 {
@@ -137,9 +138,9 @@ impl Bxdf for Phong {
         Lobes::DIFFUSE_REFLECTION.with(Lobes::GLOSSY_REFLECTION)
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         if wi.z <= 0.0 || wo.z < 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let lobe = (self.n() + 2.0) * (0.5 * FRAC_1_PI) * self.lobe_cos_pow(wo, wi);
         self.kd * FRAC_1_PI + self.ks * lobe
@@ -177,7 +178,7 @@ impl Bxdf for Phong {
         BsdfSample::evaluated(self, wo, wi)
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.kd + self.ks
     }
 }
@@ -193,8 +194,8 @@ mod tests {
 
     fn phong(kd: f32, ks: f32, exponent: f32) -> Phong {
         Phong {
-            kd: Rgb::splat(kd),
-            ks: Rgb::splat(ks),
+            kd: Spectrum::splat(kd),
+            ks: Spectrum::splat(ks),
             exponent,
         }
     }
@@ -202,8 +203,8 @@ mod tests {
     #[test]
     fn eval_is_the_normalised_lobe_and_reciprocal() {
         let p = Phong {
-            kd: Rgb::new(0.3, 0.2, 0.1),
-            ks: Rgb::new(0.5, 0.6, 0.7),
+            kd: crate::spectrum::rgb(0.3, 0.2, 0.1),
+            ks: crate::spectrum::rgb(0.5, 0.6, 0.7),
             exponent: 20.0,
         };
         let mut s = Sampler::new(401, 0, 0);
@@ -231,7 +232,7 @@ mod tests {
         }
         assert_eq!(
             p.eval(dir(20.0, 0.0), Vec3A::new(0.0, 0.6, -0.8)),
-            Rgb::ZERO
+            Spectrum::ZERO
         );
         assert_eq!(p.pdf(dir(20.0, 0.0), Vec3A::new(0.0, 0.6, -0.8)), 0.0);
     }
@@ -258,7 +259,7 @@ mod tests {
                         "Phong",
                         &p,
                         dir(theta, 15.0),
-                        Rgb::splat(kd + ks),
+                        Spectrum::splat(kd + ks),
                         50_000,
                         403,
                     );
@@ -281,8 +282,8 @@ mod tests {
         }
         // Coloured: lobe selection by luminance.
         let p = Phong {
-            kd: Rgb::new(0.6, 0.1, 0.0),
-            ks: Rgb::new(0.0, 0.3, 0.9),
+            kd: crate::spectrum::rgb(0.6, 0.1, 0.0),
+            ks: crate::spectrum::rgb(0.0, 0.3, 0.9),
             exponent: 30.0,
         };
         check_sample_matches_eval(&p, dir(50.0, 10.0), 20_000, 405);
@@ -294,7 +295,7 @@ mod tests {
         let mut s = Sampler::new(406, 0, 0);
         for _ in 0..1000 {
             if let Some(b) = p.sample(dir(30.0, 0.0), s.next_1d(), s.next_2d()) {
-                assert!(b.weight() == Rgb::ZERO && b.pdf > 0.0);
+                assert!(b.weight() == Spectrum::ZERO && b.pdf > 0.0);
             }
         }
         let neg = phong(0.5, 0.5, -3.0);

@@ -24,15 +24,15 @@
 
 use super::fresnel::{fresnel_dielectric, fresnel_diffuse_reflectance};
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
 /// Smooth plastic (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Plastic {
-    pub diffuse: Rgb,
-    pub specular: Rgb,
+    pub diffuse: Spectrum,
+    pub specular: Spectrum,
     pub ior: f32,
     pub nonlinear: bool,
     /// Internal diffuse reflectance of the coating, `F_dr(1 / ior)`.
@@ -43,13 +43,13 @@ pub struct Plastic {
 
 /// The checked parameters and precomputed constants every coated material shares.
 pub(super) struct Coating {
-    pub diffuse: Rgb,
-    pub specular: Rgb,
+    pub diffuse: Spectrum,
+    pub specular: Spectrum,
     pub specular_weight: f32,
 }
 
 impl Coating {
-    pub(super) fn new(diffuse: Rgb, specular: Rgb, ior: f32) -> Result<Coating, String> {
+    pub(super) fn new(diffuse: Spectrum, specular: Spectrum, ior: f32) -> Result<Coating, String> {
         let diffuse = super::checks::reflectance("diffuse_reflectance", diffuse)?;
         let specular = super::checks::reflectance("specular_reflectance", specular)?;
         super::checks::finite("ior", &[ior])?;
@@ -69,7 +69,7 @@ impl Coating {
 
 /// The mean of a colour's channels.
 #[inline]
-fn mean(c: Rgb) -> f32 {
+fn mean(c: Spectrum) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
@@ -88,9 +88,9 @@ pub(super) fn coating_probability(f: f32, specular_weight: f32) -> f32 {
 
 /// `rho'`: the base's reflectance with the internal bounces summed.
 #[inline]
-pub(super) fn multiple_bounces(diffuse: Rgb, internal: f32, nonlinear: bool) -> Rgb {
+pub(super) fn multiple_bounces(diffuse: Spectrum, internal: f32, nonlinear: bool) -> Spectrum {
     if nonlinear {
-        diffuse / (Rgb::ONE - diffuse * internal)
+        diffuse / (Spectrum::ONE - diffuse * internal)
     } else {
         diffuse / (1.0 - internal)
     }
@@ -98,7 +98,12 @@ pub(super) fn multiple_bounces(diffuse: Rgb, internal: f32, nonlinear: bool) -> 
 
 impl Plastic {
     /// Smooth plastic with base `diffuse`, coating tint `specular`, relative IOR `ior` (> 1).
-    pub fn new(diffuse: Rgb, specular: Rgb, ior: f32, nonlinear: bool) -> Result<Plastic, String> {
+    pub fn new(
+        diffuse: Spectrum,
+        specular: Spectrum,
+        ior: f32,
+        nonlinear: bool,
+    ) -> Result<Plastic, String> {
         let c = Coating::new(diffuse, specular, ior)?;
         Ok(Plastic {
             diffuse: c.diffuse,
@@ -119,7 +124,7 @@ impl Plastic {
 
     /// The diffuse part for two upper-side directions.
     #[inline]
-    fn diffuse_part(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn diffuse_part(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         let t =
             (1.0 - fresnel_dielectric(wo.z, self.ior)) * (1.0 - fresnel_dielectric(wi.z, self.ior));
         multiple_bounces(self.diffuse, self.fdr_int, self.nonlinear)
@@ -133,9 +138,9 @@ impl Bxdf for Plastic {
         Lobes::DELTA_REFLECTION.with(Lobes::DIFFUSE_REFLECTION)
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         self.diffuse_part(wo, wi)
     }
@@ -168,7 +173,7 @@ impl Bxdf for Plastic {
         (pdf > 0.0).then(|| BsdfSample::reflection(wi, self.diffuse_part(wo, wi), pdf))
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.diffuse
     }
 }

@@ -18,14 +18,14 @@
 use super::conductor::{conductor_fresnel, ComplexIor};
 use super::microfacet::{reflect, HalfVector, Microfacet};
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 
 /// A rough metal (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RoughConductor {
     pub ior: Option<ComplexIor>,
-    pub reflectance: Rgb,
+    pub reflectance: Spectrum,
     pub microfacet: Microfacet,
 }
 
@@ -33,7 +33,7 @@ impl RoughConductor {
     /// A rough metal of complex IOR `ior` (none: perfect mirrors) tinted by `reflectance`.
     pub fn new(
         ior: Option<ComplexIor>,
-        reflectance: Rgb,
+        reflectance: Spectrum,
         microfacet: Microfacet,
     ) -> Result<RoughConductor, String> {
         Ok(RoughConductor {
@@ -47,10 +47,10 @@ impl RoughConductor {
 impl RoughConductor {
     /// `f(wo, wi)` for upper-side directions with half vector `hv`.
     #[inline]
-    fn value(&self, wo: Vec3A, wi: Vec3A, hv: &HalfVector) -> Rgb {
+    fn value(&self, wo: Vec3A, wi: Vec3A, hv: &HalfVector) -> Spectrum {
         let d_g = hv.d * (hv.g1_wo * self.microfacet.g1(wi, hv.h));
         if d_g == 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         self.reflectance * conductor_fresnel(self.ior, wo.dot(hv.h)) * (d_g / (4.0 * wo.z * wi.z))
     }
@@ -62,9 +62,9 @@ impl Bxdf for RoughConductor {
         Lobes::GLOSSY_REFLECTION
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         self.value(wo, wi, &self.microfacet.half_vector(wo, wi))
     }
@@ -77,9 +77,9 @@ impl Bxdf for RoughConductor {
     }
 
     /// Both, with the half vector, its density and shadowing from `wo` computed once.
-    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Spectrum, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
-            return (Rgb::ZERO, 0.0);
+            return (Spectrum::ZERO, 0.0);
         }
         let hv = self.microfacet.half_vector(wo, wi);
         (self.value(wo, wi, &hv), hv.reflection_pdf(wo))
@@ -97,7 +97,7 @@ impl Bxdf for RoughConductor {
         BsdfSample::evaluated(self, wo, wi)
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.reflectance * conductor_fresnel(self.ior, 1.0)
     }
 }

@@ -22,15 +22,15 @@
 use super::fresnel::fresnel_dielectric;
 use super::microfacet::{reflect, refract, Microfacet};
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 
 /// Frosted glass (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RoughDielectric {
     pub ior: f32,
-    pub reflectance: Rgb,
-    pub transmittance: Rgb,
+    pub reflectance: Spectrum,
+    pub transmittance: Spectrum,
     pub microfacet: Microfacet,
 }
 
@@ -48,8 +48,8 @@ impl RoughDielectric {
     /// Frosted glass of relative IOR `ior`, tinted per lobe, roughened by `microfacet`.
     pub fn new(
         ior: f32,
-        reflectance: Rgb,
-        transmittance: Rgb,
+        reflectance: Spectrum,
+        transmittance: Spectrum,
         microfacet: Microfacet,
     ) -> Result<RoughDielectric, String> {
         let d = super::Dielectric::new(ior, reflectance, transmittance)?;
@@ -96,14 +96,14 @@ impl Bxdf for RoughDielectric {
         Lobes::GLOSSY_REFLECTION.with(Lobes::GLOSSY_TRANSMISSION)
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         let Some(fc) = self.facet(wo, wi) else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         let mf = &self.microfacet;
         let d_g = mf.d(fc.h) * mf.g(wo, wi, fc.h);
         if d_g == 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let cos = (wo.z * wi.z).abs();
         if fc.reflect {
@@ -156,7 +156,7 @@ impl Bxdf for RoughDielectric {
         BsdfSample::evaluated(self, wo, wi).map(|s| BsdfSample { eta, ..s })
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.reflectance
     }
 }

@@ -26,7 +26,7 @@ use super::fresnel::fresnel_dielectric;
 use super::microfacet::{reflect, refract, Distribution, HalfVector, Microfacet};
 use super::plastic::{coating_probability, multiple_bounces, Coating};
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -39,8 +39,8 @@ const TABLE: usize = 64;
 /// Rough plastic (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RoughPlastic {
-    pub diffuse: Rgb,
-    pub specular: Rgb,
+    pub diffuse: Spectrum,
+    pub specular: Spectrum,
     pub ior: f32,
     pub nonlinear: bool,
     pub microfacet: Microfacet,
@@ -184,8 +184,8 @@ impl RoughPlastic {
     /// Rough plastic with base `diffuse`, coating tint `specular`, relative IOR `ior` (> 1)
     /// and the coating's roughness `microfacet`.
     pub fn new(
-        diffuse: Rgb,
-        specular: Rgb,
+        diffuse: Spectrum,
+        specular: Spectrum,
         ior: f32,
         nonlinear: bool,
         microfacet: Microfacet,
@@ -223,7 +223,7 @@ impl RoughPlastic {
 impl RoughPlastic {
     /// `f(wo, wi)` for upper-side directions with half vector `hv`.
     #[inline]
-    fn value(&self, wo: Vec3A, wi: Vec3A, hv: &HalfVector) -> Rgb {
+    fn value(&self, wo: Vec3A, wi: Vec3A, hv: &HalfVector) -> Spectrum {
         let coat = fresnel_dielectric(wo.dot(hv.h), self.ior)
             * hv.d
             * (hv.g1_wo * self.microfacet.g1(wi, hv.h))
@@ -249,9 +249,9 @@ impl Bxdf for RoughPlastic {
         Lobes::GLOSSY_REFLECTION.with(Lobes::DIFFUSE_REFLECTION)
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         self.value(wo, wi, &self.microfacet.half_vector(wo, wi))
     }
@@ -264,9 +264,9 @@ impl Bxdf for RoughPlastic {
     }
 
     /// Both, with what they share computed once.
-    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Rgb, f32) {
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Spectrum, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
-            return (Rgb::ZERO, 0.0);
+            return (Spectrum::ZERO, 0.0);
         }
         let hv = self.microfacet.half_vector(wo, wi);
         (self.value(wo, wi, &hv), self.density(wo, wi, &hv))
@@ -287,7 +287,7 @@ impl Bxdf for RoughPlastic {
         BsdfSample::evaluated(self, wo, wi)
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.diffuse
     }
 }
@@ -299,9 +299,9 @@ mod tests {
     #[test]
     fn coatings_alike_share_their_tables_and_the_cache_computes_what_a_fresh_build_does() {
         let mf = Microfacet::new(Distribution::Ggx, 0.37, 0.37).unwrap();
-        let (red, grey) = (Rgb::new(0.8, 0.1, 0.1), Rgb::splat(0.5));
-        let a = RoughPlastic::new(red, Rgb::ONE, 1.43, false, mf).unwrap();
-        let b = RoughPlastic::new(grey, Rgb::ONE, 1.43, true, mf).unwrap();
+        let (red, grey) = (crate::spectrum::rgb(0.8, 0.1, 0.1), Spectrum::splat(0.5));
+        let a = RoughPlastic::new(red, Spectrum::ONE, 1.43, false, mf).unwrap();
+        let b = RoughPlastic::new(grey, Spectrum::ONE, 1.43, true, mf).unwrap();
         assert!(Arc::ptr_eq(&a.transmittance, &b.transmittance));
         assert_eq!(a.internal.to_bits(), b.internal.to_bits());
         // The cached values are those of the integrals themselves.
@@ -324,7 +324,7 @@ mod tests {
             (beckmann, 1.43),
         ];
         for (mf, ior) in others {
-            let c = RoughPlastic::new(red, Rgb::ONE, ior, false, mf).unwrap();
+            let c = RoughPlastic::new(red, Spectrum::ONE, ior, false, mf).unwrap();
             assert!(!Arc::ptr_eq(&a.transmittance, &c.transmittance));
             assert_ne!(a.transmittance[20], c.transmittance[20]);
         }

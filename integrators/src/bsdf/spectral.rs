@@ -6,8 +6,9 @@
 
 use super::Material;
 use crate::spectrum::curve::Curve;
+use crate::spectrum::rgb_of;
 use crate::spectrum::Wavelengths;
-use crate::Rgb;
+use crate::Spectrum;
 
 /// A material's parameters the scene gave by wavelength, by role (as
 /// [`super::MaterialTextures`]'s): in spectral mode they are these spectra; in RGB mode the
@@ -47,9 +48,9 @@ impl Material {
 
     /// The parameters `given` by wavelength, at `lambda`.
     fn given_at(&mut self, lambda: &mut Wavelengths, given: &MaterialSpectra) {
-        let at = |field: &mut Rgb, curve: &Option<Curve>| {
+        let at = |field: &mut Spectrum, curve: &Option<Curve>| {
             if let Some(c) = curve {
-                *field = lambda.map(*field, |nm| c.at(nm));
+                *field = lambda.map(rgb_of(*field), |nm| c.at(nm));
             }
         };
         let (d, s, t) = (&given.diffuse, &given.specular, &given.transmittance);
@@ -117,8 +118,8 @@ impl Material {
 
     /// Every colour of the material as the spectrum it stands for at `lambda`.
     fn colours_at(&mut self, lambda: &Wavelengths) {
-        let reflectance = |c: &mut Rgb| *c = lambda.reflectance(*c);
-        let unbounded = |c: &mut Rgb| *c = lambda.unbounded(*c);
+        let reflectance = |c: &mut Spectrum| *c = lambda.reflectance(rgb_of(*c));
+        let unbounded = |c: &mut Spectrum| *c = lambda.unbounded(rgb_of(*c));
         match self {
             Material::Lambert(m) => reflectance(&mut m.albedo),
             Material::OrenNayar(m) => reflectance(&mut m.albedo),
@@ -166,7 +167,7 @@ impl Material {
             }
             Material::Principled(m) => reflectance(&mut m.burley.base_color),
             Material::PrincipledThin(m) => reflectance(&mut m.burley.base_color),
-            Material::Hair(m) => m.map_sigma_a(|c| lambda.unbounded(c)),
+            Material::Hair(m) => m.map_sigma_a(|c| lambda.unbounded(rgb_of(c))),
         }
     }
 }

@@ -22,7 +22,7 @@ use super::spectral::MaterialSpectra;
 use super::Material;
 use crate::spectrum::Wavelengths;
 use crate::texture::{Texture, TextureLookup};
-use crate::{Frame, Hit, Rgb, Scene};
+use crate::{Frame, Hit, Scene, Spectrum};
 use glam::Vec3A;
 use std::borrow::Cow;
 
@@ -142,7 +142,10 @@ impl MaterialTextures {
 
     /// `m` with its textured parameters looked up at `l`.
     fn apply(&self, m: &mut Material, l: &TextureLookup) {
-        let at = |t: &Option<Texture>, default| t.as_ref().map_or(default, |t| t.at(l));
+        let at = |t: &Option<Texture>, default: Spectrum| {
+            t.as_ref()
+                .map_or(default, |t| crate::spectrum::of_rgb(t.at(l)))
+        };
         let roughness = |mf: &mut super::Microfacet| {
             if let Some(a) = &self.alpha {
                 a.apply(mf, l);
@@ -405,7 +408,7 @@ impl SurfaceMaterial {
     /// of opacity 0 around a black material).
     pub fn null() -> SurfaceMaterial {
         SurfaceMaterial::from(Material::Lambert(crate::bsdf::Lambert {
-            albedo: Rgb::ZERO,
+            albedo: Spectrum::ZERO,
         }))
         .with_opacity(Texture::Constant(Vec3A::ZERO))
     }
@@ -605,6 +608,7 @@ mod tests {
     use crate::bsdf::{Lambert, Microfacet, RoughConductor};
     use crate::texture::{ImageTexture, TextureFilter, Wrap};
     use crate::Rgb;
+    use crate::Spectrum;
     use glam::{Affine2, Vec2};
     use std::sync::Arc;
 
@@ -627,7 +631,7 @@ mod tests {
 
     #[test]
     fn untextured_materials_are_borrowed_and_textured_ones_looked_up() {
-        let plain = SurfaceMaterial::from(Material::Lambert(Lambert::new(Rgb::ONE).unwrap()));
+        let plain = SurfaceMaterial::from(Material::Lambert(Lambert::new(Spectrum::ONE).unwrap()));
         assert!(matches!(
             plain
                 .at(&mut hit_at(Vec2::ZERO), Vec3A::Z, &mut Wavelengths::Rgb)
@@ -647,7 +651,7 @@ mod tests {
                 textured
                     .at(&mut hit_at(uv), Vec3A::Z, &mut Wavelengths::Rgb)
                     .albedo(),
-                Rgb::splat(expected)
+                Spectrum::splat(expected)
             );
         }
         // Roughness reads the texture's value, kept within the microfacet range.
@@ -655,7 +659,7 @@ mod tests {
             Material::RoughConductor(
                 RoughConductor::new(
                     None,
-                    Rgb::ONE,
+                    Spectrum::ONE,
                     Microfacet::new(Default::default(), 0.3, 0.3).unwrap(),
                 )
                 .unwrap(),

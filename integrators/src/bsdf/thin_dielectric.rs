@@ -12,20 +12,24 @@
 
 use super::fresnel::fresnel_dielectric;
 use super::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 
 /// A thin pane of glass (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ThinDielectric {
     pub ior: f32,
-    pub reflectance: Rgb,
-    pub transmittance: Rgb,
+    pub reflectance: Spectrum,
+    pub transmittance: Spectrum,
 }
 
 impl ThinDielectric {
     /// A pane of relative IOR `ior` with lobes tinted by `reflectance` and `transmittance`.
-    pub fn new(ior: f32, reflectance: Rgb, transmittance: Rgb) -> Result<ThinDielectric, String> {
+    pub fn new(
+        ior: f32,
+        reflectance: Spectrum,
+        transmittance: Spectrum,
+    ) -> Result<ThinDielectric, String> {
         let d = super::Dielectric::new(ior, reflectance, transmittance)?;
         Ok(ThinDielectric {
             ior: d.ior,
@@ -52,8 +56,8 @@ impl Bxdf for ThinDielectric {
         Lobes::DELTA_REFLECTION.with(Lobes::DELTA_TRANSMISSION)
     }
 
-    fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Rgb {
-        Rgb::ZERO
+    fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Spectrum {
+        Spectrum::ZERO
     }
 
     fn pdf(&self, _wo: Vec3A, _wi: Vec3A) -> f32 {
@@ -82,7 +86,7 @@ impl Bxdf for ThinDielectric {
         })
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.reflectance * self.pane_reflectance(1.0)
     }
 }
@@ -95,12 +99,14 @@ mod tests {
 
     #[test]
     fn a_pane_reflects_both_faces_and_transmits_straight_through() {
-        let pane = ThinDielectric::new(1.5, Rgb::ONE, Rgb::ONE).unwrap();
+        let pane = ThinDielectric::new(1.5, Spectrum::ONE, Spectrum::ONE).unwrap();
         // At normal incidence R = 0.04 per face: 0.04 + 0.96^2 0.04 / (1 - 0.04^2) = 0.0769.
         assert!((pane.pane_reflectance(1.0) - 0.076_923).abs() < 1e-5);
         let wo = dir(40.0, 10.0);
         let t = pane.sample(wo, 0.999, Vec2::ZERO).unwrap();
-        assert!(t.wi == -wo && t.eta == 1.0 && (t.weight() - Rgb::ONE).abs().max_element() < 1e-6);
+        assert!(
+            t.wi == -wo && t.eta == 1.0 && (t.weight() - Spectrum::ONE).abs().max_element() < 1e-6
+        );
         let r = pane.sample(-wo, 0.0, Vec2::ZERO).unwrap();
         assert!(
             r.wi.z < 0.0 && (r.wi.z - (-wo.z)).abs() < 1e-6,

@@ -7,7 +7,7 @@ use super::*;
 use crate::testing::chi2::{
     assert_chi2, check_sample_matches_eval, dir, directional_albedo, Grid, SAMPLES,
 };
-use crate::{Rgb, Sampler};
+use crate::{Sampler, Spectrum};
 
 const GGX: Distribution = Distribution::Ggx;
 const BECKMANN: Distribution = Distribution::Beckmann;
@@ -60,7 +60,7 @@ fn assert_matches_mitsuba(name: &str, m: &Material, r: &Reference, tolerance: f3
             r.pdf[i]
         );
         // Opposite sides: nothing (opaque materials).
-        assert_eq!(m.eval(wo, -wi), Rgb::ZERO);
+        assert_eq!(m.eval(wo, -wi), Spectrum::ZERO);
     }
     println!("{name}: eval and pdf match Mitsuba 3 within {tolerance}");
 }
@@ -72,7 +72,8 @@ fn grey(v: [f32; 5]) -> [[f32; 3]; 5] {
 #[test]
 fn smooth_plastic_matches_mitsuba() {
     let ior = plastic_ior();
-    let default = Material::Plastic(Plastic::new(Rgb::splat(0.5), Rgb::ONE, ior, false).unwrap());
+    let default =
+        Material::Plastic(Plastic::new(Spectrum::splat(0.5), Spectrum::ONE, ior, false).unwrap());
     let pdf = [0.294_607, 0.254_371, 0.188_878, 0.251_004, 0.048_238_3];
     assert_matches_mitsuba(
         "plastic",
@@ -83,9 +84,9 @@ fn smooth_plastic_matches_mitsuba() {
         },
         2e-3,
     );
-    let rgb = Rgb::new(0.8, 0.3, 0.1);
+    let rgb = crate::spectrum::rgb(0.8, 0.3, 0.1);
     let pdf = [0.289_222, 0.249_552, 0.181_576, 0.241_302, 0.042_343];
-    let nonlinear = Material::Plastic(Plastic::new(rgb, Rgb::ONE, ior, true).unwrap());
+    let nonlinear = Material::Plastic(Plastic::new(rgb, Spectrum::ONE, ior, true).unwrap());
     assert_matches_mitsuba(
         "plastic, nonlinear",
         &nonlinear,
@@ -107,7 +108,14 @@ fn smooth_plastic_matches_mitsuba() {
 fn rough_plastic_matches_mitsuba() {
     let ior = plastic_ior();
     let default = Material::RoughPlastic(
-        RoughPlastic::new(Rgb::splat(0.5), Rgb::ONE, ior, false, mf(BECKMANN, 0.1)).unwrap(),
+        RoughPlastic::new(
+            Spectrum::splat(0.5),
+            Spectrum::ONE,
+            ior,
+            false,
+            mf(BECKMANN, 0.1),
+        )
+        .unwrap(),
     );
     assert_matches_mitsuba(
         "roughplastic",
@@ -119,7 +127,14 @@ fn rough_plastic_matches_mitsuba() {
         5e-3,
     );
     let ggx = Material::RoughPlastic(
-        RoughPlastic::new(Rgb::new(0.8, 0.3, 0.1), Rgb::ONE, ior, false, mf(GGX, 0.3)).unwrap(),
+        RoughPlastic::new(
+            crate::spectrum::rgb(0.8, 0.3, 0.1),
+            Spectrum::ONE,
+            ior,
+            false,
+            mf(GGX, 0.3),
+        )
+        .unwrap(),
     );
     assert_matches_mitsuba(
         "roughplastic, ggx 0.3",
@@ -140,8 +155,9 @@ fn rough_plastic_matches_mitsuba() {
 
 #[test]
 fn rough_conductor_matches_mitsuba() {
-    let mirror =
-        Material::RoughConductor(RoughConductor::new(None, Rgb::ONE, mf(BECKMANN, 0.1)).unwrap());
+    let mirror = Material::RoughConductor(
+        RoughConductor::new(None, Spectrum::ONE, mf(BECKMANN, 0.1)).unwrap(),
+    );
     let values = [7.957_75, 9.188_82, 2.910_79, 2.185_85e-17, 21.643_3];
     assert_matches_mitsuba(
         "roughconductor",
@@ -153,7 +169,7 @@ fn rough_conductor_matches_mitsuba() {
         2e-3,
     );
     let gold = Material::RoughConductor(
-        RoughConductor::new(ior::metal("Au").unwrap(), Rgb::ONE, mf(GGX, 0.2)).unwrap(),
+        RoughConductor::new(ior::metal("Au").unwrap(), Spectrum::ONE, mf(GGX, 0.2)).unwrap(),
     );
     assert_matches_mitsuba(
         "roughconductor, Au, ggx 0.2",
@@ -175,7 +191,7 @@ fn rough_conductor_matches_mitsuba() {
 #[test]
 fn rough_dielectric_matches_mitsuba_in_reflection_and_refraction() {
     let eta = ior::dielectric("bk7").unwrap() / ior::dielectric("air").unwrap();
-    let glass = RoughDielectric::new(eta, Rgb::ONE, Rgb::ONE, mf(BECKMANN, 0.1)).unwrap();
+    let glass = RoughDielectric::new(eta, Spectrum::ONE, Spectrum::ONE, mf(BECKMANN, 0.1)).unwrap();
     let m = Material::RoughDielectric(glass);
     let values = [0.322_578, 0.386_553, 0.185_131, 9.2474e-19, 5.493_97];
     for (i, ((to, po), (ti, pi))) in PAIRS.iter().enumerate() {
@@ -205,10 +221,10 @@ fn rough_dielectric_matches_mitsuba_in_reflection_and_refraction() {
 #[test]
 fn nori_microfacet_albedos() {
     let references = [0.207_067, 0.215_733, 0.247_884, 0.430_936, 0.519_016];
-    let kd = Rgb::new(0.1, 0.2, 0.15);
+    let kd = crate::spectrum::rgb(0.1, 0.2, 0.15);
     let ks = 1.0 - kd.max_element();
     let eta = 1.5 / 1.000_277;
-    let lum = |c: Rgb| 0.212_671 * c.x + 0.715_160 * c.y + 0.072_169 * c.z;
+    let lum = |c: Spectrum| 0.212_671 * c.x + 0.715_160 * c.y + 0.072_169 * c.z;
     let beckmann = mf(BECKMANN, 0.1);
     for (theta, reference) in [0.0f32, 45.0, 60.0, 80.0, 85.0].iter().zip(references) {
         let wo = dir(*theta, 0.0);
@@ -284,7 +300,7 @@ fn white_furnace_rough_conductor_loses_only_multiple_scattering() {
         for alpha in [0.05f32, 0.3, 1.0] {
             for theta in [0.0f32, 60.0, 85.0] {
                 let m = mf(d, alpha);
-                let c = RoughConductor::new(None, Rgb::ONE, m).unwrap();
+                let c = RoughConductor::new(None, Spectrum::ONE, m).unwrap();
                 let wo = dir(theta, 20.0);
                 let expected = over_visible_normals(&m, wo, |n| {
                     let wi = reflect(wo, n);
@@ -320,7 +336,7 @@ fn white_furnace_rough_dielectric() {
             for (theta, outside) in [(0.0f32, true), (60.0, true), (30.0, false), (80.0, false)] {
                 let m = mf(d, alpha);
                 let glass = Material::RoughDielectric(
-                    RoughDielectric::new(1.5, Rgb::ONE, Rgb::ONE, m).unwrap(),
+                    RoughDielectric::new(1.5, Spectrum::ONE, Spectrum::ONE, m).unwrap(),
                 );
                 let up = dir(theta, 40.0);
                 let (wo, eta) = if outside { (up, 1.5) } else { (-up, 1.0 / 1.5) };
@@ -364,57 +380,60 @@ fn white_furnace_rough_dielectric() {
 /// The materials every generic check runs on.
 fn all_materials() -> Vec<(&'static str, Material)> {
     let gold = ior::metal("Au").unwrap();
-    let rgb = Rgb::new(0.8, 0.4, 0.2);
+    let rgb = crate::spectrum::rgb(0.8, 0.4, 0.2);
     vec![
         (
             "roughconductor ggx .3 Au",
-            Material::RoughConductor(RoughConductor::new(gold, Rgb::ONE, mf(GGX, 0.3)).unwrap()),
+            Material::RoughConductor(
+                RoughConductor::new(gold, Spectrum::ONE, mf(GGX, 0.3)).unwrap(),
+            ),
         ),
         (
             "roughconductor beckmann .05",
             Material::RoughConductor(
-                RoughConductor::new(None, Rgb::ONE, mf(BECKMANN, 0.05)).unwrap(),
+                RoughConductor::new(None, Spectrum::ONE, mf(BECKMANN, 0.05)).unwrap(),
             ),
         ),
         (
             "roughconductor ggx .1/.6",
             Material::RoughConductor(
-                RoughConductor::new(gold, Rgb::ONE, Microfacet::new(GGX, 0.1, 0.6).unwrap())
+                RoughConductor::new(gold, Spectrum::ONE, Microfacet::new(GGX, 0.1, 0.6).unwrap())
                     .unwrap(),
             ),
         ),
         (
             "roughplastic ggx .2",
             Material::RoughPlastic(
-                RoughPlastic::new(rgb, Rgb::ONE, 1.5, false, mf(GGX, 0.2)).unwrap(),
+                RoughPlastic::new(rgb, Spectrum::ONE, 1.5, false, mf(GGX, 0.2)).unwrap(),
             ),
         ),
         (
             "roughplastic beckmann .5 nonlinear",
             Material::RoughPlastic(
-                RoughPlastic::new(rgb, Rgb::ONE, 1.5, true, mf(BECKMANN, 0.5)).unwrap(),
+                RoughPlastic::new(rgb, Spectrum::ONE, 1.5, true, mf(BECKMANN, 0.5)).unwrap(),
             ),
         ),
         (
             "plastic",
-            Material::Plastic(Plastic::new(rgb, Rgb::ONE, 1.5, false).unwrap()),
+            Material::Plastic(Plastic::new(rgb, Spectrum::ONE, 1.5, false).unwrap()),
         ),
         (
             "diffusetransmission",
             Material::DiffuseTransmission(
-                DiffuseTransmission::new(rgb * 0.5, Rgb::new(0.1, 0.5, 0.7)).unwrap(),
+                DiffuseTransmission::new(rgb * 0.5, crate::spectrum::rgb(0.1, 0.5, 0.7)).unwrap(),
             ),
         ),
         (
             "roughdielectric ggx .3",
             Material::RoughDielectric(
-                RoughDielectric::new(1.5, Rgb::ONE, Rgb::ONE, mf(GGX, 0.3)).unwrap(),
+                RoughDielectric::new(1.5, Spectrum::ONE, Spectrum::ONE, mf(GGX, 0.3)).unwrap(),
             ),
         ),
         (
             "roughdielectric beckmann .2",
             Material::RoughDielectric(
-                RoughDielectric::new(1.33, Rgb::ONE, Rgb::ONE, mf(BECKMANN, 0.2)).unwrap(),
+                RoughDielectric::new(1.33, Spectrum::ONE, Spectrum::ONE, mf(BECKMANN, 0.2))
+                    .unwrap(),
             ),
         ),
     ]
@@ -467,7 +486,7 @@ fn every_material_conserves_energy() {
                 let wo = dir(theta, 70.0) * side;
                 let mut s = Sampler::new(1404, 0, 0);
                 let n = 50_000;
-                let mut sum = Rgb::ZERO;
+                let mut sum = Spectrum::ZERO;
                 for _ in 0..n {
                     if let Some(b) = m.sample(wo, s.next_1d(), s.next_2d()) {
                         sum += m.sample_weight(wo, &b, TransportMode::Importance);
@@ -516,7 +535,7 @@ fn every_material_samples_what_it_evaluates() {
         }
     }
     // The Bxdf-level helper on the upper side.
-    let c = RoughConductor::new(None, Rgb::ONE, mf(GGX, 0.4)).unwrap();
+    let c = RoughConductor::new(None, Spectrum::ONE, mf(GGX, 0.4)).unwrap();
     check_sample_matches_eval(&c, dir(50.0, 10.0), 20_000, 1406);
 }
 
@@ -540,7 +559,7 @@ fn chi2_material(name: &str, m: &Material, wo: Vec3A, grid: &Grid, seed: u64) {
 
 fn rough_conductor(d: Distribution, au: f32, av: f32) -> Material {
     Material::RoughConductor(
-        RoughConductor::new(None, Rgb::ONE, Microfacet::new(d, au, av).unwrap()).unwrap(),
+        RoughConductor::new(None, Spectrum::ONE, Microfacet::new(d, au, av).unwrap()).unwrap(),
     )
 }
 
@@ -607,7 +626,9 @@ fn chi2_rough_conductor_beckmann_grazing() {
 }
 
 fn rough_dielectric(d: Distribution, a: f32, ior: f32) -> Material {
-    Material::RoughDielectric(RoughDielectric::new(ior, Rgb::ONE, Rgb::ONE, mf(d, a)).unwrap())
+    Material::RoughDielectric(
+        RoughDielectric::new(ior, Spectrum::ONE, Spectrum::ONE, mf(d, a)).unwrap(),
+    )
 }
 
 #[test]
@@ -649,7 +670,14 @@ fn chi2_rough_dielectric_grazing() {
 #[test]
 fn chi2_rough_plastic() {
     let m = Material::RoughPlastic(
-        RoughPlastic::new(Rgb::new(0.5, 0.4, 0.3), Rgb::ONE, 1.5, false, mf(GGX, 0.2)).unwrap(),
+        RoughPlastic::new(
+            crate::spectrum::rgb(0.5, 0.4, 0.3),
+            Spectrum::ONE,
+            1.5,
+            false,
+            mf(GGX, 0.2),
+        )
+        .unwrap(),
     );
     chi2_material(
         "roughplastic ggx .2 wo 30",
@@ -663,7 +691,14 @@ fn chi2_rough_plastic() {
 #[test]
 fn chi2_rough_plastic_grazing() {
     let m = Material::RoughPlastic(
-        RoughPlastic::new(Rgb::splat(0.3), Rgb::ONE, 1.5, true, mf(BECKMANN, 0.5)).unwrap(),
+        RoughPlastic::new(
+            Spectrum::splat(0.3),
+            Spectrum::ONE,
+            1.5,
+            true,
+            mf(BECKMANN, 0.5),
+        )
+        .unwrap(),
     );
     chi2_material(
         "roughplastic beckmann .5 wo 80",
@@ -678,7 +713,8 @@ fn chi2_rough_plastic_grazing() {
 fn chi2_plastic_base() {
     // The coating's reflection is a delta (not histogrammed: it counts as rejected), so the
     // base's density integrates to the probability of choosing it.
-    let m = Material::Plastic(Plastic::new(Rgb::splat(0.5), Rgb::ONE, 1.5, false).unwrap());
+    let m =
+        Material::Plastic(Plastic::new(Spectrum::splat(0.5), Spectrum::ONE, 1.5, false).unwrap());
     chi2_material(
         "plastic base wo 50",
         &m,
@@ -694,7 +730,7 @@ fn chi2_plastic_base() {
 /// would be traced wrong.)
 #[test]
 fn every_model_declares_the_lobes_it_samples() {
-    let rgb = Rgb::new(0.8, 0.4, 0.2);
+    let rgb = crate::spectrum::rgb(0.8, 0.4, 0.2);
     let mut materials = all_materials();
     materials.extend([
         ("lambert", Material::Lambert(Lambert::new(rgb).unwrap())),
@@ -703,21 +739,23 @@ fn every_model_declares_the_lobes_it_samples() {
             "phong",
             Material::Phong(Phong {
                 kd: rgb * 0.5,
-                ks: Rgb::splat(0.3),
+                ks: Spectrum::splat(0.3),
                 exponent: 20.0,
             }),
         ),
         (
             "dielectric",
-            Material::Dielectric(Dielectric::new(1.5, Rgb::ONE, Rgb::ONE).unwrap()),
+            Material::Dielectric(Dielectric::new(1.5, Spectrum::ONE, Spectrum::ONE).unwrap()),
         ),
         (
             "thindielectric",
-            Material::ThinDielectric(ThinDielectric::new(1.5, Rgb::ONE, Rgb::ONE).unwrap()),
+            Material::ThinDielectric(
+                ThinDielectric::new(1.5, Spectrum::ONE, Spectrum::ONE).unwrap(),
+            ),
         ),
         (
             "conductor",
-            Material::Conductor(Conductor::new(None, Rgb::ONE).unwrap()),
+            Material::Conductor(Conductor::new(None, Spectrum::ONE).unwrap()),
         ),
         ("hair", Material::Hair(Hair::default().with_h(0.3))),
     ]);

@@ -5,7 +5,7 @@ use crate::integrator::{emitted_at, RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, MediaSupport, Params, SpectralSupport};
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Ray, Rgb, Sampler};
+use crate::{Ray, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "albedo",
@@ -14,7 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     build: |_: &Params| Box::new(AlbedoView),
     analytic: None,
     media: MediaSupport::None,
-    spectral: SpectralSupport::Rgb,
+    spectral: SpectralSupport::Spectrum,
 };
 
 struct AlbedoView;
@@ -30,7 +30,7 @@ impl RayIntegrator for AlbedoView {
         // A view of the scene, not light: RGB in either mode.
         *lambda = Wavelengths::Rgb;
         let Some(mut hit) = tracer.camera(ray) else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         if hit.light.is_some() {
             return emitted_at(tracer.scene, &hit, ray, lambda);

@@ -48,7 +48,7 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::media_walk::{
-    self, average, cross_null, fly, hero_channel, medium_at, transmittance, Flight,
+    self, cross_null, fly, hero_channel, medium_at, transmittance, Flight,
 };
 use crate::integrator::{
     emit_from_a_light, escaped, scene_radius, Demand, Integrator, ShadingPoint, Tracer,
@@ -60,8 +60,8 @@ use crate::registry::{
     MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
-use crate::{Camera, Hit, MediumId, MediumInterface, Ray, Rgb, Sampler, Scene};
-use crate::{SampleContext, Spectrum};
+use crate::SampleContext;
+use crate::{Camera, Hit, MediumId, MediumInterface, Ray, Sampler, Scene, Spectrum};
 use arrayvec::ArrayVec;
 use glam::Vec3A;
 use std::f32::consts::PI;
@@ -180,7 +180,7 @@ struct Vertex<'a> {
     /// a point along the way, never used for directions.
     infinite: bool,
     /// Throughput from the subpath's start up to this vertex.
-    beta: Rgb,
+    beta: Spectrum,
     /// Area density of sampling this vertex from the previous one, and of sampling it from
     /// the next one in the reverse direction.
     pdf_fwd: f32,
@@ -194,13 +194,13 @@ struct Vertex<'a> {
     phase: Phase,
     /// Each colour channel's density of the subpath up to here over the hero channel's (all
     /// ones without media): an estimate divides by their average ([`media_walk`]).
-    r_u: Rgb,
+    r_u: Spectrum,
 }
 
 type Subpath<'a> = ArrayVec<Vertex<'a>, MAX_VERTICES>;
 
 impl<'a> Vertex<'a> {
-    fn new(kind: Kind, p: Vec3A, ng: Vec3A, beta: Rgb) -> Self {
+    fn new(kind: Kind, p: Vec3A, ng: Vec3A, beta: Spectrum) -> Self {
         Vertex {
             kind,
             p,
@@ -214,7 +214,7 @@ impl<'a> Vertex<'a> {
             delta: false,
             medium: MediumId::VACUUM,
             phase: Phase::Isotropic,
-            r_u: Rgb::ONE,
+            r_u: Spectrum::ONE,
         }
     }
 
@@ -355,9 +355,9 @@ impl<'a> Vertex<'a> {
     }
 
     /// Radiance this emitting vertex sends towards `v`.
-    fn le(&self, scene: &dyn Scene, v: &Vertex, lambda: &Wavelengths) -> Rgb {
+    fn le(&self, scene: &dyn Scene, v: &Vertex, lambda: &Wavelengths) -> Spectrum {
         let Some(index) = self.light else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         if self.infinite {
             let ray = crate::Ray::new(v.p, -self.ng);
@@ -384,14 +384,14 @@ fn remap0(x: f32) -> f32 {
 /// The BSDF factor of joining surface vertex `v` to the point `to`, times `|cos|` at `v`
 /// (see [`ShadingPoint::connection_factor`]); for a medium vertex, its phase function
 /// between the direction it was reached from (`from`, the previous vertex) and `to`.
-fn joined(v: &Vertex, from: Option<&Vertex>, to: Vec3A, mode: TransportMode) -> Rgb {
+fn joined(v: &Vertex, from: Option<&Vertex>, to: Vec3A, mode: TransportMode) -> Spectrum {
     match (&v.sp, v.kind, from) {
         (Some(sp), _, _) => sp.connection_factor((to - v.p).normalize_or_zero(), mode),
-        (None, Kind::Medium, Some(prev)) => Rgb::splat(v.phase.eval(
+        (None, Kind::Medium, Some(prev)) => Spectrum::splat(v.phase.eval(
             (prev.p - v.p).normalize_or_zero(),
             (to - v.p).normalize_or_zero(),
         )),
-        _ => Rgb::ZERO,
+        _ => Spectrum::ZERO,
     }
 }
 
@@ -406,7 +406,7 @@ impl Integrator for Bdpt {
             lambda,
         } = cx;
         if !camera.is_pinhole() {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let scene = tracer.scene;
         // The two subpaths.
@@ -415,7 +415,7 @@ impl Integrator for Bdpt {
         let depth = self.max_depth.min(DEPTH_LIMIT);
         // In media, both subpaths sample distances by one colour channel, the hero.
         let hero = if scene.has_media() {
-            hero_channel(sampler.next_1d())
+            hero_channel(sampler.next_1d(), lambda)
         } else {
             0
         };
@@ -441,7 +441,7 @@ impl Integrator for Bdpt {
             lambda,
         };
         // Every join of a camera prefix (t vertices) and a light prefix (s vertices).
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         for t in 1..=cam.len() {
             // s = 1 samples a light of its own: it runs even when the light subpath is empty.
             for s in 0..=light.len().max(1) {
@@ -451,7 +451,7 @@ impl Integrator for Bdpt {
                 }
                 let (c, weight, raster) = paths.connect(s, t, tracer, sampler);
                 // A strategy that overflowed is dropped alone, not with the whole sample.
-                if c == Rgb::ZERO || !c.is_finite() || weight <= 0.0 {
+                if c == Spectrum::ZERO || !c.is_finite() || weight <= 0.0 {
                     continue;
                 }
                 if self.write_strategies {
@@ -528,14 +528,14 @@ impl Bdpt {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
-    ) -> (Rgb, glam::Vec2) {
-        const NONE: Rgb = Rgb::ZERO;
+    ) -> (Spectrum, glam::Vec2) {
+        const NONE: Spectrum = Spectrum::ZERO;
         if t == 0 || s + t < 2 || (s == 1 && t == 1) || s + t > MAX_VERTICES {
             return (NONE, film);
         }
         let mut cam: Subpath = ArrayVec::new();
         let hero = if tracer.scene.has_media() {
-            hero_channel(sampler.next_1d())
+            hero_channel(sampler.next_1d(), lambda)
         } else {
             0
         };
@@ -604,7 +604,7 @@ impl Bdpt {
             ..camera.ray(film.x, film.y)
         };
         let (_, pdf_dir) = camera.pdf_we(ray.dir);
-        let mut lens = Vertex::new(Kind::Camera, camera.eye, camera.normal(), Rgb::ONE);
+        let mut lens = Vertex::new(Kind::Camera, camera.eye, camera.normal(), Spectrum::ONE);
         lens.pdf_fwd = 1.0;
         lens.medium = medium;
         path.push(lens);
@@ -614,7 +614,7 @@ impl Bdpt {
             max_vertices,
             pdf_dir,
         };
-        self.random_walk(ray, Rgb::ONE, &walk, tracer, sampler, lambda, path);
+        self.random_walk(ray, Spectrum::ONE, &walk, tracer, sampler, lambda, path);
     }
 
     /// The light subpath: a point on a light chosen in proportion to power, then up to
@@ -690,7 +690,7 @@ impl Bdpt {
     fn random_walk<'a>(
         &self,
         mut ray: crate::Ray,
-        mut beta: Rgb,
+        mut beta: Spectrum,
         walk: &Walk,
         tracer: &mut Tracer<'a>,
         sampler: &mut Sampler,
@@ -701,7 +701,7 @@ impl Bdpt {
         let scene = tracer.scene;
         let media = scene.has_media();
         let start = beta.max_element();
-        let mut r_u = Rgb::ONE;
+        let mut r_u = Spectrum::ONE;
         let mut pdf_fwd = walk.pdf_dir;
         let mut added = 0u32;
         while added < max_vertices && !path.is_full() {
@@ -743,7 +743,7 @@ impl Bdpt {
                         beta *= ps.p / ps.pdf;
                         pdf_fwd = ps.pdf;
                         path[last - 1].pdf_rev = path[last].to_area(ps.pdf, &path[last - 1]);
-                        if !self.roulette(added, &mut beta, start, r_u, sampler) {
+                        if !self.roulette(added, &mut beta, start, r_u, sampler, lambda) {
                             return;
                         }
                         ray = Ray {
@@ -800,7 +800,7 @@ impl Bdpt {
                 return;
             };
             beta = s.throughput(beta);
-            if !(beta.is_finite() && beta != Rgb::ZERO) {
+            if !(beta.is_finite() && beta != Spectrum::ZERO) {
                 return;
             }
             let wi_local = sp.frame.to_local(s.wi);
@@ -814,7 +814,7 @@ impl Bdpt {
             let rev_area = path[last].to_area(rev, &path[last - 1]);
             path[last - 1].pdf_rev = rev_area;
             pdf_fwd = fwd;
-            if !self.roulette(added, &mut beta, start, r_u, sampler) {
+            if !self.roulette(added, &mut beta, start, r_u, sampler, lambda) {
                 return;
             }
             ray = next_origin;
@@ -826,15 +826,16 @@ impl Bdpt {
     fn roulette(
         &self,
         added: u32,
-        beta: &mut Rgb,
+        beta: &mut Spectrum,
         start: f32,
-        r_u: Rgb,
+        r_u: Spectrum,
         sampler: &mut Sampler,
+        lambda: &Wavelengths,
     ) -> bool {
         if added < self.rr_depth {
             return true;
         }
-        let survive = (beta.max_element() / average(r_u) / start).min(MAX_SURVIVAL);
+        let survive = (beta.max_element() / lambda.average(r_u) / start).min(MAX_SURVIVAL);
         if survive.is_nan() || sampler.next_1d() >= survive {
             return false;
         }
@@ -872,9 +873,9 @@ impl Subpaths<'_, '_> {
         t: usize,
         tracer: &mut Tracer,
         sampler: &mut Sampler,
-    ) -> (Rgb, f32, Option<glam::Vec2>) {
+    ) -> (Spectrum, f32, Option<glam::Vec2>) {
         let (scene, camera, light, cam) = (self.scene, self.camera, self.light, self.cam);
-        const NONE: (Rgb, f32, Option<glam::Vec2>) = (Rgb::ZERO, 0.0, None);
+        const NONE: (Spectrum, f32, Option<glam::Vec2>) = (Spectrum::ZERO, 0.0, None);
         let pt = &cam[t - 1];
         // A camera vertex that lies on the environment can only be taken whole (s = 0).
         if pt.infinite && s > 0 {
@@ -888,7 +889,7 @@ impl Subpaths<'_, '_> {
                 return NONE;
             }
             let c = pt.beta * pt.le(scene, &cam[t - 2], &self.lambda);
-            if c == Rgb::ZERO {
+            if c == Spectrum::ZERO {
                 return NONE;
             }
             c
@@ -907,12 +908,12 @@ impl Subpaths<'_, '_> {
             let c = qs.beta * joined(qs, from, cs.point, TransportMode::Importance) * lens.beta;
             let c = if scene.has_media() {
                 self.through(c, qs.hit().spawn_ray_to(cs.point), tracer, sampler)
-            } else if c != Rgb::ZERO && tracer.connected(&qs.hit(), cs.point) {
+            } else if c != Spectrum::ZERO && tracer.connected(&qs.hit(), cs.point) {
                 c
             } else {
-                Rgb::ZERO
+                Spectrum::ZERO
             };
-            if c == Rgb::ZERO {
+            if c == Spectrum::ZERO {
                 return NONE;
             }
             raster = Some(cs.raster);
@@ -939,7 +940,7 @@ impl Subpaths<'_, '_> {
             let Some(ls) = light_ref.sample_li(pt.p, u, &self.lambda) else {
                 return NONE;
             };
-            if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+            if ls.pdf <= 0.0 || ls.radiance == Spectrum::ZERO {
                 return NONE;
             }
             let infinite = !ls.dist.is_finite();
@@ -958,7 +959,7 @@ impl Subpaths<'_, '_> {
             v.pdf_fwd = v.pdf_light_origin(scene, pt);
             let from = t.checked_sub(2).map(|i| &cam[i]);
             let c = pt.beta * joined(pt, from, pt.p + ls.wi, TransportMode::Radiance) * v.beta;
-            if c == Rgb::ZERO {
+            if c == Spectrum::ZERO {
                 return NONE;
             }
             let c = if scene.has_media() {
@@ -976,9 +977,9 @@ impl Subpaths<'_, '_> {
             {
                 c
             } else {
-                Rgb::ZERO
+                Spectrum::ZERO
             };
-            if c == Rgb::ZERO {
+            if c == Spectrum::ZERO {
                 return NONE;
             }
             sampled = Some(v);
@@ -1004,12 +1005,12 @@ impl Subpaths<'_, '_> {
                 / d2;
             let c = if scene.has_media() {
                 self.through(c, qs.hit().spawn_ray_between(&pt.hit()), tracer, sampler)
-            } else if c != Rgb::ZERO && tracer.connected_to(&qs.hit(), &pt.hit()) {
+            } else if c != Spectrum::ZERO && tracer.connected_to(&qs.hit(), &pt.hit()) {
                 c
             } else {
-                Rgb::ZERO
+                Spectrum::ZERO
             };
-            if c == Rgb::ZERO {
+            if c == Spectrum::ZERO {
                 return NONE;
             }
             c
@@ -1018,21 +1019,27 @@ impl Subpaths<'_, '_> {
         // the channels: `media_walk`).
         let r_u = |path: &Subpath, n: usize, fresh: bool| {
             if fresh || n == 0 {
-                Rgb::ONE
+                Spectrum::ONE
             } else {
                 path[n - 1].r_u
             }
         };
         let r_u = r_u(cam, t, t == 1) * r_u(light, s, s == 1);
-        let contribution = contribution / average(r_u);
+        let contribution = contribution / self.lambda.average(r_u);
         let weight = self.mis_weight(s, t, sampled.as_ref());
         (contribution, weight, raster)
     }
 
     /// A connection's contribution `c` in media, carried along `ray`: times its
     /// transmittance through media and crossable surfaces (zero where a surface blocks it).
-    fn through(&self, c: Rgb, ray: Ray, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
-        if c == Rgb::ZERO {
+    fn through(
+        &self,
+        c: Spectrum,
+        ray: Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+    ) -> Spectrum {
+        if c == Spectrum::ZERO {
             return c;
         }
         c * transmittance(tracer, &ray, &self.lambda, sampler)

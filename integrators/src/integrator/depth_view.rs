@@ -5,7 +5,7 @@ use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, MediaSupport, Params, SpectralSupport};
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Ray, Rgb, Sampler};
+use crate::{Ray, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "depth",
@@ -14,7 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     build: |_: &Params| Box::new(DepthView),
     analytic: None,
     media: MediaSupport::None,
-    spectral: SpectralSupport::Rgb,
+    spectral: SpectralSupport::Spectrum,
 };
 
 struct DepthView;
@@ -30,10 +30,10 @@ impl RayIntegrator for DepthView {
         // A view of the scene, not light: RGB in either mode.
         *lambda = Wavelengths::Rgb;
         let Some(hit) = tracer.camera(ray) else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         let (lo, hi) = tracer.scene.bounds();
         let diagonal = (hi - lo).length().max(f32::MIN_POSITIVE);
-        Rgb::splat(hit.t / diagonal)
+        Spectrum::splat(hit.t / diagonal)
     }
 }

@@ -25,7 +25,7 @@ use crate::registry::{
 use crate::sampling::power_heuristic;
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Ray, Rgb, Sampler};
+use crate::{Ray, Sampler};
 
 const SAMPLES: ParamSpec = ParamSpec {
     name: "emitter-samples",
@@ -137,7 +137,7 @@ impl RayIntegrator for Direct {
                 Some(h) => (emitted_at(tracer.scene, h, &ray, lambda), h.light),
                 None => (escaped(tracer.scene, &ray, lambda), lights.environment()),
             };
-            let Some(index) = light.filter(|_| le != Rgb::ZERO) else {
+            let Some(index) = light.filter(|_| le != Spectrum::ZERO) else {
                 continue;
             };
             let weight = if s.bsdf.specular {

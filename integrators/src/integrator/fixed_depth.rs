@@ -21,7 +21,7 @@ use crate::registry::{
 };
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Hit, Ray, Rgb, Sampler};
+use crate::{Hit, Ray, Sampler};
 use glam::Vec2;
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -81,8 +81,8 @@ struct FixedDepth {
 impl FixedDepth {
     /// Direct light at the shading point from every light, `shadow_grid^2` stratified
     /// samples each.
-    fn direct(&self, sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
-        let mut l = Rgb::ZERO;
+    fn direct(&self, sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
+        let mut l = Spectrum::ZERO;
         let lights = tracer.scene.lights();
         for (index, light) in lights.lights().iter().enumerate() {
             // A flat or convex emitter cannot light itself (no samples drawn for it).
@@ -94,7 +94,7 @@ impl FixedDepth {
             } else {
                 self.shadow_grid
             };
-            let mut sum = Rgb::ZERO;
+            let mut sum = Spectrum::ZERO;
             for j in 0..n {
                 for i in 0..n {
                     let u = (Vec2::new(i as f32, j as f32) + sampler.next_2d()) / n as f32;
@@ -120,12 +120,12 @@ impl FixedDepth {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
-    ) -> Rgb {
+    ) -> Spectrum {
         // Emission seen directly or through specular surfaces.
         let mut l = if count_emission {
             emitted_at(tracer.scene, hit, ray, lambda)
         } else {
-            Rgb::ZERO
+            Spectrum::ZERO
         };
         // Past the depth, or abandoned: the branching tree can take hours per sample.
         if bounces >= self.depth || tracer.stop.requested() {
@@ -155,7 +155,7 @@ impl FixedDepth {
         // Indirect light: `branching` hemisphere rays, only if their hits can still add a
         // scattering event (direct light there is depth bounces + 2).
         if bounces + 2 <= self.depth && self.branching > 0 {
-            let mut sum = Rgb::ZERO;
+            let mut sum = Spectrum::ZERO;
             for _ in 0..self.branching {
                 let Some(s) = sp.sample(sampler.next_1d(), sampler.next_2d(), Radiance) else {
                     continue;

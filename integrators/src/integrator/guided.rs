@@ -45,8 +45,8 @@ use crate::registry::{
 };
 use crate::sd_tree::{Guide, Record, SdTree};
 use crate::spectrum::Wavelengths;
-use crate::{luminance, Camera, Ray, Rgb, Sampler, Scene};
-use crate::{PassContext, Spectrum};
+use crate::PassContext;
+use crate::{luminance, Camera, Ray, Sampler, Scene, Spectrum};
 use arrayvec::ArrayVec;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
@@ -110,7 +110,7 @@ const FLUX_THRESHOLD: f32 = 0.01;
 /// is left out of what the vertex records: light sampling finds emitters, and a guide that
 /// learned them would spend its samples where next-event estimation already looks, and raise
 /// the MIS weight of its own hits (the tree learns indirect light only).
-fn leave_to_light_sampling(visits: Option<&mut Visits>, guided_last: bool, c: Rgb) {
+fn leave_to_light_sampling(visits: Option<&mut Visits>, guided_last: bool, c: Spectrum) {
     if let (true, Some(last)) = (guided_last, visits.and_then(|v| v.last_mut())) {
         last.found_before += c;
     }
@@ -146,8 +146,8 @@ struct Visit {
     p: Vec3A,
     wi: Vec3A,
     pdf: f32,
-    beta: Rgb,
-    found_before: Rgb,
+    beta: Spectrum,
+    found_before: Spectrum,
 }
 
 type Visits = ArrayVec<Visit, MAX_RECORDED>;
@@ -163,8 +163,8 @@ impl Guided {
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
         mut visits: Option<&mut Visits>,
-    ) -> Rgb {
-        let mut l = Rgb::ZERO;
+    ) -> Spectrum {
+        let mut l = Spectrum::ZERO;
         let mut path = PathState::from_camera(*camera_ray).selecting_lights(self.lights);
         // Whether the segment being traced left a guided vertex.
         let mut guided_last = false;
@@ -173,7 +173,7 @@ impl Guided {
             let Some(hit) = path.trace(tracer) else {
                 // Escaped: environment light, MIS-weighted against the density that chose it.
                 let le = escaped(tracer.scene, &path.ray, lambda);
-                if le != Rgb::ZERO {
+                if le != Spectrum::ZERO {
                     let c = path.beta * le * path.emission_weight(tracer, None);
                     l += c;
                     leave_to_light_sampling(visits.as_deref_mut(), guided_last, c);
@@ -183,7 +183,7 @@ impl Guided {
             // Emission found by the sampled direction (or the camera).
             if hit.light.is_some() {
                 let le = emitted_at(tracer.scene, &hit, &path.ray, lambda);
-                if le != Rgb::ZERO {
+                if le != Spectrum::ZERO {
                     let c = path.beta * le * path.emission_weight(tracer, Some(&hit));
                     l += c;
                     leave_to_light_sampling(visits.as_deref_mut(), guided_last, c);
@@ -346,9 +346,10 @@ impl Guided {
                 // The radiance that arrived through each guided direction: what the path
                 // found after it left, over its throughput then, over the direction's density.
                 for v in &visits {
-                    let lit = v.beta.cmpgt(Rgb::ZERO);
-                    let arrived = Rgb::select(lit, (l - v.found_before) / v.beta, Rgb::ZERO);
-                    let value = luminance(arrived) / v.pdf;
+                    let lit = v.beta.cmpgt(Spectrum::ZERO);
+                    let arrived =
+                        Spectrum::select(lit, (l - v.found_before) / v.beta, Spectrum::ZERO);
+                    let value = luminance(crate::spectrum::rgb_of(arrived)) / v.pdf;
                     if value.is_finite() && value >= 0.0 {
                         records.push(Record {
                             p: v.p,

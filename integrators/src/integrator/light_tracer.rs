@@ -29,7 +29,7 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::media_walk::{
-    average, cross_null, fly, hero_channel, medium_at, transmittance, Flight,
+    cross_null, fly, hero_channel, medium_at, transmittance, Flight,
 };
 use crate::integrator::{
     emit_from_a_light, escaped, Demand, Integrator, ShadingPoint, Splats, Tracer, MAX_SURVIVAL,
@@ -37,9 +37,9 @@ use crate::integrator::{
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, MAX_DEPTH, RR_DEPTH,
 };
-use crate::spectrum::Wavelengths;
-use crate::{Camera, Hit, Ray, Rgb, Sampler};
-use crate::{SampleContext, Spectrum};
+use crate::spectrum::{average, Wavelengths};
+use crate::SampleContext;
+use crate::{Camera, Hit, Ray, Sampler, Spectrum};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "lighttracer",
@@ -79,7 +79,7 @@ impl Integrator for LightTracer {
             lambda,
         } = cx;
         // The environment seen straight through the pixel: the one path no light path reaches.
-        let mut seen = Rgb::ZERO;
+        let mut seen = Spectrum::ZERO;
         if tracer.scene.lights().environment().is_some() {
             let ray = camera.ray(pixel.film.x, pixel.film.y);
             if tracer.scene.has_media() {
@@ -133,7 +133,7 @@ impl LightTracer {
             return;
         };
         // Lights at infinity are seen by camera rays (see `sample`).
-        if !ls.dist.is_finite() || ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
+        if !ls.dist.is_finite() || ls.pdf <= 0.0 || ls.radiance == Spectrum::ZERO {
             return;
         }
         let Some((we, raster)) = camera.importance(ls.wi) else {
@@ -180,10 +180,11 @@ impl LightTracer {
         let media = scene.has_media();
         let mut walk = Walk {
             hero: 0,
-            r_u: Rgb::ONE,
+            r_u: Spectrum::ONE,
+            lanes: lambda.lanes(),
         };
         if media {
-            walk.hero = hero_channel(sampler.next_1d());
+            walk.hero = hero_channel(sampler.next_1d(), lambda);
             ray.medium = medium_at(scene, camera.eye, scene.camera_medium(), ray.origin);
         }
         let mut bounces = 0u32;
@@ -269,7 +270,7 @@ impl LightTracer {
                 return;
             };
             beta = s.throughput(beta);
-            if !(beta.is_finite() && beta != Rgb::ZERO) {
+            if !(beta.is_finite() && beta != Spectrum::ZERO) {
                 return;
             }
             if !self.roulette(bounces, &mut beta, emitted, &walk, sampler) {
@@ -284,15 +285,15 @@ impl LightTracer {
     fn roulette(
         &self,
         bounces: u32,
-        beta: &mut Rgb,
-        emitted: Rgb,
+        beta: &mut Spectrum,
+        emitted: Spectrum,
         walk: &Walk,
         sampler: &mut Sampler,
     ) -> bool {
         if bounces < self.rr_depth {
             return true;
         }
-        let carried = beta.max_element() / average(walk.r_u);
+        let carried = beta.max_element() / average(walk.r_u, walk.lanes);
         let survive = (carried / emitted.max_element()).min(MAX_SURVIVAL);
         if survive.is_nan() || sampler.next_1d() >= survive {
             return false;
@@ -306,7 +307,9 @@ impl LightTracer {
 /// hero's (all ones without media).
 struct Walk {
     hero: usize,
-    r_u: Rgb,
+    r_u: Spectrum,
+    /// The lanes of its spectra that hold values (`Wavelengths::lanes`).
+    lanes: usize,
 }
 
 /// The light-path vertex in a medium at `p` (reached along `ray`, `wo` back along it) seen
@@ -316,13 +319,13 @@ fn connect_medium_to_lens(
     p: glam::Vec3A,
     wo: glam::Vec3A,
     ray: &Ray,
-    beta: Rgb,
+    beta: Spectrum,
     walk: &Walk,
     camera: &Camera,
     tracer: &mut Tracer,
     lambda: &Wavelengths,
     sampler: &mut Sampler,
-) -> Option<(glam::Vec2, Rgb)> {
+) -> Option<(glam::Vec2, Spectrum)> {
     let cs = camera.sample_wi(p)?;
     let phase = tracer.scene.medium(ray.medium)?.phase();
     let f = phase.eval(wo, cs.wi);
@@ -333,8 +336,8 @@ fn connect_medium_to_lens(
         medium: ray.medium,
     };
     let tr = transmittance(tracer, &to_eye, lambda, sampler);
-    let l = beta * tr * (f * cs.we / cs.pdf) / average(walk.r_u);
-    (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
+    let l = beta * tr * (f * cs.we / cs.pdf) / lambda.average(walk.r_u);
+    (l != Spectrum::ZERO && l.is_finite()).then_some((cs.raster, l))
 }
 
 /// The light-path vertex `sp`, reached with power `beta`, seen by the camera: where it lands
@@ -345,14 +348,14 @@ fn connect_medium_to_lens(
 /// transmittance to the eye instead of a visibility test.
 fn connect_to_lens(
     sp: &ShadingPoint,
-    beta: Rgb,
+    beta: Spectrum,
     camera: &Camera,
     tracer: &mut Tracer,
     medium: Option<(&Walk, &mut Sampler)>,
-) -> Option<(glam::Vec2, Rgb)> {
+) -> Option<(glam::Vec2, Spectrum)> {
     let cs = camera.sample_wi(sp.hit.p)?;
     let l = beta * sp.connection_factor(cs.wi, TransportMode::Importance) * (cs.we / cs.pdf);
-    if l == Rgb::ZERO {
+    if l == Spectrum::ZERO {
         return None;
     }
     match medium {
@@ -362,8 +365,8 @@ fn connect_to_lens(
         Some((walk, sampler)) => {
             let ray = sp.hit.spawn_ray_to(cs.point);
             let tr = transmittance(tracer, &ray, &sp.lambda, sampler);
-            let l = l * tr / average(walk.r_u);
-            (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
+            let l = l * tr / average(walk.r_u, walk.lanes);
+            (l != Spectrum::ZERO && l.is_finite()).then_some((cs.raster, l))
         }
     }
 }

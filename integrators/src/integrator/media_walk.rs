@@ -11,17 +11,11 @@
 use crate::integrator::{stays_on_viewer_side, ShadingPoint, Tracer};
 use crate::medium::tracking::sample_t_maj;
 use crate::spectrum::Wavelengths;
-use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene, Spectrum};
+use crate::{Hit, LightSample, MediumId, Ray, Sampler, Scene, Spectrum};
 use glam::Vec3A;
 
 /// How many surfaces a walk crosses before it gives up (a bound on one ray's work).
 const MAX_CROSSINGS: usize = 256;
-
-/// The average of the three channels.
-#[inline]
-pub fn average(v: Rgb) -> f32 {
-    (v.x + v.y + v.z) / 3.0
-}
 
 /// Whether `x` is above zero (false for NaN).
 #[inline]
@@ -33,7 +27,7 @@ pub fn positive(x: f32) -> bool {
 /// a medium carries into a density estimate, so that the estimate blurs the in-scattered
 /// radiance and not the medium's scattering coefficient with it.
 #[inline]
-pub fn over_sigma_s(v: Rgb, sigma_s: Rgb) -> Rgb {
+pub fn over_sigma_s(v: Spectrum, sigma_s: Spectrum) -> Spectrum {
     let per = |c: usize| {
         if positive(sigma_s[c]) {
             v[c] / sigma_s[c]
@@ -41,13 +35,14 @@ pub fn over_sigma_s(v: Rgb, sigma_s: Rgb) -> Rgb {
             0.0
         }
     };
-    Rgb::new(per(0), per(1), per(2))
+    Spectrum::new(per(0), per(1), per(2), per(3))
 }
 
-/// The hero channel of a path, from one uniform number.
+/// The hero channel of a path (a lane of its [`Spectrum`]), from one uniform number.
 #[inline]
-pub fn hero_channel(u: f32) -> usize {
-    ((u * 3.0) as usize).min(2)
+pub fn hero_channel(u: f32, lambda: &Wavelengths) -> usize {
+    let n = lambda.lanes();
+    ((u * n as f32) as usize).min(n - 1)
 }
 
 /// The medium at `to`, found by walking the segment from `from`, which lies in `medium`,
@@ -95,8 +90,8 @@ pub fn fly(
     hero: usize,
     lambda: &Wavelengths,
     sampler: &mut Sampler,
-    beta: &mut Rgb,
-    r_u: &mut Rgb,
+    beta: &mut Spectrum,
+    r_u: &mut Spectrum,
 ) -> Flight {
     let Some(medium) = scene.medium(ray.medium) else {
         return Flight::Through;
@@ -113,7 +108,7 @@ pub fn fly(
             scattered = Some(c.p);
             return false;
         }
-        let sigma_n = (c.sigma_maj - sigma_t).max(Rgb::ZERO);
+        let sigma_n = (c.sigma_maj - sigma_t).max(Spectrum::ZERO);
         let pdf = c.t_maj[hero] * sigma_n[hero];
         if !positive(pdf) {
             ended = true;
@@ -123,7 +118,8 @@ pub fn fly(
         *r_u *= c.t_maj * sigma_n / pdf;
         true
     });
-    let alive = |b: &Rgb, r: &Rgb| b.is_finite() && *b != Rgb::ZERO && *r != Rgb::ZERO;
+    let alive =
+        |b: &Spectrum, r: &Spectrum| b.is_finite() && *b != Spectrum::ZERO && *r != Spectrum::ZERO;
     if let Some(p) = scattered {
         return if alive(beta, r_u) {
             Flight::Scattered(p)
@@ -159,7 +155,7 @@ pub fn transmittance(
     let scene: &dyn Scene = tracer.scene;
     let target = ray.at(ray.tmax);
     let mut ray = *ray;
-    let mut tr = Rgb::ONE;
+    let mut tr = Spectrum::ONE;
     for _ in 0..MAX_CROSSINGS {
         tracer.counters.connection += 1;
         let hit = scene.intersect(&ray);
@@ -172,17 +168,17 @@ pub fn transmittance(
             return tr;
         };
         if !crosses(scene, &h, &ray) {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         if let Some(medium) = scene.medium(ray.medium) {
             tr *= crate::medium::tracking::ratio_tracking(medium, &ray, h.t, lambda, sampler);
         }
-        if tr == Rgb::ZERO || !tr.is_finite() {
-            return Rgb::ZERO;
+        if tr == Spectrum::ZERO || !tr.is_finite() {
+            return Spectrum::ZERO;
         }
         ray = next_towards(&h, &ray, target);
     }
-    Rgb::ZERO
+    Spectrum::ZERO
 }
 
 /// Whether a walk crosses the surface at `h` without a vertex: no surface at all (only a
@@ -196,7 +192,7 @@ pub fn crosses(scene: &dyn Scene, h: &Hit, ray: &Ray) -> bool {
     // the same in either mode: looked at in RGB.
     let sp = ShadingPoint::new(h, ray.dir, scene, &mut Wavelengths::Rgb);
     sp.material.lobes() == crate::bsdf::Lobes::DELTA_TRANSMISSION
-        && sp.material.null_transmission(sp.wo) == Rgb::ONE
+        && sp.material.null_transmission(sp.wo) == Spectrum::ONE
 }
 
 /// What a light-path walk in media does at the surface `sp` (reached along `ray`): a
@@ -207,7 +203,7 @@ pub fn cross_null(
     sp: &ShadingPoint,
     ray: &Ray,
     mode: crate::bsdf::TransportMode,
-    beta: &mut Rgb,
+    beta: &mut Spectrum,
     sampler: &mut Sampler,
 ) -> Option<Option<Ray>> {
     if sp.material.lobes() != crate::bsdf::Lobes::DELTA_TRANSMISSION {
@@ -265,36 +261,36 @@ pub fn direct_light(
         },
     };
     let Some((index, pmf)) = scene.lights().sample_for(None, &ctx, u_light) else {
-        return Rgb::ZERO;
+        return Spectrum::ZERO;
     };
     let light = scene.lights().get(index);
     let (ls, f, ray) = match at {
         Scatterer::Surface(sp) => {
             let Some((ls, ray)) = light_at_surface(sp, index, u, scene) else {
-                return Rgb::ZERO;
+                return Spectrum::ZERO;
             };
             let wi = sp.frame.to_local(ls.wi);
             (ls, sp.material.eval(sp.wo, wi) * wi.z.abs(), ray)
         }
         Scatterer::Medium { p, wo, medium } => {
             let Some(m) = scene.medium(*medium) else {
-                return Rgb::ZERO;
+                return Spectrum::ZERO;
             };
             let Some(ls) = light.sample_li(*p, u, lambda) else {
-                return Rgb::ZERO;
+                return Spectrum::ZERO;
             };
-            let f = Rgb::splat(m.phase().eval(*wo, ls.wi));
+            let f = Spectrum::splat(m.phase().eval(*wo, ls.wi));
             (ls, f, ray_from_point(*p, &ls, *medium))
         }
     };
-    if !positive(ls.pdf) || ls.radiance == Rgb::ZERO || f == Rgb::ZERO {
-        return Rgb::ZERO;
+    if !positive(ls.pdf) || ls.radiance == Spectrum::ZERO || f == Spectrum::ZERO {
+        return Spectrum::ZERO;
     }
     let l = f * ls.radiance / (pmf * ls.pdf) * transmittance(tracer, &ray, lambda, sampler);
     if l.is_finite() {
         l
     } else {
-        Rgb::ZERO
+        Spectrum::ZERO
     }
 }
 

@@ -23,8 +23,8 @@ use crate::mlt::PrimarySamples;
 use crate::random::{keyed_rng, unit_f32};
 use crate::registry::{ParamKind, ParamSpec, Params};
 use crate::spectrum::Wavelengths;
-use crate::{luminance, Camera, Rgb, Sampler, Scene};
-use crate::{PassContext, SampleContext, Spectrum};
+use crate::{luminance, Camera, Rgb, Sampler, Scene, Spectrum};
+use crate::{PassContext, SampleContext};
 use glam::Vec2;
 use rayon::prelude::*;
 
@@ -303,14 +303,14 @@ impl<S: PathSpace> Metropolis<S> {
             if accept > 0.0 {
                 splats.add(
                     proposed_film,
-                    proposed * (accept * scale / py),
+                    crate::spectrum::of_rgb(proposed * (accept * scale / py)),
                     &Wavelengths::Rgb,
                 );
             }
             if accept < 1.0 {
                 splats.add(
                     film,
-                    current * ((1.0 - accept) * scale / y),
+                    crate::spectrum::of_rgb(current * ((1.0 - accept) * scale / y)),
                     &Wavelengths::Rgb,
                 );
             }

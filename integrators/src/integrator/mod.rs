@@ -531,7 +531,7 @@ pub fn escaped(scene: &dyn Scene, ray: &Ray, lambda: &Wavelengths) -> Spectrum {
 pub fn specular_lobes(
     material: &crate::bsdf::MappedBsdf,
     wo: glam::Vec3A,
-) -> [Option<(glam::Vec3A, Rgb)>; 2] {
+) -> [Option<(glam::Vec3A, Spectrum)>; 2] {
     let lobe = |u: f32| {
         material
             .sample(wo, u, glam::Vec2::ZERO)
@@ -568,7 +568,7 @@ pub fn sample_one_light(
     lights: Option<LightSelection>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
-) -> Rgb {
+) -> Spectrum {
     let against = match mis {
         true => Against::<fn(glam::Vec3A) -> f32>::Bsdf,
         false => Against::Nothing,
@@ -584,7 +584,7 @@ pub fn sample_one_light_against(
     lights: Option<LightSelection>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
-) -> Rgb {
+) -> Spectrum {
     let against = match pdf {
         Some(pdf) => Against::Strategy(pdf),
         None => Against::Nothing,
@@ -611,7 +611,7 @@ fn one_light<F: Fn(glam::Vec3A) -> f32>(
     lights: Option<LightSelection>,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
-) -> Rgb {
+) -> Spectrum {
     let u_light = sampler.next_1d();
     let u = sampler.next_2d();
     let Some((index, pmf)) = tracer
@@ -619,11 +619,11 @@ fn one_light<F: Fn(glam::Vec3A) -> f32>(
         .lights()
         .sample_for(lights, &sp.light_context(), u_light)
     else {
-        return Rgb::ZERO;
+        return Spectrum::ZERO;
     };
     let with_pdf = matches!(against, Against::Bsdf);
     let Some((ls, f, cos, bsdf_pdf)) = sp.connect_light_with(index, u, tracer, with_pdf) else {
-        return Rgb::ZERO;
+        return Spectrum::ZERO;
     };
     let light_pdf = pmf * ls.pdf;
     let weight = match against {
@@ -672,7 +672,7 @@ pub const MAX_SURVIVAL: f32 = 0.95;
 #[inline]
 pub fn continue_path(
     sp: &ShadingPoint,
-    beta: &mut Rgb,
+    beta: &mut Spectrum,
     sampler: &mut Sampler,
 ) -> Option<(Ray, crate::BsdfSample)> {
     let u_lobe = sampler.next_1d();
@@ -684,7 +684,7 @@ pub fn continue_path(
 pub fn continue_path_with_lobe(
     sp: &ShadingPoint,
     u_lobe: f32,
-    beta: &mut Rgb,
+    beta: &mut Spectrum,
     sampler: &mut Sampler,
 ) -> Option<(Ray, crate::BsdfSample)> {
     let s = sp.sample(
@@ -693,7 +693,7 @@ pub fn continue_path_with_lobe(
         crate::bsdf::TransportMode::Radiance,
     )?;
     *beta = s.throughput(*beta);
-    if *beta == Rgb::ZERO {
+    if *beta == Spectrum::ZERO {
         return None;
     }
     Some((sp.hit.spawn_ray(s.wi), s.bsdf))
@@ -705,7 +705,7 @@ pub fn continue_path_with_lobe(
 /// the product of `eta^2` over their refractions (pbrt-v4's and Mitsuba 3's `rrBeta`), so that
 /// the `1 / eta^2` compression of radiance inside glass does not end paths early.
 #[inline]
-pub fn russian_roulette(beta: Rgb, sampler: &mut Sampler) -> Option<f32> {
+pub fn russian_roulette(beta: Spectrum, sampler: &mut Sampler) -> Option<f32> {
     let survive = beta.max_element().min(MAX_SURVIVAL);
     (sampler.next_1d() < survive).then_some(survive)
 }
@@ -724,7 +724,7 @@ mod tests {
 
     #[test]
     fn specular_lobes_of_glass_split_energy_by_fresnel() {
-        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
+        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Spectrum::ONE));
         let glass = MappedBsdf::plain(std::borrow::Cow::Owned(glass));
         let [r, t] = specular_lobes(&glass, Vec3A::Z);
         let (r, t) = (r.unwrap(), t.unwrap());
@@ -745,13 +745,15 @@ mod tests {
 
     #[test]
     fn specular_lobes_of_a_mirror_is_one_tinted_reflection() {
-        let mirror = Material::Conductor(Conductor::perfect_mirror(Rgb::new(0.9, 0.5, 0.1)));
+        let mirror = Material::Conductor(Conductor::perfect_mirror(crate::spectrum::rgb(
+            0.9, 0.5, 0.1,
+        )));
         let mirror = MappedBsdf::plain(std::borrow::Cow::Owned(mirror));
         let wo = Vec3A::new(0.6, 0.0, 0.8);
         let [r, t] = specular_lobes(&mirror, wo);
         let r = r.unwrap();
         assert!((r.0 - Vec3A::new(-0.6, 0.0, 0.8)).length() < 1e-6);
-        assert!((r.1 - Rgb::new(0.9, 0.5, 0.1)).length() < 1e-5);
+        assert!((r.1 - crate::spectrum::rgb(0.9, 0.5, 0.1)).length() < 1e-5);
         assert!(t.is_none());
     }
 }

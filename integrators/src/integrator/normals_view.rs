@@ -5,7 +5,7 @@ use crate::integrator::{RayIntegrator, Tracer};
 use crate::registry::{IntegratorEntry, MediaSupport, Params, SpectralSupport};
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Ray, Rgb, Sampler};
+use crate::{Ray, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "normals",
@@ -14,7 +14,7 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     build: |_: &Params| Box::new(NormalsView),
     analytic: None,
     media: MediaSupport::None,
-    spectral: SpectralSupport::Rgb,
+    spectral: SpectralSupport::Spectrum,
 };
 
 struct NormalsView;
@@ -30,8 +30,8 @@ impl RayIntegrator for NormalsView {
         // A view of the scene, not light: RGB in either mode.
         *lambda = Wavelengths::Rgb;
         match tracer.camera(ray) {
-            Some(hit) => hit.ns * 0.5 + 0.5,
-            None => Rgb::ZERO,
+            Some(hit) => crate::spectrum::of_rgb(hit.ns * 0.5 + 0.5),
+            None => Spectrum::ZERO,
         }
     }
 }

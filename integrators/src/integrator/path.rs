@@ -23,7 +23,7 @@ use crate::registry::{
 };
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Ray, Rgb, Sampler};
+use crate::{Ray, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "path",
@@ -59,14 +59,14 @@ impl RayIntegrator for PathTracer {
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
     ) -> Spectrum {
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         let mut path = PathState::from_camera(*camera_ray).selecting_lights(self.lights);
         loop {
             // Trace the next segment.
             let Some(hit) = path.trace(tracer) else {
                 // Escaped: environment light, MIS-weighted unless seen through specular.
                 let le = escaped(tracer.scene, &path.ray, lambda);
-                if le != Rgb::ZERO {
+                if le != Spectrum::ZERO {
                     l += path.beta * le * path.emission_weight(tracer, None);
                 }
                 break;
@@ -74,7 +74,7 @@ impl RayIntegrator for PathTracer {
             // Emission found by the BSDF sample (or the camera).
             if hit.light.is_some() {
                 let le = emitted_at(tracer.scene, &hit, &path.ray, lambda);
-                if le != Rgb::ZERO {
+                if le != Spectrum::ZERO {
                     l += path.beta * le * path.emission_weight(tracer, Some(&hit));
                 }
             }

@@ -6,7 +6,7 @@ use crate::integrator::{
     continue_path_with_lobe, mis_weight_for_hit, russian_roulette, ShadingPoint, Tracer,
 };
 use crate::light::{LightContext, LightSelection};
-use crate::{Hit, Ray, Rgb, Sampler};
+use crate::{Hit, Ray, Sampler, Spectrum};
 use glam::Vec3A;
 
 /// The walk's state between two segments.
@@ -15,7 +15,7 @@ pub struct PathState {
     pub ray: Ray,
     /// Throughput from the path's start to `ray`'s origin (BSDF weights over densities,
     /// divided by the roulette's survival probabilities).
-    pub beta: Rgb,
+    pub beta: Spectrum,
     /// Scattering events so far.
     pub bounces: u32,
     /// Whether `ray` left a specular scattering event, or is the walk's first ray.
@@ -50,7 +50,7 @@ impl PathState {
     pub fn from_camera(ray: Ray) -> PathState {
         PathState {
             ray,
-            beta: Rgb::ONE,
+            beta: Spectrum::ONE,
             bounces: 0,
             specular: true,
             pdf: 0.0,
@@ -136,7 +136,7 @@ impl PathState {
     /// carried). False ends the path (nothing carried).
     pub fn turn_along(&mut self, sp: &ShadingPoint, wi: Vec3A, pdf: f32, bsdf_pdf: f32) -> bool {
         let f = sp.connection_factor(wi, crate::bsdf::TransportMode::Radiance);
-        if pdf.is_nan() || pdf <= 0.0 || f == Rgb::ZERO {
+        if pdf.is_nan() || pdf <= 0.0 || f == Spectrum::ZERO {
             return false;
         }
         self.beta *= f / pdf;

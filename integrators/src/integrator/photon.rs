@@ -48,7 +48,7 @@ use crate::registry::{
 };
 use crate::spectrum::Wavelengths;
 use crate::{PassContext, Spectrum};
-use crate::{Ray, RayCounters, Rgb, Sampler};
+use crate::{Ray, RayCounters, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "photon",
@@ -191,10 +191,10 @@ impl RayIntegrator for PhotonMapping {
         lambda: &mut Wavelengths,
     ) -> Spectrum {
         let Some(maps) = &self.maps else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         *lambda = maps.lambda;
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         // Follow the camera path through specular bounces, collecting emission.
         let Some(x) = land(
             *camera_ray,
@@ -256,9 +256,9 @@ impl RayIntegrator for PhotonMapping {
         }
         // Final gathering: the global maps' estimate of the light leaving the first
         // non-specular point each gather ray reaches, on a surface or in a medium.
-        let mut gathered = Rgb::ZERO;
+        let mut gathered = Spectrum::ZERO;
         for _ in 0..self.gather {
-            let mut weight = Rgb::ONE;
+            let mut weight = Spectrum::ONE;
             let Some((ray, _)) = continue_path(&sp, &mut weight, sampler) else {
                 continue;
             };
@@ -290,7 +290,7 @@ impl RayIntegrator for PhotonMapping {
 }
 
 /// Direct light at a surface by one light sample (through media where the scene has them).
-pub(super) fn direct(sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampler) -> Rgb {
+pub(super) fn direct(sp: &ShadingPoint, tracer: &mut Tracer, sampler: &mut Sampler) -> Spectrum {
     if tracer.scene.has_media() {
         direct_light(&Scatterer::Surface(sp), tracer, &sp.lambda, sampler)
     } else {

@@ -268,7 +268,7 @@ pub enum SpectralSupport {
     /// Each Markov-chain proposal its own, drawn from its primary samples.
     PerProposal,
     /// A view of the scene, not light: RGB in either mode.
-    Rgb,
+    Spectrum,
 }
 
 impl SpectralSupport {
@@ -278,7 +278,7 @@ impl SpectralSupport {
             SpectralSupport::PerSample => "spectral (--spectral): wavelengths per camera sample",
             SpectralSupport::PerPass => "spectral (--spectral): wavelengths per pass, shared by its photons and camera paths",
             SpectralSupport::PerProposal => "spectral (--spectral): wavelengths per proposal, from its primary samples",
-            SpectralSupport::Rgb => "RGB in either mode (a view, not light)",
+            SpectralSupport::Spectrum => "RGB in either mode (a view, not light)",
         }
     }
 }

@@ -35,7 +35,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
 };
 use crate::spectrum::Wavelengths;
-use crate::{Hit, LightSample, Rgb, Scene, Spectrum};
+use crate::{Hit, LightSample, Scene, Spectrum};
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
 
@@ -200,7 +200,7 @@ fn contribution(
     sp: &ShadingPoint,
     y: &LightPoint,
     scene: &dyn Scene,
-) -> Option<(Rgb, LightSample)> {
+) -> Option<(Spectrum, LightSample)> {
     let light = match *y {
         LightPoint::Area { light, .. }
         | LightPoint::Delta { light }
@@ -212,12 +212,12 @@ fn contribution(
     let (ls, measure) = y.seen_from(scene.lights(), sp.hit.p, &sp.lambda)?;
     let (f, cos, _) = sp.reflect(&ls, false)?;
     let c = f * ls.radiance * (cos * measure);
-    (c.is_finite() && c != Rgb::ZERO).then_some((c, ls))
+    (c.is_finite() && c != Spectrum::ZERO).then_some((c, ls))
 }
 
-/// The target: the luminance of the unshadowed contribution.
+/// The target: the brightness of the unshadowed contribution (its luminance in RGB mode).
 fn target(sp: &ShadingPoint, y: &LightPoint, scene: &dyn Scene) -> f32 {
-    contribution(sp, y, scene).map_or(0.0, |(c, _)| crate::luminance(c).max(0.0))
+    contribution(sp, y, scene).map_or(0.0, |(c, _)| sp.lambda.brightness(c).max(0.0))
 }
 
 /// A light point for `sp` from one light sample, with its density in its own measure.

@@ -22,7 +22,7 @@ use crate::registry::{
 };
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Ray, Rgb, Sampler};
+use crate::{Ray, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "russian-roulette",
@@ -61,7 +61,7 @@ impl RayIntegrator for RussianRouletteTracer {
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
     ) -> Spectrum {
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         let mut path = PathState::from_camera(*camera_ray);
         loop {
             // Trace: the camera ray, then continuation rays. Emission counts only when

@@ -7,7 +7,7 @@ use super::{stays_on_viewer_side, Tracer};
 use crate::bsdf::{BsdfSample, MappedBsdf, TransportMode};
 use crate::light::LightSample;
 use crate::spectrum::Wavelengths;
-use crate::{Frame, Hit, Rgb, Scene};
+use crate::{Frame, Hit, Scene, Spectrum};
 use glam::{Vec2, Vec3A};
 
 /// A surface hit, ready to shade.
@@ -36,7 +36,7 @@ pub struct Scatter {
     pub bsdf: BsdfSample,
     /// `f |cos| / pdf` for the transport mode (`eta^2` times more on refraction for
     /// importance).
-    pub weight: Rgb,
+    pub weight: Spectrum,
     /// Veach's adjoint correction for shading normals (thesis, eq. 5.19) in importance mode:
     /// `|wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)`; 1 for radiance.
     pub correction: f32,
@@ -45,7 +45,7 @@ pub struct Scatter {
 impl Scatter {
     /// The throughput after this scattering event.
     #[inline]
-    pub fn throughput(&self, beta: Rgb) -> Rgb {
+    pub fn throughput(&self, beta: Spectrum) -> Spectrum {
         beta * self.weight * self.correction
     }
 }
@@ -109,9 +109,9 @@ impl<'a> ShadingPoint<'a> {
     /// and leaving along `w`, with Veach's shading-normal correction
     /// `|wo.ns| |w.ng| / (|wo.ng| |w.ns|)`. Zero across an opaque surface.
     #[inline]
-    pub fn connection_factor(&self, w: Vec3A, mode: TransportMode) -> Rgb {
+    pub fn connection_factor(&self, w: Vec3A, mode: TransportMode) -> Spectrum {
         if !stays_on_viewer_side(&self.material, self.hit.ng, self.wo_world, w) {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let local = self.frame.to_local(w);
         let cos = local.z.abs();
@@ -121,7 +121,7 @@ impl<'a> ShadingPoint<'a> {
                 let (hit, wo) = (&self.hit, self.wo_world);
                 let denom = wo.dot(hit.ng).abs() * w.dot(hit.ns).abs();
                 if denom <= 0.0 {
-                    return Rgb::ZERO;
+                    return Spectrum::ZERO;
                 }
                 let correction = wo.dot(hit.ns).abs() * w.dot(hit.ng).abs() / denom;
                 self.material.eval(local, self.wo) * (cos * correction)
@@ -157,7 +157,7 @@ impl<'a> ShadingPoint<'a> {
         index: u32,
         u: Vec2,
         tracer: &mut Tracer,
-    ) -> Option<(LightSample, Rgb, f32)> {
+    ) -> Option<(LightSample, Spectrum, f32)> {
         self.connect_light_with(index, u, tracer, false)
             .map(|(ls, f, cos, _)| (ls, f, cos))
     }
@@ -172,7 +172,7 @@ impl<'a> ShadingPoint<'a> {
         u: Vec2,
         tracer: &mut Tracer,
         bsdf_pdf: bool,
-    ) -> Option<(LightSample, Rgb, f32, f32)> {
+    ) -> Option<(LightSample, Spectrum, f32, f32)> {
         if !self.can_receive(index, tracer.scene.lights()) {
             return None;
         }
@@ -197,8 +197,8 @@ impl<'a> ShadingPoint<'a> {
     /// direction across an opaque surface, a zero BSDF. The caller checks that the light can
     /// reach the point ([`ShadingPoint::can_receive`]).
     #[inline]
-    pub fn reflect(&self, ls: &LightSample, bsdf_pdf: bool) -> Option<(Rgb, f32, f32)> {
-        if ls.radiance == Rgb::ZERO
+    pub fn reflect(&self, ls: &LightSample, bsdf_pdf: bool) -> Option<(Spectrum, f32, f32)> {
+        if ls.radiance == Spectrum::ZERO
             || !stays_on_viewer_side(
                 &self.material,
                 self.hit.ng,
@@ -214,7 +214,7 @@ impl<'a> ShadingPoint<'a> {
         } else {
             (self.material.eval(self.wo, wi), 0.0)
         };
-        (f != Rgb::ZERO).then_some((f, wi.z.abs(), pdf))
+        (f != Spectrum::ZERO).then_some((f, wi.z.abs(), pdf))
     }
 }
 
@@ -236,7 +236,7 @@ mod tests {
     #[test]
     fn refraction_reports_its_eta_and_importance_keeps_the_power_radiance_loses() {
         let scene = furnace_sphere(0.5, 1.0);
-        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Rgb::ONE));
+        let glass = Material::Dielectric(Dielectric::unchecked(1.5, Spectrum::ONE));
         let dir = Vec3A::new(0.3, 0.0, -1.0).normalize();
         let mut sp = ShadingPoint::new(&hit(Vec3A::Z), dir, &scene, &mut Wavelengths::Rgb);
         sp.material = MappedBsdf::plain(Cow::Borrowed(&glass));
@@ -268,7 +268,7 @@ mod tests {
     fn importance_carries_veachs_shading_normal_correction() {
         let scene = furnace_sphere(0.5, 1.0);
         let lambert = Material::Lambert(Lambert {
-            albedo: Rgb::splat(0.5),
+            albedo: Spectrum::splat(0.5),
         });
         let ns = Vec3A::new(0.3, 0.0, 1.0).normalize();
         let dir = Vec3A::new(-0.5, 0.2, -1.0).normalize();
@@ -283,6 +283,6 @@ mod tests {
         assert!((i.correction - expected).abs() < 1e-6 && (expected - 1.0).abs() > 0.01);
         assert_eq!(r.weight, i.weight);
         // Paths from the camera are unaffected: the throughput is beta times the weight.
-        assert_eq!(r.throughput(Rgb::ONE), r.weight);
+        assert_eq!(r.throughput(Spectrum::ONE), r.weight);
     }
 }

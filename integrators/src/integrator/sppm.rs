@@ -45,7 +45,7 @@ use crate::registry::{
 };
 use crate::spectrum::Wavelengths;
 use crate::{PassContext, Spectrum};
-use crate::{Ray, RayCounters, Rgb, Sampler};
+use crate::{Ray, RayCounters, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "sppm",
@@ -184,7 +184,7 @@ impl RayIntegrator for Sppm {
         lambda: &mut Wavelengths,
     ) -> Spectrum {
         *lambda = self.lambda;
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         // Follow the camera path through specular bounces to its visible point, adding the
         // emission seen on the way (nothing else finds it).
         let Some(x) = land(

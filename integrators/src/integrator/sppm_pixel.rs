@@ -55,6 +55,7 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
     GATHER_RADIUS, MAX_DEPTH, PHOTONS, RR_DEPTH,
 };
+use crate::spectrum::of_rgb;
 use crate::spectrum::Wavelengths;
 use crate::{Camera, Ray, RayCounters, Rgb, Sampler, Scene};
 use crate::{PassContext, SampleContext, Spectrum};
@@ -185,7 +186,7 @@ impl Progress {
 struct Visible {
     at: Spot,
     ray: Ray,
-    beta: Rgb,
+    beta: Spectrum,
     bounces: u32,
 }
 
@@ -223,7 +224,7 @@ impl SppmPixel {
                     let film = Vec2::new((index % width) as f32, (index / width) as f32)
                         + sampler.next_2d();
                     let ray = camera.ray(film.x, film.y);
-                    let mut l = Rgb::ZERO;
+                    let mut l = Spectrum::ZERO;
                     px.visible = None;
                     let mut lambda = lambda;
                     let lambda = &mut lambda;
@@ -403,8 +404,8 @@ fn level_of(radius: f32, r0: f32) -> usize {
 
 /// The flux the photons within `radius` of the visible point `sp` bring towards its viewer
 /// (`sum f Phi`), and their number; photons of more than `max_bounces` bounces are skipped.
-fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> (Rgb, u32) {
-    let (mut flux, mut count) = (Rgb::ZERO, 0u32);
+fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> (Spectrum, u32) {
+    let (mut flux, mut count) = (Spectrum::ZERO, 0u32);
     let r2 = radius * radius;
     map.for_each_near(sp.hit.p, |ph| {
         if (ph.bounces as u32) > max_bounces
@@ -416,7 +417,7 @@ fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> 
         if !crate::integrator::stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, wi) {
             return;
         }
-        flux += sp.material.eval(sp.wo, sp.frame.to_local(wi)) * Vec3A::from(ph.power);
+        flux += sp.material.eval(sp.wo, sp.frame.to_local(wi)) * Spectrum::from_array(ph.power);
         count += 1;
     });
     (flux, count)
@@ -453,17 +454,17 @@ impl Integrator for SppmPixel {
         *lambda = Wavelengths::Rgb;
         // The increment that makes the render loop's average the estimate after this pass.
         let Some(camera) = self.camera.as_ref() else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         let Some(row) = pixel.y.checked_sub(self.first_row(camera)) else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         let index = row as usize * camera.width as usize + pixel.x as usize;
         let Some(px) = self.pixels.get(index) else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         let n = pixel.index as f32 + 1.0;
-        px.estimate * n - px.previous * (n - 1.0)
+        of_rgb(px.estimate * n - px.previous * (n - 1.0))
     }
 
     fn prepare_pass(&mut self, cx: &PassContext) -> RayCounters {

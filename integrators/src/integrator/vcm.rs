@@ -53,8 +53,7 @@
 
 use crate::bsdf::TransportMode;
 use crate::integrator::media_walk::{
-    average, cross_null, fly, hero_channel, medium_at, over_sigma_s, ray_from_point, transmittance,
-    Flight,
+    cross_null, fly, hero_channel, medium_at, over_sigma_s, ray_from_point, transmittance, Flight,
 };
 use crate::integrator::volpath::LONG_PATH;
 use crate::integrator::{
@@ -68,8 +67,10 @@ use crate::registry::{
     GATHER_RADIUS, MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
-use crate::{Camera, Hit, Light, MediumId, MediumInterface, Ray, RayCounters, Rgb, Sampler, Scene};
-use crate::{PassContext, SampleContext, Spectrum};
+use crate::{
+    Camera, Hit, Light, MediumId, MediumInterface, Ray, RayCounters, Sampler, Scene, Spectrum,
+};
+use crate::{PassContext, SampleContext};
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -162,7 +163,7 @@ struct Pass {
     /// `vertex_ends[i]`: the end of subpath `i`'s vertices (its start is `vertex_ends[i - 1]`).
     vertex_ends: Vec<u32>,
     /// Connections of the light subpaths to the lens, subpath by subpath.
-    splats: Vec<(Vec2, Rgb)>,
+    splats: Vec<(Vec2, Spectrum)>,
     splat_ends: Vec<u32>,
     /// Every stored light vertex on a surface, for merging.
     grid: PointGrid<MergeVertex>,
@@ -307,10 +308,10 @@ impl At<'_, '_> {
     /// The BSDF with `|cos|` and the shading-normal correction in `mode`, or the phase
     /// function, towards `wi` (world).
     #[inline]
-    fn f(&self, wi: Vec3A, mode: TransportMode) -> Rgb {
+    fn f(&self, wi: Vec3A, mode: TransportMode) -> Spectrum {
         match self {
             At::Surface(sp) => sp.connection_factor(wi, mode),
-            At::Medium(m) => Rgb::splat(m.phase.eval(m.wo, wi)),
+            At::Medium(m) => Spectrum::splat(m.phase.eval(m.wo, wi)),
         }
     }
 
@@ -409,7 +410,7 @@ impl Stored {
 struct LightVertex {
     at: Stored,
     /// Power (in media, over the average of the channels' densities).
-    beta: Rgb,
+    beta: Spectrum,
     /// Segments from the light.
     length: u32,
     mis: Partial,
@@ -422,8 +423,8 @@ struct MergeVertex {
     /// Unit direction back along the subpath (away from the surface).
     wi: Vec3,
     /// Its power; in a medium over `sigma_s` there (so that a merge blurs the in-scattered
-    /// radiance, not the medium's coefficient).
-    beta: Vec3,
+    /// radiance, not the medium's coefficient), per lane of a [`Spectrum`].
+    beta: [f32; 4],
     length: u32,
     /// The medium it lies in (`MediumId::VACUUM` on a surface).
     medium: MediumId,
@@ -445,7 +446,7 @@ struct Traced {
     vertex_ends: Vec<u32>,
     merge: Vec<MergeVertex>,
     volume: Vec<MergeVertex>,
-    splats: Vec<(Vec2, Rgb)>,
+    splats: Vec<(Vec2, Spectrum)>,
     splat_ends: Vec<u32>,
     rays: RayCounters,
 }
@@ -454,14 +455,14 @@ struct Traced {
 /// density over the hero's (see `media_walk`).
 struct Walk {
     hero: usize,
-    r_u: Rgb,
+    r_u: Spectrum,
 }
 
 impl Walk {
-    fn new(sampler: &mut Sampler) -> Walk {
+    fn new(sampler: &mut Sampler, lambda: &Wavelengths) -> Walk {
         Walk {
-            hero: hero_channel(sampler.next_1d()),
-            r_u: Rgb::ONE,
+            hero: hero_channel(sampler.next_1d(), lambda),
+            r_u: Spectrum::ONE,
         }
     }
 }
@@ -563,7 +564,7 @@ impl VertexMerging {
         // and the last vertex (a segment may cross `Null` boundaries on its way).
         let mut walk = None;
         if scene.has_media() {
-            walk = Some(Walk::new(sampler));
+            walk = Some(Walk::new(sampler, lambda));
             ray.medium = medium_at(scene, camera.eye, scene.camera_medium(), ray.origin);
         }
         let mut from = ray.origin;
@@ -631,7 +632,9 @@ impl VertexMerging {
             weights.arrive(d2, at.cos(ray.dir));
             weights.merge_here(&mut left, &at, w);
             // The power this vertex carries (in media, over the channels' average density).
-            let power = walk.as_ref().map_or(beta, |walk| beta / average(walk.r_u));
+            let power = walk
+                .as_ref()
+                .map_or(beta, |walk| beta / lambda.average(walk.r_u));
             // Keep it (for merges, and connections) and connect it to the lens, unless its
             // BSDF is all Dirac lobes.
             if !at.is_specular() {
@@ -640,14 +643,14 @@ impl VertexMerging {
                     At::Medium(m) => {
                         let sigma_s = scene
                             .medium(m.medium)
-                            .map_or(Rgb::ZERO, |md| md.at(p, lambda).sigma_s);
+                            .map_or(Spectrum::ZERO, |md| md.at(p, lambda).sigma_s);
                         (over_sigma_s(power, sigma_s), m.medium)
                     }
                 };
                 let kept = MergeVertex {
                     p: Vec3::from(p),
                     wi: Vec3::from(-ray.dir),
-                    beta: Vec3::from(merged),
+                    beta: merged.to_array(),
                     length,
                     medium,
                     vcm: weights.vcm,
@@ -712,7 +715,7 @@ impl VertexMerging {
             // events: a cap from the first would make its vertices' powers heavy-tailed.
             if length >= self.rr_depth {
                 let carried = match walk.as_ref() {
-                    Some(walk) => (beta / average(walk.r_u)).max_element(),
+                    Some(walk) => (beta / lambda.average(walk.r_u)).max_element(),
                     None => beta.max_element(),
                 };
                 let ratio = carried / start;
@@ -738,14 +741,14 @@ impl VertexMerging {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
-    ) -> Rgb {
+    ) -> Spectrum {
         let scene = tracer.scene;
         let w = &self.pass.weights;
         let max = self.max_segments();
         let mut ray = camera.ray(pixel.film.x, pixel.film.y);
         let (_, pdf_dir) = camera.pdf_we(ray.dir);
         if pdf_dir <= 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         // One light subpath per pixel: the ratio of the two is 1/pdf (eqs. 31-33).
         let mut weights = Partial {
@@ -753,14 +756,14 @@ impl VertexMerging {
             vc: 0.0,
             vm: 0.0,
         };
-        let mut beta = Rgb::ONE;
+        let mut beta = Spectrum::ONE;
         let mut specular_path = true;
         let mut length = 1u32;
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         // In media: the walk's channels, from the camera's medium.
         let mut walk = None;
         if scene.has_media() {
-            walk = Some(Walk::new(sampler));
+            walk = Some(Walk::new(sampler, lambda));
             ray.medium = scene.camera_medium();
         }
         let mut from = ray.origin;
@@ -802,7 +805,9 @@ impl VertexMerging {
                 }
             }
             // This vertex's throughput (in media, over the channels' average density).
-            let carried = walk.as_ref().map_or(beta, |walk| beta / average(walk.r_u));
+            let carried = walk
+                .as_ref()
+                .map_or(beta, |walk| beta / lambda.average(walk.r_u));
             let sp;
             let at = match at {
                 Some(at) => at,
@@ -897,7 +902,7 @@ impl VertexMerging {
             if length >= self.rr_depth {
                 let survive = match walk.as_ref() {
                     Some(walk) => {
-                        let rr = (beta / average(walk.r_u)).max_element();
+                        let rr = (beta / lambda.average(walk.r_u)).max_element();
                         if rr >= 1.0 && length < LONG_PATH {
                             1.0
                         } else {
@@ -930,9 +935,9 @@ impl VertexMerging {
         weights: &Partial,
         length: u32,
         specular_path: bool,
-        e: Rgb,
+        e: Spectrum,
     ) -> f32 {
-        if e == Rgb::ZERO || length == 1 {
+        if e == Spectrum::ZERO || length == 1 {
             // Seen directly: no other strategy makes it.
             return 1.0;
         }
@@ -971,7 +976,7 @@ impl Integrator for VertexMerging {
             lambda,
         } = cx;
         if !camera.is_pinhole() {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         // This pixel's light subpath: its connections to the lens, its vertices; the
         // camera subpath carries the pass's wavelengths.
@@ -1095,15 +1100,20 @@ fn finite_or_zero(x: f64) -> f32 {
 
 /// Whether the segment `ray` is clear, and in media its transmittance (through media and
 /// `Null` boundaries): what a connection along it carries.
-fn visible(ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler, lambda: &Wavelengths) -> Rgb {
+fn visible(
+    ray: &Ray,
+    tracer: &mut Tracer,
+    sampler: &mut Sampler,
+    lambda: &Wavelengths,
+) -> Spectrum {
     if tracer.scene.has_media() {
         transmittance(tracer, ray, lambda, sampler)
     } else {
         tracer.counters.connection += 1;
         if tracer.scene.occluded(ray) {
-            Rgb::ZERO
+            Spectrum::ZERO
         } else {
-            Rgb::ONE
+            Spectrum::ONE
         }
     }
 }
@@ -1114,17 +1124,17 @@ fn visible(ray: &Ray, tracer: &mut Tracer, sampler: &mut Sampler, lambda: &Wavel
 #[allow(clippy::too_many_arguments)]
 fn to_lens(
     at: &At,
-    beta: Rgb,
+    beta: Spectrum,
     weights: &Partial,
     w: &Weights,
     camera: &Camera,
     tracer: &mut Tracer,
     sampler: &mut Sampler,
     lambda: &Wavelengths,
-) -> Option<(Vec2, Rgb)> {
+) -> Option<(Vec2, Spectrum)> {
     let cs = camera.sample_wi(at.p())?;
     let f = at.f(cs.wi, TransportMode::Importance);
-    if f == Rgb::ZERO || cs.pdf <= 0.0 {
+    if f == Spectrum::ZERO || cs.pdf <= 0.0 {
         return None;
     }
     // The area density of the camera's ray reaching this point, against this subpath.
@@ -1134,7 +1144,7 @@ fn to_lens(
     let w_light = mis(camera_area) * (at.kernel(w).vm + weights.vcm + weights.vc * rev);
     let weight = finite_or_zero(1.0 / (w_light + 1.0));
     let l = beta * f * (cs.we * (weight / cs.pdf));
-    if l == Rgb::ZERO || !l.is_finite() {
+    if l == Spectrum::ZERO || !l.is_finite() {
         return None;
     }
     let ray = match at {
@@ -1147,7 +1157,7 @@ fn to_lens(
         },
     };
     let l = l * visible(&ray, tracer, sampler, lambda);
-    (l != Rgb::ZERO && l.is_finite()).then_some((cs.raster, l))
+    (l != Spectrum::ZERO && l.is_finite()).then_some((cs.raster, l))
 }
 
 /// A light sample at camera vertex `at` (`s = 1`, the report's eqs. 44-45): its
@@ -1159,28 +1169,28 @@ fn light_sample(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
     lambda: &Wavelengths,
-) -> Rgb {
+) -> Spectrum {
     let scene = tracer.scene;
     let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
     let lights = scene.lights();
     let Some((index, pmf)) = lights.sample(u_light) else {
-        return Rgb::ZERO;
+        return Spectrum::ZERO;
     };
     let light = lights.get(index);
     if let At::Surface(sp) = at {
         if !sp.can_receive(index, lights) {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
     }
     let Some(ls) = light.sample_li(at.p(), u, lambda) else {
-        return Rgb::ZERO;
+        return Spectrum::ZERO;
     };
-    if ls.pdf <= 0.0 || ls.radiance == Rgb::ZERO {
-        return Rgb::ZERO;
+    if ls.pdf <= 0.0 || ls.radiance == Spectrum::ZERO {
+        return Spectrum::ZERO;
     }
     let f = at.f(ls.wi, TransportMode::Radiance);
-    if f == Rgb::ZERO {
-        return Rgb::ZERO;
+    if f == Spectrum::ZERO {
+        return Spectrum::ZERO;
     }
     // The BSDF's densities towards the light (a delta light cannot be hit) and back.
     let bsdf_dir = if light.is_delta() {
@@ -1216,15 +1226,15 @@ fn light_sample(
     let w_camera = mis(ratio) * (at.kernel(w).vm + weights.vcm + weights.vc * bsdf_rev);
     let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
     let c = f * ls.radiance * (weight / (pmf * ls.pdf));
-    if c == Rgb::ZERO || !c.is_finite() {
-        return Rgb::ZERO;
+    if c == Spectrum::ZERO || !c.is_finite() {
+        return Spectrum::ZERO;
     }
     match at {
         At::Surface(sp) if !scene.has_media() => {
             if tracer.unoccluded(&sp.hit, &ls) {
                 c
             } else {
-                Rgb::ZERO
+                Spectrum::ZERO
             }
         }
         _ => {
@@ -1249,24 +1259,24 @@ fn connect(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
     lambda: &Wavelengths,
-) -> Rgb {
+) -> Spectrum {
     let to = v.at.p() - at.p();
     let d2 = to.length_squared();
     if d2.is_nan() || d2 <= 0.0 {
-        return Rgb::ZERO;
+        return Spectrum::ZERO;
     }
     let dir = to / d2.sqrt();
     let f_camera = at.f(dir, TransportMode::Radiance);
-    if f_camera == Rgb::ZERO {
-        return Rgb::ZERO;
+    if f_camera == Spectrum::ZERO {
+        return Spectrum::ZERO;
     }
     let shading = v.at.shading(tracer.scene, lambda);
     let Some(lv) = v.at.at(&shading) else {
-        return Rgb::ZERO;
+        return Spectrum::ZERO;
     };
     let f_light = lv.f(-dir, TransportMode::Importance);
-    if f_light == Rgb::ZERO {
-        return Rgb::ZERO;
+    if f_light == Spectrum::ZERO {
+        return Spectrum::ZERO;
     }
     // Each side's densities along the connection and back, the former as area densities at
     // the other vertex.
@@ -1278,15 +1288,15 @@ fn connect(
     let w_camera = mis(light_area) * (at.kernel(w).vm + weights.vcm + weights.vc * camera_rev);
     let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
     let c = f_camera * f_light * (weight / d2);
-    if c == Rgb::ZERO || !c.is_finite() {
-        return Rgb::ZERO;
+    if c == Spectrum::ZERO || !c.is_finite() {
+        return Spectrum::ZERO;
     }
     match (at, &lv) {
         (At::Surface(a), At::Surface(b)) if !tracer.scene.has_media() => {
             if tracer.connected_to(&b.hit, &a.hit) {
                 c
             } else {
-                Rgb::ZERO
+                Spectrum::ZERO
             }
         }
         _ => {
@@ -1306,16 +1316,16 @@ fn connect(
 /// light vertex in a medium is a real scattering event, and carries its power over `sigma_s`
 /// there: the estimate is of the in-scattered radiance (the camera's throughput holds the
 /// vertex's own `sigma_s`).
-fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass) -> Rgb {
+fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass) -> Spectrum {
     let w = &pass.weights;
     let kernel = at.kernel(w);
     let grid = match at {
         At::Surface(_) => &pass.grid,
         At::Medium(_) => &pass.volume,
     };
-    let mut sum = Rgb::ZERO;
+    let mut sum = Spectrum::ZERO;
     // The value and the densities towards a light vertex's direction and back.
-    let eval = |wi: Vec3A| -> Option<(Rgb, f32, f32)> {
+    let eval = |wi: Vec3A| -> Option<(Spectrum, f32, f32)> {
         match at {
             At::Surface(sp) => {
                 if !stays_on_viewer_side(&sp.material, sp.hit.ng, sp.wo_world, wi) {
@@ -1323,7 +1333,7 @@ fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass) -> Rgb 
                 }
                 let local = sp.frame.to_local(wi);
                 let f = sp.material.eval(sp.wo, local);
-                if f == Rgb::ZERO {
+                if f == Spectrum::ZERO {
                     return None;
                 }
                 let to = sp.material.pdf(sp.wo, local);
@@ -1331,7 +1341,7 @@ fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass) -> Rgb 
             }
             At::Medium(m) => {
                 let p = m.phase.eval(m.wo, wi);
-                (p > 0.0).then(|| (Rgb::splat(p), p, m.phase.eval(wi, m.wo)))
+                (p > 0.0).then(|| (Spectrum::splat(p), p, m.phase.eval(wi, m.wo)))
             }
         }
     };
@@ -1349,7 +1359,7 @@ fn merge(at: &At, weights: &Partial, length: u32, max: u32, pass: &Pass) -> Rgb 
         let w_light = v.vcm * kernel.vc + v.vm * mis(to);
         let w_camera = weights.vcm * kernel.vc + weights.vm * mis(from);
         let weight = finite_or_zero(1.0 / (w_light + 1.0 + w_camera));
-        sum += f * Vec3A::from(v.beta) * weight;
+        sum += f * Spectrum::from_array(v.beta) * weight;
     });
     sum * kernel.normalization
 }
@@ -1369,7 +1379,7 @@ fn scatter(
     at: &At,
     mode: TransportMode,
     w: &Weights,
-    beta: &mut Rgb,
+    beta: &mut Spectrum,
     weights: &mut Partial,
     ray: &mut Ray,
     sampler: &mut Sampler,
@@ -1405,7 +1415,7 @@ fn scatter(
         };
         *weights = next;
     }
-    if !(beta.is_finite() && *beta != Rgb::ZERO) {
+    if !(beta.is_finite() && *beta != Spectrum::ZERO) {
         return None;
     }
     *ray = match at {

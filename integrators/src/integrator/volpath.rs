@@ -27,9 +27,7 @@
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
 
 use crate::bsdf::TransportMode;
-use crate::integrator::media_walk::{
-    average, hero_channel, light_at_surface, positive, ray_from_point,
-};
+use crate::integrator::media_walk::{hero_channel, light_at_surface, positive, ray_from_point};
 use crate::integrator::{emitted_at, escaped, RayIntegrator, ShadingPoint};
 use crate::light::{LightContext, LightSelection};
 use crate::medium::tracking::sample_t_maj;
@@ -38,8 +36,8 @@ use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION,
     MAX_DEPTH, RR_DEPTH,
 };
-use crate::spectrum::Wavelengths;
-use crate::{Hit, LightSample, MediumId, Ray, Rgb, Sampler, Scene, Spectrum, Tracer};
+use crate::spectrum::{average, Wavelengths};
+use crate::{Hit, LightSample, MediumId, Ray, Sampler, Scene, Spectrum, Tracer};
 use glam::Vec3A;
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
@@ -76,12 +74,12 @@ pub(crate) struct VolPath {
 /// The path's state between segments.
 struct Walk {
     /// Throughput over the hero channel's path density.
-    beta: Rgb,
+    beta: Spectrum,
     /// Each channel's density of the path as sampled (unidirectionally), over the hero's.
-    r_u: Rgb,
+    r_u: Spectrum,
     /// Each channel's density of the path up to the last scattering point, with light
     /// sampling's density of the rest (completed where an emitter is found), over the hero's.
-    r_l: Rgb,
+    r_l: Spectrum,
     /// Scattering events so far (surface or medium).
     depth: u32,
     /// Whether the last scattering was a Dirac delta (or there was none yet).
@@ -91,6 +89,8 @@ struct Walk {
     /// The last scattering point and its geometric normal (zero in a medium), for the light
     /// density of emitters the path finds.
     from: LightContext,
+    /// The lanes of its spectra that hold values (`Wavelengths::lanes`).
+    lanes: usize,
 }
 
 /// Where a light sample is taken.
@@ -108,15 +108,15 @@ impl RayIntegrator for VolPath {
         lambda: &mut Wavelengths,
     ) -> Spectrum {
         let scene: &dyn Scene = tracer.scene;
-        let hero = hero_channel(sampler.next_1d());
+        let hero = hero_channel(sampler.next_1d(), lambda);
         let mut ray = Ray {
             medium: scene.camera_medium(),
             ..*camera_ray
         };
         let mut w = Walk {
-            beta: Rgb::ONE,
-            r_u: Rgb::ONE,
-            r_l: Rgb::ONE,
+            beta: Spectrum::ONE,
+            r_u: Spectrum::ONE,
+            r_l: Spectrum::ONE,
             depth: 0,
             specular: true,
             eta_scale: 1.0,
@@ -124,8 +124,9 @@ impl RayIntegrator for VolPath {
                 p: ray.origin,
                 n: Vec3A::ZERO,
             },
+            lanes: lambda.lanes(),
         };
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         let mut first = true;
         loop {
             let hit = if first {
@@ -148,9 +149,9 @@ impl RayIntegrator for VolPath {
                             // Emission, by the collision estimator.
                             let pdf = c.sigma_maj[hero] * c.t_maj[hero];
                             let r_e = w.r_u * c.sigma_maj * c.t_maj / pdf;
-                            if r_e != Rgb::ZERO {
+                            if r_e != Spectrum::ZERO {
                                 let beta = w.beta * c.t_maj / pdf;
-                                l += beta * pt.sigma_a * pt.le / average(r_e);
+                                l += beta * pt.sigma_a * pt.le / lambda.average(r_e);
                             }
                         }
                         // Real (absorption or scattering) or null, by the hero's share of the
@@ -167,7 +168,10 @@ impl RayIntegrator for VolPath {
                             let pdf = c.t_maj[hero] * sigma_t[hero];
                             w.beta *= c.t_maj * pt.sigma_s / pdf;
                             w.r_u *= c.t_maj * sigma_t / pdf;
-                            if !(w.beta.is_finite() && w.beta != Rgb::ZERO && w.r_u != Rgb::ZERO) {
+                            if !(w.beta.is_finite()
+                                && w.beta != Spectrum::ZERO
+                                && w.r_u != Spectrum::ZERO)
+                            {
                                 terminated = true;
                                 return false;
                             }
@@ -197,18 +201,22 @@ impl RayIntegrator for VolPath {
                             return false;
                         }
                         // A null collision: on along the ray.
-                        let sigma_n = (c.sigma_maj - pt.sigma_a - pt.sigma_s).max(Rgb::ZERO);
+                        let sigma_n = (c.sigma_maj - pt.sigma_a - pt.sigma_s).max(Spectrum::ZERO);
                         let pdf = c.t_maj[hero] * sigma_n[hero];
                         if !positive(pdf) {
-                            w.beta = Rgb::ZERO;
+                            w.beta = Spectrum::ZERO;
                             return false;
                         }
                         w.beta *= c.t_maj * sigma_n / pdf;
                         w.r_u *= c.t_maj * sigma_n / pdf;
                         w.r_l *= c.t_maj * c.sigma_maj / pdf;
-                        w.beta.is_finite() && w.beta != Rgb::ZERO && w.r_u != Rgb::ZERO
+                        w.beta.is_finite() && w.beta != Spectrum::ZERO && w.r_u != Spectrum::ZERO
                     });
-                if terminated || !w.beta.is_finite() || w.beta == Rgb::ZERO || w.r_u == Rgb::ZERO {
+                if terminated
+                    || !w.beta.is_finite()
+                    || w.beta == Spectrum::ZERO
+                    || w.r_u == Spectrum::ZERO
+                {
                     break;
                 }
                 if let Some(next) = scattered {
@@ -230,14 +238,14 @@ impl RayIntegrator for VolPath {
             // The surface the ray reaches, or the environment.
             let Some(hit) = hit else {
                 let le = escaped(scene, &ray, lambda);
-                if le != Rgb::ZERO {
+                if le != Spectrum::ZERO {
                     l += self.found_emission(&w, scene, &ray, None, le);
                 }
                 break;
             };
             if hit.light.is_some() {
                 let le = emitted_at(scene, &hit, &ray, lambda);
-                if le != Rgb::ZERO {
+                if le != Spectrum::ZERO {
                     l += self.found_emission(&w, scene, &ray, Some(&hit), le);
                 }
             }
@@ -268,7 +276,7 @@ impl RayIntegrator for VolPath {
             }
             w.depth += 1;
             w.beta = s.throughput(w.beta);
-            if !(w.beta.is_finite() && w.beta != Rgb::ZERO) {
+            if !(w.beta.is_finite() && w.beta != Spectrum::ZERO) {
                 break;
             }
             w.specular = s.bsdf.specular;
@@ -301,7 +309,7 @@ impl VolPath {
         if w.depth < self.rr_depth {
             return true;
         }
-        let rr = (w.beta * w.eta_scale / average(w.r_u)).max_element();
+        let rr = (w.beta * w.eta_scale / average(w.r_u, w.lanes)).max_element();
         let survive = if rr < 1.0 {
             rr
         } else if w.depth >= LONG_PATH {
@@ -325,10 +333,10 @@ impl VolPath {
         scene: &dyn Scene,
         ray: &Ray,
         hit: Option<&Hit>,
-        le: Rgb,
-    ) -> Rgb {
+        le: Spectrum,
+    ) -> Spectrum {
         if w.depth == 0 || w.specular {
-            return w.beta * le / average(w.r_u);
+            return w.beta * le / average(w.r_u, w.lanes);
         }
         let lights = scene.lights();
         let light_pdf = match hit {
@@ -342,7 +350,7 @@ impl VolPath {
             }),
         };
         let r_l = w.r_l * light_pdf;
-        w.beta * le / average(w.r_u + r_l)
+        w.beta * le / average(w.r_u + r_l, w.lanes)
     }
 
     /// One light sample at `vertex` (in `medium` for a medium vertex), its shadow ray through
@@ -357,7 +365,7 @@ impl VolPath {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         lambda: &Wavelengths,
-    ) -> Rgb {
+    ) -> Spectrum {
         let scene: &dyn Scene = tracer.scene;
         let u_light = sampler.next_1d();
         let u = sampler.next_2d();
@@ -369,13 +377,13 @@ impl VolPath {
             },
         };
         let Some((index, pmf)) = scene.lights().sample_for(self.lights, &ctx, u_light) else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         let light = scene.lights().get(index);
         let (ls, f, scatter_pdf, mut ray) = match vertex {
             Vertex::Surface(sp) => {
                 let Some((ls, ray)) = light_at_surface(sp, index, u, scene) else {
-                    return Rgb::ZERO;
+                    return Spectrum::ZERO;
                 };
                 let wi = sp.frame.to_local(ls.wi);
                 let (f, pdf) = sp.material.eval_pdf(sp.wo, wi);
@@ -383,35 +391,35 @@ impl VolPath {
             }
             Vertex::Medium { p, wo, phase } => {
                 let Some(ls) = light.sample_li(*p, u, lambda) else {
-                    return Rgb::ZERO;
+                    return Spectrum::ZERO;
                 };
                 let value = phase.eval(*wo, ls.wi);
                 (
                     ls,
-                    Rgb::splat(value),
+                    Spectrum::splat(value),
                     value,
                     ray_from_point(*p, &ls, medium),
                 )
             }
         };
-        if !positive(ls.pdf) || ls.radiance == Rgb::ZERO || f == Rgb::ZERO {
-            return Rgb::ZERO;
+        if !positive(ls.pdf) || ls.radiance == Spectrum::ZERO || f == Spectrum::ZERO {
+            return Spectrum::ZERO;
         }
         let Some((t_ray, r_u, r_l)) =
             shadow_transmittance(&mut ray, &ls, hero, tracer, sampler, lambda)
         else {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         };
         let light_pdf = pmf * ls.pdf;
         let r_l = r_l * w.r_u * light_pdf;
         let r_u = r_u * w.r_u * scatter_pdf;
         let denom = if ls.delta {
-            average(r_l)
+            lambda.average(r_l)
         } else {
-            average(r_l + r_u)
+            lambda.average(r_l + r_u)
         };
         if !positive(denom) {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         w.beta * f * t_ray * ls.radiance / denom
     }
@@ -428,9 +436,9 @@ fn shadow_transmittance(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
     lambda: &Wavelengths,
-) -> Option<(Rgb, Rgb, Rgb)> {
+) -> Option<(Spectrum, Spectrum, Spectrum)> {
     let scene: &dyn Scene = tracer.scene;
-    let (mut t_ray, mut r_u, mut r_l) = (Rgb::ONE, Rgb::ONE, Rgb::ONE);
+    let (mut t_ray, mut r_u, mut r_l) = (Spectrum::ONE, Spectrum::ONE, Spectrum::ONE);
     loop {
         tracer.counters.shadow += 1;
         let hit = scene.intersect(ray);
@@ -443,42 +451,42 @@ fn shadow_transmittance(
                 // (A shadow ray changes nothing of the path's wavelengths.)
                 let sp = ShadingPoint::new(h, ray.dir, scene, &mut { *lambda });
                 let pass = sp.material.null_transmission(sp.wo);
-                if pass == Rgb::ZERO {
+                if pass == Spectrum::ZERO {
                     return None;
                 }
                 pass
             }
-            None => Rgb::ONE,
+            None => Spectrum::ONE,
         };
         if let Some(medium) = scene.medium(ray.medium) {
             let tmax = hit.map_or(ray.tmax, |h| h.t);
             let t_maj = sample_t_maj(medium, ray, tmax, hero, lambda, sampler, |c, sampler| {
                 let pt = &c.point;
-                let sigma_n = (c.sigma_maj - pt.sigma_a - pt.sigma_s).max(Rgb::ZERO);
+                let sigma_n = (c.sigma_maj - pt.sigma_a - pt.sigma_s).max(Spectrum::ZERO);
                 let pdf = c.t_maj[hero] * c.sigma_maj[hero];
                 t_ray *= c.t_maj * sigma_n / pdf;
                 r_l *= c.t_maj * c.sigma_maj / pdf;
                 r_u *= c.t_maj * sigma_n / pdf;
                 // Roulette where little is left, so that dense media end shadow rays early.
-                let left = t_ray / average(r_l + r_u);
+                let left = t_ray / lambda.average(r_l + r_u);
                 if left.max_element() < 0.05 {
                     if sampler.next_1d() < 0.75 {
-                        t_ray = Rgb::ZERO;
+                        t_ray = Spectrum::ZERO;
                     } else {
                         t_ray /= 0.25;
                     }
                 }
-                t_ray != Rgb::ZERO && t_ray.is_finite()
+                t_ray != Spectrum::ZERO && t_ray.is_finite()
             });
             let end = t_maj[hero];
-            if !positive(end) || t_ray == Rgb::ZERO || !t_ray.is_finite() {
+            if !positive(end) || t_ray == Spectrum::ZERO || !t_ray.is_finite() {
                 return None;
             }
             t_ray *= t_maj / end;
             r_l *= t_maj / end;
             r_u *= t_maj / end;
         }
-        if t_ray == Rgb::ZERO {
+        if t_ray == Spectrum::ZERO {
             return None;
         }
         let Some(h) = hit else {

@@ -31,8 +31,8 @@ use crate::registry::{
     MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
-use crate::{Frame, Hit, Ray, Rgb, Sampler, Scene};
-use crate::{PassContext, Spectrum};
+use crate::PassContext;
+use crate::{Frame, Hit, Ray, Sampler, Scene, Spectrum};
 use glam::Vec3A;
 use rayon::prelude::*;
 
@@ -103,7 +103,7 @@ struct VirtualLight {
     wo_world: Vec3A,
     material: MappedBsdf<'static>,
     /// The light path's power at the vertex over the number of paths.
-    power: Rgb,
+    power: Spectrum,
     /// Scattering events on the light path, this vertex's included.
     depth: u32,
 }
@@ -158,7 +158,7 @@ impl Vpl {
                 break;
             };
             beta = s.throughput(beta);
-            if !(beta.is_finite() && beta != Rgb::ZERO) {
+            if !(beta.is_finite() && beta != Spectrum::ZERO) {
                 break;
             }
             if depth >= self.rr_depth {
@@ -176,8 +176,8 @@ impl Vpl {
     /// The light of every VPL that may light `sp` (paths of at most `max-depth` events when
     /// the point is reached after `bounces`): BSDF at the point, BSDF at the VPL, clamped
     /// inverse squared distance, a shadow ray each.
-    fn gather(&self, sp: &ShadingPoint, bounces: u32, tracer: &mut Tracer) -> Rgb {
-        let mut l = Rgb::ZERO;
+    fn gather(&self, sp: &ShadingPoint, bounces: u32, tracer: &mut Tracer) -> Spectrum {
+        let mut l = Spectrum::ZERO;
         for v in &self.lights {
             if bounces.saturating_add(1).saturating_add(v.depth) > self.max_depth {
                 continue;
@@ -189,7 +189,7 @@ impl Vpl {
             }
             let w = to / d2.sqrt();
             let here = sp.connection_factor(w, TransportMode::Radiance);
-            if here == Rgb::ZERO {
+            if here == Spectrum::ZERO {
                 continue;
             }
             let there = ShadingPoint {
@@ -201,7 +201,7 @@ impl Vpl {
                 lambda: sp.lambda,
             }
             .connection_factor(-w, TransportMode::Importance);
-            if there == Rgb::ZERO {
+            if there == Spectrum::ZERO {
                 continue;
             }
             let c = here * there * v.power / d2.max(self.min_dist2);
@@ -223,7 +223,7 @@ impl RayIntegrator for Vpl {
     ) -> Spectrum {
         // The pass's wavelengths, which the VPLs carry.
         *lambda = self.lambda;
-        let mut l = Rgb::ZERO;
+        let mut l = Spectrum::ZERO;
         let mut path = PathState::from_camera(*camera_ray);
         loop {
             // Trace the next segment; what it sees is found only through specular bounces.

@@ -22,7 +22,7 @@ use crate::registry::{
 };
 use crate::spectrum::Wavelengths;
 use crate::Spectrum;
-use crate::{Hit, Ray, Rgb, Sampler};
+use crate::{Hit, Ray, Sampler};
 
 pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "whitted",
@@ -59,7 +59,7 @@ impl Whitted {
         tracer: &mut Tracer,
         sampler: &mut Sampler,
         lambda: &mut Wavelengths,
-    ) -> Rgb {
+    ) -> Spectrum {
         // Emission: always counted, since light is never reached by sampling a BSDF here.
         let mut l = emitted_at(tracer.scene, hit, ray, lambda);
         if bounces >= self.max_depth {

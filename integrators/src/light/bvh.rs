@@ -704,7 +704,7 @@ mod tests {
                     light
                         .sample_li(ctx.p, u, &crate::spectrum::Wavelengths::Rgb)
                         .is_some_and(|ls| {
-                            ls.radiance != Rgb::ZERO
+                            ls.radiance != crate::Spectrum::ZERO
                                 && (ctx.n == Vec3A::ZERO || ls.wi.dot(ctx.n) != 0.0)
                         })
                 });

@@ -99,11 +99,11 @@ impl CylinderLight {
         let area = self.area();
         LeSample {
             ray,
-            radiance: self.radiance,
+            radiance: crate::spectrum::of_rgb(self.radiance),
             normal: n,
             pdf_pos: 1.0 / area,
             pdf_dir: cos / PI,
-            weight: self.radiance * (area * PI),
+            weight: crate::spectrum::of_rgb(self.radiance * (area * PI)),
         }
     }
 

@@ -21,7 +21,7 @@ impl DirectionalLight {
             wi,
             point: p + wi,
             dist: f32::INFINITY,
-            radiance: self.irradiance,
+            radiance: crate::spectrum::of_rgb(self.irradiance),
             pdf: 1.0,
             delta: true,
         })
@@ -43,11 +43,11 @@ impl DirectionalLight {
         let area = PI * scene_radius * scene_radius;
         LeSample {
             ray,
-            radiance: self.irradiance,
+            radiance: crate::spectrum::of_rgb(self.irradiance),
             normal: dir,
             pdf_pos: 1.0 / area,
             pdf_dir: 1.0,
-            weight: self.irradiance * area,
+            weight: crate::spectrum::of_rgb(self.irradiance * area),
         }
     }
 

@@ -21,7 +21,7 @@
 
 use super::{lum, LeSample, LightSample};
 use crate::sampling::Distribution1D;
-use crate::Rgb;
+use crate::{Rgb, Spectrum};
 use glam::{Mat3A, Vec2, Vec3A};
 use std::f32::consts::PI;
 
@@ -161,9 +161,9 @@ impl EnvMap {
     /// over twice its largest channel, and that scale; the sigmoids and the scales are
     /// interpolated apart and multiplied, times D65 (at edges between colours this differs
     /// from the spectrum of the interpolated colour, and Mitsuba's references show it).
-    pub fn radiance_at(&self, d: Vec3A, lambda: &crate::spectrum::Wavelengths) -> Rgb {
+    pub fn radiance_at(&self, d: Vec3A, lambda: &crate::spectrum::Wavelengths) -> Spectrum {
         let crate::spectrum::Wavelengths::Sampled { nm, .. } = lambda else {
-            return self.radiance(d);
+            return crate::spectrum::of_rgb(self.radiance(d));
         };
         let (u, v) = EnvMap::uv(self.to_local * d);
         let (x, y) = self.texel_coords(u, v);
@@ -180,7 +180,7 @@ impl EnvMap {
             (x0, y0 + 1, (1.0 - fx) * fy),
             (x1, y0 + 1, fx * fy),
         ];
-        let (mut sigmoid, mut scale) = (Vec3A::ZERO, 0.0f32);
+        let (mut sigmoid, mut scale) = (Spectrum::ZERO, 0.0f32);
         for (x, y, w) in corners {
             let (s, k) = crate::spectrum::RgbSpectrum::sigmoid_and_scale(
                 self.texels[y * self.width + x],
@@ -189,11 +189,7 @@ impl EnvMap {
             sigmoid += s * w;
             scale += k * w;
         }
-        let d65 = Vec3A::new(
-            crate::spectrum::upsample::d65(nm.x),
-            crate::spectrum::upsample::d65(nm.y),
-            crate::spectrum::upsample::d65(nm.z),
-        );
+        let d65 = nm.map(crate::spectrum::upsample::d65);
         sigmoid * d65 * (scale * self.scale)
     }
 
@@ -274,7 +270,7 @@ impl EnvMapLight {
             wi,
             point: p + wi,
             dist: f32::INFINITY,
-            radiance,
+            radiance: crate::spectrum::of_rgb(radiance),
             pdf,
             delta: false,
         })
@@ -302,22 +298,22 @@ impl EnvMapLight {
         let Some((towards_sky, radiance, pdf_dir)) = self.map.sample(u_dir) else {
             return LeSample {
                 ray: crate::Ray::new(scene_center, Vec3A::Z),
-                radiance: Rgb::ZERO,
+                radiance: crate::spectrum::of_rgb(Rgb::ZERO),
                 normal: Vec3A::Z,
                 pdf_pos: 1.0 / area,
                 pdf_dir: 0.0,
-                weight: Rgb::ZERO,
+                weight: crate::spectrum::of_rgb(Rgb::ZERO),
             };
         };
         let dir = -towards_sky;
         let ray = super::ray_from_afar(dir, u_pos, scene_center, scene_radius);
         LeSample {
             ray,
-            radiance,
+            radiance: crate::spectrum::of_rgb(radiance),
             normal: dir,
             pdf_pos: 1.0 / area,
             pdf_dir,
-            weight: radiance * (area / pdf_dir),
+            weight: crate::spectrum::of_rgb(radiance * (area / pdf_dir)),
         }
     }
 

@@ -20,7 +20,7 @@ impl EnvironmentLight {
             wi,
             point: p + wi,
             dist: f32::INFINITY,
-            radiance: self.radiance,
+            radiance: crate::spectrum::of_rgb(self.radiance),
             pdf: UNIFORM_SPHERE_PDF,
             delta: false,
         })
@@ -47,11 +47,13 @@ impl EnvironmentLight {
         let ray = super::ray_from_afar(dir, u_pos, scene_center, scene_radius);
         LeSample {
             ray,
-            radiance: self.radiance,
+            radiance: crate::spectrum::of_rgb(self.radiance),
             normal: dir,
             pdf_pos: 1.0 / (PI * scene_radius * scene_radius),
             pdf_dir: UNIFORM_SPHERE_PDF,
-            weight: self.radiance * (PI * scene_radius * scene_radius * 4.0 * PI),
+            weight: crate::spectrum::of_rgb(
+                self.radiance * (PI * scene_radius * scene_radius * 4.0 * PI),
+            ),
         }
     }
 

@@ -52,6 +52,7 @@ pub use sphere::SphereLight;
 pub use spot::{Falloff, SpotLight};
 pub use table::{LightSelection, LightTable};
 
+use crate::spectrum::rgb_of;
 use crate::spectrum::Wavelengths;
 use crate::{Frame, Rgb, Spectrum};
 use glam::{Vec2, Vec3A};
@@ -91,8 +92,9 @@ pub struct LightSample {
     /// Distance to `point`; `f32::INFINITY` for the environment.
     pub dist: f32,
     /// Radiance arriving at the reference point along `-wi` if unoccluded (for a point light,
-    /// `intensity / dist^2`).
-    pub radiance: Rgb,
+    /// `intensity / dist^2`): the light's colour as RGB mode's spectrum where a light
+    /// makes it, at the sample's wavelengths once [`Light::sample_li`] returns it.
+    pub radiance: Spectrum,
     /// Density per unit solid angle at the reference point; 1 for delta lights.
     pub pdf: f32,
     /// True for point lights (cannot be hit by rays, no MIS).
@@ -116,7 +118,7 @@ impl LightSample {
         }
         let dist = dist2.sqrt();
         let wi = d / dist;
-        let radiance = radiance(-wi, dist2)?;
+        let radiance = crate::spectrum::of_rgb(radiance(-wi, dist2)?);
         radiance.is_finite().then_some(LightSample {
             wi,
             point: position,
@@ -148,7 +150,7 @@ impl LightSample {
             wi,
             point: q,
             dist,
-            radiance,
+            radiance: crate::spectrum::of_rgb(radiance),
             pdf,
             delta: false,
         })
@@ -160,8 +162,9 @@ impl LightSample {
 pub struct LeSample {
     /// The ray leaving the light (already pushed off its surface).
     pub ray: crate::Ray,
-    /// Emitted radiance along the ray (a point light's intensity).
-    pub radiance: Rgb,
+    /// Emitted radiance along the ray (a point light's intensity): as
+    /// [`LightSample::radiance`].
+    pub radiance: Spectrum,
     /// The emitting surface's normal on the emitting side; zero for point lights, the ray's
     /// direction for the environment.
     pub normal: Vec3A,
@@ -172,7 +175,7 @@ pub struct LeSample {
     /// `Le |cos| / (pdf_pos pdf_dir)`: the power, in watts per channel, that the sample stands
     /// for before division by the light's selection probability and the number of samples.
     /// Summed over samples, it estimates the light's emitted power.
-    pub weight: Rgb,
+    pub weight: Spectrum,
 }
 
 /// Area-light samples seen under a smaller `|cos|` than this are dropped: their solid-angle
@@ -320,7 +323,7 @@ impl Light {
         let mut s = dispatch!(self, l => l.sample_li(p, u))?;
         s.radiance = match self {
             Light::EnvMap(l) if lambda.is_spectral() => l.map.radiance_at(s.wi, lambda),
-            _ => lambda.illuminant(s.radiance),
+            _ => lambda.illuminant(rgb_of(s.radiance)),
         };
         Some(s)
     }
@@ -387,7 +390,7 @@ impl Light {
             Light::Spot(l) => l.sample_le(u_dir),
             Light::Projector(l) => l.sample_le(u_dir),
         };
-        if !(s.weight.is_finite() && s.weight != Rgb::ZERO) {
+        if !(s.weight.is_finite() && s.weight != Spectrum::ZERO) {
             return None;
         }
         // The colours scale by the positive factors between them, and so do their spectra.
@@ -396,8 +399,8 @@ impl Light {
             s.weight = s.radiance / (s.pdf_pos * s.pdf_dir);
             return Some(s);
         }
-        s.radiance = lambda.illuminant(s.radiance);
-        s.weight = lambda.illuminant(s.weight);
+        s.radiance = lambda.illuminant(rgb_of(s.radiance));
+        s.weight = lambda.illuminant(rgb_of(s.weight));
         Some(s)
     }
 

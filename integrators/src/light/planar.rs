@@ -206,11 +206,11 @@ impl Planar {
         let radiance = self.radiance_at(p);
         LeSample {
             ray,
-            radiance,
+            radiance: crate::spectrum::of_rgb(radiance),
             normal,
             pdf_pos: 1.0 / self.area,
             pdf_dir: cos / (PI * self.sides()),
-            weight: radiance * (self.area * PI * self.sides()),
+            weight: crate::spectrum::of_rgb(radiance * (self.area * PI * self.sides())),
         }
     }
 

@@ -30,11 +30,11 @@ impl PointLight {
     pub fn sample_le(&self, u_dir: Vec2) -> LeSample {
         LeSample {
             ray: crate::Ray::new(self.position, uniform_sphere(u_dir)),
-            radiance: self.intensity,
+            radiance: crate::spectrum::of_rgb(self.intensity),
             normal: Vec3A::ZERO,
             pdf_pos: 1.0,
             pdf_dir: 1.0 / (4.0 * PI),
-            weight: self.intensity * (4.0 * PI),
+            weight: crate::spectrum::of_rgb(self.intensity * (4.0 * PI)),
         }
     }
 

@@ -134,15 +134,15 @@ impl ProjectorLight {
         let intensity = self.intensity(d);
         LeSample {
             ray: crate::Ray::new(self.position, self.frame.to_world(d)),
-            radiance: intensity,
+            radiance: crate::spectrum::of_rgb(intensity),
             normal: Vec3A::ZERO,
             pdf_pos: 1.0,
             pdf_dir,
-            weight: if pdf_dir > 0.0 {
+            weight: crate::spectrum::of_rgb(if pdf_dir > 0.0 {
                 intensity / pdf_dir
             } else {
                 Rgb::ZERO
-            },
+            }),
         }
     }
 
@@ -203,7 +203,7 @@ mod tests {
                 "{pdf} vs {}",
                 le.pdf_dir
             );
-            sum += crate::luminance(le.weight) as f64;
+            sum += crate::luminance(crate::spectrum::rgb_of(le.weight)) as f64;
         }
         let mean = sum / n as f64;
         assert!(

@@ -196,11 +196,11 @@ impl SphereLight {
         let (ray, cos) = leave(self.center + outward * r, n, u_dir);
         LeSample {
             ray,
-            radiance: self.radiance,
+            radiance: crate::spectrum::of_rgb(self.radiance),
             normal: n,
             pdf_pos: 1.0 / (4.0 * PI * r * r),
             pdf_dir: cos / PI,
-            weight: self.radiance * (4.0 * PI * r * r * PI),
+            weight: crate::spectrum::of_rgb(self.radiance * (4.0 * PI * r * r * PI)),
         }
     }
 

@@ -176,11 +176,11 @@ impl SpotLight {
         let intensity = self.intensity_towards(dir);
         LeSample {
             ray: crate::Ray::new(self.position, dir),
-            radiance: intensity * self.falloff(dir),
+            radiance: crate::spectrum::of_rgb(intensity * self.falloff(dir)),
             normal: Vec3A::ZERO,
             pdf_pos: 1.0,
             pdf_dir,
-            weight: intensity * (self.falloff(dir) / pdf_dir),
+            weight: crate::spectrum::of_rgb(intensity * (self.falloff(dir) / pdf_dir)),
         }
     }
 

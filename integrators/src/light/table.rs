@@ -304,14 +304,16 @@ impl std::ops::Deref for LightRef<'_> {
 }
 
 impl LightRef<'_> {
-    /// `rgb`, the light's colour somewhere, at `lambda`: the spectrum's values scaled as
-    /// `rgb` is from the nominal colour, or `None` to convert the colour itself.
+    /// `rgb`, the light's colour somewhere (as RGB mode's spectrum), at `lambda`: the
+    /// spectrum's values scaled as `rgb` is from the nominal colour, or `None` to convert the
+    /// colour itself.
     #[inline]
-    fn spectral(&self, rgb: Rgb, lambda: &Wavelengths) -> Option<Spectrum> {
+    fn spectral(&self, rgb: Spectrum, lambda: &Wavelengths) -> Option<Spectrum> {
         let e = self.spectrum?;
         if !lambda.is_spectral() {
             return None;
         }
+        let rgb = crate::spectrum::rgb_of(rgb);
         let nominal = crate::luminance(e.rgb);
         let factor = if nominal > 0.0 {
             crate::luminance(rgb) / nominal

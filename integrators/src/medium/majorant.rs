@@ -144,7 +144,7 @@ impl Iterator for Segments<'_> {
         let segment = Segment {
             t0: self.t,
             t1: end.max(self.t),
-            sigma_maj,
+            sigma_maj: crate::spectrum::of_rgb(sigma_maj),
         };
         self.t = segment.t1;
         // Past the ray's end, or out of the box, or a crossing that did not move (NaN).

@@ -23,6 +23,7 @@ use majorant::MajorantGrid;
 pub use phase::{Phase, PhaseSample};
 pub use volume::{DensityGrid, GridEdge, Volume};
 
+use crate::spectrum::of_rgb;
 use crate::spectrum::Wavelengths;
 use crate::{Ray, Rgb, Spectrum};
 use glam::{Affine3A, Vec3A};
@@ -145,10 +146,10 @@ impl Coefficients {
 /// The coefficients of a medium at a point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MediumPoint {
-    pub sigma_a: Rgb,
-    pub sigma_s: Rgb,
+    pub sigma_a: Spectrum,
+    pub sigma_s: Spectrum,
     /// Emitted radiance (the medium adds `sigma_a * le` per unit length).
-    pub le: Rgb,
+    pub le: Spectrum,
 }
 
 /// A stretch `[t0, t1)` of a ray over which the majorant is `sigma_maj`.
@@ -156,7 +157,7 @@ pub struct MediumPoint {
 pub struct Segment {
     pub t0: f32,
     pub t1: f32,
-    pub sigma_maj: Rgb,
+    pub sigma_maj: Spectrum,
 }
 
 impl Homogeneous {
@@ -257,16 +258,16 @@ impl Medium {
         }
         match self {
             Medium::Homogeneous(m) => MediumPoint {
-                sigma_a: m.sigma_a,
-                sigma_s: m.sigma_s,
-                le: m.le,
+                sigma_a: of_rgb(m.sigma_a),
+                sigma_s: of_rgb(m.sigma_s),
+                le: of_rgb(m.le),
             },
             Medium::Heterogeneous(m) => {
                 let (sigma_a, sigma_s) = m.coefficients.at(p);
                 MediumPoint {
-                    sigma_a,
-                    sigma_s,
-                    le: m.le.at(p),
+                    sigma_a: of_rgb(sigma_a),
+                    sigma_s: of_rgb(sigma_s),
+                    le: of_rgb(m.le.at(p)),
                 }
             }
         }
@@ -307,7 +308,7 @@ impl Medium {
                 t0: 0.0,
                 t1: tmax,
                 sigma_maj: match spectral {
-                    false => m.sigma_a + m.sigma_s,
+                    false => of_rgb(m.sigma_a + m.sigma_s),
                     true => {
                         let (a, s) = m.spectral(lambda);
                         a + s
@@ -332,8 +333,8 @@ impl Medium {
                         t0,
                         t1,
                         sigma_maj: match spectral {
-                            false => m.majorant,
-                            true => Rgb::splat(m.majorant_spectral),
+                            false => of_rgb(m.majorant),
+                            true => Spectrum::splat(m.majorant_spectral),
                         },
                     }))
                 }

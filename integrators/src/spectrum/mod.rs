@@ -1,9 +1,10 @@
 //! Spectral rendering: the wavelengths a camera sample carries, and colours as spectra at
 //! them (pbrt-v4's `SampledWavelengths`, Mitsuba 3's spectral variants).
 //!
-//! A [`Spectrum`] has three lanes. In RGB mode ([`Wavelengths::Rgb`], the default) they are
-//! linear sRGB's channels and every conversion here is the identity, so RGB renders are
-//! untouched by construction. In spectral mode ([`Wavelengths::sample`]) they are the values
+//! A [`Spectrum`] has four lanes. In RGB mode ([`Wavelengths::Rgb`], the default) they are
+//! linear sRGB's channels, the red one repeated in the fourth ([`of_rgb`]), and every
+//! conversion here is the identity on the channels, so RGB renders are untouched by
+//! construction. In spectral mode ([`Wavelengths::sample`]) they are the values
 //! at [`N`] wavelengths: the first (the hero, Wilkie et al. 2014) drawn in proportion to the
 //! visible-light density pbrt-v4 and Mitsuba 3 use, the others at the same primary sample
 //! shifted by `1/N`, so the three are stratified over the visible range. Every BSDF, light and
@@ -12,10 +13,8 @@
 //! wavelength through [`Wavelengths::map`]), and the film turns the sample's spectrum into
 //! XYZ and linear sRGB ([`Wavelengths::to_rgb`]).
 //!
-//! pbrt-v4 and Mitsuba 3 carry four wavelengths; raylab carries three, the lanes its RGB
-//! mode already has, so both modes share one code path through every BSDF, light, medium
-//! and integrator. The estimator is the same with any count; fewer wavelengths show a little
-//! more colour noise per sample.
+//! Four wavelengths, as pbrt-v4 and Mitsuba 3 carry: both modes share one code path through
+//! every BSDF, light, medium and integrator, the RGB mode's fourth lane a copy of its first.
 //!
 //! A surface whose index of refraction varies with wavelength bends each wavelength its own
 //! way: there only the hero can go on ([`Wavelengths::terminate_secondary`]), as in pbrt-v4.
@@ -26,11 +25,40 @@ pub mod named;
 pub mod upsample;
 
 use crate::{Rgb, Spectrum};
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 pub use upsample::RgbSpectrum;
 
 /// The wavelengths a spectral sample carries.
-pub const N: usize = 3;
+pub const N: usize = 4;
+
+/// The colour `rgb` as RGB mode's [`Spectrum`]: its channels, the red one again in the fourth
+/// lane (so that every lane-by-lane operation, division included, keeps the fourth a copy).
+#[inline]
+pub fn of_rgb(rgb: Rgb) -> Spectrum {
+    Vec4::new(rgb.x, rgb.y, rgb.z, rgb.x)
+}
+
+/// The colour `(r, g, b)` as RGB mode's [`Spectrum`] ([`of_rgb`]).
+#[inline]
+pub const fn rgb(r: f32, g: f32, b: f32) -> Spectrum {
+    Vec4::new(r, g, b, r)
+}
+
+/// The average of the first `lanes` lanes of `s` (3: RGB's channels; 4: every wavelength).
+#[inline]
+pub fn average(s: Spectrum, lanes: usize) -> f32 {
+    if lanes == N {
+        (s.x + s.y + s.z + s.w) / N as f32
+    } else {
+        (s.x + s.y + s.z) / 3.0
+    }
+}
+
+/// RGB mode's [`Spectrum`] as the colour it holds: its first three lanes.
+#[inline]
+pub fn rgb_of(s: Spectrum) -> Rgb {
+    Vec3A::new(s.x, s.y, s.z)
+}
 
 /// The visible range sampled, nm (the CIE tables' range).
 pub const LAMBDA_MIN: f32 = 360.0;
@@ -42,10 +70,10 @@ pub enum Wavelengths {
     /// Linear sRGB's three channels.
     #[default]
     Rgb,
-    /// Three wavelengths (nm) and the density each was drawn with (per nm, already divided
+    /// Four wavelengths (nm) and the density each was drawn with (per nm, already divided
     /// by nothing: the film averages over the lanes). A lane whose density is 0 was
     /// terminated and carries nothing.
-    Sampled { nm: Vec3A, pdf: Vec3A },
+    Sampled { nm: Vec4, pdf: Vec4 },
 }
 
 /// pbrt-v4's density over visible wavelengths, `0.0039398042 / cosh^2(0.0072 (l - 538))` on
@@ -77,8 +105,8 @@ impl Wavelengths {
             pdf[i] = visible_pdf(nm[i]);
         }
         Wavelengths::Sampled {
-            nm: Vec3A::from(nm),
-            pdf: Vec3A::from(pdf),
+            nm: Vec4::from(nm),
+            pdf: Vec4::from(pdf),
         }
     }
 
@@ -130,8 +158,34 @@ impl Wavelengths {
     pub fn terminate_secondary(&mut self) {
         if let Wavelengths::Sampled { pdf, .. } = self {
             if pdf.y != 0.0 {
-                *pdf = Vec3A::new(pdf.x / N as f32, 0.0, 0.0);
+                *pdf = Vec4::new(pdf.x / N as f32, 0.0, 0.0, 0.0);
             }
+        }
+    }
+
+    /// How many lanes of a [`Spectrum`] hold values: RGB's 3 channels, or [`N`] wavelengths.
+    #[inline]
+    pub fn lanes(&self) -> usize {
+        match self {
+            Wavelengths::Rgb => 3,
+            Wavelengths::Sampled { .. } => N,
+        }
+    }
+
+    /// The average of `s` over its lanes (RGB's three channels).
+    #[inline]
+    pub fn average(&self, s: Spectrum) -> f32 {
+        average(s, self.lanes())
+    }
+
+    /// A brightness of `s` for choosing where to spend samples (never for a value): RGB's
+    /// luminance, or the average over the wavelengths (so it is zero only where every lane
+    /// is).
+    #[inline]
+    pub fn brightness(&self, s: Spectrum) -> f32 {
+        match self {
+            Wavelengths::Rgb => crate::luminance(rgb_of(s)),
+            Wavelengths::Sampled { .. } => self.average(s),
         }
     }
 
@@ -139,7 +193,7 @@ impl Wavelengths {
     #[inline]
     pub fn reflectance(&self, rgb: Rgb) -> Spectrum {
         match self {
-            Wavelengths::Rgb => rgb,
+            Wavelengths::Rgb => of_rgb(rgb),
             Wavelengths::Sampled { nm, .. } => RgbSpectrum::albedo(rgb).eval(*nm),
         }
     }
@@ -148,7 +202,7 @@ impl Wavelengths {
     #[inline]
     pub fn unbounded(&self, rgb: Rgb) -> Spectrum {
         match self {
-            Wavelengths::Rgb => rgb,
+            Wavelengths::Rgb => of_rgb(rgb),
             Wavelengths::Sampled { nm, .. } => RgbSpectrum::unbounded(rgb).eval(*nm),
         }
     }
@@ -157,7 +211,7 @@ impl Wavelengths {
     #[inline]
     pub fn illuminant(&self, rgb: Rgb) -> Spectrum {
         match self {
-            Wavelengths::Rgb => rgb,
+            Wavelengths::Rgb => of_rgb(rgb),
             Wavelengths::Sampled { nm, .. } => RgbSpectrum::illuminant(rgb).eval(*nm),
         }
     }
@@ -167,8 +221,8 @@ impl Wavelengths {
     #[inline]
     pub fn map(&self, rgb: Rgb, f: impl Fn(f32) -> f32) -> Spectrum {
         match self {
-            Wavelengths::Rgb => rgb,
-            Wavelengths::Sampled { nm, .. } => Vec3A::new(f(nm.x), f(nm.y), f(nm.z)),
+            Wavelengths::Rgb => of_rgb(rgb),
+            Wavelengths::Sampled { nm, .. } => Vec4::new(f(nm.x), f(nm.y), f(nm.z), f(nm.w)),
         }
     }
 
@@ -176,7 +230,7 @@ impl Wavelengths {
     /// integral of y-bar. In RGB mode, `s` taken as linear sRGB.
     pub fn to_xyz(&self, s: Spectrum) -> Vec3A {
         match self {
-            Wavelengths::Rgb => srgb_to_xyz(s),
+            Wavelengths::Rgb => srgb_to_xyz(rgb_of(s)),
             Wavelengths::Sampled { nm, pdf } => {
                 let mut xyz = Vec3A::ZERO;
                 for i in 0..N {
@@ -195,7 +249,7 @@ impl Wavelengths {
     #[inline]
     pub fn to_rgb(&self, s: Spectrum) -> Rgb {
         match self {
-            Wavelengths::Rgb => s,
+            Wavelengths::Rgb => rgb_of(s),
             Wavelengths::Sampled { .. } => xyz_to_srgb(self.to_xyz(s)),
         }
     }

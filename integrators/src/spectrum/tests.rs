@@ -169,11 +169,15 @@ fn the_films_estimate_is_unbiased_with_and_without_the_secondary_wavelengths() {
 fn rgb_mode_is_the_identity() {
     let w = Wavelengths::Rgb;
     let c = Vec3A::new(0.3, 2.0, 0.0);
-    assert_eq!(w.reflectance(c), c);
-    assert_eq!(w.illuminant(c), c);
-    assert_eq!(w.unbounded(c), c);
-    assert_eq!(w.to_rgb(c), c);
-    assert_eq!(w.map(c, |_| 7.0), c);
+    // RGB's channels, the red one again in the fourth lane.
+    let s = glam::Vec4::new(0.3, 2.0, 0.0, 0.3);
+    assert_eq!(of_rgb(c), s);
+    assert_eq!(w.reflectance(c), s);
+    assert_eq!(w.illuminant(c), s);
+    assert_eq!(w.unbounded(c), s);
+    assert_eq!(w.to_rgb(s), c);
+    assert_eq!(w.map(c, |_| 7.0), s);
+    assert_eq!((w.lanes(), w.average(s)), (3, (0.3 + 2.0 + 0.0) / 3.0));
     assert!((xyz_to_srgb(srgb_to_xyz(c)) - c).abs().max_element() < 1e-5);
     // The constant matrix is the table's, the inverse its inverse.
     let table = glam::DMat3::from_cols_array_2d(&cie::XYZ_TO_SRGB).transpose();

@@ -18,7 +18,7 @@
 
 use super::cie;
 use crate::Rgb;
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 use std::sync::OnceLock;
 
 /// The fitted table (see `build.rs`).
@@ -102,19 +102,19 @@ impl RgbSpectrum {
 
     /// The spectrum at the wavelengths `nm` (one per lane).
     #[inline]
-    pub fn eval(&self, nm: Vec3A) -> Vec3A {
+    pub fn eval(&self, nm: Vec4) -> Vec4 {
         let s = if self.constant {
-            Vec3A::splat(self.scale)
+            Vec4::splat(self.scale)
         } else {
-            let [c0, c1, c2] = self.coefficients.map(Vec3A::splat);
+            let [c0, c1, c2] = self.coefficients.map(Vec4::splat);
             let x = (c0 * nm + c1) * nm + c2;
-            let sigmoid = Vec3A::splat(0.5) + 0.5 * x / (Vec3A::ONE + x * x).sqrt();
+            let sigmoid = Vec4::splat(0.5) + 0.5 * x / (Vec4::ONE + x * x).sqrt();
             // An infinite polynomial (a channel at exactly 0 or 1) is a step.
-            let sigmoid = Vec3A::select(x.is_finite_mask(), sigmoid, x.signum().max(Vec3A::ZERO));
+            let sigmoid = Vec4::select(x.is_finite_mask(), sigmoid, x.signum().max(Vec4::ZERO));
             sigmoid * self.scale
         };
         if self.illuminant {
-            s * Vec3A::new(d65(nm.x), d65(nm.y), d65(nm.z))
+            s * Vec4::new(d65(nm.x), d65(nm.y), d65(nm.z), d65(nm.w))
         } else {
             s
         }
@@ -122,18 +122,18 @@ impl RgbSpectrum {
 
     /// A colour's sigmoid at `nm`, over twice its largest channel, and that factor (Mitsuba
     /// 3's split of an emitter's texel; zero for black).
-    pub fn sigmoid_and_scale(rgb: Rgb, nm: Vec3A) -> (Vec3A, f32) {
+    pub fn sigmoid_and_scale(rgb: Rgb, nm: Vec4) -> (Vec4, f32) {
         let rgb = rgb.max(Vec3A::ZERO);
         let m = rgb.max_element();
         if m.is_nan() || m <= 0.0 {
-            return (Vec3A::ZERO, 0.0);
+            return (Vec4::ZERO, 0.0);
         }
         (RgbSpectrum::albedo(rgb / (2.0 * m)).eval(nm), 2.0 * m)
     }
 
     /// The spectrum at one wavelength.
     pub fn at(&self, nm: f32) -> f32 {
-        self.eval(Vec3A::splat(nm)).x
+        self.eval(Vec4::splat(nm)).x
     }
 }
 

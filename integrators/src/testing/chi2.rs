@@ -26,7 +26,7 @@
 
 use crate::bsdf::Bxdf;
 use crate::special::ln_gamma;
-use crate::{Rgb, Sampler};
+use crate::Sampler;
 use glam::{DVec3, Vec3A};
 use std::f64::consts::PI;
 
@@ -229,6 +229,11 @@ const OVERFLOW_NODES: usize = 512;
 
 fn to_d(v: Vec3A) -> DVec3 {
     DVec3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+
+/// RGB mode's spectrum as the colour's channels, in f64.
+fn spectrum_to_d(v: crate::Spectrum) -> DVec3 {
+    to_d(crate::spectrum::rgb_of(v))
 }
 
 fn to_f(v: DVec3) -> Vec3A {
@@ -647,7 +652,7 @@ pub fn directional_albedo<B: Bxdf>(
     for _ in 0..samples {
         let (ul, u) = (s.next_1d(), s.next_2d());
         if let Some(bs) = bxdf.sample(wo, ul, u) {
-            let w = to_d(bs.weight());
+            let w = spectrum_to_d(bs.weight());
             sum += w;
             sum2 += w * w;
         }
@@ -664,7 +669,7 @@ pub fn assert_energy_conserving<B: Bxdf>(
     name: &str,
     bxdf: &B,
     wo: Vec3A,
-    bound: Rgb,
+    bound: crate::Spectrum,
     samples: usize,
     seed: u64,
 ) -> DVec3 {

@@ -191,7 +191,7 @@ impl Scene for TestScene {
 
 fn lambert(a: f32) -> SurfaceMaterial {
     Material::Lambert(Lambert {
-        albedo: Rgb::splat(a),
+        albedo: crate::Spectrum::splat(a),
     })
     .into()
 }
@@ -716,9 +716,10 @@ pub fn expect_mean_passes_in(
 pub fn inside_a_mirror() -> TestScene {
     TestScene {
         surfaces: vec![UNIT_SPHERE],
-        materials: vec![
-            Material::Conductor(crate::bsdf::Conductor::perfect_mirror(Rgb::ONE)).into(),
-        ],
+        materials: vec![Material::Conductor(crate::bsdf::Conductor::perfect_mirror(
+            crate::Spectrum::ONE,
+        ))
+        .into()],
         lights: LightTable::new(Vec::new(), 1.0),
         camera: Probe::Omni(Vec3A::new(0.2, 0.1, 0.0)),
         media: Vec::new(),
@@ -731,9 +732,13 @@ pub fn inside_a_mirror() -> TestScene {
 /// checks Fresnel, refraction, total internal reflection and the 1/eta^2 radiance scaling.
 pub fn furnace_with_glass(a: f32, le: f32) -> TestScene {
     let mut scene = furnace_sphere(a, le);
-    scene
-        .materials
-        .push(Material::Dielectric(crate::bsdf::Dielectric::unchecked(1.5, Rgb::ONE)).into());
+    scene.materials.push(
+        Material::Dielectric(crate::bsdf::Dielectric::unchecked(
+            1.5,
+            crate::Spectrum::ONE,
+        ))
+        .into(),
+    );
     scene.surfaces.push(Surface::Sphere {
         center: Vec3A::ZERO,
         radius: 0.3,

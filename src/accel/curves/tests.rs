@@ -398,9 +398,16 @@ fn hair_on_a_curve_reflects_where_pbrt_v4_reflects() {
             let hit = seg
                 .hit((0.0, 1.0), origin, dir, f32::INFINITY, 0, None)
                 .expect("the ray meets the fibre");
-            let fibre = Hair::new(0.0, 1.55, glam::Vec3A::splat(1e4), 0.01, 0.01, 0.0)
-                .unwrap()
-                .with_h(2.0 * hit.uv.y - 1.0);
+            let fibre = Hair::new(
+                0.0,
+                1.55,
+                raylab_integrators::Spectrum::splat(1e4),
+                0.01,
+                0.01,
+                0.0,
+            )
+            .unwrap()
+            .with_h(2.0 * hit.uv.y - 1.0);
             let m = Material::Hair(fibre);
             let frame = hit.frame();
             let wo = frame.to_local(-dir);

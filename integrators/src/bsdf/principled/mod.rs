@@ -18,7 +18,7 @@ pub use standard::{Principled, PrincipledRates};
 pub use thin::{PrincipledThin, ThinRates};
 
 use super::microfacet::{Distribution, Microfacet};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -27,7 +27,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Burley {
     /// The colour of the diffuse base, the metal, the transmission and the tints.
-    pub base_color: Rgb,
+    pub base_color: Spectrum,
     /// Perceptual roughness: the GGX `alpha` is its square (at least 0.001).
     pub roughness: f32,
     /// Stretches the specular lobe along the tangent (`aspect = sqrt(1 - 0.9 anisotropic)`).
@@ -47,7 +47,7 @@ pub struct Burley {
 
 impl Burley {
     /// Mitsuba's defaults: base colour 0.5, roughness 0.5, the rest 0.
-    pub fn new(base_color: Rgb) -> Burley {
+    pub fn new(base_color: Spectrum) -> Burley {
         Burley {
             base_color,
             roughness: 0.5,
@@ -110,12 +110,12 @@ impl Burley {
 
     /// The base colour over its luminance (white where it is black): the tint colour.
     #[inline]
-    fn tint(&self) -> Rgb {
-        let lum = crate::luminance(self.base_color);
+    fn tint(&self) -> Spectrum {
+        let lum = crate::luminance(crate::spectrum::rgb_of(self.base_color));
         if lum > 0.0 {
             self.base_color / lum
         } else {
-            Rgb::ONE
+            Spectrum::ONE
         }
     }
 
@@ -140,12 +140,12 @@ impl Burley {
     /// The sheen's value (cosine-free) at half-vector cosine `cos_d`, before the model's
     /// weight.
     #[inline]
-    fn sheen(&self, cos_d: f32) -> Rgb {
+    fn sheen(&self, cos_d: f32) -> Spectrum {
         let fd = schlick_weight(cos_d.abs());
         if self.sheen_tint == 0.0 {
-            Rgb::splat(self.sheen * fd)
+            Spectrum::splat(self.sheen * fd)
         } else {
-            Rgb::ONE.lerp(self.tint(), self.sheen_tint) * (self.sheen * fd)
+            Spectrum::ONE.lerp(self.tint(), self.sheen_tint) * (self.sheen * fd)
         }
     }
 }
@@ -168,7 +168,7 @@ fn schlick_weight(cos: f32) -> f32 {
 /// IOR `eta` seen at cosine `cos_v` (negative: from inside); from the denser side, at the
 /// transmitted angle (Mitsuba's `calc_schlick`).
 #[inline]
-fn schlick(r0: Rgb, cos_v: f32, eta: f32) -> Rgb {
+fn schlick(r0: Spectrum, cos_v: f32, eta: f32) -> Spectrum {
     let (eta_it, eta_ti) = if cos_v >= 0.0 {
         (eta, 1.0 / eta)
     } else {
@@ -180,7 +180,7 @@ fn schlick(r0: Rgb, cos_v: f32, eta: f32) -> Rgb {
         let cos_t2 = 1.0 - (1.0 - cos_v * cos_v) * eta_ti * eta_ti;
         schlick_weight(cos_t2.max(0.0).sqrt())
     };
-    r0 + (Rgb::ONE - r0) * weight
+    r0 + (Spectrum::ONE - r0) * weight
 }
 
 /// Normal-incidence reflectance of a dielectric of relative IOR `eta`.

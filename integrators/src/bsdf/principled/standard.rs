@@ -28,7 +28,7 @@ use super::{compatible, cosine_pdf, mulsign, schlick, schlick_r0, Burley, Gtr1};
 use crate::bsdf::fresnel::fresnel_dielectric;
 use crate::bsdf::microfacet::{reflect, refract};
 use crate::bsdf::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 
 /// How often each lobe is sampled, relative to Mitsuba's weights (all 1 by default):
@@ -193,13 +193,13 @@ impl Principled {
 
     /// The specular reflection's Fresnel term `F'` (see the module docs).
     #[inline]
-    fn fresnel(&self, f: f32, cos_vh: f32, front: bool) -> Rgb {
+    fn fresnel(&self, f: f32, cos_vh: f32, front: bool) -> Spectrum {
         let b = &self.burley;
         let (_, bsdf) = self.weights();
         if !front {
-            return Rgb::splat(bsdf * f);
+            return Spectrum::splat(bsdf * f);
         }
-        let mut schlicks = Rgb::ZERO;
+        let mut schlicks = Spectrum::ZERO;
         if self.metallic > 0.0 {
             schlicks += self.metallic * schlick(b.base_color, cos_vh, self.eta);
         }
@@ -212,14 +212,14 @@ impl Principled {
             let r0 = b.tint() * schlick_r0(eta_it);
             schlicks += (1.0 - self.metallic) * b.spec_tint * schlick(r0, cos_vh, self.eta);
         }
-        Rgb::splat((1.0 - self.metallic) * (1.0 - b.spec_tint) * f) + schlicks
+        Spectrum::splat((1.0 - self.metallic) * (1.0 - b.spec_tint) * f) + schlicks
     }
 
-    fn value(&self, v: Vec3A, l: Vec3A) -> Rgb {
+    fn value(&self, v: Vec3A, l: Vec3A) -> Spectrum {
         let b = &self.burley;
         let (cos_v, cos_l) = (v.z, l.z);
         if cos_v == 0.0 || cos_l == 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let (brdf, bsdf) = self.weights();
         let front = cos_v > 0.0;
@@ -231,7 +231,7 @@ impl Principled {
         let mf = b.distribution(b.roughness);
         let (d, g) = (mf.d(h), mf.g(v, l, h));
         let cos_vl = (cos_v * cos_l).abs();
-        let mut value = Rgb::ZERO;
+        let mut value = Spectrum::ZERO;
         if reflect && reflection_ok && f > 0.0 {
             value += self.fresnel(f, v.dot(h), front) * (d * g / (4.0 * cos_vl));
         }
@@ -245,9 +245,9 @@ impl Principled {
             return value;
         }
         if self.clearcoat > 0.0 && reflection_ok {
-            let fcc = schlick(Rgb::splat(0.04), v.dot(h), self.eta).x;
+            let fcc = schlick(Spectrum::splat(0.04), v.dot(h), self.eta).x;
             let g_cc = super::clearcoat_g1(v, h, 0.25) * super::clearcoat_g1(l, h, 0.25);
-            value += Rgb::splat(self.clearcoat * 0.25 * fcc * self.coat().d(h) * g_cc);
+            value += Spectrum::splat(self.clearcoat * 0.25 * fcc * self.coat().d(h) * g_cc);
         }
         let cos_d = h.dot(l);
         if brdf > 0.0 {
@@ -307,7 +307,7 @@ impl Bxdf for Principled {
         }
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         self.value(wo, wi)
     }
 
@@ -358,7 +358,7 @@ impl Bxdf for Principled {
         })
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.burley.base_color
     }
 }

@@ -10,7 +10,7 @@ use crate::testing::chi2::{assert_chi2, check_sample_matches_eval, dir, Grid, SA
 
 fn opaque() -> Principled {
     let burley = Burley {
-        base_color: Rgb::new(0.2, 0.8, 0.1),
+        base_color: crate::spectrum::rgb(0.2, 0.8, 0.1),
         roughness: 0.15,
         anisotropic: 0.5,
         spec_trans: 0.0,
@@ -34,12 +34,12 @@ fn opaque() -> Principled {
 
 fn glass() -> Principled {
     let burley = Burley {
-        base_color: Rgb::new(0.3, 0.6, 0.8),
+        base_color: crate::spectrum::rgb(0.3, 0.6, 0.8),
         roughness: 0.3,
         anisotropic: 0.2,
         spec_trans: 0.7,
         sheen: 0.4,
-        ..Burley::new(Rgb::splat(0.5))
+        ..Burley::new(Spectrum::splat(0.5))
     };
     let eta = Principled::eta_from_specular(0.4, true);
     Principled::new(burley, 0.0, 0.5, 0.0, eta, true, PrincipledRates::default()).unwrap()
@@ -47,7 +47,7 @@ fn glass() -> Principled {
 
 fn thin() -> PrincipledThin {
     let burley = Burley {
-        base_color: Rgb::new(0.7, 0.1, 0.1),
+        base_color: crate::spectrum::rgb(0.7, 0.1, 0.1),
         roughness: 0.4,
         anisotropic: 0.3,
         spec_trans: 0.5,

@@ -20,7 +20,7 @@ use super::{compatible, cosine_pdf, Burley};
 use crate::bsdf::fresnel::fresnel_dielectric;
 use crate::bsdf::microfacet::reflect;
 use crate::bsdf::{BsdfSample, Bxdf, Lobes};
-use crate::Rgb;
+use crate::Spectrum;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
@@ -131,22 +131,22 @@ impl PrincipledThin {
         (v, l, (v + mirrored).normalize_or_zero())
     }
 
-    fn value(&self, v: Vec3A, l: Vec3A) -> Rgb {
+    fn value(&self, v: Vec3A, l: Vec3A) -> Spectrum {
         let b = &self.burley;
         if v.z == 0.0 || l.z == 0.0 {
-            return Rgb::ZERO;
+            return Spectrum::ZERO;
         }
         let (v, l, h) = Self::on_viewer_face(v, l);
         let (cos_v, cos_l) = (v.z, l.z);
         let reflect = cos_l > 0.0;
         let (st, dt) = (b.spec_trans, self.diff_trans / 2.0);
         let cos_vl = (cos_v * cos_l).abs();
-        let mut value = Rgb::ZERO;
+        let mut value = Spectrum::ZERO;
         if st > 0.0 {
             let f = fresnel_dielectric(v.dot(h), self.eta);
             if reflect && compatible(h, v, l, cos_v, true) {
                 let mf = b.distribution(b.roughness);
-                let mut fresnel = Rgb::splat(f);
+                let mut fresnel = Spectrum::splat(f);
                 if b.spec_tint > 0.0 {
                     let r0 = b.tint() * super::schlick_r0(self.eta);
                     let schlick = super::schlick(r0, v.dot(h), self.eta);
@@ -218,7 +218,7 @@ impl Bxdf for PrincipledThin {
         }
     }
 
-    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Rgb {
+    fn eval(&self, wo: Vec3A, wi: Vec3A) -> Spectrum {
         self.value(wo, wi)
     }
 
@@ -259,7 +259,7 @@ impl Bxdf for PrincipledThin {
         })
     }
 
-    fn albedo(&self) -> Rgb {
+    fn albedo(&self) -> Spectrum {
         self.burley.base_color
     }
 }
