@@ -14,7 +14,7 @@ pub fn finite(what: &str, values: &[f32]) -> Result<(), String> {
 
 /// A finite, non-negative colour.
 pub fn colour(what: &str, c: Spectrum) -> Result<Spectrum, String> {
-    let a = c.to_array();
+    let a = crate::spectrum::rgb_of(c).to_array();
     finite(what, &a)?;
     if a.iter().any(|c| *c < 0.0) {
         return Err(format!("{what} must not be negative, got {a:?}"));
@@ -28,7 +28,7 @@ pub fn reflectance(what: &str, c: Spectrum) -> Result<Spectrum, String> {
     if c.max_element() > 1.0 {
         return Err(format!(
             "{what} must be in [0, 1] (a reflectance), got {:?}",
-            c.to_array()
+            crate::spectrum::rgb_of(c).to_array()
         ));
     }
     Ok(c)

@@ -27,8 +27,8 @@ impl DiffuseTransmission {
         if (r + t).max_element() > 1.0 + 1e-6 {
             return Err(format!(
                 "reflectance {:?} and transmittance {:?} sum to more than 1 in some channel",
-                r.to_array(),
-                t.to_array()
+                crate::spectrum::rgb_of(r).to_array(),
+                crate::spectrum::rgb_of(t).to_array()
             ));
         }
         Ok(DiffuseTransmission {

@@ -119,7 +119,7 @@ impl Phong {
         if (kd + ks).max_element() > 1.0 + 1e-6 {
             return Err(format!(
                 "kd + ks must be <= 1 per channel to conserve energy, got {:?}",
-                (kd + ks).to_array()
+                rgb_of(kd + ks).to_array()
             ));
         }
         finite("exponent", &[exponent])?;

@@ -90,7 +90,7 @@ impl Burley {
         if self.base_color.min_element() < 0.0 || !self.base_color.is_finite() {
             return Err(format!(
                 "`base_color` must be finite and non-negative, got {}",
-                self.base_color
+                crate::spectrum::rgb_of(self.base_color)
             ));
         }
         Ok(())
