@@ -197,6 +197,11 @@ pub struct RenderArgs {
     /// what a job script asks before it queues work.
     #[arg(long, conflicts_with = "watch")]
     pub check: bool,
+    /// Write the image as CIE 1931 XYZ (an EXR with channels X, Y, Z) instead of linear sRGB:
+    /// the film's colour by the inverse of the sRGB matrix it came through, so exactly what
+    /// a spectral render accumulates, up to rounding. Needs -o FILE.exr.
+    #[arg(long, conflicts_with_all = ["watch", "shard"])]
+    pub xyz: bool,
 }
 
 #[derive(clap::Args, Debug, Clone)]

@@ -70,7 +70,12 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
         .output
         .clone()
         .unwrap_or_else(|| default_output(&args.session.scene));
-    output::check_output_path(&output_path)?;
+    if output::check_output_path(&output_path)? != output::OutputFormat::Exr && args.xyz {
+        bail!(
+            "{}: --xyz writes an EXR (-o FILE.exr)",
+            output_path.display()
+        );
+    }
     if args.session.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
@@ -303,6 +308,7 @@ pub fn render(args: &RenderArgs) -> Result<ExitCode> {
                 height: camera.height,
             },
         )?,
+        _ if args.xyz => output::write_exr_xyz(&output_path, &film)?,
         _ => output::write_image(&output_path, &film, display)?,
     }
 

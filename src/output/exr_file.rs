@@ -29,11 +29,27 @@ pub fn encode_with(
     attribute: Option<(&str, AttributeValue)>,
     out: &mut std::io::Cursor<Vec<u8>>,
 ) -> Result<()> {
+    encode_channels(film, ["R", "G", "B"], extra, attribute, out)
+}
+
+/// Encodes the film whose pixels are CIE XYZ (see [`super::to_xyz`]) as channels X, Y, Z.
+pub fn encode_xyz(film: &Film, out: &mut std::io::Cursor<Vec<u8>>) -> Result<()> {
+    encode_channels(film, ["X", "Y", "Z"], Vec::new(), None, out)
+}
+
+/// [`encode_with`], the pixels' three channels named `names`.
+fn encode_channels(
+    film: &Film,
+    names: [&str; 3],
+    extra: Vec<AnyChannel<FlatSamples>>,
+    attribute: Option<(&str, AttributeValue)>,
+    out: &mut std::io::Cursor<Vec<u8>>,
+) -> Result<()> {
     let size = (film.width as usize, film.height as usize);
     let channel = |name: &str, values: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(values));
     let plane = |of: &[glam::Vec3], c: usize| of.iter().map(|p| p[c]).collect::<Vec<f32>>();
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
-    for (c, name) in ["R", "G", "B"].into_iter().enumerate() {
+    for (c, name) in names.into_iter().enumerate() {
         channels.push(channel(name, plane(&film.pixels, c)));
     }
     if film.has_variance {

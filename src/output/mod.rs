@@ -130,6 +130,35 @@ pub fn write_image(path: &Path, film: &Film, display: DisplaySettings) -> Result
     }
 }
 
+/// The film, whose pixels are linear sRGB, as CIE 1931 XYZ (the inverse of the sRGB matrix
+/// the film's colours came through, so a spectral render's XYZ up to rounding). The variance
+/// layer is left out: XYZ's variance needs the channels' covariances, which the film does not
+/// keep.
+pub fn to_xyz(film: &Film) -> Film {
+    let xyz = |p: &glam::Vec3| {
+        glam::Vec3::from(raylab_integrators::spectrum::srgb_to_xyz(
+            glam::Vec3A::from(*p),
+        ))
+    };
+    Film {
+        width: film.width,
+        height: film.height,
+        pixels: film.pixels.iter().map(xyz).collect(),
+        variance: vec![glam::Vec3::ZERO; film.pixels.len()],
+        has_variance: false,
+        variance_samples: 0,
+    }
+}
+
+/// Writes the film as an EXR of CIE XYZ (channels X, Y, Z; see [`to_xyz`]).
+pub fn write_exr_xyz(path: &Path, film: &Film) -> Result<()> {
+    if check_output_path(path)? != OutputFormat::Exr {
+        bail!("{}: XYZ is written as EXR (-o FILE.exr)", path.display());
+    }
+    let xyz = to_xyz(film);
+    write_buffered(path, |w| exr_file::encode_xyz(&xyz, w))
+}
+
 /// Writes `film` as EXR with more channels and one more header attribute (shard files).
 pub fn write_exr_with(
     path: &Path,

@@ -311,3 +311,53 @@ fn a_named_metal_reflects_by_its_measured_spectra() {
     // The measured spectra are not the RGB constants: the colours differ by 5% in red.
     assert!((spectral.x - rgb.x).abs() > 0.03, "{spectral} vs {rgb}");
 }
+
+/// `--xyz` writes the image as CIE XYZ: channels X, Y, Z, Y the luminance of the sRGB image
+/// of the same render; only as EXR.
+#[test]
+fn xyz_output_is_the_srgb_image_in_xyz() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("floor.ron");
+    save(
+        &scene,
+        &self::scene(&format!("Spectrum({ALBEDO})"), "Area(radiance: (1, 1, 1))"),
+    );
+    let (rgb, xyz) = (dir.path().join("rgb.exr"), dir.path().join("xyz.exr"));
+    for (out, extra) in [(&rgb, None), (&xyz, Some("--xyz"))] {
+        let mut args = vec!["render", s(&scene), "--spectral", "-q", "-o", s(out)];
+        args.extend(extra);
+        let o = raylab(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let image = exr::prelude::read_first_flat_layer_from_file(&xyz).unwrap();
+    let channel = |name: &str| -> Vec<f32> {
+        let c = image
+            .layer_data
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq(name))
+            .unwrap_or_else(|| panic!("no channel {name}"));
+        c.sample_data.values_as_f32().collect()
+    };
+    let y = channel("Y");
+    assert_eq!((channel("X").len(), channel("Z").len()), (y.len(), y.len()));
+    let srgb = image::open(&rgb).unwrap().into_rgb32f();
+    let mut lit = 0;
+    for (p, y) in srgb.pixels().zip(&y) {
+        let lum = 0.212_671 * p[0] + 0.715_160 * p[1] + 0.072_169 * p[2];
+        assert!((lum - y).abs() <= 1e-5 * lum.abs().max(1.0), "{lum} vs {y}");
+        lit += (lum > 0.0) as u32;
+    }
+    assert!(lit > 0);
+    // Only as EXR.
+    let o = raylab(&[
+        "render",
+        s(&scene),
+        "--xyz",
+        "-o",
+        s(&dir.path().join("x.png")),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("EXR"), "{}", stderr(&o));
+}
