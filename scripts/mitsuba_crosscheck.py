@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Renders Mitsuba 3 XML scenes with Mitsuba 3 (PyPI, scalar_rgb) and with raylab at the same
-sample count and filter, and says per scene whether the images agree, by Mitsuba's own
+"""Renders Mitsuba 3 XML scenes with Mitsuba 3 (PyPI, scalar_rgb; with --spectral its
+scalar_spectral variant and raylab's --spectral) and with raylab at the same sample count and
+filter, and says per scene whether the images agree, by Mitsuba's own
 render-test method: a per-pixel z-test of the difference of the two means, at the
 Sidak-corrected level for a 1% chance that any of the image's pixel channels fails by
 chance; the scene passes when 99.75% of them pass.
@@ -16,6 +17,7 @@ image means and their ratio raylab / Mitsuba.
     cargo build --release
     python3 scripts/mitsuba_crosscheck.py [SCENES or FOLDERS...] [--spp 256] [--runs 16]
         [--raylab target/release/raylab] [--out out/mitsuba-crosscheck] [-D NAME=VALUE ...]
+        [--spectral]
 
 Default: every .xml in scenes/mitsuba. Exit status 1 when a scene fails.
 """
@@ -57,7 +59,7 @@ def z_test(m1, v1, m2, v2, alpha=0.01):
     return float(np.mean(p > level)), level
 
 
-def render_both(mi, exe, scene, out, slug, per_run, runs, defines):
+def render_both(mi, exe, scene, out, slug, per_run, runs, defines, extra):
     """Both renderers' per-pixel means and variances of the mean over `runs` runs of `per_run`
     samples (seeds 1..runs), the scene's <default>s set by `defines`."""
     r_imgs, m_imgs = [], []
@@ -66,7 +68,8 @@ def render_both(mi, exe, scene, out, slug, per_run, runs, defines):
     for k in range(1, runs + 1):
         exr = out / f"{slug}-raylab-{k}.exr"
         subprocess.run([str(exe), "render", str(scene), "--spp", str(per_run), "--seed", str(k),
-                        "-o", str(exr), "-q", *flags], check=True, capture_output=True, text=True)
+                        "-o", str(exr), "-q", *flags, *extra], check=True, capture_output=True,
+                       text=True)
         r_imgs.append(read_exr(exr))
         m_imgs.append(np.array(mi.render(mi_scene, spp=per_run, seed=k), dtype=np.float64)[..., :3])
     mr, vr = mean_and_variance(r_imgs)
@@ -80,6 +83,8 @@ def main():
     ap.add_argument("--spp", type=int, default=256, help="samples per pixel in all, per renderer (default 256)")
     ap.add_argument("--runs", type=int, default=16, help="independent runs per renderer (default 16)")
     ap.add_argument("--raylab", default="target/release/raylab", help="raylab binary")
+    ap.add_argument("--spectral", action="store_true",
+                    help="Mitsuba's scalar_spectral against raylab --spectral")
     ap.add_argument("--out", default="out/mitsuba-crosscheck", help="folder for the EXRs")
     ap.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                     help="a <default> parameter for both renderers (repeatable)")
@@ -89,7 +94,9 @@ def main():
 
     import mitsuba as mi
 
-    mi.set_variant("scalar_rgb")
+    variant = "scalar_spectral" if args.spectral else "scalar_rgb"
+    mi.set_variant(variant)
+    extra = ["--spectral"] if args.spectral else []
     mi.set_log_level(mi.LogLevel.Warn)
     exe = pathlib.Path(args.raylab)
     exe = exe if exe.is_absolute() else ROOT / exe
@@ -107,7 +114,8 @@ def main():
     for scene in scenes:
         start = time.time()
         slug = scene.stem
-        mr, vr, mm, vm = render_both(mi, exe, scene, out, slug, per_run, args.runs, defines)
+        mr, vr, mm, vm = render_both(mi, exe, scene, out, slug, per_run, args.runs, defines,
+                                     extra)
         mi.Bitmap(mm.astype(np.float32)).write(str(out / f"{slug}-mitsuba.exr"))
         mi.Bitmap(mr.astype(np.float32)).write(str(out / f"{slug}-raylab.exr"))
         passing, level = z_test(mr, vr, mm, vm)
@@ -117,7 +125,7 @@ def main():
         print(f"{scene.name}: {passing:.4%} of pixel channels pass ({time.time() - start:.0f} s)",
               file=sys.stderr, flush=True)
 
-    print(f"\n{args.spp} spp per renderer ({args.runs} runs of {per_run}), Mitsuba 3 scalar_rgb;"
+    print(f"\n{args.spp} spp per renderer ({args.runs} runs of {per_run}), Mitsuba 3 {variant};"
           f" per-pixel z-test at the Sidak-corrected level of 1%, pass at 99.75% of pixel channels\n")
     print("| scene | raylab mean | Mitsuba mean | ratio | pixel channels passing | verdict |")
     print("|---|---|---|---|---|---|")
