@@ -1356,7 +1356,13 @@ pub enum EmitterDesc {
         spectrum: Option<Vec<(f64, f64)>>,
     },
     /// Isotropic point light of `intensity` (W/sr per channel) at the entity's translation.
-    Point { intensity: V3 },
+    Point {
+        intensity: V3,
+        /// The intensity by wavelength, as an area emitter's `spectrum`: times `intensity`,
+        /// which must then be grey (a scale).
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        spectrum: Option<Vec<(f64, f64)>>,
+    },
     /// A spot light at the entity's translation (Mitsuba's `spot`), pointing at `look_at` or,
     /// without it, along the entity's rotated `+z`. `intensity` (W/sr per channel) on the
     /// axis, falling off linearly in the angle from `beam_width` to `cutoff_angle` (degrees).
@@ -1379,11 +1385,22 @@ pub enum EmitterDesc {
         /// constant colour just scales it).
         #[serde(skip_serializing_if = "Option::is_none", default)]
         texture: Option<ColorDesc>,
+        /// The intensity by wavelength, as an area emitter's `spectrum`: times `intensity`,
+        /// which must then be grey (a scale).
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        spectrum: Option<Vec<(f64, f64)>>,
     },
     /// Parallel light from infinitely far away (a sun, Mitsuba's `directional`) travelling
     /// along `direction` (turned by the entity's rotation), with `irradiance` (W m^-2 per
     /// channel) on a surface facing it.
-    Directional { direction: V3, irradiance: V3 },
+    Directional {
+        direction: V3,
+        irradiance: V3,
+        /// The irradiance by wavelength, as an area emitter's `spectrum`: times `irradiance`,
+        /// which must then be grey (a scale).
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        spectrum: Option<Vec<(f64, f64)>>,
+    },
     /// A projector (Mitsuba's `projector`) at the entity's translation, throwing the image
     /// `irradiance` (a colour or a texture) along the entity's rotated `+z` over a field of
     /// view of `fov` degrees along `fov_axis` (`"x"`, the default, `"y"`, `"diagonal"`,

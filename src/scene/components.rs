@@ -269,7 +269,11 @@ pub enum Emitter {
         spectrum: Option<raylab_integrators::spectrum::curve::Curve>,
     },
     /// Isotropic point light at the entity's translation.
-    Point { intensity: Rgb },
+    Point {
+        intensity: Rgb,
+        /// The intensity by wavelength, of which `intensity` is the colour.
+        spectrum: Option<raylab_integrators::spectrum::curve::Curve>,
+    },
     /// A spot light at the entity's translation, pointing at `look_at` or along its rotated
     /// `+z`; angles in degrees.
     Spot {
@@ -280,9 +284,16 @@ pub enum Emitter {
         falloff: raylab_integrators::light::Falloff,
         /// A projected texture, looked up in the spot's frame.
         texture: Option<raylab_integrators::texture::Texture>,
+        /// The intensity by wavelength, of which `intensity` is the colour.
+        spectrum: Option<raylab_integrators::spectrum::curve::Curve>,
     },
     /// Parallel light travelling along `direction` (before the entity's rotation).
-    Directional { direction: Vec3A, irradiance: Rgb },
+    Directional {
+        direction: Vec3A,
+        irradiance: Rgb,
+        /// The irradiance by wavelength, of which `irradiance` is the colour.
+        spectrum: Option<raylab_integrators::spectrum::curve::Curve>,
+    },
     /// A projector: its image, horizontal field of view (degrees) and scale.
     Projector {
         irradiance: raylab_integrators::texture::Texture,
@@ -292,6 +303,35 @@ pub enum Emitter {
     },
     /// An environment map, already turned into the world by the entity's rotation.
     Environment(Arc<raylab_integrators::light::EnvMap>),
+}
+
+impl Emitter {
+    /// What the emitter emits by wavelength, where the scene gave it so, with the colour that
+    /// stands for it in RGB mode (its nominal radiance, intensity or irradiance).
+    pub fn spectrum(&self) -> Option<(&raylab_integrators::spectrum::curve::Curve, Rgb)> {
+        match self {
+            Emitter::Area {
+                radiance: c,
+                spectrum: Some(s),
+                ..
+            }
+            | Emitter::Point {
+                intensity: c,
+                spectrum: Some(s),
+            }
+            | Emitter::Spot {
+                intensity: c,
+                spectrum: Some(s),
+                ..
+            }
+            | Emitter::Directional {
+                irradiance: c,
+                spectrum: Some(s),
+                ..
+            } => Some((s, *c)),
+            _ => None,
+        }
+    }
 }
 
 /// World-space geometry, produced from `Shape` and `Transform` by the bake system.

@@ -50,34 +50,10 @@ pub(super) fn emitter_from_desc(
                     Some(emitter_texture(&t, "emitter's texture", files)?),
                 ),
             };
-            // A spectrum: its colour (as an emission: not weighted by D65) times the scale.
-            let (radiance, spectrum) = match spectrum {
-                None => (radiance, None),
-                Some(pairs) => {
-                    if texture.is_some() {
-                        return Err("an emitter with a spectrum takes no texture".into());
-                    }
-                    if let Some(&(nm, v)) = pairs.iter().find(|p| p.1 < 0.0) {
-                        return Err(format!(
-                            "the emitter's spectrum is negative ({v} at {nm} nm)"
-                        ));
-                    }
-                    if radiance.x != radiance.y || radiance.y != radiance.z {
-                        return Err(format!(
-                            "an emitter with a spectrum takes a grey radiance (a scale), not {radiance}"
-                        ));
-                    }
-                    let curve = Curve::table(&narrow(&pairs))
-                        .map_err(|e| format!("the emitter's spectrum: {e}"))?
-                        .scaled(radiance.x);
-                    let rgb = crate::formats::spectra::to_srgb(&pairs, Use::Emission)
-                        .map_err(|e| format!("the emitter's spectrum: {e}"))?;
-                    // A narrow band's colour may lie outside sRGB: its negative channels are
-                    // cut (RGB mode's light), the spectrum itself is kept.
-                    let rgb = v3(rgb.map(|c| c.max(0.0) as f32)) * radiance.x;
-                    (rgb, Some(curve))
-                }
-            };
+            if spectrum.is_some() && texture.is_some() {
+                return Err("an emitter with a spectrum takes no texture".into());
+            }
+            let (radiance, spectrum) = given_spectrum(radiance, spectrum, "radiance")?;
             Emitter::Area {
                 radiance,
                 two_sided,
@@ -85,9 +61,16 @@ pub(super) fn emitter_from_desc(
                 spectrum,
             }
         }
-        EmitterDesc::Point { intensity } => Emitter::Point {
-            intensity: v3(intensity),
-        },
+        EmitterDesc::Point {
+            intensity,
+            spectrum,
+        } => {
+            let (intensity, spectrum) = given_spectrum(v3(intensity), spectrum, "intensity")?;
+            Emitter::Point {
+                intensity,
+                spectrum,
+            }
+        }
         EmitterDesc::Spot {
             intensity,
             look_at,
@@ -95,7 +78,16 @@ pub(super) fn emitter_from_desc(
             beam_width,
             falloff,
             texture,
+            spectrum,
         } => Emitter::Spot {
+            spectrum: {
+                if spectrum.is_some() && texture.is_some() {
+                    return Err("an emitter with a spectrum takes no texture".into());
+                }
+                let (_, curve) = given_spectrum(v3(intensity), spectrum.clone(), "intensity")?;
+                curve
+            },
+            intensity: given_spectrum(v3(intensity), spectrum, "intensity")?.0,
             texture: match texture {
                 None => None,
                 Some(ColorDesc::Constant(c)) => {
@@ -108,7 +100,6 @@ pub(super) fn emitter_from_desc(
                 }
                 Some(ColorDesc::Texture(t)) => Some(emitter_texture(&t, "spot's texture", files)?),
             },
-            intensity: v3(intensity),
             look_at: look_at.map(v3),
             cutoff_angle,
             beam_width: beam_width.unwrap_or(0.75 * cutoff_angle),
@@ -125,10 +116,15 @@ pub(super) fn emitter_from_desc(
         EmitterDesc::Directional {
             direction,
             irradiance,
-        } => Emitter::Directional {
-            direction: v3(direction),
-            irradiance: v3(irradiance),
-        },
+            spectrum,
+        } => {
+            let (irradiance, spectrum) = given_spectrum(v3(irradiance), spectrum, "irradiance")?;
+            Emitter::Directional {
+                direction: v3(direction),
+                irradiance,
+                spectrum,
+            }
+        }
         EmitterDesc::Projector {
             irradiance,
             fov,
@@ -628,6 +624,38 @@ fn curves_from_desc(
         split_depth,
         segments,
     })
+}
+
+/// An emitter's colour `scale` with its spectrum by wavelength `pairs`, if given: then the
+/// colour must be grey (a scale), the spectrum not negative; the result is the spectrum's
+/// colour (as an emission: not weighted by D65) times the scale, and the spectrum times the
+/// scale.
+fn given_spectrum(
+    scale: Vec3A,
+    pairs: Option<Vec<(f64, f64)>>,
+    what: &str,
+) -> Result<(Vec3A, Option<Curve>), String> {
+    let Some(pairs) = pairs else {
+        return Ok((scale, None));
+    };
+    if let Some(&(nm, v)) = pairs.iter().find(|p| p.1 < 0.0) {
+        return Err(format!(
+            "the emitter's spectrum is negative ({v} at {nm} nm)"
+        ));
+    }
+    if scale.x != scale.y || scale.y != scale.z {
+        return Err(format!(
+            "an emitter with a spectrum takes a grey {what} (a scale), not {scale}"
+        ));
+    }
+    let curve = Curve::table(&narrow(&pairs))
+        .map_err(|e| format!("the emitter's spectrum: {e}"))?
+        .scaled(scale.x);
+    let rgb = crate::formats::spectra::to_srgb(&pairs, Use::Emission)
+        .map_err(|e| format!("the emitter's spectrum: {e}"))?;
+    // A narrow band's colour may lie outside sRGB: its negative channels are cut (RGB mode's
+    // light), the spectrum itself is kept.
+    Ok((v3(rgb.map(|c| c.max(0.0) as f32)) * scale.x, Some(curve)))
 }
 
 /// An emitter's texture (`what` names it in messages): finite values, none negative, 8-bit

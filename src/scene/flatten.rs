@@ -559,16 +559,11 @@ fn table(
     let mut spectra = vec![None; lights.len()];
     for (&entity, &(start, n)) in light_of {
         if let Ok(emitter) = scene.world.get::<&Emitter>(entity) {
-            if let Emitter::Area {
-                radiance,
-                spectrum: Some(curve),
-                ..
-            } = &*emitter
-            {
+            if let Some((curve, rgb)) = emitter.spectrum() {
                 for s in &mut spectra[start as usize..start as usize + n] {
                     *s = Some(Emission {
                         curve: curve.clone(),
-                        rgb: *radiance,
+                        rgb,
                     });
                 }
             }

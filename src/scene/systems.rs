@@ -99,7 +99,7 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                     ));
                 }
             }
-            (Some(Emitter::Point { intensity }), s) => {
+            (Some(Emitter::Point { intensity, .. }), s) => {
                 check_radiance("intensity", *intensity).map_err(fail)?;
                 if s.is_some() {
                     return Err(fail(
@@ -137,6 +137,7 @@ pub fn validate(world: &World) -> Result<(), EntityError> {
                     Emitter::Directional {
                         direction,
                         irradiance,
+                        ..
                     } => {
                         check_radiance("irradiance", *irradiance).map_err(fail)?;
                         finite("direction", &direction.to_array()).map_err(fail)?;
@@ -994,7 +995,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
         .iter()
         .filter_map(|(entity, order, emitter, transform, shape, flip)| {
             let lights = match (emitter.clone(), shape) {
-                (Emitter::Point { intensity }, _) => {
+                (Emitter::Point { intensity, .. }, _) => {
                     vec![Light::point(transform.translation(), intensity)]
                 }
                 (Emitter::Spot { .. }, _) => match spot_light(emitter, transform) {
@@ -1009,6 +1010,7 @@ pub fn collect_emitters(world: &World) -> Vec<(Entity, Vec<Light>)> {
                     Emitter::Directional {
                         direction,
                         irradiance,
+                        ..
                     },
                     _,
                 ) => vec![Light::Directional(DirectionalLight {
@@ -1169,6 +1171,7 @@ pub fn spot_light(emitter: &Emitter, transform: &Transform) -> Result<SpotLight,
         beam_width,
         falloff,
         texture,
+        ..
     } = emitter
     else {
         return Err("not a spot light".into());

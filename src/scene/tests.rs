@@ -69,7 +69,8 @@ fn spawn_creates_one_entity_per_object_with_its_components() {
     assert_eq!(
         *w.get::<&Emitter>(bulb).unwrap(),
         Emitter::Point {
-            intensity: Rgb::new(1.0, 2.0, 3.0)
+            intensity: Rgb::new(1.0, 2.0, 3.0),
+            spectrum: None,
         }
     );
     // Unnamed entities are named by their position in the file.

@@ -361,3 +361,52 @@ fn xyz_output_is_the_srgb_image_in_xyz() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("EXR"), "{}", stderr(&o));
 }
+
+/// Point, spot and directional emitters take a spectrum as area emitters do: a grey scale
+/// times the spectrum, its colour in RGB mode; a coloured scale is refused.
+#[test]
+fn point_spot_and_directional_emitters_take_spectra() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("lamps.ron");
+    let scene = |emitter: &str| {
+        format!(
+            r#"(
+    camera: LookAt(eye: (0, 3, 3), look_at: (0, 0, 0), up: (0, 1, 0), fov: 50, resolution: (24, 18)),
+    render: (integrator: "path", spp: 4),
+    materials: {{ "floor": Lambert(albedo: 0.5) }},
+    entities: [
+        (shape: Quad(vertices: [(-2, 0, 2), (2, 0, 2), (2, 0, -2), (-2, 0, -2)]), material: "floor"),
+        (transform: (translate: (0, 1, 0)), emitter: {emitter}),
+    ],
+)"#
+        )
+    };
+    for emitter in [
+        format!("Point(intensity: (2, 2, 2), spectrum: {EMISSION})"),
+        format!("Spot(intensity: (2, 2, 2), look_at: (0, 0, 0), cutoff_angle: 60, spectrum: {EMISSION})"),
+        format!("Directional(direction: (0, -1, 0), irradiance: (2, 2, 2), spectrum: {EMISSION})"),
+    ] {
+        save(&path, &scene(&emitter));
+        let mut means = Vec::new();
+        for mode in ["--rgb", "--spectral"] {
+            let out = dir.path().join("lamp.exr");
+            let o = raylab(&["render", s(&path), mode, "-q", "-o", s(&out)]);
+            assert!(o.status.success(), "{emitter} {mode}: {}", stderr(&o));
+            means.push(mean(&out));
+        }
+        // The same light in both modes: red and green (the spectrum has little blue).
+        for k in 0..2 {
+            let ratio = means[1][k] / means[0][k];
+            assert!((0.7..1.3).contains(&ratio), "{emitter}: {means:?}");
+        }
+    }
+    save(
+        &path,
+        &scene(&format!(
+            "Point(intensity: (1, 2, 1), spectrum: {EMISSION})"
+        )),
+    );
+    let o = raylab(&["render", s(&path), "-q", "-o", s(&dir.path().join("x.exr"))]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("grey intensity"), "{}", stderr(&o));
+}

@@ -173,6 +173,21 @@ impl<'a, 'input> Props<'a, 'input> {
         Ok(Some(rgb))
     }
 
+    /// A point-like emitter's colour (default white), or white and the spectrum given by
+    /// wavelength, which stays one (its colour is made where the scene is loaded).
+    #[allow(clippy::type_complexity)]
+    fn emission_or_spectrum(
+        &mut self,
+        name: &str,
+    ) -> Result<([f32; 3], Option<Vec<(f64, f64)>>), Located> {
+        let spectrum = self.spectrum(name);
+        let rgb = self.emission(name)?.unwrap_or([1.0; 3]);
+        Ok(match spectrum {
+            Some(pairs) => ([1.0; 3], Some(pairs)),
+            None => (rgb, None),
+        })
+    }
+
     /// Property `name` if it is a spectrum given by wavelength (left in place), as pairs.
     fn spectrum(&self, name: &str) -> Option<Vec<(f64, f64)>> {
         match self.values.get(name) {

@@ -380,15 +380,15 @@ impl<'a, 'input> Converter<'a, 'input> {
                 (EmitterDesc::Environment { path, scale, mapping: None }, transform)
             }
             "point" => {
-                let intensity = p.emission("intensity")?.unwrap_or([1.0; 3]);
+                let (intensity, spectrum) = p.emission_or_spectrum("intensity")?;
                 let m = match p.vector("position")? {
                     Some(pos) => Affine3A::from_translation(pos.into()),
                     None => to_world.unwrap_or(Affine3A::IDENTITY),
                 };
-                (EmitterDesc::Point { intensity }, placed(&m))
+                (EmitterDesc::Point { intensity, spectrum }, placed(&m))
             }
             "spot" => {
-                let intensity = p.emission("intensity")?.unwrap_or([1.0; 3]);
+                let (intensity, spectrum) = p.emission_or_spectrum("intensity")?;
                 let cutoff_angle = p.float("cutoff_angle")?.unwrap_or(20.0);
                 let beam = p.float("beam_width")?.unwrap_or(cutoff_angle * 0.75);
                 let texture = self.colour(&mut p, "texture", None)?;
@@ -402,6 +402,7 @@ impl<'a, 'input> Converter<'a, 'input> {
                     beam_width: Some(beam),
                     falloff: None,
                     texture,
+                    spectrum,
                 };
                 (spot, transform)
             }
@@ -423,9 +424,9 @@ impl<'a, 'input> Converter<'a, 'input> {
                 (projector, transform)
             }
             "directional" => {
-                let irradiance = p.emission("irradiance")?.unwrap_or([1.0; 3]);
+                let (irradiance, spectrum) = p.emission_or_spectrum("irradiance")?;
                 let direction = p.vector("direction")?.unwrap_or([0.0, 0.0, 1.0]);
-                (EmitterDesc::Directional { direction, irradiance }, transform)
+                (EmitterDesc::Directional { direction, irradiance, spectrum }, transform)
             }
             other => return Err(at(self.doc, node, format!("emitter `{other}` is not supported (area, point, spot, projector, directional, constant, envmap are)"))),
         };

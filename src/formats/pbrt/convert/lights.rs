@@ -127,20 +127,37 @@ impl<'a> Converter<'a> {
         self.note_light_medium();
         let name = format!("{kind} light ({})", self.place(d.pos));
         let m = self.state.ctm;
-        let f32s = |c: [f64; 3]| c.map(|x| x as f32);
+        // The colour times `k`, or where a spectrum was given, a grey scale and the spectrum.
+        #[allow(clippy::type_complexity)]
+        let emitted = |(rgb, spectrum): ([f64; 3], Option<(Vec<(f64, f64)>, f64)>),
+                       k: f64|
+         -> ([f32; 3], Option<Vec<(f64, f64)>>) {
+            match spectrum {
+                Some((pairs, s)) => ([(s * k) as f32; 3], Some(pairs)),
+                None => (rgb.map(|x| (x * k) as f32), None),
+            }
+        };
         let (emitter, transform) = match kind.as_str() {
             "point" => {
-                let mut i = self.light_colour(&mut p, "I")?;
-                if let Some(power) = p.float("power")? {
-                    i = i.map(|x| x * power / (4.0 * std::f64::consts::PI));
-                }
+                let light = self.light_emission(&mut p, "I")?;
+                let k = match p.float("power")? {
+                    Some(power) => power / (4.0 * std::f64::consts::PI),
+                    None => 1.0,
+                };
+                let (intensity, spectrum) = emitted(light, k);
                 let from = p.point("from")?.unwrap_or([0.0; 3]);
                 let at = m * DMat4::from_translation(d3(from));
                 let a = affine(&at).ok_or_else(|| (d.pos, "a projective transform".to_string()))?;
-                (EmitterDesc::Point { intensity: f32s(i) }, placed(&a))
+                (
+                    EmitterDesc::Point {
+                        intensity,
+                        spectrum,
+                    },
+                    placed(&a),
+                )
             }
             "spot" => {
-                let i = self.light_colour(&mut p, "I")?;
+                let (intensity, spectrum) = emitted(self.light_emission(&mut p, "I")?, 1.0);
                 let from = d3(p.point("from")?.unwrap_or([0.0; 3]));
                 let to = d3(p.point("to")?.unwrap_or([0.0, 0.0, 1.0]));
                 let cone = p.float("coneangle")?.unwrap_or(30.0);
@@ -149,12 +166,13 @@ impl<'a> Converter<'a> {
                 let pos = m.transform_point3(from);
                 let target = m.transform_point3(to);
                 let spot = EmitterDesc::Spot {
-                    intensity: f32s(i),
+                    intensity,
                     look_at: Some(f3(target)),
                     cutoff_angle: cone as f32,
                     beam_width: Some((cone - delta).max(0.0) as f32),
                     falloff: Some("smoothstep".into()),
                     texture: None,
+                    spectrum,
                 };
                 let at = TransformDesc {
                     translate: f3(pos),
@@ -163,10 +181,9 @@ impl<'a> Converter<'a> {
                 (spot, at)
             }
             "distant" => {
-                let mut e = self.light_colour(&mut p, "L")?;
-                if let Some(illum) = p.float("illuminance")? {
-                    e = e.map(|x| x * illum);
-                }
+                let light = self.light_emission(&mut p, "L")?;
+                let k = p.float("illuminance")?.unwrap_or(1.0);
+                let (irradiance, spectrum) = emitted(light, k);
                 let from = d3(p.point("from")?.unwrap_or([0.0; 3]));
                 let to = d3(p.point("to")?.unwrap_or([0.0, 0.0, 1.0]));
                 let dir = m.transform_vector3(to - from);
@@ -178,7 +195,8 @@ impl<'a> Converter<'a> {
                 }
                 let sun = EmitterDesc::Directional {
                     direction: f3(dir.normalize()),
-                    irradiance: f32s(e),
+                    irradiance,
+                    spectrum,
                 };
                 (sun, TransformDesc::default())
             }

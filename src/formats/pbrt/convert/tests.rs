@@ -197,25 +197,31 @@ fn states_lights_samplers_and_uvs_follow_pbrt_v4() {
         .next()
         .unwrap();
     assert!((at_300.parse::<f64>().unwrap() - 1.0).abs() < 0.01, "{ron}");
-    // A blackbody by its colour at luminance 1: 2700 K is warm (red over green over blue),
-    // named illuminants by pbrt-v4's tables, unknown names refused.
+    // A blackbody is kept as a spectrum of luminance 1 (the intensity its scale), whose
+    // colour at 2700 K is warm (red over green over blue); named illuminants come from
+    // pbrt-v4's tables, unknown names are refused.
     let point = |l: &str| convert(&format!("WorldBegin\nLightSource \"point\" {l}\n"), false);
-    let ron = point("\"blackbody I\" 2700").unwrap().ron().unwrap();
-    let rgb: Vec<f64> = ron
-        .split("Point(intensity: (")
-        .nth(1)
-        .unwrap()
-        .split(')')
-        .next()
-        .unwrap()
-        .split(", ")
-        .map(|x| x.parse().unwrap())
-        .collect();
+    let imported = point("\"blackbody I\" 2700").unwrap();
+    let emitter = imported
+        .scene
+        .entities
+        .iter()
+        .find_map(|e| e.emitter.clone());
+    let Some(EmitterDesc::Point {
+        intensity,
+        spectrum: Some(pairs),
+    }) = emitter
+    else {
+        panic!("a point light with a spectrum: {emitter:?}")
+    };
+    assert_eq!(intensity, [1.0; 3]);
+    let rgb =
+        crate::formats::spectra::to_srgb(&pairs, crate::formats::spectra::Use::Emission).unwrap();
     assert!(
         rgb[0] > rgb[1] && rgb[1] > rgb[2] && rgb[2] > 0.0,
         "{rgb:?}"
     );
-    let y = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    let y = 0.212_671 * rgb[0] + 0.715_160 * rgb[1] + 0.072_169 * rgb[2];
     assert!((y - 1.0).abs() < 0.01, "{rgb:?}");
     assert!(point("\"spectrum I\" \"stdillum-F4\"").is_ok());
     assert!(point("\"spectrum I\" \"stdillum-X\"")
