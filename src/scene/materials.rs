@@ -284,7 +284,7 @@ pub fn material_from_desc(
                     flatness,
                 },
                 textures,
-                &mut t.diffuse,
+                (&mut t.diffuse, &mut s.diffuse),
                 &mut p,
             )?;
             let metallic = weight(metallic, textures, &mut p.metallic, 1.0)?;
@@ -337,7 +337,7 @@ pub fn material_from_desc(
                     flatness,
                 },
                 textures,
-                &mut t.diffuse,
+                (&mut t.diffuse, &mut s.diffuse),
                 &mut p,
             )?;
             let diff_trans = weight(diff_trans, textures, &mut p.diff_trans, 2.0)?;
@@ -514,16 +514,19 @@ struct BurleyDescs<'a> {
     flatness: &'a Option<FloatDesc>,
 }
 
-/// The base layer of a principled model, its textures kept in `base` and `p`, and whether it
-/// transmits (`spec_trans` given and not the number 0, as Mitsuba decides).
+/// The base layer of a principled model, its textures kept in `base` (with the base colour's
+/// spectrum, if given by wavelength) and `p`, and whether it transmits (`spec_trans` given and
+/// not the number 0, as Mitsuba decides).
 fn burley(
     d: BurleyDescs,
     textures: &mut TextureLoader,
-    base: &mut Option<Texture>,
+    base: (&mut Option<Texture>, &mut Option<Curve>),
     p: &mut PrincipledTextures,
 ) -> Result<(Burley, bool), String> {
-    let (base_color, texture) = textures.colour(d.base_color, Role::Reflectance)?;
-    *base = texture;
+    let (base_color, texture, spectrum) =
+        textures.colour_or_spectrum(d.base_color, Role::Reflectance)?;
+    *base.0 = texture;
+    *base.1 = spectrum;
     let (roughness, texture) = textures.scalar(d.roughness, Role::Roughness)?;
     if let Some(t) = &texture {
         if t.max().max_element() > 1.0 + 1e-6 {

@@ -410,3 +410,38 @@ fn point_spot_and_directional_emitters_take_spectra() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("grey intensity"), "{}", stderr(&o));
 }
+
+/// A principled material's base colour given by wavelength is its colour in RGB mode (the
+/// same bytes) and the spectrum itself in spectral mode (not the colour's upsampling).
+#[test]
+fn a_principled_base_colour_takes_a_spectrum() {
+    let dir = tempfile::tempdir().unwrap();
+    let colour = ColorDesc::spectrum_colour(&pairs(ALBEDO));
+    let scene = |base: &str| {
+        self::scene("0.5", "Area(radiance: (1, 1, 1))").replace(
+            "\"floor\": Lambert(albedo: 0.5)",
+            &format!("\"floor\": Principled(base_color: {base}, roughness: 0.6)"),
+        )
+    };
+    let (by_spectrum, by_colour) = (dir.path().join("s.ron"), dir.path().join("c.ron"));
+    save(&by_spectrum, &scene(&format!("Spectrum({ALBEDO})")));
+    save(
+        &by_colour,
+        &scene(&format!(
+            "({:?}, {:?}, {:?})",
+            colour[0], colour[1], colour[2]
+        )),
+    );
+    let render = |scene: &std::path::Path, mode: &str| {
+        let stem = scene.file_stem().unwrap().to_string_lossy();
+        let out = dir.path().join(format!("{stem}{mode}.exr"));
+        let o = raylab(&["render", s(scene), mode, "--spp", "16", "-q", "-o", s(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(&out).unwrap()
+    };
+    assert_eq!(render(&by_spectrum, "--rgb"), render(&by_colour, "--rgb"));
+    assert_ne!(
+        render(&by_spectrum, "--spectral"),
+        render(&by_colour, "--spectral")
+    );
+}
