@@ -445,3 +445,48 @@ fn a_principled_base_colour_takes_a_spectrum() {
         render(&by_colour, "--spectral")
     );
 }
+
+/// Mitsuba's `<spectrum filename="...">` reads an `.spd` file beside the scene (a pair per
+/// line, `#` comments) as a spectrum; a bad line or a missing file is an error at the
+/// `<spectrum>`'s place.
+#[test]
+fn mitsuba_spectra_from_files_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = dir.path().join("scene.xml");
+    let scene = |file: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+    <shape type="rectangle">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+        <emitter type="area"><spectrum name="radiance" filename="{file}"/></emitter>
+    </shape>
+</scene>"#
+        )
+    };
+    save(
+        &dir.path().join("lamp.spd"),
+        "# a lamp\n400 0\n500 8  # rising\n\n600 15.6\n700 18.4\n",
+    );
+    save(&xml, &scene("lamp.spd"));
+    let ron = dir.path().join("scene.ron");
+    let o = raylab(&["import", s(&xml), "-o", s(&ron)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&ron).unwrap();
+    assert!(
+        text.contains("spectrum: [(400.0, 0.0), (500.0, 8.0), (600.0, 15.6), (700.0, 18.4)]"),
+        "{text}"
+    );
+    save(&dir.path().join("bad.spd"), "400 0\n500 eight\n");
+    for (file, error) in [("bad.spd", "line 2"), ("missing.spd", "missing.spd")] {
+        save(&xml, &scene(file));
+        let o = raylab(&["import", s(&xml), "-o", s(&ron)]);
+        assert_eq!(o.status.code(), Some(2), "{file}");
+        assert!(stderr(&o).contains(error), "{file}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("scene.xml:5:"),
+            "{file}: {}",
+            stderr(&o)
+        );
+    }
+}

@@ -324,7 +324,57 @@ impl<'a, 'input> Converter<'a, 'input> {
     }
 
     fn props(&self, node: Node<'a, 'input>) -> Result<Props<'a, 'input>, Located> {
-        Props::read(&self.params, self.doc, node)
+        let mut props = Props::read(&self.params, self.doc, node)?;
+        for (value, at_node) in props.values.values_mut() {
+            if let Value::SpectrumFile(name) = value {
+                let pairs = self
+                    .spectrum_file(name)
+                    .map_err(|e| at(self.doc, *at_node, e))?;
+                *value = Value::Spectrum(pairs);
+            }
+        }
+        Ok(props)
+    }
+
+    /// The spectrum in the file `name` (Mitsuba's `.spd`: a `wavelength value` pair per line,
+    /// `#` comments), found as [`Self::file_name`] finds files.
+    fn spectrum_file(&self, name: &str) -> Result<Vec<(f64, f64)>, String> {
+        let what = format!("<spectrum filename=\"{name}\">");
+        let files = self
+            .files
+            .as_ref()
+            .ok_or_else(|| format!("{what}: no scene folder to read it from"))?;
+        let path = files
+            .named(&self.file_name(name.to_string()))
+            .map_err(|e| format!("{what}: {e}"))?;
+        let text = crate::files::read_text_capped(&path, crate::files::MAX_TEXT)
+            .map_err(|e| format!("{what}: cannot read `{}`: {e}", path.display()))?;
+        let mut pairs = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let line = line.split('#').next().unwrap_or("").trim();
+            if line.is_empty() {
+                continue;
+            }
+            let numbers: Vec<f64> = line
+                .split_whitespace()
+                .map(str::parse)
+                .collect::<Result<_, _>>()
+                .map_err(|_| format!("{what}: line {}: `{line}` is not two numbers", i + 1))?;
+            match numbers[..] {
+                [nm, v] if nm.is_finite() && v.is_finite() => pairs.push((nm, v)),
+                _ => {
+                    return Err(format!(
+                        "{what}: line {}: `{line}` is not a wavelength and a value",
+                        i + 1
+                    ))
+                }
+            }
+        }
+        raylab_integrators::spectrum::curve::Curve::table(&crate::formats::texture_desc::narrow(
+            &pairs,
+        ))
+        .map_err(|e| format!("{what}: {e}"))?;
+        Ok(pairs)
     }
 
     fn kind(&self, node: Node) -> Result<String, Located> {

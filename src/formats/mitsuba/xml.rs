@@ -214,6 +214,9 @@ pub enum Value {
     Uniform(f32),
     /// A `spectrum` as `wavelength:value` pairs (nm).
     Spectrum(Vec<(f64, f64)>),
+    /// A `spectrum` read from a file (`filename`), as the converter reads it (it has the
+    /// scene's files).
+    SpectrumFile(String),
     Transform(Affine3A),
 }
 
@@ -296,7 +299,14 @@ pub fn value(params: &Params, doc: &Document, node: Node) -> Result<Value, Locat
         }
         "spectrum" => {
             if node.attribute("filename").is_some() {
-                return Err(at(doc, node, "<spectrum filename=...>: spectra from files are not supported (give wavelength:value pairs)"));
+                if node.attribute("value").is_some() {
+                    return Err(at(
+                        doc,
+                        node,
+                        "<spectrum>: give `value` or `filename`, not both",
+                    ));
+                }
+                return Ok(Value::SpectrumFile(text("filename")?));
             }
             let v = text("value")?;
             if !v.contains(':') {
