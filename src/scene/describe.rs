@@ -79,40 +79,42 @@ pub(super) fn emitter_from_desc(
             falloff,
             texture,
             spectrum,
-        } => Emitter::Spot {
-            spectrum: {
-                if spectrum.is_some() && texture.is_some() {
-                    return Err("an emitter with a spectrum takes no texture".into());
-                }
-                let (_, curve) = given_spectrum(v3(intensity), spectrum.clone(), "intensity")?;
-                curve
-            },
-            intensity: given_spectrum(v3(intensity), spectrum, "intensity")?.0,
-            texture: match texture {
-                None => None,
-                Some(ColorDesc::Constant(c)) => {
-                    Some(raylab_integrators::texture::Texture::Constant(v3(c)))
-                }
-                Some(ColorDesc::Spectrum(p)) => {
-                    Some(raylab_integrators::texture::Texture::Constant(v3(
-                        ColorDesc::spectrum_colour(&p),
-                    )))
-                }
-                Some(ColorDesc::Texture(t)) => Some(emitter_texture(&t, "spot's texture", files)?),
-            },
-            look_at: look_at.map(v3),
-            cutoff_angle,
-            beam_width: beam_width.unwrap_or(0.75 * cutoff_angle),
-            falloff: match falloff.as_deref() {
-                None | Some("linear") => raylab_integrators::light::Falloff::Linear,
-                Some("smoothstep") => raylab_integrators::light::Falloff::Smoothstep,
-                Some(other) => {
-                    return Err(format!(
-                        "a spot's falloff is \"linear\" or \"smoothstep\", not \"{other}\""
-                    ))
-                }
-            },
-        },
+        } => {
+            if spectrum.is_some() && texture.is_some() {
+                return Err("an emitter with a spectrum takes no texture".into());
+            }
+            let (intensity, spectrum) = given_spectrum(v3(intensity), spectrum, "intensity")?;
+            Emitter::Spot {
+                spectrum,
+                intensity,
+                texture: match texture {
+                    None => None,
+                    Some(ColorDesc::Constant(c)) => {
+                        Some(raylab_integrators::texture::Texture::Constant(v3(c)))
+                    }
+                    Some(ColorDesc::Spectrum(p)) => {
+                        Some(raylab_integrators::texture::Texture::Constant(v3(
+                            ColorDesc::spectrum_colour(&p),
+                        )))
+                    }
+                    Some(ColorDesc::Texture(t)) => {
+                        Some(emitter_texture(&t, "spot's texture", files)?)
+                    }
+                },
+                look_at: look_at.map(v3),
+                cutoff_angle,
+                beam_width: beam_width.unwrap_or(0.75 * cutoff_angle),
+                falloff: match falloff.as_deref() {
+                    None | Some("linear") => raylab_integrators::light::Falloff::Linear,
+                    Some("smoothstep") => raylab_integrators::light::Falloff::Smoothstep,
+                    Some(other) => {
+                        return Err(format!(
+                            "a spot's falloff is \"linear\" or \"smoothstep\", not \"{other}\""
+                        ))
+                    }
+                },
+            }
+        }
         EmitterDesc::Directional {
             direction,
             irradiance,

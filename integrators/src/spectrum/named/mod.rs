@@ -61,12 +61,7 @@ pub fn metal(name: &str) -> Option<(Curve, Curve)> {
 /// A spectrum's luminance, `integral s y-bar / integral y-bar` over 360-830 nm at every nm
 /// (as pbrt-v4 integrates).
 pub fn luminance(curve: &Curve) -> f32 {
-    let mut sum = 0.0f64;
-    for nm in LAMBDA_MIN as u32..=LAMBDA_MAX as u32 {
-        let nm = nm as f32;
-        sum += curve.at(nm) as f64 * cie::xyz_bar(nm)[1] as f64;
-    }
-    (sum / cie::Y_INTEGRAL) as f32
+    xyz(curve)[1]
 }
 
 /// A spectrum's CIE XYZ, `integral s xyz-bar / integral y-bar` (so an illuminant of

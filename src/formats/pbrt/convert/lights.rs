@@ -2,7 +2,6 @@
 
 use super::*;
 use crate::formats::texture_desc::narrow;
-use raylab_integrators::spectrum::cie::XYZ_TO_SRGB;
 use raylab_integrators::spectrum::curve::Curve;
 use raylab_integrators::spectrum::named;
 
@@ -106,17 +105,16 @@ impl<'a> Converter<'a> {
                 format!("{}: `{name}` ({what}) emits no visible light", p.what),
             ));
         }
-        let curve = curve.scaled(1.0 / y);
-        let xyz = named::xyz(&curve);
-        let rgb = XYZ_TO_SRGB.map(|row| {
-            let c: f64 = (0..3).map(|i| row[i] * xyz[i] as f64).sum();
-            c.max(0.0)
-        });
+        let pairs = curve.scaled(1.0 / y).pairs();
+        // Its colour as every emitter's spectrum gets one (negative channels cut).
+        let rgb = crate::formats::spectra::to_srgb(&pairs, crate::formats::spectra::Use::Emission)
+            .map_err(|e| (pos, format!("{}: `{name}`: {e}", p.what)))?
+            .map(|c| c.max(0.0));
         self.report(format!(
             "{}: `{name}` is {what}, normalised to luminance 1 as pbrt-v4 does: colour ({:.4}, {:.4}, {:.4}) in RGB mode",
             p.what, rgb[0], rgb[1], rgb[2]
         ));
-        Ok(Some((rgb, Some(curve.pairs()))))
+        Ok(Some((rgb, Some(pairs))))
     }
 
     pub(super) fn light(&mut self, d: &mut Directive) -> Result<(), Located> {
