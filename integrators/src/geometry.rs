@@ -128,8 +128,8 @@ pub enum Pending {
 
 /// Distance by which spawned rays are pushed off a surface, relative to the magnitude of the
 /// hit position (to stay above float rounding at any scene scale).
-const RELATIVE_OFFSET: f32 = 2e-5;
-const ABSOLUTE_OFFSET: f32 = 1e-5;
+pub(crate) const RELATIVE_OFFSET: f32 = 2e-5;
+pub(crate) const ABSOLUTE_OFFSET: f32 = 1e-5;
 
 impl Hit {
     /// The hit of `ray` on a sphere at distance `t`: the point re-projected onto the surface
@@ -235,10 +235,15 @@ impl Hit {
     /// This is the cure for the report's "shadow acne" (section 2.7), scaled to the scene.
     #[inline]
     pub fn offset_origin(&self, dir: Vec3A) -> Vec3A {
-        let eps =
-            (ABSOLUTE_OFFSET + RELATIVE_OFFSET * self.p.abs().max_element()).max(self.spawn_offset);
+        let eps = self.spawn_epsilon();
         let side = if self.ng.dot(dir) >= 0.0 { 1.0 } else { -1.0 };
         self.p + self.ng * (eps * side)
+    }
+
+    /// How far [`Hit::offset_origin`] pushes a ray's origin off the surface.
+    #[inline]
+    pub fn spawn_epsilon(&self) -> f32 {
+        (ABSOLUTE_OFFSET + RELATIVE_OFFSET * self.p.abs().max_element()).max(self.spawn_offset)
     }
 
     /// A ray leaving the surface in direction `dir` (unit length).

@@ -47,8 +47,8 @@ pub use camera::{Camera, CameraWiSample};
 pub use filter::Filter;
 pub use geometry::{Frame, Hit, MediumId, MediumInterface, Pending, Ray};
 pub use integrator::{
-    ChainContext, Demand, Integrator, PassContext, PixelSample, RayCounters, RayIntegrator,
-    SampleContext, ShardBy, Splats, Stop, Tracer, Work,
+    Batch, BatchIntegrator, ChainContext, Demand, Integrator, PassContext, PixelSample,
+    RayCounters, RayIntegrator, SampleContext, ShardBy, Splats, Stop, Tracer, Work,
 };
 pub use light::{LeSample, Light, LightSample, LightTable};
 pub use medium::{Medium, Phase};

@@ -62,7 +62,7 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 /// the first term left out is below 2e-9 (the sine's a^11 / 11! at pi/4), under half an ulp of
 /// the results.
 #[inline]
-fn sin_cos_quarter(a: f32) -> (f32, f32) {
+pub(crate) fn sin_cos_quarter(a: f32) -> (f32, f32) {
     let a2 = a * a;
     let sin = a
         * (1.0

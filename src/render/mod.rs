@@ -35,8 +35,8 @@ use raylab_integrators::random::permute;
 use raylab_integrators::sampler::{SampleSite, SamplerKind};
 use raylab_integrators::spectrum::Wavelengths;
 use raylab_integrators::{
-    ChainContext, Integrator, PassContext, PixelSample, RayCounters, SampleContext, Sampler, Scene,
-    Splats, Stop, Tracer, Work,
+    Batch, BatchIntegrator, ChainContext, Integrator, PassContext, PixelSample, RayCounters,
+    SampleContext, Sampler, Scene, Splats, Stop, Tracer, Work,
 };
 use rayon::prelude::*;
 pub use shard::{Part, ShardBy, ShardSpec};
@@ -511,6 +511,119 @@ fn pass_wavelengths(scene: &dyn Scene, settings: &RenderSettings, pass: u32) -> 
     Wavelengths::of_pass(settings.spectral, settings.seed, pass, scene.disperses())
 }
 
+/// Camera sample number `pass` of pixel `(x, y)`: its own sampler, its stratified film
+/// position and the wavelengths it carries.
+fn camera_sample(
+    camera: &Camera,
+    settings: &RenderSettings,
+    x: u32,
+    y: u32,
+    pass: u32,
+) -> (Sampler, Vec2, Wavelengths) {
+    let site = SampleSite {
+        seed: settings.seed,
+        x,
+        y,
+        width: camera.width,
+        height: camera.height,
+        sample: pass as u64,
+        spp: settings.spp,
+    };
+    let mut sampler = Sampler::camera(settings.sampler, &site);
+    let film = sample_position(x, y, pass, settings.spp, settings.seed, &mut sampler);
+    // The wavelengths it carries (Mitsuba 3 draws them after the film position too).
+    let lambda = match settings.spectral {
+        true => Wavelengths::sample(sampler.next_1d()),
+        false => Wavelengths::Rgb,
+    };
+    (sampler, film, lambda)
+}
+
+/// Adds one camera sample's estimate `l` (linear sRGB) at film position `film` to the tile's
+/// scratch, shared between the pixels around it; a sample with a non-finite estimate or
+/// splat (`splats_finite` false) is dropped (it counts as black) and counted.
+#[allow(clippy::too_many_arguments)]
+fn record_sample(
+    camera: &Camera,
+    settings: &RenderSettings,
+    tile: &TileAccumulator,
+    scratch: &mut TileScratch,
+    (i, j): (u32, u32),
+    pass: u32,
+    (film, l, splats_finite): (Vec2, Vec3A, bool),
+    out: &mut TilePass,
+) {
+    let (x, y) = (tile.x0 + i, tile.y0 + j);
+    let mut l = l;
+    if !(l.is_finite() && splats_finite) {
+        l = Vec3A::ZERO;
+        out.dropped.note(BadSample { x, y, sample: pass });
+    }
+    if settings.filter == Filter::Box {
+        scratch.pass[(j * tile.w + i) as usize].add(l, 1.0);
+        return;
+    }
+    let d = DVec3::new(l.x as f64, l.y as f64, l.z as f64);
+    settings
+        .filter
+        .footprint(film.x, film.y, camera.width, camera.height, |px, py, w| {
+            let inside = (tile.x0..tile.x0 + tile.w).contains(&px)
+                && (tile.y0..tile.y0 + tile.h).contains(&py);
+            if inside {
+                let k = ((py - tile.y0) * tile.w + (px - tile.x0)) as usize;
+                scratch.pass[k].add(l, w);
+            } else {
+                scratch
+                    .spill
+                    .push((py * camera.width + px, d * w as f64, w));
+            }
+        });
+}
+
+/// Takes sample number `pass` of every pixel of `tile` from an integrator that estimates
+/// them together ([`BatchIntegrator`]): the tile's camera samples set up in pixel order, one
+/// batch, then each estimate recorded in pixel order.
+#[allow(clippy::too_many_arguments)]
+fn render_tile_batch(
+    batch: &dyn BatchIntegrator,
+    camera: &Camera,
+    settings: &RenderSettings,
+    tile: &TileAccumulator,
+    scratch: &mut TileScratch,
+    pass: u32,
+    tracer: &mut Tracer,
+    out: &mut TilePass,
+) {
+    let n = (tile.w * tile.h) as usize;
+    let (mut samplers, mut lambdas) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let (mut rays, mut films) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for j in 0..tile.h {
+        for i in 0..tile.w {
+            let (sampler, film, lambda) =
+                camera_sample(camera, settings, tile.x0 + i, tile.y0 + j, pass);
+            rays.push(camera.ray(film.x, film.y));
+            samplers.push(sampler);
+            films.push(film);
+            lambdas.push(lambda);
+        }
+    }
+    let mut estimates = vec![raylab_integrators::Spectrum::ZERO; n];
+    batch.radiance_batch(
+        Batch {
+            rays: &rays,
+            samplers: &mut samplers,
+            lambdas: &mut lambdas,
+            out: &mut estimates,
+        },
+        tracer,
+    );
+    for (k, (l, lambda)) in estimates.iter().zip(&lambdas).enumerate() {
+        let (i, j) = (k as u32 % tile.w, k as u32 / tile.w);
+        let sample = (films[k], lambda.to_rgb(*l), true);
+        record_sample(camera, settings, tile, scratch, (i, j), pass, sample, out);
+    }
+}
+
 /// Takes sample number `pass` of every pixel of `tile`, into the tile's scratch.
 #[allow(clippy::too_many_arguments)]
 fn render_tile_pass(
@@ -534,6 +647,20 @@ fn render_tile_pass(
         dropped: Dropped::default(),
     };
     scratch.pass.resize(tile.pixels.len(), PassPixel::default());
+    if let Some(batch) = integrator.as_batch() {
+        render_tile_batch(
+            batch,
+            camera,
+            settings,
+            tile,
+            scratch,
+            pass,
+            &mut tracer,
+            &mut out,
+        );
+        out.rays = tracer.counters;
+        return out;
+    }
     for j in 0..tile.h {
         // An abandoned pass is thrown away: no need to finish it.
         if stop.requested() {
@@ -545,22 +672,7 @@ fn render_tile_pass(
             // One camera sample: its own sampler, a stratified film position, the
             // integrator's estimate; a sample with a non-finite estimate or splat is dropped
             // (it counts as black) and counted.
-            let site = SampleSite {
-                seed: settings.seed,
-                x,
-                y,
-                width: camera.width,
-                height: camera.height,
-                sample: pass as u64,
-                spp: settings.spp,
-            };
-            let mut sampler = Sampler::camera(settings.sampler, &site);
-            let film = sample_position(x, y, pass, settings.spp, settings.seed, &mut sampler);
-            // The wavelengths it carries (Mitsuba 3 draws them after the film position too).
-            let mut lambda = match settings.spectral {
-                true => Wavelengths::sample(sampler.next_1d()),
-                false => Wavelengths::Rgb,
-            };
+            let (mut sampler, film, mut lambda) = camera_sample(camera, settings, x, y, pass);
             let sample = PixelSample {
                 x,
                 y,
@@ -592,37 +704,22 @@ fn render_tile_pass(
                 }
             };
             // The estimate as linear sRGB, at the wavelengths it ends with.
-            let mut l = lambda.to_rgb(l);
+            let l = lambda.to_rgb(l);
             let splats_finite = scratch.splats.all_finite_since(splats_before);
             if !(l.is_finite() && splats_finite) {
                 scratch.splats.rollback(splats_before);
-                l = Vec3A::ZERO;
-                out.dropped.note(BadSample { x, y, sample: pass });
             }
-            // The estimate, shared between the pixels around its film position.
-            if settings.filter == Filter::Box {
-                scratch.pass[(j * tile.w + i) as usize].add(l, 1.0);
-            } else {
-                let d = DVec3::new(l.x as f64, l.y as f64, l.z as f64);
-                settings.filter.footprint(
-                    film.x,
-                    film.y,
-                    camera.width,
-                    camera.height,
-                    |px, py, w| {
-                        let inside = (tile.x0..tile.x0 + tile.w).contains(&px)
-                            && (tile.y0..tile.y0 + tile.h).contains(&py);
-                        if inside {
-                            let k = ((py - tile.y0) * tile.w + (px - tile.x0)) as usize;
-                            scratch.pass[k].add(l, w);
-                        } else {
-                            scratch
-                                .spill
-                                .push((py * camera.width + px, d * w as f64, w));
-                        }
-                    },
-                );
-            }
+            let sample = (film, l, splats_finite);
+            record_sample(
+                camera,
+                settings,
+                tile,
+                scratch,
+                (i, j),
+                pass,
+                sample,
+                &mut out,
+            );
         }
     }
     out.rays = tracer.counters;

@@ -27,6 +27,7 @@ mod sppm_pixel;
 mod vcm;
 pub(crate) mod volpath;
 mod vpl;
+mod wavefront;
 mod whitted;
 
 pub use path_state::PathState;
@@ -384,6 +385,31 @@ pub trait Integrator: Send + Sync {
     fn as_ray_integrator(&self) -> Option<&dyn RayIntegrator> {
         None
     }
+
+    /// The integrator as one that estimates many camera rays at once, if it is one: the render
+    /// loop then hands it a tile's camera samples of a pass together ([`BatchIntegrator`]).
+    fn as_batch(&self) -> Option<&dyn BatchIntegrator> {
+        None
+    }
+}
+
+/// Camera samples estimated together ([`BatchIntegrator::radiance_batch`]): sample `k` is the
+/// camera ray `rays[k]` with its own sampler and wavelengths; its estimate goes to `out[k]`.
+/// All four slices have the same length.
+pub struct Batch<'s> {
+    pub rays: &'s [Ray],
+    pub samplers: &'s mut [Sampler],
+    pub lambdas: &'s mut [Wavelengths],
+    pub out: &'s mut [Spectrum],
+}
+
+/// An integrator that walks many camera paths together, stage by stage (a wavefront), rather
+/// than one after the other. Each sample's estimate must depend on its own ray, sampler and
+/// wavelengths only, never on which other samples share its batch, so that images do not
+/// depend on how the render loop groups samples (tiles, shards, thread counts).
+pub trait BatchIntegrator: Send + Sync {
+    /// Estimates every sample of `batch`, casting rays through `tracer`.
+    fn radiance_batch(&self, batch: Batch, tracer: &mut Tracer);
 }
 
 /// How a render splits into shards.
@@ -441,6 +467,11 @@ pub trait RayIntegrator: Send + Sync {
     fn prepare_pass(&mut self, _cx: &PassContext) -> RayCounters {
         RayCounters::default()
     }
+
+    /// As [`Integrator::as_batch`].
+    fn as_batch(&self) -> Option<&dyn BatchIntegrator> {
+        None
+    }
 }
 
 impl<T: RayIntegrator> Integrator for T {
@@ -468,6 +499,10 @@ impl<T: RayIntegrator> Integrator for T {
 
     fn as_ray_integrator(&self) -> Option<&dyn RayIntegrator> {
         Some(self)
+    }
+
+    fn as_batch(&self) -> Option<&dyn BatchIntegrator> {
+        RayIntegrator::as_batch(self)
     }
 }
 

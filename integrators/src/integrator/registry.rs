@@ -472,6 +472,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::fixed_depth::ENTRY,
     super::russian_roulette::ENTRY,
     super::path::ENTRY,
+    super::wavefront::ENTRY,
     super::direct::ENTRY,
     super::restir::ENTRY,
     super::light_tracer::ENTRY,

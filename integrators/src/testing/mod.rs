@@ -462,10 +462,39 @@ pub fn estimate_integrator(
         .expect("the analytic scenes probe integrators with rays: implement RayIntegrator");
     let mut tracer = Tracer::new(scene);
     let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
+    // An integrator that walks many paths together is probed in batches of 256, as the
+    // render loop hands it a tile's samples.
+    let mut batched = Vec::new();
+    if let Some(batch) = integrator.as_batch() {
+        for first in (0..n).step_by(256) {
+            let mut samplers: Vec<Sampler> = (first..n.min(first + 256))
+                .map(|i| Sampler::new(12345, i as u64, 0))
+                .collect();
+            let rays: Vec<Ray> = samplers
+                .iter_mut()
+                .map(|s| camera_ray(&scene.camera, s))
+                .collect();
+            let mut lambdas = vec![Wavelengths::Rgb; rays.len()];
+            let mut out = vec![Spectrum::ZERO; rays.len()];
+            let b = crate::Batch {
+                rays: &rays,
+                samplers: &mut samplers,
+                lambdas: &mut lambdas,
+                out: &mut out,
+            };
+            batch.radiance_batch(b, &mut tracer);
+            batched.extend(out);
+        }
+    }
     for i in 0..n {
-        let mut sampler = Sampler::new(12345, i as u64, 0);
-        let ray = camera_ray(&scene.camera, &mut sampler);
-        let l = ray_integrator.radiance(&ray, &mut tracer, &mut sampler, &mut Wavelengths::Rgb);
+        let l = match batched.get(i as usize) {
+            Some(l) => *l,
+            None => {
+                let mut sampler = Sampler::new(12345, i as u64, 0);
+                let ray = camera_ray(&scene.camera, &mut sampler);
+                ray_integrator.radiance(&ray, &mut tracer, &mut sampler, &mut Wavelengths::Rgb)
+            }
+        };
         assert!(l.is_finite(), "non-finite sample {l:?}");
         let v = l.y as f64;
         sum += v;

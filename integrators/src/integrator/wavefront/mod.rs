@@ -1,0 +1,556 @@
+//! `path-wavefront`: `path`'s estimator with the paths of a batch walked together, stage by
+//! stage (a wavefront, as Mitsuba 3's LLVM variant and pbrt-v4's GPU integrator walk them),
+//! instead of one path after the other.
+//!
+//! **Estimates** the full rendering equation exactly as `path` does: next-event estimation
+//! with one light sample and BSDF sampling at every non-specular hit, both weighted by the
+//! power heuristic, Russian roulette from `rr-depth` scattering events on. Each path draws
+//! its random numbers in `path`'s order, so with the same sampler the two sample the same
+//! paths; the arithmetic of the diffuse kernels differs in rounding (a diffuse sample's weight
+//! is the albedo exactly), so the images agree statistically, not bit for bit.
+//!
+//! **How it walks.** The render loop hands it a tile's camera samples of a pass
+//! ([`BatchIntegrator`]); it walks them [`kernels::LANES`] at a time. Each bounce runs
+//! over the batch's live paths:
+//! 1. traversal: every path's next segment, one after the other (their node loads overlap);
+//! 2. surfaces, path by path: emission found (MIS-weighted), escapes, the shading point, the
+//!    bounce's random numbers and light sample. Diffuse points (a plain Lambert material)
+//!    become rows of [`kernels::DiffuseRows`]; every other material is shaded there by the
+//!    scalar code `path` uses, its shadow ray kept for stage 4;
+//! 3. the diffuse kernels over the rows: the light samples' BSDF values, MIS weights and
+//!    shadow rays ([`kernels::light_samples`]), then cosine sampling, the next rays and
+//!    Russian roulette ([`kernels::bsdf_samples`]);
+//! 4. every shadow ray of the bounce, one after the other;
+//! 5. the diffuse rows' paths that go on rejoin the live paths.
+//!
+//! A path's estimate depends on its own ray, sampler and wavelengths only, never on the
+//! other paths of its batch: images are the same at any thread count, across checkpoints and
+//! shards, and for a batch of one path ([`RayIntegrator::radiance`]).
+//!
+//! **Parameters**: `max-depth` (default unlimited), `rr-depth` (default 3),
+//! `light-selection` (`scene`, `uniform`, `power` or `bvh`), as `path`'s.
+//! **Bias**: none with unlimited `max-depth`; truncation otherwise.
+
+mod kernels;
+
+use crate::bsdf::{Material, TransportMode};
+use crate::integrator::{
+    emitted_at, escaped, mis_weight_for_hit, Batch, BatchIntegrator, RayIntegrator, ShadingPoint,
+    Tracer, MAX_SURVIVAL,
+};
+use crate::light::{LightContext, LightSample, LightSelection};
+use crate::registry::{
+    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION,
+    MAX_DEPTH, RR_DEPTH,
+};
+use crate::spectrum::Wavelengths;
+use crate::{Hit, Ray, Sampler, Scene, Spectrum};
+use glam::{Vec2, Vec3A};
+use kernels::{get, set, DiffuseRows, ScatterRows, ShadowRows, LANES};
+
+pub const ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "path-wavefront",
+    summary: "path's estimator, its paths walked together stage by stage, diffuse shading in lane kernels",
+    params: &[MAX_DEPTH, RR_DEPTH, LIGHT_SELECTION],
+    build: |p: &Params| {
+        Box::new(WavefrontPath {
+            max_depth: p.get_depth("max-depth"),
+            rr_depth: p.get_u32("rr-depth"),
+            lights: p.get_light_selection(),
+        })
+    },
+    analytic: Some(Analytic {
+        params: &[],
+        furnace: expect(2.0, 40, 500),
+        point_in_sphere: expect(1.0, 40, 500),
+        sphere_under_sky: expect(1.2, 40, 500),
+    }),
+    media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
+};
+
+pub(crate) struct WavefrontPath {
+    max_depth: u32,
+    rr_depth: u32,
+    /// How light samples pick a light (`None`: the scene's choice).
+    lights: Option<LightSelection>,
+}
+
+/// One path's state between two segments (see [`crate::integrator::PathState`]).
+#[derive(Clone, Copy)]
+struct Lane {
+    /// The ray to trace next.
+    ray: Ray,
+    /// Throughput from the camera to `ray`'s origin.
+    beta: Spectrum,
+    /// Solid-angle density with which the BSDF chose `ray` (0 for the camera ray).
+    pdf: f32,
+    /// The scattering point `ray` leaves and its geometric normal.
+    from: Vec3A,
+    from_n: Vec3A,
+    /// Whether `ray` left a specular event, or is the camera ray.
+    specular: bool,
+    /// Scattering events so far.
+    bounces: u32,
+    /// Product of `eta^2` over the path's refractions (the roulette's scale).
+    eta_scale: f32,
+}
+
+impl Lane {
+    fn camera(ray: Ray) -> Lane {
+        Lane {
+            ray,
+            beta: Spectrum::ONE,
+            pdf: 0.0,
+            from: ray.origin,
+            from_n: Vec3A::ZERO,
+            specular: true,
+            bounces: 0,
+            eta_scale: 1.0,
+        }
+    }
+}
+
+/// What the surface stage decided for a path.
+enum Next {
+    /// The path ended.
+    Done,
+    /// The scalar code shaded it; it goes on along its new ray.
+    GoesOn,
+    /// It waits in the diffuse rows.
+    Diffuse,
+}
+
+/// The random numbers of one bounce, drawn in `path`'s order.
+struct Numbers {
+    u_bsdf: Vec2,
+    u_lobe: f32,
+    u_rr: f32,
+    /// Whether Russian roulette plays after this bounce.
+    plays: bool,
+}
+
+/// A shadow ray waiting for stage 4: the path, the ray, the contribution if unoccluded.
+type PendingShadow = (u16, Ray, Spectrum);
+
+/// The per-batch scratch of the walk: on the stack, nothing allocated per path.
+struct Scratch {
+    lanes: [Lane; LANES],
+    live: [u16; LANES],
+    hits: [Option<Hit>; LANES],
+    pending: [PendingShadow; LANES],
+    diffuse: DiffuseRows,
+    shadows: ShadowRows,
+    scatters: ScatterRows,
+}
+
+impl Scratch {
+    fn new() -> Box<Scratch> {
+        let idle = Lane::camera(Ray::new(Vec3A::ZERO, Vec3A::Z));
+        Box::new(Scratch {
+            lanes: [idle; LANES],
+            live: [0; LANES],
+            hits: [None; LANES],
+            pending: [(0, idle.ray, Spectrum::ZERO); LANES],
+            diffuse: DiffuseRows::new(),
+            shadows: ShadowRows::new(),
+            scatters: ScatterRows::new(),
+        })
+    }
+}
+
+thread_local! {
+    /// Each thread's walk scratch, made once: about 90 kB, too much to build per batch.
+    static SCRATCH: std::cell::RefCell<Option<Box<Scratch>>> = const { std::cell::RefCell::new(None) };
+}
+
+impl RayIntegrator for WavefrontPath {
+    /// A batch of one path.
+    fn radiance(
+        &self,
+        ray: &Ray,
+        tracer: &mut Tracer,
+        sampler: &mut Sampler,
+        lambda: &mut Wavelengths,
+    ) -> Spectrum {
+        let mut out = [Spectrum::ZERO];
+        self.radiance_batch(
+            Batch {
+                rays: std::slice::from_ref(ray),
+                samplers: std::slice::from_mut(sampler),
+                lambdas: std::slice::from_mut(lambda),
+                out: &mut out,
+            },
+            tracer,
+        );
+        out[0]
+    }
+
+    fn as_batch(&self) -> Option<&dyn BatchIntegrator> {
+        Some(self)
+    }
+}
+
+impl BatchIntegrator for WavefrontPath {
+    fn radiance_batch(&self, batch: Batch, tracer: &mut Tracer) {
+        let Batch {
+            rays,
+            samplers,
+            lambdas,
+            out,
+        } = batch;
+        SCRATCH.with(|cell| {
+            // A walk that panicked left the cell borrowed: take a fresh scratch then.
+            let mut own = None;
+            let mut guard = cell.try_borrow_mut().ok();
+            let scratch = match guard.as_deref_mut() {
+                Some(slot) => slot.get_or_insert_with(Scratch::new),
+                None => own.insert(Scratch::new()),
+            };
+            let chunks = rays
+                .chunks(LANES)
+                .zip(samplers.chunks_mut(LANES))
+                .zip(lambdas.chunks_mut(LANES))
+                .zip(out.chunks_mut(LANES));
+            for (((rays, samplers), lambdas), out) in chunks {
+                self.walk(scratch, rays, samplers, lambdas, out, tracer);
+            }
+        });
+    }
+}
+
+impl WavefrontPath {
+    /// Walks up to [`LANES`] paths to their ends, adding each one's radiance to `out`.
+    fn walk(
+        &self,
+        w: &mut Scratch,
+        rays: &[Ray],
+        samplers: &mut [Sampler],
+        lambdas: &mut [Wavelengths],
+        out: &mut [Spectrum],
+        tracer: &mut Tracer,
+    ) {
+        let scene = tracer.scene;
+        let mut live = rays.len();
+        for (i, ray) in rays.iter().enumerate() {
+            w.lanes[i] = Lane::camera(*ray);
+            w.live[i] = i as u16;
+            out[i] = Spectrum::ZERO;
+        }
+        while live > 0 {
+            // 1. Every live path's next segment.
+            for k in 0..live {
+                let lane = &w.lanes[w.live[k] as usize];
+                w.hits[k] = if lane.bounces == 0 {
+                    tracer.camera(&lane.ray)
+                } else {
+                    tracer.extend(&lane.ray)
+                };
+            }
+            // 2. Surfaces, path by path.
+            w.diffuse.len = 0;
+            let mut pending = 0;
+            let mut next_live = 0;
+            for k in 0..live {
+                let i = w.live[k] as usize;
+                let next = self.surface(
+                    scene,
+                    &mut w.lanes[i],
+                    w.hits[k].as_ref(),
+                    (i as u16, &mut samplers[i], &mut lambdas[i]),
+                    &mut out[i],
+                    (&mut w.diffuse, &mut w.pending, &mut pending),
+                );
+                if let Next::GoesOn = next {
+                    // `live` is read up to `k`, written up to `next_live <= k`.
+                    w.live[next_live] = i as u16;
+                    next_live += 1;
+                }
+            }
+            // 3. The diffuse kernels.
+            kernels::light_samples(&w.diffuse, &mut w.shadows);
+            kernels::bsdf_samples(&w.diffuse, &mut w.scatters);
+            // 4. The bounce's shadow rays.
+            for &(i, ray, contrib) in &w.pending[..pending] {
+                tracer.counters.shadow += 1;
+                if !scene.occluded(&ray) {
+                    out[i as usize] += contrib;
+                }
+            }
+            let (d, sh) = (&w.diffuse, &w.shadows);
+            for m in 0..d.len {
+                if get(&sh.live, m) == 0.0 {
+                    continue;
+                }
+                let ray = Ray {
+                    tmax: get(&sh.tmax, m),
+                    ..Ray::new(
+                        Vec3A::new(
+                            get(&sh.origin[0], m),
+                            get(&sh.origin[1], m),
+                            get(&sh.origin[2], m),
+                        ),
+                        Vec3A::new(get(&sh.dir[0], m), get(&sh.dir[1], m), get(&sh.dir[2], m)),
+                    )
+                };
+                tracer.counters.shadow += 1;
+                if !scene.occluded(&ray) {
+                    let c = Spectrum::new(
+                        get(&sh.contrib[0], m),
+                        get(&sh.contrib[1], m),
+                        get(&sh.contrib[2], m),
+                        get(&sh.contrib[3], m),
+                    );
+                    out[d.lane[m] as usize] += c;
+                }
+            }
+            // 5. The diffuse paths that go on.
+            let s = &w.scatters;
+            for m in 0..d.len {
+                if get(&s.alive, m) == 0.0 {
+                    continue;
+                }
+                let i = d.lane[m] as usize;
+                let lane = &mut w.lanes[i];
+                lane.ray = Ray::new(
+                    Vec3A::new(
+                        get(&s.origin[0], m),
+                        get(&s.origin[1], m),
+                        get(&s.origin[2], m),
+                    ),
+                    Vec3A::new(get(&s.dir[0], m), get(&s.dir[1], m), get(&s.dir[2], m)),
+                );
+                lane.beta = Spectrum::new(
+                    get(&s.beta[0], m),
+                    get(&s.beta[1], m),
+                    get(&s.beta[2], m),
+                    get(&s.beta[3], m),
+                );
+                lane.pdf = get(&s.pdf, m);
+                lane.specular = false;
+                lane.from = Vec3A::new(get(&d.p[0], m), get(&d.p[1], m), get(&d.p[2], m));
+                lane.from_n = Vec3A::new(get(&d.ng[0], m), get(&d.ng[1], m), get(&d.ng[2], m));
+                lane.bounces += 1;
+                w.live[next_live] = i as u16;
+                next_live += 1;
+            }
+            live = next_live;
+        }
+    }
+
+    /// Stage 2 for one path: what its segment found, then its shading point, shaded by the
+    /// scalar code or set out as a diffuse row.
+    #[allow(clippy::type_complexity)]
+    fn surface(
+        &self,
+        scene: &dyn Scene,
+        lane: &mut Lane,
+        hit: Option<&Hit>,
+        (index, sampler, lambda): (u16, &mut Sampler, &mut Wavelengths),
+        out: &mut Spectrum,
+        (diffuse, pending, n_pending): (&mut DiffuseRows, &mut [PendingShadow], &mut usize),
+    ) -> Next {
+        let Some(hit) = hit else {
+            // Escaped: environment light, MIS-weighted unless seen through specular.
+            let le = escaped(scene, &lane.ray, lambda);
+            if le != Spectrum::ZERO {
+                *out += lane.beta * le * self.emission_weight(scene, lane, None);
+            }
+            return Next::Done;
+        };
+        if hit.light.is_some() {
+            let le = emitted_at(scene, hit, &lane.ray, lambda);
+            if le != Spectrum::ZERO {
+                *out += lane.beta * le * self.emission_weight(scene, lane, Some(hit));
+            }
+        }
+        if lane.bounces >= self.max_depth {
+            return Next::Done;
+        }
+        let sp = ShadingPoint::new(hit, lane.ray.dir, scene, lambda);
+        // The bounce's numbers, in `path`'s order: the light sample's, the BSDF sample's,
+        // the roulette's.
+        let light = match sp.material.is_specular() {
+            true => None,
+            false => self.light_sample(scene, &sp, sampler),
+        };
+        let u_lobe = sampler.next_1d();
+        let u_bsdf = sampler.next_2d();
+        let plays = lane.bounces + 1 >= self.rr_depth;
+        let u_rr = if plays { sampler.next_1d() } else { 0.0 };
+        let numbers = Numbers {
+            u_bsdf,
+            u_lobe,
+            u_rr,
+            plays,
+        };
+        let plain = sp.material.map.is_none() && sp.material.opacity == 1.0;
+        match &*sp.material {
+            Material::Lambert(l) if plain => {
+                push_diffuse(diffuse, index, lane, &sp, l.albedo, light, &numbers);
+                Next::Diffuse
+            }
+            _ => {
+                if let Some((ls, light_pdf)) = light {
+                    if let Some(shadow) = shadow_of(&sp, &ls, light_pdf, lane.beta) {
+                        pending[*n_pending] = (index, shadow.0, shadow.1);
+                        *n_pending += 1;
+                    }
+                }
+                match self.scatter(lane, &sp, &numbers) {
+                    true => Next::GoesOn,
+                    false => Next::Done,
+                }
+            }
+        }
+    }
+
+    /// MIS weight of emission the path's ray finds at `hit` (or on escaping, `None`) against
+    /// next-event estimation from the previous vertex: 1 after a specular bounce and for the
+    /// camera ray.
+    fn emission_weight(&self, scene: &dyn Scene, lane: &Lane, hit: Option<&Hit>) -> f32 {
+        if lane.specular {
+            return 1.0;
+        }
+        let from = LightContext {
+            p: lane.from,
+            n: lane.from_n,
+        };
+        mis_weight_for_hit(scene, (&from, self.lights), &lane.ray, hit, lane.pdf)
+    }
+
+    /// One light sample for `sp` (a light picked as `light-selection` says, a point on it)
+    /// with its density (selection probability times the sample's), or `None`.
+    fn light_sample(
+        &self,
+        scene: &dyn Scene,
+        sp: &ShadingPoint,
+        sampler: &mut Sampler,
+    ) -> Option<(LightSample, f32)> {
+        let u_light = sampler.next_1d();
+        let u = sampler.next_2d();
+        let lights = scene.lights();
+        let (index, pmf) = lights.sample_for(self.lights, &sp.light_context(), u_light)?;
+        if !sp.can_receive(index, lights) {
+            return None;
+        }
+        let ls = lights.get(index).sample_li(sp.hit.p, u, &sp.lambda)?;
+        (ls.pdf > 0.0).then_some((ls, pmf * ls.pdf))
+    }
+
+    /// The scalar BSDF sample at `sp` and the roulette after it; false ends the path.
+    fn scatter(&self, lane: &mut Lane, sp: &ShadingPoint, n: &Numbers) -> bool {
+        let Some(s) = sp.sample(n.u_lobe, n.u_bsdf, TransportMode::Radiance) else {
+            return false;
+        };
+        lane.beta = s.throughput(lane.beta);
+        if lane.beta == Spectrum::ZERO {
+            return false;
+        }
+        lane.eta_scale *= s.bsdf.eta * s.bsdf.eta;
+        lane.specular = s.bsdf.specular;
+        lane.pdf = s.bsdf.pdf;
+        lane.from = sp.hit.p;
+        lane.from_n = sp.hit.ng;
+        lane.ray = sp.hit.spawn_ray(s.wi);
+        lane.bounces += 1;
+        if n.plays {
+            let survive = (lane.beta * lane.eta_scale).max_element().min(MAX_SURVIVAL);
+            if n.u_rr >= survive {
+                return false;
+            }
+            lane.beta /= survive;
+        }
+        true
+    }
+}
+
+/// The shadow ray of light sample `ls` (density `light_pdf`) at `sp` and what it carries if
+/// unoccluded: the BSDF's value weighted by the power heuristic against BSDF sampling, times
+/// the throughput `beta`; `None` where nothing would arrive.
+fn shadow_of(
+    sp: &ShadingPoint,
+    ls: &LightSample,
+    light_pdf: f32,
+    beta: Spectrum,
+) -> Option<(Ray, Spectrum)> {
+    let (f, cos, bsdf_pdf) = sp.reflect(ls, true)?;
+    let weight = match ls.delta {
+        true => 1.0,
+        false => crate::sampling::power_heuristic(light_pdf, bsdf_pdf),
+    };
+    let ray = match ls.dist.is_finite() {
+        true => sp.hit.spawn_ray_to(ls.point),
+        false => sp.hit.spawn_ray(ls.wi),
+    };
+    Some((ray, beta * (f * ls.radiance * (cos * weight / light_pdf))))
+}
+
+/// Sets out a diffuse shading point as a row of the kernels.
+fn push_diffuse(
+    d: &mut DiffuseRows,
+    index: u16,
+    lane: &Lane,
+    sp: &ShadingPoint,
+    albedo: Spectrum,
+    light: Option<(LightSample, f32)>,
+    n: &Numbers,
+) {
+    let m = d.len;
+    d.len += 1;
+    d.lane[m] = index;
+    let (hit, frame) = (&sp.hit, &sp.frame);
+    for k in 0..3 {
+        set(&mut d.p[k], m, hit.p[k]);
+        set(&mut d.ng[k], m, hit.ng[k]);
+        set(&mut d.s[k], m, frame.s[k]);
+        set(&mut d.t[k], m, frame.t[k]);
+        set(&mut d.n[k], m, frame.n[k]);
+    }
+    set(&mut d.eps, m, hit.spawn_epsilon());
+    set(&mut d.wo_z, m, sp.wo.z);
+    set(&mut d.wo_ng, m, hit.ng.dot(sp.wo_world));
+    set(
+        &mut d.front_only,
+        m,
+        if sp.material.one_sided { 1.0 } else { 0.0 },
+    );
+    for c in 0..4 {
+        set(&mut d.albedo[c], m, albedo[c]);
+        set(&mut d.beta[c], m, lane.beta[c]);
+    }
+    set(&mut d.eta_scale, m, lane.eta_scale);
+    set(&mut d.roulette, m, if n.plays { 1.0 } else { 0.0 });
+    set(&mut d.u[0], m, n.u_bsdf.x);
+    set(&mut d.u[1], m, n.u_bsdf.y);
+    set(&mut d.u_rr, m, n.u_rr);
+    match light {
+        Some((ls, pdf)) => {
+            for k in 0..3 {
+                set(&mut d.ls_wi[k], m, ls.wi[k]);
+                set(&mut d.ls_point[k], m, ls.point[k]);
+            }
+            for c in 0..4 {
+                set(&mut d.ls_le[c], m, ls.radiance[c]);
+            }
+            set(&mut d.ls_dist, m, ls.dist);
+            set(&mut d.ls_pdf, m, pdf);
+            set(&mut d.ls_delta, m, if ls.delta { 1.0 } else { 0.0 });
+        }
+        None => {
+            set(&mut d.ls_pdf, m, 0.0);
+            set(&mut d.ls_dist, m, 1.0);
+            set(&mut d.ls_delta, m, 0.0);
+            for k in 0..3 {
+                set(&mut d.ls_wi[k], m, 0.0);
+                set(&mut d.ls_point[k], m, 0.0);
+            }
+            for c in 0..4 {
+                set(&mut d.ls_le[c], m, 0.0);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
