@@ -26,6 +26,7 @@ resolution (the Cornell box 256x256, the others 256x192) on the threads the mach
     python3 benches/mitsuba_cornell.py [--spp 256] [--variants scalar_rgb,llvm_ad_rgb] [--repeat 2]
         [--scenes cornell,textured_glossy,environment]   # also environment_2k: a 2048x1024 sky
         [--raylab OLD_BINARY,target/release/raylab]   # several binaries: each measured in turn
+        [--integrators path,path-wavefront]           # several integrators: each measured in turn
 
 Each round measures, scene by scene, raylab, then every variant, then raylab again, so that the ratios compare
 renders made minutes apart on the same (shared, noisy) machine. llvm_ad_rgb needs
@@ -98,11 +99,13 @@ def mitsuba(variant, spp, xml):
     return width * height * spp / seconds, img.reshape(-1, 3).mean(0)
 
 
-def raylab(spp, exe, scene):
+def raylab(spp, run, scene):
+    exe, integrator = run
     out = ROOT / "out" / "bench-mitsuba.exr"
     out.parent.mkdir(exist_ok=True)
     r = subprocess.run(
-        [str(exe), "render", scene, "--spp", str(spp), *RAYLAB_PARAMS, "-o", str(out)],
+        [str(exe), "render", scene, "-i", integrator, "--spp", str(spp), *RAYLAB_PARAMS,
+         "-o", str(out)],
         cwd=ROOT, capture_output=True, text=True, check=True,
     )
     line = r.stderr.strip().splitlines()[-1]
@@ -118,6 +121,8 @@ def main():
     ap.add_argument("--repeat", type=int, default=1, help="rounds to run")
     ap.add_argument("--raylab", default="target/release/raylab",
                     help="raylab binaries to measure in turn, comma-separated (old and new, say)")
+    ap.add_argument("--integrators", default="path",
+                    help="raylab integrators to measure in turn, comma-separated (path, path-wavefront)")
     ap.add_argument("--scenes", default=",".join(DEFAULT_SCENES),
                     help=f"scenes to measure, comma-separated, of {', '.join(SCENES)}")
     args = ap.parse_args()
@@ -128,7 +133,8 @@ def main():
     for round_, name in ((r, n) for r in range(args.repeat) for n in scenes):
         prepare(name)
         ours_file, xml = SCENES[name]
-        exes = [pathlib.Path(e).resolve() for e in args.raylab.split(",")]
+        exes = [(pathlib.Path(e).resolve(), i) for e in args.raylab.split(",")
+                for i in args.integrators.split(",")]
         before = {e: raylab(args.spp, e, ours_file) for e in exes}
         theirs = {}
         for variant in args.variants.split(","):
@@ -142,8 +148,8 @@ def main():
         for e in exes:
             ours = (before[e][0] + after[e][0]) / 2
             our_mean = before[e][1]
-            name = e.name if len(exes) == 1 else str(e)
-            print(f"  raylab path {name}: {ours / 1e6:8.3f} M samples/s (before {before[e][0] / 1e6:.3f}, after {after[e][0] / 1e6:.3f})  mean {tuple(round(v, 4) for v in our_mean)}")
+            name = e[0].name if len(args.raylab.split(",")) == 1 else str(e[0])
+            print(f"  raylab {e[1]} {name}: {ours / 1e6:8.3f} M samples/s (before {before[e][0] / 1e6:.3f}, after {after[e][0] / 1e6:.3f})  mean {tuple(round(v, 4) for v in our_mean)}")
             for variant, (rate, mean) in theirs.items():
                 print(f"    against mitsuba {variant:<14} {rate / 1e6:8.3f} M samples/s  mean {tuple(round(float(v), 4) for v in mean)}  raylab/mitsuba {ours / rate:5.2f}x")
     return 0

@@ -293,7 +293,8 @@ pub fn sphere_under_sky(a: f32, sky: f32) -> TestScene {
     }
 }
 
-fn camera_ray(camera: &Probe, sampler: &mut Sampler) -> Ray {
+/// A camera ray of the probe `camera`, placed by `sampler`'s first numbers.
+pub fn camera_ray(camera: &Probe, sampler: &mut Sampler) -> Ray {
     match camera {
         Probe::Fixed(r) => *r,
         Probe::Omni(o) => Ray::new(*o, uniform_sphere(sampler.next_2d())),
@@ -475,7 +476,7 @@ pub fn estimate_integrator(
                 .map(|s| camera_ray(&scene.camera, s))
                 .collect();
             let mut lambdas = vec![Wavelengths::Rgb; rays.len()];
-            let mut out = vec![Spectrum::ZERO; rays.len()];
+            let mut out = vec![crate::Spectrum::ZERO; rays.len()];
             let b = crate::Batch {
                 rays: &rays,
                 samplers: &mut samplers,
