@@ -221,7 +221,7 @@ pub fn light_samples(d: &DiffuseRows, out: &mut ShadowRows) {
         for c in 0..4 {
             let v = d.beta[c][b] * d.albedo[c][b] * d.ls_le[c][b] * scale;
             out.contrib[c][b] = v;
-            carried = carried | v.simd_ne(zero);
+            carried |= v.simd_ne(zero);
         }
         out.live[b] = carried.select(one, zero);
         // The shadow ray, leaving on the sample's side of the surface.
@@ -295,8 +295,8 @@ pub fn bsdf_samples(d: &DiffuseRows, out: &mut ScatterRows) {
             .min(f32x8::splat(crate::integrator::MAX_SURVIVAL));
         let plays = d.roulette[b].simd_ne(zero);
         let survives = !plays | d.u_rr[b].simd_lt(q);
-        for c in 0..4 {
-            out.beta[c][b] = plays.select(beta[c] / q, beta[c]);
+        for (column, beta) in out.beta.iter_mut().zip(beta) {
+            column[b] = plays.select(beta / q, beta);
         }
         out.alive[b] = (ok & carried & survives).select(one, zero);
     }
