@@ -10,6 +10,19 @@ pub trait Scene: Sync {
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
     /// True if any surface lies on `ray` with `t < ray.tmax`.
     fn occluded(&self, ray: &Ray) -> bool;
+    /// [`Scene::intersect`] of every ray of `rays`, into `hits` (of the same length). A scene
+    /// may trace them together; the answers are the same.
+    fn intersect_all(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.intersect(ray);
+        }
+    }
+    /// [`Scene::occluded`] of every ray of `rays`, into `blocked` (of the same length).
+    fn occluded_all(&self, rays: &[Ray], blocked: &mut [bool]) {
+        for (ray, b) in rays.iter().zip(blocked) {
+            *b = self.occluded(ray);
+        }
+    }
     /// Material `id` of the scene's material table.
     fn material(&self, id: u32) -> &SurfaceMaterial;
     /// Every emitter, with the distribution used to pick one.

@@ -172,6 +172,18 @@ pub trait Accelerator: Sync {
     fn closest(&self, ray: &Ray) -> Option<Hit>;
     /// True if any surface lies on `ray` with `t < ray.tmax`.
     fn occluded(&self, ray: &Ray) -> bool;
+    /// [`Accelerator::closest`] of every ray of `rays`, into `hits`.
+    fn closest_all(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.closest(ray);
+        }
+    }
+    /// [`Accelerator::occluded`] of every ray of `rays`, into `blocked`.
+    fn occluded_all(&self, rays: &[Ray], blocked: &mut [bool]) {
+        for (ray, b) in rays.iter().zip(blocked) {
+            *b = self.occluded(ray);
+        }
+    }
     /// Bounds (min, max) of all geometry, or `None` when there is none.
     fn bounds(&self) -> Option<(Vec3A, Vec3A)>;
     fn stats(&self) -> AccelStats;
@@ -279,6 +291,23 @@ impl Accelerator for Accel {
         match self {
             Accel::Raylab(a) => a.occluded(ray),
             Accel::Obvhs(a) => a.occluded(ray),
+        }
+    }
+
+    fn closest_all(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        match self {
+            Accel::Raylab(a) => a.closest_all(rays, hits),
+            Accel::Obvhs(a) => rays.iter().zip(hits).for_each(|(r, h)| *h = a.closest(r)),
+        }
+    }
+
+    fn occluded_all(&self, rays: &[Ray], blocked: &mut [bool]) {
+        match self {
+            Accel::Raylab(a) => a.occluded_all(rays, blocked),
+            Accel::Obvhs(a) => rays
+                .iter()
+                .zip(blocked)
+                .for_each(|(r, b)| *b = a.occluded(r)),
         }
     }
 
@@ -693,6 +722,23 @@ impl WideBvh {
     fn any_hit_avx2(&self, avx2: isa::Avx2, ray: &Ray) -> bool {
         self.any_hit(avx2, ray)
     }
+
+    /// A batch of closest hits in one AVX2 function: no dispatch per ray, and one ray's
+    /// traversal can start while the last one's hit record is still being written.
+    #[target_feature(enable = "avx2")]
+    fn closest_hits_avx2(&self, avx2: isa::Avx2, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.closest_hit(avx2, ray);
+        }
+    }
+
+    /// A batch of occlusion tests in one AVX2 function.
+    #[target_feature(enable = "avx2")]
+    fn any_hits_avx2(&self, avx2: isa::Avx2, rays: &[Ray], blocked: &mut [bool]) {
+        for (ray, b) in rays.iter().zip(blocked) {
+            *b = self.any_hit(avx2, ray);
+        }
+    }
 }
 
 impl WideBvh {
@@ -785,6 +831,30 @@ impl WideBvh {
             return unsafe { self.any_hit_avx2(avx2, ray) };
         }
         self.any_hit(isa::Portable, ray)
+    }
+
+    /// [`WideBvh::closest`] of every ray of `rays`, into `hits`.
+    pub fn closest_all(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.avx2 {
+            // SAFETY: as in `closest`.
+            return unsafe { self.closest_hits_avx2(avx2, rays, hits) };
+        }
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.closest_hit(isa::Portable, ray);
+        }
+    }
+
+    /// [`WideBvh::occluded`] of every ray of `rays`, into `blocked`.
+    pub fn occluded_all(&self, rays: &[Ray], blocked: &mut [bool]) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.avx2 {
+            // SAFETY: as in `closest`.
+            return unsafe { self.any_hits_avx2(avx2, rays, blocked) };
+        }
+        for (ray, b) in rays.iter().zip(blocked) {
+            *b = self.any_hit(isa::Portable, ray);
+        }
     }
 }
 

@@ -239,6 +239,58 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
 }
 
 #[test]
+fn batches_of_rays_find_what_each_ray_finds() {
+    // `intersect_all` and `occluded_all` (the wavefront's traversal) against the rays one by
+    // one, on every build of the traversal and both accelerators.
+    let loaded = parse_scene(&random_scene(2000, 20, 20, 11), Path::new("random.ron")).unwrap();
+    let mut portable = RenderScene::build(&loaded);
+    match std::sync::Arc::get_mut(&mut portable.accel).expect("not shared") {
+        Accel::Raylab(w) => w.avx2 = None,
+        Accel::Obvhs(_) => unreachable!(),
+    }
+    let scenes = [
+        RenderScene::build(&loaded),
+        portable,
+        RenderScene::build_with(&loaded, AccelKind::Obvhs),
+    ];
+    let mut sampler = Sampler::new(5, 0, 0);
+    let rays: Vec<Ray> = (0..300)
+        .map(|i| {
+            let origin =
+                Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 12.0 - 6.0;
+            let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
+            let tmax = if i % 2 == 0 { f32::INFINITY } else { 3.0 };
+            Ray {
+                tmax,
+                ..Ray::new(origin, dir)
+            }
+        })
+        .collect();
+    for scene in &scenes {
+        let mut hits = vec![None; rays.len()];
+        let mut blocked = vec![false; rays.len()];
+        scene.intersect_all(&rays, &mut hits);
+        scene.occluded_all(&rays, &mut blocked);
+        let (mut found, mut stopped) = (0, 0);
+        for (k, ray) in rays.iter().enumerate() {
+            let one = scene.intersect(ray);
+            assert_eq!(
+                one.map(|h| (h.t.to_bits(), h.p, h.material)),
+                hits[k].map(|h| (h.t.to_bits(), h.p, h.material)),
+                "ray {k}"
+            );
+            assert_eq!(scene.occluded(ray), blocked[k], "ray {k}");
+            found += usize::from(one.is_some());
+            stopped += usize::from(blocked[k]);
+        }
+        assert!(
+            found > 50 && found < 280 && stopped > 50,
+            "{found} hits, {stopped} blocked"
+        );
+    }
+}
+
+#[test]
 fn every_primitive_keeps_its_material_and_light_after_reordering() {
     let loaded = parse_scene(&random_scene(200, 10, 6, 3), Path::new("random.ron")).unwrap();
     let scene = RenderScene::build(&loaded);

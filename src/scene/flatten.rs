@@ -644,6 +644,26 @@ impl Scene for RenderScene {
         self.accel.occluded(ray)
     }
 
+    fn intersect_all(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        if self.has_cutouts || !self.interfaces.is_empty() {
+            for (ray, hit) in rays.iter().zip(hits) {
+                *hit = self.intersect(ray);
+            }
+            return;
+        }
+        self.accel.closest_all(rays, hits);
+    }
+
+    fn occluded_all(&self, rays: &[Ray], blocked: &mut [bool]) {
+        if self.has_cutouts {
+            for (ray, b) in rays.iter().zip(blocked) {
+                *b = self.occluded(ray);
+            }
+            return;
+        }
+        self.accel.occluded_all(rays, blocked);
+    }
+
     fn material(&self, id: u32) -> &SurfaceMaterial {
         &self.materials[id as usize]
     }

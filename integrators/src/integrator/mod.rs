@@ -126,6 +126,25 @@ impl<'a> Tracer<'a> {
         self.scene.intersect(ray)
     }
 
+    /// Traces a batch of rays of the same kind (camera rays when `camera`, else extension
+    /// rays), into `hits` (see [`Scene::intersect_all`]).
+    #[inline]
+    pub fn trace_all(&mut self, camera: bool, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        match camera {
+            true => self.counters.camera += rays.len() as u64,
+            false => self.counters.extension += rays.len() as u64,
+        }
+        self.scene.intersect_all(rays, hits);
+    }
+
+    /// Casts a batch of shadow rays towards light samples; `blocked[k]` says whether
+    /// something lies on `rays[k]`.
+    #[inline]
+    pub fn shadows_all(&mut self, rays: &[Ray], blocked: &mut [bool]) {
+        self.counters.shadow += rays.len() as u64;
+        self.scene.occluded_all(rays, blocked);
+    }
+
     /// Traces a ray that extends a path from a light (a photon, a light path).
     #[inline]
     pub fn light(&mut self, ray: &Ray) -> Option<Hit> {

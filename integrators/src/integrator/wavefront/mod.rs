@@ -137,7 +137,10 @@ type PendingShadow = (u16, Ray, Spectrum);
 struct Scratch {
     lanes: [Lane; LANES],
     live: [u16; LANES],
+    /// The rays of a batch traced together, and what they found.
+    rays: [Ray; LANES],
     hits: [Option<Hit>; LANES],
+    blocked: [bool; LANES],
     pending: [PendingShadow; LANES],
     diffuse: DiffuseRows,
     shadows: ShadowRows,
@@ -150,7 +153,9 @@ impl Scratch {
         Box::new(Scratch {
             lanes: [idle; LANES],
             live: [0; LANES],
+            rays: [idle.ray; LANES],
             hits: [None; LANES],
+            blocked: [false; LANES],
             pending: [(0, idle.ray, Spectrum::ZERO); LANES],
             diffuse: DiffuseRows::new(),
             shadows: ShadowRows::new(),
@@ -237,19 +242,17 @@ impl WavefrontPath {
             w.live[i] = i as u16;
             out[i] = Spectrum::ZERO;
         }
+        let mut camera = true;
         while live > 0 {
-            // 1. Every live path's next segment.
+            // 1. Every live path's next segment, traced as one batch.
             for k in 0..live {
-                let lane = &w.lanes[w.live[k] as usize];
-                w.hits[k] = if lane.bounces == 0 {
-                    tracer.camera(&lane.ray)
-                } else {
-                    tracer.extend(&lane.ray)
-                };
+                w.rays[k] = w.lanes[w.live[k] as usize].ray;
             }
-            // 2. Surfaces, path by path.
+            tracer.trace_all(camera, &w.rays[..live], &mut w.hits[..live]);
+            camera = false;
+            // 2. Surfaces, path by path; the scalar code's shadow rays wait in `shadows`.
             w.diffuse.len = 0;
-            let mut pending = 0;
+            let mut shadows = 0;
             let mut next_live = 0;
             for k in 0..live {
                 let i = w.live[k] as usize;
@@ -259,7 +262,7 @@ impl WavefrontPath {
                     w.hits[k].as_ref(),
                     (i as u16, &mut samplers[i], &mut lambdas[i]),
                     &mut out[i],
-                    (&mut w.diffuse, &mut w.pending, &mut pending),
+                    (&mut w.diffuse, &mut w.pending, &mut shadows),
                 );
                 if let Next::GoesOn = next {
                     // `live` is read up to `k`, written up to `next_live <= k`.
@@ -270,13 +273,7 @@ impl WavefrontPath {
             // 3. The diffuse kernels.
             kernels::light_samples(&w.diffuse, &mut w.shadows);
             kernels::bsdf_samples(&w.diffuse, &mut w.scatters);
-            // 4. The bounce's shadow rays.
-            for &(i, ray, contrib) in &w.pending[..pending] {
-                tracer.counters.shadow += 1;
-                if !scene.occluded(&ray) {
-                    out[i as usize] += contrib;
-                }
-            }
+            // 4. The bounce's shadow rays (at most one per path), traced as one batch.
             let (d, sh) = (&w.diffuse, &w.shadows);
             for m in 0..d.len {
                 if get(&sh.live, m) == 0.0 {
@@ -293,15 +290,22 @@ impl WavefrontPath {
                         Vec3A::new(get(&sh.dir[0], m), get(&sh.dir[1], m), get(&sh.dir[2], m)),
                     )
                 };
-                tracer.counters.shadow += 1;
-                if !scene.occluded(&ray) {
-                    let c = Spectrum::new(
-                        get(&sh.contrib[0], m),
-                        get(&sh.contrib[1], m),
-                        get(&sh.contrib[2], m),
-                        get(&sh.contrib[3], m),
-                    );
-                    out[d.lane[m] as usize] += c;
+                let c = Spectrum::new(
+                    get(&sh.contrib[0], m),
+                    get(&sh.contrib[1], m),
+                    get(&sh.contrib[2], m),
+                    get(&sh.contrib[3], m),
+                );
+                w.pending[shadows] = (d.lane[m], ray, c);
+                shadows += 1;
+            }
+            for (k, (_, ray, _)) in w.pending[..shadows].iter().enumerate() {
+                w.rays[k] = *ray;
+            }
+            tracer.shadows_all(&w.rays[..shadows], &mut w.blocked[..shadows]);
+            for (&(i, _, contrib), &blocked) in w.pending[..shadows].iter().zip(&w.blocked) {
+                if !blocked {
+                    out[i as usize] += contrib;
                 }
             }
             // 5. The diffuse paths that go on.
