@@ -12,7 +12,7 @@
 //! **How it walks.** The render loop hands it a tile's camera samples of a pass
 //! ([`BatchIntegrator`]); it walks them [`kernels::LANES`] at a time. Each bounce runs
 //! over the batch's live paths:
-//! 1. traversal: every path's next segment, one after the other (their node loads overlap);
+//! 1. traversal: every path's next segment, as one batch ([`crate::Scene::intersect_all`]);
 //! 2. surfaces, path by path: emission found (MIS-weighted), escapes, the shading point, the
 //!    bounce's random numbers and light sample. Diffuse points (a plain Lambert material)
 //!    become rows of [`kernels::DiffuseRows`]; every other material is shaded there by the
@@ -20,7 +20,7 @@
 //! 3. the diffuse kernels over the rows: the light samples' BSDF values, MIS weights and
 //!    shadow rays ([`kernels::light_samples`]), then cosine sampling, the next rays and
 //!    Russian roulette ([`kernels::bsdf_samples`]);
-//! 4. every shadow ray of the bounce, one after the other;
+//! 4. every shadow ray of the bounce, as one batch ([`crate::Scene::occluded_all`]);
 //! 5. the diffuse rows' paths that go on rejoin the live paths.
 //!
 //! A path's estimate depends on its own ray, sampler and wavelengths only, never on the
@@ -165,7 +165,7 @@ impl Scratch {
 }
 
 thread_local! {
-    /// Each thread's walk scratch, made once: about 90 kB, too much to build per batch.
+    /// Each thread's walk scratch, made once: about 40 kB, too much to build per batch.
     static SCRATCH: std::cell::RefCell<Option<Box<Scratch>>> = const { std::cell::RefCell::new(None) };
 }
 
@@ -205,7 +205,7 @@ impl BatchIntegrator for WavefrontPath {
             out,
         } = batch;
         SCRATCH.with(|cell| {
-            // A walk that panicked left the cell borrowed: take a fresh scratch then.
+            // A batch inside a batch (nothing does that today) takes a scratch of its own.
             let mut own = None;
             let mut guard = cell.try_borrow_mut().ok();
             let scratch = match guard.as_deref_mut() {
