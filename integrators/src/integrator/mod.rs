@@ -666,19 +666,16 @@ fn one_light<F: Fn(glam::Vec3A) -> f32>(
     tracer: &mut Tracer,
     sampler: &mut Sampler,
 ) -> Spectrum {
-    let u_light = sampler.next_1d();
-    let u = sampler.next_2d();
-    let Some((index, pmf)) = tracer
-        .scene
-        .lights()
-        .sample_for(lights, &sp.light_context(), u_light)
-    else {
+    let Some((ls, pmf)) = sample_light(sp, lights, tracer.scene, sampler) else {
         return Spectrum::ZERO;
     };
     let with_pdf = matches!(against, Against::Bsdf);
-    let Some((ls, f, cos, bsdf_pdf)) = sp.connect_light_with(index, u, tracer, with_pdf) else {
+    let Some((f, cos, bsdf_pdf)) = sp.reflect(&ls, with_pdf) else {
         return Spectrum::ZERO;
     };
+    if !tracer.unoccluded(&sp.hit, &ls) {
+        return Spectrum::ZERO;
+    }
     let light_pdf = pmf * ls.pdf;
     let weight = match against {
         _ if ls.delta => 1.0,
@@ -687,6 +684,28 @@ fn one_light<F: Fn(glam::Vec3A) -> f32>(
         Against::Strategy(pdf) => crate::sampling::power_heuristic(light_pdf, pdf(ls.wi)),
     };
     f * ls.radiance * (cos * weight / light_pdf)
+}
+
+/// The light sample of next-event estimation at `sp`, before its shadow ray: a light picked
+/// as `lights` says (`None`: the scene's choice), a point on it, and the light's selection
+/// probability. `None` when it carries nothing: no light, the emitter the point lies on (flat
+/// or convex), no sample, a zero density. Draws one number and a pair from `sampler`.
+#[inline]
+pub fn sample_light(
+    sp: &ShadingPoint,
+    lights: Option<LightSelection>,
+    scene: &dyn Scene,
+    sampler: &mut Sampler,
+) -> Option<(LightSample, f32)> {
+    let u_light = sampler.next_1d();
+    let u = sampler.next_2d();
+    let table = scene.lights();
+    let (index, pmf) = table.sample_for(lights, &sp.light_context(), u_light)?;
+    if !sp.can_receive(index, table) {
+        return None;
+    }
+    let ls = table.get(index).sample_li(sp.hit.p, u, &sp.lambda)?;
+    (ls.pdf > 0.0).then_some((ls, pmf))
 }
 
 /// MIS weight of emission found by a BSDF-sampled ray (density `bsdf_pdf`) leaving `from`

@@ -156,10 +156,17 @@ impl PathState {
         true
     }
 
+    /// What Russian roulette multiplies the throughput by before it plays (see
+    /// [`PathState::roulette`]): a caller that plays it on its own (`path-wavefront`'s lane
+    /// kernels) plays on the same.
+    pub fn roulette_scale(&self) -> f32 {
+        self.eta_scale * self.sampling_gain
+    }
+
     /// Russian roulette from `rr_depth` scattering events on; false ends the path.
     pub fn roulette(&mut self, rr_depth: u32, sampler: &mut Sampler) -> bool {
         if self.bounces >= rr_depth {
-            let rr_beta = self.beta * (self.eta_scale * self.sampling_gain);
+            let rr_beta = self.beta * self.roulette_scale();
             match russian_roulette(rr_beta, sampler) {
                 Some(p) => self.beta /= p,
                 None => return false,

@@ -33,18 +33,18 @@
 
 mod kernels;
 
-use crate::bsdf::{Material, TransportMode};
+use crate::bsdf::Material;
 use crate::integrator::{
-    emitted_at, escaped, mis_weight_for_hit, Batch, BatchIntegrator, RayIntegrator, ShadingPoint,
-    Tracer, MAX_SURVIVAL,
+    emitted_at, escaped, sample_light, Batch, BatchIntegrator, PathState, RayIntegrator,
+    ShadingPoint, Tracer,
 };
-use crate::light::{LightContext, LightSample, LightSelection};
+use crate::light::{LightSample, LightSelection};
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION,
     MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
-use crate::{Hit, Ray, Sampler, Scene, Spectrum};
+use crate::{Hit, Ray, Sampler, Spectrum};
 use glam::{Vec2, Vec3A};
 use kernels::{get, set, DiffuseRows, ScatterRows, ShadowRows, LANES};
 
@@ -76,41 +76,6 @@ pub(crate) struct WavefrontPath {
     lights: Option<LightSelection>,
 }
 
-/// One path's state between two segments (see [`crate::integrator::PathState`]).
-#[derive(Clone, Copy)]
-struct Lane {
-    /// The ray to trace next.
-    ray: Ray,
-    /// Throughput from the camera to `ray`'s origin.
-    beta: Spectrum,
-    /// Solid-angle density with which the BSDF chose `ray` (0 for the camera ray).
-    pdf: f32,
-    /// The scattering point `ray` leaves and its geometric normal.
-    from: Vec3A,
-    from_n: Vec3A,
-    /// Whether `ray` left a specular event, or is the camera ray.
-    specular: bool,
-    /// Scattering events so far.
-    bounces: u32,
-    /// Product of `eta^2` over the path's refractions (the roulette's scale).
-    eta_scale: f32,
-}
-
-impl Lane {
-    fn camera(ray: Ray) -> Lane {
-        Lane {
-            ray,
-            beta: Spectrum::ONE,
-            pdf: 0.0,
-            from: ray.origin,
-            from_n: Vec3A::ZERO,
-            specular: true,
-            bounces: 0,
-            eta_scale: 1.0,
-        }
-    }
-}
-
 /// What the surface stage decided for a path.
 enum Next {
     /// The path ended.
@@ -121,10 +86,10 @@ enum Next {
     Diffuse,
 }
 
-/// The random numbers of one bounce, drawn in `path`'s order.
+/// A diffuse row's random numbers for its BSDF sample and roulette, drawn in `path`'s order
+/// (the lobe's number too, which one lobe does not use).
 struct Numbers {
     u_bsdf: Vec2,
-    u_lobe: f32,
     u_rr: f32,
     /// Whether Russian roulette plays after this bounce.
     plays: bool,
@@ -135,7 +100,7 @@ type PendingShadow = (u16, Ray, Spectrum);
 
 /// The per-batch scratch of the walk: on the stack, nothing allocated per path.
 struct Scratch {
-    lanes: [Lane; LANES],
+    lanes: [PathState; LANES],
     live: [u16; LANES],
     /// The rays of a batch traced together, and what they found.
     rays: [Ray; LANES],
@@ -149,14 +114,14 @@ struct Scratch {
 
 impl Scratch {
     fn new() -> Box<Scratch> {
-        let idle = Lane::camera(Ray::new(Vec3A::ZERO, Vec3A::Z));
+        let idle = Ray::new(Vec3A::ZERO, Vec3A::Z);
         Box::new(Scratch {
-            lanes: [idle; LANES],
+            lanes: std::array::from_fn(|_| PathState::from_camera(idle)),
             live: [0; LANES],
-            rays: [idle.ray; LANES],
+            rays: [idle; LANES],
             hits: [None; LANES],
             blocked: [false; LANES],
-            pending: [(0, idle.ray, Spectrum::ZERO); LANES],
+            pending: [(0, idle, Spectrum::ZERO); LANES],
             diffuse: DiffuseRows::new(),
             shadows: ShadowRows::new(),
             scatters: ScatterRows::new(),
@@ -235,10 +200,9 @@ impl WavefrontPath {
         out: &mut [Spectrum],
         tracer: &mut Tracer,
     ) {
-        let scene = tracer.scene;
         let mut live = rays.len();
         for (i, ray) in rays.iter().enumerate() {
-            w.lanes[i] = Lane::camera(*ray);
+            w.lanes[i] = PathState::from_camera(*ray).selecting_lights(self.lights);
             w.live[i] = i as u16;
             out[i] = Spectrum::ZERO;
         }
@@ -257,7 +221,7 @@ impl WavefrontPath {
             for k in 0..live {
                 let i = w.live[k] as usize;
                 let next = self.surface(
-                    scene,
+                    tracer,
                     &mut w.lanes[i],
                     w.hits[k].as_ref(),
                     (i as u16, &mut samplers[i], &mut lambdas[i]),
@@ -342,130 +306,67 @@ impl WavefrontPath {
         }
     }
 
-    /// Stage 2 for one path: what its segment found, then its shading point, shaded by the
-    /// scalar code or set out as a diffuse row.
+    /// Stage 2 for one path: what its segment found, then its shading point, shaded by
+    /// `path`'s scalar code or set out as a diffuse row.
     #[allow(clippy::type_complexity)]
     fn surface(
         &self,
-        scene: &dyn Scene,
-        lane: &mut Lane,
+        tracer: &Tracer,
+        lane: &mut PathState,
         hit: Option<&Hit>,
         (index, sampler, lambda): (u16, &mut Sampler, &mut Wavelengths),
         out: &mut Spectrum,
         (diffuse, pending, n_pending): (&mut DiffuseRows, &mut [PendingShadow], &mut usize),
     ) -> Next {
+        let scene = tracer.scene;
         let Some(hit) = hit else {
             // Escaped: environment light, MIS-weighted unless seen through specular.
             let le = escaped(scene, &lane.ray, lambda);
             if le != Spectrum::ZERO {
-                *out += lane.beta * le * self.emission_weight(scene, lane, None);
+                *out += lane.beta * le * lane.emission_weight(tracer, None);
             }
             return Next::Done;
         };
         if hit.light.is_some() {
             let le = emitted_at(scene, hit, &lane.ray, lambda);
             if le != Spectrum::ZERO {
-                *out += lane.beta * le * self.emission_weight(scene, lane, Some(hit));
+                *out += lane.beta * le * lane.emission_weight(tracer, Some(hit));
             }
         }
         if lane.bounces >= self.max_depth {
             return Next::Done;
         }
         let sp = ShadingPoint::new(hit, lane.ray.dir, scene, lambda);
-        // The bounce's numbers, in `path`'s order: the light sample's, the BSDF sample's,
-        // the roulette's.
+        // The bounce's numbers, in `path`'s order: the light sample's, then the BSDF
+        // sample's and the roulette's.
         let light = match sp.material.is_specular() {
             true => None,
-            false => self.light_sample(scene, &sp, sampler),
-        };
-        let u_lobe = sampler.next_1d();
-        let u_bsdf = sampler.next_2d();
-        let plays = lane.bounces + 1 >= self.rr_depth;
-        let u_rr = if plays { sampler.next_1d() } else { 0.0 };
-        let numbers = Numbers {
-            u_bsdf,
-            u_lobe,
-            u_rr,
-            plays,
+            false => sample_light(&sp, self.lights, scene, sampler),
         };
         let plain = sp.material.map.is_none() && sp.material.opacity == 1.0;
-        match &*sp.material {
-            Material::Lambert(l) if plain => {
-                push_diffuse(diffuse, index, lane, &sp, l.albedo, light, &numbers);
-                Next::Diffuse
+        if let (Material::Lambert(l), true) = (&*sp.material, plain) {
+            let _lobe = sampler.next_1d();
+            let u_bsdf = sampler.next_2d();
+            let plays = lane.bounces + 1 >= self.rr_depth;
+            let u_rr = if plays { sampler.next_1d() } else { 0.0 };
+            let numbers = Numbers {
+                u_bsdf,
+                u_rr,
+                plays,
+            };
+            push_diffuse(diffuse, index, lane, &sp, l.albedo, light, &numbers);
+            return Next::Diffuse;
+        }
+        if let Some((ls, pmf)) = light {
+            if let Some(shadow) = shadow_of(&sp, &ls, pmf * ls.pdf, lane.beta) {
+                pending[*n_pending] = (index, shadow.0, shadow.1);
+                *n_pending += 1;
             }
-            _ => {
-                if let Some((ls, light_pdf)) = light {
-                    if let Some(shadow) = shadow_of(&sp, &ls, light_pdf, lane.beta) {
-                        pending[*n_pending] = (index, shadow.0, shadow.1);
-                        *n_pending += 1;
-                    }
-                }
-                match self.scatter(lane, &sp, &numbers) {
-                    true => Next::GoesOn,
-                    false => Next::Done,
-                }
-            }
         }
-    }
-
-    /// MIS weight of emission the path's ray finds at `hit` (or on escaping, `None`) against
-    /// next-event estimation from the previous vertex: 1 after a specular bounce and for the
-    /// camera ray.
-    fn emission_weight(&self, scene: &dyn Scene, lane: &Lane, hit: Option<&Hit>) -> f32 {
-        if lane.specular {
-            return 1.0;
+        match lane.scatter(&sp, self.rr_depth, sampler) {
+            true => Next::GoesOn,
+            false => Next::Done,
         }
-        let from = LightContext {
-            p: lane.from,
-            n: lane.from_n,
-        };
-        mis_weight_for_hit(scene, (&from, self.lights), &lane.ray, hit, lane.pdf)
-    }
-
-    /// One light sample for `sp` (a light picked as `light-selection` says, a point on it)
-    /// with its density (selection probability times the sample's), or `None`.
-    fn light_sample(
-        &self,
-        scene: &dyn Scene,
-        sp: &ShadingPoint,
-        sampler: &mut Sampler,
-    ) -> Option<(LightSample, f32)> {
-        let u_light = sampler.next_1d();
-        let u = sampler.next_2d();
-        let lights = scene.lights();
-        let (index, pmf) = lights.sample_for(self.lights, &sp.light_context(), u_light)?;
-        if !sp.can_receive(index, lights) {
-            return None;
-        }
-        let ls = lights.get(index).sample_li(sp.hit.p, u, &sp.lambda)?;
-        (ls.pdf > 0.0).then_some((ls, pmf * ls.pdf))
-    }
-
-    /// The scalar BSDF sample at `sp` and the roulette after it; false ends the path.
-    fn scatter(&self, lane: &mut Lane, sp: &ShadingPoint, n: &Numbers) -> bool {
-        let Some(s) = sp.sample(n.u_lobe, n.u_bsdf, TransportMode::Radiance) else {
-            return false;
-        };
-        lane.beta = s.throughput(lane.beta);
-        if lane.beta == Spectrum::ZERO {
-            return false;
-        }
-        lane.eta_scale *= s.bsdf.eta * s.bsdf.eta;
-        lane.specular = s.bsdf.specular;
-        lane.pdf = s.bsdf.pdf;
-        lane.from = sp.hit.p;
-        lane.from_n = sp.hit.ng;
-        lane.ray = sp.hit.spawn_ray(s.wi);
-        lane.bounces += 1;
-        if n.plays {
-            let survive = (lane.beta * lane.eta_scale).max_element().min(MAX_SURVIVAL);
-            if n.u_rr >= survive {
-                return false;
-            }
-            lane.beta /= survive;
-        }
-        true
     }
 }
 
@@ -494,7 +395,7 @@ fn shadow_of(
 fn push_diffuse(
     d: &mut DiffuseRows,
     index: u16,
-    lane: &Lane,
+    lane: &PathState,
     sp: &ShadingPoint,
     albedo: Spectrum,
     light: Option<(LightSample, f32)>,
@@ -523,13 +424,13 @@ fn push_diffuse(
         set(&mut d.albedo[c], m, albedo[c]);
         set(&mut d.beta[c], m, lane.beta[c]);
     }
-    set(&mut d.eta_scale, m, lane.eta_scale);
+    set(&mut d.eta_scale, m, lane.roulette_scale());
     set(&mut d.roulette, m, if n.plays { 1.0 } else { 0.0 });
     set(&mut d.u[0], m, n.u_bsdf.x);
     set(&mut d.u[1], m, n.u_bsdf.y);
     set(&mut d.u_rr, m, n.u_rr);
     match light {
-        Some((ls, pdf)) => {
+        Some((ls, pmf)) => {
             for k in 0..3 {
                 set(&mut d.ls_wi[k], m, ls.wi[k]);
                 set(&mut d.ls_point[k], m, ls.point[k]);
@@ -538,7 +439,7 @@ fn push_diffuse(
                 set(&mut d.ls_le[c], m, ls.radiance[c]);
             }
             set(&mut d.ls_dist, m, ls.dist);
-            set(&mut d.ls_pdf, m, pdf);
+            set(&mut d.ls_pdf, m, pmf * ls.pdf);
             set(&mut d.ls_delta, m, if ls.delta { 1.0 } else { 0.0 });
         }
         None => {
