@@ -254,51 +254,80 @@ impl InstanceSet {
     #[inline(always)]
     pub fn intersect<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> Option<(u32, u32, f32)> {
         let mut best_prim = 0u32;
-        let (slot, t) = self.tlas.closest(isa, ray, |r, first, count| {
-            let mut best = None;
-            let mut r = *r;
-            for slot in first..first + count {
-                let inst = &self.instances[slot as usize];
-                let mesh = &self.meshes[inst.mesh as usize];
-                // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
-                let lr = Self::local_ray(inst, &r);
-                let lanes = PacketRay::new(&lr);
-                if let Some((id, t)) = mesh.bvh.closest(isa, &lr, |lr, first, count| {
-                    let end = first + packet::packets_for(count);
-                    let leaf = &mesh.packets[first as usize..end as usize];
-                    let (k, t) = isa.closest(leaf, &lanes, lr, lr.tmax, &NO_ANALYTIC)?;
-                    Some((first * packet::WIDTH as u32 + k as u32, t))
-                }) {
-                    best_prim = id;
-                    best = Some((slot, t));
-                    r.tmax = t;
+        // The closures are inlined into the AVX2 build's caller: left as functions of their
+        // own, they are compiled without AVX2 and every intrinsic in them becomes a call.
+        let (slot, t) = self.tlas.closest(
+            isa,
+            ray,
+            #[inline(always)]
+            |r, first, count| {
+                let mut best = None;
+                let mut r = *r;
+                for slot in first..first + count {
+                    let inst = &self.instances[slot as usize];
+                    let mesh = &self.meshes[inst.mesh as usize];
+                    // `r.tmax` is the closest hit so far: the local traversal only looks nearer.
+                    let lr = Self::local_ray(inst, &r);
+                    let lanes = PacketRay::new(&lr);
+                    if let Some((id, t)) = mesh.bvh.closest(
+                        isa,
+                        &lr,
+                        #[inline(always)]
+                        |lr, first, count| {
+                            let end = first + packet::packets_for(count);
+                            let leaf = &mesh.packets[first as usize..end as usize];
+                            let (k, t) = isa.closest(leaf, &lanes, lr, lr.tmax, &NO_ANALYTIC)?;
+                            Some((first * packet::WIDTH as u32 + k as u32, t))
+                        },
+                    ) {
+                        best_prim = id;
+                        best = Some((slot, t));
+                        r.tmax = t;
+                    }
                 }
-            }
-            best
-        })?;
+                best
+            },
+        )?;
         Some((slot, best_prim, t))
     }
 
     /// True if any instance has a surface on `ray` before `ray.tmax`.
     #[inline(always)]
     pub fn occluded<I: Isa + LeafTest>(&self, isa: I, ray: &Ray) -> bool {
-        self.tlas.any(isa, ray, |r, first, count| {
-            (first..first + count).any(|slot| {
-                let inst = &self.instances[slot as usize];
-                let mesh = &self.meshes[inst.mesh as usize];
-                let lr = Self::local_ray(inst, r);
-                let lanes = PacketRay::new(&lr);
-                mesh.bvh.any(isa, &lr, |lr, first, count| {
-                    let end = first + packet::packets_for(count);
-                    isa.any(
-                        &mesh.packets[first as usize..end as usize],
-                        &lanes,
-                        lr,
-                        &NO_ANALYTIC,
-                    )
-                })
-            })
-        })
+        // Inlined for the reason `intersect` gives.
+        self.tlas.any(
+            isa,
+            ray,
+            #[inline(always)]
+            |r, first, count| {
+                // A loop, not `Iterator::any`: its closure would be compiled inside a
+                // function of the standard library's, without AVX2.
+                for slot in first..first + count {
+                    let inst = &self.instances[slot as usize];
+                    let mesh = &self.meshes[inst.mesh as usize];
+                    let lr = Self::local_ray(inst, r);
+                    let lanes = PacketRay::new(&lr);
+                    let blocked = mesh.bvh.any(
+                        isa,
+                        &lr,
+                        #[inline(always)]
+                        |lr, first, count| {
+                            let end = first + packet::packets_for(count);
+                            isa.any(
+                                &mesh.packets[first as usize..end as usize],
+                                &lanes,
+                                lr,
+                                &NO_ANALYTIC,
+                            )
+                        },
+                    );
+                    if blocked {
+                        return true;
+                    }
+                }
+                false
+            },
+        )
     }
 
     /// The world-space surface record of hit `prim` (as [`InstanceSet::intersect`] gives it)
