@@ -10,14 +10,16 @@ pub trait Scene: Sync {
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
     /// True if any surface lies on `ray` with `t < ray.tmax`.
     fn occluded(&self, ray: &Ray) -> bool;
-    /// [`Scene::intersect`] of every ray of `rays`, into `hits` (of the same length). A scene
-    /// may trace them together; the answers are the same.
+    /// [`Scene::intersect`] of every ray of `rays`, into `hits` (of the same length): a batch
+    /// of incoherent rays, such as a bounce's. A scene may trace them together (interleaved,
+    /// so that one ray's memory loads overlap another's work); the answers are the same.
     fn intersect_all(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         for (ray, hit) in rays.iter().zip(hits) {
             *hit = self.intersect(ray);
         }
     }
-    /// [`Scene::occluded`] of every ray of `rays`, into `blocked` (of the same length).
+    /// [`Scene::occluded`] of every ray of `rays`, into `blocked` (of the same length), as
+    /// [`Scene::intersect_all`] traces its batch.
     fn occluded_all(&self, rays: &[Ray], blocked: &mut [bool]) {
         for (ray, b) in rays.iter().zip(blocked) {
             *b = self.occluded(ray);

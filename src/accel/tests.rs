@@ -241,16 +241,25 @@ fn bvh_closest_hit_and_occlusion_match_brute_force() {
 #[test]
 fn batches_of_rays_find_what_each_ray_finds() {
     // `intersect_all` and `occluded_all` (the wavefront's traversal) against the rays one by
-    // one, on every build of the traversal and both accelerators.
+    // one, on every build of the traversal, walked one by one and as a stream, and on both
+    // accelerators.
     let loaded = parse_scene(&random_scene(2000, 20, 20, 11), Path::new("random.ron")).unwrap();
-    let mut portable = RenderScene::build(&loaded);
-    match std::sync::Arc::get_mut(&mut portable.accel).expect("not shared") {
-        Accel::Raylab(w) => w.avx2 = None,
-        Accel::Obvhs(_) => unreachable!(),
-    }
+    let variant = |avx2: bool, stream: bool| {
+        let mut scene = RenderScene::build(&loaded);
+        match std::sync::Arc::get_mut(&mut scene.accel).expect("not shared") {
+            Accel::Raylab(w) => {
+                w.avx2 = w.avx2.filter(|_| avx2);
+                w.stream_from = if stream { 0 } else { usize::MAX };
+            }
+            Accel::Obvhs(_) => unreachable!(),
+        }
+        scene
+    };
     let scenes = [
-        RenderScene::build(&loaded),
-        portable,
+        variant(true, false),
+        variant(true, true),
+        variant(false, false),
+        variant(false, true),
         RenderScene::build_with(&loaded, AccelKind::Obvhs),
     ];
     let mut sampler = Sampler::new(5, 0, 0);

@@ -35,7 +35,7 @@
 //! denormals-are-zero on the worker threads (Embree's performance advice; raylab does not set
 //! it either), and the robust or compact scene flags.
 
-use super::{chunks_per_second, rays_per_second, Case, MIN_RUN};
+use super::{batch_blocked, batch_hits, chunks_per_second, rays_per_second, Case, BATCH, MIN_RUN};
 use crate::scene::components::{FileOrder, Instanced, Transform};
 use crate::scene::RenderScene;
 use anyhow::{anyhow, Result};
@@ -426,8 +426,9 @@ pub(super) fn compare(
         let theirs = &built.scene;
         for &(kind, rays) in kinds {
             let context = context_for(kind);
-            // Per round: raylab closest, Embree closest, raylab occlusion, Embree occlusion.
-            let mut measured: Vec<[f64; 4]> = Vec::with_capacity(rounds);
+            // Per round: raylab closest, Embree closest, raylab occlusion, Embree occlusion,
+            // raylab's closest and occlusion in batches.
+            let mut measured: Vec<[f64; 6]> = Vec::with_capacity(rounds);
             for _ in 0..rounds {
                 measured.push([
                     rays_per_second(rays, t, &|r| ours.intersect(r).is_some())?.0,
@@ -437,6 +438,8 @@ pub(super) fn compare(
                         theirs.occluded(&mut context(), &mut embree_ray(r))
                     })?
                     .0,
+                    chunks_per_second(rays, t, &|c| batch_hits(ours, c))?.0,
+                    chunks_per_second(rays, t, &|c| batch_blocked(ours, c))?.0,
                 ]);
             }
             // Median rates, and the median of the rounds' ratios: each round's two figures were
@@ -470,6 +473,16 @@ pub(super) fn compare(
                     "embree", case.name
                 ));
             }
+            let batch_ratio = |i: usize, of: usize| median(measured.iter().map(|m| m[i] / m[of]));
+            say(format!(
+                "{:<6} {:<14} {kind} {t} threads, raylab in batches of {BATCH} (the wavefront's traversal) against Embree's single rays: closest {:.2} M/s ({:.2}x), occlusion {:.2} M/s ({:.2}x)",
+                "embree",
+                case.name,
+                rate(4) / 1e6,
+                batch_ratio(4, 1),
+                rate(5) / 1e6,
+                batch_ratio(5, 3),
+            ));
             packets(
                 (case.name, kind, t),
                 rays,

@@ -173,6 +173,37 @@ fn rays_per_second(
     })
 }
 
+/// Rays of `chunk` that hit something, traced in batches of [`BATCH`] as the wavefront
+/// integrators trace them ([`Scene::intersect_all`]).
+fn batch_hits(scene: &RenderScene, chunk: &[Ray]) -> usize {
+    let mut hits = [None; BATCH];
+    chunk
+        .chunks(BATCH)
+        .map(|rays| {
+            let hits = &mut hits[..rays.len()];
+            scene.intersect_all(rays, hits);
+            hits.iter().filter(|h| h.is_some()).count()
+        })
+        .sum()
+}
+
+/// Rays of `chunk` that something blocks, in batches as [`batch_hits`] traces them
+/// ([`Scene::occluded_all`]).
+fn batch_blocked(scene: &RenderScene, chunk: &[Ray]) -> usize {
+    let mut blocked = [false; BATCH];
+    chunk
+        .chunks(BATCH)
+        .map(|rays| {
+            let blocked = &mut blocked[..rays.len()];
+            scene.occluded_all(rays, blocked);
+            blocked.iter().filter(|&&b| b).count()
+        })
+        .sum()
+}
+
+/// Rays per batch in [`batch_hits`]: the wavefront's lanes.
+const BATCH: usize = 64;
+
 /// Rays per second of `trace`, which traces a chunk of `rays` and says how many hit, on
 /// `threads` threads (chunks of 4096 shared out by rayon): a warm-up pass (whose count of hits
 /// is returned with the rate), then the best of three runs, each of passes over the rays until
@@ -362,6 +393,23 @@ pub fn run(opts: &BenchOptions) -> Result<String> {
             for &t in &opts.threads {
                 let (closest, hits) = rays_per_second(rays, t, &|r| scene.intersect(r).is_some())?;
                 let (occlusion, _) = rays_per_second(rays, t, &|r| scene.occluded(r))?;
+                let (batched, batch_hit) = chunks_per_second(rays, t, &|c| batch_hits(scene, c))?;
+                let (batched_occl, blocked) =
+                    chunks_per_second(rays, t, &|c| batch_blocked(scene, c))?;
+                if batch_hit != hits || blocked != hits {
+                    return Err(anyhow::anyhow!(
+                        "{}: {batch_hit} and {blocked} of the {kind} rays hit in batches, {hits} one by one",
+                        case.name
+                    ));
+                }
+                say(format!(
+                    "{:<14} {kind} {t} threads, in batches of {BATCH}: closest {:.2} M/s ({:.2}x one by one), occlusion {:.2} M/s ({:.2}x)",
+                    case.name,
+                    batched / 1e6,
+                    batched / closest,
+                    batched_occl / 1e6,
+                    batched_occl / occlusion,
+                ));
                 say(format!(
                     "{:<14} {:>10} {:>10} {:>8} {:>14.2} {:>16.2} {:>9.1}%",
                     case.name,

@@ -127,14 +127,22 @@ impl<'a> Tracer<'a> {
     }
 
     /// Traces a batch of rays of the same kind (camera rays when `camera`, else extension
-    /// rays), into `hits` (see [`Scene::intersect_all`]).
+    /// rays), into `hits`. Extension rays go to [`Scene::intersect_all`] together; camera
+    /// rays, which are coherent, one by one, the faster way for them on a large tree.
     #[inline]
     pub fn trace_all(&mut self, camera: bool, rays: &[Ray], hits: &mut [Option<Hit>]) {
         match camera {
-            true => self.counters.camera += rays.len() as u64,
-            false => self.counters.extension += rays.len() as u64,
+            true => {
+                self.counters.camera += rays.len() as u64;
+                for (ray, hit) in rays.iter().zip(hits) {
+                    *hit = self.scene.intersect(ray);
+                }
+            }
+            false => {
+                self.counters.extension += rays.len() as u64;
+                self.scene.intersect_all(rays, hits);
+            }
         }
-        self.scene.intersect_all(rays, hits);
     }
 
     /// Casts a batch of shadow rays towards light samples; `blocked[k]` says whether
