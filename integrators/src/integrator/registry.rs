@@ -473,6 +473,7 @@ pub static REGISTRY: &[IntegratorEntry] = &[
     super::russian_roulette::ENTRY,
     super::path::ENTRY,
     super::wavefront::ENTRY,
+    super::wavefront::RUSSIAN_ROULETTE_ENTRY,
     super::direct::ENTRY,
     super::restir::ENTRY,
     super::light_tracer::ENTRY,

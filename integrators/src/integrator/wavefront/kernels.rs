@@ -195,11 +195,12 @@ fn sin_cos_quarter(a: f32x8) -> (f32x8, f32x8) {
 }
 
 /// Next-event estimation at diffuse points: the BSDF towards each light sample, weighted by
-/// the power heuristic against cosine sampling (1 for delta lights), times the path's
+/// the power heuristic against cosine sampling with `mis` (1 for delta lights, and 1 for all
+/// without), times the path's
 /// throughput, over the sample's density; and the shadow ray that decides it (as
 /// [`crate::Hit::spawn_ray_to`] for a point, [`crate::Hit::spawn_ray`] for a direction).
 #[inline(never)]
-pub fn light_samples(d: &DiffuseRows, out: &mut ShadowRows) {
+pub fn light_samples(d: &DiffuseRows, mis: bool, out: &mut ShadowRows) {
     let (zero, one) = (f32x8::ZERO, f32x8::ONE);
     for b in 0..d.len.div_ceil(W).min(LANES / W) {
         let p = block3(&d.p, b);
@@ -212,7 +213,11 @@ pub fn light_samples(d: &DiffuseRows, out: &mut ShadowRows) {
         let bsdf_pdf = cos * FRAC_1_PI;
         let (pa, pb) = (light_pdf * light_pdf, bsdf_pdf * bsdf_pdf);
         let balanced = (pa + pb).simd_eq(zero).select(zero, pa / (pa + pb));
-        let mis = (d.ls_delta[b].simd_ne(zero) | pa.is_inf()).select(one, balanced);
+        let unweighted = d.ls_delta[b].simd_ne(zero) | pa.is_inf();
+        let mis = match mis {
+            true => unweighted.select(one, balanced),
+            false => one,
+        };
         let ok = light_pdf.simd_gt(zero)
             & (d.wo_ng[b] * wi_ng).simd_gt(zero)
             & passes(d.wo_z[b], wi_z, d.front_only[b]);

@@ -27,6 +27,10 @@
 //! other paths of its batch: images are the same at any thread count, across checkpoints and
 //! shards, and for a batch of one path ([`RayIntegrator::radiance`]).
 //!
+//! **`russian-roulette-wavefront`** walks `russian-roulette`'s estimator the same way: the
+//! light samples unweighted, emitters reached by BSDF samples counted only after specular
+//! bounces (no MIS), the same numbers in the same order as `russian-roulette`.
+//!
 //! **Parameters**: `max-depth` (default unlimited), `rr-depth` (default 3),
 //! `light-selection` (`scene`, `uniform`, `power` or `bvh`), as `path`'s.
 //! **Bias**: none with unlimited `max-depth`; truncation otherwise.
@@ -52,16 +56,25 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     name: "path-wavefront",
     summary: "path's estimator, its paths walked together stage by stage, diffuse shading in lane kernels",
     params: &[MAX_DEPTH, RR_DEPTH, LIGHT_SELECTION],
-    build: |p: &Params| {
-        Box::new(WavefrontPath {
-            max_depth: p.get_depth("max-depth"),
-            rr_depth: p.get_u32("rr-depth"),
-            lights: p.get_light_selection(),
-        })
-    },
+    build: |p: &Params| Box::new(WavefrontPath::new(p, true)),
     analytic: Some(Analytic {
         params: &[],
         furnace: expect(2.0, 40, 500),
+        point_in_sphere: expect(1.0, 40, 500),
+        sphere_under_sky: expect(1.2, 40, 500),
+    }),
+    media: MediaSupport::None,
+    spectral: SpectralSupport::PerSample,
+};
+
+pub const RUSSIAN_ROULETTE_ENTRY: IntegratorEntry = IntegratorEntry {
+    name: "russian-roulette-wavefront",
+    summary: "russian-roulette's estimator (no MIS), its paths walked together stage by stage, diffuse shading in lane kernels",
+    params: &[RR_DEPTH, MAX_DEPTH, LIGHT_SELECTION],
+    build: |p: &Params| Box::new(WavefrontPath::new(p, false)),
+    analytic: Some(Analytic {
+        params: &[],
+        furnace: expect(2.0, 50, 1000),
         point_in_sphere: expect(1.0, 40, 500),
         sphere_under_sky: expect(1.2, 40, 500),
     }),
@@ -74,6 +87,9 @@ pub(crate) struct WavefrontPath {
     rr_depth: u32,
     /// How light samples pick a light (`None`: the scene's choice).
     lights: Option<LightSelection>,
+    /// `path`'s estimator (light samples and emitters reached weighted by the power
+    /// heuristic), or, without, `russian-roulette`'s.
+    mis: bool,
 }
 
 /// What the surface stage decided for a path.
@@ -132,6 +148,27 @@ impl Scratch {
 thread_local! {
     /// Each thread's walk scratch, made once: about 40 kB, too much to build per batch.
     static SCRATCH: std::cell::RefCell<Option<Box<Scratch>>> = const { std::cell::RefCell::new(None) };
+}
+
+impl WavefrontPath {
+    fn new(p: &Params, mis: bool) -> WavefrontPath {
+        WavefrontPath {
+            max_depth: p.get_depth("max-depth"),
+            rr_depth: p.get_u32("rr-depth"),
+            lights: p.get_light_selection(),
+            mis,
+        }
+    }
+
+    /// The weight of emission the path's last segment reached (escaping when `hit` is
+    /// `None`): `path`'s MIS weight, or 1 after a specular bounce and 0 otherwise without MIS.
+    fn emission_weight(&self, lane: &PathState, tracer: &Tracer, hit: Option<&Hit>) -> f32 {
+        match (self.mis, lane.specular) {
+            (true, _) => lane.emission_weight(tracer, hit),
+            (false, true) => 1.0,
+            (false, false) => 0.0,
+        }
+    }
 }
 
 impl RayIntegrator for WavefrontPath {
@@ -235,7 +272,7 @@ impl WavefrontPath {
                 }
             }
             // 3. The diffuse kernels.
-            kernels::light_samples(&w.diffuse, &mut w.shadows);
+            kernels::light_samples(&w.diffuse, self.mis, &mut w.shadows);
             kernels::bsdf_samples(&w.diffuse, &mut w.scatters);
             // 4. The bounce's shadow rays (at most one per path), traced as one batch.
             let (d, sh) = (&w.diffuse, &w.shadows);
@@ -319,18 +356,22 @@ impl WavefrontPath {
         (diffuse, pending, n_pending): (&mut DiffuseRows, &mut [PendingShadow], &mut usize),
     ) -> Next {
         let scene = tracer.scene;
+        let counts = self.mis || lane.specular;
         let Some(hit) = hit else {
             // Escaped: environment light, MIS-weighted unless seen through specular.
-            let le = escaped(scene, &lane.ray, lambda);
+            let le = match counts {
+                true => escaped(scene, &lane.ray, lambda),
+                false => Spectrum::ZERO,
+            };
             if le != Spectrum::ZERO {
-                *out += lane.beta * le * lane.emission_weight(tracer, None);
+                *out += lane.beta * le * self.emission_weight(lane, tracer, None);
             }
             return Next::Done;
         };
-        if hit.light.is_some() {
+        if hit.light.is_some() && counts {
             let le = emitted_at(scene, hit, &lane.ray, lambda);
             if le != Spectrum::ZERO {
-                *out += lane.beta * le * lane.emission_weight(tracer, Some(hit));
+                *out += lane.beta * le * self.emission_weight(lane, tracer, Some(hit));
             }
         }
         if lane.bounces >= self.max_depth {
@@ -358,7 +399,7 @@ impl WavefrontPath {
             return Next::Diffuse;
         }
         if let Some((ls, pmf)) = light {
-            if let Some(shadow) = shadow_of(&sp, &ls, pmf * ls.pdf, lane.beta) {
+            if let Some(shadow) = shadow_of(&sp, &ls, (pmf * ls.pdf, self.mis), lane.beta) {
                 pending[*n_pending] = (index, shadow.0, shadow.1);
                 *n_pending += 1;
             }
@@ -371,16 +412,16 @@ impl WavefrontPath {
 }
 
 /// The shadow ray of light sample `ls` (density `light_pdf`) at `sp` and what it carries if
-/// unoccluded: the BSDF's value weighted by the power heuristic against BSDF sampling, times
-/// the throughput `beta`; `None` where nothing would arrive.
+/// unoccluded: the BSDF's value, weighted by the power heuristic against BSDF sampling with
+/// `mis`, times the throughput `beta`; `None` where nothing would arrive.
 fn shadow_of(
     sp: &ShadingPoint,
     ls: &LightSample,
-    light_pdf: f32,
+    (light_pdf, mis): (f32, bool),
     beta: Spectrum,
 ) -> Option<(Ray, Spectrum)> {
-    let (f, cos, bsdf_pdf) = sp.reflect(ls, true)?;
-    let weight = match ls.delta {
+    let (f, cos, bsdf_pdf) = sp.reflect(ls, mis)?;
+    let weight = match ls.delta || !mis {
         true => 1.0,
         false => crate::sampling::power_heuristic(light_pdf, bsdf_pdf),
     };

@@ -3,11 +3,12 @@ use crate::testing::*;
 
 /// Estimates of `n` camera samples of `scene`'s probe camera, all in one batch (or each in a
 /// batch of its own), each from its own sampler.
-fn estimates(scene: &TestScene, n: u32, one_by_one: bool) -> Vec<Spectrum> {
+fn estimates(scene: &TestScene, n: u32, one_by_one: bool, mis: bool) -> Vec<Spectrum> {
     let integrator = WavefrontPath {
         max_depth: u32::MAX,
         rr_depth: 3,
         lights: None,
+        mis,
     };
     let mut samplers: Vec<Sampler> = (0..n).map(|i| Sampler::new(7, i as u64, 0)).collect();
     let rays: Vec<Ray> = samplers
@@ -36,13 +37,17 @@ fn estimates(scene: &TestScene, n: u32, one_by_one: bool) -> Vec<Spectrum> {
 #[test]
 fn a_path_estimate_does_not_depend_on_its_batch() {
     // Diffuse rows, scalar glass and a light mixed in one batch: each path's estimate is the
-    // same bit for bit alone or among 300 others (five walks of up to 64).
-    for scene in [
+    // same bit for bit alone or among 300 others (five walks of up to 64), with MIS
+    // (`path-wavefront`) and without (`russian-roulette-wavefront`).
+    for (scene, mis) in [
         furnace_with_glass(0.5, 1.0),
         floor_under_sphere_light(0.5, 4.0, 0.5, 2.0),
-    ] {
-        let together = estimates(&scene, 300, false);
-        let alone = estimates(&scene, 300, true);
+    ]
+    .iter()
+    .flat_map(|s| [(s, true), (s, false)])
+    {
+        let together = estimates(scene, 300, false, mis);
+        let alone = estimates(scene, 300, true, mis);
         assert!(together.iter().any(|l| *l != Spectrum::ZERO));
         for (k, (a, b)) in together.iter().zip(&alone).enumerate() {
             assert_eq!(
@@ -64,11 +69,21 @@ fn it_agrees_with_path_where_depth_truncates() {
         1.75,
         8000,
     );
+    for name in ["path-wavefront", "russian-roulette-wavefront"] {
+        expect_mean(
+            name,
+            &[],
+            &floor_under_sphere_light(0.5, 4.0, 0.5, 2.0),
+            0.125,
+            4000,
+        );
+    }
+    // Without MIS, as `russian-roulette`: a glass ball in the furnace is invisible.
     expect_mean(
-        "path-wavefront",
+        "russian-roulette-wavefront",
         &[],
-        &floor_under_sphere_light(0.5, 4.0, 0.5, 2.0),
-        0.125,
-        4000,
+        &furnace_with_glass(0.5, 1.0),
+        2.0,
+        30000,
     );
 }
