@@ -19,6 +19,10 @@
 # input environment variables (SBATCH_PARTITION, SBATCH_ACCOUNT, SBATCH_TIMELIMIT, ...), which
 # apply to both jobs.
 #
+# The parts folder is stamped with the render (DIR/render.stamp: the scene file and a hash of
+# its contents, N, OUT, the raylab flags). A folder stamped by another render is refused (exit
+# 2, both stamps printed); the same render submitted again goes on from its checkpoints.
+#
 # Before submitting anything it asks what every task would refuse, and exits 2 if so: OUT
 # must be .png or .exr and none of the parts; the folders must take a file; and `raylab render
 # --check` runs each task's command line that can be told apart here (shard 0, and every
@@ -115,6 +119,39 @@ for d in "$PARTS" "$(dirname "$OUT")"; do
   rm -f -- "$t"
 done
 
+# The parts folder's stamp: what this render is (the scene file and its contents, N, OUT and
+# the raylab flags; not --cpus, which does not change the image). A folder stamped by another
+# render is refused: its parts and checkpoints are that render's, and two renders writing
+# part-I.exr into one folder would overwrite each other's. The same render submitted again (a
+# shard failed, the jobs were cancelled) finds its own stamp and goes on from its checkpoints.
+# A folder without a stamp (made before stamps, or by hand) is taken and stamped; its
+# checkpoints are still checked below.
+STAMP="$PARTS/render.stamp"
+scene_sum=$(sha256sum <"$SCENE") || bad "cannot read the scene file '$SCENE'"
+stamp=$(
+  printf 'raylab render.sh stamp, format 1\n'
+  printf 'scene %s\n' "$SCENE"
+  printf 'scene sha256 %s\n' "${scene_sum%% *}"
+  printf 'shards %s\n' "$shards"
+  printf 'out %s\n' "$OUT"
+  printf 'flags'
+  [ ${#flags[@]} = 0 ] || printf ' %q' "${flags[@]}"
+  printf '\n'
+)
+if [ -e "$STAMP" ] || [ -L "$STAMP" ]; then
+  [ -f "$STAMP" ] && [ ! -L "$STAMP" ] \
+    || bad "'$STAMP' is not a regular file: remove it, or give another --parts"
+  if [ "$(cat -- "$STAMP")" != "$stamp" ]; then
+    {
+      echo "render.sh: the parts folder '$PARTS' belongs to another render; its stamp says:"
+      sed 's/^/    /' -- "$STAMP"
+      echo "  and this render is:"
+      sed 's/^/    /' <<<"$stamp"
+    } >&2
+    bad "the parts folder '$PARTS' belongs to another render (above): give another --parts or OUT, or remove the folder"
+  fi
+fi
+
 # What every task would refuse, asked of raylab itself: shard 0's command line, and that of
 # every shard with a checkpoint to resume (one of another render is refused), as shard.sbatch
 # runs them, with --check (raylab checks, writes nothing, exits 0 when it would render), on
@@ -138,6 +175,12 @@ if [ "${RAYLAB_SLURM_CHECK:-yes}" != no ]; then
     task=${task%.ckpt}
     [[ $task =~ ^[0-9]+$ ]] && [ "$task" != 0 ] && [ "$task" -lt "$shards" ] && check_task "$task"
   done
+fi
+# Stamped before the jobs exist (atomically: a stamp is whole or absent), so that another
+# render.sh pointed at this folder while they run is refused.
+if [ ! -e "$STAMP" ]; then
+  t=$(mktemp "$PARTS/.render-stamp.XXXXXX") && printf '%s\n' "$stamp" >"$t" && mv -f -- "$t" "$STAMP" \
+    || bad "cannot write the stamp '$STAMP'"
 fi
 SHARDS=$shards
 # The jobs get these through the environment (sbatch's default --export=ALL), not through

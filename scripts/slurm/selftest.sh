@@ -180,5 +180,26 @@ mkdir -p "$tmp/stale" && touch "$tmp/stale/part-1.ckpt"
 stale_ckpt() { STUB_REFUSE_RESUME="cannot resume: the scene or the render settings changed" refused "$@"; }
 stale_ckpt "a stale checkpoint of shard 1" --parts stale scene.ron 2 o.exr
 
+# ---- 7. the parts folder's stamp ---------------------------------------------------------
+stamp="$tmp/ok/out.exr.parts/render.stamp"
+check "stamp: the first render stamped its parts folder" \
+  bash -c "grep -qx 'shards 4' '$stamp' && grep -qx 'flags --spp 16' '$stamp'"
+run ok --wait ../scene.ron 4 out.exr --spp 16
+check "stamp: the same render submitted again is taken (exit $rc)" [ "$rc" = 0 ]
+refused "a parts folder stamped by another render (another N)" \
+  --parts ok/out.exr.parts scene.ron 2 ok/out.exr --spp 16
+refused "a parts folder stamped by another render (other flags)" \
+  --parts ok/out.exr.parts scene.ron 4 ok/out.exr --spp 32
+named() {
+  local said
+  said=$(cd "$tmp" && "$HERE/render.sh" "$@" 2>&1 >/dev/null || true)
+  grep -q "belongs to another render" <<<"$said"
+}
+check "stamp: the refusal says the folder belongs to another render" \
+  named --parts ok/out.exr.parts scene.ron 2 ok/out.exr
+echo edited >>"$tmp/scene.ron"
+refused "a parts folder stamped by the scene before an edit" \
+  --parts ok/out.exr.parts scene.ron 4 ok/out.exr --spp 16
+
 echo "$passed passed, $failed failed"
 [ "$failed" = 0 ]
