@@ -481,22 +481,36 @@ impl Located for Photon {
 pub struct PointGrid<T> {
     /// Items sorted by bucket.
     items: Vec<T>,
-    /// `starts[b]..starts[b + 1]` are the items of bucket `b`.
-    starts: Vec<u32>,
-    inv_cell: f32,
-    radius: f32,
+    cells: Cells,
 }
 
 /// Photons in a hashed grid.
 pub type PhotonMap = PointGrid<Photon>;
 
+/// A hashed grid over points held elsewhere: the indices of a shared array's items, by bucket
+/// (12 bytes per point with the buckets, where a [`PointGrid`] holds a copy of each). Grids of
+/// several radii over one array share its points (`sppm-pixel`'s levels).
+#[derive(Clone, Debug, Default)]
+pub struct GridIndex {
+    /// Indices into the shared array, sorted by bucket.
+    order: Vec<u32>,
+    cells: Cells,
+}
+
+/// The buckets of a hashed grid: `starts[b]..starts[b + 1]` are the places of bucket `b`'s
+/// points in the grid's order.
+#[derive(Clone, Debug, Default)]
+struct Cells {
+    starts: Vec<u32>,
+    inv_cell: f32,
+    radius: f32,
+}
+
 impl<T> Default for PointGrid<T> {
     fn default() -> Self {
         PointGrid {
             items: Vec::new(),
-            starts: Vec::new(),
-            inv_cell: 0.0,
-            radius: 0.0,
+            cells: Cells::default(),
         }
     }
 }
@@ -517,15 +531,15 @@ fn bucket_of(c: [i64; 3], mask: usize) -> usize {
     (h as u64 as usize) & mask
 }
 
-impl<T: Located + Copy + Send + Sync> PointGrid<T> {
-    /// Builds the grid for gathers of radius `radius` (> 0).
-    pub fn build(items: Vec<T>, radius: f32) -> PointGrid<T> {
+impl Cells {
+    /// The buckets of `items` for gathers of radius `radius` (> 0), and the items' order by
+    /// bucket: buckets in parallel, then a counting sort (linear, and stable, so the grid
+    /// does not depend on the thread count).
+    fn build<T: Located + Sync>(items: &[T], radius: f32) -> (Cells, Vec<u32>) {
         let radius = radius.max(f32::MIN_POSITIVE);
         let inv_cell = 1.0 / (2.0 * radius);
         let buckets = (items.len() * 2).next_power_of_two().max(1);
         let mask = buckets - 1;
-        // Buckets in parallel, then a counting sort by bucket (linear, and stable, so the
-        // grid does not depend on the thread count).
         let keys: Vec<u32> = items
             .par_iter()
             .map(|ph| bucket_of(cell_of(ph.position(), inv_cell), mask) as u32)
@@ -543,34 +557,19 @@ impl<T: Located + Copy + Send + Sync> PointGrid<T> {
             order[next[k as usize] as usize] = i as u32;
             next[k as usize] += 1;
         }
-        let sorted = order.iter().map(|&i| items[i as usize]).collect();
-        PointGrid {
-            items: sorted,
+        let cells = Cells {
             starts,
             inv_cell,
             radius,
-        }
+        };
+        (cells, order)
     }
 
-    /// Number of items stored.
-    pub fn len(&self) -> usize {
-        self.items.len()
-    }
-
-    /// True if nothing is stored.
-    pub fn is_empty(&self) -> bool {
-        self.items.is_empty()
-    }
-
-    /// The gather radius the map was built for.
-    pub fn radius(&self) -> f32 {
-        self.radius
-    }
-
-    /// Calls `f` on every item within the grid's radius of `p`, each once.
+    /// Calls `f` with the places (in the grid's order) of the points in every bucket a
+    /// gather of the grid's radius around `p` touches, each bucket once.
     #[inline]
-    pub fn for_each_near(&self, p: Vec3A, mut f: impl FnMut(&T)) {
-        if self.items.is_empty() {
+    fn for_each_bucket_near(&self, p: Vec3A, mut f: impl FnMut(std::ops::Range<usize>)) {
+        if self.starts.len() < 2 {
             return;
         }
         let r = self.radius;
@@ -591,16 +590,110 @@ impl<T: Located + Copy + Send + Sync> PointGrid<T> {
                         seen[n_seen] = b;
                         n_seen += 1;
                     }
-                    let range = self.starts[b] as usize..self.starts[b + 1] as usize;
-                    for ph in &self.items[range] {
-                        if (ph.position() - p).length_squared() < r * r {
-                            f(ph);
-                        }
-                    }
+                    f(self.starts[b] as usize..self.starts[b + 1] as usize);
                 }
             }
         }
     }
+}
+
+impl<T: Located + Copy + Send + Sync> PointGrid<T> {
+    /// Builds the grid for gathers of radius `radius` (> 0).
+    pub fn build(items: Vec<T>, radius: f32) -> PointGrid<T> {
+        let (cells, order) = Cells::build(&items, radius);
+        let sorted = order.iter().map(|&i| items[i as usize]).collect();
+        PointGrid {
+            items: sorted,
+            cells,
+        }
+    }
+
+    /// Number of items stored.
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    /// True if nothing is stored.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// The gather radius the map was built for.
+    pub fn radius(&self) -> f32 {
+        self.cells.radius
+    }
+
+    /// The items, in the grid's order (sorted by bucket).
+    pub fn items(&self) -> &[T] {
+        &self.items
+    }
+
+    /// Calls `f` on every item within the grid's radius of `p`, each once.
+    #[inline]
+    pub fn for_each_near(&self, p: Vec3A, mut f: impl FnMut(&T)) {
+        let r2 = self.cells.radius * self.cells.radius;
+        self.cells.for_each_bucket_near(p, |range| {
+            for ph in &self.items[range] {
+                if (ph.position() - p).length_squared() < r2 {
+                    f(ph);
+                }
+            }
+        });
+    }
+}
+
+/// Points gathered from by position: a grid that holds its points ([`PointGrid`]), or an
+/// index over a shared array ([`Shared`]).
+pub trait Gather<T> {
+    /// Calls `f` on every point within the grid's radius of `p`, each once.
+    fn for_each_near(&self, p: Vec3A, f: impl FnMut(&T));
+}
+
+impl<T: Located + Copy + Send + Sync> Gather<T> for PointGrid<T> {
+    #[inline]
+    fn for_each_near(&self, p: Vec3A, f: impl FnMut(&T)) {
+        PointGrid::for_each_near(self, p, f)
+    }
+}
+
+/// A [`GridIndex`] with the array it was built over.
+pub struct Shared<'a, T> {
+    pub index: &'a GridIndex,
+    pub items: &'a [T],
+}
+
+impl<T: Located> Gather<T> for Shared<'_, T> {
+    #[inline]
+    fn for_each_near(&self, p: Vec3A, f: impl FnMut(&T)) {
+        self.index.for_each_near(self.items, p, f)
+    }
+}
+
+impl GridIndex {
+    /// Builds the grid over `items` for gathers of radius `radius` (> 0).
+    pub fn build<T: Located + Sync>(items: &[T], radius: f32) -> GridIndex {
+        let (cells, order) = Cells::build(items, radius);
+        GridIndex { order, cells }
+    }
+
+    /// Calls `f` on every item of `items` (the array the grid was built over) within the
+    /// grid's radius of `p`, each once, in the order a [`PointGrid`] of the same items
+    /// visits them.
+    #[inline]
+    pub fn for_each_near<T: Located>(&self, items: &[T], p: Vec3A, mut f: impl FnMut(&T)) {
+        let r2 = self.cells.radius * self.cells.radius;
+        self.cells.for_each_bucket_near(p, |range| {
+            for &i in &self.order[range] {
+                let ph = &items[i as usize];
+                if (ph.position() - p).length_squared() < r2 {
+                    f(ph);
+                }
+            }
+        });
+    }
+
+    /// Bytes it holds per point (the index and two buckets).
+    pub const BYTES_PER_POINT: u64 = 12;
 }
 
 impl PhotonMap {
@@ -617,7 +710,7 @@ impl PhotonMap {
                 sum += material.eval(wo, frame.to_local(wi)) * Spectrum::from_array(ph.power);
             }
         });
-        sum / (std::f32::consts::PI * self.radius * self.radius)
+        sum / (std::f32::consts::PI * self.radius() * self.radius())
     }
 }
 
@@ -637,34 +730,34 @@ impl PhotonMap {
         wo: Vec3A,
         accept: impl Fn(&Photon) -> bool,
     ) -> Spectrum {
-        let (sum, _) = self.scattered_within(scene, (p, wo, medium), self.radius, accept);
-        sum / (4.0 / 3.0 * std::f32::consts::PI * self.radius.powi(3))
+        let (sum, _) = scattered_within(self, scene, (p, wo, medium), self.radius(), accept);
+        sum / (4.0 / 3.0 * std::f32::consts::PI * self.radius().powi(3))
     }
+}
 
-    /// The flux the photons that landed in `medium` within `radius` (at most the map's) of
-    /// `p` and that `accept` admits scatter towards `wo`, `sum phase(wo, wi) Phi` (their
-    /// powers over `sigma_s` where they landed), and their number.
-    pub fn scattered_within(
-        &self,
-        scene: &dyn Scene,
-        (p, wo, medium): (Vec3A, Vec3A, MediumId),
-        radius: f32,
-        accept: impl Fn(&Photon) -> bool,
-    ) -> (Spectrum, u32) {
-        let Some(m) = scene.medium(medium) else {
-            return (Spectrum::ZERO, 0);
-        };
-        let phase = m.phase();
-        let (mut sum, mut count) = (Spectrum::ZERO, 0u32);
-        let r2 = radius * radius;
-        self.for_each_near(p, |ph| {
-            if ph.medium == medium && accept(ph) && (Vec3A::from(ph.p) - p).length_squared() < r2 {
-                sum += phase.eval(wo, Vec3A::from(ph.wi)) * Spectrum::from_array(ph.power);
-                count += 1;
-            }
-        });
-        (sum, count)
-    }
+/// The flux the photons of `grid` that landed in `medium` within `radius` (at most the
+/// grid's) of `p` and that `accept` admits scatter towards `wo`, `sum phase(wo, wi) Phi`
+/// (their powers over `sigma_s` where they landed), and their number.
+pub fn scattered_within(
+    grid: &impl Gather<Photon>,
+    scene: &dyn Scene,
+    (p, wo, medium): (Vec3A, Vec3A, MediumId),
+    radius: f32,
+    accept: impl Fn(&Photon) -> bool,
+) -> (Spectrum, u32) {
+    let Some(m) = scene.medium(medium) else {
+        return (Spectrum::ZERO, 0);
+    };
+    let phase = m.phase();
+    let (mut sum, mut count) = (Spectrum::ZERO, 0u32);
+    let r2 = radius * radius;
+    grid.for_each_near(p, |ph| {
+        if ph.medium == medium && accept(ph) && (Vec3A::from(ph.p) - p).length_squared() < r2 {
+            sum += phase.eval(wo, Vec3A::from(ph.wi)) * Spectrum::from_array(ph.power);
+            count += 1;
+        }
+    });
+    (sum, count)
 }
 
 /// A photon set split by where its photons landed: on surfaces, and in media (kept in the
@@ -726,6 +819,42 @@ mod tests {
                 .map(|p| p.power[0] as u32)
                 .collect();
             assert_eq!(found, expected, "around {q:?}");
+        }
+    }
+
+    #[test]
+    fn an_index_over_shared_photons_finds_what_a_grid_of_them_finds_in_its_order() {
+        // `sppm-pixel`'s levels: indices of several radii over one array, each visiting
+        // exactly the photons (and in the order) a grid holding its own copy visits.
+        let mut s = Sampler::new(5, 0, 0);
+        let photons: Vec<Photon> = (0..4000)
+            .map(|i| Photon {
+                p: Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.0 - 1.0,
+                wi: Vec3::Z,
+                power: [i as f32; 4],
+                bounces: 0,
+                caustic: false,
+                medium: MediumId::VACUUM,
+            })
+            .collect();
+        let shared = PhotonMap::build(photons.clone(), 0.4);
+        for radius in [0.4, 0.2, 0.1, 0.05] {
+            let own = PhotonMap::build(shared.items().to_vec(), radius);
+            let index = GridIndex::build(shared.items(), radius);
+            let view = Shared {
+                index: &index,
+                items: shared.items(),
+            };
+            let mut nonempty = 0;
+            for _ in 0..200 {
+                let q = Vec3A::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.4 - 1.2;
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                own.for_each_near(q, |p| a.push(p.power[0] as u32));
+                view.for_each_near(q, |p| b.push(p.power[0] as u32));
+                assert_eq!(a, b, "radius {radius} around {q:?}");
+                nonempty += usize::from(!a.is_empty());
+            }
+            assert!(nonempty > 20, "radius {radius}: {nonempty} gathers found photons");
         }
     }
 

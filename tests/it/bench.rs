@@ -23,11 +23,20 @@ fn bench_reports_every_case_and_dumps_triangles_and_rays() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for case in ["report-room", "cornell-box", "icosphere-1m", "instances"] {
         for kind in ["coherent", "incoherent"] {
-            let lines = text
-                .lines()
-                .filter(|l| l.starts_with(case) && l.contains(&format!(" {kind} ")))
-                .count();
-            assert_eq!(lines, 2, "{case} {kind}: one line per thread count\n{text}");
+            let of_kind = || {
+                text.lines()
+                    .filter(|l| l.starts_with(case) && l.contains(&format!(" {kind} ")))
+            };
+            let (batches, rows): (Vec<&str>, Vec<&str>) =
+                of_kind().partition(|l| l.contains("in batches of 64"));
+            assert_eq!(
+                rows.len(),
+                2,
+                "{case} {kind}: one line per thread count\n{text}"
+            );
+            // The same rays in batches (the wavefront's traversal), beside each thread count.
+            assert_eq!(batches.len(), 2, "{case} {kind}: batches\n{text}");
+            assert!(batches.iter().all(|l| l.contains("x one by one")), "{text}");
         }
         assert!(
             text.lines()

@@ -48,8 +48,8 @@ use crate::integrator::Work;
 use crate::integrator::{Demand, Integrator, ShadingPoint};
 use crate::integrator::{Stop, Tracer};
 use crate::photon_map::{
-    auto_radius, land, photon_map_bytes, split_by_place, trace_photons, Keep, Photon, PhotonMap,
-    PhotonPass, Spot,
+    auto_radius, land, photon_map_bytes, scattered_within, split_by_place, trace_photons, Gather,
+    GridIndex, Keep, Photon, PhotonMap, PhotonPass, Shared, Spot,
 };
 use crate::registry::{
     expect, Analytic, IntegratorEntry, MediaSupport, ParamKind, ParamSpec, Params, SpectralSupport,
@@ -309,15 +309,22 @@ impl SppmPixel {
             return rays;
         }
         let (photons, in_media) = split_by_place(photons);
-        let build = |photons: &Vec<Photon>, levels: &std::collections::BTreeSet<usize>| {
-            let mut maps: Vec<Option<PhotonMap>> = vec![None; levels.last().map_or(0, |l| l + 1)];
+        // One array of photons for all levels, each level an index over it (12 bytes a photon
+        // where a map of its own would copy them, 48). The array is sorted by level 0's
+        // buckets, whose cells hold each finer level's, so that a gather's photons lie close
+        // together in memory at every level. Level 0's radius is the scene's, not the pixels',
+        // so a shard of rows sorts them as the whole image does.
+        let levels_over = |photons: Vec<Photon>, levels: &std::collections::BTreeSet<usize>| {
+            let sorted = PhotonMap::build(photons, level_radius(r0, 0));
+            let mut index: Vec<Option<GridIndex>> = vec![None; levels.last().map_or(0, |l| l + 1)];
             for &level in levels {
-                maps[level] = Some(PhotonMap::build(photons.clone(), level_radius(r0, level)));
+                index[level] = Some(GridIndex::build(sorted.items(), level_radius(r0, level)));
             }
-            maps
+            (sorted, index)
         };
-        let maps = build(&photons, &surface_levels);
-        let volume_maps = build(&in_media, &medium_levels);
+        let (photons, maps) = levels_over(photons, &surface_levels);
+        let (in_media, volume_maps) = levels_over(in_media, &medium_levels);
+
         // Each pixel gathers the photons within its own radius and updates its estimate.
         let (gamma, n) = (self.gamma, pass as f32 + 1.0);
         let direct: Vec<Rgb> = direct
@@ -345,12 +352,12 @@ impl SppmPixel {
                     let max_photon_bounces = max_depth.saturating_sub(v.bounces + 1);
                     match v.at {
                         Spot::Surface(hit) => {
-                            let map = maps.get(level_of(px.surface.radius, r0));
-                            if let Some(map) = map.and_then(Option::as_ref) {
+                            let level = level_of(px.surface.radius, r0);
+                            if let Some(map) = level_map(&maps, &photons, level) {
                                 let mut at = lambda;
                                 let sp = ShadingPoint::new(&hit, v.ray.dir, scene, &mut at);
                                 let (flux, count) =
-                                    gather(map, &sp, px.surface.radius, max_photon_bounces);
+                                    gather(&map, &sp, px.surface.radius, max_photon_bounces);
                                 let flux = at.to_rgb(v.beta * flux);
                                 if count > 0 && flux.is_finite() {
                                     px.surface.update(flux, count, gamma, 2);
@@ -358,9 +365,10 @@ impl SppmPixel {
                             }
                         }
                         Spot::Medium(p) => {
-                            let map = volume_maps.get(level_of(px.medium.radius, r0));
-                            if let Some(map) = map.and_then(Option::as_ref) {
-                                let (flux, count) = map.scattered_within(
+                            let level = level_of(px.medium.radius, r0);
+                            if let Some(map) = level_map(&volume_maps, &in_media, level) {
+                                let (flux, count) = scattered_within(
+                                    &map,
                                     scene,
                                     (p, -v.ray.dir, v.ray.medium),
                                     px.medium.radius,
@@ -384,9 +392,28 @@ impl SppmPixel {
     }
 }
 
+/// Levels of photon maps [`SppmPixel::demand`] counts: a pixel's radius shrinks by at most
+/// `sqrt(gamma)` a pass and in practice far slower (`r ~ n^((gamma - 1) / 2)` where photons
+/// arrive), so pixels spread over a few levels; each level more in use costs
+/// [`GridIndex::BYTES_PER_POINT`] bytes a photon.
+const LEVELS_COUNTED: u64 = 12;
+
 /// Levels of photon maps below the first radius: 2^-40 of it is far below any radius a
 /// render reaches.
 const MAX_LEVEL: usize = 40;
+
+/// Level `level`'s grid over `photons` (sorted as the grids were built over them), if the
+/// level is in use.
+fn level_map<'a>(
+    maps: &'a [Option<GridIndex>],
+    photons: &'a PhotonMap,
+    level: usize,
+) -> Option<Shared<'a, Photon>> {
+    Some(Shared {
+        index: maps.get(level)?.as_ref()?,
+        items: photons.items(),
+    })
+}
 
 /// The cell radius of photon-map level `level`: `r0 / 2^level`.
 fn level_radius(r0: f32, level: usize) -> f32 {
@@ -404,7 +431,12 @@ fn level_of(radius: f32, r0: f32) -> usize {
 
 /// The flux the photons within `radius` of the visible point `sp` bring towards its viewer
 /// (`sum f Phi`), and their number; photons of more than `max_bounces` bounces are skipped.
-fn gather(map: &PhotonMap, sp: &ShadingPoint, radius: f32, max_bounces: u32) -> (Spectrum, u32) {
+fn gather(
+    map: &impl Gather<Photon>,
+    sp: &ShadingPoint,
+    radius: f32,
+    max_bounces: u32,
+) -> (Spectrum, u32) {
     let (mut flux, mut count) = (Spectrum::ZERO, 0u32);
     let r2 = radius * radius;
     map.for_each_near(sp.hit.p, |ph| {
@@ -541,7 +573,9 @@ impl Integrator for SppmPixel {
     fn demand(&self) -> Demand {
         Demand {
             rays_per_sample: 1.0,
-            memory: photon_map_bytes(self.photons as u64),
+            // The photons, held twice while sorted, and the levels' indices over them.
+            memory: photon_map_bytes(self.photons as u64)
+                + self.photons as u64 * LEVELS_COUNTED * GridIndex::BYTES_PER_POINT,
             memory_per_pixel: std::mem::size_of::<Pixel>() as u64 + 16,
             ..Demand::default()
         }
