@@ -854,7 +854,10 @@ mod tests {
                 assert_eq!(a, b, "radius {radius} around {q:?}");
                 nonempty += usize::from(!a.is_empty());
             }
-            assert!(nonempty > 20, "radius {radius}: {nonempty} gathers found photons");
+            assert!(
+                nonempty > 20,
+                "radius {radius}: {nonempty} gathers found photons"
+            );
         }
     }
 
