@@ -794,10 +794,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn grid_finds_exactly_the_photons_within_the_radius() {
-        let mut s = Sampler::new(3, 0, 0);
-        let photons: Vec<Photon> = (0..5000)
+    /// `n` photons scattered in [-1, 1]^3, each numbered by its power.
+    fn numbered_photons(s: &mut Sampler, n: u32) -> Vec<Photon> {
+        (0..n)
             .map(|i| Photon {
                 p: Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.0 - 1.0,
                 wi: Vec3::Z,
@@ -806,7 +805,13 @@ mod tests {
                 caustic: false,
                 medium: MediumId::VACUUM,
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn grid_finds_exactly_the_photons_within_the_radius() {
+        let mut s = Sampler::new(3, 0, 0);
+        let photons = numbered_photons(&mut s, 5000);
         let map = PhotonMap::build(photons.clone(), 0.13);
         for _ in 0..200 {
             let q = Vec3A::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.4 - 1.2;
@@ -827,17 +832,7 @@ mod tests {
         // `sppm-pixel`'s levels: indices of several radii over one array, each visiting
         // exactly the photons (and in the order) a grid holding its own copy visits.
         let mut s = Sampler::new(5, 0, 0);
-        let photons: Vec<Photon> = (0..4000)
-            .map(|i| Photon {
-                p: Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.0 - 1.0,
-                wi: Vec3::Z,
-                power: [i as f32; 4],
-                bounces: 0,
-                caustic: false,
-                medium: MediumId::VACUUM,
-            })
-            .collect();
-        let shared = PhotonMap::build(photons.clone(), 0.4);
+        let shared = PhotonMap::build(numbered_photons(&mut s, 4000), 0.4);
         for radius in [0.4, 0.2, 0.1, 0.05] {
             let own = PhotonMap::build(shared.items().to_vec(), radius);
             let index = GridIndex::build(shared.items(), radius);

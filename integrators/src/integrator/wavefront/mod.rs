@@ -44,8 +44,7 @@ use crate::integrator::{
 };
 use crate::light::{LightSample, LightSelection};
 use crate::registry::{
-    expect, Analytic, IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION,
-    MAX_DEPTH, RR_DEPTH,
+    IntegratorEntry, MediaSupport, Params, SpectralSupport, LIGHT_SELECTION, MAX_DEPTH, RR_DEPTH,
 };
 use crate::spectrum::Wavelengths;
 use crate::{Hit, Ray, Sampler, Spectrum};
@@ -57,12 +56,8 @@ pub const ENTRY: IntegratorEntry = IntegratorEntry {
     summary: "path's estimator, its paths walked together stage by stage, diffuse shading in lane kernels",
     params: &[MAX_DEPTH, RR_DEPTH, LIGHT_SELECTION],
     build: |p: &Params| Box::new(WavefrontPath::new(p, true)),
-    analytic: Some(Analytic {
-        params: &[],
-        furnace: expect(2.0, 40, 500),
-        point_in_sphere: expect(1.0, 40, 500),
-        sphere_under_sky: expect(1.2, 40, 500),
-    }),
+    // `path`'s estimator: `path`'s analytic expectations.
+    analytic: super::path::ENTRY.analytic,
     media: MediaSupport::None,
     spectral: SpectralSupport::PerSample,
 };
@@ -72,12 +67,7 @@ pub const RUSSIAN_ROULETTE_ENTRY: IntegratorEntry = IntegratorEntry {
     summary: "russian-roulette's estimator (no MIS), its paths walked together stage by stage, diffuse shading in lane kernels",
     params: &[RR_DEPTH, MAX_DEPTH, LIGHT_SELECTION],
     build: |p: &Params| Box::new(WavefrontPath::new(p, false)),
-    analytic: Some(Analytic {
-        params: &[],
-        furnace: expect(2.0, 50, 1000),
-        point_in_sphere: expect(1.0, 40, 500),
-        sphere_under_sky: expect(1.2, 40, 500),
-    }),
+    analytic: super::russian_roulette::ENTRY.analytic,
     media: MediaSupport::None,
     spectral: SpectralSupport::PerSample,
 };
