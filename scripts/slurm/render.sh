@@ -176,11 +176,22 @@ if [ "${RAYLAB_SLURM_CHECK:-yes}" != no ]; then
     [[ $task =~ ^[0-9]+$ ]] && [ "$task" != 0 ] && [ "$task" -lt "$shards" ] && check_task "$task"
   done
 fi
-# Stamped before the jobs exist (atomically: a stamp is whole or absent), so that another
-# render.sh pointed at this folder while they run is refused.
+# Stamped before the jobs exist, so that another render.sh pointed at this folder while they
+# run is refused. Written whole into a temporary file, then linked to its name: `ln` fails if
+# the name exists, so of two render.sh stamping an empty folder at once only one wins, and
+# the other compares. (Where the file system has no hard links, it is moved into place.)
 if [ ! -e "$STAMP" ]; then
-  t=$(mktemp "$PARTS/.render-stamp.XXXXXX") && printf '%s\n' "$stamp" >"$t" && mv -f -- "$t" "$STAMP" \
+  t=$(mktemp "$PARTS/.render-stamp.XXXXXX") && printf '%s\n' "$stamp" >"$t" \
     || bad "cannot write the stamp '$STAMP'"
+  if ! ln -- "$t" "$STAMP" 2>/dev/null; then
+    if [ -e "$STAMP" ]; then
+      [ "$(cat -- "$STAMP")" = "$stamp" ] \
+        || { rm -f -- "$t"; bad "another render stamped the parts folder '$PARTS' just now: give another --parts"; }
+    else
+      mv -f -- "$t" "$STAMP" || bad "cannot write the stamp '$STAMP'"
+    fi
+  fi
+  rm -f -- "$t"
 fi
 SHARDS=$shards
 # The jobs get these through the environment (sbatch's default --export=ALL), not through
