@@ -279,39 +279,8 @@ fn batches_through_instances_find_what_each_ray_finds() {
         crate::accel::Accel::Raylab(w) => w.stream_from = 0,
         crate::accel::Accel::Obvhs(_) => unreachable!(),
     }
-    let mut sampler = Sampler::new(23, 0, 0);
-    let rays: Vec<Ray> = (0..2000)
-        .map(|i| {
-            let origin =
-                Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 14.0 - 7.0;
-            let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
-            let tmax = if i % 2 == 0 { f32::INFINITY } else { 4.0 };
-            Ray {
-                tmax,
-                ..Ray::new(origin, dir)
-            }
-        })
-        .collect();
-    let (mut hits, mut blocked) = (vec![None; rays.len()], vec![false; rays.len()]);
-    for (rays, (hits, blocked)) in rays
-        .chunks(64)
-        .zip(hits.chunks_mut(64).zip(blocked.chunks_mut(64)))
-    {
-        scene.intersect_all(rays, hits);
-        scene.occluded_all(rays, blocked);
-    }
-    let (mut found, mut stopped) = (0, 0);
-    for (k, ray) in rays.iter().enumerate() {
-        let one = scene.intersect(ray);
-        assert_eq!(
-            one.map(|h| (h.t.to_bits(), h.p, h.material)),
-            hits[k].map(|h| (h.t.to_bits(), h.p, h.material)),
-            "ray {k}"
-        );
-        assert_eq!(scene.occluded(ray), blocked[k], "ray {k}");
-        found += usize::from(one.is_some());
-        stopped += usize::from(blocked[k]);
-    }
+    let rays = super::tests::random_rays(23, 2000, 7.0, 4.0);
+    let (found, stopped) = super::tests::batches_match_single_rays(&scene, &rays, 64);
     assert!(
         found > 400 && stopped > 400,
         "{found} hits, {stopped} blocked"

@@ -262,41 +262,62 @@ fn batches_of_rays_find_what_each_ray_finds() {
         variant(false, true),
         RenderScene::build_with(&loaded, AccelKind::Obvhs),
     ];
-    let mut sampler = Sampler::new(5, 0, 0);
-    let rays: Vec<Ray> = (0..300)
-        .map(|i| {
-            let origin =
-                Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d()) * 12.0 - 6.0;
-            let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
-            let tmax = if i % 2 == 0 { f32::INFINITY } else { 3.0 };
-            Ray {
-                tmax,
-                ..Ray::new(origin, dir)
-            }
-        })
-        .collect();
+    let rays = random_rays(5, 300, 6.0, 3.0);
     for scene in &scenes {
-        let mut hits = vec![None; rays.len()];
-        let mut blocked = vec![false; rays.len()];
-        scene.intersect_all(&rays, &mut hits);
-        scene.occluded_all(&rays, &mut blocked);
-        let (mut found, mut stopped) = (0, 0);
-        for (k, ray) in rays.iter().enumerate() {
-            let one = scene.intersect(ray);
-            assert_eq!(
-                one.map(|h| (h.t.to_bits(), h.p, h.material)),
-                hits[k].map(|h| (h.t.to_bits(), h.p, h.material)),
-                "ray {k}"
-            );
-            assert_eq!(scene.occluded(ray), blocked[k], "ray {k}");
-            found += usize::from(one.is_some());
-            stopped += usize::from(blocked[k]);
-        }
+        let (found, stopped) = batches_match_single_rays(scene, &rays, rays.len());
         assert!(
             found > 50 && found < 280 && stopped > 50,
             "{found} hits, {stopped} blocked"
         );
     }
+}
+
+/// `n` rays from points in the cube of half-width `half` around the origin, in uniform
+/// directions; every other ray ends at `short` (the others never).
+pub(super) fn random_rays(seed: u64, n: usize, half: f32, short: f32) -> Vec<Ray> {
+    let mut sampler = Sampler::new(seed, 0, 0);
+    (0..n)
+        .map(|i| {
+            let u = Vec3A::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d());
+            let dir = raylab_integrators::sampling::uniform_sphere(sampler.next_2d());
+            let tmax = if i % 2 == 0 { f32::INFINITY } else { short };
+            Ray {
+                tmax,
+                ..Ray::new(u * (2.0 * half) - half, dir)
+            }
+        })
+        .collect()
+}
+
+/// Traces `rays` through `scene` in batches of `batch` (`intersect_all`, `occluded_all`) and
+/// asserts that each ray's answers are the single ray's, bit for bit; returns how many rays
+/// hit and how many were blocked.
+pub(super) fn batches_match_single_rays(
+    scene: &RenderScene,
+    rays: &[Ray],
+    batch: usize,
+) -> (usize, usize) {
+    let (mut hits, mut blocked) = (vec![None; rays.len()], vec![false; rays.len()]);
+    for (rays, (hits, blocked)) in rays
+        .chunks(batch)
+        .zip(hits.chunks_mut(batch).zip(blocked.chunks_mut(batch)))
+    {
+        scene.intersect_all(rays, hits);
+        scene.occluded_all(rays, blocked);
+    }
+    let (mut found, mut stopped) = (0, 0);
+    for (k, ray) in rays.iter().enumerate() {
+        let one = scene.intersect(ray);
+        assert_eq!(
+            one.map(|h| (h.t.to_bits(), h.p, h.material)),
+            hits[k].map(|h| (h.t.to_bits(), h.p, h.material)),
+            "ray {k}"
+        );
+        assert_eq!(scene.occluded(ray), blocked[k], "ray {k}");
+        found += usize::from(one.is_some());
+        stopped += usize::from(blocked[k]);
+    }
+    (found, stopped)
 }
 
 #[test]

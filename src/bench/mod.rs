@@ -176,27 +176,36 @@ fn rays_per_second(
 /// Rays of `chunk` that hit something, traced in batches of [`BATCH`] as the wavefront
 /// integrators trace them ([`Scene::intersect_all`]).
 fn batch_hits(scene: &RenderScene, chunk: &[Ray]) -> usize {
-    let mut hits = [None; BATCH];
-    chunk
-        .chunks(BATCH)
-        .map(|rays| {
-            let hits = &mut hits[..rays.len()];
-            scene.intersect_all(rays, hits);
-            hits.iter().filter(|h| h.is_some()).count()
-        })
-        .sum()
+    in_batches(
+        chunk,
+        |rays, hits| scene.intersect_all(rays, hits),
+        Option::is_some,
+    )
 }
 
 /// Rays of `chunk` that something blocks, in batches as [`batch_hits`] traces them
 /// ([`Scene::occluded_all`]).
 fn batch_blocked(scene: &RenderScene, chunk: &[Ray]) -> usize {
-    let mut blocked = [false; BATCH];
+    in_batches(
+        chunk,
+        |rays, blocked| scene.occluded_all(rays, blocked),
+        |&b| b,
+    )
+}
+
+/// How many answers of `trace`, run on `chunk` in batches of [`BATCH`], are `yes`.
+fn in_batches<T: Copy + Default>(
+    chunk: &[Ray],
+    mut trace: impl FnMut(&[Ray], &mut [T]),
+    yes: impl Fn(&T) -> bool,
+) -> usize {
+    let mut answers = [T::default(); BATCH];
     chunk
         .chunks(BATCH)
         .map(|rays| {
-            let blocked = &mut blocked[..rays.len()];
-            scene.occluded_all(rays, blocked);
-            blocked.iter().filter(|&&b| b).count()
+            let answers = &mut answers[..rays.len()];
+            trace(rays, answers);
+            answers.iter().filter(|a| yes(a)).count()
         })
         .sum()
 }
