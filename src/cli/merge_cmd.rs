@@ -7,8 +7,9 @@
 use super::MergeArgs;
 use crate::output::{self, plan::FilePlan};
 use crate::render::shard_file::{self, ShardInfo};
-use crate::render::{Accumulation, Part};
+use crate::render::{Part, PixelTotals};
 use anyhow::{bail, Context, Result};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -30,24 +31,61 @@ pub fn merge(args: &MergeArgs) -> Result<ExitCode> {
         .collect::<Result<Vec<_>>>()?;
     check_parts(&args.parts, &infos)?;
 
-    // The exact sums, shard after shard (in any order: they are exact): the merged sums and
-    // one part's channels in memory at once.
+    // The exact sums, block of lines after block of lines: every part is read side by side,
+    // one block of each at a time (in any order: the sums are exact), so memory holds the
+    // image (mean and variance) and a block per part, whatever the number of parts.
     let first = &infos[0];
-    let part_bytes = (first.width as u64 * first.height as u64) * 4 * 84;
-    crate::render::check_memory(first.width, first.height, part_bytes)?;
-    let mut acc = Accumulation::new(first.width, first.height);
-    for (path, info) in args.parts.iter().zip(&infos) {
-        shard_file::add_sums(path, info, &mut acc)
-            .with_context(|| format!("{}: cannot merge", path.display()))?;
-        acc.dropped.add(info.dropped);
+    let (width, height) = (first.width, first.height);
+    check_room(width, height, args.parts.len())?;
+    let cannot = |path: &Path| format!("{}: cannot merge", path.display());
+    let mut sums = args
+        .parts
+        .iter()
+        .zip(&infos)
+        .map(|(path, info)| shard_file::Sums::open(path, info).with_context(|| cannot(path)))
+        .collect::<Result<Vec<_>>>()?;
+    let lines = sums[0].lines_per_block();
+    let mut dropped = crate::render::Dropped::default();
+    for info in &infos {
+        dropped.add(info.dropped);
     }
-    acc.spp_done = first.spp;
-    let film = acc.film();
+    let n = first.spp;
+    let mut film = output::Film::new(width, height);
+    film.has_variance = n >= 2;
+    film.variance_samples = n;
+    let w = width as usize;
+    let mut totals = vec![PixelTotals::default(); w * lines as usize];
+    // Parts are decoded side by side, as many at once as there are threads.
+    let at_once = rayon::current_num_threads().max(1);
+    for y0 in (0..height).step_by(lines as usize) {
+        let rows = lines.min(height - y0);
+        let block = &mut totals[..w * rows as usize];
+        block.fill(PixelTotals::default());
+        for (group, paths) in sums.chunks_mut(at_once).zip(args.parts.chunks(at_once)) {
+            let decoded = group
+                .par_iter_mut()
+                .zip(paths)
+                .map(|(part, path)| part.next_block(y0, rows).with_context(|| cannot(path)))
+                .collect::<Result<Vec<_>>>()?;
+            block.par_chunks_mut(w).enumerate().for_each(|(line, row)| {
+                for part in &decoded {
+                    part.add_line(line as u32, row);
+                }
+            });
+        }
+        let at = y0 as usize * w;
+        for (k, t) in block.iter().enumerate() {
+            let (mean, var) = t.finish(n);
+            film.pixels[at + k] = mean;
+            film.variance[at + k] = var;
+        }
+    }
+    drop(totals);
     output::write_image(&args.output, &film, first.display)?;
-    if let Some(bad) = acc.dropped.first {
+    if let Some(bad) = dropped.first {
         note!(
             "warning: the render dropped {} non-finite or out-of-range sample(s); first at pixel ({}, {}) sample {}",
-            acc.dropped.count,
+            dropped.count,
             bad.x,
             bad.y,
             bad.sample
@@ -71,6 +109,26 @@ pub fn merge(args: &MergeArgs) -> Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Refuses a merge whose memory would not fit: the image's mean and variance and their copy
+/// while the output is encoded (about 64 bytes a pixel), and a block of lines of each part
+/// (its 84 channels and their sums, 16 lines at most).
+fn check_room(width: u32, height: u32, parts: usize) -> Result<()> {
+    let image = width as u64 * height as u64 * 64;
+    let blocks = (parts as u64 + 2) * width as u64 * 16 * (84 * 4 * 2 + 312);
+    let needed = image + blocks;
+    if let Some((room, what)) = crate::system::memory_limit() {
+        if needed > room {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+            bail!(
+                "merging {parts} parts of {width}x{height} needs {:.1} GiB of memory; only {:.1} GiB is {what}",
+                gib(needed),
+                gib(room)
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Checks that the parts are the shards of one render, each once, each complete, and all

@@ -3,6 +3,7 @@
 //! failure never leaves a partial file and an old file survives intact.
 
 pub mod atomic;
+pub mod exr_blocks;
 pub mod exr_file;
 pub mod film;
 pub mod plan;

@@ -145,18 +145,25 @@ fn write_to(acc: &Accumulation, hash: u64, out: &mut impl Write) -> std::io::Res
     out.write_all(&sum.finish().to_le_bytes())
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
+/// A checkpoint's bytes as they are read, with the checksum of those read so far.
+struct Source<R> {
+    inner: R,
+    sum: Checksum,
 }
 
-impl Reader<'_> {
+impl<R: std::io::Read> Source<R> {
+    /// Fills `buf` from the file (without the checksum).
+    fn fill(&mut self, buf: &mut [u8]) -> Result<()> {
+        self.inner.read_exact(buf).map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => anyhow::anyhow!("the file is truncated"),
+            _ => anyhow::anyhow!("the file is damaged, or not a raylab checkpoint ({e})"),
+        })
+    }
     fn take<const N: usize>(&mut self) -> Result<[u8; N]> {
-        if self.bytes.len() < N {
-            bail!("the file is truncated");
-        }
-        let (head, rest) = self.bytes.split_at(N);
-        self.bytes = rest;
-        Ok(head.try_into().expect("split at N"))
+        let mut b = [0u8; N];
+        self.fill(&mut b)?;
+        self.sum.update(&b);
+        Ok(b)
     }
     fn u32(&mut self) -> Result<u32> {
         Ok(u32::from_le_bytes(self.take()?))
@@ -164,21 +171,59 @@ impl Reader<'_> {
     fn u64(&mut self) -> Result<u64> {
         Ok(u64::from_le_bytes(self.take()?))
     }
-    fn f64(&mut self) -> Result<f64> {
-        Ok(f64::from_le_bytes(self.take()?))
+    /// Whether the stored checksum, next in the file, is that of the bytes read so far.
+    fn checksum_matches(&mut self) -> Result<bool> {
+        let mut stored = [0u8; 8];
+        self.fill(&mut stored)?;
+        Ok(self.sum.clone().finish() == u64::from_le_bytes(stored))
     }
-    fn dvec3(&mut self) -> Result<glam::DVec3> {
-        Ok(glam::DVec3::new(self.f64()?, self.f64()?, self.f64()?))
+    /// Whether the file ends here.
+    fn at_end(&mut self) -> Result<bool> {
+        let mut one = [0u8; 1];
+        Ok(self.inner.read(&mut one)? == 0)
     }
-    fn exact(&mut self) -> Result<Exact> {
-        Ok(Exact::from_le_bytes(self.take()?))
+    /// Reads the rest of the file, and whether its last 8 bytes are the checksum of all
+    /// before them (a checkpoint of other settings, or damaged?).
+    fn rest_is_intact(&mut self) -> Result<bool> {
+        let mut last = Vec::with_capacity(8);
+        let mut buf = vec![0u8; 1 << 16];
+        loop {
+            let n = self.inner.read(&mut buf)?;
+            if n == 0 {
+                break;
+            }
+            last.extend_from_slice(&buf[..n]);
+            if last.len() > 8 {
+                let cut = last.len() - 8;
+                self.sum.update(&last[..cut]);
+                last.drain(..cut);
+            }
+        }
+        let Ok(stored) = <[u8; 8]>::try_from(last.as_slice()) else {
+            return Ok(false);
+        };
+        Ok(self.sum.clone().finish() == u64::from_le_bytes(stored))
     }
 }
 
+/// Bytes of a checkpoint of `width x height` pixels.
+fn checkpoint_bytes(width: u32, height: u32) -> u64 {
+    8 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 1 + 12 + width as u64 * height as u64 * PIXEL_BYTES + 8
+}
+
 /// Restores an accumulation for an image of `width x height` rendered with settings hash
-/// `hash`; refuses a file made with other settings.
-pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumulation> {
-    let mut r = Reader { bytes };
+/// `hash` from the bytes of `read` as they come (no copy of the file in memory); refuses a
+/// file made with other settings, or damaged.
+fn decode_from(
+    read: impl std::io::Read,
+    hash: u64,
+    width: u32,
+    height: u32,
+) -> Result<Accumulation> {
+    let mut r = Source {
+        inner: read,
+        sum: Checksum::new(),
+    };
     if &r.take::<8>()? != MAGIC {
         bail!("not a raylab checkpoint");
     }
@@ -186,23 +231,16 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
     if version != VERSION {
         bail!("checkpoint version {version}, this raylab reads version {VERSION}");
     }
-    if bytes.len() < 20 {
-        bail!("the file is truncated");
-    }
-    let (body, sum) = bytes.split_at(bytes.len() - 8);
-    let mut stored = [0u8; 8];
-    stored.copy_from_slice(sum);
-    let mut checksum = Checksum::new();
-    checksum.update(body);
-    if checksum.finish() != u64::from_le_bytes(stored) {
-        bail!("the file is damaged (its checksum does not match)");
-    }
-    let mut r = Reader { bytes: &body[12..] };
-    if r.u64()? != hash {
-        bail!("the scene or the render settings changed since the checkpoint was written (integrator, parameters, spp, seed, resolution, the scene file and the mesh files it names must match)");
-    }
+    let stored_hash = r.u64()?;
     let (w, h) = (r.u32()?, r.u32()?);
-    if (w, h) != (width, height) {
+    // Another render's checkpoint, or a damaged one: the checksum tells.
+    if stored_hash != hash || (w, h) != (width, height) {
+        if !r.rest_is_intact()? {
+            bail!("the file is damaged (its checksum does not match)");
+        }
+        if stored_hash != hash {
+            bail!("the scene or the render settings changed since the checkpoint was written (integrator, parameters, spp, seed, resolution, the scene file and the mesh files it names must match)");
+        }
         bail!("the checkpoint is {w}x{h}, the render {width}x{height}");
     }
     let mut acc = Accumulation::new(width, height);
@@ -216,25 +254,51 @@ pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumu
         sample: r.u32()?,
     };
     acc.dropped.first = has_bad.then_some(bad);
+    let mut record = [0u8; PIXEL_BYTES as usize];
+    let f64_at = |record: &[u8], i: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&record[i * 8..i * 8 + 8]);
+        f64::from_le_bytes(b)
+    };
+    let dvec3_at = |record: &[u8], i: usize| {
+        glam::DVec3::new(
+            f64_at(record, i),
+            f64_at(record, i + 1),
+            f64_at(record, i + 2),
+        )
+    };
     for t in &mut acc.tiles {
         for (p, totals) in t.pixels.iter_mut().zip(&mut t.totals) {
-            p.sum = r.dvec3()?;
-            p.weight = r.f64()?;
-            p.splat = r.dvec3()?;
-            p.batch = r.dvec3()?;
-            p.batch_sq = r.dvec3()?;
+            r.fill(&mut record)?;
+            r.sum.update(&record);
+            p.sum = dvec3_at(&record, 0);
+            p.weight = f64_at(&record, 3);
+            p.splat = dvec3_at(&record, 4);
+            p.batch = dvec3_at(&record, 7);
+            p.batch_sq = dvec3_at(&record, 10);
             let mut values = [Exact::ZERO; 13];
-            for v in &mut values {
-                *v = r.exact()?;
+            for (v, chunk) in values.iter_mut().zip(record[13 * 8..].chunks_exact(24)) {
+                let mut b = [0u8; 24];
+                b.copy_from_slice(chunk);
+                *v = Exact::from_le_bytes(b);
             }
             *totals = PixelTotals::from_values(values);
         }
     }
-    if !r.bytes.is_empty() {
-        bail!("the file has {} unexpected trailing bytes", r.bytes.len());
+    if !r.checksum_matches()? {
+        bail!("the file is damaged (its checksum does not match)");
+    }
+    if !r.at_end()? {
+        bail!("the file is damaged (bytes follow the checkpoint)");
     }
     check(&acc)?;
     Ok(acc)
+}
+
+/// [`decode_from`] a checkpoint in memory (uncompressed: tests).
+#[cfg(test)]
+pub fn decode(bytes: &[u8], hash: u64, width: u32, height: u32) -> Result<Accumulation> {
+    decode_from(bytes, hash, width, height)
 }
 
 /// What a render can have produced: at least one pass, dropped samples no more than were
@@ -310,35 +374,30 @@ impl<R: std::io::Read> std::io::Read for Counted<R> {
     }
 }
 
-/// Reads a checkpoint written by [`save`] for the same settings.
+/// Reads a checkpoint written by [`save`] for the same settings, decoding it as it is
+/// decompressed.
 pub fn load(path: &Path, hash: u64, width: u32, height: u32) -> Result<Accumulation> {
     // Its size is known from the image's: a larger file is refused unread.
-    let pixels = width as u64 * height as u64;
-    let size = 8 + 4 + 8 + 4 + 4 + 4 + 4 + 8 + 1 + 12 + pixels * PIXEL_BYTES + 8;
+    let size = checkpoint_bytes(width, height);
     let cannot = || format!("{}: cannot read the checkpoint", path.display());
     // LZ4 at worst adds a little to what it compresses.
     let (file, length) =
         crate::files::open_capped(path, size + size / 64 + 4096).with_context(cannot)?;
-    let mut bytes = Vec::new();
     use std::io::Read;
     let mut decoder = lz4_flex::frame::FrameDecoder::new(Counted {
         inner: std::io::BufReader::new(file),
         count: 0,
     });
-    (&mut decoder)
-        .take(size + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| anyhow::anyhow!("the file is damaged, or not a raylab checkpoint ({e})"))
-        .and_then(|_| {
-            // The frame must be the whole file.
-            if decoder.get_ref().count != length {
-                bail!("the file is damaged (bytes follow the checkpoint)");
-            }
-            Ok(())
-        })
+    let acc = decode_from((&mut decoder).take(size + 1), hash, width, height)
         .with_context(|| format!("{}: cannot resume", path.display()))?;
-    decode(&bytes, hash, width, height)
-        .with_context(|| format!("{}: cannot resume", path.display()))
+    // The frame must be the whole file.
+    if decoder.get_ref().count != length {
+        bail!(
+            "{}: cannot resume: the file is damaged (bytes follow the checkpoint)",
+            path.display()
+        );
+    }
+    Ok(acc)
 }
 
 #[cfg(test)]

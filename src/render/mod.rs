@@ -382,6 +382,12 @@ impl Accumulation {
         dropped
     }
 
+    /// Pixel `(x, y)`'s exact sums over every pass so far.
+    pub fn pixel_totals(&self, x: u32, y: u32) -> PixelTotals {
+        let (t, k) = self.locate(x, y);
+        self.tiles[t].pixel_totals(k)
+    }
+
     /// Passes this accumulation holds.
     pub fn passes(&self) -> u32 {
         self.spp_done - self.first_pass

@@ -17,6 +17,7 @@
 //! or channels a shard does not have, is refused unread.
 
 use super::exact::Exact;
+use crate::output::exr_blocks::{self, BlockReader, Channels, Layout};
 use crate::output::{DisplaySettings, Tonemap};
 use crate::render::{Accumulation, BadSample, Dropped, Part, PixelTotals, ShardSpec};
 use anyhow::{anyhow, bail, Context, Result};
@@ -73,39 +74,55 @@ fn sum_channel(value: usize, limb: usize) -> String {
     format!("raylab.{value:02}.{limb}")
 }
 
+/// How shard files are compressed (see docs/cluster.md for the measurement behind it).
+const COMPRESSION: Compression = Compression::ZIP16;
+
+/// The channels of a shard file of `passes` passes, in the file's order.
+fn shard_channels(passes: u32) -> Channels {
+    let mut list: Vec<(String, SampleType)> = ["R", "G", "B"]
+        .iter()
+        .map(|n| (n.to_string(), SampleType::F32))
+        .collect();
+    if passes >= 2 {
+        for n in ["variance.R", "variance.G", "variance.B"] {
+            list.push((n.to_string(), SampleType::F32));
+        }
+    }
+    for c in 0..SUM_CHANNELS {
+        list.push((sum_channel(c / 6, c % 6), SampleType::U32));
+    }
+    Channels::new(list)
+}
+
+/// The places of the sum channels in the file's order, in the order of [`sum_channel`]'s
+/// numbering; an error names the first missing or mistyped one.
+fn sum_places(channels: &Channels, types: impl Fn(usize) -> SampleType) -> Result<Vec<usize>> {
+    (0..SUM_CHANNELS)
+        .map(|c| {
+            let name = sum_channel(c / 6, c % 6);
+            match channels.index(&name) {
+                Some(i) if types(i) == SampleType::U32 => Ok(i),
+                Some(_) => bail!("its channel {name} is not of 32-bit integers"),
+                None => bail!("it has no channel {name}"),
+            }
+        })
+        .collect()
+}
+
 /// Writes shard `info` of a render, whose state is `acc` (for a shard of rows, only its rows
-/// are kept: the others hold partial sums of the rows its filter reaches into).
+/// are kept: the others hold partial sums of the rows its filter reaches into), one block of
+/// lines at a time.
 pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
     let kept = |y: u32| match &info.part {
         Part::Rows(rows) => rows.contains(&y),
         Part::Passes(_) => true,
     };
-    let mut film = acc.film();
-    let (w, h) = (acc.width as usize, acc.height as usize);
-    for y in (0..h).filter(|y| !kept(*y as u32)) {
-        film.pixels[y * w..(y + 1) * w].fill(glam::Vec3::ZERO);
-        film.variance[y * w..(y + 1) * w].fill(glam::Vec3::ZERO);
-    }
-    let mut planes = vec![vec![0u32; w * h]; SUM_CHANNELS];
-    for t in acc.tiles.iter().filter(|t| kept(t.y0)) {
-        for k in 0..t.pixels.len() {
-            let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
-            let index = y as usize * w + x as usize;
-            for (v, sum) in t.pixel_totals(k).values().iter().enumerate() {
-                for (l, limb) in sum.0.iter().enumerate() {
-                    planes[v * 6 + 2 * l][index] = *limb as u32;
-                    planes[v * 6 + 2 * l + 1][index] = (*limb >> 32) as u32;
-                }
-            }
-        }
-    }
-    let mut extra: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(SUM_CHANNELS);
-    for (c, plane) in planes.into_iter().enumerate() {
-        extra.push(AnyChannel::new(
-            sum_channel(c / 6, c % 6).as_str(),
-            FlatSamples::U32(plane),
-        ));
-    }
+    let n = acc.passes();
+    let channels = shard_channels(n);
+    let place = |name: &str| channels.index(name).expect("a shard's own channel");
+    let rgb = ["R", "G", "B"].map(place);
+    let variance = (n >= 2).then(|| ["variance.R", "variance.G", "variance.B"].map(place));
+    let sums = sum_places(&channels, |_| SampleType::U32)?;
     let so_far = acc.dropped_so_far();
     let dropped = match so_far.first {
         Some(b) => format!("{} {} {} {}", so_far.count, b.x, b.y, b.sample),
@@ -132,7 +149,39 @@ pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
     ];
     let text: String = lines.iter().map(|(k, v)| format!("{k}={v}\n")).collect();
     let value = AttributeValue::Text(Text::from_bytes_unchecked(text.as_bytes().into()));
-    crate::output::write_exr_with(path, &film, extra, (ATTRIBUTE, value))
+    let layout = Layout {
+        width: acc.width,
+        height: acc.height,
+        channels: channels.clone(),
+        compression: COMPRESSION,
+    };
+    crate::output::check_output_path(path)?;
+    crate::output::atomic::write_atomic(path, |file| {
+        exr_blocks::write(file, &layout, (ATTRIBUTE, value), |block| {
+            let y0 = block.y0;
+            for line in (0..block.lines).filter(|l| kept(y0 + l)) {
+                for x in 0..acc.width {
+                    let totals = acc.pixel_totals(x, y0 + line);
+                    let (mean, var) = totals.finish(n);
+                    let x = x as usize;
+                    for c in 0..3 {
+                        block.set_f32(line, rgb[c], x, mean[c]);
+                        if let Some(v) = &variance {
+                            block.set_f32(line, v[c], x, var[c]);
+                        }
+                    }
+                    for (v, sum) in totals.values().iter().enumerate() {
+                        for (l, limb) in sum.0.iter().enumerate() {
+                            block.set_u32(line, sums[v * 6 + 2 * l], x, *limb as u32);
+                            block.set_u32(line, sums[v * 6 + 2 * l + 1], x, (*limb >> 32) as u32);
+                        }
+                    }
+                }
+            }
+            Ok(())
+        })
+        .with_context(|| path.display().to_string())
+    })
 }
 
 /// The most bytes deflate (EXR's ZIP compression) can make of one (1032, rounded up).
@@ -237,49 +286,77 @@ pub fn read_info(path: &Path) -> Result<ShardInfo> {
     })
 }
 
-/// Adds the exact sums of the shard file at `path` (described by `info`) into `acc`.
-pub fn add_sums(path: &Path, info: &ShardInfo, acc: &mut Accumulation) -> Result<()> {
-    // The file is at most its uncompressed size and a little more.
-    let cap =
-        (info.width as u64 * info.height as u64) * (4 * (SUM_CHANNELS as u64 + 6)) * 2 + (1 << 20);
-    let (file, _) = crate::files::open_capped(path, cap)?;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::BufReader::new(file))
-        .map_err(|e| anyhow!("cannot read its pixels ({e})"))?;
-    let channels = &image.layer_data.channel_data.list;
-    let pixels = info.width as usize * info.height as usize;
-    let mut planes: Vec<&[u32]> = Vec::with_capacity(SUM_CHANNELS);
-    for c in 0..SUM_CHANNELS {
-        let name = sum_channel(c / 6, c % 6);
-        let channel = channels
-            .iter()
-            .find(|ch| ch.name.to_string() == name)
-            .ok_or_else(|| anyhow!("it has no channel {name}"))?;
-        match &channel.sample_data {
-            FlatSamples::U32(v) if v.len() == pixels => planes.push(v),
-            _ => bail!("its channel {name} is not {pixels} 32-bit integers"),
+/// A shard file's exact sums, read one block of lines after another.
+pub struct Sums {
+    reader: BlockReader,
+    /// The places of the sum channels (see [`sum_places`]).
+    places: Vec<usize>,
+}
+
+impl Sums {
+    /// Opens the shard file at `path`, described by `info` (its header, read before).
+    pub fn open(path: &Path, info: &ShardInfo) -> Result<Sums> {
+        let reader = exr_blocks::open(path)?;
+        if (reader.width, reader.height) != (info.width, info.height) {
+            bail!(
+                "its pixels are not the {}x{} its header says",
+                info.width,
+                info.height
+            );
         }
+        let types = |i: usize| reader.channels.kind(i);
+        let places = sum_places(&reader.channels, types)?;
+        Ok(Sums { reader, places })
     }
-    let width = acc.width;
-    for t in &mut acc.tiles {
-        for (k, totals) in t.totals.iter_mut().enumerate() {
-            let (x, y) = (t.x0 + k as u32 % t.w, t.y0 + k as u32 / t.w);
-            let index = y as usize * width as usize + x as usize;
+
+    /// Lines in a block of the file.
+    pub fn lines_per_block(&self) -> u32 {
+        self.reader.lines_per_block()
+    }
+
+    /// Reads the next block of lines, which the caller expects to be `y0..y0 + lines`.
+    pub fn next_block(&mut self, y0: u32, lines: u32) -> Result<SumsBlock> {
+        let block = self
+            .reader
+            .next_block()?
+            .ok_or_else(|| anyhow!("its pixels end before line {y0}"))?;
+        if (block.y0, block.lines) != (y0, lines) {
+            bail!("its pixels are stored in other blocks of lines than the first part's");
+        }
+        Ok(SumsBlock {
+            block,
+            places: self.places.clone(),
+        })
+    }
+}
+
+/// A block of lines of a shard file's exact sums.
+pub struct SumsBlock {
+    block: exr_blocks::Block,
+    places: Vec<usize>,
+}
+
+impl SumsBlock {
+    /// Adds the sums of line `line` of the block to `row`, the line's pixels.
+    pub fn add_line(&self, line: u32, row: &mut [PixelTotals]) {
+        let rows: Vec<&[u8]> = self
+            .places
+            .iter()
+            .map(|&c| self.block.row(line, c))
+            .collect();
+        let limb = |c: usize, x: usize| {
+            let mut b = [0u8; 4];
+            b.copy_from_slice(&rows[c][4 * x..4 * x + 4]);
+            u32::from_ne_bytes(b) as u64
+        };
+        for (x, totals) in row.iter_mut().enumerate() {
             let mut values = [Exact::ZERO; 13];
             for (v, value) in values.iter_mut().enumerate() {
-                for l in 0..3 {
-                    let lo = planes[v * 6 + 2 * l][index] as u64;
-                    let hi = planes[v * 6 + 2 * l + 1][index] as u64;
-                    value.0[l] = lo | hi << 32;
+                for (l, word) in value.0.iter_mut().enumerate() {
+                    *word = limb(v * 6 + 2 * l, x) | limb(v * 6 + 2 * l + 1, x) << 32;
                 }
             }
             totals.add(&PixelTotals::from_values(values));
         }
     }
-    Ok(())
 }
