@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Render a scene on a Slurm cluster in N shards and merge them into one image:
 #
-#   render.sh [--wait] [--parts DIR] [--cpus C] SCENE N OUT [raylab render flags...]
+#   render.sh [--wait] [--parts DIR] [--cpus C] [--shard-sbatch OPT]... [--merge-sbatch OPT]...
+#             SCENE N OUT [raylab render flags...]
 #
 # Submits a job array of N tasks (shard.sbatch: task I renders shard I/N into DIR/part-I.exr,
 # checkpointing to DIR/part-I.ckpt) and a merge job (merge.sbatch) that runs once every task
@@ -12,6 +13,11 @@
 #                 failed tasks are listed and the merge job is cancelled, exit 1.
 #   --parts DIR   folder for parts, checkpoints and Slurm logs (default: OUT.parts beside OUT)
 #   --cpus C      cpus per shard task, passed to raylab as --threads (default 1)
+#   --shard-sbatch OPT, --merge-sbatch OPT
+#                 one more sbatch option for the shard array, or for the merge job only
+#                 (repeat for several; `--merge-sbatch=--mem=64G` also works), e.g. a partition
+#                 with more memory for the merge, or where each may run:
+#                 --shard-sbatch --exclude=node3 --merge-sbatch --nodelist=node3
 #
 # The cluster's file systems must show SCENE, DIR, OUT and the raylab binary at the same paths
 # as here. RAYLAB names the binary (default: `raylab` on PATH), made an absolute path.
@@ -51,7 +57,7 @@ usage() {
 }
 bad() {
   echo "render.sh: $*" >&2
-  echo "usage: render.sh [--wait] [--parts DIR] [--cpus C] SCENE N OUT [raylab render flags...]" >&2
+  echo "usage: render.sh [--wait] [--parts DIR] [--cpus C] [--shard-sbatch OPT]... [--merge-sbatch OPT]... SCENE N OUT [raylab render flags...]" >&2
   exit 2
 }
 # (At most 6 digits: bash's arithmetic wraps around past 2^63, and raylab takes N <= 100000.)
@@ -60,7 +66,7 @@ is_count() { [[ $1 =~ ^[0-9]{1,6}$ ]] && [ "$((10#$1))" -ge 1 ]; }
 absolute() { case "$1" in /*) echo "$1" ;; *) echo "$PWD/$1" ;; esac; }
 
 # ---- arguments -------------------------------------------------------------------------
-wait=0 parts="" cpus=1
+wait=0 parts="" cpus=1 shard_sbatch=() merge_sbatch=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --wait) wait=1; shift ;;
@@ -68,6 +74,12 @@ while [ $# -gt 0 ]; do
     --parts=*) parts=${1#*=}; shift ;;
     --cpus) [ $# -ge 2 ] || bad "--cpus needs a number"; cpus=$2; shift 2 ;;
     --cpus=*) cpus=${1#*=}; shift ;;
+    --shard-sbatch | --merge-sbatch)
+      [ $# -ge 2 ] && [ -n "$2" ] || bad "$1 needs an sbatch option, e.g. $1 --exclude=node3"
+      if [ "$1" = --shard-sbatch ]; then shard_sbatch+=("$2"); else merge_sbatch+=("$2"); fi
+      shift 2 ;;
+    --shard-sbatch=?*) shard_sbatch+=("${1#*=}"); shift ;;
+    --merge-sbatch=?*) merge_sbatch+=("${1#*=}"); shift ;;
     -h | --help) usage; exit 0 ;;
     --) shift; break ;;
     -*) bad "unknown option $1 (options come before SCENE N OUT; raylab flags after them)" ;;
@@ -200,8 +212,10 @@ export RAYLAB SCENE SHARDS PARTS OUT
 
 # ---- submit ------------------------------------------------------------------------------
 # --parsable prints "JOBID" or "JOBID;CLUSTER".
+# (--shard-sbatch/--merge-sbatch options come last: on sbatch's command line the last of two
+# same options wins, so they may override ours.)
 array=$(sbatch --parsable --export=ALL --array="0-$((shards - 1))" --cpus-per-task="$cpus" \
-  --output="$PARTS/shard-%A_%a.log" "$HERE/shard.sbatch" "${flags[@]}") || {
+  --output="$PARTS/shard-%A_%a.log" "${shard_sbatch[@]}" "$HERE/shard.sbatch" "${flags[@]}") || {
   echo "render.sh: submitting the shard array failed (sbatch's message is above)" >&2
   exit 1
 }
@@ -209,7 +223,7 @@ array=${array%%;*}
 kill_dep=(--kill-on-invalid-dep=yes)
 [ "${RAYLAB_SLURM_KILL_INVALID_DEP:-yes}" = no ] && kill_dep=()
 merge=$(sbatch --parsable --export=ALL --dependency="afterok:$array" "${kill_dep[@]}" \
-  --output="$PARTS/merge-%j.log" "$HERE/merge.sbatch") || {
+  --output="$PARTS/merge-%j.log" "${merge_sbatch[@]}" "$HERE/merge.sbatch") || {
   echo "render.sh: submitting the merge job failed: cancelling the shards ($array)" >&2
   scancel "$array" || true
   exit 1
@@ -286,12 +300,14 @@ while :; do
       exit 0
       ;;
     PENDING | CANCELLED)
-      # A shard failed, so afterok can never be met: the merge never runs. (A requeued shard
-      # does not revive it in Slurm 22.05: the dependency stays failed.)
+      # A shard failed, so afterok can never be met: the merge never runs. (A failed shard
+      # requeued by hand does not revive it in Slurm 22.05: the dependency stays failed. A
+      # shard requeued because its node died never failed: the merge just waits for it.)
       if [ "${reason:-}" = DependencyNeverSatisfied ]; then
         echo "render.sh: a shard failed, so the merge job $merge can never run; failed tasks of job array $array:" >&2
         failed_tasks >&2
         [ "$state" = PENDING ] && scancel "$merge" && echo "render.sh: cancelled the merge job $merge" >&2
+        echo "render.sh: once the cause is fixed, run the same render.sh command again: shards with a checkpoint resume from it" >&2
         exit 1
       fi
       if [ "$state" = CANCELLED ]; then

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Tests the Slurm scripts beside this file on a real one-node cluster (local-cluster.sh), with a
+# Tests the Slurm scripts beside this file on a real multi-node cluster (local-cluster.sh), with a
 # stand-in for raylab that takes the same arguments (render writes its argv into the -o file and
 # sleeps 1 s; merge concatenates the parts), so no build is needed. Runs as root; starts the
 # cluster if it is not running and stops it again at the end in that case.
@@ -30,7 +30,9 @@ cleanup() {
   rm -rf "$tmp"
 }
 trap cleanup EXIT
-cpus=$(sinfo -h -n localhost -o %c | head -n 1)
+# The partition's cpus over all nodes ("allocated/idle/other/total"), and the nodes.
+cpus=$(sinfo -h -o %C | head -n 1 | cut -d/ -f4)
+mapfile -t nodes < <(sinfo -h -N -o %N | sort -uV)
 
 # ---- a stand-in for raylab ---------------------------------------------------------------
 cat >"$tmp/raylab" <<'EOF'
@@ -110,6 +112,30 @@ check "shards ran $expect at a time (got $(max_overlap "$tmp/ok/timeline"))" \
   [ "$(max_overlap "$tmp/ok/timeline")" = "$expect" ]
 check "merge started after every shard ended" merge_after_renders "$tmp/ok/timeline"
 check "--wait printed the merge log" grep -q "merging 4 parts" "$tmp/ok/log"
+# The nodes the jobs' logs name ("shard I/N on node X (host X, ..."; "merging ... on node X").
+shard_nodes() {
+  { cat "$1"/shard-*.log 2>/dev/null || true; } \
+    | sed -n 's/^shard [0-9]*\/[0-9]* on node \([^ ]*\) .*/\1/p' | sort -uV | xargs
+}
+merge_node() {
+  { cat "$1"/merge-*.log 2>/dev/null || true; } | sed -n 's/^merging .* on node \([^ ]*\) .*/\1/p' | xargs
+}
+if [ "${#nodes[@]}" -ge 2 ]; then
+  check "the 4 shards spread over the nodes (ran on: $(shard_nodes "$tmp/ok/out.exr.parts"))" \
+    [ "$(shard_nodes "$tmp/ok/out.exr.parts" | wc -w)" -ge 2 ]
+  # --shard-sbatch/--merge-sbatch: the shards kept off the last node, the merge put on it.
+  last=${nodes[-1]}
+  run pinned --wait --shard-sbatch --exclude="$last" --merge-sbatch=--nodelist="$last" \
+    ../scene.ron 4 out.exr
+  check "--shard-sbatch/--merge-sbatch: --wait exits 0" [ "$rc" = 0 ]
+  not_on() { [ -n "$1" ] && [[ " $1 " != *" $2 "* ]]; } # not_on NODES NODE
+  pinned=$(shard_nodes "$tmp/pinned/out.exr.parts")
+  check "--shard-sbatch --exclude=$last: no shard on $last (ran on: $pinned)" not_on "$pinned" "$last"
+  check "--merge-sbatch=--nodelist=$last: the merge ran on $last (log: $(merge_node "$tmp/pinned/out.exr.parts"))" \
+    [ "$(merge_node "$tmp/pinned/out.exr.parts")" = "$last" ]
+else
+  no "the cluster has 2 or more nodes (it has ${#nodes[@]})"
+fi
 
 # ---- 2. shard 2 fails: the merge never runs, --wait does not hang ------------------------
 STUB_FAIL=2 run fail --wait ../scene.ron 4 out.exr
@@ -151,6 +177,8 @@ check "bad args: --cpus 0 -> 2" bad_args --cpus 0 scene.ron 4 o.exr
 check "bad args: too few -> 2" bad_args scene.ron 4
 no_raylab() { RAYLAB=no-such-raylab bad_args "$@"; }
 check "bad args: RAYLAB not found -> 2" no_raylab scene.ron 4 o.exr
+check "bad args: --merge-sbatch without an option -> 2" bad_args --merge-sbatch
+check "bad args: --shard-sbatch '' -> 2" bad_args --shard-sbatch '' scene.ron 4 o.exr
 
 # ---- 6. what every task would refuse: exit 2, nothing queued -----------------------------
 jobs_now() { squeue -h -u "$(id -un)" -t all -o %i | sort -u | wc -l; }

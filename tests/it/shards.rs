@@ -2,8 +2,8 @@
 //! byte; the refusals of parts that do not make one render; and the schedulers that run the
 //! shards: GNU parallel, and a real Slurm cluster (`scripts/slurm/render.sh`).
 //!
-//! The scheduler tests need their tools: `.ci/run` installs them, starts a one-node Slurm
-//! cluster and sets `RAYLAB_CLUSTER_TESTS=1`, which makes a missing tool a failure. Without it
+//! The scheduler tests need their tools: `.ci/run` installs them, starts a three-node Slurm
+//! cluster (`scripts/slurm/local-cluster.sh`) and sets `RAYLAB_CLUSTER_TESTS=1`, which makes a missing tool a failure. Without it
 //! (a developer's machine) they say what they skipped.
 
 use crate::common::{raylab, s, stderr};
