@@ -47,6 +47,8 @@ pub enum Command {
     Bench(BenchArgs),
     /// Combine the shards of a render (`render --shard I/N -o part.exr`) into exactly the
     /// image the single run writes, after checking that they belong together and cover it.
+    /// The parts are read side by side a block of lines at a time: memory holds the image
+    /// (about 60 bytes a pixel), whatever the number of parts.
     Merge(MergeArgs),
     /// Convert a Mitsuba 3 XML or pbrt-v4 scene into a RON scene that a person can edit.
     Import {
