@@ -30,15 +30,9 @@ RAYLAB=$(realpath -- "$RAYLAB")
 export RAYLAB RAYLAB_SLURM_POLL=0.5
 SCENE=$ROOT/scenes/cornell_box.ron
 tmp=$(mktemp -d /tmp/raylab-cluster-test.XXXXXX)
-passed=0 failed=0 t_all=$SECONDS
-
-ok() { echo "ok   $*"; passed=$((passed + 1)); }
-no() { echo "FAIL $*"; failed=$((failed + 1)); }
-check() { # check DESCRIPTION COMMAND...: pass if the command succeeds
-  local what=$1
-  shift
-  if "$@"; then ok "$what"; else no "$what"; fi
-}
+t_all=$SECONDS
+# shellcheck source=testlib.sh
+. "$HERE/testlib.sh"
 finish() {
   echo "     cluster-test.sh took $((SECONDS - t_all)) s"
   echo "$passed passed, $failed failed"

@@ -9,15 +9,8 @@ set -euo pipefail
 
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 tmp=$(mktemp -d /tmp/raylab-slurm-test.XXXXXX)
-passed=0 failed=0
-
-ok() { echo "ok   $*"; passed=$((passed + 1)); }
-no() { echo "FAIL $*"; failed=$((failed + 1)); }
-check() { # check DESCRIPTION COMMAND...: pass if the command succeeds
-  local what=$1
-  shift
-  if "$@"; then ok "$what"; else no "$what"; fi
-}
+# shellcheck source=testlib.sh
+. "$HERE/testlib.sh"
 now_ns() { date +%s%N; }
 
 # ---- the cluster -------------------------------------------------------------------------

@@ -353,7 +353,7 @@ mod tests {
                 .channel_data
                 .list
                 .iter()
-                .find(|c| c.name == Text::from(name))
+                .find(|c| c.name == *name)
                 .unwrap()
         };
         for y in 0..height {
