@@ -1,5 +1,5 @@
-//! What the operating system says about memory: every `/proc` read of the program, in one
-//! place (Linux; elsewhere each figure is unknown).
+//! What the operating system says about memory and open files: every `/proc` read of the
+//! program, in one place (Linux; elsewhere each figure is unknown).
 
 /// A figure in kB of the `key:` line of a `/proc` file, in bytes.
 fn proc_kb(file: &str, key: &str) -> Option<u64> {
@@ -85,18 +85,25 @@ fn cgroup_room() -> Option<u64> {
     Some(max.saturating_sub(used))
 }
 
-/// The soft address-space limit less the address space mapped now, if there is a limit.
-fn address_space_room() -> Option<u64> {
+/// The soft limit named `name` in `/proc/self/limits`, if there is one ("unlimited" is none).
+fn soft_limit(name: &str) -> Option<u64> {
     let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
-    let line = limits
-        .lines()
-        .find(|l| l.starts_with("Max address space"))?;
-    let soft: u64 = line
-        .trim_start_matches("Max address space")
+    let line = limits.lines().find(|l| l.starts_with(name))?;
+    line.trim_start_matches(name)
         .split_whitespace()
         .next()?
         .parse()
-        .ok()?;
+        .ok()
+}
+
+/// How many files this process may have open at once (`ulimit -n`), if it is known.
+pub fn open_files_limit() -> Option<u64> {
+    soft_limit("Max open files")
+}
+
+/// The soft address-space limit less the address space mapped now, if there is a limit.
+fn address_space_room() -> Option<u64> {
+    let soft = soft_limit("Max address space")?;
     let mapped = proc_kb("/proc/self/status", "VmSize:").unwrap_or(0);
     Some(soft.saturating_sub(mapped))
 }
@@ -127,6 +134,7 @@ mod tests {
             let available = memory_available().expect("MemAvailable");
             assert!(available > 1 << 20);
             assert!(resident_bytes() > 0 && peak_rss() >= resident_bytes());
+            assert!(open_files_limit().is_some_and(|n| n >= 16));
         }
     }
 }

@@ -37,6 +37,16 @@ pub fn merge(args: &MergeArgs) -> Result<ExitCode> {
     let first = &infos[0];
     let (width, height) = (first.width, first.height);
     check_room(width, height, args.parts.len())?;
+    // Every part stays open while the blocks are read.
+    if let Some(limit) = crate::system::open_files_limit() {
+        let needed = args.parts.len() as u64 + 16;
+        if needed > limit {
+            bail!(
+                "merging {} parts keeps them all open, and this process may open {limit} files: raise the limit (`ulimit -n {needed}`) and merge again",
+                args.parts.len()
+            );
+        }
+    }
     let cannot = |path: &Path| format!("{}: cannot merge", path.display());
     let mut sums = args
         .parts

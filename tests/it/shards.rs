@@ -405,6 +405,33 @@ fn merge_refuses_parts_that_are_not_one_whole_render() {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+/// A merge keeps every part open: one of more parts than the process may open files is refused
+/// before any is read, saying which limit to raise.
+#[test]
+fn a_merge_past_the_open_files_limit_says_so() {
+    if !cfg!(target_os = "linux") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let parts = render_shards(dir.path(), &render_args("path", &[]), 7);
+    let out = dir.path().join("merged.exr");
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -n 20 && exec \"$0\" merge -o \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_raylab"))
+        .arg(&out)
+        .args(&parts)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("merging 7 parts") && e.contains("ulimit -n 23"),
+        "{e}"
+    );
+    assert!(!out.exists());
+}
+
 #[test]
 fn a_merged_render_is_a_reference() {
     let dir = tempfile::tempdir().unwrap();
