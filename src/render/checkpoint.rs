@@ -126,7 +126,8 @@ fn write_to(acc: &Accumulation, hash: u64, out: &mut impl Write) -> std::io::Res
     put(&head, out)?;
     let mut record = [0u8; PIXEL_BYTES as usize];
     for t in &acc.tiles {
-        for (p, totals) in t.pixels.iter().zip(&t.totals) {
+        for (k, p) in t.pixels.iter().enumerate() {
+            let totals = t.totals(k);
             let block = p.sum.to_array().into_iter().chain([p.weight]).chain(
                 [p.splat, p.batch, p.batch_sq]
                     .into_iter()
@@ -268,9 +269,10 @@ fn decode_from(
         )
     };
     for t in &mut acc.tiles {
-        for (p, totals) in t.pixels.iter_mut().zip(&mut t.totals) {
+        for k in 0..t.pixels.len() {
             r.fill(&mut record)?;
             r.sum.update(&record);
+            let p = &mut t.pixels[k];
             p.sum = dvec3_at(&record, 0);
             p.weight = f64_at(&record, 3);
             p.splat = dvec3_at(&record, 4);
@@ -282,7 +284,7 @@ fn decode_from(
                 b.copy_from_slice(chunk);
                 *v = Exact::from_le_bytes(b);
             }
-            *totals = PixelTotals::from_values(values);
+            t.set_totals(k, &PixelTotals::from_values(values));
         }
     }
     if !r.checksum_matches()? {
@@ -324,7 +326,8 @@ pub(crate) fn check(acc: &Accumulation) -> Result<()> {
         }
     }
     for t in &acc.tiles {
-        for (k, (p, totals)) in t.pixels.iter().zip(&t.totals).enumerate() {
+        for (k, p) in t.pixels.iter().enumerate() {
+            let totals = t.totals(k);
             let finite = [p.sum, p.splat, p.batch, p.batch_sq]
                 .iter()
                 .all(|v| v.is_finite())
@@ -418,13 +421,14 @@ mod tests {
         pass.add(glam::Vec3A::new(1.0, 2.0, 3.0), 0.5);
         pass.splat = glam::DVec3::new(0.25, 0.0, 4.0);
         acc.tiles[1].pixels[7].close_pass(&pass);
-        acc.tiles[1].totals[7] = PixelTotals::default().with_block(&acc.tiles[1].pixels[7]);
-        assert_ne!(acc.tiles[1].totals[7], PixelTotals::default());
+        let totals = PixelTotals::default().with_block(&acc.tiles[1].pixels[7]);
+        acc.tiles[1].set_totals(7, &totals);
+        assert_ne!(acc.tiles[1].totals(7), PixelTotals::default());
         let bytes = encode(&acc, 42);
         let back = decode(&bytes, 42, 20, 17).unwrap();
         assert_eq!(back.film(), acc.film());
         assert_eq!(back.tiles[1].pixels[7], acc.tiles[1].pixels[7]);
-        assert_eq!(back.tiles[1].totals[7], acc.tiles[1].totals[7]);
+        assert_eq!(back.tiles[1].totals(7), acc.tiles[1].totals(7));
         assert_eq!((back.spp_done, back.dropped), (3, acc.dropped));
         assert!(decode(&bytes, 43, 20, 17)
             .unwrap_err()
@@ -467,7 +471,9 @@ mod tests {
             ("pixel (3, 0)", |a| a.tiles[0].pixels[3].sum.x = f64::NAN),
             ("negative", |a| a.tiles[0].pixels[9].weight = -1.0),
             ("negative", |a| {
-                a.tiles[0].totals[9].batch_sq.0[1] = Exact::from_f64(-2.0).unwrap()
+                let mut t = a.tiles[0].totals(9);
+                t.batch_sq.0[1] = Exact::from_f64(-2.0).unwrap();
+                a.tiles[0].set_totals(9, &t);
             }),
         ];
         assert!(decode(&encode(&valid(), 1), 1, 8, 8).is_ok());

@@ -26,6 +26,7 @@ pub use raylab_integrators::Filter;
 
 use crate::output::plan::FilePlan;
 use crate::scene::Camera;
+use accumulator::NarrowTotals;
 use accumulator::PassPixel;
 pub use accumulator::{PixelAccumulator, PixelTotals, BLOCK};
 use glam::{DVec3, Vec2, Vec3A};
@@ -168,9 +169,10 @@ impl RenderStats {
 
 /// Bytes of memory a render of `width x height` needs (accumulators, film, output buffer).
 pub fn memory_needed(width: u32, height: u32) -> u64 {
-    // The block's sums 104 B and the exact totals 312 B, a pass's sums 56 B, film mean +
-    // variance 24 B, tile bookkeeping and the 8-bit or f32 output copy <= 24 B.
-    width as u64 * height as u64 * 520
+    // The block's sums 104 B and the exact totals 208 B (the few pixels whose sums need a
+    // third limb hold it beside), a pass's sums 56 B, film mean + variance 24 B, tile
+    // bookkeeping and the 8-bit or f32 output copy <= 24 B.
+    width as u64 * height as u64 * 416
 }
 
 /// Refuses a camera the integrator `name` cannot use: light-path integrators connect points
@@ -258,14 +260,67 @@ pub struct TileAccumulator {
     pub h: u32,
     /// Per pixel, the sums of the block of passes in progress ...
     pub pixels: Vec<PixelAccumulator>,
-    /// ... and the exact sums of the blocks before.
-    pub totals: Vec<PixelTotals>,
+    /// ... and the exact sums of the blocks before, narrow ([`accumulator::NarrowTotals`]),
+    totals: Vec<NarrowTotals>,
+    /// with the top limbs of the pixels whose sums need them, by pixel index, in order.
+    wide: Vec<(u32, [u64; 13])>,
 }
 
 impl TileAccumulator {
+    /// An empty tile of `w x h` pixels at `(x0, y0)`.
+    fn new(x0: u32, y0: u32, w: u32, h: u32) -> TileAccumulator {
+        TileAccumulator {
+            x0,
+            y0,
+            w,
+            h,
+            pixels: vec![PixelAccumulator::default(); (w * h) as usize],
+            totals: vec![NarrowTotals::default(); (w * h) as usize],
+            wide: Vec::new(),
+        }
+    }
+
+    /// Pixel `k`'s exact sums over the finished blocks.
+    pub fn totals(&self, k: usize) -> PixelTotals {
+        let top = match self.wide.binary_search_by_key(&(k as u32), |(i, _)| *i) {
+            Ok(at) => Some(&self.wide[at].1),
+            Err(_) => None,
+        };
+        PixelTotals::widen(&self.totals[k], top)
+    }
+
+    /// Sets pixel `k`'s exact sums over the finished blocks.
+    pub fn set_totals(&mut self, k: usize, totals: &PixelTotals) {
+        let (narrow, top) = totals.narrow();
+        self.totals[k] = narrow;
+        let at = self.wide.binary_search_by_key(&(k as u32), |(i, _)| *i);
+        match (at, top) {
+            (Ok(at), Some(top)) => self.wide[at].1 = top,
+            (Ok(at), None) => {
+                self.wide.remove(at);
+            }
+            (Err(at), Some(top)) => self.wide.insert(at, (k as u32, top)),
+            (Err(_), None) => {}
+        }
+    }
+
     /// Pixel `k`'s exact sums over every pass so far.
     pub fn pixel_totals(&self, k: usize) -> PixelTotals {
-        self.totals[k].with_block(&self.pixels[k])
+        self.totals(k).with_block(&self.pixels[k])
+    }
+
+    /// Ends the block of passes in pixel `k`: adds its sums to the exact ones and empties it.
+    /// False, adding nothing, when a sum is beyond what exact sums hold.
+    fn absorb(&mut self, k: usize) -> bool {
+        if self.pixels[k].is_empty() {
+            return true;
+        }
+        let mut totals = self.totals(k);
+        let added = totals.absorb(&mut self.pixels[k]);
+        if added {
+            self.set_totals(k, &totals);
+        }
+        added
     }
 }
 
@@ -306,14 +361,7 @@ impl Accumulation {
         for y0 in (0..height).step_by(TILE as usize) {
             for x0 in (0..width).step_by(TILE as usize) {
                 let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
-                tiles.push(TileAccumulator {
-                    x0,
-                    y0,
-                    w,
-                    h,
-                    pixels: vec![PixelAccumulator::default(); (w * h) as usize],
-                    totals: vec![PixelTotals::default(); (w * h) as usize],
-                });
+                tiles.push(TileAccumulator::new(x0, y0, w, h));
             }
         }
         Accumulation {
@@ -455,13 +503,8 @@ impl Accumulation {
                 }
                 if ends_block {
                     let (w, x0, y0) = (tile.w, tile.x0, tile.y0);
-                    for (k, (totals, block)) in tile
-                        .totals
-                        .iter_mut()
-                        .zip(tile.pixels.iter_mut())
-                        .enumerate()
-                    {
-                        if !totals.absorb(block) {
+                    for k in 0..tile.pixels.len() {
+                        if !tile.absorb(k) {
                             let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
                             let sample = pass + 1 - BLOCK;
                             dropped.note(BadSample { x, y, sample });

@@ -338,3 +338,53 @@ fn samples_are_stratified_within_the_pixel() {
         }
     }
 }
+
+/// A tile holds each pixel's exact sums in two limbs; sums beyond them (2^31 in magnitude,
+/// of either sign) keep their top limbs beside, and lose them again when they come back in
+/// range: every value comes back exactly.
+#[test]
+fn sums_beyond_the_narrow_limbs_are_kept_exactly() {
+    use super::exact::{Exact, Exact3};
+    let totals = |v: f64| {
+        let e = Exact::from_f64(v).unwrap();
+        let small = Exact::from_f64(v * 1e-12).unwrap();
+        PixelTotals {
+            sum: Exact3([e, small, e]),
+            weight: e,
+            splat: Exact3([small; 3]),
+            batch: Exact3([e; 3]),
+            batch_sq: Exact3([small, e, small]),
+        }
+    };
+    let mut tile = TileAccumulator::new(0, 0, 4, 4);
+    let values = [
+        (3, 1e12),
+        (1, -5e9),
+        (2, 1.5),
+        (0, -2.0),
+        (5, 2_147_483_647.5),
+    ];
+    for (k, v) in values {
+        tile.set_totals(k, &totals(v));
+    }
+    for (k, v) in values {
+        assert_eq!(tile.totals(k), totals(v), "pixel {k}");
+    }
+    assert_eq!(
+        tile.wide.len(),
+        2,
+        "only 1e12 and -5e9 need their top limbs"
+    );
+    tile.set_totals(3, &totals(7.0));
+    assert_eq!(tile.totals(3), totals(7.0));
+    assert_eq!(tile.wide.len(), 1);
+    // Exact additions that cross the boundary.
+    let mut t = tile.totals(2);
+    t.add(&totals(2e9));
+    t.add(&totals(2e9));
+    tile.set_totals(2, &t);
+    assert_eq!(tile.totals(2).weight.to_f64(), 4e9 + 1.5);
+    assert_eq!(tile.wide.len(), 2);
+    assert_eq!(tile.totals(0), totals(-2.0));
+    assert_eq!(tile.totals(4), PixelTotals::default());
+}
