@@ -119,9 +119,20 @@ pub fn write(path: &Path, acc: &Accumulation, info: &ShardInfo) -> Result<()> {
     };
     let n = acc.passes();
     let channels = shard_channels(n);
-    let place = |name: &str| channels.index(name).expect("a shard's own channel");
-    let rgb = ["R", "G", "B"].map(place);
-    let variance = (n >= 2).then(|| ["variance.R", "variance.G", "variance.B"].map(place));
+    let places = |names: [&str; 3]| -> Result<[usize; 3]> {
+        let mut out = [0; 3];
+        for (o, name) in out.iter_mut().zip(names) {
+            *o = channels
+                .index(name)
+                .ok_or_else(|| anyhow!("a shard has no channel {name}"))?;
+        }
+        Ok(out)
+    };
+    let rgb = places(["R", "G", "B"])?;
+    let variance = match n >= 2 {
+        true => Some(places(["variance.R", "variance.G", "variance.B"])?),
+        false => None,
+    };
     let sums = sum_places(&channels, |_| SampleType::U32)?;
     let so_far = acc.dropped_so_far();
     let dropped = match so_far.first {
